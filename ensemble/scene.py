@@ -1,0 +1,446 @@
+"""Scenes: what a user writes (SPEC §8), as frozen dataclasses that validate themselves.
+
+A scene file is TOML with the sections ``[chain]``, ``[boundary]``, ``[[impurities]]``,
+``[excitation]``, ``[integrator]`` and ``[record]``. Every key has the paper's
+program-unit default (length 1e-5 m, mass 2.36e-5 kg, time 1.0102e-3 s) except
+``integrator.duration``, which is required. Bad input raises :class:`SceneError`
+naming the key, the value and what is allowed.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import tomllib
+from dataclasses import asdict, dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+SURFACE_KINDS = ("wall", "load", "free", "driven")
+BOTTOM_KINDS = ("wall", "fixed", "free")
+METHODS = ("gear4", "gear5", "gear6", "verlet")
+PRECISIONS = ("float64", "float32")
+CONTACT_RULES = ("harmonic", "own")
+FIELDS = ("u", "v")
+
+
+class SceneError(ValueError):
+    """Invalid scene input: names the key, the value given and what is allowed."""
+
+    def __init__(self, key: str, value: Any, allowed: str):
+        self.key, self.value, self.allowed = key, value, allowed
+        super().__init__(f"{key} = {value!r}: {allowed}")
+
+
+@dataclass(frozen=True)
+class ChainSpec:
+    """The chain: ``grains`` equal spheres in contact (program units)."""
+
+    grains: int = 1000
+    """Grain count N (grain 0 is the surface)."""
+    mass: float = 1.0
+    """Grain mass [2.36e-5 kg]."""
+    a: float = 5657.0
+    """Self-constant of a grain: V = a·δ^n between two equal grains [mass·length^(2-n)/time²]."""
+    exponent: float = 2.5
+    """Contact-law exponent n (5/2 is Hertz)."""
+    diameter: float = 100.0
+    """Grain diameter [1e-5 m]; used for the validity check δ ≤ 0.1·diameter."""
+    l0: float = 0.0
+    """Precompression: static overlap of two equal grains under the load [length]."""
+    load: float | None = None
+    """Load F0 on the surface side [force]; alternative to ``l0``."""
+    gravity: float = 0.0
+    """Gravitational acceleration g (1 ≙ 9.8 m/s²), toward the bottom."""
+
+    @property
+    def surface_force(self) -> float:
+        """F0: the constant force pushing on the surface side [force]."""
+        if self.load is not None:
+            return float(self.load)
+        if self.l0 == 0.0:
+            return 0.0
+        return self.exponent * self.a * self.l0 ** (self.exponent - 1.0)
+
+
+@dataclass(frozen=True)
+class BoundarySpec:
+    """How each end of the chain is held."""
+
+    surface: str = "wall"
+    """wall | load | free | driven."""
+    bottom: str = "wall"
+    """wall | fixed | free."""
+
+
+@dataclass(frozen=True)
+class ImpuritySpec:
+    """A block of grains with their own mass and self-constant."""
+
+    grains: tuple[int, ...] = ()
+    """Indices of the impurity grains (0 = surface)."""
+    mass: float | None = None
+    """Mass of each impurity grain; default: the chain's."""
+    a: float | None = None
+    """Self-constant of each impurity grain; default: the chain's."""
+    contact: str = "harmonic"
+    """Contact constant with a neighbour: harmonic mean of the two self-constants, or the impurity's ``own``."""
+
+
+@dataclass(frozen=True)
+class ExcitationSpec:
+    """What sets the chain moving."""
+
+    impact: float = 0.0
+    """v_imp: initial velocity of grain 0 toward the bottom [length/time]."""
+    drive_amplitude: float = 0.0
+    """A in u_0(t) = A sin(2πt/τ) [length]; needs ``boundary.surface = "driven"``."""
+    drive_period: float = 10.0
+    """τ [time]."""
+
+
+@dataclass(frozen=True)
+class IntegratorSpec:
+    """Time stepping."""
+
+    duration: float = math.nan
+    """Simulated time [time]; required."""
+    method: str = "gear4"
+    """gear4 | gear5 | gear6 | verlet."""
+    dt: float = 1.25e-5
+    """Time step [time]."""
+    precision: str = "float64"
+    """float64 | float32."""
+
+
+@dataclass(frozen=True)
+class RecordSpec:
+    """What a run keeps."""
+
+    every: float | None = None
+    """Snapshot interval [time]; default: the whole duration (t = 0 and the end)."""
+    fields: tuple[str, ...] = ("u", "v")
+    """Snapshot fields: any of u, v."""
+    traces: tuple[int, ...] = ()
+    """Grains sampled at ``trace_every``."""
+    trace_every: float | None = None
+    """Trace interval [time]; default: every step. Must divide ``every``."""
+    energy: bool = True
+    """Record the total energy at every snapshot."""
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A whole scene; built by :func:`scene_from_dict`/:func:`load_scene`, validated on creation."""
+
+    chain: ChainSpec = field(default_factory=ChainSpec)
+    boundary: BoundarySpec = field(default_factory=BoundarySpec)
+    impurities: tuple[ImpuritySpec, ...] = ()
+    excitation: ExcitationSpec = field(default_factory=ExcitationSpec)
+    integrator: IntegratorSpec = field(default_factory=IntegratorSpec)
+    record: RecordSpec = field(default_factory=RecordSpec)
+
+    def __post_init__(self):
+        _validate(self)
+
+    # ---- derived step counts -------------------------------------------------------
+    @property
+    def steps_per_record(self) -> int:
+        """Integration steps between two snapshots."""
+        every = self.record.every if self.record.every is not None else self.integrator.duration
+        return max(1, round(every / self.integrator.dt))
+
+    @property
+    def record_count(self) -> int:
+        """Snapshots, including t = 0."""
+        every = self.record.every if self.record.every is not None else self.integrator.duration
+        return max(1, round(self.integrator.duration / every)) + 1
+
+    @property
+    def step_count(self) -> int:
+        """Total integration steps."""
+        return (self.record_count - 1) * self.steps_per_record
+
+    @property
+    def trace_stride(self) -> int:
+        """Steps between two trace samples."""
+        te = self.record.trace_every
+        return 1 if te is None else max(1, round(te / self.integrator.dt))
+
+    @property
+    def injected_energy(self) -> float:
+        """Energy put in at t = 0 by an impact (½ m_0 v_imp²); 0 for other scenes."""
+        return 0.5 * grain_masses_at(self, 0) * self.excitation.impact**2
+
+    def to_dict(self) -> dict:
+        """The scene as plain data, every key filled (JSON/TOML-ready)."""
+        d = asdict(self)
+        d["impurities"] = [
+            {**imp, "grains": list(imp["grains"]),
+             "mass": imp["mass"] if imp["mass"] is not None else self.chain.mass,
+             "a": imp["a"] if imp["a"] is not None else self.chain.a}
+            for imp in d["impurities"]
+        ]
+        d["record"]["fields"] = list(d["record"]["fields"])
+        d["record"]["traces"] = list(d["record"]["traces"])
+        return d
+
+    def with_overrides(self, overrides: dict[str, Any]) -> "Scene":
+        """A copy with dotted keys (``"chain.l0"``) replaced; validated."""
+        return scene_from_dict(apply_overrides(self.to_dict(), overrides))
+
+
+def grain_masses_at(scene: Scene, index: int) -> float:
+    for imp in scene.impurities:
+        if index in imp.grains and imp.mass is not None:
+            return imp.mass
+    return scene.chain.mass
+
+
+# ---- parsing -----------------------------------------------------------------------
+
+_SECTIONS = {
+    "chain": ChainSpec,
+    "boundary": BoundarySpec,
+    "excitation": ExcitationSpec,
+    "integrator": IntegratorSpec,
+    "record": RecordSpec,
+}
+_TOP_KEYS = tuple(_SECTIONS) + ("impurities",)
+
+
+def _did_you_mean(word: str, choices) -> str:
+    close = difflib.get_close_matches(word, list(choices), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def _unknown(key: str, choices) -> SceneError:
+    return SceneError(key, "…", f"unknown key{_did_you_mean(key.split('.')[-1], choices)}; "
+                      f"allowed: {', '.join(choices)}")
+
+
+def _coerce(key: str, value: Any, default: Any, annotation: str) -> Any:
+    """Check a TOML value against a field's type (annotation text) and convert it."""
+    if "tuple[int" in annotation:
+        if not isinstance(value, (list, tuple)) or not all(isinstance(x, int) and not isinstance(x, bool) for x in value):
+            raise SceneError(key, value, "must be a list of integers")
+        return tuple(value)
+    if "tuple[str" in annotation:
+        if isinstance(value, str):
+            value = [value]
+        if not isinstance(value, (list, tuple)) or not all(isinstance(x, str) for x in value):
+            raise SceneError(key, value, "must be a list of strings")
+        return tuple(value)
+    if annotation == "bool":
+        if not isinstance(value, bool):
+            raise SceneError(key, value, "must be true or false")
+        return value
+    if annotation == "int":
+        if isinstance(value, float) and value.is_integer():
+            value = int(value)
+        if not isinstance(value, int) or isinstance(value, bool):
+            raise SceneError(key, value, "must be an integer")
+        return value
+    if annotation == "str":
+        if not isinstance(value, str):
+            raise SceneError(key, value, "must be a string")
+        return value
+    if "float" in annotation:
+        if value is None and "None" in annotation:
+            return None
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise SceneError(key, value, "must be a number")
+        value = float(value)
+        if not math.isfinite(value):
+            raise SceneError(key, value, "must be a finite number")
+        return value
+    return value
+
+
+def _build(cls, section: str, data: Any):
+    if not isinstance(data, dict):
+        raise SceneError(section, data, "must be a table")
+    known = {f.name: f for f in fields(cls)}
+    kwargs = {}
+    for key, value in data.items():
+        if key not in known:
+            raise _unknown(f"{section}.{key}", known)
+        kwargs[key] = _coerce(f"{section}.{key}", value, known[key].default, str(known[key].type))
+    return cls(**kwargs)
+
+
+def scene_from_dict(data: dict) -> Scene:
+    """Build and validate a scene from nested plain data (a parsed TOML file)."""
+    if not isinstance(data, dict):
+        raise SceneError("scene", data, "must be a table")
+    for key in data:
+        if key not in _TOP_KEYS:
+            raise _unknown(key, _TOP_KEYS)
+    parts = {name: _build(cls, name, data.get(name, {})) for name, cls in _SECTIONS.items()}
+    raw_imps = data.get("impurities", [])
+    if isinstance(raw_imps, dict):
+        raw_imps = [raw_imps]
+    if not isinstance(raw_imps, list):
+        raise SceneError("impurities", raw_imps, "must be an array of tables ([[impurities]])")
+    imps = tuple(_build(ImpuritySpec, f"impurities[{k}]", imp) for k, imp in enumerate(raw_imps))
+    if "duration" not in data.get("integrator", {}):
+        raise SceneError("integrator.duration", None, "is required (simulated time, > 0)")
+    return Scene(impurities=imps, **parts)
+
+
+def parse_value(text: str) -> Any:
+    """A ``--set`` value: TOML syntax (numbers, true/false, "strings", [lists]); bare words are strings."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+def apply_overrides(data: dict, overrides: dict[str, Any]) -> dict:
+    """Set dotted keys (``section.key`` or ``impurities.K.key``) in nested plain data."""
+    import copy
+
+    data = copy.deepcopy(data)
+    for dotted, value in overrides.items():
+        parts = dotted.split(".")
+        if parts[0] not in _TOP_KEYS:
+            raise _unknown(parts[0], _TOP_KEYS)
+        if parts[0] == "impurities":
+            if len(parts) != 3 or not parts[1].isdigit():
+                raise SceneError(dotted, value, "impurity keys are written impurities.K.key (K = block index)")
+            blocks = data.setdefault("impurities", [])
+            k = int(parts[1])
+            if k >= len(blocks):
+                raise SceneError(dotted, value, f"there are {len(blocks)} impurity blocks")
+            blocks[k][parts[2]] = value
+            continue
+        if len(parts) != 2:
+            raise SceneError(dotted, value, "keys are written section.key, e.g. chain.l0")
+        section = data.setdefault(parts[0], {})
+        if not isinstance(section, dict):
+            raise SceneError(parts[0], section, "must be a table")
+        section[parts[1]] = value
+    return data
+
+
+def parse_overrides(items: list[str] | None) -> dict[str, Any]:
+    """``["chain.l0=1e-4", …]`` → ``{"chain.l0": 1e-4, …}``."""
+    out = {}
+    for item in items or []:
+        if "=" not in item:
+            raise SceneError("--set", item, "must be written key=value, e.g. chain.l0=1e-4")
+        key, text = item.split("=", 1)
+        out[key.strip()] = parse_value(text.strip())
+    return out
+
+
+def read_toml(path: str | Path) -> dict:
+    path = Path(path)
+    if not path.is_file():
+        raise SceneError("scene file", str(path), "no such file")
+    try:
+        return tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as err:
+        raise SceneError(str(path), "…", f"is not valid TOML: {err}") from None
+
+
+def load_scene(path: str | Path, overrides: dict[str, Any] | None = None) -> Scene:
+    """Read a scene TOML file, apply ``--set`` overrides, validate."""
+    return scene_from_dict(apply_overrides(read_toml(path), overrides or {}))
+
+
+# ---- validation --------------------------------------------------------------------
+
+def _positive(key, value):
+    if not (value > 0):
+        raise SceneError(key, value, "must be > 0")
+
+
+def _validate(s: Scene) -> None:
+    c, b, e, i, r = s.chain, s.boundary, s.excitation, s.integrator, s.record
+    if c.grains < 2:
+        raise SceneError("chain.grains", c.grains, "must be an integer ≥ 2")
+    for key in ("mass", "a", "diameter"):
+        _positive(f"chain.{key}", getattr(c, key))
+    if not (c.exponent > 1.0):
+        raise SceneError("chain.exponent", c.exponent, "must be > 1 (the force must vanish at zero overlap)")
+    if c.l0 < 0:
+        raise SceneError("chain.l0", c.l0, "must be ≥ 0")
+    if c.load is not None:
+        if c.load < 0:
+            raise SceneError("chain.load", c.load, "must be ≥ 0")
+        if c.l0 != 0:
+            raise SceneError("chain.load", c.load, "give either chain.l0 or chain.load, not both")
+    if c.gravity < 0:
+        raise SceneError("chain.gravity", c.gravity, "must be ≥ 0 (it points toward the bottom)")
+    if b.surface not in SURFACE_KINDS:
+        raise SceneError("boundary.surface", b.surface, f"must be one of {', '.join(SURFACE_KINDS)}"
+                         + _did_you_mean(b.surface, SURFACE_KINDS))
+    if b.bottom not in BOTTOM_KINDS:
+        raise SceneError("boundary.bottom", b.bottom, f"must be one of {', '.join(BOTTOM_KINDS)}"
+                         + _did_you_mean(b.bottom, BOTTOM_KINDS))
+    f0 = c.surface_force
+    if b.surface == "free" and f0 > 0:
+        raise SceneError("boundary.surface", "free", "a free surface cannot carry a load: set chain.l0 = 0 "
+                         "or use surface = \"load\" or \"wall\"")
+    if b.bottom == "free" and (f0 > 0 or c.gravity > 0):
+        raise SceneError("boundary.bottom", "free", "a free bottom cannot hold a load or gravity: use "
+                         "bottom = \"wall\" or \"fixed\"")
+    if b.surface == "driven":
+        _positive("excitation.drive_amplitude", e.drive_amplitude)
+        _positive("excitation.drive_period", e.drive_period)
+        if e.impact != 0:
+            raise SceneError("excitation.impact", e.impact, "a driven surface grain has a prescribed motion: "
+                             "impact must be 0")
+    elif e.drive_amplitude != 0:
+        raise SceneError("excitation.drive_amplitude", e.drive_amplitude,
+                         "a drive needs boundary.surface = \"driven\"")
+    if e.impact < 0:
+        raise SceneError("excitation.impact", e.impact, "must be ≥ 0 (toward the bottom)")
+    if b.bottom == "fixed" and c.grains < 3 and b.surface == "driven":
+        raise SceneError("chain.grains", c.grains, "a driven chain with a fixed bottom needs ≥ 3 grains")
+    seen: dict[int, int] = {}
+    for k, imp in enumerate(s.impurities):
+        key = f"impurities[{k}]"
+        if not imp.grains:
+            raise SceneError(f"{key}.grains", list(imp.grains), "must list at least one grain index")
+        for g in imp.grains:
+            if not 0 <= g < c.grains:
+                raise SceneError(f"{key}.grains", g, f"grain index outside the chain: allowed 0 … {c.grains - 1}")
+            if g in seen:
+                raise SceneError(f"{key}.grains", g, f"grain already in impurities[{seen[g]}]")
+            seen[g] = k
+        if imp.mass is not None:
+            _positive(f"{key}.mass", imp.mass)
+        if imp.a is not None:
+            _positive(f"{key}.a", imp.a)
+        if imp.contact not in CONTACT_RULES:
+            raise SceneError(f"{key}.contact", imp.contact, "must be harmonic or own")
+    if not (i.duration > 0):
+        raise SceneError("integrator.duration", i.duration, "is required and must be > 0")
+    _positive("integrator.dt", i.dt)
+    if i.dt > i.duration:
+        raise SceneError("integrator.dt", i.dt, f"must not exceed integrator.duration = {i.duration}")
+    if i.method not in METHODS:
+        raise SceneError("integrator.method", i.method, f"must be one of {', '.join(METHODS)}"
+                         + _did_you_mean(i.method, METHODS))
+    if i.precision not in PRECISIONS:
+        raise SceneError("integrator.precision", i.precision, "must be float64 or float32")
+    if r.every is not None:
+        _positive("record.every", r.every)
+        if r.every > i.duration * (1 + 1e-12):
+            raise SceneError("record.every", r.every, f"must not exceed integrator.duration = {i.duration}")
+    for name in r.fields:
+        if name not in FIELDS:
+            raise SceneError("record.fields", name, f"allowed fields: {', '.join(FIELDS)}")
+    for g in r.traces:
+        if not 0 <= g < c.grains:
+            raise SceneError("record.traces", g, f"grain index outside the chain: allowed 0 … {c.grains - 1}")
+    if len(set(r.traces)) != len(r.traces):
+        raise SceneError("record.traces", list(r.traces), "grains must not repeat")
+    if r.trace_every is not None:
+        _positive("record.trace_every", r.trace_every)
+        if s.steps_per_record % s.trace_stride:
+            raise SceneError("record.trace_every", r.trace_every,
+                             f"must divide record.every into whole steps (every = {s.steps_per_record} steps "
+                             f"of dt, trace_every = {s.trace_stride} steps)")

@@ -1,0 +1,33 @@
+"""Per-chain result codes: a chain that goes wrong is flagged (and, if non-finite, frozen), never raised."""
+
+from __future__ import annotations
+
+from enum import IntEnum
+
+from kernels.features import STATUS_NON_FINITE, STATUS_OK, STATUS_OVERLAP_BEYOND_VALIDITY
+
+
+class Status(IntEnum):
+    """Status of one chain after a run; ``OK = 0``."""
+
+    OK = STATUS_OK
+    NON_FINITE = STATUS_NON_FINITE
+    OVERLAP_BEYOND_VALIDITY = STATUS_OVERLAP_BEYOND_VALIDITY
+    ENERGY_DRIFT = 3
+
+    @property
+    def message(self) -> str:
+        return STATUS_MESSAGES[self]
+
+
+STATUS_MESSAGES = {
+    Status.OK: "ok",
+    Status.NON_FINITE: "state became non-finite (NaN/inf); the chain was frozen at the next record",
+    Status.OVERLAP_BEYOND_VALIDITY: "an overlap exceeded 0.1·diameter, beyond where the Hertz law holds",
+    Status.ENERGY_DRIFT: "energy error above the tolerance (1e-2 of the injected energy by default)",
+}
+
+
+def status_attrs() -> dict[str, str]:
+    """{code: 'NAME: message'} for store attributes."""
+    return {str(int(s)): f"{s.name}: {s.message}" for s in Status}

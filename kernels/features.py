@@ -1,0 +1,45 @@
+"""The key that selects a kernel variant: only what some chain in the launch needs is compiled."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+GEAR_VALUES = {"gear4": 4, "gear5": 5, "gear6": 6, "verlet": 3}
+
+# Allen & Tildesley corrector coefficients for a second-order ODE, as exact fractions
+# (numerator, denominator) so float64 kernels see correctly rounded constants.
+GEAR_CORRECTOR = {
+    "gear4": ((1, 6), (5, 6), (1, 1), (1, 3)),
+    "gear5": ((19, 120), (3, 4), (1, 1), (1, 2), (1, 12)),
+    "gear6": ((3, 20), (251, 360), (1, 1), (11, 18), (1, 6), (1, 60)),
+}
+
+# Per-chain status codes written by the record kernel (see ensemble.status for names).
+STATUS_OK = 0
+STATUS_NON_FINITE = 1
+STATUS_OVERLAP_BEYOND_VALIDITY = 2
+
+
+@dataclass(frozen=True)
+class Features:
+    """What a launch needs; each field off means that code and memory are absent."""
+
+    method: str = "gear4"
+    precision: str = "float64"
+    surface: str = "wall"
+    """wall: a surface-wall contact; driven: grain 0 prescribed; load/free: nothing above grain 0
+    (a constant load is balanced by the static state and needs no code)."""
+    bottom: str = "wall"
+    """wall: a bottom-wall contact; fixed: grain N-1 held; free: nothing below."""
+    static: str = "none"
+    """none: no static overlap anywhere; uniform: one δ0 per chain; profile: one per contact."""
+    heterogeneous: bool = False
+    """Per-grain masses and per-contact constants (impurities); else one of each per chain."""
+    hertz: bool = True
+    """Exponent 5/2 (sqrt, no pow); else a per-chain exponent."""
+    traces: bool = False
+
+    @property
+    def values(self) -> int:
+        """Values per grain in the state (Nordsieck vector length; 3 for Verlet)."""
+        return GEAR_VALUES[self.method]

@@ -1,0 +1,133 @@
+"""Per-chain reductions at record times: energy, driver's work, largest overlap, status.
+
+One thread per chain sums its grains in a fixed order, so results are bitwise reproducible
+(no atomics). Sums are float64 whatever the state precision.
+"""
+
+
+import functools
+
+import warp as wp
+
+from .features import STATUS_NON_FINITE, STATUS_OK, STATUS_OVERLAP_BEYOND_VALIDITY, Features
+from .physics import contact_functions, excess_potential
+
+
+@functools.cache
+def record_kernel(features: Features):
+    """Energy (relative to the static state), work, max overlap and status for one feature set."""
+    f = features
+    real = wp.float64 if f.precision == "float64" else wp.float32
+    SURFACE_WALL = f.surface == "wall"
+    DRIVEN = f.surface == "driven"
+    BOTTOM_WALL = f.bottom == "wall"
+    STATIC = f.static != "none"
+    PROFILE = f.static == "profile"
+    HETERO = f.heterogeneous
+    HERTZ = f.hertz
+    _, excess_force = contact_functions(f.precision, f.hertz)
+
+    @wp.func
+    def contact_terms(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),
+                      exponent: wp.array(dtype=real), c: int, k: int, d: wp.float64) -> wp.vec2d:
+        # (excess potential, absolute overlap) of padded contact k at relative displacement d
+        delta0 = wp.float64(0.0)
+        if wp.static(PROFILE):
+            delta0 = wp.float64(static_overlap[c, k])
+        elif wp.static(STATIC):
+            delta0 = wp.float64(static_overlap[c, 0])
+        a_c = wp.float64(0.0)
+        if wp.static(HETERO):
+            a_c = wp.float64(contact_constant[c, k])
+        else:
+            a_c = wp.float64(contact_constant[c, 0])
+        n = wp.float64(2.5)
+        if wp.static(not HERTZ):
+            n = wp.float64(exponent[c])
+        return wp.vec2d(excess_potential(delta0, d, a_c, n), delta0 + d)
+
+    @wp.kernel(module="unique")
+    def record(
+        x: wp.array3d(dtype=real),
+        inverse_mass: wp.array2d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        static_overlap: wp.array2d(dtype=real),
+        exponent: wp.array(dtype=real),
+        drive: wp.array2d(dtype=wp.float64),
+        work_in: wp.array(dtype=wp.float64),
+        power_in: wp.array(dtype=wp.float64),
+        step: int,
+        dt: wp.float64,
+        validity_overlap: wp.array(dtype=wp.float64),
+        energy: wp.array(dtype=wp.float64),
+        work: wp.array(dtype=wp.float64),
+        max_overlap: wp.array(dtype=wp.float64),
+        status: wp.array(dtype=wp.int32),
+    ):
+        c = wp.tid()
+        n_grains = x.shape[2]
+        kinetic = wp.float64(0.0)
+        potential = wp.float64(0.0)
+        # (dynamic variables: they change inside the loop)
+        largest = wp.float64(-1.0e300)
+        finite = int(1)
+        first = int(0)
+        if wp.static(DRIVEN):
+            first = 1  # the driven grain's motion is prescribed: not part of the chain's energy
+        for i in range(n_grains):
+            u = wp.float64(x[0, c, i])
+            v = wp.float64(x[1, c, i]) / dt
+            if not (wp.isfinite(u) and wp.isfinite(v)):
+                finite = 0
+            if i >= first:
+                inv_m = wp.float64(0.0)
+                if wp.static(HETERO):
+                    inv_m = wp.float64(inverse_mass[c, i])
+                else:
+                    inv_m = wp.float64(inverse_mass[c, 0])
+                kinetic += wp.float64(0.5) * v * v / inv_m
+            if i > 0:
+                terms = contact_terms(static_overlap, contact_constant, exponent, c, i,
+                                      wp.float64(x[0, c, i - 1]) - u)
+                potential += terms[0]
+                largest = wp.max(largest, terms[1])
+        if wp.static(SURFACE_WALL):
+            terms = contact_terms(static_overlap, contact_constant, exponent, c, 0, -wp.float64(x[0, c, 0]))
+            potential += terms[0]
+            largest = wp.max(largest, terms[1])
+        if wp.static(BOTTOM_WALL):
+            terms = contact_terms(static_overlap, contact_constant, exponent, c, n_grains,
+                                  wp.float64(x[0, c, n_grains - 1]))
+            potential += terms[0]
+            largest = wp.max(largest, terms[1])
+        energy[c] = kinetic + potential
+        max_overlap[c] = largest
+
+        if wp.static(DRIVEN):
+            # close the trapezoid of the driver's power up to this record's time
+            amplitude = drive[c, 0]
+            omega = drive[c, 1]
+            d = x[0, c, 0] - x[0, c, 1]
+            delta0 = real(0)
+            if wp.static(PROFILE):
+                delta0 = static_overlap[c, 1]
+            elif wp.static(STATIC):
+                delta0 = static_overlap[c, 0]
+            a_c = real(0)
+            if wp.static(HETERO):
+                a_c = contact_constant[c, 1]
+            else:
+                a_c = contact_constant[c, 0]
+            n = real(0)
+            if wp.static(not HERTZ):
+                n = exponent[c]
+            force = wp.float64(excess_force(delta0, d, a_c, n))
+            power = force * amplitude * omega * wp.cos(omega * wp.float64(step) * dt)
+            work[c] = work_in[c] + dt * wp.float64(0.5) * (power_in[c] + power)
+
+        if finite == 0:
+            status[c] = wp.static(STATUS_NON_FINITE)
+        elif status[c] == wp.static(STATUS_OK) and largest > validity_overlap[c]:
+            status[c] = wp.static(STATUS_OVERLAP_BEYOND_VALIDITY)
+
+    return record

@@ -1,0 +1,216 @@
+"""One integration step per launch over a (chain, grain) grid: Gear predictor–corrector or velocity Verlet.
+
+State per grain is a scaled Nordsieck vector in an array of shape (values, chains, grains):
+x0 = u, x1 = dt·v, x2 = dt²/2·a, x3 = dt³/6·ȧ, …  (Verlet keeps x0, x1, x2 the same way).
+A step reads ``x_in`` and writes ``x_out`` (never the same buffer): each thread predicts its own
+grain and both neighbours, evaluates the force at the predicted positions, and corrects.
+"""
+
+
+import functools
+
+import warp as wp
+
+from .features import GEAR_CORRECTOR, STATUS_NON_FINITE, Features
+from .physics import contact_functions
+
+
+@functools.cache
+def step_kernel(features: Features):
+    """The step kernel for one feature set (cached; a feature that is off generates no code)."""
+    f = features
+    real = wp.float64 if f.precision == "float64" else wp.float32
+    Q = f.values
+    GEAR = f.method != "verlet"
+    C = GEAR_CORRECTOR.get(f.method, ((0, 1),) * 6)
+    C = C + ((0, 1),) * (6 - len(C))
+    SURFACE_WALL = f.surface == "wall"
+    DRIVEN = f.surface == "driven"
+    BOTTOM_WALL = f.bottom == "wall"
+    FIXED = f.bottom == "fixed"
+    STATIC = f.static != "none"
+    PROFILE = f.static == "profile"
+    HETERO = f.heterogeneous
+    HERTZ = f.hertz
+    TRACES = f.traces
+    _, excess_force = contact_functions(f.precision, f.hertz)
+
+    @wp.func
+    def predicted_position(x: wp.array3d(dtype=real), c: int, j: int) -> real:
+        p = x[0, c, j] + x[1, c, j] + x[2, c, j]
+        if wp.static(Q >= 4):
+            p += x[3, c, j]
+        if wp.static(Q >= 5):
+            p += x[4, c, j]
+        if wp.static(Q >= 6):
+            p += x[5, c, j]
+        return p
+
+    @wp.func
+    def contact(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),
+                exponent: wp.array(dtype=real), c: int, k: int, d: real) -> real:
+        # excess force of padded contact k (between grains k-1 and k) at relative displacement d
+        delta0 = real(0)
+        if wp.static(PROFILE):
+            delta0 = static_overlap[c, k]
+        elif wp.static(STATIC):
+            delta0 = static_overlap[c, 0]
+        a_c = real(0)
+        if wp.static(HETERO):
+            a_c = contact_constant[c, k]
+        else:
+            a_c = contact_constant[c, 0]
+        n = real(0)
+        if wp.static(not HERTZ):
+            n = exponent[c]
+        return excess_force(delta0, d, a_c, n)
+
+    @wp.func
+    def write_trace(trace_x: wp.array4d(dtype=real), trace_slot: wp.array(dtype=wp.int32), trace_stride: int,
+                    c: int, i: int, step_new: int, x0: real, x1: real):
+        if wp.static(TRACES):
+            slot = trace_slot[i]
+            if slot >= 0 and step_new % trace_stride == 0:
+                sample = (step_new / trace_stride) % trace_x.shape[2]
+                trace_x[0, c, sample, slot] = x0
+                trace_x[1, c, sample, slot] = x1
+
+    @wp.kernel(module="unique")
+    def step(
+        x_in: wp.array3d(dtype=real),
+        clock_in: wp.array(dtype=wp.int32),
+        inverse_mass: wp.array2d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        static_overlap: wp.array2d(dtype=real),
+        exponent: wp.array(dtype=real),
+        drive: wp.array2d(dtype=wp.float64),
+        status: wp.array(dtype=wp.int32),
+        trace_slot: wp.array(dtype=wp.int32),
+        trace_stride: int,
+        work_in: wp.array(dtype=wp.float64),
+        power_in: wp.array(dtype=wp.float64),
+        dt: wp.float64,
+        x_out: wp.array3d(dtype=real),
+        clock_out: wp.array(dtype=wp.int32),
+        trace_x: wp.array4d(dtype=real),
+        work_out: wp.array(dtype=wp.float64),
+        power_out: wp.array(dtype=wp.float64),
+    ):
+        c, i = wp.tid()
+        n_grains = x_in.shape[2]
+        step_new = clock_in[0] + 1
+        if c == 0 and i == 0:
+            clock_out[0] = step_new
+        h = real(dt)
+
+        frozen = status[c] == wp.static(STATUS_NON_FINITE)
+        held = frozen
+        if wp.static(FIXED):
+            held = held or i == n_grains - 1
+        if held:
+            # a blown-up chain is frozen; a fixed bottom grain never moves
+            for k in range(wp.static(Q)):
+                x_out[k, c, i] = x_in[k, c, i]
+            write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, x_in[0, c, i], x_in[1, c, i])
+            return
+
+        if wp.static(DRIVEN):
+            amplitude = drive[c, 0]
+            omega = drive[c, 1]
+            t_new = wp.float64(step_new) * dt
+            u_drive = amplitude * wp.sin(omega * t_new)
+            if i == 0:
+                # driver's work on the rest of the chain: trapezoid of P = ΔF_01 · v_0 (state at t_n)
+                t_old = wp.float64(step_new - 1) * dt
+                d_old = x_in[0, c, 0] - x_in[0, c, 1]
+                force_old = wp.float64(contact(static_overlap, contact_constant, exponent, c, 1, d_old))
+                power = force_old * amplitude * omega * wp.cos(omega * t_old)
+                work_out[c] = work_in[c] + dt * wp.float64(0.5) * (power_in[c] + power)
+                power_out[c] = power
+                x1_drive = real(dt * amplitude * omega * wp.cos(omega * t_new))
+                x_out[0, c, 0] = real(u_drive)
+                x_out[1, c, 0] = x1_drive
+                for k in range(2, wp.static(Q)):
+                    x_out[k, c, 0] = real(0)
+                write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, real(u_drive), x1_drive)
+                return
+
+        u_p = predicted_position(x_in, c, i)
+        up = real(0)    # excess force of the contact above grain i (pushes it toward the bottom)
+        down = real(0)  # excess force of the contact below grain i
+        if i > 0:
+            u_above = real(0)
+            if wp.static(DRIVEN):
+                if i == 1:
+                    u_above = real(u_drive)
+                else:
+                    u_above = predicted_position(x_in, c, i - 1)
+            else:
+                u_above = predicted_position(x_in, c, i - 1)
+            up = contact(static_overlap, contact_constant, exponent, c, i, u_above - u_p)
+        else:
+            if wp.static(SURFACE_WALL):
+                up = contact(static_overlap, contact_constant, exponent, c, 0, -u_p)
+        if i < n_grains - 1:
+            down = contact(static_overlap, contact_constant, exponent, c, i + 1,
+                           u_p - predicted_position(x_in, c, i + 1))
+        else:
+            if wp.static(BOTTOM_WALL):
+                down = contact(static_overlap, contact_constant, exponent, c, n_grains, u_p)
+
+        inv_m = real(0)
+        if wp.static(HETERO):
+            inv_m = inverse_mass[c, i]
+        else:
+            inv_m = inverse_mass[c, 0]
+        half_h2_acc = real(0.5) * h * h * (up - down) * inv_m
+
+        x0 = real(0)
+        x1 = real(0)
+        if wp.static(GEAR):
+            p1 = x_in[1, c, i] + real(2) * x_in[2, c, i]
+            p2 = x_in[2, c, i]
+            p3 = real(0)
+            p4 = real(0)
+            p5 = real(0)
+            if wp.static(Q >= 4):
+                x3 = x_in[3, c, i]
+                p1 += real(3) * x3
+                p2 += real(3) * x3
+                p3 = x3
+            if wp.static(Q >= 5):
+                x4 = x_in[4, c, i]
+                p1 += real(4) * x4
+                p2 += real(6) * x4
+                p3 += real(4) * x4
+                p4 = x4
+            if wp.static(Q >= 6):
+                x5 = x_in[5, c, i]
+                p1 += real(5) * x5
+                p2 += real(10) * x5
+                p3 += real(10) * x5
+                p4 += real(5) * x5
+                p5 = x5
+            corr = half_h2_acc - p2
+            x0 = u_p + real(wp.static(C[0][0])) / real(wp.static(C[0][1])) * corr
+            x1 = p1 + real(wp.static(C[1][0])) / real(wp.static(C[1][1])) * corr
+            x_out[0, c, i] = x0
+            x_out[1, c, i] = x1
+            x_out[2, c, i] = half_h2_acc  # C2 = 1
+            x_out[3, c, i] = p3 + real(wp.static(C[3][0])) / real(wp.static(C[3][1])) * corr
+            if wp.static(Q >= 5):
+                x_out[4, c, i] = p4 + real(wp.static(C[4][0])) / real(wp.static(C[4][1])) * corr
+            if wp.static(Q >= 6):
+                x_out[5, c, i] = p5 + real(wp.static(C[5][0])) / real(wp.static(C[5][1])) * corr
+        else:
+            # velocity Verlet: dt·v_new = dt·v + dt²/2 (a + a_new)
+            x0 = u_p
+            x1 = x_in[1, c, i] + x_in[2, c, i] + half_h2_acc
+            x_out[0, c, i] = x0
+            x_out[1, c, i] = x1
+            x_out[2, c, i] = half_h2_acc
+
+        write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, x0, x1)
+
+    return step
+

@@ -1,0 +1,433 @@
+"""Independent NumPy float64 reference simulator for a Hertzian granular chain.
+
+This module is the *test oracle* for the Warp GPU simulator.  It is written from
+the physics contract (``SPEC.md`` sections 1-5 and 8) and the paper (Sen, Manciu &
+Wright, PRE 57, 2386 (1998), section II) only; it deliberately imports nothing
+from ``ensemble`` or ``kernels`` so that the two implementations can disagree
+when one of them is wrong.
+
+Model (all quantities in program units, float64 throughout):
+
+* Grains ``0 .. N-1`` from the surface (grain 0) to the bottom; ``u_i`` is the
+  displacement from static equilibrium, positive away from the surface.
+* Inner contact ``i`` joins grains ``i`` and ``i+1``: overlap
+  ``delta = delta0_i + u_i - u_{i+1}``.  Surface wall contact:
+  ``delta = delta0_sw - u_0``.  Bottom wall contact: ``delta = delta0_bw + u_{N-1}``.
+* ``V(delta) = a_c max(delta, 0)^n``; force ``n a_c max(delta, 0)^(n-1)``; no tension.
+* Equation of motion, in the DIRECT form (no reformulation about the static
+  state): ``m_i u_i'' = F_above - F_below + m_i g`` (+ ``F0`` on grain 0 for a
+  surface ``load``).
+* Static overlaps from the carried force: surface wall ``F0``; contact between
+  grains ``k-1`` and ``k`` carries ``F0 + g sum_{j<k} m_j``; bottom wall
+  ``F0 + g sum_j m_j``; ``delta0 = (carried / (n a_c))^(1/(n-1))``.
+* Integrators: Gear 4/5/6-value Nordsieck predictor-corrector (Allen & Tildesley
+  coefficients) and velocity Verlet.
+
+Public API
+----------
+``reference_run(scene) -> dict`` of float64 arrays ``t, u, v, energy, work,
+trace_t, trace_u, trace_v``; helpers ``static_overlaps``, ``contact_constants``,
+``contact_force``, ``potential``, ``total_energy``.
+
+``scene`` is the nested dict of SPEC section 8 with every key present.
+The ``integrator.precision`` key is ignored: the oracle is always float64.
+"""
+
+from __future__ import annotations
+
+from math import comb
+
+import numpy as np
+
+__all__ = [
+    "reference_run",
+    "static_overlaps",
+    "contact_constants",
+    "contact_force",
+    "potential",
+    "total_energy",
+    "GEAR_COEFFS",
+    "default_scene",
+]
+
+# Allen & Tildesley corrector coefficients for a second-order ODE.
+GEAR_COEFFS = {
+    "gear4": (1.0 / 6.0, 5.0 / 6.0, 1.0, 1.0 / 3.0),
+    "gear5": (19.0 / 120.0, 3.0 / 4.0, 1.0, 1.0 / 2.0, 1.0 / 12.0),
+    "gear6": (3.0 / 20.0, 251.0 / 360.0, 1.0, 11.0 / 18.0, 1.0 / 6.0, 1.0 / 60.0),
+}
+
+SURFACES = ("wall", "load", "free", "driven")
+BOTTOMS = ("wall", "fixed", "free")
+
+
+# --------------------------------------------------------------------------
+# contact law
+# --------------------------------------------------------------------------
+
+def contact_force(delta, a, n):
+    """Repulsive force magnitude ``n a max(delta,0)^(n-1)`` (no tension)."""
+    d = np.maximum(np.asarray(delta, dtype=np.float64), 0.0)
+    return n * np.asarray(a, dtype=np.float64) * d ** (n - 1.0)
+
+
+def potential(delta, a, n):
+    """Contact energy ``a max(delta,0)^n``."""
+    d = np.maximum(np.asarray(delta, dtype=np.float64), 0.0)
+    return np.asarray(a, dtype=np.float64) * d ** n
+
+
+# --------------------------------------------------------------------------
+# scene -> per-grain / per-contact parameters
+# --------------------------------------------------------------------------
+
+def _grain_params(scene):
+    """Per-grain mass, self-constant a and 'own contact rule' flag."""
+    ch = scene["chain"]
+    N = int(ch["grains"])
+    if N < 1:
+        raise ValueError(f"chain.grains = {N}: need at least 1 grain")
+    m = np.full(N, float(ch["mass"]), dtype=np.float64)
+    a = np.full(N, float(ch["a"]), dtype=np.float64)
+    own = np.zeros(N, dtype=bool)
+    for blk in scene.get("impurities") or []:
+        idx = np.asarray(list(blk["grains"]), dtype=np.int64)
+        if idx.size and (idx.min() < 0 or idx.max() >= N):
+            raise ValueError(f"impurities.grains = {list(blk['grains'])}: indices must lie in 0..{N - 1}")
+        m[idx] = float(blk["mass"])
+        a[idx] = float(blk["a"])
+        rule = blk.get("contact", "harmonic")
+        if rule not in ("harmonic", "own"):
+            raise ValueError(f"impurities.contact = {rule!r}: allowed harmonic | own")
+        own[idx] = rule == "own"
+    return m, a, own
+
+
+def _boundaries(scene):
+    surface = scene["boundary"]["surface"]
+    bottom = scene["boundary"]["bottom"]
+    if surface not in SURFACES:
+        raise ValueError(f"boundary.surface = {surface!r}: allowed {' | '.join(SURFACES)}")
+    if bottom not in BOTTOMS:
+        raise ValueError(f"boundary.bottom = {bottom!r}: allowed {' | '.join(BOTTOMS)}")
+    return surface, bottom
+
+
+def _F0(scene):
+    ch = scene["chain"]
+    if ch.get("load") is not None:
+        return float(ch["load"])
+    n = float(ch["exponent"])
+    l0 = float(ch.get("l0") or 0.0)
+    return n * float(ch["a"]) * l0 ** (n - 1.0) if l0 > 0.0 else 0.0
+
+
+def contact_constants(scene):
+    """Contact constants ``(a_surface_wall, a_inner (N-1,), a_bottom_wall)``.
+
+    Inner contact (i, i+1): harmonic mean ``2 a_i a_j / (a_i + a_j)``, except a
+    grain of an impurity block with ``contact = "own"`` imposes its own ``a``
+    (both "own": harmonic mean of the two).  Walls use the touching grain's ``a``.
+    Wall constants are returned even if the boundary has no wall.
+    """
+    _, a, own = _grain_params(scene)
+    ai, aj = a[:-1], a[1:]
+    oi, oj = own[:-1], own[1:]
+    harm = 2.0 * ai * aj / (ai + aj)
+    a_in = np.where(oi & ~oj, ai, np.where(oj & ~oi, aj, harm))
+    return float(a[0]), a_in.astype(np.float64), float(a[-1])
+
+
+def _overlap_from_force(F, a_c, n):
+    F = np.asarray(F, dtype=np.float64)
+    out = np.zeros(np.broadcast(F, a_c).shape, dtype=np.float64)
+    pos = np.broadcast_to(F > 0.0, out.shape)
+    ratio = np.broadcast_to(F / (n * np.asarray(a_c, dtype=np.float64)), out.shape)
+    out[pos] = ratio[pos] ** (1.0 / (n - 1.0))
+    return out
+
+
+def static_overlaps(scene):
+    """Static overlaps ``(surface_wall, inner (N-1,), bottom_wall)``.
+
+    A wall overlap is ``None`` when that boundary has no wall contact
+    (surface load/free/driven; bottom fixed/free).
+    """
+    surface, bottom = _boundaries(scene)
+    ch = scene["chain"]
+    n = float(ch["exponent"])
+    g = float(ch.get("gravity") or 0.0)
+    F0 = _F0(scene)
+    m, _, _ = _grain_params(scene)
+    a_sw, a_in, a_bw = contact_constants(scene)
+    carried_in = F0 + g * np.cumsum(m)[:-1]          # contact (k-1, k) carries F0 + g sum_{j<k} m_j
+    d_in = _overlap_from_force(carried_in, a_in, n)
+    d_sw = float(_overlap_from_force(F0, a_sw, n)) if surface == "wall" else None
+    d_bw = float(_overlap_from_force(F0 + g * m.sum(), a_bw, n)) if bottom == "wall" else None
+    return d_sw, d_in, d_bw
+
+
+# --------------------------------------------------------------------------
+# the model: forces and energy
+# --------------------------------------------------------------------------
+
+class _Chain:
+    """Everything needed to evaluate accelerations and energy of one scene."""
+
+    def __init__(self, scene):
+        self.surface, self.bottom = _boundaries(scene)
+        ch = scene["chain"]
+        self.N = int(ch["grains"])
+        self.n = float(ch["exponent"])
+        self.g = float(ch.get("gravity") or 0.0)
+        self.F0 = _F0(scene)
+        self.m, _, _ = _grain_params(scene)
+        self.a_sw, self.a_in, self.a_bw = contact_constants(scene)
+        self.d_sw, self.d_in, self.d_bw = static_overlaps(scene)
+        ex = scene.get("excitation") or {}
+        self.impact = float(ex.get("impact") or 0.0)
+        self.A = float(ex.get("drive_amplitude") or 0.0)
+        self.tau = float(ex.get("drive_period") or 0.0)
+        self.driven = self.surface == "driven"
+        self.fixed = self.bottom == "fixed"
+        if self.driven:
+            if self.tau <= 0.0:
+                raise ValueError(f"excitation.drive_period = {self.tau}: must be > 0 for a driven surface")
+            if self.impact != 0.0:
+                raise ValueError(f"excitation.impact = {self.impact}: cannot be combined with surface = 'driven'")
+        self.w = 2.0 * np.pi / self.tau if self.driven else 0.0
+
+    # prescribed drive
+    def drive_u(self, t):
+        return self.A * np.sin(self.w * t)
+
+    def drive_v(self, t):
+        return self.A * self.w * np.cos(self.w * t)
+
+    def drive_a(self, t):
+        return -self.A * self.w * self.w * np.sin(self.w * t)
+
+    def enforce(self, u, t):
+        """Impose the prescribed positions (driven grain 0, fixed bottom grain)."""
+        if self.driven:
+            u[0] = self.drive_u(t)
+        if self.fixed:
+            u[-1] = 0.0
+
+    def inner_force(self, u):
+        return contact_force(self.d_in + u[:-1] - u[1:], self.a_in, self.n)
+
+    def accel(self, u, t):
+        """Acceleration of every grain at positions u (constraints already imposed)."""
+        n = self.n
+        f = self.m * self.g                          # gravity, +m g (u grows downward)
+        F = self.inner_force(u)                      # F[i]: contact (i, i+1)
+        f = f.copy()
+        f[1:] += F                                   # contact above pushes down (+)
+        f[:-1] -= F                                  # contact below pushes up (-)
+        if self.surface == "wall":
+            f[0] += contact_force(self.d_sw - u[0], self.a_sw, n)
+        elif self.surface == "load":
+            f[0] += self.F0
+        if self.bottom == "wall":
+            f[-1] -= contact_force(self.d_bw + u[-1], self.a_bw, n)
+        acc = f / self.m
+        if self.driven:
+            acc[0] = self.drive_a(t)
+        if self.fixed:
+            acc[-1] = 0.0
+        return acc
+
+    def energy(self, u, v):
+        """SPEC section 5 total energy (driven: grain 0's KE and gravity term excluded)."""
+        n = self.n
+        ke = 0.5 * self.m * v * v
+        grav = self.g * self.m * u
+        if self.driven:
+            ke = ke[1:]
+            grav = grav[1:]
+        E = ke.sum() - grav.sum()
+        E += potential(self.d_in + u[:-1] - u[1:], self.a_in, n).sum()
+        if self.surface == "wall":
+            E += float(potential(self.d_sw - u[0], self.a_sw, n))
+        elif self.surface == "load":
+            E -= self.F0 * u[0]
+        if self.bottom == "wall":
+            E += float(potential(self.d_bw + u[-1], self.a_bw, n))
+        return float(E)
+
+    def drive_power(self, u, t):
+        """F_01 * v_0: power delivered by the driven grain 0 to the rest of the chain."""
+        if not self.driven or self.N < 2:
+            return 0.0
+        F01 = float(contact_force(self.d_in[0] + u[0] - u[1], self.a_in[0], self.n))
+        return F01 * self.drive_v(t)
+
+
+def total_energy(scene, u, v):
+    """SPEC section 5 energy of state (u, v) for this scene."""
+    return _Chain(scene).energy(np.asarray(u, np.float64), np.asarray(v, np.float64))
+
+
+# --------------------------------------------------------------------------
+# stepping schedule
+# --------------------------------------------------------------------------
+
+def _schedule(scene):
+    integ = scene["integrator"]
+    rec = scene.get("record") or {}
+    dt = float(integ["dt"])
+    duration = float(integ["duration"])
+    if not dt > 0.0:
+        raise ValueError(f"integrator.dt = {dt}: must be > 0")
+    if not duration > 0.0:
+        raise ValueError(f"integrator.duration = {duration}: must be > 0")
+    every = rec.get("every")
+    every = duration if every is None else float(every)
+    k = max(1, int(round(every / dt)))               # steps per record
+    n_int = max(1, int(round(duration / every)))     # record intervals
+    total = n_int * k
+    te = rec.get("trace_every")
+    s = 1 if te is None else max(1, int(round(float(te) / dt)))
+    return dt, k, n_int, total, s
+
+
+# --------------------------------------------------------------------------
+# main entry point
+# --------------------------------------------------------------------------
+
+def reference_run(scene: dict) -> dict:
+    """Integrate one scene; return snapshots, energy, drive work and traces (float64)."""
+    ch = _Chain(scene)
+    method = scene["integrator"]["method"]
+    if method not in GEAR_COEFFS and method != "verlet":
+        raise ValueError(f"integrator.method = {method!r}: allowed gear4 | gear5 | gear6 | verlet")
+    dt, k, n_int, total, s = _schedule(scene)
+    N = ch.N
+    rec = scene.get("record") or {}
+    traces = np.asarray(list(rec.get("traces") or []), dtype=np.int64)
+    if traces.size and (traces.min() < 0 or traces.max() >= N):
+        raise ValueError(f"record.traces = {traces.tolist()}: indices must lie in 0..{N - 1}")
+
+    R = n_int + 1
+    S = total // s + 1
+    out_t = np.arange(R, dtype=np.float64) * (k * dt)
+    out_u = np.zeros((R, N))
+    out_v = np.zeros((R, N))
+    out_E = np.zeros(R)
+    out_W = np.zeros(R)
+    tr_t = np.arange(S, dtype=np.float64) * (s * dt)
+    tr_u = np.zeros((S, traces.size))
+    tr_v = np.zeros((S, traces.size))
+
+    # initial state
+    u = np.zeros(N)
+    v = np.zeros(N)
+    v[0] = ch.impact
+    if ch.driven:
+        u[0] = ch.drive_u(0.0)
+        v[0] = ch.drive_v(0.0)
+    if ch.fixed:
+        u[-1] = 0.0
+        v[-1] = 0.0
+    acc = ch.accel(u, 0.0)
+
+    work = 0.0
+    power = ch.drive_power(u, 0.0)
+
+    def record(step, u, v):
+        if step % k == 0:
+            r = step // k
+            out_u[r] = u
+            out_v[r] = v
+            out_E[r] = ch.energy(u, v)
+            out_W[r] = work
+        if step % s == 0:
+            j = step // s
+            tr_u[j] = u[traces]
+            tr_v[j] = v[traces]
+
+    record(0, u, v)
+
+    if method == "verlet":
+        for step in range(1, total + 1):
+            t1 = step * dt
+            u = u + dt * v + (0.5 * dt * dt) * acc
+            ch.enforce(u, t1)
+            acc_new = ch.accel(u, t1)
+            v = v + (0.5 * dt) * (acc + acc_new)
+            acc = acc_new
+            if ch.driven:
+                v[0] = ch.drive_v(t1)
+            if ch.fixed:
+                v[-1] = 0.0
+            if ch.driven:
+                p = ch.drive_power(u, t1)
+                work += 0.5 * dt * (power + p)
+                power = p
+            record(step, u, v)
+    else:
+        C = np.asarray(GEAR_COEFFS[method], dtype=np.float64)
+        q = C.size                                   # number of Nordsieck values
+        # Nordsieck vector x_j = dt^j / j! * d^j u / dt^j
+        X = np.zeros((q, N))
+        X[0] = u
+        X[1] = dt * v
+        X[2] = 0.5 * dt * dt * acc
+        # Pascal-triangle predictor: x_j <- sum_{l>=j} binom(l, j) x_l
+        P = np.array([[comb(l, j) if l >= j else 0 for l in range(q)] for j in range(q)],
+                     dtype=np.float64)
+        half_dt2 = 0.5 * dt * dt
+        for step in range(1, total + 1):
+            t1 = step * dt
+            Xp = P @ X
+            ch.enforce(Xp[0], t1)                   # driven grain 0 exact, fixed grain 0
+            a_p = ch.accel(Xp[0], t1)
+            delta = half_dt2 * a_p - Xp[2]
+            X = Xp + C[:, None] * delta[None, :]
+            if ch.driven:
+                X[:, 0] = 0.0
+                X[0, 0] = ch.drive_u(t1)
+                X[1, 0] = dt * ch.drive_v(t1)
+                X[2, 0] = half_dt2 * ch.drive_a(t1)
+            if ch.fixed:
+                X[:, -1] = 0.0
+            u = X[0]
+            v = X[1] / dt
+            if ch.driven:
+                p = ch.drive_power(u, t1)
+                work += 0.5 * dt * (power + p)
+                power = p
+            record(step, u, v)
+
+    return {
+        "t": out_t,
+        "u": out_u,
+        "v": out_v,
+        "energy": out_E,
+        "work": out_W,
+        "trace_t": tr_t,
+        "trace_u": tr_u,
+        "trace_v": tr_v,
+    }
+
+
+def default_scene(**overrides) -> dict:
+    """A fully filled scene dict (SPEC section 8 defaults); ``overrides`` are
+    ``section=dict`` updates, e.g. ``default_scene(chain={"grains": 20})``."""
+    scene = {
+        "chain": {"grains": 1000, "mass": 1.0, "a": 5657.0, "exponent": 2.5, "diameter": 100.0,
+                  "l0": 0.0, "load": None, "gravity": 0.0},
+        "boundary": {"surface": "wall", "bottom": "wall"},
+        "impurities": [],
+        "excitation": {"impact": 0.0, "drive_amplitude": 0.0, "drive_period": 10.0},
+        "integrator": {"method": "gear4", "dt": 1.25e-5, "duration": 1.0, "precision": "float64"},
+        "record": {"every": None, "fields": ["u", "v"], "traces": [], "trace_every": None,
+                   "energy": True},
+    }
+    for key, val in overrides.items():
+        if isinstance(val, dict):
+            scene[key].update(val)
+        else:
+            scene[key] = val
+    return scene
