@@ -214,9 +214,20 @@ def _did_you_mean(word: str, choices) -> str:
     return f" (did you mean {close[0]!r}?)" if close else ""
 
 
+class UnknownKeyError(SceneError):
+    """A key the scene format does not have."""
+
+    def __init__(self, key: str, choices):
+        hint = _did_you_mean(key.split(".")[-1], choices)
+        SceneError.__init__(self, key, None, "")
+        self.args = (f"{key}: unknown key{hint}; allowed here: {', '.join(choices)}",)
+
+    def __str__(self) -> str:
+        return self.args[0]
+
+
 def _unknown(key: str, choices) -> SceneError:
-    return SceneError(key, "…", f"unknown key{_did_you_mean(key.split('.')[-1], choices)}; "
-                      f"allowed: {', '.join(choices)}")
+    return UnknownKeyError(key, choices)
 
 
 def _coerce(key: str, value: Any, default: Any, annotation: str) -> Any:
