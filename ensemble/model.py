@@ -120,26 +120,44 @@ class Model:
         )
 
     def initial_state(self) -> State:
-        """State at t = 0: static positions, v_0 = v_imp (impact) or the drive's velocity."""
+        """State at t = 0: static positions, v_0 = v_imp (impact) or the drive's, exact higher derivatives."""
+        from .startup import initial_nordsieck
+
         state = self.state()
         x = np.zeros((self.features.values, self.chain_count, self.grain_count))
         for c, scene in enumerate(self.scenes):
-            e = scene.excitation
-            if self.features.surface == "driven":
-                x[1, c, 0] = self.dt * e.drive_amplitude * 2.0 * math.pi / e.drive_period
-            else:
-                x[1, c, 0] = self.dt * e.impact
+            # exact Taylor start: keeps each Gear method at its own order (see ensemble/startup.py)
+            x[:, c, :] = initial_nordsieck(scene, self.features.values, self.dt)
         state.x.assign(x.astype(np.float64 if self.features.precision == "float64" else np.float32))
         return state
 
 
-def build_model(scenes: list[Scene], device: str | None = None) -> Model:
-    """Upload an ensemble of compatible scenes to ``device`` (default: CUDA if present, else CPU)."""
+STATIC_LEVELS = ("none", "uniform", "profile")
+
+
+def covers(wider: Features, needed: Features) -> bool:
+    """Whether a kernel variant ``wider`` can run scenes that need ``needed``."""
+    return (wider.method, wider.precision, wider.surface, wider.bottom, wider.traces) == (
+        needed.method, needed.precision, needed.surface, needed.bottom, needed.traces) and (
+        STATIC_LEVELS.index(wider.static) >= STATIC_LEVELS.index(needed.static)
+        and wider.heterogeneous >= needed.heterogeneous and (needed.hertz or not wider.hertz))
+
+
+def build_model(scenes: list[Scene], device: str | None = None, *, features: Features | None = None) -> Model:
+    """Upload an ensemble of compatible scenes to ``device`` (default: CUDA if present, else CPU).
+
+    ``features`` forces a wider kernel variant than the scenes need (e.g. to run one member of an
+    ensemble alone with the ensemble's kernel).
+    """
     device = wp.get_device(device)
     if not scenes:
         raise SceneError("scenes", [], "an ensemble needs at least one scene")
     statics = [static_state(s) for s in scenes]
     f = features_of(scenes, statics)
+    if features is not None:
+        if not covers(features, f):
+            raise ValueError(f"kernel features {features} cannot run scenes that need {f}")
+        f = features
     np_real = np.float64 if f.precision == "float64" else np.float32
     real = wp.float64 if f.precision == "float64" else wp.float32
     c_count, n = len(scenes), scenes[0].chain.grains

@@ -46,7 +46,7 @@ def record_kernel(features: Features):
             n = wp.float64(exponent[c])
         return wp.vec2d(excess_potential(delta0, d, a_c, n), delta0 + d)
 
-    @wp.kernel(module="unique")
+    @wp.kernel(module="unique", enable_backward=False)
     def record(
         x: wp.array3d(dtype=real),
         inverse_mass: wp.array2d(dtype=real),

@@ -1,0 +1,78 @@
+"""Exact start of the Nordsieck vector: x_k = dt^k/k! · u^(k)(0) for every value a method keeps.
+
+Starting Gear with x3 = x4 = x5 = 0 throws away the jerk (and higher derivatives) that an
+impact or a drive creates at t = 0 in a precompressed chain, and every Gear method then
+converges at order 2. Here the Taylor coefficients u_k = u^(k)(0)/k! come from power-series
+arithmetic on the equation of motion: u_{k+2} = A_k / ((k+1)(k+2)), where A_k is the k-th
+coefficient of the acceleration series, built from the overlap series of each contact by the
+power rule w = δ^p ⇒ w_k = Σ_{j=1..k} ((p+1) j − k) δ_j w_{k−j} / (k δ_0).
+A contact with no static overlap (δ_0 = 0) is not analytic at t = 0 (F ∝ t^(n−1)); its series
+is taken as zero.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .scene import Scene
+from .static import StaticState, static_state
+
+
+def _power_series(delta: np.ndarray, p: float) -> np.ndarray:
+    """Coefficients of δ(t)^p from those of δ(t) (rows: orders, columns: contacts); δ_0 > 0."""
+    order = delta.shape[0]
+    w = np.zeros_like(delta)
+    w[0] = delta[0] ** p
+    for k in range(1, order):
+        acc = np.zeros_like(delta[0])
+        for j in range(1, k + 1):
+            acc += ((p + 1.0) * j - k) * delta[j] * w[k - j]
+        w[k] = acc / (k * delta[0])
+    return w
+
+
+def taylor_coefficients(scene: Scene, order: int, static: StaticState | None = None) -> np.ndarray:
+    """u_k = u^(k)(0)/k! for k = 0 … order, shape (order + 1, grains), float64."""
+    st = static or static_state(scene)
+    n_grains = scene.chain.grains
+    n = st.exponent
+    u = np.zeros((order + 1, n_grains))
+    driven = scene.boundary.surface == "driven"
+    fixed = scene.boundary.bottom == "fixed"
+    if driven:
+        amplitude = scene.excitation.drive_amplitude
+        omega = 2.0 * math.pi / scene.excitation.drive_period
+        for k in range(1, order + 1):
+            # d^k/dt^k sin(ωt) at 0 = ω^k sin(kπ/2)
+            u[k, 0] = amplitude * omega**k * round(math.sin(k * math.pi / 2)) / math.factorial(k)
+    elif order >= 1:
+        u[1, 0] = scene.excitation.impact
+    a_c, delta0 = st.contact_constant, st.static_overlap
+    loaded = (a_c > 0) & (delta0 > 0)
+    inv_mass = 1.0 / st.mass
+    for k in range(0, order - 1):
+        # overlap series of every padded contact up to order k
+        d = np.zeros((k + 1, n_grains + 1))
+        d[0] = delta0
+        d[1:, 1:n_grains] = u[1:k + 1, :-1] - u[1:k + 1, 1:]
+        d[1:, 0] = -u[1:k + 1, 0]
+        d[1:, n_grains] = u[1:k + 1, -1]
+        force_k = np.zeros(n_grains + 1)
+        if k >= 1 and np.any(loaded):
+            w = _power_series(d[:, loaded], n - 1.0)
+            force_k[loaded] = n * a_c[loaded] * w[k]
+        accel_k = (force_k[:-1] - force_k[1:]) * inv_mass
+        if driven:
+            accel_k[0] = u[k + 2, 0] * (k + 1) * (k + 2)
+        if fixed:
+            accel_k[-1] = 0.0
+        u[k + 2] = accel_k / ((k + 1) * (k + 2))
+    return u
+
+
+def initial_nordsieck(scene: Scene, values: int, dt: float, static: StaticState | None = None) -> np.ndarray:
+    """Scaled Nordsieck vector at t = 0, shape (values, grains): x_k = dt^k u_k."""
+    coeffs = taylor_coefficients(scene, values - 1, static)
+    return coeffs * dt ** np.arange(values)[:, None]
