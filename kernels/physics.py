@@ -33,6 +33,38 @@ def contact_functions(precision: str, hertz: bool):
     return contact_force, excess_force
 
 
+@functools.cache
+def contact_parameters(precision: str, static: str, heterogeneous: bool, hertz: bool):
+    """``params(static_overlap, contact_constant, exponent, c, k) -> (δ0, a_c, n)`` of padded contact k.
+
+    Reads only the arrays the features use: one δ0 per contact ('profile') or per chain
+    ('uniform') or none; a_c per contact (impurities) or per chain; n per chain or 5/2.
+    """
+    real = wp.float64 if precision == "float64" else wp.float32
+    vec3 = wp.types.vector(3, real)
+    STATIC, PROFILE = static != "none", static == "profile"
+
+    @wp.func
+    def params(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),
+               exponent: wp.array(dtype=real), c: int, k: int) -> vec3:
+        delta0 = real(0)
+        if wp.static(PROFILE):
+            delta0 = static_overlap[c, k]
+        elif wp.static(STATIC):
+            delta0 = static_overlap[c, 0]
+        a_c = real(0)
+        if wp.static(heterogeneous):
+            a_c = contact_constant[c, k]
+        else:
+            a_c = contact_constant[c, 0]
+        n = real(5) / real(2)
+        if wp.static(not hertz):
+            n = exponent[c]
+        return vec3(delta0, a_c, n)
+
+    return params
+
+
 @wp.func
 def contact_potential(delta: wp.float64, a_c: wp.float64, n: wp.float64) -> wp.float64:
     if delta <= wp.float64(0.0):

@@ -10,7 +10,7 @@ import functools
 import warp as wp
 
 from .features import STATUS_NON_FINITE, STATUS_OK, STATUS_OVERLAP_BEYOND_VALIDITY, Features
-from .physics import contact_functions, excess_potential
+from .physics import contact_functions, contact_parameters, excess_potential
 
 
 @functools.cache
@@ -21,30 +21,17 @@ def record_kernel(features: Features):
     SURFACE_WALL = f.surface == "wall"
     DRIVEN = f.surface == "driven"
     BOTTOM_WALL = f.bottom == "wall"
-    STATIC = f.static != "none"
-    PROFILE = f.static == "profile"
     HETERO = f.heterogeneous
-    HERTZ = f.hertz
     contact_force, excess_force = contact_functions(f.precision, f.hertz)
+    params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz)
 
     @wp.func
     def contact_terms(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),
                       exponent: wp.array(dtype=real), c: int, k: int, d: wp.float64) -> wp.vec2d:
         # (excess potential, absolute overlap) of padded contact k at relative displacement d
-        delta0 = wp.float64(0.0)
-        if wp.static(PROFILE):
-            delta0 = wp.float64(static_overlap[c, k])
-        elif wp.static(STATIC):
-            delta0 = wp.float64(static_overlap[c, 0])
-        a_c = wp.float64(0.0)
-        if wp.static(HETERO):
-            a_c = wp.float64(contact_constant[c, k])
-        else:
-            a_c = wp.float64(contact_constant[c, 0])
-        n = wp.float64(2.5)
-        if wp.static(not HERTZ):
-            n = wp.float64(exponent[c])
-        return wp.vec2d(excess_potential(delta0, d, a_c, n), delta0 + d)
+        p = params(static_overlap, contact_constant, exponent, c, k)
+        delta0 = wp.float64(p[0])
+        return wp.vec2d(excess_potential(delta0, d, wp.float64(p[1]), wp.float64(p[2])), delta0 + d)
 
     @wp.kernel(module="unique", enable_backward=False)
     def record(
@@ -108,19 +95,10 @@ def record_kernel(features: Features):
             amplitude = drive[c, 0]
             omega = drive[c, 1]
             d = x[0, c, 0] - x[0, c, 1]
-            delta0 = real(0)
-            if wp.static(PROFILE):
-                delta0 = static_overlap[c, 1]
-            elif wp.static(STATIC):
-                delta0 = static_overlap[c, 0]
-            a_c = real(0)
-            if wp.static(HETERO):
-                a_c = contact_constant[c, 1]
-            else:
-                a_c = contact_constant[c, 0]
-            n = real(0)
-            if wp.static(not HERTZ):
-                n = exponent[c]
+            p = params(static_overlap, contact_constant, exponent, c, 1)
+            delta0 = p[0]
+            a_c = p[1]
+            n = p[2]
             force = wp.float64(excess_force(delta0, d, a_c, n))
             power = force * amplitude * omega * wp.cos(omega * wp.float64(step) * dt)
             # The step kernel integrates the excess force's power; the static force of contact 0–1

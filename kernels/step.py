@@ -12,7 +12,7 @@ import functools
 import warp as wp
 
 from .features import GEAR_CORRECTOR, STATUS_NON_FINITE, Features
-from .physics import contact_functions
+from .physics import contact_functions, contact_parameters
 
 
 @functools.cache
@@ -28,12 +28,10 @@ def step_kernel(features: Features):
     DRIVEN = f.surface == "driven"
     BOTTOM_WALL = f.bottom == "wall"
     FIXED = f.bottom == "fixed"
-    STATIC = f.static != "none"
-    PROFILE = f.static == "profile"
     HETERO = f.heterogeneous
-    HERTZ = f.hertz
     TRACES = f.traces
     _, excess_force = contact_functions(f.precision, f.hertz)
+    params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz)
 
     @wp.func
     def predicted_position(x: wp.array3d(dtype=real), c: int, j: int) -> real:
@@ -50,20 +48,8 @@ def step_kernel(features: Features):
     def contact(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),
                 exponent: wp.array(dtype=real), c: int, k: int, d: real) -> real:
         # excess force of padded contact k (between grains k-1 and k) at relative displacement d
-        delta0 = real(0)
-        if wp.static(PROFILE):
-            delta0 = static_overlap[c, k]
-        elif wp.static(STATIC):
-            delta0 = static_overlap[c, 0]
-        a_c = real(0)
-        if wp.static(HETERO):
-            a_c = contact_constant[c, k]
-        else:
-            a_c = contact_constant[c, 0]
-        n = real(0)
-        if wp.static(not HERTZ):
-            n = exponent[c]
-        return excess_force(delta0, d, a_c, n)
+        p = params(static_overlap, contact_constant, exponent, c, k)
+        return excess_force(p[0], d, p[1], p[2])
 
     @wp.func
     def write_trace(trace_x: wp.array4d(dtype=real), trace_slot: wp.array(dtype=wp.int32), trace_stride: int,
