@@ -72,9 +72,18 @@ def run(
     set_: SetOption = None,
     overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing store.")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
+    strict: Annotated[bool, typer.Option("--strict", help="Refuse (exit 2) when dt looks unstable or "
+                                         "inaccurate (see hertzian check) instead of warning.")] = False,
 ):
     """Run one scene and store it as Zarr (times in program units of 1.0102e-3 s)."""
     loaded = _load(scene, set_, precision)
+    from .check import dt_warning
+
+    unsafe = dt_warning(loaded)
+    if unsafe and strict:
+        fail(unsafe)
+    if unsafe:
+        typer.echo(f"warning: {unsafe}", err=True)
     if out.exists() and not overwrite:
         fail(f"--out = {str(out)!r}: exists; choose another path or pass --overwrite")
     if not out.parent.exists():
@@ -142,10 +151,20 @@ def summarize(
                   f"dt={first['dt']:g} ({first['precision']}) on {first['device']}")
 
 
+from . import cli_sweep  # noqa: E402,F401  (registers commands)
+from . import cli_bench  # noqa: E402,F401  (registers commands)
+from . import cli_accuracy  # noqa: E402,F401  (registers commands)
+from . import cli_plot  # noqa: E402,F401  (registers commands)
+
+
 def main() -> None:
     """Entry point of the ``hertzian`` script."""
     app()
 
 
 if __name__ == "__main__":
-    main()
+    # `python -m ensemble.cli`: run the package module's app, on which the other command
+    # modules registered (this file executing as __main__ is a separate module object).
+    from ensemble.cli import main as package_main
+
+    package_main()

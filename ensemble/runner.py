@@ -103,7 +103,8 @@ class RunResult:
 class Runner:
     """Integrates one model from t = 0 to its scenes' duration, keeping what the scenes ask for."""
 
-    def __init__(self, model: Model, *, use_graph: bool | None = None, energy_tolerance: float = 1e-2):
+    def __init__(self, model: Model, *, use_graph: bool | None = None, energy_tolerance: float = 1e-2,
+                 kernel: str = "auto"):
         self.model = model
         self.stepper = Stepper(model)
         self.record = record_kernel(model.features)
@@ -122,6 +123,12 @@ class Runner:
         self.status = wp.zeros(c, dtype=wp.int32, device=dev)
         self.graphs: dict[tuple[int, int], object] = {}
         self.commands = None
+        # many steps per launch where the features allow (``kernel``: see ensemble/calibrate.py); None: per-step
+        from .calibrate import make_stepper
+
+        self.fused = make_stepper(model, kernel, run_steps=scene.step_count)
+        if self.fused is not None:
+            self.fused.load()
 
     # ---- stepping -----------------------------------------------------------------
     def _plain(self, n_steps: int) -> None:
@@ -148,6 +155,10 @@ class Runner:
 
     def advance(self, n_steps: int) -> None:
         """Take ``n_steps`` steps (no host synchronisation)."""
+        if self.fused is not None:
+            self.parity = self.fused.advance(self.buffers, self.parity, self.status, n_steps,
+                                             use_graph=self.use_graph)
+            return
         if not self.use_graph:
             self._plain(n_steps)
             return

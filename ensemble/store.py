@@ -179,23 +179,34 @@ def summary_records(path: str | Path) -> list[dict[str, Any]]:
     wall = np.asarray(group["wall_seconds"][...])
     overlap = np.asarray(group["max_overlap"][...])
     codes = group.attrs["status_codes"]
-    coords = [np.asarray(group[a][...]) for a in axes]
+    # sweeps: every axis (zipped ones are coordinates along their group's dimension), per-point
+    # throughput, and per-point scheme from the point's launch group; runs have none of these
+    axis_dims = {name: axes.index(spec["dim"]) for name, spec in dict(group.attrs.get("sweep_axes", {})).items()}
+    axis_dims = axis_dims or {a: k for k, a in enumerate(axes)}
+    coords = {a: np.asarray(group[a][...]) for a in axis_dims}
+    members = set(group.array_keys())
+    rate = np.asarray(group["grain_steps_per_second"][...]) if "grain_steps_per_second" in members else None
+    point_group = np.asarray(group["launch_group"][...]) if "launch_group" in members else None
+    launch_groups = list(group.attrs.get("launch_groups", []))
     records = []
     for index in np.ndindex(status.shape):
-        rec = {a: coords[k][index[k]].item() for k, a in enumerate(axes)}
+        rec = {a: coords[a][index[k]].item() for a, k in axis_dims.items()}
+        scheme = prov
+        if point_group is not None and 0 <= int(point_group[index]) < len(launch_groups):
+            scheme = launch_groups[int(point_group[index])]
         rec.update({
             "status": int(status[index]),
             "status_name": codes.get(str(int(status[index])), "?").split(":")[0],
             "energy_error": float(err[index]),
             "max_overlap": float(overlap[index]),
             "wall_seconds": float(wall[index]),
-            "grain_steps_per_second": prov["grain_steps_per_second"],
+            "grain_steps_per_second": float(rate[index]) if rate is not None else prov["grain_steps_per_second"],
             "device": prov["device"],
-            "method": prov["method"],
-            "precision": prov["precision"],
-            "dt": prov["dt"],
-            "steps": prov["steps"],
-            "grains": prov["grains"],
+            "method": scheme["method"],
+            "precision": scheme["precision"],
+            "dt": scheme["dt"],
+            "steps": scheme["steps"],
+            "grains": scheme["grains"],
         })
         records.append(rec)
     return records

@@ -61,7 +61,8 @@ def step_kernel(features: Features):
                 trace_x[0, c, sample, slot] = x0
                 trace_x[1, c, sample, slot] = x1
 
-    @wp.kernel(module="unique", enable_backward=False)
+    # grid_stride=False: one thread per (chain, grain), no grid-stride loop (less index work per thread)
+    @wp.kernel(module="unique", enable_backward=False, grid_stride=False)
     def step(
         x_in: wp.array3d(dtype=real),
         clock_in: wp.array(dtype=wp.int32),

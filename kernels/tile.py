@@ -28,11 +28,49 @@ Features not fused: drive (``surface = "driven"``) and traces; they stay on the 
 
 import functools
 from dataclasses import dataclass
+from typing import Any
 
 import warp as wp
 
 from .features import GEAR_CORRECTOR, STATUS_NON_FINITE, Features
 from .physics import contact_functions
+
+
+# The fast path of the CUDA compiler's correctly rounded float64 sqrt (sqrt.rn.f64 on sm_90), written
+# out so that a lane's G + 1 square roots carry no branch each: one test for the rare inputs that need
+# the slow path (zero, subnormal, huge, negative, inf/nan), which then take wp.sqrt. In range it is the
+# same instruction sequence, hence the same bits; tests/test_tile.py and the GPU bench check this.
+_SQRT_FAST_PATH = """
+#if defined(__CUDA_ARCH__)
+    double y0_hi;
+    asm("rsqrt.approx.ftz.f64 %0, %1;" : "=d"(y0_hi) : "d"(x));
+    const double y0 = __hiloint2double(__double2hiint(y0_hi), __double2hiint(x) - 0x3500000);
+    const double e = __fma_rn(-__dmul_rn(y0, y0), x, 1.0);
+    const double p = __fma_rn(e, 0.375, 0.5);
+    const double y1 = __fma_rn(p, __dmul_rn(y0, e), y0);
+    const double s = __dmul_rn(y1, x);
+    const double h = __hiloint2double(__double2hiint(y1) - 0x100000, __double2loint(y1));
+    return __fma_rn(__fma_rn(s, -s, x), h, s);
+#else
+    return sqrt(x);
+#endif
+"""
+
+_SQRT_NEEDS_SLOW_PATH = """
+#if defined(__CUDA_ARCH__)
+    return ((unsigned int)(__double2hiint(x) - 0x3500000) >= 0x7ca00000u) ? 1 : 0;
+#else
+    return 0;
+#endif
+"""
+
+
+@wp.func_native(_SQRT_FAST_PATH)
+def sqrt_fast_path(x: wp.float64) -> wp.float64: ...
+
+
+@wp.func_native(_SQRT_NEEDS_SLOW_PATH)
+def sqrt_needs_slow_path(x: wp.float64) -> int: ...
 
 
 def fusable(features: Features) -> bool:
@@ -42,18 +80,24 @@ def fusable(features: Features) -> bool:
 
 @dataclass(frozen=True)
 class TileShape:
-    """Launch shape of a fused kernel: compile-time part (lanes, grains per lane, chains per block)."""
+    """Compile-time launch shape of a fused kernel."""
 
     grains_per_lane: int
-    """G: consecutive grains held in registers by one thread."""
+    """G: consecutive grains one thread holds in registers."""
     lanes_per_chain: int
-    """Threads per chain (or per window)."""
+    """Threads per chain (or per window of a long chain)."""
     chains_per_block: int = 1
-    """Chains sharing one block (1 for windowed chains)."""
+    """Chains sharing one block (1 when windowed)."""
     windowed: bool = False
-    """Long-chain mode: several blocks per chain with ghost zones."""
+    """Long-chain mode: several blocks per chain, each a window with ghost zones (see kernels.ghost)."""
     masked: bool = True
-    """Compile the padding/free-end masks (off only when every lane is full and both ends are walls)."""
+    """Compile the padding and free-end masks (off only when every lane is full and both ends are walls)."""
+    branchless: bool = True
+    """Contact law without a branch (sqrt of a safe argument, then a select): same bits, more ILP."""
+    fast_sqrt: bool = True
+    """float64 Hertz on CUDA: the sqrt's fast path without a branch per contact (one test per lane-step)."""
+    max_registers: int = 0
+    """CUDA register cap per thread (0: the compiler's choice); lower caps fit more blocks per SM."""
 
     @property
     def block_dim(self) -> int:
@@ -90,12 +134,15 @@ def tile_kernel(features: Features, shape: TileShape):
     PROFILE = f.static == "profile"
     HETERO = f.heterogeneous
     HERTZ = f.hertz
+    BRANCHLESS = shape.branchless
+    FAST_SQRT = shape.fast_sqrt and HERTZ and f.precision == "float64"
     contact_force, _ = contact_functions(f.precision, f.hertz)
 
     state_t = wp.types.matrix(shape=(Q, G), dtype=real)
     grain_vec = wp.types.vector(length=G, dtype=real)
     contact_vec = wp.types.vector(length=G + 1, dtype=real)
     edge_t = wp.types.vector(length=2, dtype=real)
+    value_vec = wp.types.vector(length=Q, dtype=real)
 
     @wp.func
     def advance(s: state_t, edges: Any, lane: int, has_left: bool, has_right: bool,
@@ -120,22 +167,45 @@ def tile_kernel(features: Features, shape: TileShape):
             u_left = wp.tile_extract(edges, lane - 1, 1)
         if has_right:
             u_right = wp.tile_extract(edges, lane + 1, 0)
-        # 3. contacts (once each) and corrector
-        out = s
-        force_above = contact_force(delta0[0] + (u_left - up[0]), a_c[0], n) - force0[0]
-        if wp.static(MASKED and FREE_END):
-            if (contact_bits & 1) == 0:
-                force_above = real(0)
+        # 3. every contact of the lane once (the two edge contacts also in the neighbour lane)
+        delta = contact_vec()
+        delta[0] = delta0[0] + (u_left - up[0])
         for k in range(G):
             u_below = u_right
-            if wp.static(k < G - 1):
-                u_below = up[k + 1]
-            force_below = contact_force(delta0[k + 1] + (up[k] - u_below), a_c[k + 1], n) - force0[k + 1]
-            if wp.static(MASKED and FREE_END):
-                if (contact_bits & wp.static(1 << (k + 1))) == 0:
-                    force_below = real(0)
-            half_h2_acc = hh * (force_above - force_below) * inv_m[k]
-            force_above = force_below
+            if k < G - 1:
+                u_below = up[wp.min(k + 1, G - 1)]
+            delta[k + 1] = delta0[k + 1] + (up[k] - u_below)
+        force = contact_vec()
+        if wp.static(BRANCHLESS and HERTZ):
+            # F = 5/2 a δ sqrt(δ), 0 for δ ≤ 0 (no tension), without a branch per contact
+            root = contact_vec()
+            slow = int(0)
+            for k in range(G + 1):
+                safe = wp.where(delta[k] <= real(0), real(1), delta[k])
+                if wp.static(FAST_SQRT):
+                    root[k] = sqrt_fast_path(safe)
+                    slow = slow | sqrt_needs_slow_path(safe)
+                else:
+                    root[k] = wp.sqrt(safe)
+            if wp.static(FAST_SQRT):
+                if slow != 0:
+                    for k in range(G + 1):
+                        root[k] = wp.sqrt(wp.where(delta[k] <= real(0), real(1), delta[k]))
+            for k in range(G + 1):
+                hertz = real(5) / real(2) * a_c[k] * delta[k] * root[k]
+                force[k] = wp.where(delta[k] <= real(0), real(0), hertz) - force0[k]
+        else:
+            for k in range(G + 1):
+                force[k] = contact_force(delta[k], a_c[k], n) - force0[k]
+        if wp.static(MASKED and FREE_END):
+            for k in range(G + 1):
+                if (contact_bits & (1 << k)) == 0:
+                    force[k] = real(0)
+        # 4. corrector. Padding grains have 1/m = 0: at rest they stay exactly 0. A fixed bottom grain is held.
+        out = s
+        for k in range(G):
+            half_h2_acc = hh * (force[k] - force[k + 1]) * inv_m[k]
+            new = value_vec()
             if wp.static(GEAR):
                 p1 = s[1, k] + real(2) * s[2, k]
                 p2 = s[2, k]
@@ -161,28 +231,30 @@ def tile_kernel(features: Features, shape: TileShape):
                     p4 += real(5) * x5
                     p5 = x5
                 corr = half_h2_acc - p2
-                out[0, k] = up[k] + real(wp.static(C[0][0])) / real(wp.static(C[0][1])) * corr
-                out[1, k] = p1 + real(wp.static(C[1][0])) / real(wp.static(C[1][1])) * corr
-                out[2, k] = half_h2_acc
+                new[0] = up[k] + real(wp.static(C[0][0])) / real(wp.static(C[0][1])) * corr
+                new[1] = p1 + real(wp.static(C[1][0])) / real(wp.static(C[1][1])) * corr
+                new[2] = half_h2_acc
                 if wp.static(Q >= 4):
-                    out[3, k] = p3 + real(wp.static(C[3][0])) / real(wp.static(C[3][1])) * corr
+                    new[3] = p3 + real(wp.static(C[3][0])) / real(wp.static(C[3][1])) * corr
                 if wp.static(Q >= 5):
-                    out[4, k] = p4 + real(wp.static(C[4][0])) / real(wp.static(C[4][1])) * corr
+                    new[4] = p4 + real(wp.static(C[4][0])) / real(wp.static(C[4][1])) * corr
                 if wp.static(Q >= 6):
-                    out[5, k] = p5 + real(wp.static(C[5][0])) / real(wp.static(C[5][1])) * corr
+                    new[5] = p5 + real(wp.static(C[5][0])) / real(wp.static(C[5][1])) * corr
             else:
-                out[0, k] = up[k]
-                out[1, k] = s[1, k] + s[2, k] + half_h2_acc
-                out[2, k] = half_h2_acc
-        if wp.static(MASKED or FIXED):
-            # padding grains (and a fixed bottom grain) never move
-            for k in range(G):
-                if (move_bits & wp.static(1 << k)) == 0:
-                    for q in range(Q):
-                        out[q, k] = s[q, k]
+                new[0] = up[k]
+                new[1] = s[1, k] + s[2, k] + half_h2_acc
+                new[2] = half_h2_acc
+            if wp.static(FIXED):
+                moving = (move_bits & (1 << k)) != 0
+                for q in range(Q):
+                    out[q, k] = wp.where(moving, new[q], s[q, k])
+            else:
+                for q in range(Q):
+                    out[q, k] = new[q]
         return out
 
-    @wp.kernel(module="unique", enable_backward=False)
+    @wp.kernel(module="unique", enable_backward=False, grid_stride=False,
+               cuda_max_registers=shape.max_registers or None)
     def fused(
         x_in: wp.array3d(dtype=real),
         clock_in: wp.array(dtype=wp.int32),
@@ -219,7 +291,7 @@ def tile_kernel(features: Features, shape: TileShape):
         base = first + lane_c * G
         live = c < chain_count
         cc = wp.min(c, chain_count - 1)
-        if c == 0 and lane == 0 and block == 0:
+        if block == 0 and lane == 0:
             clock_out[0] = clock_in[0] + steps
 
         # load the lane's grains (0 outside the chain)
@@ -249,7 +321,7 @@ def tile_kernel(features: Features, shape: TileShape):
         for k in range(G + 1):
             kk = wp.min(wp.max(base + k, 0), n_grains)
             if base + k >= lo and base + k <= hi:
-                contact_bits = contact_bits | wp.static(1 << k)
+                contact_bits = contact_bits | (1 << k)
             d0 = real(0)
             if wp.static(PROFILE):
                 d0 = static_overlap[cc, kk]
@@ -265,15 +337,21 @@ def tile_kernel(features: Features, shape: TileShape):
             force0[k] = contact_force(d0, ac, n)
         for k in range(G):
             g = base + k
-            if g >= 0 and g < n_grains:
-                move_bits = move_bits | wp.static(1 << k)
+            inside = g >= 0 and g < n_grains
+            if inside:
+                move_bits = move_bits | (1 << k)
                 if wp.static(FIXED):
                     if g == n_grains - 1:
-                        move_bits = move_bits & wp.static(~(1 << k))
+                        move_bits = move_bits & (~(1 << k))
+            m_inv = real(0)
             if wp.static(HETERO):
-                inv_m[k] = inverse_mass[cc, wp.min(wp.max(g, 0), n_grains - 1)]
+                m_inv = inverse_mass[cc, wp.min(wp.max(g, 0), n_grains - 1)]
             else:
-                inv_m[k] = inverse_mass[cc, 0]
+                m_inv = inverse_mass[cc, 0]
+            if wp.static(MASKED):
+                if not inside:
+                    m_inv = real(0)
+            inv_m[k] = m_inv
 
         h = real(dt)
         hh = real(0.5) * h * h
@@ -302,3 +380,83 @@ def tile_kernel(features: Features, shape: TileShape):
                         x_out[q, cc, g] = s[q, k]
 
     return fused
+
+
+@dataclass(frozen=True)
+class TilePlan:
+    """A complete fused launch: compile-time shape plus the runtime window geometry."""
+
+    shape: TileShape
+    steps_per_launch: int
+    """K: steps each launch takes (at most ``ghost`` when windowed)."""
+    interior: int
+    """Grains a block writes back per chain (the whole chain unless windowed)."""
+    ghost: int
+    blocks_per_chain: int
+    block_count: int
+
+    def describe(self) -> str:
+        s = self.shape
+        text = f"G={s.grains_per_lane} lanes={s.lanes_per_chain}"
+        if s.chains_per_block > 1:
+            text += f" chains/block={s.chains_per_block}"
+        if s.windowed:
+            text += f" windows={self.blocks_per_chain}x{self.interior}+2x{self.ghost}"
+        if s.max_registers:
+            text += f" regs<={s.max_registers}"
+        if not s.fast_sqrt:
+            text += " sqrt=rn"
+        return text + f" K={self.steps_per_launch}"
+
+
+def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_per_lane: int = 8,
+              lanes_per_chain: int | None = None, chains_per_block: int = 1, steps_per_launch: int = 64,
+              windowed: bool = False, branchless: bool = True, fast_sqrt: bool = True,
+              max_registers: int = 0) -> TilePlan:
+    """Lay out a fused launch for ``chain_count`` chains of ``grain_count`` grains.
+
+    Whole chains: ``lanes_per_chain = ceil(grain_count / grains_per_lane)`` unless given (it must cover
+    the chain), ``chains_per_block`` chains per block. Windowed: ``lanes_per_chain`` lanes hold a window,
+    its ghost zones are ``steps_per_launch`` grains (see kernels.ghost). Raises ValueError for shapes
+    that cannot work (a block over 1024 threads, a window without interior).
+    """
+    from .ghost import plan_windows
+
+    n = grain_count
+    G = grains_per_lane
+    free_end = features.surface != "wall" or features.bottom == "free"
+    if windowed:
+        if lanes_per_chain is None:
+            raise ValueError("a windowed plan needs lanes_per_chain")
+        windows = plan_windows(n, lanes_per_chain * G, steps_per_launch)
+        shape = TileShape(G, lanes_per_chain, 1, windowed=True, masked=True, branchless=branchless,
+                          fast_sqrt=fast_sqrt, max_registers=max_registers)
+        plan = TilePlan(shape, steps_per_launch, windows.interior, windows.ghost, windows.blocks_per_chain,
+                        windows.blocks_per_chain * chain_count)
+    else:
+        lanes = lanes_per_chain or -(-n // G)
+        if lanes * G < n:
+            raise ValueError(f"{lanes} lanes x {G} grains do not cover {n} grains")
+        masked = lanes * G != n or free_end
+        shape = TileShape(G, lanes, chains_per_block, windowed=False, masked=masked, branchless=branchless,
+                          fast_sqrt=fast_sqrt, max_registers=max_registers)
+        plan = TilePlan(shape, steps_per_launch, n, 0, 1, -(-chain_count // chains_per_block))
+    if plan.shape.block_dim > 1024:
+        raise ValueError(f"block of {plan.shape.block_dim} threads: at most 1024")
+    return plan
+
+
+def launch_tile(plan: TilePlan, kernel, *, x_in, clock_in, inverse_mass, contact_constant, static_overlap,
+                exponent, status, dt: float, steps: int, x_out, clock_out, device, record_cmd: bool = False):
+    """Launch ``steps`` fused steps (``steps ≤ plan.steps_per_launch`` when windowed); x_in and x_out differ."""
+    if plan.shape.windowed and steps > plan.ghost:
+        raise ValueError(f"steps = {steps}: a windowed launch takes at most {plan.ghost}")
+    device = wp.get_device(device)
+    if device.is_cpu and plan.shape.block_dim > 1:
+        # Warp runs CPU blocks wider than one thread as cooperative fibers only when asked (1.19)
+        wp.config.enable_cpu_blocks = True
+    return wp.launch_tiled(
+        kernel, dim=[plan.block_count],
+        inputs=[x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status, dt, steps,
+                plan.interior, plan.ghost, plan.blocks_per_chain],
+        outputs=[x_out, clock_out], block_dim=plan.shape.block_dim, device=device, record_cmd=record_cmd)

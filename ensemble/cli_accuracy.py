@@ -1,0 +1,166 @@
+"""``hertzian accuracy`` (work–precision study) and ``hertzian check`` (is dt safe?), SPEC §7.
+
+See ensemble/accuracy.py and ensemble/check.py for what is measured and how; docs/stability.md
+for measured numbers.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from .cli import DeviceOption, SetOption, _load, app, fail, resolve_device
+from .scene import METHODS, SceneError
+
+
+def _number(value: float) -> str:
+    return f"{value:.3g}" if math.isfinite(value) else str(value)
+
+
+@app.command()
+def accuracy(
+    scene: Annotated[Optional[Path], typer.Argument(help="Scene TOML (SPEC §8). Default: the built-in example.")] = None,
+    methods: Annotated[str, typer.Option("--methods", help="Comma-separated methods, e.g. gear4,verlet.")] =
+        "gear4,gear5,gear6,verlet",
+    dt: Annotated[str, typer.Option("--dt", help="Comma-separated steps [program time]; each and the "
+                                    "reference's must divide a common record interval, e.g. 2e-4,1e-4,5e-5.")] =
+        "2e-4,1e-4,5e-5",
+    precision: Annotated[Optional[str], typer.Option("--precision", help="float64 | float32 | both "
+                                                     "(default: the scene's).")] = None,
+    reference_factor: Annotated[int, typer.Option("--reference-factor", help="Reference step = smallest "
+                                                  "--dt / this (gear6, float64).")] = 4,
+    records: Annotated[int, typer.Option("--records", help="About this many snapshots are compared "
+                                         "(the record interval is a common multiple of all steps).")] = 40,
+    as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list of records.")] = False,
+    plot: Annotated[Optional[Path], typer.Option("--plot", help="Draw error and energy error against wall "
+                                                 "seconds (log–log) into this PNG.")] = None,
+    device: DeviceOption = None,
+    set_: SetOption = None,
+    quiet: Annotated[bool, typer.Option("--quiet", help="No progress lines on stderr.")] = False,
+):
+    """Work–precision study: error and energy error against wall seconds per method, step and precision.
+
+    The error of a run is max over records and grains of |u − u_ref| / max|u_ref|, against the same
+    scene run with gear6 in float64 at a step --reference-factor times below the smallest --dt
+    (gear6 has the highest order; its own error is estimated by Richardson extrapolation from
+    runs at 1, 2 and 4 times the reference step and printed). Times in program units
+    (1.0102e-3 s); seconds are wall seconds without compilation.
+    """
+    from .accuracy import parse_list, parse_steps, plot_work_precision, work_precision
+
+    loaded = _load(scene, set_, None)
+    try:
+        method_list = parse_list("--methods", methods, METHODS)
+        steps = parse_steps(dt)
+        if precision is None:
+            precisions = [loaded.integrator.precision]
+        elif precision == "both":
+            precisions = ["float64", "float32"]
+        elif precision in ("float64", "float32"):
+            precisions = [precision]
+        else:
+            raise SceneError("--precision", precision, "allowed: float64, float32, both")
+        if reference_factor < 1:
+            raise SceneError("--reference-factor", reference_factor, "must be an integer ≥ 1")
+        if records < 1:
+            raise SceneError("--records", records, "must be ≥ 1")
+    except SceneError as err:
+        fail(str(err))
+    if plot is not None and not plot.parent.exists():
+        fail(f"--plot = {str(plot)!r}: parent directory does not exist")
+    dev = resolve_device(device)
+
+    def progress(text: str) -> None:
+        if not quiet:
+            typer.echo(f"running {text}", err=True)
+
+    try:
+        results, reference, every = work_precision(loaded, method_list, steps, precisions, device=dev,
+                                                   reference_factor=reference_factor, records=records,
+                                                   progress=progress)
+    except SceneError as err:
+        fail(str(err))
+    grains = loaded.chain.grains
+    note = (f"reference: gear6 float64 dt = {reference.dt:g}, estimated error {_number(reference.error_estimate)} "
+            f"(Richardson from dt, 2dt, 4dt; observed order {_number(reference.observed_order)}), "
+            f"{reference.seconds:.2f} s; snapshots every {every:g} over {loaded.integrator.duration:g}; "
+            f"{grains} grains on {dev}")
+    limited = [r for r in results if r.reference_limited]
+    if plot is not None:
+        plot_work_precision(results, plot, title=f"{grains} grains, duration {loaded.integrator.duration:g}, "
+                            f"v_imp {loaded.excitation.impact:g}, l0 {loaded.chain.l0:g} — {note.split(';')[0]}")
+    if as_json:
+        typer.echo(json.dumps([{**r.to_dict(), "reference_dt": reference.dt,
+                                "reference_error": reference.error_estimate} for r in results], indent=1))
+    else:
+        from rich.console import Console
+        from rich.table import Table
+
+        table = Table(title=f"{scene or 'built-in example'}: error against run time")
+        for col in ("method", "precision", "dt", "steps/T", "error", "energy error", "seconds", "grain-steps/s",
+                    "status"):
+            table.add_column(col, justify="left" if col in ("method", "precision", "status") else "right")
+        for r in results:
+            error = _number(r.error) + (" *" if r.reference_limited else "")
+            table.add_row(r.method, r.precision, f"{r.dt:g}", f"{r.steps_per_contact_time:.3g}", error,
+                          _number(r.energy_error), f"{r.seconds:.3g}", f"{r.grain_steps_per_second:.3g}",
+                          r.status_name)
+        console = Console(width=140)
+        console.print(table)
+        console.print(note)
+        if limited:
+            console.print("* within a factor 10 of the reference's own estimated error: not resolved; "
+                          "use a larger --reference-factor")
+    if limited and as_json and not quiet:
+        typer.echo(f"warning: {len(limited)} record(s) are within a factor 10 of the reference's estimated error "
+                   "(reference_limited); use a larger --reference-factor", err=True)
+    if plot is not None and not quiet:
+        typer.echo(f"wrote {plot}", err=True)
+
+
+@app.command()
+def check(
+    scene: Annotated[Optional[Path], typer.Argument(help="Scene TOML (SPEC §8). Default: the built-in example.")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the estimates as a JSON object.")] = False,
+    set_: SetOption = None,
+):
+    """Before running: the stiffest contact time scale of a scene, steps per contact time, and whether dt is safe.
+
+    Bounds the largest overlap (static overlaps plus the impact energy or drive), takes the
+    linearised stiffness n(n−1)a_c δ^(n−2) there and the contact time T = 2π sqrt(m_red/k),
+    and compares dt with each method's stability limit (ω_max·dt) and with the steps per
+    contact time measured to keep the energy error below 1e-6 (docs/stability.md). Program units.
+    """
+    from .check import ACCURATE_STEPS_PER_CONTACT_TIME, STABLE_OMEGA_DT, check_scene
+
+    loaded = _load(scene, set_, None)
+    result = check_scene(loaded)
+    if as_json:
+        typer.echo(json.dumps(result.to_dict(), indent=1))
+        return
+    n = loaded.chain.grains
+    k = result.stiffest_contact
+    where = ("surface wall" if k == 0 else "bottom wall" if k == n else f"grains {k - 1}–{k}") if k >= 0 else "none"
+    lines = [
+        f"largest overlap (bound)   {result.largest_overlap:.4g}  (validity limit 0.1·diameter = "
+        f"{result.validity_overlap:g})",
+        f"stiffest contact          {where}: k = {result.stiffness:.4g}, m_red = {result.reduced_mass:.4g}",
+        f"contact time T            {result.contact_time:.4g}  (2π sqrt(m_red/k))",
+        f"dt                        {result.dt:g} ({result.method}, {loaded.integrator.precision})",
+        f"steps per contact time    {result.steps_per_contact_time:.4g}  (accurate ≥ "
+        f"{ACCURATE_STEPS_PER_CONTACT_TIME[result.method]:g})",
+        f"ω_max·dt                  {result.omega_dt:.4g}  (stable ≤ {STABLE_OMEGA_DT[result.method]:.3g})",
+        f"suggested dt              {result.suggested_dt:.3g}",
+        f"verdict                   {result.verdict}",
+    ]
+    for line in lines:
+        typer.echo(line)
+    for note in result.notes:
+        typer.echo(f"note: {note}")
+    warning = result.warning()
+    if warning:
+        typer.echo(f"warning: {warning}")

@@ -1,0 +1,217 @@
+"""``hertzian sweep``: run a sweep file's grid as batched ensembles into one Zarr store.
+
+See docs/sweeps.md for the file format, resuming and running on several GPUs or hosts.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import sys
+import time
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from .cli import DeviceOption, PrecisionOption, SetOption, app, fail, resolve_device
+from .scene import SceneError, parse_overrides
+
+
+class _Progress:
+    """A rich progress bar on stderr: batches, simulated time of the running batch, ETA, grain-steps/s."""
+
+    def __init__(self, enabled: bool, *, total_batches: int, done_batches: int, grain_steps: int):
+        self.enabled = enabled
+        self.total_batches = total_batches
+        self.done_batches = done_batches
+        self.finished_steps = 0
+        if not enabled:
+            return
+        from rich.console import Console
+        from rich.progress import BarColumn, Progress, ProgressColumn, TextColumn, TimeRemainingColumn
+        from rich.text import Text
+
+        class RateColumn(ProgressColumn):
+            def render(self, task):
+                speed = task.finished_speed or task.speed
+                return Text(f"{speed:.3g} grain-steps/s" if speed else "… grain-steps/s")
+
+        self.bar = Progress(TextColumn("sweep"), BarColumn(bar_width=20), TextColumn("{task.fields[batches]} batches"),
+                            TextColumn("t={task.fields[sim]}"), RateColumn(), TextColumn("ETA"),
+                            TimeRemainingColumn(), console=Console(stderr=True), transient=True)
+        self.bar.start()
+        self.task = self.bar.add_task("sweep", total=max(grain_steps, 1), batches=self._batches(), sim="–")
+
+    def _batches(self) -> str:
+        return f"{self.done_batches}/{self.total_batches}"
+
+    def record(self, job, done: int, total: int) -> None:
+        if not self.enabled:
+            return
+        scene = job.scenes[0]
+        fraction = (done - 1) / max(total - 1, 1)
+        t = (done - 1) * scene.steps_per_record * scene.integrator.dt
+        self.bar.update(self.task, completed=self.finished_steps + fraction * job.grain_steps,
+                        sim=f"{t:.4g}/{scene.integrator.duration:g}")
+
+    def batch_done(self, job, record) -> None:
+        self.done_batches += 1
+        self.finished_steps += job.grain_steps
+        if self.enabled:
+            self.bar.update(self.task, completed=self.finished_steps, batches=self._batches())
+
+    def stop(self) -> None:
+        if self.enabled:
+            self.bar.stop()
+
+
+@app.command()
+def sweep(
+    sweep_file: Annotated[Path, typer.Argument(help="Sweep TOML: a base scene and [[axis]] tables (docs/sweeps.md).")],
+    out: Annotated[Optional[Path], typer.Option("--out", help="Zarr store to write (default: the sweep file's "
+                                                "name with .zarr, in the current directory).")] = None,
+    resume: Annotated[bool, typer.Option("--resume", help="Continue an interrupted store: skip finished "
+                                         "batches (refused for a different sweep or package version).")] = False,
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing store.")] = False,
+    dry_run: Annotated[bool, typer.Option("--dry-run", help="Print the plan (points, batches, memory, "
+                                          "grain-steps) and write nothing.")] = False,
+    batch_size: Annotated[Optional[int], typer.Option("--batch-size", help="Points per ensemble launch "
+                                                      "(default: as many as fit the device's memory).")] = None,
+    workers: Annotated[Optional[int], typer.Option("--workers", help="Run batches on N local Dask worker "
+                                                   "processes (one device each: worker i uses cuda:i).")] = None,
+    scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="Run batches on an existing Dask "
+                                                     "cluster, e.g. tcp://host:8786.")] = None,
+    device: DeviceOption = None,
+    precision: PrecisionOption = None,
+    set_: SetOption = None,
+    quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
+):
+    """Run a parameter sweep (SPEC §8) as batched ensembles into one Zarr store with one dimension per axis.
+
+    Times are in program units (1.0102e-3 s). Kill it at any moment and rerun with --resume.
+    """
+    if batch_size is not None and batch_size < 1:
+        fail(f"--batch-size = {batch_size}: must be ≥ 1")
+    if workers is not None and workers < 1:
+        fail(f"--workers = {workers}: must be ≥ 1")
+    if workers is not None and scheduler is not None:
+        fail(f"--scheduler = {scheduler!r}: give either --workers (a local cluster) or --scheduler, not both")
+    if resume and overwrite:
+        fail("--resume = true: --resume continues a store, --overwrite replaces it; give one")
+    from .sweep import load_sweep, sweep_scenes
+
+    try:
+        sets = parse_overrides(set_)
+        if precision is not None:
+            sets["integrator.precision"] = precision
+        definition = load_sweep(sweep_file, sets)
+        scenes = sweep_scenes(definition)
+    except SceneError as err:
+        fail(str(err))
+    out = out if out is not None else Path(sweep_file.stem + ".zarr")
+    if not dry_run:
+        if out.exists() and not (resume or overwrite):
+            fail(f"--out = {str(out)!r}: exists; pass --resume to continue it or --overwrite to replace it")
+        if not out.parent.exists():
+            fail(f"--out = {str(out)!r}: parent directory does not exist")
+    dev = resolve_device(device)
+
+    from .planner import describe, plan_sweep
+    from .sweep_store import SweepStoreError, check_resumable
+
+    block = None
+    resuming = resume and out.exists()
+    if resuming:
+        try:
+            block = check_resumable(out, definition)
+        except SweepStoreError as err:
+            fail(f"--resume = {str(out)!r}: {err}")
+    try:
+        plan = plan_sweep(definition, scenes, dev, batch_size=batch_size, block=block)
+    except SceneError as err:
+        fail(str(err))
+    if dry_run:
+        typer.echo(describe(plan, definition))
+        return
+    if resuming and batch_size is not None and plan.batch_size != batch_size:
+        typer.echo(f"note: --batch-size {batch_size} ignored: {out} was planned with batches of up to "
+                   f"{plan.batch_size} points", err=True)
+    _run(definition, scenes, plan, out, dev, resuming=resuming, overwrite=overwrite, workers=workers,
+         scheduler=scheduler, requested_device=device, quiet=quiet)
+
+
+def _connect(workers, scheduler, stack: contextlib.ExitStack):
+    """A Dask client (starting a LocalCluster for --workers), closed with ``stack``; bad address → exit 2."""
+    from distributed import Client
+
+    from .distributed import local_cluster
+
+    if workers is not None:
+        cluster = stack.enter_context(local_cluster(workers))
+        return stack.enter_context(Client(cluster))
+    try:
+        return stack.enter_context(Client(scheduler, timeout="15s"))
+    except (OSError, TimeoutError, ValueError) as err:
+        fail(f"--scheduler = {scheduler!r}: cannot connect ({type(err).__name__}: {err})")
+
+
+def _run(definition, scenes, plan, out: Path, dev: str, *, resuming: bool, overwrite: bool, workers, scheduler,
+         requested_device, quiet: bool) -> None:
+    import numpy as np
+    import zarr
+
+    from .distributed import jobs_for, run_distributed, run_serial, warm_kernels, warm_workers
+    from .planner import format_bytes
+    from .sweep_store import (batch_records, completed_batches, create_sweep_store, finalize, remove_partial_files,
+                              status_codes, store_bytes)
+
+    distributed = workers is not None or scheduler is not None
+    label = (f"{workers} local Dask workers" if workers is not None else
+             f"Dask cluster {scheduler}" if scheduler is not None else dev)
+    with contextlib.ExitStack() as stack:
+        client = _connect(workers, scheduler, stack) if distributed else None
+        if resuming:
+            remove_partial_files(out)
+            done = completed_batches(out)
+            earlier = {r["device"].split(":")[0] for r in batch_records(out)}
+            if earlier - {dev.split(":")[0]}:
+                typer.echo(f"note: earlier batches ran on {', '.join(sorted(earlier))}, these run on {dev}: "
+                           "results agree to rounding, not bit for bit, across device kinds", err=True)
+        else:
+            create_sweep_store(out, definition, scenes, plan, device=label, overwrite=overwrite)
+            done = set()
+        pending = [b for b in plan.batches if b.index not in done]
+        # workers may run elsewhere: give them the absolute store path
+        jobs = jobs_for(out.resolve(), plan, scenes, pending)
+        features = [g.features for g in plan.groups]
+        warm_kernels(features, dev)
+        if client is not None:
+            warm_workers(client, features, requested_device)
+        progress = _Progress(not quiet and sys.stderr.isatty(), total_batches=len(plan.batches),
+                             done_batches=len(done), grain_steps=sum(j.grain_steps for j in jobs))
+        start = time.perf_counter()
+        try:
+            if client is None:
+                run_serial(jobs, dev, on_record=progress.record, on_done=progress.batch_done)
+            else:
+                run_distributed(jobs, client, requested_device, on_done=progress.batch_done)
+        except KeyboardInterrupt:
+            progress.stop()
+            typer.echo(f"interrupted after {progress.done_batches}/{len(plan.batches)} batches; continue with: "
+                       f"hertzian sweep {definition.source} --out {out} --resume", err=True)
+            raise typer.Exit(130) from None
+        finally:
+            progress.stop()
+        session = time.perf_counter() - start
+    session_steps = sum(j.grain_steps for j in jobs)
+    prov = finalize(out, session_seconds=session, session_grain_steps=session_steps)
+
+    status = np.asarray(zarr.open_array(store=str(out), path="status", mode="r")[...])
+    codes, counts = np.unique(status, return_counts=True)
+    names = status_codes()
+    status_text = ", ".join(f"{names[str(int(c))].split(':')[0]} {int(k)}" for c, k in zip(codes, counts))
+    ran = f"ran {len(jobs)} of {len(plan.batches)} batches" if resuming else f"{len(plan.batches)} batches"
+    typer.echo(f"{plan.point_count} points, {ran} on {label}: {session:.2f} s, "
+               f"{session_steps / max(session, 1e-12):.3g} grain-steps/s (per device "
+               f"{prov['grain_steps_per_second']:.3g}); status: {status_text}; store {format_bytes(store_bytes(out))}")
+    typer.echo(f"wrote {out}")

@@ -1,0 +1,146 @@
+"""Running a sweep's batches: in this process, or on Dask distributed workers (one device each).
+
+Each batch runs as one ensemble (``build_model`` with its launch group's kernel variant, then
+``Runner``) and writes its own block of the store, then its completion record. Workers share
+nothing but the store path, so a batch can run on any worker, on any host that sees the store.
+
+Device of a worker: ``cpu`` or an explicit ``cuda:N`` when one is named; otherwise (``cuda`` or
+none) the worker's own GPU — ``cuda:i`` for the i-th worker of a ``LocalCluster`` (workers are
+named 0 … N-1), ``cuda:0`` for a worker started with one GPU visible
+(``CUDA_VISIBLE_DEVICES=i dask worker --nworkers 1 …``) — or the CPU when it has none.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from kernels.features import Features
+
+from .planner import Batch, Plan
+from .scene import Scene
+
+
+@dataclass(frozen=True)
+class BatchJob:
+    """Everything a worker needs to run one batch and write it."""
+
+    store: str
+    batch: Batch
+    scenes: tuple[Scene, ...]
+    """The batch's scenes, in the order of ``batch.points``."""
+    features: Features
+    """Kernel variant of the batch's launch group."""
+    grain_steps: int
+
+
+def jobs_for(store: str | Path, plan: Plan, scenes: list[Scene], batches: Iterable[Batch]) -> list[BatchJob]:
+    """One job per batch (``scenes``: every point's scene in C order)."""
+    return [BatchJob(store=str(store), batch=b, scenes=tuple(scenes[p] for p in b.points),
+                     features=plan.groups[b.group].features, grain_steps=plan.batch_grain_steps(b))
+            for b in batches]
+
+
+def _quiet_warp():
+    import warp as wp
+
+    wp.config.log_level = wp.LOG_WARNING
+    wp.init()
+    return wp
+
+
+def warm_kernels(features: Iterable[Features], device: str) -> None:
+    """Build and load every kernel variant on ``device`` once, so workers find them in Warp's cache."""
+    from kernels.records import record_kernel
+    from kernels.step import step_kernel
+
+    wp = _quiet_warp()
+    for f in set(features):
+        wp.load_module(step_kernel(f).module, device=device)
+        wp.load_module(record_kernel(f).module, device=device)
+
+
+def run_job(job: BatchJob, device: str, progress: Callable[[int, int], None] | None = None, *,
+            worker: str = "") -> dict[str, Any]:
+    """Run one batch on ``device`` and write it into the store; return its completion record."""
+    from .model import build_model
+    from .runner import Runner
+    from .sweep_store import write_batch
+
+    _quiet_warp()
+    model = build_model(list(job.scenes), device, features=job.features)
+    result = Runner(model).run(progress)
+    return write_batch(job.store, job.batch, result, grain_steps=job.grain_steps, worker=worker)
+
+
+def worker_device(requested: str | None, worker_name: Any = None) -> str:
+    """The device a (Dask worker) process should use; see the module docstring."""
+    wp = _quiet_warp()
+    if requested and requested != "cuda":
+        return requested
+    if not wp.is_cuda_available():
+        return "cpu"
+    try:
+        index = int(worker_name)
+    except (ValueError, TypeError):
+        index = 0
+    return f"cuda:{index % wp.get_cuda_device_count()}"
+
+
+def _prepare_worker(features: list[Features], requested_device: str | None, dask_worker=None) -> str:
+    from . import runner, sweep_store  # noqa: F401  (imports paid before the clock starts)
+
+    device = worker_device(requested_device, getattr(dask_worker, "name", None))
+    warm_kernels(features, device)
+    return device
+
+
+def warm_workers(client, features: Iterable[Features], requested_device: str | None) -> dict[str, str]:
+    """Initialise Warp and load every kernel variant on each worker's device (from the cache the parent
+    filled); returns worker address → device."""
+    return client.run(_prepare_worker, list(set(features)), requested_device)
+
+
+def run_job_on_worker(job: BatchJob, requested_device: str | None) -> dict[str, Any]:
+    """Dask task: run one batch on this worker's device."""
+    from distributed import get_worker
+
+    worker = get_worker()
+    return run_job(job, worker_device(requested_device, worker.name), worker=str(worker.name))
+
+
+def run_serial(jobs: list[BatchJob], device: str, *, on_record: Callable[[BatchJob, int, int], None] | None = None,
+               on_done: Callable[[BatchJob, dict], None] | None = None) -> None:
+    """Run jobs one after the other in this process."""
+    for job in jobs:
+        progress = (lambda done, total, job=job: on_record(job, done, total)) if on_record else None
+        record = run_job(job, device, progress)
+        if on_done:
+            on_done(job, record)
+
+
+def local_cluster(workers: int):
+    """A LocalCluster of ``workers`` processes with one thread each (one device per worker)."""
+    from distributed import LocalCluster
+
+    return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                        silence_logs=logging.ERROR)
+
+
+def run_distributed(jobs: list[BatchJob], client, requested_device: str | None, *,
+                    on_done: Callable[[BatchJob, dict], None] | None = None) -> None:
+    """Run jobs on a Dask client's workers; each worker writes its batches into the store."""
+    from distributed import as_completed
+
+    token = f"{time.time_ns():x}"
+    futures = {client.submit(run_job_on_worker, job, requested_device, pure=False,
+                             key=f"hertzian-batch-{job.batch.index}-{token}", priority=-job.batch.index): job
+               for job in jobs}
+    for future in as_completed(futures):
+        record = future.result()
+        if on_done:
+            on_done(futures[future], record)

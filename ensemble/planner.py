@@ -1,0 +1,283 @@
+"""Plan a sweep: launch groups, batch blocks sized by memory, and the work each batch is.
+
+* A **launch group** is the set of points that share ``ensemble.model.SHARED_KEYS`` (grain
+  count, boundaries, method, precision, dt, record layout): they can share one kernel launch.
+  Each group gets one kernel variant (``features_of`` over *all* its points), so a point's result
+  does not depend on which batch it lands in: batch size and worker count change the speed,
+  never the bits.
+* A **batch** is one launch and one work unit: a hyper-rectangular *block* of the sweep grid,
+  the same shape for every batch (edge blocks are cut short). The store chunks (shards) the
+  sweep dimensions by this block, so a batch writes whole chunks only. Dimensions along which
+  the launch group changes get block extent 1, so a block never mixes groups.
+* Batch size: the most points whose device memory fits ``free memory × 0.8`` on CUDA (a
+  fixed 2 GiB on the CPU), whose host copy of the results fits 4 GiB, and that stay under
+  ``MAX_GRAIN_THREADS`` grain-threads per launch; or ``--batch-size N``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import astuple, dataclass
+
+import numpy as np
+
+from kernels.features import Features
+
+from .model import SHARED_KEYS, features_of
+from .scene import Scene, SceneError
+from .sweep import Sweep
+
+CPU_MEMORY_BUDGET = 2 << 30
+"""Bytes a CPU batch may use (state and results live in the same memory)."""
+HOST_MEMORY_BUDGET = 4 << 30
+"""Bytes of host result arrays a GPU batch may hold before it is written."""
+DEVICE_MEMORY_FRACTION = 0.8
+"""Share of a GPU's free memory a batch may take."""
+MAX_GRAIN_THREADS = 1 << 22
+"""Grain-threads per launch beyond which a GPU gains nothing (an H100 holds ~2.7e5 resident
+threads); capping keeps batches small enough to resume and to spread over workers."""
+
+
+@dataclass(frozen=True)
+class LaunchGroup:
+    """Points that can share one launch, and the kernel variant they all use."""
+
+    key: tuple
+    """Values of SHARED_KEYS common to the group."""
+    features: Features
+    """Kernel variant covering every point of the group."""
+    point_count: int
+    device_bytes_per_chain: int
+    """Device memory one chain needs during a run [bytes]."""
+    host_bytes_per_chain: int
+    """Host memory of one chain's results [bytes]."""
+    grain_steps_per_chain: int
+
+
+@dataclass(frozen=True)
+class Batch:
+    """One launch: a block of the sweep grid."""
+
+    index: int
+    group: int
+    """Index into Plan.groups."""
+    region: tuple[tuple[int, int], ...]
+    """(start, stop) along each sweep dimension."""
+    points: tuple[int, ...]
+    """Flat (C-order) indices of the points, in the order they are launched and written."""
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(stop - start for start, stop in self.region)
+
+    @property
+    def slices(self) -> tuple[slice, ...]:
+        return tuple(slice(start, stop) for start, stop in self.region)
+
+
+@dataclass(frozen=True)
+class Plan:
+    """How a sweep is cut into launches."""
+
+    shape: tuple[int, ...]
+    """Points along each sweep dimension."""
+    block: tuple[int, ...]
+    """Batch (and store chunk/shard) extent along each sweep dimension."""
+    groups: tuple[LaunchGroup, ...]
+    batches: tuple[Batch, ...]
+    point_group: np.ndarray
+    """Launch group of every point, shape ``shape``."""
+    device: str
+    memory_budget: int
+    """Device bytes a batch may use [bytes]."""
+
+    @property
+    def point_count(self) -> int:
+        return math.prod(self.shape)
+
+    @property
+    def batch_size(self) -> int:
+        """Points per (full) batch."""
+        return math.prod(self.block)
+
+    @property
+    def grain_steps(self) -> int:
+        """Grain-steps of the whole sweep (points × grains × steps)."""
+        return sum(g.grain_steps_per_chain * g.point_count for g in self.groups)
+
+    def batch_grain_steps(self, batch: Batch) -> int:
+        return len(batch.points) * self.groups[batch.group].grain_steps_per_chain
+
+    def batch_device_bytes(self, batch: Batch) -> int:
+        return len(batch.points) * self.groups[batch.group].device_bytes_per_chain
+
+    def batch_host_bytes(self, batch: Batch) -> int:
+        return len(batch.points) * self.groups[batch.group].host_bytes_per_chain
+
+
+def launch_key(scene: Scene) -> tuple:
+    """What two points must share to run in one launch (ensemble.model.SHARED_KEYS)."""
+    return tuple(get(scene) for _, get in SHARED_KEYS)
+
+
+def chain_memory(scene: Scene, features: Features) -> tuple[int, int]:
+    """(device, host) bytes one chain of ``scene`` needs in a launch with ``features``."""
+    item = 8 if features.precision == "float64" else 4
+    n = scene.chain.grains
+    traced = len(scene.record.traces)
+    capacity = scene.steps_per_record // scene.trace_stride if traced else 0
+    device = 2 * features.values * n * item            # two state buffers
+    device += 2 * capacity * traced * item              # trace ring buffer
+    if features.heterogeneous:
+        device += (2 * n + 1) * item                    # 1/m per grain, a_c per contact
+    if features.static == "profile":
+        device += (n + 1) * item
+    device += 256                                       # per-chain scalars
+    records = scene.record_count
+    samples = (records - 1) * capacity + 1 if traced else 0
+    host = len(scene.record.fields) * records * n * 8   # snapshots (stored as float64 at most)
+    host += 2 * samples * traced * 8 + 2 * 2 * capacity * traced * item  # traces and a buffer copy
+    host += 2 * records * 8 + 64                        # energy, work, per-chain scalars
+    return device, host
+
+
+def device_budget(device: str) -> int:
+    """Bytes a batch may use on ``device``: 80 % of a GPU's free memory, 2 GiB on the CPU."""
+    import warp as wp
+
+    d = wp.get_device(device)
+    if d.is_cuda:
+        return int(d.free_memory * DEVICE_MEMORY_FRACTION)
+    return CPU_MEMORY_BUDGET
+
+
+def _splitting_dims(point_group: np.ndarray) -> list[bool]:
+    """Dimensions along which the launch group changes somewhere."""
+    return [bool(point_group.shape[d] > 1 and np.any(np.diff(point_group, axis=d) != 0))
+            for d in range(point_group.ndim)]
+
+
+def block_for(shape: tuple[int, ...], splitting: list[bool], target: int) -> tuple[int, ...]:
+    """Largest block of at most ``target`` points: whole trailing dimensions, one dimension cut
+    into near-equal parts, extent 1 elsewhere and along splitting dimensions."""
+    block = [1] * len(shape)
+    room = max(1, target)
+    for d in reversed(range(len(shape))):
+        if splitting[d]:
+            continue
+        if shape[d] <= room:
+            block[d] = shape[d]
+            room //= shape[d]
+            continue
+        parts = math.ceil(shape[d] / room)
+        block[d] = math.ceil(shape[d] / parts)
+        break
+    return tuple(block)
+
+
+def batches_for(shape: tuple[int, ...], block: tuple[int, ...], point_group: np.ndarray) -> list[Batch]:
+    """Every block of the grid in C order, as batches."""
+    counts = [math.ceil(n / b) for n, b in zip(shape, block)]
+    batches = []
+    for index, corner in enumerate(np.ndindex(*counts)):
+        region = tuple((c * b, min((c + 1) * b, n)) for c, b, n in zip(corner, block, shape))
+        grids = np.meshgrid(*[np.arange(a, z) for a, z in region], indexing="ij")
+        flat = np.ravel_multi_index(tuple(g.ravel() for g in grids), shape) if shape else np.array([0])
+        groups = np.unique(point_group.reshape(-1)[flat])
+        assert len(groups) == 1, "a block mixes launch groups"
+        batches.append(Batch(index=index, group=int(groups[0]), region=region,
+                             points=tuple(int(p) for p in flat)))
+    return batches
+
+
+def plan_sweep(sweep: Sweep, scenes: list[Scene], device: str, *, batch_size: int | None = None,
+               block: tuple[int, ...] | None = None) -> Plan:
+    """Group ``scenes`` (one per point, C order) into launches on ``device``.
+
+    ``batch_size`` caps points per batch; ``block`` (from an existing store) fixes the batch shape.
+    """
+    shape = sweep.shape
+    keys: dict[tuple, int] = {}
+    point_group = np.array([keys.setdefault(launch_key(s), len(keys)) for s in scenes],
+                           dtype=np.int64).reshape(shape)
+    members: list[list[Scene]] = [[] for _ in keys]
+    for s, g in zip(scenes, point_group.reshape(-1)):
+        members[g].append(s)
+    groups = []
+    for key, group_scenes in zip(keys, members):
+        features = features_of(_distinct_statics(group_scenes))
+        mem = [chain_memory(s, features) for s in group_scenes[:1]]
+        first = group_scenes[0]
+        groups.append(LaunchGroup(key=key, features=features, point_count=len(group_scenes),
+                                  device_bytes_per_chain=mem[0][0], host_bytes_per_chain=mem[0][1],
+                                  grain_steps_per_chain=first.chain.grains * first.step_count))
+    budget = device_budget(device)
+    splitting = _splitting_dims(point_group)
+    if block is None:
+        import warp as wp
+
+        cpu = not wp.get_device(device).is_cuda
+        per_device = max(g.device_bytes_per_chain + (g.host_bytes_per_chain if cpu else 0) for g in groups)
+        per_host = max(g.host_bytes_per_chain for g in groups)
+        grains = scenes[0].chain.grains
+        fit = min(budget // per_device, HOST_MEMORY_BUDGET // per_host, max(1, MAX_GRAIN_THREADS // grains))
+        if fit < 1:
+            raise SceneError("chain.grains", grains, f"one chain needs {per_device} bytes, more than the "
+                             f"{budget} bytes available on {device}")
+        target = min(fit, batch_size) if batch_size else fit
+        block = block_for(shape, splitting, target)
+    else:
+        block = tuple(block)
+        if len(block) != len(shape) or any(b < 1 for b in block) or any(
+                s and b != 1 and sp for b, s, sp in zip(block, shape, splitting)):
+            raise SceneError("store batch block", list(block), f"does not fit this sweep's shape {list(shape)}")
+    batches = batches_for(shape, block, point_group)
+    return Plan(shape=shape, block=block, groups=tuple(groups), batches=tuple(batches),
+                point_group=point_group, device=str(device), memory_budget=budget)
+
+
+def _distinct_statics(scenes: list[Scene]) -> list[Scene]:
+    """One scene per distinct set of keys that decide the kernel variant (features_of is then cheap)."""
+    seen = {}
+    for s in scenes:
+        key = (astuple(s.chain), s.boundary, bool(s.impurities))
+        seen.setdefault(key, s)
+    return list(seen.values())
+
+
+def format_bytes(count: float) -> str:
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB"):
+        if count < 1024 or unit == "TiB":
+            return f"{count:.3g} {unit}" if unit != "B" else f"{int(count)} B"
+        count /= 1024
+    return f"{count:.3g} TiB"
+
+
+def describe(plan: Plan, sweep: Sweep, *, max_rows: int = 20) -> str:
+    """The plan as text (``hertzian sweep --dry-run``)."""
+    def dimension(d) -> str:
+        zipped = f", with {', '.join(a.name for a in d.axes[1:])}" if len(d.axes) > 1 else ""
+        return f"{d.name} ({d.size}{zipped})"
+
+    dims = " × ".join(dimension(d) for d in sweep.dimensions) or "no axes"
+    lines = [f"points: {plan.point_count} over {dims}",
+             f"launch groups: {len(plan.groups)}"]
+    names = [k for k, _ in SHARED_KEYS]
+    for g_index, g in enumerate(plan.groups):
+        shared = dict(zip(names, g.key))
+        f = g.features
+        lines.append(f"  group {g_index}: {g.point_count} points, {shared['chain.grains']} grains, "
+                     f"{shared['integrator.method']} {shared['integrator.precision']} dt={shared['integrator.dt']:g}, "
+                     f"{g.grain_steps_per_chain // shared['chain.grains']} steps; kernel: static={f.static}, "
+                     f"heterogeneous={f.heterogeneous}, hertz={f.hertz}, traces={f.traces}")
+    lines.append(f"batches: {len(plan.batches)} of up to {plan.batch_size} points (block "
+                 f"{' × '.join(map(str, plan.block)) or '1'}) on {plan.device}, memory budget "
+                 f"{format_bytes(plan.memory_budget)}")
+    lines.append(f"estimated work: {plan.grain_steps:.4g} grain-steps")
+    lines.append(f"{'batch':>7} {'group':>5} {'points':>7} {'device mem':>11} {'host mem':>10} {'grain-steps':>12}")
+    for b in plan.batches[:max_rows]:
+        lines.append(f"{b.index:>7} {b.group:>5} {len(b.points):>7} {format_bytes(plan.batch_device_bytes(b)):>11} "
+                     f"{format_bytes(plan.batch_host_bytes(b)):>10} {plan.batch_grain_steps(b):>12.4g}")
+    if len(plan.batches) > max_rows:
+        lines.append(f"    … {len(plan.batches) - max_rows} more")
+    return "\n".join(lines)

@@ -1,0 +1,545 @@
+"""Figures of Sen, Manciu & Wright (1998) from hertzian stores, in the paper's representation.
+
+``plot_figure(dataset, "fig1", "fig1.png")`` draws one figure group from an ``xarray`` dataset
+opened from a store written by ``hertzian sweep sweeps/paper_*.toml`` (or by
+``docs/reproduce_gpu.py`` for Figs. 9-10). Matplotlib's Agg backend; program units throughout
+(length 1e-5 m, time 1.0102e-3 s).
+
+Signs: profile plots show the paper's sign, −u and −v (the change of a grain's *position*, positive
+toward the surface), because the paper plots grain positions; the compressive part of a pulse
+moving into the chain is therefore negative, as on the paper's "negative side of the y axis".
+Figs. 1, 2 and 4 use the paper's grain label N − i (surface grain = N, pulse moving right to
+left); the other figures use the depth i (surface = 0).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from . import analysis as an
+
+DPI = 110
+PAPER_SIGN = "paper sign: + toward the surface"
+SIGN_NOTE = ("−u, −v: the paper's sign (change of grain position, + toward the surface); hertzian's u, v are "
+             "+ into the chain. Program units: length 1e-5 m, time 1.0102 ms.")
+TIME_UNIT = "time units of 1.0102 ms"
+
+
+class PlotError(ValueError):
+    """The store does not hold what the figure needs (names the missing piece)."""
+
+
+def _require(ds, *names: str, figure: str) -> None:
+    missing = [n for n in names if n not in ds.variables and n not in ds.dims]
+    if missing:
+        raise PlotError(f"figure {figure} needs {', '.join(missing)} in the store; it has "
+                        f"{', '.join(sorted(map(str, ds.variables)))}")
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    plt.rcParams.update({"font.size": 9, "axes.titlesize": 9, "legend.fontsize": 7.5, "lines.linewidth": 0.9})
+    return plt
+
+
+def _grains(ds) -> int:
+    return int(ds.sizes["grain"])
+
+
+def _times_in_flight(t: np.ndarray, heads: np.ndarray, grain_count: int, count: int, *,
+                     reach: float = 0.9) -> list[int]:
+    """Record indices of ``count`` snapshots evenly spread while the head goes from 10 % to
+    ``reach`` of the chain (before it meets the far end)."""
+    beyond = np.flatnonzero(heads > reach * grain_count)
+    stop = beyond[0] if beyond.size else len(t) - 1
+    start = np.flatnonzero(heads > 0.1 * grain_count)
+    start = start[0] if start.size and start[0] < stop else 1
+    return sorted(set(np.linspace(start, stop, count).round().astype(int).tolist()))
+
+
+def _cmap_colors(plt, n: int):
+    cmap = plt.get_cmap("viridis")
+    return [cmap(x) for x in np.linspace(0.0, 0.85, max(n, 1))]
+
+
+def _finish(fig, out: Path, *, note: str | None = None) -> Path:
+    if note:
+        fig.text(0.005, 0.003, note, fontsize=6.5, color="0.35", ha="left", va="bottom")
+    fig.tight_layout(rect=(0, 0.012 if note else 0, 1, 1))
+    fig.savefig(out, dpi=DPI)
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    return out
+
+
+# ---- Figs. 1-3: horizontal chains ----------------------------------------------------------
+
+
+def _profiles_vs_label(ax, plt, ds_point, *, label_axis: bool, count: int = 5, records=None):
+    """Paper displacement against grain label (or depth) at several times while the pulse is in flight."""
+    t = ds_point.t.values
+    u = ds_point.u.values
+    n = u.shape[-1]
+    if records is None:
+        heads = an.head_positions(ds_point.v.values) if "v" in ds_point else an.head_positions(u)
+        records = _times_in_flight(t, heads, n, count)
+    x = an.paper_label(np.arange(n), n) if label_axis else np.arange(n)
+    for color, r in zip(_cmap_colors(plt, len(records)), records):
+        ax.plot(x, an.paper_displacement(u[r]), color=color, label=f"t = {t[r]:g}")
+    if label_axis:
+        ax.set_xlim(0, n)
+        ax.invert_xaxis()
+        ax.set_xlabel(f"grain label N − i (surface = {n}; pulse moves right to left)")
+    else:
+        ax.set_xlim(0, n)
+        ax.set_xlabel("depth z [grain diameters] (surface = 0)")
+    ax.set_ylabel("−u [1e-5 m]")
+    ax.legend(loc="best", ncol=2)
+
+
+def _fig_profiles_by_vimp(ds, out: Path, figure: str, *, label_axis: bool, title: str) -> Path:
+    _require(ds, "u", "v", "v_imp", figure=figure)
+    plt = _pyplot()
+    speeds = ds.v_imp.values
+    fig, axes = plt.subplots(len(speeds), 1, figsize=(7.0, 2.4 * len(speeds)), squeeze=False)
+    for k, (ax, v_imp) in enumerate(zip(axes[:, 0], speeds)):
+        point = ds.isel(v_imp=k)
+        _profiles_vs_label(ax, plt, point, label_axis=label_axis)
+        l0 = float(point.l0) if "l0" in point.variables and point.l0.size == 1 else _scene_value(ds, "chain", "l0")
+        ax.set_title(f"({'abcdef'[k]}) {title}, l0 = {l0:g}, v_imp = {v_imp:g}")
+    return _finish(fig, out, note=SIGN_NOTE)
+
+
+def _scene_value(ds, section: str, key: str):
+    import json
+
+    scene = json.loads(ds.attrs.get("scene", "{}"))
+    return scene.get(section, {}).get(key, math.nan)
+
+
+def fig1(ds, out: Path) -> Path:
+    """Fig. 1(a)-(c): displacement against grain label for l0 = 1e-6 and three impact speeds."""
+    return _fig_profiles_by_vimp(ds, out, "fig1", label_axis=True, title="shock-like regime")
+
+
+def fig2(ds, out: Path) -> Path:
+    """Fig. 2(a)-(c): as Fig. 1 for l0 = 1e-5."""
+    return _fig_profiles_by_vimp(ds, out, "fig2", label_axis=True, title="l0 = 1e-5")
+
+
+def speeds_table(ds, *, first_grain: float = 100.0, last_grain: float = 800.0) -> np.ndarray:
+    """Pulse speed c [grains/time] at every (l0, v_imp) point of a Fig. 1(d) store, shape (l0, v_imp),
+    with its 1σ fit error as a second array: returns (c, error)."""
+    t = ds.t.values
+    v = ds.v.transpose("l0", "v_imp", "record", "grain").values
+    c = np.full(v.shape[:2], math.nan)
+    err = np.full(v.shape[:2], math.nan)
+    for i in range(v.shape[0]):
+        for j in range(v.shape[1]):
+            fit = an.pulse_speed(t, an.head_positions(v[i, j]), first_grain=first_grain, last_grain=last_grain)
+            c[i, j], err[i, j] = fit.slope, fit.slope_error
+    return c, err
+
+
+def fig1d(ds, out: Path) -> Path:
+    """Fig. 1(d): ln c against ln v_imp for each l0, with the fitted α and the linear sound speeds."""
+    _require(ds, "v", "l0", "v_imp", figure="fig1d")
+    plt = _pyplot()
+    c, _ = speeds_table(ds)
+    v_imp, l0s = ds.v_imp.values, ds.l0.values
+    a = _scene_value(ds, "chain", "a")
+    fig, ax = plt.subplots(figsize=(6.0, 4.2))
+    markers = "os^dv"
+    for i, l0 in enumerate(l0s):
+        fit = an.speed_exponent(v_imp, c[i])
+        ax.plot(np.log(v_imp), np.log(c[i]), markers[i % 5], mfc="none",
+                label=f"l0 = {l0:g}: α = {fit.exponent:.4f} ± {fit.exponent_error:.4f}")
+        c0 = math.sqrt(3.75 * a * math.sqrt(l0))
+        ax.axhline(math.log(c0), color=f"C{i}", ls=":", lw=0.8)
+        ax.text(np.log(v_imp[0]), math.log(c0), f" sound speed, l0 = {l0:g}", color=f"C{i}", va="bottom", fontsize=7)
+    lumped = an.speed_exponent(np.tile(v_imp, len(l0s)), c.ravel())
+    ref = an.speed_exponent(v_imp, c[0])
+    x = np.log(v_imp[[0, -1]])
+    ax.plot(x, math.log(ref.prefactor) + 0.2 * x, "k-", lw=0.8, label="slope 0.2 (paper)")
+    ax.set_xlabel("ln v_imp   (v_imp in 1e-5 m per 1.0102 ms)")
+    ax.set_ylabel("ln c   (c in grains per time unit)")
+    ax.set_title(f"(d) pulse speed; all l0 lumped: α = {lumped.exponent:.3f} ± {lumped.exponent_error:.3f}")
+    ax.legend(loc="upper left")
+    return _finish(fig, out)
+
+
+def fig3(ds, out: Path) -> Path:
+    """Fig. 3(a),(b): long tails in the compressive regime, and (c) their exponential envelopes."""
+    _require(ds, "u", "v", "l0", figure="fig3")
+    plt = _pyplot()
+    dim = "l0"
+    points = ds.sizes[dim]
+    fig, axes = plt.subplots(points + 1, 1, figsize=(7.0, 2.5 * (points + 1)))
+    t = ds.t.values
+    for k in range(points):
+        point = ds.isel({dim: k})
+        v_imp = float(point.v_imp) if "v_imp" in point.variables else _scene_value(ds, "excitation", "impact")
+        _profiles_vs_label(axes[k], plt, point, label_axis=False)
+        axes[k].set_title(f"({'ab'[k]}) l0 = {float(point.l0):g}, v_imp = {v_imp:g}")
+        heads = an.head_positions(point.v.values)
+        records = _times_in_flight(t, heads, _grains(ds), 4, reach=0.8)
+        u = point.u.values
+        for color, r in zip(_cmap_colors(plt, len(records)), records):
+            z = heads[r] - np.arange(u.shape[-1])
+            env = an.running_max(u[r], 11)
+            keep = (z >= 0) & (env > 0)
+            fit = an.tail_decay(u[r], heads[r])
+            style = "-" if k == 0 else "--"
+            axes[points].semilogy(z[keep], env[keep], style, color=color,
+                                  label=f"l0 = {float(point.l0):g}, t = {t[r]:g}: λ = {fit.decay_length:.0f} "
+                                        f"≈ {fit.decay_length / heads[r]:.2f}·(head depth)")
+    axes[points].set_xlabel("z = grains behind the head")
+    axes[points].set_ylabel("compressive u, envelope [1e-5 m]")
+    axes[points].set_title("(c) tail envelopes (running max over 11 grains); λ from exp(−z/λ) fits")
+    axes[points].legend(loc="lower left", ncol=2, fontsize=6.5)
+    return _finish(fig, out, note=SIGN_NOTE)
+
+
+def fig4(ds, out: Path) -> Path:
+    """Fig. 4: a 3000-grain chain, l0 = 1e-3, v_imp = 0.1: the in-going pulse and its reflection."""
+    _require(ds, "u", "v", figure="fig4")
+    plt = _pyplot()
+    t = ds.t.values
+    u, v = ds.u.values, ds.v.values
+    n = u.shape[-1]
+    heads = an.head_positions(v)
+    arrive = np.flatnonzero(heads > 0.98 * n)
+    t_wall = t[arrive[0]] if arrive.size else t[-1]
+    fig, axes = plt.subplots(2, 1, figsize=(7.0, 5.2))
+    x = an.paper_label(np.arange(n), n)
+    before = [int(np.argmin(np.abs(t - f * t_wall))) for f in (0.25, 0.5, 0.75, 0.95)]
+    after = [int(np.argmin(np.abs(t - tt))) for tt in np.linspace(t_wall, t[-1], 5)[1:]]
+    for ax, records, title in ((axes[0], before, "(a) in-going pulse"), (axes[1], after, "(b) after reflection "
+                                                                          "from the rigid wall at label 0")):
+        for color, r in zip(_cmap_colors(plt, len(records)), records):
+            ax.plot(x, an.paper_displacement(u[r]), color=color, label=f"t = {t[r]:g}")
+        ax.set_xlim(n, 0)
+        ax.set_ylabel("−u [1e-5 m]")
+        ax.set_title(f"{title}; l0 = {_scene_value(ds, 'chain', 'l0'):g}, v_imp = "
+                     f"{_scene_value(ds, 'excitation', 'impact'):g}")
+        ax.legend(loc="best", ncol=2)
+    axes[1].set_xlabel(f"grain label N − i (surface = {n})")
+    return _finish(fig, out, note=SIGN_NOTE)
+
+
+# ---- Figs. 5, 7, 8: impurities -------------------------------------------------------------
+
+
+def _impurity_points(ds):
+    """Indices along impurity_mass of the light, heavy and clean chains (clean may be missing)."""
+    masses = ds.impurity_mass.values
+    light = int(np.flatnonzero(masses < 1.0)[0])
+    heavy = int(np.flatnonzero(masses > 1.0)[0])
+    clean = np.flatnonzero(masses == 1.0)
+    return light, heavy, (int(clean[0]) if clean.size else None)
+
+
+def _impurity_grains(ds) -> list[int]:
+    import json
+
+    scene = json.loads(ds.attrs.get("scene", "{}"))
+    blocks = scene.get("impurities", [])
+    return list(blocks[0]["grains"]) if blocks else []
+
+
+def echo_table(ds, *, contact: str | None = None, traced: int | None = None) -> dict[str, an.Backscatter]:
+    """Backscatter at a traced grain (default: the shallowest) for light and heavy impurities, against
+    the clean chain of the same store; keys 'light/harmonic', 'heavy/own', …"""
+    light, heavy, clean = _impurity_points(ds)
+    if clean is None:
+        raise PlotError("the store has no clean reference chain (impurity_mass = 1)")
+    t = ds.trace_t.values
+    grains = ds.traced_grain.values
+    column = 0 if traced is None else int(np.flatnonzero(grains == traced)[0])
+    depth = float(np.mean(_impurity_grains(ds)))
+    contacts = [contact] if contact else [str(c) for c in ds.contact.values]
+    reference = ds.trace_v.isel(impurity_mass=clean, contact=0).values[:, column]
+    clean_v = ds.v.isel(impurity_mass=clean, contact=0).values
+    speed = an.pulse_speed(ds.t.values, an.head_positions(clean_v), first_grain=20, last_grain=depth - 20).slope
+    n = _grains(ds)
+    grain = int(grains[column])
+    after = (depth - 10 + (depth - 10 - grain)) / speed if speed > 0 else 0.0
+    until = (2 * n - 40 - grain) / speed if speed > 0 else math.inf
+    table = {}
+    for name, index in (("light", light), ("heavy", heavy)):
+        for rule in contacts:
+            signal = ds.trace_v.isel(impurity_mass=index).sel(contact=rule).values[:, column]
+            table[f"{name}/{rule}"] = an.backscatter(t, signal, reference, after=after, until=until)
+    return table
+
+
+def fig5(ds, out: Path) -> Path:
+    """Fig. 5: displacement profiles with five light (a) and heavy (b) impurities, their difference (c),
+    and (d) the echo at the surface grain for both contact rules."""
+    _require(ds, "u", "v", "impurity_mass", "contact", "trace_v", figure="fig5")
+    plt = _pyplot()
+    light, heavy, clean = _impurity_points(ds)
+    t = ds.t.values
+    n = _grains(ds)
+    depth = float(np.mean(_impurity_grains(ds)))
+    z = np.arange(n)
+    fig, axes = plt.subplots(4, 1, figsize=(7.0, 10.0))
+    reference = ds.v.isel(impurity_mass=clean if clean is not None else light, contact=0).values
+    speed = an.pulse_speed(t, an.head_positions(reference), first_grain=20, last_grain=depth - 20).slope
+    t_hit = depth / speed
+    times = [0.5 * t_hit, 0.95 * t_hit, 1.4 * t_hit, 1.8 * t_hit]
+    records = [int(np.argmin(np.abs(t - x))) for x in times]
+    for ax, index, name in ((axes[0], light, "light (m = 0.5, a = 2000)"), (axes[1], heavy, "heavy (m = 2, a = 1e4)")):
+        u = ds.u.isel(impurity_mass=index).sel(contact="harmonic").values
+        for color, r in zip(_cmap_colors(plt, len(records)), records):
+            ax.plot(z, an.paper_displacement(u[r]), color=color, label=f"t = {t[r]:g}")
+        ax.axvspan(min(_impurity_grains(ds)) - 0.5, max(_impurity_grains(ds)) + 0.5, color="0.85")
+        ax.set_title(f"({'ab'[index == heavy]}) {len(_impurity_grains(ds))} {name} impurities around grain "
+                     f"{depth:g}, contact rule harmonic")
+        ax.set_ylabel("−u [1e-5 m]")
+        ax.legend(loc="best", ncol=4)
+    r = records[-1]
+    for rule, style in (("harmonic", "-"), ("own", ":")):
+        axes[2].plot(z, an.paper_displacement(ds.u.isel(impurity_mass=light).sel(contact=rule).values[r]), "--" if
+                     rule == "harmonic" else ":", color="C3", label=f"light, {rule}")
+        axes[2].plot(z, an.paper_displacement(ds.u.isel(impurity_mass=heavy).sel(contact=rule).values[r]),
+                     "-" if rule == "harmonic" else "-.", color="C0", label=f"heavy, {rule}")
+    axes[2].set_xlim(0, depth)
+    axes[2].set_title(f"(c) reflected pulses at t = {t[r]:g}: light (dashed) and heavy (solid)")
+    axes[2].set_ylabel("−u [1e-5 m]")
+    axes[2].legend(loc="best", ncol=2)
+    for ax in axes[:3]:
+        ax.set_xlabel("depth z [grain diameters] (surface = 0)")
+    _echo_panel(axes[3], ds, "(d)")
+    return _finish(fig, out, note=SIGN_NOTE)
+
+
+def _echo_panel(ax, ds, tag: str) -> None:
+    """Velocity echo (signal − clean chain) at the shallowest traced grain, both contact rules."""
+    light, heavy, clean = _impurity_points(ds)
+    tt = ds.trace_t.values
+    grain = int(ds.traced_grain.values[0])
+    if clean is None:
+        ax.set_visible(False)
+        return
+    reference = ds.trace_v.isel(impurity_mass=clean, contact=0).values[:, 0]
+    table = echo_table(ds)
+    start = min(b.arrival_time for b in table.values() if np.isfinite(b.arrival_time))
+    window = (tt > start - 2.0) & (tt < start + 8.0)
+    for name, index, color in (("light", light, "C3"), ("heavy", heavy, "C0")):
+        for rule, style in (("harmonic", "-"), ("own", ":")):
+            echo = ds.trace_v.isel(impurity_mass=index).sel(contact=rule).values[:, 0] - reference
+            b = table[f"{name}/{rule}"]
+            ax.plot(tt[window], -echo[window], style, color=color,
+                    label=f"{name}, {rule}: leading {'into chain' if b.leading_sign > 0 else 'toward surface'}, "
+                          f"|echo| ≤ {b.amplitude:.2g}")
+    ax.axhline(0, color="0.6", lw=0.5)
+    ax.set_xlabel(f"t [{TIME_UNIT}]")
+    ax.set_ylabel(f"−(v − v_clean) at grain {grain}")
+    ax.set_title(f"{tag} backscattered velocity at grain {grain} ({PAPER_SIGN}), minus the clean chain")
+    ax.legend(loc="best", fontsize=6.5)
+
+
+def fig7_8(ds, out: Path) -> Path:
+    """Figs. 7 and 8: grain velocity against depth in a g = 1 column with five light (left) and heavy
+    (right) impurities, at six times; bottom row: the echo at the surface grain."""
+    _require(ds, "v", "impurity_mass", "contact", figure="fig7_8")
+    plt = _pyplot()
+    light, heavy, clean = _impurity_points(ds)
+    t = ds.t.values
+    n = _grains(ds)
+    depth = float(np.mean(_impurity_grains(ds)))
+    reference = ds.v.isel(impurity_mass=clean if clean is not None else light, contact=0).values
+    heads = an.head_positions(reference)
+    t_hit = t[np.flatnonzero(heads >= depth)[0]]
+    times = t_hit * np.array([0.4, 0.7, 0.95, 1.1, 1.5, 1.9])
+    records = [int(np.argmin(np.abs(t - x))) for x in times]
+    has_traces = "trace_v" in ds.variables and clean is not None
+    rows = len(records) + (1 if has_traces else 0)
+    fig, axes = plt.subplots(rows, 2, figsize=(8.0, 1.45 * rows + 0.6), sharex=False)
+    z = np.arange(n)
+    for col, (index, name) in enumerate(((light, "Fig. 7: light"), (heavy, "Fig. 8: heavy"))):
+        v = ds.v.isel(impurity_mass=index).sel(contact="harmonic").values
+        for row, r in enumerate(records):
+            ax = axes[row, col]
+            ax.plot(z, -v[r], color="k")
+            ax.axvspan(min(_impurity_grains(ds)) - 0.5, max(_impurity_grains(ds)) + 0.5, color="0.85")
+            ax.set_title(f"{name} ({'abcdef'[row]}) t = {t[r]:g}", loc="left", fontsize=8)
+            ax.set_xlim(0, n)
+            if col == 0:
+                ax.set_ylabel("−v", fontsize=8)
+        axes[len(records) - 1, col].set_xlabel("depth z [grain diameters]")
+    if has_traces:
+        ax = axes[-1, 0]
+        gs = ax.get_gridspec()
+        for a in axes[-1]:
+            a.remove()
+        ax = fig.add_subplot(gs[-1, :])
+        _echo_panel(ax, ds, "(g)")
+    fig.suptitle(f"g = {_scene_value(ds, 'chain', 'gravity'):g} column, v_imp = "
+                 f"{_scene_value(ds, 'excitation', 'impact'):g}; −v [1e-5 m / 1.0102 ms] ({PAPER_SIGN}); "
+                 "contact rule harmonic", fontsize=8)
+    return _finish(fig, out, note=SIGN_NOTE)
+
+
+# ---- Fig. 6 and the depth law --------------------------------------------------------------
+
+
+SURFACE_SKIP = 3
+"""Grains next to a free surface left out of Fig. 6's scales (the surface grain is thrown off)."""
+
+
+def fig6(ds, out: Path) -> Path:
+    """Fig. 6: displacement against depth for several g after the same elapsed time."""
+    _require(ds, "u", "v", "g", figure="fig6")
+    plt = _pyplot()
+    t = ds.t.values
+    n = _grains(ds)
+    g_values = ds.g.values
+    heads = an.head_positions(ds.v.sel(g=g_values.max()).values)
+    inside = np.flatnonzero(heads <= 0.8 * n)
+    r = int(inside[-1]) if inside.size else len(t) - 1
+    fig, axes = plt.subplots(2, 1, figsize=(7.0, 5.6))
+    styles = [":", "--", "-", "-."]
+    low = 0.0
+    for k, g in enumerate(g_values):
+        u = ds.u.sel(g=g).values[r]
+        # the free surface grain bounces off the column: leave the first grains out of the scales
+        scale = np.max(np.abs(u[SURFACE_SKIP:]))
+        low = min(low, float(np.min(an.paper_displacement(u[SURFACE_SKIP:]))))
+        axes[0].plot(np.arange(n), an.paper_displacement(u), styles[k % 4], color=f"C{k}", label=f"g = {g:g}")
+        axes[1].plot(np.arange(n), an.paper_displacement(u) / scale, styles[k % 4], color=f"C{k}",
+                     label=f"g = {g:g}")
+    axes[0].set_ylim(1.1 * low, -0.25 * low)
+    axes[1].set_ylim(-1.1, 0.3)
+    axes[0].set_title(f"(a) t = {t[r]:g} after an impact v_imp = {_scene_value(ds, 'excitation', 'impact'):g} "
+                      f"({n}-grain column; g = 1 ≙ 9.8 m/s²)")
+    axes[0].set_ylabel("−u [1e-5 m]")
+    axes[1].set_title(f"(b) the same, each scaled by its largest |u| below grain {SURFACE_SKIP - 1} (tail bumps)")
+    axes[1].set_ylabel("−u / max|u|")
+    for ax in axes:
+        ax.set_xlabel("depth z [grain diameters] (surface = 0)")
+        ax.set_xlim(0, n)
+        ax.legend(loc="best")
+    return _finish(fig, out, note=SIGN_NOTE)
+
+
+def depth(ds, out: Path) -> Path:
+    """Pulse speed against depth in a compacted column (log-log), with the z^(1/6) closed form."""
+    _require(ds, "v", figure="depth")
+    plt = _pyplot()
+    t = ds.t.values
+    n = _grains(ds)
+    g = _scene_value(ds, "chain", "gravity")
+    a = _scene_value(ds, "chain", "a")
+    dim = [d for d in ds.v.dims if d not in ("record", "grain")]
+    fig, ax = plt.subplots(figsize=(6.0, 4.2))
+    values = ds[dim[0]].values if dim else [None]
+    for k, value in enumerate(values):
+        v = ds.v.isel({dim[0]: k}).values if dim else ds.v.values
+        heads = an.head_positions(v)
+        fit = an.depth_law(t, heads, first_grain=50, last_grain=0.9 * n)
+        beyond = np.flatnonzero(heads > 0.9 * n)
+        stop = beyond[0] if beyond.size else len(t)
+        step = 4
+        h = heads[:stop]
+        speed = (h[step:] - h[:-step]) / (t[step:stop] - t[:stop - step])
+        mid = 0.5 * (h[step:] + h[:-step])
+        label = f"{dim[0]} = {value:g}: " if dim else ""
+        ax.loglog(mid, speed, ".", ms=3, color=f"C{k}", label=f"{label}c ∝ z^{fit.exponent:.4f}±{fit.exponent_error:.4f}")
+    z = np.geomspace(5, n, 100)
+    ax.loglog(z, an.column_sound_speed(z, gravity=g, a=a), "k-", lw=0.8, label="closed form √(K(z)/m), ∝ z^(1/6)")
+    ax.set_xlabel("depth z of the head [grain diameters]")
+    ax.set_ylabel("pulse speed c [grains per time unit]")
+    ax.set_title(f"pulse speed against depth, g = {g:g}, {n} grains")
+    ax.legend(loc="lower right")
+    return _finish(fig, out)
+
+
+# ---- Figs. 9-10: driven columns ------------------------------------------------------------
+
+PAPER_DRIVE_TIMES = (60.0, 132.0, 204.0, 276.0, 492.0)
+"""Times of Figs. 9(a)-(e) and 10(a)-(e) for the 10 000-grain column."""
+PAPER_WINDOW = 1.5
+"""Fig. 9's caption: snapshots averaged over 1.5 time units."""
+
+
+def drive_times(grain_count: int) -> np.ndarray:
+    """The paper's snapshot times, scaled for a shorter column by its travel time ∝ N^(5/6)."""
+    return np.asarray(PAPER_DRIVE_TIMES) * (grain_count / 10000.0) ** (5.0 / 6.0)
+
+
+def driven_windows(ds) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(tau values, window centres, kinetic-energy profiles, velocity profiles), profiles of shape
+    (tau, window, grain): from a reproduce_gpu.py store (ke_window, v_window) or averaged here
+    from velocity snapshots."""
+    n = _grains(ds)
+    taus = ds.tau.values
+    if "ke_window" in ds.variables:
+        return taus, ds.window_t.values, ds.ke_window.values, ds.v_window.values
+    t = ds.t.values
+    centres = drive_times(n)
+    centres = centres[centres + 0.5 * PAPER_WINDOW <= t[-1] + 1e-9]
+    v = ds.v.transpose("tau", "record", "grain").values
+    return taus, centres, an.window_average(t, an.kinetic_energy(v), centres, PAPER_WINDOW), \
+        an.window_average(t, v, centres, PAPER_WINDOW)
+
+
+def _fig_driven(ds, out: Path, which: str) -> Path:
+    _require(ds, "tau", figure=which)
+    plt = _pyplot()
+    taus, centres, ke, vel = driven_windows(ds)
+    n = _grains(ds)
+    data = ke if which == "fig9" else -vel
+    fig, axes = plt.subplots(len(centres), len(taus), figsize=(4.0 * len(taus), 1.35 * len(centres) + 0.8),
+                             squeeze=False)
+    for col, tau in enumerate(taus):
+        sw = an.standing_wave_measure(ke[col], smooth=max(5, n // 400))
+        for row, centre in enumerate(centres):
+            ax = axes[row, col]
+            ax.plot(np.arange(n), data[col, row], color="k", lw=0.5)
+            ax.set_xlim(0, n)
+            text = f"({'abcdef'[row]}) t = {centre:g}, τ = {tau:g}"
+            if row > 0 and np.isfinite(sw.correlation[row - 1]):
+                text += f"  (corr. with previous {sw.correlation[row - 1]:.2f})"
+            ax.set_title(text, loc="left", fontsize=7.5)
+            if which == "fig9":
+                ax.set_yscale("log")
+        axes[-1, col].set_xlabel("depth z [grain diameters]")
+    label = "mean kinetic energy per grain" if which == "fig9" else f"mean −v ({PAPER_SIGN})"
+    fig.suptitle(f"{'Fig. 9' if which == 'fig9' else 'Fig. 10'}: {label}, averaged over {PAPER_WINDOW:g} time units; "
+                 f"{n}-grain column, g = 1, surface driven 2 sin(2πt/τ), bottom fixed", fontsize=8)
+    return _finish(fig, out, note=SIGN_NOTE)
+
+
+def fig9(ds, out: Path) -> Path:
+    """Fig. 9: time-averaged kinetic energy against depth in the driven column, for each τ."""
+    return _fig_driven(ds, out, "fig9")
+
+
+def fig10(ds, out: Path) -> Path:
+    """Fig. 10: time-averaged velocity against depth in the driven column, for each τ."""
+    return _fig_driven(ds, out, "fig10")
+
+
+FIGURES: dict[str, Callable] = {
+    "fig1": fig1, "fig1d": fig1d, "fig2": fig2, "fig3": fig3, "fig4": fig4, "fig5": fig5, "fig6": fig6,
+    "depth": depth, "fig7_8": fig7_8, "fig9": fig9, "fig10": fig10,
+}
+"""Figure name → drawing function (dataset, output path)."""
+
+
+def plot_figure(dataset, figure: str, out: str | Path) -> Path:
+    """Draw ``figure`` (a key of :data:`FIGURES`) from an xarray dataset into the PNG ``out``."""
+    if figure not in FIGURES:
+        raise PlotError(f"unknown figure {figure!r}; allowed: {', '.join(FIGURES)}")
+    return FIGURES[figure](dataset, Path(out))

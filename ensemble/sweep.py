@@ -1,0 +1,366 @@
+"""Sweep files (SPEC §8): a base scene and the axes along which its keys vary.
+
+A sweep is a grid: every axis is a store dimension, and the points are the product of the
+axes in file order (the last axis varies fastest). Axes listed together in one ``[[zip]]``
+group vary together instead: they share one dimension, which takes the name and the place
+of the first axis the group lists; the group's other axes become coordinates along that
+dimension (``ds.l0`` over ``v_imp``), so ``ds.u.sel(v_imp=…)`` selects on the first and
+``ds.swap_dims(v_imp="l0")`` on another.
+
+Every point's scene is built (and so validated) before anything runs; bad input raises
+:class:`~ensemble.scene.SceneError` naming the key, the value and what is allowed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .scene import Scene, SceneError, UnknownKeyError, apply_overrides, read_toml, scene_from_dict
+
+AXIS_KEYS = ("name", "key", "values", "linspace", "logspace")
+SPACINGS = ("values", "linspace", "logspace")
+RESERVED_NAMES = frozenset({
+    "t", "record", "grain", "sample", "traced", "trace_t", "traced_grain", "u", "v", "energy", "work",
+    "trace_u", "trace_v", "status", "energy_error", "max_overlap", "wall_seconds", "grain_steps_per_second",
+    "batch", "batches",
+})
+_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+
+@dataclass(frozen=True)
+class Axis:
+    """One swept scene key: ``name`` (store coordinate), dotted scene ``key`` and its values."""
+
+    name: str
+    key: str
+    """Dotted scene key, e.g. ``excitation.impact`` or ``impurities.0.mass``."""
+    values: tuple
+    """Python scalars (float, int, str or bool), in sweep order."""
+
+    def coordinate(self) -> np.ndarray:
+        """The values as a 1-D coordinate array (float64, int64, bool or str)."""
+        kinds = {type(v) for v in self.values}
+        if kinds == {bool}:
+            return np.array(self.values, dtype=bool)
+        if kinds == {int}:
+            return np.array(self.values, dtype=np.int64)
+        if kinds <= {int, float}:
+            return np.array(self.values, dtype=np.float64)
+        return np.array(self.values, dtype=str)
+
+
+@dataclass(frozen=True)
+class Dimension:
+    """A store dimension: one axis, or a ``[[zip]]`` group of axes that vary together."""
+
+    axes: tuple[Axis, ...]
+
+    @property
+    def name(self) -> str:
+        """Dimension name: the (first) axis's name."""
+        return self.axes[0].name
+
+    @property
+    def size(self) -> int:
+        return len(self.axes[0].values)
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A validated sweep: base scene, dimensions (grid product), and where it came from."""
+
+    base: Scene
+    dimensions: tuple[Dimension, ...]
+    zips: tuple[tuple[str, ...], ...] = ()
+    """Axis names of each ``[[zip]]`` group, as written."""
+    source: str = ""
+    """The sweep file's path ('' for a sweep built in code)."""
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """Points along each dimension."""
+        return tuple(d.size for d in self.dimensions)
+
+    @property
+    def dims(self) -> tuple[str, ...]:
+        """Dimension names, in store order."""
+        return tuple(d.name for d in self.dimensions)
+
+    @property
+    def axes(self) -> tuple[Axis, ...]:
+        return tuple(a for d in self.dimensions for a in d.axes)
+
+    @property
+    def point_count(self) -> int:
+        return math.prod(self.shape)
+
+    def overrides(self, index: tuple[int, ...]) -> dict[str, Any]:
+        """Dotted scene keys → values at grid index ``index`` (one entry per dimension)."""
+        return {a.key: a.values[i] for d, i in zip(self.dimensions, index) for a in d.axes}
+
+    def coordinates_at(self, index: tuple[int, ...]) -> dict[str, Any]:
+        """Axis name → value at grid index ``index``."""
+        return {a.name: a.values[i] for d, i in zip(self.dimensions, index) for a in d.axes}
+
+    def scene_at(self, index: tuple[int, ...]) -> Scene:
+        """The validated scene of one point."""
+        try:
+            return self.base.with_overrides(self.overrides(index))
+        except UnknownKeyError:
+            raise
+        except SceneError as err:
+            where = ", ".join(f"{k}={v!r}" for k, v in self.coordinates_at(index).items())
+            raise SceneError(err.key, err.value, f"{err.allowed} (at sweep point {where})") from None
+
+    def scenes(self) -> list[Scene]:
+        """Every point's scene, in C order of the grid (last dimension fastest)."""
+        return [self.scene_at(index) for index in np.ndindex(*self.shape)]
+
+    def to_dict(self) -> dict:
+        """Canonical plain data: the resolved base scene (every key filled), axes with explicit values, zips."""
+        return {
+            "scene": self.base.to_dict(),
+            "axis": [{"name": a.name, "key": a.key, "values": list(a.values)} for a in self.axes],
+            "zip": [{"axes": list(z)} for z in self.zips],
+        }
+
+    def fingerprint(self) -> str:
+        """sha256 of the canonical JSON of :meth:`to_dict`: equal for sweeps that define the same points."""
+        text = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()
+
+
+# ---- parsing -----------------------------------------------------------------------
+
+def _scalar_list(key: str, values: Any) -> tuple:
+    if not isinstance(values, list) or not values:
+        raise SceneError(key, values, "must be a non-empty list of numbers, strings or booleans")
+    for v in values:
+        if not isinstance(v, (bool, int, float, str)):
+            raise SceneError(key, v, "axis values must be numbers, strings or booleans")
+        if isinstance(v, float) and not math.isfinite(v):
+            raise SceneError(key, v, "axis values must be finite")
+    kinds = {bool if isinstance(v, bool) else str if isinstance(v, str) else float for v in values}
+    if len(kinds) > 1:
+        raise SceneError(key, values, "axis values must all be numbers, all strings or all booleans")
+    if len(set(values)) != len(values):
+        raise SceneError(key, values, "axis values must not repeat (they label a store dimension)")
+    if kinds == {float} and any(isinstance(v, float) for v in values):
+        values = [float(v) for v in values]
+    return tuple(values)
+
+
+def _spacing(key: str, spec: Any, log: bool) -> tuple:
+    what = "[from_exponent, to_exponent, count]" if log else "[first, last, count]"
+    if (not isinstance(spec, list) or len(spec) != 3
+            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in spec)):
+        raise SceneError(key, spec, f"must be {what}")
+    start, stop, count = spec
+    if not all(math.isfinite(x) for x in spec):
+        raise SceneError(key, spec, f"must be {what} with finite numbers")
+    if not (float(count).is_integer() and count >= 1):
+        raise SceneError(key, spec, f"must be {what}; count must be an integer ≥ 1")
+    count = int(count)
+    if count > 1 and start == stop:
+        raise SceneError(key, spec, "first and last must differ when count > 1 (values must not repeat)")
+    values = np.logspace(start, stop, count) if log else np.linspace(start, stop, count)
+    return tuple(float(v) for v in values.tolist())
+
+
+def _parse_axis(k: int, raw: Any) -> Axis:
+    where = f"axis[{k}]"
+    if not isinstance(raw, dict):
+        raise SceneError(where, raw, "must be a table ([[axis]] with name, key and values/linspace/logspace)")
+    for key in raw:
+        if key not in AXIS_KEYS:
+            raise UnknownKeyError(f"{where}.{key}", AXIS_KEYS)
+    name = raw.get("name")
+    if not isinstance(name, str) or not _NAME.match(name):
+        raise SceneError(f"{where}.name", name, "is required: a name of letters, digits and _ (not starting "
+                         "with a digit), e.g. \"v_imp\"")
+    if name in RESERVED_NAMES:
+        raise SceneError(f"{where}.name", name, f"is a store variable name; choose another "
+                         f"(reserved: {', '.join(sorted(RESERVED_NAMES))})")
+    key = raw.get("key")
+    if not isinstance(key, str) or not key:
+        raise SceneError(f"{where}.key", key, "is required: a dotted scene key, e.g. \"excitation.impact\"")
+    given = [s for s in SPACINGS if s in raw]
+    if len(given) != 1:
+        raise SceneError(where, name, "give exactly one of values, linspace = [first, last, count] or "
+                         "logspace = [from_exponent, to_exponent, count]")
+    spacing = given[0]
+    if spacing == "values":
+        values = _scalar_list(f"{where}.values", raw["values"])
+    else:
+        values = _spacing(f"{where}.{spacing}", raw[spacing], log=spacing == "logspace")
+    return Axis(name=name, key=key, values=values)
+
+
+def _check_key(k: int, axis: Axis, base_data: dict) -> None:
+    """The key must name a scene key; checked by applying the axis's first value to the base scene."""
+    try:
+        data = apply_overrides(base_data, {axis.key: axis.values[0]})
+    except SceneError as err:
+        raise SceneError(f"axis[{k}].key", axis.key, f"not a scene key ({err})") from None
+    try:
+        scene_from_dict(data)
+    except UnknownKeyError as err:
+        raise SceneError(f"axis[{k}].key", axis.key, f"not a scene key ({err})") from None
+    except SceneError:
+        pass  # a value the scene rejects is reported per point, with the point named
+
+
+def _parse_zips(raw: Any, names: list[str]) -> list[tuple[str, ...]]:
+    if raw is None:
+        return []
+    if isinstance(raw, dict):
+        raw = [raw]
+    if not isinstance(raw, list):
+        raise SceneError("zip", raw, "must be an array of tables: [[zip]] axes = [\"v_imp\", \"l0\"]")
+    groups, seen = [], {}
+    for z, table in enumerate(raw):
+        where = f"zip[{z}]"
+        if not isinstance(table, dict):
+            raise SceneError(where, table, "must be a table with axes = [names]")
+        for key in table:
+            if key != "axes":
+                raise UnknownKeyError(f"{where}.{key}", ("axes",))
+        axes = table.get("axes")
+        if not isinstance(axes, list) or len(axes) < 2 or not all(isinstance(a, str) for a in axes):
+            raise SceneError(f"{where}.axes", axes, "must list at least two axis names")
+        for a in axes:
+            if a not in names:
+                raise SceneError(f"{where}.axes", a, f"no such axis; axes: {', '.join(names)}")
+            if a in seen:
+                raise SceneError(f"{where}.axes", a, f"axis already in zip[{seen[a]}] (an axis may be in one "
+                                 "zip group)")
+            seen[a] = z
+        if len(set(axes)) != len(axes):
+            raise SceneError(f"{where}.axes", axes, "axis names must not repeat")
+        groups.append(tuple(axes))
+    return groups
+
+
+def sweep_from_dict(data: dict, *, base_dir: str | Path = ".", overrides: dict[str, Any] | None = None,
+                    source: str = "") -> Sweep:
+    """Build a sweep from parsed TOML: ``scene`` (path relative to ``base_dir``, or a table), ``[[axis]]``,
+    ``[[zip]]``. ``overrides`` (``--set``) apply to the base scene before the axes."""
+    if not isinstance(data, dict):
+        raise SceneError("sweep", data, "must be a table")
+    for key in data:
+        if key not in ("scene", "axis", "zip"):
+            raise UnknownKeyError(key, ("scene", "axis", "zip"))
+    if "scene" not in data:
+        raise SceneError("scene", None, "is required: a scene file path (relative to the sweep file) or an "
+                         "inline [scene] table")
+    raw_scene = data["scene"]
+    if isinstance(raw_scene, str):
+        scene_path = Path(base_dir) / raw_scene
+        if not scene_path.is_file():
+            raise SceneError("scene", raw_scene, f"no such scene file ({scene_path})")
+        base_data = read_toml(scene_path)
+    elif isinstance(raw_scene, dict):
+        base_data = raw_scene
+    else:
+        raise SceneError("scene", raw_scene, "must be a path (string) or an inline [scene] table")
+    base_data = apply_overrides(base_data, overrides or {})
+    base = scene_from_dict(base_data)
+    base_data = base.to_dict()
+
+    raw_axes = data.get("axis", [])
+    if isinstance(raw_axes, dict):
+        raw_axes = [raw_axes]
+    if not isinstance(raw_axes, list):
+        raise SceneError("axis", raw_axes, "must be an array of tables ([[axis]])")
+    axes = [_parse_axis(k, raw) for k, raw in enumerate(raw_axes)]
+    names, keys = {}, {}
+    for k, axis in enumerate(axes):
+        if axis.name in names:
+            raise SceneError(f"axis[{k}].name", axis.name, f"already used by axis[{names[axis.name]}]")
+        if axis.key in keys:
+            raise SceneError(f"axis[{k}].key", axis.key, f"already swept by axis[{keys[axis.key]}]")
+        names[axis.name], keys[axis.key] = k, k
+        _check_key(k, axis, base_data)
+
+    zips = _parse_zips(data.get("zip"), list(names))
+    by_name = {a.name: a for a in axes}
+    zipped = {name: group for group in zips for name in group}
+    dimensions = []
+    for axis in axes:
+        group = zipped.get(axis.name)
+        if group is None:
+            dimensions.append(Dimension(axes=(axis,)))
+        elif axis.name == group[0]:
+            members = tuple(by_name[n] for n in group)
+            for n, member in zip(group, members):
+                if len(member.values) != len(members[0].values):
+                    raise SceneError(f"zip[{zips.index(group)}].axes", n,
+                                     f"has {len(member.values)} values but {group[0]} has "
+                                     f"{len(members[0].values)}: zipped axes need equal lengths")
+            dimensions.append(Dimension(axes=members))
+    return Sweep(base=base, dimensions=tuple(dimensions), zips=tuple(zips), source=source)
+
+
+def load_sweep(path: str | Path, overrides: dict[str, Any] | None = None) -> Sweep:
+    """Read and validate a sweep file (the points' scenes are checked by :func:`sweep_scenes`)."""
+    path = Path(path)
+    if not path.is_file():
+        raise SceneError("sweep file", str(path), "no such file")
+    return sweep_from_dict(read_toml(path), base_dir=path.parent, overrides=overrides, source=str(path))
+
+
+# ---- what every point must share ------------------------------------------------------
+
+LAYOUT_KEYS = (
+    ("chain.grains", lambda s: s.chain.grains),
+    ("record count", lambda s: s.record_count),
+    ("record.fields", lambda s: s.record.fields),
+    ("record.traces", lambda s: s.record.traces),
+    ("trace samples per record", lambda s: s.steps_per_record // s.trace_stride if s.record.traces else 0),
+    ("record.energy", lambda s: s.record.energy),
+    ("boundary.surface (driven or not)", lambda s: s.boundary.surface == "driven"),
+)
+"""Scene properties that shape the store's record/grain dimensions: every point must share them."""
+
+
+def record_times(scene: Scene) -> np.ndarray:
+    """Snapshot times, computed exactly as the runner does."""
+    return np.arange(scene.record_count) * scene.steps_per_record * scene.integrator.dt
+
+
+def trace_times(scene: Scene) -> np.ndarray | None:
+    """Trace sample times, as the runner computes them (None without traces)."""
+    if not scene.record.traces:
+        return None
+    count = (scene.record_count - 1) * (scene.steps_per_record // scene.trace_stride) + 1
+    return np.arange(count) * scene.trace_stride * scene.integrator.dt
+
+
+def sweep_scenes(sweep: Sweep) -> list[Scene]:
+    """Build and validate every point's scene; check that all points share the store layout."""
+    scenes = sweep.scenes()
+    first = scenes[0]
+    for key, get in LAYOUT_KEYS:
+        values = {get(s) for s in scenes}
+        if len(values) > 1:
+            raise SceneError(key, sorted(map(str, values)), "every point of a sweep shares the store's "
+                             "record/grain layout; sweep this key in separate sweeps")
+    t0, tt0 = record_times(first), trace_times(first)
+    for s in scenes:
+        t = record_times(s)
+        if not np.allclose(t, t0, rtol=1e-9, atol=0):
+            raise SceneError("record times", f"{t[1]:g} vs {t0[1]:g}", "every point must record at the same "
+                             "times (record.every a whole number of steps of each dt)")
+        tt = trace_times(s)
+        if tt is not None and not np.allclose(tt, tt0, rtol=1e-9, atol=0):
+            raise SceneError("trace times", f"{tt[1]:g} vs {tt0[1]:g}", "every point must sample traces at "
+                             "the same times")
+    return scenes

@@ -1,0 +1,443 @@
+"""A sweep's Zarr v3 store (SPEC §6): one group, sweep dimensions first, filled batch by batch.
+
+Layout, as ``ensemble.store.write_result`` writes a run, with the sweep dimensions in front:
+``u``/``v`` (*dims, record, grain), ``energy`` (*dims, record), ``trace_u``/``trace_v``
+(*dims, sample, traced), per point ``status``, ``energy_error``, ``max_overlap``,
+``wall_seconds``, ``grain_steps_per_second`` and ``launch_group``; coordinates for every axis
+(zipped axes are coordinates along their group's dimension), ``t``, ``grain``, ``trace_t``,
+``traced_grain``.
+
+Crash safety:
+
+1. :func:`create_sweep_store` writes every array's metadata, the coordinates and the
+   attributes into a temporary directory and renames it into place: a store at the path is
+   always complete, and its data arrays read as fill values (NaN, status −1 = not run) until
+   filled.
+2. A batch is one hyper-rectangular block of the sweep grid, and the store chunks the sweep
+   dimensions by exactly that block (big variables are sharded: one shard = one batch, inner
+   chunks of about 1 MiB, a few points each). So a batch writes whole chunks only, no two batches (or workers) ever
+   write one file, and zarr's LocalStore writes each file atomically (temporary file + rename).
+3. :func:`write_batch` writes the batch's data, then its completion record (the zarr group
+   ``batches/NNNNNN`` whose attributes say where and how fast it ran). Resuming skips batches
+   with a record and reruns the others, which rewrites the same chunks with the same bits.
+4. :func:`finalize` sums the records into the ``provenance`` attribute and re-consolidates.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import platform
+import shutil
+import tempfile
+import warnings
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import zarr
+
+from .model import SHARED_KEYS
+from .planner import Batch, Plan
+from .runner import RunResult
+from .scene import Scene
+from .status import status_attrs
+from .store import SCHEMA_VERSION, consolidate, package_version
+from .sweep import Sweep, record_times, trace_times
+
+NOT_RUN = -1
+"""``status`` of a point whose batch has not finished."""
+BATCHES = "batches"
+"""Group holding one completion record (a subgroup with attributes) per finished batch."""
+INNER_CHUNK_BYTES = 1 << 20
+"""Target size of an inner chunk (what reading one point costs at least): about 1 MiB."""
+TIMING_VARIABLES = ("wall_seconds", "grain_steps_per_second")
+"""Per-point variables that measure the machine, not the physics (they differ between runs)."""
+
+FIELD_ATTRS = {
+    "u": {"coordinates": "t", "units": "program length (1e-5 m)",
+          "long_name": "displacement from static equilibrium, positive toward the bottom"},
+    "v": {"coordinates": "t", "units": "program velocity (1e-5 m / 1.0102e-3 s)",
+          "long_name": "velocity, positive toward the bottom"},
+}
+
+
+class SweepStoreError(ValueError):
+    """A store that cannot take this sweep (different sweep, package version, layout)."""
+
+
+def warp_version() -> str:
+    import warp as wp
+
+    return wp.config.version
+
+
+def status_codes() -> dict[str, str]:
+    """Status codes of a run plus ``-1: NOT_RUN``."""
+    return {str(NOT_RUN): "NOT_RUN: the point's batch has not finished (interrupted sweep; use --resume)",
+            **status_attrs()}
+
+
+# ---- variables ---------------------------------------------------------------------------
+
+def _store_real(plan: Plan) -> np.dtype:
+    precisions = {dict(zip([k for k, _ in SHARED_KEYS], g.key))["integrator.precision"] for g in plan.groups}
+    return np.dtype(np.float64 if "float64" in precisions else np.float32)
+
+
+def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
+    """Every data variable of the store: name, dims, trailing shape, dtype, fill value, attributes."""
+    dims = sweep.dims
+    companions = [a.name for d in sweep.dimensions for a in d.axes[1:]]
+    real = _store_real(plan)
+    records = scene.record_count
+    n = scene.chain.grains
+
+    def coords(*names: str) -> dict:
+        joined = " ".join(list(names) + companions)
+        return {"coordinates": joined} if joined else {}
+
+    out = []
+    for name in scene.record.fields:
+        out.append(dict(name=name, dims=dims + ("record", "grain"), trailing=(records, n), dtype=real,
+                        fill=np.nan, attrs={**FIELD_ATTRS[name], **coords("t")}))
+    if scene.record.energy:
+        out.append(dict(name="energy", dims=dims + ("record",), trailing=(records,), dtype=np.dtype(np.float64),
+                        fill=np.nan, attrs={**coords("t"), "long_name": "total energy relative to the static "
+                                            "state (SPEC §5 E minus a constant)"}))
+        if scene.boundary.surface == "driven":
+            out.append(dict(name="work", dims=dims + ("record",), trailing=(records,),
+                            dtype=np.dtype(np.float64), fill=np.nan,
+                            attrs={**coords("t"), "long_name": "work done by the driver on the chain"}))
+    tt = trace_times(scene)
+    if tt is not None:
+        for name in ("u", "v"):
+            out.append(dict(name=f"trace_{name}", dims=dims + ("sample", "traced"),
+                            trailing=(len(tt), len(scene.record.traces)), dtype=real, fill=np.nan,
+                            attrs=coords("trace_t", "traced_grain")))
+    out += [
+        dict(name="status", dims=dims, trailing=(), dtype=np.dtype(np.int32), fill=NOT_RUN,
+             attrs={**coords(), "flag_values": [int(k) for k in status_codes()], "flag_meanings": status_codes()}),
+        dict(name="energy_error", dims=dims, trailing=(), dtype=np.dtype(np.float64), fill=np.nan,
+             attrs={**coords(), "long_name": "max_t |E(t) - E(0) [- W(t)]| / E_inj (absolute when nothing "
+                    "is injected)"}),
+        dict(name="max_overlap", dims=dims, trailing=(), dtype=np.dtype(np.float64), fill=np.nan,
+             attrs=coords()),
+        dict(name="wall_seconds", dims=dims, trailing=(), dtype=np.dtype(np.float64), fill=np.nan,
+             attrs={**coords(), "long_name": "wall seconds of the ensemble, shared evenly among its chains"}),
+        dict(name="grain_steps_per_second", dims=dims, trailing=(), dtype=np.dtype(np.float64), fill=np.nan,
+             attrs={**coords(), "long_name": "throughput of the point's batch (all its chains)"}),
+    ]
+    return out
+
+
+def _trailing_chunks(trailing: tuple[int, ...], itemsize: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """(inner chunk, shard extent) along the trailing dims of one point: whole rows, at most about
+    INNER_CHUNK_BYTES per chunk; the shard covers the whole extent (rounded up to whole chunks)."""
+    if not trailing:
+        return (), ()
+    row = int(np.prod(trailing[1:])) * itemsize
+    first = max(1, min(trailing[0], INNER_CHUNK_BYTES // max(row, 1)))
+    shard_first = math.ceil(trailing[0] / first) * first
+    return (first,) + trailing[1:], (shard_first,) + trailing[1:]
+
+
+def _sub_block(block: tuple[int, ...], points: int) -> tuple[int, ...]:
+    """A block of at most ``points`` points that tiles ``block`` (whole trailing dims, then a divisor)."""
+    sub = [1] * len(block)
+    room = max(1, points)
+    for d in reversed(range(len(block))):
+        if block[d] <= room:
+            sub[d] = block[d]
+            room //= block[d]
+            continue
+        sub[d] = max(k for k in range(1, room + 1) if block[d] % k == 0)
+        break
+    return tuple(sub)
+
+
+def chunk_layout(block: tuple[int, ...], trailing: tuple[int, ...], itemsize: int):
+    """(chunks, shards or None) of a variable: one shard (or chunk) per batch block along the sweep
+    dims; inner chunks of about INNER_CHUNK_BYTES (a few points), so reading one point stays cheap."""
+    block = tuple(block)
+    if not trailing:
+        return block, None
+    inner, shard = _trailing_chunks(tuple(trailing), itemsize)
+    point_bytes = int(np.prod(inner)) * itemsize
+    chunks = _sub_block(block, INNER_CHUNK_BYTES // max(point_bytes, 1)) + inner
+    shards = block + shard
+    return (chunks, None) if chunks == shards else (chunks, shards)
+
+
+def _create(group, name: str, shape, dtype, dims, block, trailing, fill, attrs):
+    chunks, shards = chunk_layout(tuple(block), tuple(trailing), np.dtype(dtype).itemsize)
+    return group.create_array(name, shape=tuple(shape), dtype=dtype, chunks=chunks, shards=shards,
+                              dimension_names=list(dims), fill_value=fill, attributes=attrs)
+
+
+def _small(group, name: str, data: np.ndarray, dims: tuple[str, ...], attrs: dict | None = None):
+    data = np.asarray(data)
+    arr = group.create_array(name, shape=data.shape, dtype=data.dtype if data.dtype.kind != "U" else str,
+                             chunks=data.shape or (), dimension_names=list(dims),
+                             fill_value="" if data.dtype.kind == "U" else 0, attributes=attrs or {})
+    arr[...] = data
+    return arr
+
+
+def launch_groups_attr(plan: Plan) -> list[dict[str, Any]]:
+    names = [k for k, _ in SHARED_KEYS]
+    out = []
+    for g in plan.groups:
+        shared = dict(zip(names, g.key))
+        out.append({
+            "grains": shared["chain.grains"], "method": shared["integrator.method"],
+            "precision": shared["integrator.precision"], "dt": shared["integrator.dt"],
+            "steps": g.grain_steps_per_chain // shared["chain.grains"], "points": g.point_count,
+            "kernel_features": {k: getattr(g.features, k) for k in g.features.__dataclass_fields__},
+        })
+    return out
+
+
+def _provenance(plan: Plan, device: str) -> dict[str, Any]:
+    import warp as wp
+
+    first = launch_groups_attr(plan)[0]
+    return {
+        "package": "hertzian",
+        "package_version": package_version(),
+        "warp_version": wp.config.version,
+        "python_version": platform.python_version(),
+        "device": device,
+        "precision": first["precision"],
+        "method": first["method"],
+        "dt": first["dt"],
+        "steps": first["steps"],
+        "chains": plan.point_count,
+        "grains": first["grains"],
+        "wall_seconds": 0.0,
+        "grain_steps_per_second": 0.0,
+        "energy_error_max": 0.0,
+        "kernel_features": first["kernel_features"],
+        "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "complete": False,
+        "batches": len(plan.batches),
+        "batches_done": 0,
+        "grain_steps": plan.grain_steps,
+    }
+
+
+def create_sweep_store(path: str | Path, sweep: Sweep, scenes: list[Scene], plan: Plan, *, device: str,
+                       overwrite: bool = False) -> Path:
+    """Create the whole store (metadata, coordinates, attributes) with no batch written; atomic."""
+    path = Path(path)
+    if path.exists() and not overwrite:
+        raise FileExistsError(f"{path} exists")
+    scene = scenes[0]
+    dims = sweep.dims
+    shape = sweep.shape
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent if path.parent.exists() else None))
+    try:
+        target = tmp / "store.zarr"
+        root = zarr.open_group(store=str(target), mode="w", zarr_format=3)
+        for dimension in sweep.dimensions:
+            for axis in dimension.axes:
+                _small(root, axis.name, axis.coordinate(), (dimension.name,),
+                       {"scene_key": axis.key, "long_name": f"scene key {axis.key}"})
+        _small(root, "t", record_times(scene), ("record",), {"units": "program time (1.0102e-3 s)"})
+        _small(root, "grain", np.arange(scene.chain.grains, dtype=np.int32), ("grain",),
+               {"long_name": "grain index from the surface"})
+        tt = trace_times(scene)
+        if tt is not None:
+            _small(root, "trace_t", tt, ("sample",))
+            _small(root, "traced_grain", np.asarray(scene.record.traces, dtype=np.int32), ("traced",))
+        for var in variables(sweep, scene, plan):
+            _create(root, var["name"], shape + var["trailing"], var["dtype"], var["dims"], plan.block,
+                    var["trailing"], var["fill"], var["attrs"])
+        group_attrs = {"long_name": "launch group of the point (index into the launch_groups attribute)"}
+        companions = " ".join(a.name for d in sweep.dimensions for a in d.axes[1:])
+        if companions:
+            group_attrs["coordinates"] = companions
+        lg = root.create_array("launch_group", shape=shape, dtype=np.int32, chunks=plan.block or (),
+                               dimension_names=list(dims), fill_value=-1, attributes=group_attrs)
+        lg[...] = plan.point_group.astype(np.int32)
+        root.create_group(BATCHES, attributes={"long_name": "one completion record per finished batch"})
+        root.attrs.update({
+            "schema_version": SCHEMA_VERSION,
+            "scene": json.dumps(sweep.base.to_dict()),
+            "scenes_differ_along": list(dims),
+            "sweep": json.dumps({**sweep.to_dict(), "source": sweep.source}),
+            "sweep_fingerprint": sweep.fingerprint(),
+            "sweep_axes": {a.name: {"dim": d.name, "key": a.key} for d in sweep.dimensions for a in d.axes},
+            "sweep_block": list(plan.block),
+            "launch_groups": launch_groups_attr(plan),
+            "status_codes": status_codes(),
+            "provenance": _provenance(plan, device),
+        })
+        consolidate(target)
+        if path.exists():
+            shutil.rmtree(path)
+        target.rename(path)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return path
+
+
+# ---- resume -----------------------------------------------------------------------------
+
+def check_resumable(path: str | Path, sweep: Sweep) -> tuple[int, ...]:
+    """Raise SweepStoreError unless ``path`` was made from this sweep by this package; return its block."""
+    path = Path(path)
+    try:
+        root = zarr.open_group(store=str(path), mode="r")
+        attrs = dict(root.attrs)
+    except Exception as err:  # noqa: BLE001 - any unreadable store is refused the same way
+        raise SweepStoreError(f"{path}: not a readable Zarr store ({type(err).__name__})") from None
+    if "sweep_fingerprint" not in attrs:
+        raise SweepStoreError(f"{path}: not a hertzian sweep store (no sweep_fingerprint attribute)")
+    if attrs.get("schema_version") != SCHEMA_VERSION:
+        raise SweepStoreError(f"{path}: schema version {attrs.get('schema_version')} differs from this "
+                              f"package's {SCHEMA_VERSION}")
+    if attrs["sweep_fingerprint"] != sweep.fingerprint():
+        raise SweepStoreError(f"{path} was made from a different sweep (scene or axes differ); resume with the "
+                              "sweep file it was made from, or write a new store")
+    prov = attrs.get("provenance", {})
+    for key, current in (("package_version", package_version()), ("warp_version", warp_version())):
+        if prov.get(key) != current:
+            raise SweepStoreError(f"{path} was written by {key.replace('_', ' ')} {prov.get(key)}, this is "
+                                  f"{current}; a resumed store must come from one version (start a new store)")
+    return tuple(attrs["sweep_block"])
+
+
+def completed_batches(path: str | Path) -> set[int]:
+    """Indices of batches whose completion record exists."""
+    folder = Path(path) / BATCHES
+    if not folder.is_dir():
+        return set()
+    return {int(p.name) for p in folder.iterdir() if p.name.isdigit() and (p / "zarr.json").is_file()}
+
+
+def remove_partial_files(path: str | Path) -> int:
+    """Delete temporary files a killed write left behind (zarr writes ``*.partial`` then renames)."""
+    count = 0
+    for p in Path(path).rglob("*.partial"):
+        p.unlink(missing_ok=True)
+        count += 1
+    return count
+
+
+# ---- filling -----------------------------------------------------------------------------
+
+def write_batch(path: str | Path, batch: Batch, result: RunResult, *, grain_steps: int,
+                worker: str = "") -> dict[str, Any]:
+    """Write one batch's results into its block, then its completion record; return the record."""
+    path = Path(path)
+    region = batch.slices
+    shape = batch.shape
+
+    def put(name: str, data: np.ndarray) -> None:
+        arr = zarr.open_array(store=str(path), path=name, mode="r+")
+        arr[region] = np.asarray(data, dtype=arr.dtype).reshape(shape + data.shape[1:])
+
+    for name, data in result.fields.items():
+        put(name, data)
+    scene = result.scenes[0]
+    if scene.record.energy:
+        put("energy", result.energy)
+        if result.work is not None:
+            put("work", result.work)
+    for name, data in result.traces.items():
+        put(f"trace_{name}", data)
+    chains = result.chain_count
+    wall = float(result.wall_seconds)
+    rate = grain_steps / max(wall, 1e-12)
+    put("status", result.status.astype(np.int32))
+    put("energy_error", result.energy_error)
+    put("max_overlap", result.max_overlap)
+    put("wall_seconds", np.full(chains, wall / chains))
+    put("grain_steps_per_second", np.full(chains, rate))
+    codes, counts = np.unique(result.status, return_counts=True)
+    record = {
+        "batch": batch.index,
+        "points": chains,
+        "device": result.device,
+        "host": platform.node(),
+        "worker": worker,
+        "wall_seconds": wall,
+        "grain_steps": int(grain_steps),
+        "grain_steps_per_second": rate,
+        "status_counts": {str(int(c)): int(k) for c, k in zip(codes, counts)},
+        "energy_error_max": float(np.max(result.energy_error)) if chains else 0.0,
+        "finished": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+    }
+    # the completion record comes last: a batch without one is rerun on --resume
+    zarr.open_group(store=str(path), path=f"{BATCHES}/{batch.index:06d}", mode="w", attributes=record)
+    return record
+
+
+def batch_records(path: str | Path) -> list[dict[str, Any]]:
+    """Every completion record, by batch index."""
+    folder = Path(path) / BATCHES
+    records = []
+    for index in sorted(completed_batches(path)):
+        meta = json.loads((folder / f"{index:06d}" / "zarr.json").read_text())
+        records.append(meta.get("attributes", {}))
+    return records
+
+
+def finalize(path: str | Path, *, session_seconds: float | None = None, session_grain_steps: int = 0) -> dict:
+    """Sum the completion records into ``provenance``; re-consolidate. Returns the provenance."""
+    path = Path(path)
+    records = batch_records(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        root = zarr.open_group(store=str(path), mode="r+")
+        prov = dict(root.attrs["provenance"])
+        wall = sum(r["wall_seconds"] for r in records)
+        steps = sum(r["grain_steps"] for r in records)
+        devices = sorted({r["device"] for r in records})
+        prov.update({
+            "device": ",".join(devices) if devices else prov["device"],
+            "hosts": sorted({r["host"] for r in records}),
+            "wall_seconds": wall,
+            "grain_steps_per_second": steps / wall if wall > 0 else 0.0,
+            "energy_error_max": max((r["energy_error_max"] for r in records), default=0.0),
+            "batches_done": len(records),
+            "complete": len(records) == prov["batches"],
+            "finished": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        })
+        if session_seconds is not None:
+            prov["session_wall_seconds"] = session_seconds
+            prov["session_grain_steps_per_second"] = session_grain_steps / max(session_seconds, 1e-12)
+        root.attrs["provenance"] = prov
+    consolidate(path)
+    return prov
+
+
+def store_bytes(path: str | Path) -> int:
+    """Bytes on disk under ``path``."""
+    return sum(p.stat().st_size for p in Path(path).rglob("*") if p.is_file())
+
+
+def sweep_attrs(path: str | Path) -> dict[str, Any]:
+    root = zarr.open_group(store=str(path), mode="r")
+    return dict(root.attrs)
+
+
+def differing_arrays(a: str | Path, b: str | Path, *, skip: tuple[str, ...] = TIMING_VARIABLES) -> list[str]:
+    """Names of arrays whose values (bytes, NaN included) or shape differ between two stores; the
+    machine-timing variables are skipped. An empty list means the stores hold the same results."""
+    ga, gb = zarr.open_group(store=str(a), mode="r"), zarr.open_group(store=str(b), mode="r")
+    names = sorted(set(ga.array_keys()) | set(gb.array_keys()))
+    out = []
+    for name in names:
+        if name in skip:
+            continue
+        if name not in ga or name not in gb:
+            out.append(name)
+            continue
+        x, y = np.asarray(ga[name][...]), np.asarray(gb[name][...])
+        if x.shape != y.shape or x.dtype != y.dtype or (
+                x.tobytes() != y.tobytes() if x.dtype.kind not in "OTU" else not np.array_equal(x, y)):
+            out.append(name)
+    return out

@@ -1,0 +1,188 @@
+"""CPU sweep kernel: one thread per chain, many steps per launch, neighbours carried in registers.
+
+Warp runs a CPU launch on one thread, so the per-step kernel (a thread per grain, a launch per
+step) spends its time on launch and index overhead and re-reads each neighbour three times. Here
+one thread integrates a whole chain for ``steps`` steps: each step sweeps the grains from the
+surface to the bottom, predicting grain ``i + 1`` just before it is needed and carrying the
+predicted position and the force of the contact above grain ``i`` from the previous grain, so
+each contact is evaluated once. The sweep updates the chain in place (in ``x_out``, after copying
+``x_in``): grain ``i``'s corrector needs its own old values and its neighbours' *predicted*
+positions, which are already in registers, so overwriting grain ``i`` cannot disturb grain
+``i + 1``.
+
+The arithmetic is ``kernels/step.py``'s expression for expression (bitwise equal on the CPU;
+``tests/test_cpu_kernel.py``). Drive and traces are not implemented (per-step kernel).
+"""
+
+
+import functools
+
+import warp as wp
+
+from .features import GEAR_CORRECTOR, STATUS_NON_FINITE, Features
+from .physics import contact_functions
+
+
+def sweepable(features: Features) -> bool:
+    """True when the sweep kernel implements every feature of this set (no drive, no traces)."""
+    return features.surface != "driven" and not features.traces
+
+
+@functools.cache
+def sweep_kernel(features: Features):
+    """The chain-per-thread sweep kernel for one feature set (cached)."""
+    f = features
+    if not sweepable(f):
+        raise ValueError(f"the sweep kernel does not implement surface={f.surface!r} / traces={f.traces}")
+    real = wp.float64 if f.precision == "float64" else wp.float32
+    Q = f.values
+    GEAR = f.method != "verlet"
+    C = GEAR_CORRECTOR.get(f.method, ((0, 1),) * 6)
+    C = C + ((0, 1),) * (6 - len(C))
+    SURFACE_WALL = f.surface == "wall"
+    BOTTOM_WALL = f.bottom == "wall"
+    FIXED = f.bottom == "fixed"
+    STATIC = f.static != "none"
+    PROFILE = f.static == "profile"
+    HETERO = f.heterogeneous
+    HERTZ = f.hertz
+    contact_force, excess_force = contact_functions(f.precision, f.hertz)
+
+    @wp.func
+    def predicted(x: wp.array3d(dtype=real), c: int, j: int) -> real:
+        p = x[0, c, j] + x[1, c, j] + x[2, c, j]
+        if wp.static(Q >= 4):
+            p += x[3, c, j]
+        if wp.static(Q >= 5):
+            p += x[4, c, j]
+        if wp.static(Q >= 6):
+            p += x[5, c, j]
+        return p
+
+    @wp.func
+    def contact(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),
+                c: int, k: int, d: real, a_c0: real, delta00: real, force00: real, n: real) -> real:
+        # excess force of padded contact k at relative displacement d (step.py's `contact`)
+        if wp.static(PROFILE or HETERO):
+            delta0 = delta00
+            if wp.static(PROFILE):
+                delta0 = static_overlap[c, k]
+            a_c = a_c0
+            if wp.static(HETERO):
+                a_c = contact_constant[c, k]
+            return excess_force(delta0, d, a_c, n)
+        else:
+            # one δ0 and one a_c per chain: F(δ0) is the same for every contact, computed once
+            return contact_force(delta00 + d, a_c0, n) - force00
+
+    @wp.kernel(module="unique", enable_backward=False)
+    def sweep(
+        x_in: wp.array3d(dtype=real),
+        clock_in: wp.array(dtype=wp.int32),
+        inverse_mass: wp.array2d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        static_overlap: wp.array2d(dtype=real),
+        exponent: wp.array(dtype=real),
+        status: wp.array(dtype=wp.int32),
+        dt: wp.float64,
+        steps: int,
+        x_out: wp.array3d(dtype=real),
+        clock_out: wp.array(dtype=wp.int32),
+    ):
+        c = wp.tid()
+        n_grains = x_in.shape[2]
+        if c == 0:
+            clock_out[0] = clock_in[0] + steps
+        for i in range(n_grains):
+            for q in range(wp.static(Q)):
+                x_out[q, c, i] = x_in[q, c, i]
+        if status[c] == wp.static(STATUS_NON_FINITE):
+            return  # a blown-up chain is frozen
+
+        n = real(0)
+        if wp.static(not HERTZ):
+            n = exponent[c]
+        a_c0 = contact_constant[c, 0]
+        delta00 = real(0)
+        if wp.static(STATIC):
+            delta00 = static_overlap[c, 0]
+        force00 = contact_force(delta00, a_c0, n)
+        inv_m = inverse_mass[c, 0]
+        h = real(dt)
+        last = n_grains - 1
+
+        for _step in range(steps):
+            u_here = predicted(x_out, c, 0)
+            force_above = real(0)  # excess force of the contact above the current grain
+            if wp.static(SURFACE_WALL):
+                force_above = contact(static_overlap, contact_constant, c, 0, -u_here, a_c0, delta00, force00, n)
+            for i in range(n_grains):
+                u_next = real(0)
+                force_below = real(0)
+                if i < last:
+                    u_next = predicted(x_out, c, i + 1)
+                    force_below = contact(static_overlap, contact_constant, c, i + 1, u_here - u_next,
+                                          a_c0, delta00, force00, n)
+                else:
+                    if wp.static(BOTTOM_WALL):
+                        force_below = contact(static_overlap, contact_constant, c, n_grains, u_here,
+                                              a_c0, delta00, force00, n)
+                held = False
+                if wp.static(FIXED):
+                    held = i == last
+                if not held:
+                    m_inv = inv_m
+                    if wp.static(HETERO):
+                        m_inv = inverse_mass[c, i]
+                    half_h2_acc = real(0.5) * h * h * (force_above - force_below) * m_inv
+                    if wp.static(GEAR):
+                        p1 = x_out[1, c, i] + real(2) * x_out[2, c, i]
+                        p2 = x_out[2, c, i]
+                        p3 = real(0)
+                        p4 = real(0)
+                        p5 = real(0)
+                        if wp.static(Q >= 4):
+                            x3 = x_out[3, c, i]
+                            p1 += real(3) * x3
+                            p2 += real(3) * x3
+                            p3 = x3
+                        if wp.static(Q >= 5):
+                            x4 = x_out[4, c, i]
+                            p1 += real(4) * x4
+                            p2 += real(6) * x4
+                            p3 += real(4) * x4
+                            p4 = x4
+                        if wp.static(Q >= 6):
+                            x5 = x_out[5, c, i]
+                            p1 += real(5) * x5
+                            p2 += real(10) * x5
+                            p3 += real(10) * x5
+                            p4 += real(5) * x5
+                            p5 = x5
+                        corr = half_h2_acc - p2
+                        x_out[0, c, i] = u_here + real(wp.static(C[0][0])) / real(wp.static(C[0][1])) * corr
+                        x_out[1, c, i] = p1 + real(wp.static(C[1][0])) / real(wp.static(C[1][1])) * corr
+                        x_out[2, c, i] = half_h2_acc
+                        x_out[3, c, i] = p3 + real(wp.static(C[3][0])) / real(wp.static(C[3][1])) * corr
+                        if wp.static(Q >= 5):
+                            x_out[4, c, i] = p4 + real(wp.static(C[4][0])) / real(wp.static(C[4][1])) * corr
+                        if wp.static(Q >= 6):
+                            x_out[5, c, i] = p5 + real(wp.static(C[5][0])) / real(wp.static(C[5][1])) * corr
+                    else:
+                        x1_new = x_out[1, c, i] + x_out[2, c, i] + half_h2_acc
+                        x_out[0, c, i] = u_here
+                        x_out[1, c, i] = x1_new
+                        x_out[2, c, i] = half_h2_acc
+                force_above = force_below
+                u_here = u_next
+
+    return sweep
+
+
+def launch_sweep(kernel, *, x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status,
+                 dt: float, steps: int, x_out, clock_out, device, record_cmd: bool = False):
+    """Launch ``steps`` steps of the sweep kernel (one thread per chain); returns the Launch if recorded."""
+    return wp.launch(kernel, dim=x_in.shape[1],
+                     inputs=[x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status,
+                             dt, steps],
+                     outputs=[x_out, clock_out], device=device, record_cmd=record_cmd)

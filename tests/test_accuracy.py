@@ -1,0 +1,142 @@
+"""`hertzian accuracy`: the study machinery (record interval, Richardson estimate, error norm) against closed
+forms, and a small study against the known orders of the methods. Also: every run reports its energy error
+next to its run time (store and summarize)."""
+
+import json
+import subprocess
+import sys
+from fractions import Fraction
+
+import numpy as np
+import pytest
+
+from ensemble.accuracy import common_record_interval, relative_error, richardson_estimate, work_precision
+from ensemble.runner import run_scene
+from ensemble.scene import SceneError
+from ensemble.store import summary_records, write_result
+
+from conftest import make_scene
+
+
+def test_record_interval_is_a_common_multiple():
+    dts = [1.6e-3, 8e-4, 2.5e-5, 6.25e-6]
+    every = common_record_interval(dts, 20.0)
+    for dt in dts:
+        assert Fraction(repr(every)) / Fraction(repr(dt)) == round(every / dt)
+    assert 20.0 / every == round(20.0 / every)          # divides the duration when it can
+    assert common_record_interval([1e-4, 5e-5], 1.0, preferred=0.3) == 0.3
+    assert common_record_interval([1e-4, 3e-5], 1.0, preferred=0.25) != 0.25   # 3e-5 does not divide 0.25
+    with pytest.raises(SceneError, match="no common multiple"):
+        common_record_interval([3e-3, 7e-3], 0.01)
+
+
+def test_relative_error_helper():
+    ref = np.array([[0.0, 2.0], [-4.0, 1.0]])
+    assert relative_error(ref, ref) == 0.0
+    assert relative_error(ref + [[0.0, 0.0], [0.4, 0.0]], ref) == pytest.approx(0.1)
+    assert relative_error(np.where(ref > 1, np.nan, ref), ref) == np.inf
+    with pytest.raises(ValueError):
+        relative_error(ref[:1], ref)
+
+
+@pytest.mark.parametrize("order", [2.0, 4.0, 6.0])
+def test_richardson_estimate_recovers_a_known_error(order):
+    """u_h = exact + C h^p g: the estimate from h, 2h, 4h equals the true error of u_h, and p is observed."""
+    rng = np.random.default_rng(1)
+    exact = rng.normal(size=(5, 7))
+    shape = rng.normal(size=(5, 7))
+    h = 1e-2
+    runs = [exact + 3.0 * (f * h) ** order * shape for f in (1, 2, 4)]
+    estimate, observed = richardson_estimate(*runs)
+    assert observed == pytest.approx(order, abs=1e-6)
+    assert estimate == pytest.approx(relative_error(runs[0], exact), rel=1e-3)
+    # round-off: differences stop shrinking, the estimate falls back to the difference itself
+    noise = [exact + 1e-14 * rng.normal(size=exact.shape) for _ in range(3)]
+    estimate, _ = richardson_estimate(*noise)
+    assert estimate == pytest.approx(relative_error(noise[1], noise[0]), rel=1e-12)
+
+
+def smooth_scene():
+    """A strongly precompressed chain: no contact opens, the force is smooth, methods show their order."""
+    return make_scene(chain={"grains": 20, "l0": 1e-2}, excitation={"impact": 1e-4},
+                      integrator={"dt": 1e-3, "duration": 1.0}, record={"every": 0.25})
+
+
+def test_small_study_shows_the_orders():
+    dts = [2e-3, 1e-3, 5e-4]
+    records, reference, every = work_precision(smooth_scene(), ["gear4", "verlet"], dts, ["float64", "float32"],
+                                               device="cpu")
+    assert every == 0.25
+    assert len(records) == 2 * 2 * 3
+    by = {(r.method, r.precision, r.dt): r for r in records}
+    for method, order in (("gear4", 4.0), ("verlet", 2.0)):
+        errors = [by[method, "float64", dt].error for dt in dts]
+        slope = np.polyfit(np.log(dts), np.log(errors), 1)[0]
+        assert abs(slope - order) < 0.3, (method, errors)
+        assert min(errors) > 100 * reference.error_estimate     # the reference resolves them
+    assert not any(r.reference_limited for r in records if r.precision == "float64")
+    assert 4 < reference.observed_order < 7
+    for r in records:
+        assert r.status == 0 and np.isfinite(r.error) and r.energy_error < 1e-3
+        assert r.grain_steps_per_second == pytest.approx(20 * r.steps / r.seconds, rel=1e-6)
+        assert r.steps == round(1.0 / r.dt)
+    # float32 cannot beat its own rounding: at the finest step gear4 float32 is worse than float64
+    assert by["gear4", "float32", 5e-4].error > 10 * by["gear4", "float64", 5e-4].error
+
+
+def test_run_reports_energy_error_next_to_wall_seconds(tmp_path):
+    """Store and summarize carry the energy error (SPEC §5, recomputed here from the stored energy) and seconds."""
+    scene = make_scene(chain={"grains": 10, "l0": 1e-4}, excitation={"impact": 1e-2},
+                       integrator={"dt": 2e-4, "duration": 0.2}, record={"every": 0.02})
+    result = run_scene(scene, "cpu")
+    write_result(tmp_path / "r.zarr", result)
+    [record] = summary_records(tmp_path / "r.zarr")
+    import xarray as xr
+
+    ds = xr.open_zarr(tmp_path / "r.zarr")
+    energy = ds.energy.values
+    expected = np.max(np.abs(energy - energy[0])) / (0.5 * 1.0 * 1e-2**2)
+    assert record["energy_error"] == pytest.approx(expected, rel=1e-12)
+    assert float(ds.energy_error) == pytest.approx(expected, rel=1e-12)
+    assert record["wall_seconds"] == pytest.approx(result.wall_seconds) and result.wall_seconds > 0
+    assert record["status_name"] == "OK"
+
+
+def hertzian(*args, cwd):
+    return subprocess.run([sys.executable, "-c", "from ensemble.cli import main; main()", *args],
+                          capture_output=True, text=True, cwd=cwd)
+
+
+def test_cli_accuracy(tmp_path):
+    scene = tmp_path / "s.toml"
+    scene.write_text("[chain]\ngrains = 10\nl0 = 1e-4\n[excitation]\nimpact = 1e-2\n"
+                     "[integrator]\nduration = 0.1\n")
+    out = hertzian("accuracy", str(scene), "--methods", "gear4,verlet", "--dt", "4e-4,2e-4", "--precision", "both",
+                   "--json", "--plot", str(tmp_path / "wp.png"), "--device", "cpu", cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    records = json.loads(out.stdout)
+    assert {(r["method"], r["precision"]) for r in records} == {(m, p) for m in ("gear4", "verlet")
+                                                                for p in ("float64", "float32")}
+    for r in records:
+        assert {"method", "dt", "precision", "error", "energy_error", "seconds", "grain_steps_per_second",
+                "reference_error"} <= set(r)
+    assert (tmp_path / "wp.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    table = hertzian("accuracy", str(scene), "--methods", "gear5", "--dt", "2e-4", "--device", "cpu", cwd=tmp_path)
+    assert table.returncode == 0 and "gear5" in table.stdout and "reference: gear6" in table.stdout
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--methods", "gear7"], "error: --methods = 'gear7': allowed: gear4, gear5, gear6, verlet"),
+    (["--dt", "abc"], "error: --dt = 'abc': must be a number"),
+    (["--dt", "-1e-4"], "error: --dt = '-1e-4': must be > 0"),
+    (["--dt", "3e-2,7e-2"], "no common multiple"),
+    (["--precision", "float16"], "error: --precision = 'float16'"),
+])
+def test_cli_accuracy_bad_input(tmp_path, args, message):
+    scene = tmp_path / "s.toml"
+    scene.write_text("[chain]\ngrains = 4\n[excitation]\nimpact = 1e-2\n[integrator]\nduration = 0.1\n")
+    out = hertzian("accuracy", str(scene), *args, "--plot", str(tmp_path / "p.png"), cwd=tmp_path)
+    assert out.returncode == 2
+    error_lines = [line for line in out.stderr.splitlines() if line.startswith("error:")]
+    assert len(error_lines) == 1 and message in error_lines[0], out.stderr
+    assert "Traceback" not in out.stderr and not (tmp_path / "p.png").exists()

@@ -1,0 +1,53 @@
+"""``hertzian bench`` on the CPU: records, the equality check across implementations, bad input."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from ensemble.bench import bench_scenes
+from ensemble.cli import app
+from ensemble.model import build_model
+from ensemble.peers import NumpyGear4, problem_from_model
+from tests.test_tile import per_step
+
+
+def invoke(*args):
+    return CliRunner().invoke(app, ["bench", *args])
+
+
+def test_bench_json_records():
+    result = invoke("--device", "cpu", "--chains", "3,1", "--grains", "40,60", "--steps", "20", "--repeats", "1",
+                    "--json")
+    assert result.exit_code == 0, result.output
+    records = json.loads(result.stdout)
+    names = {(r["implementation"], r["chains"], r["grains"]) for r in records}
+    assert {("warp-step", 3, 40), ("warp-sweep", 3, 40), ("numpy", 3, 40), ("warp-step", 1, 60)} <= names
+    for r in records:
+        assert r["grain_steps_per_second"] > 0
+        assert r["steps_per_second"] * r["chains"] * r["grains"] == pytest.approx(r["grain_steps_per_second"])
+        assert 0 < r["ratio_to_best"] <= 1
+        assert r["max_relative_difference"] <= 1e-10
+        assert r["bytes_per_grain_step"] == 64
+
+
+def test_numpy_peer_matches_per_step_kernel():
+    # the peer is written from the equations, independently of the kernels: same state after 50 steps
+    model = build_model(bench_scenes(4, 30), "cpu")
+    peer = NumpyGear4(problem_from_model(model))
+    peer.run(50)
+    want = per_step(model, 50)
+    assert np.max(np.abs(peer.state() - want)) <= 1e-13 * np.max(np.abs(want))
+
+
+def test_bench_bad_input():
+    for args, key in ((["--chains", "0"], "--chains"), (["--grains", "x"], "--grains"),
+                      (["--kernel", "fastest"], "--kernel"), (["--device", "cpu", "--kernel", "tile"], "--kernel"),
+                      (["--chains", "1,2", "--grains", "5,6,7"], "--grains")):
+        result = invoke(*args)
+        assert result.exit_code == 2, (args, result.output)
+        assert result.output.strip().startswith(f"error: {key} = ")
+        assert "Traceback" not in result.output

@@ -1,0 +1,82 @@
+"""Scale-out: two Dask worker processes (CPU, one thread each) fill one store, equal bitwise to the
+serial run; each worker writes its own batches."""
+
+import json
+
+import pytest
+from typer.testing import CliRunner
+
+from ensemble.cli import app
+from ensemble.distributed import worker_device
+from ensemble.sweep_store import differing_arrays
+
+distributed = pytest.importorskip("distributed")
+
+SWEEP = """
+[scene.chain]
+grains = 16
+
+[scene.excitation]
+impact = 1e-2
+
+[scene.integrator]
+method = "verlet"
+dt = 1e-4
+duration = 0.05
+
+[scene.record]
+every = 0.01
+traces = [3]
+
+[[axis]]
+name = "v_imp"
+key = "excitation.impact"
+logspace = [-3, -1, 4]
+
+[[axis]]
+name = "l0"
+key = "chain.l0"
+values = [1e-5, 1e-4]
+
+[[axis]]
+name = "gravity"
+key = "chain.gravity"
+values = [0.0, 1.0]
+"""
+
+cli = CliRunner()
+
+
+def test_two_workers_write_one_store_equal_to_the_serial_run(tmp_path):
+    sweep = tmp_path / "sweep.toml"
+    sweep.write_text(SWEEP)
+    flags = ("--batch-size", "2", "--device", "cpu", "--quiet")
+    serial = tmp_path / "serial.zarr"
+    result = cli.invoke(app, ["sweep", str(sweep), "--out", str(serial), *flags])
+    assert result.exit_code == 0, result.stderr
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        parallel = tmp_path / "parallel.zarr"
+        result = cli.invoke(app, ["sweep", str(sweep), "--out", str(parallel), "--scheduler",
+                                  cluster.scheduler_address, *flags])
+        assert result.exit_code == 0, result.stderr
+    assert differing_arrays(parallel, serial) == []
+    records = [json.loads(p.read_text())["attributes"] for p in sorted(parallel.glob("batches/*/zarr.json"))]
+    assert len(records) == 8 and sum(r["points"] for r in records) == 16
+    assert {r["worker"] for r in records} == {"0", "1"}  # both workers wrote batches
+    local = tmp_path / "local.zarr"  # --workers 2 starts its own LocalCluster
+    result = cli.invoke(app, ["sweep", str(sweep), "--out", str(local), "--workers", "2", *flags])
+    assert result.exit_code == 0 and "on 2 local Dask workers" in result.stdout, result.stderr
+    assert differing_arrays(local, serial) == []
+
+
+def test_workers_pick_their_own_gpu():
+    import warp as wp
+
+    assert worker_device("cpu", 1) == "cpu"
+    assert worker_device("cuda:1", 0) == "cuda:1"
+    if wp.is_cuda_available():
+        count = wp.get_cuda_device_count()
+        assert worker_device(None, 1) == f"cuda:{1 % count}"
+        assert worker_device("cuda", "tcp://host:1234") == "cuda:0"
+    else:
+        assert worker_device(None, 1) == "cpu"

@@ -1,0 +1,212 @@
+"""Resume: a sweep killed (SIGKILL, a real subprocess) at any moment and resumed gives a store
+whose arrays equal, bitwise, those of an uninterrupted run; a store from another sweep or
+package version is refused."""
+
+import json
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+import xarray as xr
+import zarr
+from typer.testing import CliRunner
+
+from ensemble.cli import app
+from ensemble.store import write_result
+from ensemble.runner import run_scene
+from ensemble.sweep import load_sweep, sweep_scenes
+from ensemble.sweep_store import completed_batches, differing_arrays
+
+SWEEP = """
+[scene.chain]
+grains = 20
+
+[scene.excitation]
+impact = 1e-2
+
+[scene.integrator]
+dt = 1e-4
+duration = 0.1
+
+[scene.record]
+every = 0.02
+traces = [0, 19]
+trace_every = 0.001
+
+[[axis]]
+name = "v_imp"
+key = "excitation.impact"
+logspace = [-3, -1, 3]
+
+[[axis]]
+name = "l0"
+key = "chain.l0"
+values = [0.0, 1e-5, 1e-4]
+"""
+FLAGS = ("--batch-size", "1", "--device", "cpu", "--quiet")
+HERTZIAN = (sys.executable, "-c", "from ensemble.cli import main; main()")
+"""The ``hertzian`` script (``python -m ensemble.cli`` would not see commands registered by other modules)."""
+BATCHES = 9
+
+cli = CliRunner()
+
+
+def sweep_cli(*args):
+    return cli.invoke(app, ["sweep", *map(str, args)])
+
+
+@pytest.fixture(scope="module")
+def sweep_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("sweep") / "sweep.toml"
+    path.write_text(SWEEP)
+    return path
+
+
+@pytest.fixture(scope="module")
+def reference(sweep_file):
+    out = sweep_file.parent / "reference.zarr"
+    result = sweep_cli(sweep_file, "--out", out, *FLAGS)
+    assert result.exit_code == 0, result.stderr
+    return out
+
+
+def assert_equal_to_reference(out, reference):
+    assert differing_arrays(out, reference) == []
+    ds = xr.open_zarr(out)
+    assert (ds.status.values == 0).all()
+    prov = ds.attrs["provenance"]
+    assert prov["complete"] and prov["batches_done"] == BATCHES
+    assert completed_batches(out) == set(range(BATCHES))
+
+
+def kill_when(proc, condition, timeout=120.0) -> bool:
+    """SIGKILL ``proc`` as soon as ``condition()`` holds; True if it was still running then."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if condition():
+            running = proc.poll() is None
+            proc.send_signal(signal.SIGKILL)
+            proc.wait()
+            return running
+        if proc.poll() is not None:
+            return False
+        time.sleep(0.002)
+    proc.kill()
+    raise AssertionError("condition never held")
+
+
+def records(out):
+    return len(completed_batches(out)) if out.exists() else 0
+
+
+MOMENTS = {
+    "while the store is created": lambda tmp, out: out.exists() or any(p.name.startswith(".out.zarr.")
+                                                                       for p in tmp.iterdir()),
+    "after the first batch": lambda tmp, out: records(out) >= 1,
+    "in the middle": lambda tmp, out: records(out) >= 4,
+}
+
+
+@pytest.mark.parametrize("moment", list(MOMENTS))
+def test_sigkill_then_resume_equals_an_uninterrupted_run(tmp_path, sweep_file, reference, moment):
+    out = tmp_path / "out.zarr"
+    proc = subprocess.Popen([*HERTZIAN, "sweep", str(sweep_file), "--out", str(out), *FLAGS],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    was_running = kill_when(proc, lambda: MOMENTS[moment](tmp_path, out))
+    assert was_running, f"the sweep ended before it could be killed: {proc.stderr.read().decode()}"
+    assert proc.returncode == -signal.SIGKILL
+    assert records(out) < BATCHES
+    result = sweep_cli(sweep_file, "--out", out, "--resume", *FLAGS)
+    assert result.exit_code == 0, result.stderr
+    assert_equal_to_reference(out, reference)
+
+
+def test_batch_written_but_not_recorded_is_rerun(tmp_path, sweep_file, reference):
+    """The window a kill can hit inside a batch: some of its data written, no completion record."""
+    out = tmp_path / "out.zarr"
+    assert sweep_cli(sweep_file, "--out", out, *FLAGS).exit_code == 0
+    import shutil
+
+    shutil.rmtree(out / "batches" / "000004")  # batch 4 is point (1, 1)
+    group = zarr.open_group(str(out), mode="r+")
+    group["u"][1, 1] = 0.0
+    group["status"][1, 1] = 7
+    group["trace_v"][1, 1, 3] = np.nan
+    (out / "u" / "c" / "stale.partial").write_bytes(b"half a chunk")
+    assert differing_arrays(out, reference) == ["status", "trace_v", "u"]
+    result = sweep_cli(sweep_file, "--out", out, "--resume", *FLAGS)
+    assert result.exit_code == 0, result.stderr
+    assert "ran 1 of 9 batches" in result.stdout
+    assert_equal_to_reference(out, reference)
+    assert not list(out.rglob("*.partial"))
+
+
+def test_resume_of_a_finished_store_runs_nothing(tmp_path, sweep_file, reference):
+    out = tmp_path / "out.zarr"
+    assert sweep_cli(sweep_file, "--out", out, *FLAGS).exit_code == 0
+    result = sweep_cli(sweep_file, "--out", out, "--resume", *FLAGS)
+    assert result.exit_code == 0 and "ran 0 of 9 batches" in result.stdout
+    assert_equal_to_reference(out, reference)
+
+
+def test_resume_without_a_store_starts_one(tmp_path, sweep_file, reference):
+    out = tmp_path / "out.zarr"
+    result = sweep_cli(sweep_file, "--out", out, "--resume", *FLAGS)
+    assert result.exit_code == 0, result.stderr
+    assert_equal_to_reference(out, reference)
+
+
+def test_resume_keeps_the_stores_batches(tmp_path, sweep_file, reference):
+    out = tmp_path / "out.zarr"
+    assert sweep_cli(sweep_file, "--out", out, *FLAGS).exit_code == 0
+    result = sweep_cli(sweep_file, "--out", out, "--resume", "--batch-size", "4", "--device", "cpu", "--quiet")
+    assert result.exit_code == 0 and "--batch-size 4 ignored" in result.stderr
+
+
+def _refused(result, expected):
+    assert result.exit_code == 2, (result.stdout, result.stderr)
+    lines = [ln for ln in result.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: --resume = ") and expected in lines[0], result.stderr
+
+
+def test_resume_refuses_a_store_of_another_sweep(tmp_path, sweep_file):
+    out = tmp_path / "out.zarr"
+    assert sweep_cli(sweep_file, "--out", out, *FLAGS).exit_code == 0
+    before = (out / "zarr.json").read_text()
+    other = tmp_path / "other.toml"
+    other.write_text(SWEEP.replace("1e-4]", "2e-4]"))
+    _refused(sweep_cli(other, "--out", out, "--resume", *FLAGS), "was made from a different sweep")
+    _refused(sweep_cli(sweep_file, "--out", out, "--resume", "--set", "chain.mass=2", *FLAGS),
+             "was made from a different sweep")
+    assert (out / "zarr.json").read_text() == before
+
+
+def test_resume_refuses_a_store_of_another_package_version(tmp_path, sweep_file):
+    out = tmp_path / "out.zarr"
+    assert sweep_cli(sweep_file, "--out", out, *FLAGS).exit_code == 0
+    root = zarr.open_group(str(out), mode="r+")
+    root.attrs["provenance"] = {**root.attrs["provenance"], "package_version": "0.0.1"}
+    from ensemble.store import consolidate
+
+    consolidate(out)
+    _refused(sweep_cli(sweep_file, "--out", out, "--resume", *FLAGS), "package version 0.0.1")
+
+
+def test_resume_refuses_a_run_store(tmp_path, sweep_file):
+    scene = sweep_scenes(load_sweep(sweep_file))[0]
+    out = write_result(tmp_path / "run.zarr", run_scene(scene, "cpu"))
+    _refused(sweep_cli(sweep_file, "--out", out, "--resume", *FLAGS), "not a hertzian sweep store")
+    bogus = tmp_path / "bogus.zarr"
+    bogus.mkdir()
+    (bogus / "zarr.json").write_text("{not json")
+    _refused(sweep_cli(sweep_file, "--out", bogus, "--resume", *FLAGS), "not a readable Zarr store")
+
+
+def test_completion_records_say_where_each_batch_ran(reference):
+    for index in range(BATCHES):
+        record = json.loads((reference / "batches" / f"{index:06d}" / "zarr.json").read_text())["attributes"]
+        assert record["batch"] == index and record["points"] == 1 and record["device"] == "cpu"
+        assert record["status_counts"] == {"0": 1} and record["grain_steps"] == 20 * 1000
