@@ -20,7 +20,8 @@ error is not resolved by this reference. A reference that is not finite is refus
 times, so every step (and the reference's) must divide the record interval. The study chooses
 ``record.every`` as a common multiple of all steps (about ``records`` snapshots over the duration),
 keeping the scene's own interval when it already is one. The energy error is the run's own
-(SPEC §5, at every record). Time is the run's wall seconds without kernel compilation.
+(SPEC §5, at every record). Time is the run's wall seconds without kernel compilation; every run
+of a study uses the same kernel (:func:`study_kernel`), so times compare.
 """
 
 from __future__ import annotations
@@ -78,6 +79,8 @@ class AccuracyRecord:
     status_name: str
     reference_limited: bool
     """True when ``error`` is within a factor 10 of the reference's own estimated error."""
+    kernel: str = "step"
+    """Which kernel ran (ensemble/calibrate.py): the same for every run of a study."""
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -158,16 +161,40 @@ def richardson_estimate(u_h: np.ndarray, u_2h: np.ndarray, u_4h: np.ndarray, *,
     return fine / (2.0**order - 1.0), observed
 
 
-def _run(scene: Scene, device: str | None):
-    from .runner import run_scene
+def study_kernel(scene: Scene, device: str | None) -> str:
+    """The kernel every run of a study uses, so that their times compare (``auto`` would switch kernels with
+    the run length): on a CPU the chain-per-thread sweep where it applies, else the per-step kernel; on a
+    GPU ``auto`` (ensemble/calibrate.py)."""
+    import warp as wp
 
-    return run_scene(scene, device)
+    from kernels.cpu import sweepable
+
+    from .model import features_of
+
+    if not wp.get_device(device).is_cpu:
+        return "auto"
+    return "sweep" if sweepable(features_of([scene])) else "step"
 
 
-def reference_run(scene: Scene, dt: float, every: float, device: str | None = None) -> ReferenceRun:
+def _run(scene: Scene, device: str | None, kernel: str = "auto"):
+    """(RunResult, name of the kernel that ran)."""
+    import warp as wp
+
+    from .model import build_model
+    from .runner import Runner, default_device
+
+    wp.init()
+    runner = Runner(build_model([scene], device or default_device()), kernel=kernel)
+    result = runner.run()
+    fused = getattr(runner, "fused", None)
+    return result, (fused.describe() if fused is not None else "step")
+
+
+def reference_run(scene: Scene, dt: float, every: float, device: str | None = None, *,
+                  kernel: str = "auto") -> ReferenceRun:
     """gear6 float64 at ``dt``, checked against 2·dt and 4·dt (Richardson); see the module docstring."""
-    runs = [_run(study_scene(scene, method=REFERENCE_METHOD, dt=dt * f, precision="float64", every=every), device)
-            for f in (1, 2, 4)]
+    runs = [_run(study_scene(scene, method=REFERENCE_METHOD, dt=dt * f, precision="float64", every=every), device,
+                 kernel)[0] for f in (1, 2, 4)]
     u_h, u_2h, u_4h = (r.u[0] for r in runs)
     if not np.all(np.isfinite(u_h)):
         raise SceneError("--dt", f"{dt * 4:g}", f"the reference ({REFERENCE_METHOD} at dt = {dt:g}) is not "
@@ -208,10 +235,11 @@ def parse_steps(text: str) -> list[float]:
 
 def work_precision(scene: Scene, methods: list[str], dts: list[float], precisions: list[str], *,
                    device: str | None = None, reference_factor: int = 4, records: int = 40,
-                   progress=None) -> tuple[list[AccuracyRecord], ReferenceRun, float]:
+                   kernel: str | None = None, progress=None) -> tuple[list[AccuracyRecord], ReferenceRun, float]:
     """Run every (precision, method, dt) of a study and measure it against a gear6 reference.
 
-    Returns (records, reference, record interval). ``progress(text)`` is called before each run.
+    Returns (records, reference, record interval). ``kernel`` (ensemble/calibrate.py KERNELS) is the
+    same for every run; default :func:`study_kernel`. ``progress(text)`` is called before each run.
     """
     from .check import check_scene
 
@@ -235,13 +263,14 @@ def work_precision(scene: Scene, methods: list[str], dts: list[float], precision
             for p in precisions for m in methods for dt in dts]
     if progress:
         progress(f"reference: {REFERENCE_METHOD} float64 at dt = {reference_dt:g}, 2·dt and 4·dt")
-    reference = reference_run(scene, reference_dt, every, device)
+    kernel = kernel or study_kernel(plan[0][3], device)
+    reference = reference_run(scene, reference_dt, every, device, kernel=kernel)
     contact_time = check_scene(scene).contact_time
     out = []
     for p, m, dt, s in plan:
         if progress:
             progress(f"{m} {p} dt = {dt:g}")
-        r = _run(s, device)
+        r, ran = _run(s, device, kernel)
         err = relative_error(r.u[0], reference.u)
         status = int(r.status[0])
         out.append(AccuracyRecord(
@@ -249,7 +278,7 @@ def work_precision(scene: Scene, methods: list[str], dts: list[float], precision
             seconds=float(r.wall_seconds), grain_steps_per_second=float(r.grain_steps_per_second),
             steps=int(r.steps), steps_per_contact_time=contact_time / dt, status=status,
             status_name=Status(status).name if status in Status._value2member_map_ else str(status),
-            reference_limited=bool(err < RESOLVED_FACTOR * reference.error_estimate)))
+            reference_limited=bool(err < RESOLVED_FACTOR * reference.error_estimate), kernel=ran))
     return out, reference, every
 
 

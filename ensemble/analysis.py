@@ -15,10 +15,11 @@ What is here, by paper section:
 
 * III A — :func:`pulse_head`, :func:`head_positions`, :func:`pulse_speed`, :func:`speed_history`
   (pulse position and speed c(t)); :func:`speed_exponent` (α in c ∝ v_imp^α);
-  :func:`shock_width` (W(t)).
+  :func:`shock_width` (W(t)); :func:`plateau_tilt` (flat vs sloping top, Fig. 4).
 * III B — :func:`tail_decay` (exponential tail P(z, t) ∝ exp(−z/λ), compared with c·t).
 * IV, V — :func:`backscatter` (arrival, amplitude and leading sign of the echo at a grain).
-* V — :func:`depth_law` (c ∝ z^β, the paper's β = 1/6), :func:`column_sound_speed` (closed form).
+* V — :func:`depth_law` (c ∝ z^β, the paper's β = 1/6), :func:`column_sound_speed` (closed form),
+  :func:`count_bumps` (tail bumps, Fig. 6).
 * VI — :func:`window_average`, :func:`standing_wave_measure`.
 * Nesterenko's long-wave soliton — :func:`nesterenko_speed`, :data:`NESTERENKO_SUPPORT`,
   :data:`NESTERENKO_FWHM`, :func:`full_width_half_maximum`.
@@ -213,6 +214,41 @@ def shock_widths(u, *, fraction: float = 0.5) -> np.ndarray:
     return np.array([shock_width(row, fraction=fraction) for row in flat]).reshape(f.shape[:-1])
 
 
+def plateau_tilt(profile, *, fraction: float = 0.8) -> float:
+    """Tilt of a pulse's top (Fig. 4's "flat top" vs "sloping top"): over the contiguous grains around the
+    largest value of ``profile`` that reach ``fraction`` of it, the change of a fitted line from the
+    deep end to the shallow end, divided by the largest value (0 for a flat top; dimensionless).
+    Pass the paper's displacement (−u) for a reflected pulse, u for an in-going one."""
+    p = np.asarray(profile, dtype=float)
+    k = int(np.argmax(p))
+    top = p[k]
+    if not top > 0:
+        return math.nan
+    lo, hi = k, k
+    while lo > 0 and p[lo - 1] >= fraction * top:
+        lo -= 1
+    while hi < p.size - 1 and p[hi + 1] >= fraction * top:
+        hi += 1
+    if hi - lo < 2:
+        return math.nan
+    grains = np.arange(lo, hi + 1)
+    line = fit_line(grains, p[lo:hi + 1])
+    return float(-line.slope * (hi - lo) / top)
+
+
+def count_bumps(profile, head: float, *, fraction: float = 0.1) -> int:
+    """Bumps of a pulse (Fig. 6): local maxima of ``profile`` (velocity, + into the chain) at or behind
+    the head that reach ``fraction`` of the head's value; the head itself counts as one."""
+    p = np.asarray(profile, dtype=float)
+    if not np.isfinite(head):
+        return 0
+    k = int(round(head))
+    level = fraction * p[k]
+    interior = np.arange(1, min(k + 2, p.size - 1))
+    peaks = interior[(p[interior] > p[interior - 1]) & (p[interior] >= p[interior + 1]) & (p[interior] >= level)]
+    return int(peaks.size)
+
+
 # ---- tails (Sec. III B) -------------------------------------------------------------------
 
 
@@ -373,7 +409,7 @@ def _smooth(profile: np.ndarray, grains: int) -> np.ndarray:
     return np.convolve(profile, kernel, mode="same")
 
 
-def profile_nodes(profile, *, smooth: int = 25, depth: float = 0.3) -> np.ndarray:
+def profile_nodes(profile, *, smooth: int = 5, depth: float = 0.3) -> np.ndarray:
     """Nodes of a (time-averaged kinetic-energy) profile [grains]: local minima of the profile
     smoothed over ``smooth`` grains that lie below ``depth`` × the mean of the maxima on either
     side (so ripples are not counted)."""
@@ -394,41 +430,40 @@ def profile_nodes(profile, *, smooth: int = 25, depth: float = 0.3) -> np.ndarra
 
 @dataclass(frozen=True)
 class StandingWave:
-    """How standing a pattern of time-averaged profiles is (Sec. VI)."""
+    """How long a pattern of time-averaged profiles stays put (Sec. VI), relative to the first profile."""
 
     correlation: np.ndarray
-    """Pearson correlation of consecutive smoothed profiles, shape (windows − 1,); 1 = identical shape."""
+    """Pearson correlation of each smoothed profile with the first one, shape (windows,); 1 = the same
+    shape (amplitude does not count), ~0 = unrelated."""
     nodes: tuple[np.ndarray, ...]
-    """Node positions [grains] of each window's profile."""
-    node_drift: np.ndarray
-    """Median |shift| [grains] of each node to the nearest node of the next window, shape (windows − 1,)."""
-    persistent_fraction: np.ndarray
-    """Fraction of a window's nodes found again within ``tolerance`` grains in the next window."""
+    """Node positions [grains] of each profile (:func:`profile_nodes`)."""
+    node_spacing: float
+    """Median distance between neighbouring nodes of the first profile [grains] (NaN with < 2 nodes)."""
+    node_shift: np.ndarray
+    """Median distance from each node of the first profile to the nearest node of each profile, in units
+    of ``node_spacing``, shape (windows,): 0 = the nodes stay put; about 0.25 for unrelated nodes."""
 
 
-def standing_wave_measure(profiles, *, smooth: int = 25, depth: float = 0.3, tolerance: float = 25.0,
+def standing_wave_measure(profiles, *, smooth: int = 5, depth: float = 0.3,
                           grains: slice | None = None) -> StandingWave:
-    """Compare consecutive time-averaged profiles ``profiles`` (window, grain): shape correlation,
-    node positions, node drift and node persistence. A standing wave has correlation near 1 and
-    nodes that stay put; a travelling pattern decorrelates and its nodes drift."""
+    """Compare time-averaged profiles ``profiles`` (window, grain) — e.g. kinetic energy averaged over
+    consecutive windows — with the first one: shape correlation and node displacement. A standing
+    wave keeps correlation near 1 and its nodes in place; a travelling or disordered pattern
+    decorrelates and its nodes wander."""
     p = np.asarray(profiles, dtype=float)
     if grains is not None:
         p = p[:, grains]
     smoothed = np.array([_smooth(row, smooth) for row in p])
-    corr, drift, persist = [], [], []
     nodes = tuple(profile_nodes(row, smooth=smooth, depth=depth) for row in p)
-    for k in range(len(p) - 1):
-        a, b = smoothed[k], smoothed[k + 1]
-        corr.append(float(np.corrcoef(a, b)[0, 1]) if np.std(a) > 0 and np.std(b) > 0 else math.nan)
-        n0, n1 = nodes[k], nodes[k + 1]
-        if n0.size and n1.size:
-            shift = np.abs(n0[:, None] - n1[None, :]).min(axis=1)
-            drift.append(float(np.median(shift)))
-            persist.append(float(np.mean(shift <= tolerance)))
-        else:
-            drift.append(math.nan)
-            persist.append(math.nan)
-    return StandingWave(np.array(corr), nodes, np.array(drift), np.array(persist))
+    first = smoothed[0]
+    corr = np.array([float(np.corrcoef(first, row)[0, 1]) if np.std(first) > 0 and np.std(row) > 0 else math.nan
+                     for row in smoothed])
+    spacing = float(np.median(np.diff(nodes[0]))) if nodes[0].size >= 2 else math.nan
+    shift = np.full(len(p), math.nan)
+    for k, other in enumerate(nodes):
+        if nodes[0].size and other.size and np.isfinite(spacing):
+            shift[k] = float(np.median(np.abs(nodes[0][:, None] - other[None, :]).min(axis=1))) / spacing
+    return StandingWave(corr, nodes, spacing, shift)
 
 
 # ---- Nesterenko's long-wave soliton --------------------------------------------------------

@@ -209,7 +209,8 @@ def run_bench(device: str, sizes: list[tuple[int, int]], *, kernel: str = "all",
                  "auto": ["auto"]}.get(kernel, [kernel])
         for name in names:
             fused = None
-            if kernel == "all" and name == "window" and chains >= (dev.sm_count or 1) and whole_chain_plans(model):
+            if (kernel == "all" and name == "window" and chains >= (dev.sm_count or 1) and grains <= 1024
+                    and whole_chain_plans(model)):
                 log("  window: skipped (whole chains fit a block and fill the GPU)")
                 continue
             if name != "step":

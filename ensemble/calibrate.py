@@ -141,10 +141,15 @@ class SweepStepper(MultiStepper):
 
 # ---- candidate launch shapes ----------------------------------------------------------------------
 
-REGISTERS = {4: 122, 8: 216, 16: 255}
-"""Registers per thread of the gear4 float64 fused kernel for G grains per lane (ptxas, sm_90)."""
-LANE_CAP = {G: 65536 // r for G, r in REGISTERS.items()}
-"""Most lanes per block for G grains per lane so that a block's registers fit one SM (65536 registers)."""
+REGISTERS = {4: 128, 8: 232, 16: 255}
+"""Registers per thread of the gear4 float64 fused kernel for G grains per lane, padded/windowed variants
+(ptxas for sm_90 reports 122, 216 and 255 for the plain variants; launches of 264 lanes at G = 8 and 528 at
+G = 4 were refused on the H100, so windowed variants use a little more)."""
+
+
+def _fits(lanes: int, G: int, registers: int = 65536) -> bool:
+    """Whether a block of ``lanes`` threads at G grains per lane fits in ``registers`` (whole warps count)."""
+    return -(-lanes // 32) * 32 * REGISTERS[G] <= registers
 
 
 def _sm_count(model: Model) -> int:
@@ -157,7 +162,7 @@ def whole_chain_plans(model: Model) -> list[TilePlan]:
     plans = []
     for G, regs in ((8, 0), (4, 0), (8, 168), (16, 0)):
         lanes = -(-n // G)
-        if lanes * (regs or REGISTERS[G]) > 65536:
+        if -(-lanes // 32) * 32 * (regs or REGISTERS[G]) > 65536:
             continue
         per_block = 1
         while per_block * 2 * lanes <= 128 and per_block * 2 <= c:
@@ -172,8 +177,9 @@ def whole_chain_plans(model: Model) -> list[TilePlan]:
 
 
 def window_plans(model: Model) -> list[TilePlan]:
-    """Windowed shapes worth timing: with many chains the fewest blocks per chain that fit (G = 4 or 8, K = 32
-    or 64); with few chains, enough blocks to fill the GPU, or half as many (G = 4, K = 16 or 32)."""
+    """Windowed shapes worth timing: with many chains the fewest blocks per chain that fit an SM, or two per SM
+    (G = 4 or 8, K = 32 or 64); with few chains, enough blocks to fill the GPU, or half as many (G = 4, K = 16
+    or 32)."""
     f, n, c = model.features, model.grain_count, model.chain_count
     sms = _sm_count(model)
     plans = []
@@ -182,13 +188,16 @@ def window_plans(model: Model) -> list[TilePlan]:
         for K in ((32, 64) if many else (16, 32)):
             b_max = n // (2 * K)          # keep the interior at least twice the ghost zone
             b_min = 2
-            while b_min <= b_max and -(-(-(-n // b_min) + 2 * K) // G) > LANE_CAP[G]:
+            while b_min <= b_max and not _fits(-(-(-(-n // b_min) + 2 * K) // G), G):
                 b_min += 1
             if b_min > b_max:
                 continue
             b_fill = min(b_max, max(b_min, -(-2 * sms // c)))
             b_mid = max(b_min, min(b_fill, round(math.sqrt(b_min * b_fill))))
-            for b in sorted({b_min} if many else {b_mid, b_fill}):
+            b_two = b_min                 # two blocks per SM: half an SM's registers per block
+            while b_two < b_max and not _fits(-(-(-(-n // b_two) + 2 * K) // G), G, 32768):
+                b_two += 1
+            for b in sorted({b_min, b_two} if many else {b_mid, b_fill}):
                 interior = -(-n // b)
                 lanes = -(-(interior + 2 * K) // G)
                 try:
@@ -272,7 +281,7 @@ def calibrate(model: Model, *, plans: list[TilePlan] | None = None, steps: int |
     """
     if plans is None:
         plans = whole_chain_plans(model)
-        if not plans or model.chain_count < _sm_count(model):
+        if not plans or model.chain_count < _sm_count(model) or model.grain_count > 1024:
             plans = plans + window_plans(model)
     buffers = buffers or (model.initial_state(), model.state())
     results, failures = [], []

@@ -35,6 +35,8 @@ def accuracy(
                                                   "--dt / this (gear6, float64).")] = 4,
     records: Annotated[int, typer.Option("--records", help="About this many snapshots are compared "
                                          "(the record interval is a common multiple of all steps).")] = 40,
+    kernel: Annotated[Optional[str], typer.Option("--kernel", help="Kernel for every run (auto | step | tile | "
+                                                  "window | sweep); default: sweep on a CPU, auto on a GPU.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list of records.")] = False,
     plot: Annotated[Optional[Path], typer.Option("--plot", help="Draw error and energy error against wall "
                                                  "seconds (log–log) into this PNG.")] = None,
@@ -68,6 +70,10 @@ def accuracy(
             raise SceneError("--reference-factor", reference_factor, "must be an integer ≥ 1")
         if records < 1:
             raise SceneError("--records", records, "must be ≥ 1")
+        from .calibrate import KERNELS
+
+        if kernel is not None and kernel not in KERNELS:
+            raise SceneError("--kernel", kernel, f"allowed: {', '.join(KERNELS)}")
     except SceneError as err:
         fail(str(err))
     if plot is not None and not plot.parent.exists():
@@ -81,14 +87,16 @@ def accuracy(
     try:
         results, reference, every = work_precision(loaded, method_list, steps, precisions, device=dev,
                                                    reference_factor=reference_factor, records=records,
-                                                   progress=progress)
+                                                   kernel=kernel, progress=progress)
     except SceneError as err:
         fail(str(err))
+    except ValueError as err:  # a forced --kernel that cannot run these features or on this device
+        fail(f"--kernel = {kernel!r}: {err}")
     grains = loaded.chain.grains
     note = (f"reference: gear6 float64 dt = {reference.dt:g}, estimated error {_number(reference.error_estimate)} "
             f"(Richardson from dt, 2dt, 4dt; observed order {_number(reference.observed_order)}), "
             f"{reference.seconds:.2f} s; snapshots every {every:g} over {loaded.integrator.duration:g}; "
-            f"{grains} grains on {dev}")
+            f"{grains} grains on {dev}, kernel {results[0].kernel if results else '?'}")
     limited = [r for r in results if r.reference_limited]
     if plot is not None:
         plot_work_precision(results, plot, title=f"{grains} grains, duration {loaded.integrator.duration:g}, "

@@ -478,42 +478,64 @@ def drive_times(grain_count: int) -> np.ndarray:
     return np.asarray(PAPER_DRIVE_TIMES) * (grain_count / 10000.0) ** (5.0 / 6.0)
 
 
-def driven_windows(ds) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(tau values, window centres, kinetic-energy profiles, velocity profiles), profiles of shape
-    (tau, window, grain): from a reproduce_gpu.py store (ke_window, v_window) or averaged here
-    from velocity snapshots."""
+PERSISTENCE_LAGS = 1.5 * np.arange(8)
+"""Lags [time units] of the consecutive windows compared with a snapshot window (standing-wave measure)."""
+
+
+def driven_windows(ds) -> dict:
+    """Window-averaged profiles of a driven-column store at the paper's times (scaled to the column's
+    length): ``taus``, ``centres``, ``ke`` and ``v`` (tau, centre, grain), and ``persistence``
+    [tau][centre] — :func:`analysis.standing_wave_measure` of the kinetic-energy windows at
+    centre + PERSISTENCE_LAGS. Reads a reproduce_gpu.py store (ke_window, v_window, window_lag) or
+    averages velocity snapshots of a sweep store."""
     n = _grains(ds)
     taus = ds.tau.values
     if "ke_window" in ds.variables:
-        return taus, ds.window_t.values, ds.ke_window.values, ds.v_window.values
-    t = ds.t.values
-    centres = drive_times(n)
-    centres = centres[centres + 0.5 * PAPER_WINDOW <= t[-1] + 1e-9]
-    v = ds.v.transpose("tau", "record", "grain").values
-    return taus, centres, an.window_average(t, an.kinetic_energy(v), centres, PAPER_WINDOW), \
-        an.window_average(t, v, centres, PAPER_WINDOW)
+        lag = ds.window_lag.values
+        block = ds.window_block.values
+        starts = np.flatnonzero(lag == 0)
+        centres = ds.window_t.values[starts]
+        ke_all, v_all = ds.ke_window.values, ds.v_window.values
+        ke, vel = ke_all[:, starts], v_all[:, starts]
+        persistence = [[an.standing_wave_measure(ke_all[i, block == block[k]]) for k in starts]
+                       for i in range(len(taus))]
+    else:
+        t = ds.t.values
+        centres = drive_times(n)
+        centres = centres[centres + 0.5 * PAPER_WINDOW <= t[-1] + 1e-9]
+        v = ds.v.transpose("tau", "record", "grain").values
+        energy = an.kinetic_energy(v)
+        ke = an.window_average(t, energy, centres, PAPER_WINDOW)
+        vel = an.window_average(t, v, centres, PAPER_WINDOW)
+        persistence = []
+        for i in range(len(taus)):
+            rows = []
+            for centre in centres:
+                lagged = [c for c in centre + PERSISTENCE_LAGS if c + 0.5 * PAPER_WINDOW <= t[-1] + 1e-9]
+                rows.append(an.standing_wave_measure(an.window_average(t, energy[i], lagged, PAPER_WINDOW)))
+            persistence.append(rows)
+    return {"taus": taus, "centres": centres, "ke": ke, "v": vel, "persistence": persistence}
 
 
 def _fig_driven(ds, out: Path, which: str) -> Path:
     _require(ds, "tau", figure=which)
     plt = _pyplot()
-    taus, centres, ke, vel = driven_windows(ds)
+    windows = driven_windows(ds)
+    taus, centres = windows["taus"], windows["centres"]
     n = _grains(ds)
-    data = ke if which == "fig9" else -vel
+    data = windows["ke"] if which == "fig9" else -windows["v"]
     fig, axes = plt.subplots(len(centres), len(taus), figsize=(4.0 * len(taus), 1.35 * len(centres) + 0.8),
                              squeeze=False)
     for col, tau in enumerate(taus):
-        sw = an.standing_wave_measure(ke[col], smooth=max(5, n // 400))
         for row, centre in enumerate(centres):
             ax = axes[row, col]
             ax.plot(np.arange(n), data[col, row], color="k", lw=0.5)
             ax.set_xlim(0, n)
-            text = f"({'abcdef'[row]}) t = {centre:g}, τ = {tau:g}"
-            if row > 0 and np.isfinite(sw.correlation[row - 1]):
-                text += f"  (corr. with previous {sw.correlation[row - 1]:.2f})"
+            corr = windows["persistence"][col][row].correlation[1:]
+            text = f"({'abcdef'[row]}) t = {centre:.4g}, τ = {tau:g}"
+            if corr.size:
+                text += f"; shape corr. over next {PAPER_WINDOW * corr.size:g} t.u.: {np.nanmean(corr):.2f}"
             ax.set_title(text, loc="left", fontsize=7.5)
-            if which == "fig9":
-                ax.set_yscale("log")
         axes[-1, col].set_xlabel("depth z [grain diameters]")
     label = "mean kinetic energy per grain" if which == "fig9" else f"mean −v ({PAPER_SIGN})"
     fig.suptitle(f"{'Fig. 9' if which == 'fig9' else 'Fig. 10'}: {label}, averaged over {PAPER_WINDOW:g} time units; "

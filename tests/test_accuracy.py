@@ -77,7 +77,7 @@ def test_small_study_shows_the_orders():
     assert not any(r.reference_limited for r in records if r.precision == "float64")
     assert 4 < reference.observed_order < 7
     for r in records:
-        assert r.status == 0 and np.isfinite(r.error) and r.energy_error < 1e-3
+        assert r.status == 0 and np.isfinite(r.error) and r.energy_error < 1e-2
         assert r.grain_steps_per_second == pytest.approx(20 * r.steps / r.seconds, rel=1e-6)
         assert r.steps == round(1.0 / r.dt)
     # float32 cannot beat its own rounding: at the finest step gear4 float32 is worse than float64

@@ -110,6 +110,7 @@ def test_runner_with_fused_kernel_records_the_same(device):
     runner = Runner(model, kernel="step")
     runner.fused = TileStepper(model, plan_tile(model.features, 40, 2, grains_per_lane=4, lanes_per_chain=8,
                                                 steps_per_launch=8, windowed=True))
+    runner.fused.load()
     result = runner.run()
     for name in ("u", "v"):
         assert_same(result.fields[name], reference.fields[name], device)
