@@ -282,29 +282,43 @@ def work_precision(scene: Scene, methods: list[str], dts: list[float], precision
     return out, reference, every
 
 
-def plot_work_precision(records: list[AccuracyRecord], path, *, title: str = "") -> None:
-    """Error and energy error against wall seconds, log–log, one line per (method, precision); writes ``path``."""
+def plot_work_precision(records: list[AccuracyRecord], path, *, title: str = "",
+                        reference_error: float | None = None) -> None:
+    """Error and energy error against wall seconds, log–log, one line per (method, precision); writes ``path``.
+
+    Open markers: errors within a factor 10 of the reference's own estimated error (drawn dotted).
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), constrained_layout=True)
-    styles = {"gear4": "C0", "gear5": "C1", "gear6": "C2", "verlet": "C3"}
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.8), constrained_layout=True)
+    colours = {"gear4": "C0", "gear5": "C1", "gear6": "C2", "verlet": "C3"}
     lines = sorted({(r.method, r.precision) for r in records}, key=lambda k: (k[1], METHODS.index(k[0])))
+    methods = {m for m, _ in lines}
+    labelled = {m for m in methods if m == "verlet"} | {min((m for m in methods if m != "verlet"), default="")}
     for method, precision in lines:
         rows = sorted((r for r in records if r.method == method and r.precision == precision), key=lambda r: r.seconds)
         seconds = np.array([r.seconds for r in rows])
+        colour = colours.get(method, "k")
+        marker = "o" if precision == "float64" else "s"
         for ax, values in ((axes[0], [r.error for r in rows]), (axes[1], [r.energy_error for r in rows])):
             values = np.array(values, dtype=float)
             ok = np.isfinite(values) & (values > 0)
-            ax.loglog(seconds[ok], values[ok], marker="o" if precision == "float64" else "s",
-                      linestyle="-" if precision == "float64" else "--", color=styles.get(method, "k"),
-                      label=f"{method} {precision}", markersize=4)
-        for r in rows:  # label each point of the position panel with its step
-            if np.isfinite(r.error) and r.error > 0 and precision == "float64":
+            ax.loglog(seconds[ok], values[ok], marker=marker, linestyle="-" if precision == "float64" else "--",
+                      color=colour, label=f"{method} {precision}", markersize=4)
+        for r in rows:
+            if r.reference_limited and np.isfinite(r.error) and r.error > 0:
+                axes[0].plot([r.seconds], [r.error], marker=marker, markersize=7, markerfacecolor="white",
+                             color=colour)
+            if method in labelled and precision == "float64" and np.isfinite(r.error) and r.error > 0:
                 axes[0].annotate(f"{r.dt:g}", (r.seconds, r.error), fontsize=6, textcoords="offset points",
-                                 xytext=(3, 3), color=styles.get(method, "k"))
+                                 xytext=(3, 3), color=colour)
+    if reference_error is not None and reference_error > 0 and np.isfinite(reference_error):
+        axes[0].axhline(reference_error, color="0.4", linestyle=":", linewidth=1)
+        axes[0].annotate("reference's estimated error", (axes[0].get_xlim()[1], reference_error), fontsize=7,
+                         textcoords="offset points", xytext=(-4, -9), ha="right", color="0.3")
     axes[0].set_ylabel("max |u − u_ref| / max |u_ref|")
     axes[1].set_ylabel("energy error max |E(t) − E(0)| / E_inj")
     for ax in axes:

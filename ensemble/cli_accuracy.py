@@ -99,8 +99,10 @@ def accuracy(
             f"{grains} grains on {dev}, kernel {results[0].kernel if results else '?'}")
     limited = [r for r in results if r.reference_limited]
     if plot is not None:
-        plot_work_precision(results, plot, title=f"{grains} grains, duration {loaded.integrator.duration:g}, "
-                            f"v_imp {loaded.excitation.impact:g}, l0 {loaded.chain.l0:g} — {note.split(';')[0]}")
+        plot_work_precision(results, plot, reference_error=reference.error_estimate, title=(
+            f"{grains} grains, duration {loaded.integrator.duration:g}, v_imp {loaded.excitation.impact:g}, "
+            f"l0 {loaded.chain.l0:g}, on {dev} (kernel {results[0].kernel}); reference gear6 float64 "
+            f"dt = {reference.dt:g}, estimated error {_number(reference.error_estimate)}; labels: dt"))
     if as_json:
         typer.echo(json.dumps([{**r.to_dict(), "reference_dt": reference.dt,
                                 "reference_error": reference.error_estimate} for r in results], indent=1))

@@ -40,4 +40,6 @@ def plot(
         plot_figure(dataset, figure, out)
     except PlotError as err:
         fail(f"--figure = {figure!r}: {err}")
+    except (KeyError, IndexError, ValueError) as err:  # a store of another sweep than the figure's
+        fail(f"--figure = {figure!r}: store {str(store)!r} does not hold this figure's sweep ({err})")
     typer.echo(f"wrote {out}")

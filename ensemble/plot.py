@@ -133,7 +133,7 @@ def fig1(ds, out: Path) -> Path:
 
 def fig2(ds, out: Path) -> Path:
     """Fig. 2(a)-(c): as Fig. 1 for l0 = 1e-5."""
-    return _fig_profiles_by_vimp(ds, out, "fig2", label_axis=True, title="l0 = 1e-5")
+    return _fig_profiles_by_vimp(ds, out, "fig2", label_axis=True, title="precompressed chain")
 
 
 def speeds_table(ds, *, first_grain: float = 100.0, last_grain: float = 800.0) -> np.ndarray:
@@ -308,11 +308,11 @@ def fig5(ds, out: Path) -> Path:
         ax.set_ylabel("−u [1e-5 m]")
         ax.legend(loc="best", ncol=4)
     r = records[-1]
-    for rule, style in (("harmonic", "-"), ("own", ":")):
-        axes[2].plot(z, an.paper_displacement(ds.u.isel(impurity_mass=light).sel(contact=rule).values[r]), "--" if
-                     rule == "harmonic" else ":", color="C3", label=f"light, {rule}")
+    for rule, light_style, heavy_style in (("harmonic", "--", "-"), ("own", ":", "-.")):
+        axes[2].plot(z, an.paper_displacement(ds.u.isel(impurity_mass=light).sel(contact=rule).values[r]),
+                     light_style, color="C3", label=f"light, {rule}")
         axes[2].plot(z, an.paper_displacement(ds.u.isel(impurity_mass=heavy).sel(contact=rule).values[r]),
-                     "-" if rule == "harmonic" else "-.", color="C0", label=f"heavy, {rule}")
+                     heavy_style, color="C0", label=f"heavy, {rule}")
     axes[2].set_xlim(0, depth)
     axes[2].set_title(f"(c) reflected pulses at t = {t[r]:g}: light (dashed) and heavy (solid)")
     axes[2].set_ylabel("−u [1e-5 m]")

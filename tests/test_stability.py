@@ -10,6 +10,7 @@
 """
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -19,6 +20,7 @@ from ensemble.accuracy import work_precision
 from ensemble.check import check_scene
 from ensemble.model import build_model
 from ensemble.runner import Runner, run_ensemble, run_scene
+from ensemble.static import static_state
 from ensemble.status import Status
 from ensemble.store import write_result
 
@@ -75,10 +77,11 @@ def test_gravity_100_on_ten_thousand_grains():
                        integrator={"duration": 0.05}, record={"every": 0.01, "fields": ["u"]})
     check = check_scene(scene)
     assert check.beyond_validity
-    scene = scene.with_overrides({"integrator.dt": 0.01 / round(0.01 / check.suggested_dt)})
+    scene = scene.with_overrides({"integrator.dt": 0.01 / math.ceil(0.01 / check.suggested_dt - 1e-9)})
     result = run_scene(scene, "cpu")
     assert result.status[0] == Status.OVERLAP_BEYOND_VALIDITY
-    assert result.max_overlap[0] == pytest.approx(check.largest_overlap, rel=1e-6)  # the static bottom
+    bottom = static_state(scene).static_overlap.max()
+    assert bottom <= result.max_overlap[0] <= check.largest_overlap   # the static bottom, within the bound
     assert 0 < result.energy_error[0] < 1e-5
 
 
@@ -116,7 +119,7 @@ def extreme(case: str, method: str):
     scene = make_scene(chain=chain, excitation=excitation, **spec,
                        integrator={"method": method, "duration": 0.3}, record={"every": 0.01, "fields": ["u"]})
     step = check_scene(scene).suggested_dt
-    return scene.with_overrides({"integrator.dt": 0.01 / max(1, round(0.01 / step))})
+    return scene.with_overrides({"integrator.dt": 0.01 / math.ceil(0.01 / step - 1e-9)})
 
 
 @pytest.mark.parametrize("method", ["gear4", "verlet"])
