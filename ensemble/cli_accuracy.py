@@ -17,13 +17,17 @@ from .cli import DeviceOption, SetOption, _load, app, fail, resolve_device
 from .scene import METHODS, SceneError
 
 
+SceneArgument = Annotated[Optional[Path], typer.Argument(help="Scene TOML (SPEC §8). Default: the built-in "
+                                                          "example.")]
+
+
 def _number(value: float) -> str:
     return f"{value:.3g}" if math.isfinite(value) else str(value)
 
 
 @app.command()
 def accuracy(
-    scene: Annotated[Optional[Path], typer.Argument(help="Scene TOML (SPEC §8). Default: the built-in example.")] = None,
+    scene: SceneArgument = None,
     methods: Annotated[str, typer.Option("--methods", help="Comma-separated methods, e.g. gear4,verlet.")] =
         "gear4,gear5,gear6,verlet",
     dt: Annotated[str, typer.Option("--dt", help="Comma-separated steps [program time]; each and the "
@@ -134,7 +138,7 @@ def accuracy(
 
 @app.command()
 def check(
-    scene: Annotated[Optional[Path], typer.Argument(help="Scene TOML (SPEC §8). Default: the built-in example.")] = None,
+    scene: SceneArgument = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the estimates as a JSON object.")] = False,
     set_: SetOption = None,
 ):

@@ -19,7 +19,8 @@ import functools
 
 import warp as wp
 
-from .features import GEAR_CORRECTOR, STATUS_NON_FINITE, Features
+from .features import STATUS_NON_FINITE, Features
+from .gear import nordsieck_functions
 from .physics import contact_functions
 
 
@@ -36,9 +37,6 @@ def sweep_kernel(features: Features):
         raise ValueError(f"the sweep kernel does not implement surface={f.surface!r} / traces={f.traces}")
     real = wp.float64 if f.precision == "float64" else wp.float32
     Q = f.values
-    GEAR = f.method != "verlet"
-    C = GEAR_CORRECTOR.get(f.method, ((0, 1),) * 6)
-    C = C + ((0, 1),) * (6 - len(C))
     SURFACE_WALL = f.surface == "wall"
     BOTTOM_WALL = f.bottom == "wall"
     FIXED = f.bottom == "fixed"
@@ -47,17 +45,7 @@ def sweep_kernel(features: Features):
     HETERO = f.heterogeneous
     HERTZ = f.hertz
     contact_force, excess_force = contact_functions(f.precision, f.hertz)
-
-    @wp.func
-    def predicted(x: wp.array3d(dtype=real), c: int, j: int) -> real:
-        p = x[0, c, j] + x[1, c, j] + x[2, c, j]
-        if wp.static(Q >= 4):
-            p += x[3, c, j]
-        if wp.static(Q >= 5):
-            p += x[4, c, j]
-        if wp.static(Q >= 6):
-            p += x[5, c, j]
-        return p
+    predicted_position, correct = nordsieck_functions(f.method, f.precision)
 
     @wp.func
     def contact(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),
@@ -112,7 +100,7 @@ def sweep_kernel(features: Features):
         last = n_grains - 1
 
         for _step in range(steps):
-            u_here = predicted(x_out, c, 0)
+            u_here = predicted_position(x_out, c, 0)
             force_above = real(0)  # excess force of the contact above the current grain
             if wp.static(SURFACE_WALL):
                 force_above = contact(static_overlap, contact_constant, c, 0, -u_here, a_c0, delta00, force00, n)
@@ -120,7 +108,7 @@ def sweep_kernel(features: Features):
                 u_next = real(0)
                 force_below = real(0)
                 if i < last:
-                    u_next = predicted(x_out, c, i + 1)
+                    u_next = predicted_position(x_out, c, i + 1)
                     force_below = contact(static_overlap, contact_constant, c, i + 1, u_here - u_next,
                                           a_c0, delta00, force00, n)
                 else:
@@ -135,44 +123,7 @@ def sweep_kernel(features: Features):
                     if wp.static(HETERO):
                         m_inv = inverse_mass[c, i]
                     half_h2_acc = real(0.5) * h * h * (force_above - force_below) * m_inv
-                    if wp.static(GEAR):
-                        p1 = x_out[1, c, i] + real(2) * x_out[2, c, i]
-                        p2 = x_out[2, c, i]
-                        p3 = real(0)
-                        p4 = real(0)
-                        p5 = real(0)
-                        if wp.static(Q >= 4):
-                            x3 = x_out[3, c, i]
-                            p1 += real(3) * x3
-                            p2 += real(3) * x3
-                            p3 = x3
-                        if wp.static(Q >= 5):
-                            x4 = x_out[4, c, i]
-                            p1 += real(4) * x4
-                            p2 += real(6) * x4
-                            p3 += real(4) * x4
-                            p4 = x4
-                        if wp.static(Q >= 6):
-                            x5 = x_out[5, c, i]
-                            p1 += real(5) * x5
-                            p2 += real(10) * x5
-                            p3 += real(10) * x5
-                            p4 += real(5) * x5
-                            p5 = x5
-                        corr = half_h2_acc - p2
-                        x_out[0, c, i] = u_here + real(wp.static(C[0][0])) / real(wp.static(C[0][1])) * corr
-                        x_out[1, c, i] = p1 + real(wp.static(C[1][0])) / real(wp.static(C[1][1])) * corr
-                        x_out[2, c, i] = half_h2_acc
-                        x_out[3, c, i] = p3 + real(wp.static(C[3][0])) / real(wp.static(C[3][1])) * corr
-                        if wp.static(Q >= 5):
-                            x_out[4, c, i] = p4 + real(wp.static(C[4][0])) / real(wp.static(C[4][1])) * corr
-                        if wp.static(Q >= 6):
-                            x_out[5, c, i] = p5 + real(wp.static(C[5][0])) / real(wp.static(C[5][1])) * corr
-                    else:
-                        x1_new = x_out[1, c, i] + x_out[2, c, i] + half_h2_acc
-                        x_out[0, c, i] = u_here
-                        x_out[1, c, i] = x1_new
-                        x_out[2, c, i] = half_h2_acc
+                    correct(x_out, x_out, c, i, u_here, half_h2_acc)
                 force_above = force_below
                 u_here = u_next
 

@@ -11,7 +11,8 @@ import functools
 
 import warp as wp
 
-from .features import GEAR_CORRECTOR, STATUS_NON_FINITE, Features
+from .features import STATUS_NON_FINITE, Features
+from .gear import nordsieck_functions
 from .physics import contact_functions, contact_parameters
 
 
@@ -21,9 +22,6 @@ def step_kernel(features: Features):
     f = features
     real = wp.float64 if f.precision == "float64" else wp.float32
     Q = f.values
-    GEAR = f.method != "verlet"
-    C = GEAR_CORRECTOR.get(f.method, ((0, 1),) * 6)
-    C = C + ((0, 1),) * (6 - len(C))
     SURFACE_WALL = f.surface == "wall"
     DRIVEN = f.surface == "driven"
     BOTTOM_WALL = f.bottom == "wall"
@@ -32,17 +30,7 @@ def step_kernel(features: Features):
     TRACES = f.traces
     _, excess_force = contact_functions(f.precision, f.hertz)
     params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz)
-
-    @wp.func
-    def predicted_position(x: wp.array3d(dtype=real), c: int, j: int) -> real:
-        p = x[0, c, j] + x[1, c, j] + x[2, c, j]
-        if wp.static(Q >= 4):
-            p += x[3, c, j]
-        if wp.static(Q >= 5):
-            p += x[4, c, j]
-        if wp.static(Q >= 6):
-            p += x[5, c, j]
-        return p
+    predicted_position, correct = nordsieck_functions(f.method, f.precision)
 
     @wp.func
     def contact(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),
@@ -152,52 +140,8 @@ def step_kernel(features: Features):
             inv_m = inverse_mass[c, 0]
         half_h2_acc = real(0.5) * h * h * (up - down) * inv_m
 
-        x0 = real(0)
-        x1 = real(0)
-        if wp.static(GEAR):
-            p1 = x_in[1, c, i] + real(2) * x_in[2, c, i]
-            p2 = x_in[2, c, i]
-            p3 = real(0)
-            p4 = real(0)
-            p5 = real(0)
-            if wp.static(Q >= 4):
-                x3 = x_in[3, c, i]
-                p1 += real(3) * x3
-                p2 += real(3) * x3
-                p3 = x3
-            if wp.static(Q >= 5):
-                x4 = x_in[4, c, i]
-                p1 += real(4) * x4
-                p2 += real(6) * x4
-                p3 += real(4) * x4
-                p4 = x4
-            if wp.static(Q >= 6):
-                x5 = x_in[5, c, i]
-                p1 += real(5) * x5
-                p2 += real(10) * x5
-                p3 += real(10) * x5
-                p4 += real(5) * x5
-                p5 = x5
-            corr = half_h2_acc - p2
-            x0 = u_p + real(wp.static(C[0][0])) / real(wp.static(C[0][1])) * corr
-            x1 = p1 + real(wp.static(C[1][0])) / real(wp.static(C[1][1])) * corr
-            x_out[0, c, i] = x0
-            x_out[1, c, i] = x1
-            x_out[2, c, i] = half_h2_acc  # C2 = 1
-            x_out[3, c, i] = p3 + real(wp.static(C[3][0])) / real(wp.static(C[3][1])) * corr
-            if wp.static(Q >= 5):
-                x_out[4, c, i] = p4 + real(wp.static(C[4][0])) / real(wp.static(C[4][1])) * corr
-            if wp.static(Q >= 6):
-                x_out[5, c, i] = p5 + real(wp.static(C[5][0])) / real(wp.static(C[5][1])) * corr
-        else:
-            # velocity Verlet: dt·v_new = dt·v + dt²/2 (a + a_new)
-            x0 = u_p
-            x1 = x_in[1, c, i] + x_in[2, c, i] + half_h2_acc
-            x_out[0, c, i] = x0
-            x_out[1, c, i] = x1
-            x_out[2, c, i] = half_h2_acc
-
-        write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, x0, x1)
+        new = correct(x_in, x_out, c, i, u_p, half_h2_acc)
+        write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, new[0], new[1])
 
     return step
 
