@@ -151,8 +151,6 @@ def _scalar_list(key: str, values: Any) -> tuple:
     kinds = {bool if isinstance(v, bool) else str if isinstance(v, str) else float for v in values}
     if len(kinds) > 1:
         raise SceneError(key, values, "axis values must all be numbers, all strings or all booleans")
-    if len(set(values)) != len(values):
-        raise SceneError(key, values, "axis values must not repeat (they label a store dimension)")
     if kinds == {float} and any(isinstance(v, float) for v in values):
         values = [float(v) for v in values]
     return tuple(values)
@@ -306,6 +304,14 @@ def sweep_from_dict(data: dict, *, base_dir: str | Path = ".", overrides: dict[s
                                      f"has {len(member.values)} values but {group[0]} has "
                                      f"{len(members[0].values)}: zipped axes need equal lengths")
             dimensions.append(Dimension(axes=members))
+    for dimension in dimensions:
+        # the leading axis labels the store dimension; the other axes of a zip are coordinates
+        # along it and may repeat values
+        lead = dimension.axes[0]
+        if len(set(lead.values)) != len(lead.values):
+            raise SceneError(f"axis[{names[lead.name]}].values", list(lead.values),
+                             "values must not repeat: they label a store dimension (in a [[zip]] group "
+                             "only the first axis labels it)")
     return Sweep(base=base, dimensions=tuple(dimensions), zips=tuple(zips), source=source)
 
 

@@ -346,3 +346,22 @@ def test_scene_error_from_planner_is_a_scene_error(tmp_path):
     sweep = load_sweep(write(tmp_path))
     with pytest.raises(SceneError):
         plan_sweep(sweep, sweep_scenes(sweep), "cpu", block=(5, 5, 5))
+
+
+def test_non_leading_zip_axis_may_repeat_values():
+    """Only the first axis of a [[zip]] group labels the store dimension; the others are coordinates."""
+    from ensemble.sweep import sweep_from_dict
+
+    data = {
+        "scene": {"chain": {"grains": 10}, "excitation": {"impact": 1e-2}, "integrator": {"duration": 0.01}},
+        "axis": [
+            {"name": "case", "key": "chain.l0", "values": [0.0, 1e-5, 1e-4]},
+            {"name": "v_imp", "key": "excitation.impact", "values": [1e-2, 1e-2, 1e-3]},
+        ],
+        "zip": [{"axes": ["case", "v_imp"]}],
+    }
+    sweep = sweep_from_dict(data)
+    assert len(sweep.dimensions) == 1 and len(sweep.dimensions[0].axes) == 2
+    data["zip"] = [{"axes": ["v_imp", "case"]}]
+    with pytest.raises(SceneError, match="must not repeat"):
+        sweep_from_dict(data)
