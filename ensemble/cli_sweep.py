@@ -65,6 +65,34 @@ class _Progress:
             self.bar.stop()
 
 
+def corner_dt_warnings(definition, scenes) -> list[str]:
+    """``hertzian check``'s dt warning at the corners of the grid (at most 64 points).
+
+    The stiffest contact grows monotonically with v_imp, l0, g, drive amplitude and the impurity
+    constants, and the lightest mass shrinks monotonically, so a grid's extremes sit at its corners.
+    """
+    import itertools
+
+    import numpy as np
+
+    from .check import dt_warning
+
+    shape = list(definition.shape)
+    if shape:
+        corners = itertools.product(*[sorted({0, n - 1}) for n in shape])
+        points = sorted({int(np.ravel_multi_index(c, shape)) for c in corners})[:64]
+    else:
+        points = [0]
+    lines = []
+    for index in points:
+        message = dt_warning(scenes[index])
+        if message:
+            names = definition.coordinates_at(np.unravel_index(index, shape)) if shape else {}
+            where = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in names.items())
+            lines.append(f"point {index}{' (' + where + ')' if where else ''}: {message}")
+    return lines
+
+
 @app.command()
 def sweep(
     sweep_file: Annotated[Path, typer.Argument(help="Sweep TOML: a base scene and [[axis]] tables (docs/sweeps.md).")],
@@ -85,6 +113,8 @@ def sweep(
     precision: PrecisionOption = None,
     set_: SetOption = None,
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
+    strict: Annotated[bool, typer.Option("--strict", help="Refuse (exit 2) when dt looks unstable or "
+                                         "inaccurate at a corner of the grid (see hertzian check).")] = False,
 ):
     """Run a parameter sweep (SPEC §8) as batched ensembles into one Zarr store with one dimension per axis.
 
@@ -108,6 +138,11 @@ def sweep(
         scenes = sweep_scenes(definition)
     except SceneError as err:
         fail(str(err))
+    unsafe = corner_dt_warnings(definition, scenes)
+    if unsafe and strict:
+        fail(unsafe[0])
+    for line in unsafe:
+        typer.echo(f"warning: {line}", err=True)
     out = out if out is not None else Path(sweep_file.stem + ".zarr")
     if not dry_run:
         if out.exists() and not (resume or overwrite):
