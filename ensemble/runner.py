@@ -77,6 +77,8 @@ class RunResult:
     """Snapshots by name ('u', 'v'), each (chains, R, grains)."""
     trace_t: np.ndarray | None = None
     traces: dict[str, np.ndarray] = field(default_factory=dict)
+    kernel: str = "step"
+    """Which kernel advanced the state: 'step' (one step per launch) or a fused kernel's description."""
     """Trace samples by name ('u', 'v'), each (chains, S, traced)."""
 
     @property
@@ -197,8 +199,9 @@ class Runner:
         max_overlap = np.full(c, -np.inf)
         trace_order = (np.arange(1, samples_per_record + 1) % samples_per_record) if traced else None
 
-        # compile before the clock starts
-        wp.load_module(self.stepper.kernel.module, device=m.device)
+        # compile before the clock starts (the per-step kernel only where it is the one that runs)
+        if self.fused is None:
+            wp.load_module(self.stepper.kernel.module, device=m.device)
         wp.load_module(self.record.module, device=m.device)
         wp.synchronize_device(m.device)
         start = time.perf_counter()
@@ -244,6 +247,7 @@ class Runner:
             max_overlap=max_overlap, energy_error=energy_error, wall_seconds=wall,
             steps=(records - 1) * spr, fields=fields,
             trace_t=(np.arange(sample_count) * stride * m.dt) if traced else None, traces=traces,
+            kernel="step" if self.fused is None else self.fused.describe(),
         )
 
 

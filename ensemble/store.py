@@ -66,6 +66,7 @@ def provenance(result: RunResult) -> dict[str, Any]:
         "grain_steps_per_second": result.grain_steps_per_second,
         "energy_error_max": float(np.max(result.energy_error)) if result.energy_error.size else 0.0,
         "kernel_features": {k: getattr(result.features, k) for k in result.features.__dataclass_fields__},
+        "kernel": getattr(result, "kernel", "step"),
         "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
     }
 
