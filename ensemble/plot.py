@@ -538,7 +538,7 @@ def _fig_driven(ds, out: Path, which: str) -> Path:
             ax.set_title(text, loc="left", fontsize=7.5)
         axes[-1, col].set_xlabel("depth z [grain diameters]")
     label = "mean kinetic energy per grain" if which == "fig9" else f"mean −v ({PAPER_SIGN})"
-    fig.suptitle(f"{'Fig. 9' if which == 'fig9' else 'Fig. 10'}: {label}, averaged over {PAPER_WINDOW:g} time units; "
+    fig.suptitle(f"{'Fig. 9' if which == 'fig9' else 'Fig. 10'}: {label}, averaged over {PAPER_WINDOW:g} time units;\n"
                  f"{n}-grain column, g = 1, surface driven 2 sin(2πt/τ), bottom fixed", fontsize=8)
     return _finish(fig, out, note=SIGN_NOTE)
 
