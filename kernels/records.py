@@ -114,3 +114,22 @@ def record_kernel(features: Features):
             status[c] = wp.static(STATUS_OVERLAP_BEYOND_VALIDITY)
 
     return record
+
+
+@wp.kernel(enable_backward=False)
+def track_extremes(
+    energy: wp.array(dtype=wp.float64),
+    work: wp.array(dtype=wp.float64),
+    initial_energy: wp.array(dtype=wp.float64),
+    driven: int,
+    overlap: wp.array(dtype=wp.float64),
+    energy_deviation: wp.array(dtype=wp.float64),
+    largest_overlap: wp.array(dtype=wp.float64),
+):
+    # running max of |E − E(0) [− W]| and of the largest overlap, between records too
+    c = wp.tid()
+    change = energy[c] - initial_energy[c]
+    if driven != 0:
+        change = change - work[c]
+    energy_deviation[c] = wp.max(energy_deviation[c], wp.abs(change))
+    largest_overlap[c] = wp.max(largest_overlap[c], overlap[c])
