@@ -33,7 +33,7 @@ from typing import Any
 import warp as wp
 
 from .features import GEAR_CORRECTOR, STATUS_NON_FINITE, Features
-from .physics import contact_functions
+from .physics import contact_functions, contact_parameters
 
 
 # The fast path of the CUDA compiler's correctly rounded float64 sqrt (sqrt.rn.f64 on sm_90), written
@@ -130,9 +130,8 @@ def tile_kernel(features: Features, shape: TileShape):
     BOTTOM_WALL = f.bottom == "wall"
     FIXED = f.bottom == "fixed"
     FREE_END = (not SURFACE_WALL) or f.bottom == "free"
-    STATIC = f.static != "none"
-    PROFILE = f.static == "profile"
     HETERO = f.heterogeneous
+    params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz)
     HERTZ = f.hertz
     BRANCHLESS = shape.branchless
     FAST_SQRT = shape.fast_sqrt and HERTZ and f.precision == "float64"
@@ -322,16 +321,9 @@ def tile_kernel(features: Features, shape: TileShape):
             kk = wp.min(wp.max(base + k, 0), n_grains)
             if base + k >= lo and base + k <= hi:
                 contact_bits = contact_bits | (1 << k)
-            d0 = real(0)
-            if wp.static(PROFILE):
-                d0 = static_overlap[cc, kk]
-            elif wp.static(STATIC):
-                d0 = static_overlap[cc, 0]
-            ac = real(0)
-            if wp.static(HETERO):
-                ac = contact_constant[cc, kk]
-            else:
-                ac = contact_constant[cc, 0]
+            p = params(static_overlap, contact_constant, exponent, cc, kk)
+            d0 = p[0]
+            ac = p[1]
             delta0[k] = d0
             a_c[k] = ac
             force0[k] = contact_force(d0, ac, n)
