@@ -74,7 +74,7 @@ def accuracy(
             raise SceneError("--reference-factor", reference_factor, "must be an integer ≥ 1")
         if records < 1:
             raise SceneError("--records", records, "must be ≥ 1")
-        from .calibrate import KERNELS
+        from .solvers import KERNELS
 
         if kernel is not None and kernel not in KERNELS:
             raise SceneError("--kernel", kernel, f"allowed: {', '.join(KERNELS)}")

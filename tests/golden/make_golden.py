@@ -11,8 +11,9 @@ every array is bitwise equal. A case is a plain dict, so a later kernel option c
   (whole chains per block) or ``window`` (windows with ghost zones);
 * ``plan``: for ``tile``/``window``, the keywords of ``kernels.tile.plan_tile``.
 
-The file was made from commit f3b003b (before the solver refactor); do not regenerate it unless
-a change is meant to alter results, and say so in the commit.
+The file was made from commit f3b003b (before the solver refactor, with that commit's own
+``run_case``, see git history); do not regenerate it unless a change is meant to alter results,
+and say so in the commit.
 """
 
 from __future__ import annotations
@@ -129,23 +130,20 @@ def run_case(case: dict):
     """Run one golden case on the CPU and return its RunResult."""
     import warp as wp
 
-    from ensemble.calibrate import TileStepper
     from ensemble.model import build_model
     from ensemble.runner import Runner
     from ensemble.scene import scene_from_dict
+    from ensemble.solvers import config_of
     from kernels.tile import plan_tile
 
     wp.init()
     model = build_model([scene_from_dict(s) for s in case["scenes"]], "cpu")
     solver = case["solver"]
     if solver in ("tile", "window"):
-        runner = Runner(model, kernel="step")
-        runner.fused = TileStepper(model, plan_tile(model.features, model.grain_count, model.chain_count,
-                                                    **case["plan"]))
-        runner.fused.load()
-    else:
-        runner = Runner(model, kernel=solver)
-    return runner.run()
+        config = config_of(plan_tile(model.features, model.grain_count, model.chain_count, **case["plan"]))
+        assert config.kind == solver
+        return Runner(model, kernel=config).run()
+    return Runner(model, kernel=solver).run()
 
 
 def arrays_of(result) -> dict[str, np.ndarray]:
