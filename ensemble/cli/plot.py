@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from .cli import app, fail
+from .app import app, fail
 
 
 @app.command()
@@ -20,7 +20,7 @@ def plot(
 ):
     """Draw a paper figure group in the paper's representation (program units: length 1e-5 m,
     time 1.0102e-3 s; profiles in the paper's sign, + toward the surface)."""
-    from .plot import FIGURES, PlotError, plot_figure
+    from ..plot import FIGURES, PlotError, plot_figure
 
     if figure not in FIGURES:
         fail(f"--figure = {figure!r}: allowed: {', '.join(FIGURES)}")
