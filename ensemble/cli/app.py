@@ -6,8 +6,6 @@ code 2, writing nothing. This module imports no command module.
 
 from __future__ import annotations
 
-import json
-import sys
 from importlib import resources
 from pathlib import Path
 from typing import Annotated, Optional
