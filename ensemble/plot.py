@@ -1,9 +1,11 @@
-"""Figures of Sen, Manciu & Wright (1998) from hertzian stores, in the paper's representation.
+"""Pictures of hertzian stores: any store (``plot_store``) and the paper's figures (``plot_figure``).
 
-``plot_figure(dataset, "fig1", "fig1.png")`` draws one figure group from an ``xarray`` dataset
-opened from a store written by ``hertzian sweep sweeps/paper_*.toml`` (or by
-``docs/reproduce_gpu.py`` for Figs. 9-10). Matplotlib's Agg backend; program units throughout
-(length 1e-5 m, time 1.0102e-3 s).
+``plot_store(dataset, "run.png")`` draws one point of any store written by ``hertzian run`` or
+``hertzian sweep``: the depth–time picture of u or v, the traced grains' signals and the energy
+error against time. ``plot_figure(dataset, "fig1", "fig1.png")`` draws one figure group of Sen,
+Manciu & Wright (1998) from a store written by ``hertzian sweep sweeps/paper_*.toml`` or
+``hertzian reproduce``. Matplotlib's Agg backend; program units throughout (length 1e-5 m,
+time 1.0102e-3 s). Every reduction of the data is in ``ensemble.analysis``; this module draws.
 
 Signs: profile plots show the paper's sign, −u and −v (the change of a grain's *position*, positive
 toward the surface), because the paper plots grain positions; the compressive part of a pulse
@@ -429,6 +431,75 @@ def fig9(ds, out: Path) -> Path:
 def fig10(ds, out: Path) -> Path:
     """Fig. 10: time-averaged velocity against depth in the driven column, for each τ."""
     return _fig_driven(ds, out, "fig10")
+
+
+# ---- any store ---------------------------------------------------------------------------------
+
+
+def point_dims(ds) -> list[str]:
+    """The sweep axes of a store (the dims of ``status``; none for a single run)."""
+    return [str(d) for d in ds.status.dims] if "status" in ds.variables else []
+
+
+def select_point(ds, at: dict[str, float] | None = None):
+    """One point of a store: the coordinate nearest each value in ``at`` {axis: value}, the first along
+    every other axis. Raises PlotError naming an unknown axis."""
+    at = dict(at or {})
+    for dim in point_dims(ds):
+        if dim in at:
+            ds = ds.sel({dim: at.pop(dim)}, method="nearest")
+        else:
+            ds = ds.isel({dim: 0})
+    if at:
+        raise PlotError(f"no sweep axis {', '.join(at)}; the store's axes: {', '.join(point_dims(ds)) or 'none'}")
+    return ds
+
+
+def plot_store(ds, out: str | Path, *, field: str = "v", at: dict[str, float] | None = None) -> Path:
+    """One point of any store: depth–time picture of ``field`` (u or v, the store's sign: + into the chain),
+    the traced grains' velocities, and the relative energy error against time."""
+    if field not in ("u", "v"):
+        raise PlotError(f"field {field!r}: u or v")
+    _require(ds, field, "energy", figure=f"a {field} picture")
+    point = select_point(ds, at)
+    plt = _pyplot()
+    traced = "trace_v" in point.variables and point.sizes.get("traced", 0) > 0
+    rows = 2 + traced
+    fig, axes = plt.subplots(rows, 1, figsize=(7.0, 3.0 * rows), squeeze=False)
+    axes = axes[:, 0]
+    t = point.t.values
+    data = point[field].values
+    n = data.shape[-1]
+    limit = float(np.nanmax(np.abs(data))) or 1.0
+    half = 0.5 * (t[-1] - t[0]) / max(len(t) - 1, 1) or 0.5   # each record's row centred on its time
+    image = axes[0].imshow(data, origin="lower", aspect="auto", cmap="RdBu_r", vmin=-limit, vmax=limit,
+                           extent=(-0.5, n - 0.5, t[0] - half, t[-1] + half), interpolation="nearest")
+    fig.colorbar(image, ax=axes[0], label=f"{field} [{'1e-5 m' if field == 'u' else '1e-5 m per time unit'}]")
+    axes[0].set_xlabel("grain (depth; surface = 0)")
+    axes[0].set_ylabel(f"t [{TIME_UNIT}]")
+    where = ", ".join(f"{d} = {point[d].values:g}" for d in point_dims(ds) if d in point.coords)
+    axes[0].set_title(f"{field}(grain, t), + into the chain; {n} grains, {len(t)} records" + (f"; {where}" if where
+                                                                                              else ""))
+    ax = axes[1]
+    if traced:
+        tt = point.trace_t.values
+        for k, grain in enumerate(point.traced_grain.values):
+            ax.plot(tt, point.trace_v.values[:, k], lw=0.7, label=f"grain {int(grain)}")
+        ax.set_xlabel(f"t [{TIME_UNIT}]")
+        ax.set_ylabel("v [1e-5 m per time unit]")
+        ax.set_title("traced grains' velocity (+ into the chain)")
+        ax.legend(loc="best", ncol=4)
+        ax = axes[2]
+    drift, scale = an.energy_drift(point.energy.values, point.work.values if "work" in point.variables else None)
+    ax.plot(t, drift, ".-", ms=3)
+    ax.axhline(0, color="0.6", lw=0.5)
+    ax.set_xlabel(f"t [{TIME_UNIT}]")
+    ax.set_ylabel(f"(E − E(0){' − W' if 'work' in point.variables else ''}) / {scale}")
+    title = "energy error at the records"
+    if "energy_error" in point.variables:
+        title += f"; max over the run (records and checks between): {float(point.energy_error):.3g}"
+    ax.set_title(title)
+    return _finish(fig, Path(out))
 
 
 FIGURES: dict[str, Callable] = {

@@ -38,7 +38,8 @@ What is here, by paper section:
 """
 
 from .columns import column_sound_speed, count_bumps, depth_law, speed_against_depth
-from .common import LineFit, PowerLawFit, fit_line, fit_power_law, paper_displacement, paper_label
+from .common import (LineFit, PowerLawFit, energy_drift, fit_line, fit_power_law, paper_displacement,
+                     paper_label)
 from .drive import (PAPER_DRIVE_TIMES, PAPER_WINDOW, PERSISTENCE_LAGS, StandingWave, drive_times, driven_windows,
                     kinetic_energy, profile_nodes, standing_wave_measure, window_average)
 from .echoes import Backscatter, backscatter, echo_table, impurity_grains, impurity_points
@@ -51,7 +52,8 @@ from .pulses import _parabolic_peak  # noqa: F401  (sub-sample peak position; te
 __all__ = [
     "Backscatter", "LineFit", "NESTERENKO_FWHM", "NESTERENKO_SUPPORT", "PAPER_DRIVE_TIMES", "PAPER_WINDOW",
     "PERSISTENCE_LAGS", "PowerLawFit", "StandingWave", "TailFit", "backscatter", "column_sound_speed",
-    "count_bumps", "depth_law", "drive_times", "driven_windows", "echo_table", "fit_line", "fit_power_law",
+    "count_bumps", "depth_law", "drive_times", "driven_windows", "echo_table", "energy_drift", "fit_line",
+    "fit_power_law",
     "front_position", "full_width_half_maximum", "head_positions", "impurity_grains", "impurity_points",
     "kinetic_energy", "nesterenko_speed", "paper_displacement", "paper_label", "plateau_tilt", "profile_nodes",
     "pulse_head", "pulse_speed", "running_max", "shock_width", "shock_widths", "speed_against_depth",

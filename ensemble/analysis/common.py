@@ -76,3 +76,23 @@ def paper_displacement(u):
 def paper_label(grain, grain_count: int):
     """The paper's grain label in Figs. 1, 2 and 4 (surface grain = N, last grain = 1): ``N − i``."""
     return grain_count - np.asarray(grain)
+
+
+def energy_drift(energy, work=None) -> tuple[np.ndarray, str]:
+    """Energy conservation over a run: (E(t) − E(0) [− W(t)]) / scale and a label for the scale.
+
+    ``energy`` (and the driver's ``work``) at the records, shape (..., record). The scale is SPEC §5's:
+    max|W| for a driven chain, else the injected energy, which is E(0) for an impact (the energy is
+    relative to the static state, where the chain starts), else 1 (absolute).
+    """
+    energy = np.asarray(energy, dtype=float)
+    change = energy - energy[..., :1]
+    if work is not None:
+        work = np.asarray(work, dtype=float)
+        change = change - work
+        scale, label = np.max(np.abs(work), axis=-1, keepdims=True), "max |W|"
+    else:
+        scale, label = energy[..., :1], "E_inj"
+    if not np.all(scale > 0):
+        return change, "absolute"
+    return change / scale, label
