@@ -178,12 +178,11 @@ def study_kernel(scene: Scene, device: str | None) -> str:
 
 def _run(scene: Scene, device: str | None, kernel: str = "auto"):
     """(RunResult, name of the kernel that ran)."""
-    import warp as wp
-
+    from .devices import default_device, init_warp
     from .model import build_model
-    from .runner import Runner, default_device
+    from .runner import Runner
 
-    wp.init()
+    init_warp()
     result = Runner(build_model([scene], device or default_device()), kernel=kernel).run()
     return result, result.kernel
 

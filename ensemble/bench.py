@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
+from .devices import init_warp
 from .model import build_model
 from .peers import JaxGear4, NumpyGear4, PeerProblem, jax_available
 from .runner import Runner
@@ -148,7 +149,7 @@ def run_bench(device: str, sizes: list[tuple[int, int]], *, kernel: str = "all",
     """Bench every implementation at every (chains, grains); returns one record (dict) per implementation and size."""
     if kernel not in KERNEL_CHOICES:
         raise ValueError(f"kernel = {kernel!r}: one of {', '.join(KERNEL_CHOICES)}")
-    wp.init()
+    init_warp()
     dev = wp.get_device(device)
     log = log or (lambda message: None)
     bandwidth = copy_bandwidth(dev)

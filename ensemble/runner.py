@@ -16,6 +16,7 @@ import warp as wp
 
 from kernels.features import Features
 
+from .devices import default_device, init_warp
 from .model import Model, State, build_model
 from .recorder import Recorder
 from .scene import Scene
@@ -176,15 +177,10 @@ def energy_errors(energy: np.ndarray, work: np.ndarray | None, injected: np.ndar
     return np.where(np.isfinite(err), err, np.inf)
 
 
-def default_device() -> str:
-    """'cuda' when a CUDA device is present, else 'cpu'."""
-    return "cuda" if wp.is_cuda_available() else "cpu"
-
-
 def run_ensemble(scenes: list[Scene], device: str | None = None, *, progress=None,
                  use_graph: bool | None = None) -> RunResult:
     """Run compatible scenes as one ensemble (one kernel launch per step for all chains)."""
-    wp.init()
+    init_warp()
     model = build_model(list(scenes), device or default_device())
     return Runner(model, use_graph=use_graph).run(progress)
 

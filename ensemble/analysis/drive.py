@@ -109,7 +109,7 @@ def driven_windows(ds) -> dict:
     """Window-averaged profiles of a driven-column store at the paper's times (scaled to the column's
     length): ``taus``, ``centres``, ``ke`` and ``v`` (tau, centre, grain), and ``persistence``
     [tau][centre] — :func:`analysis.standing_wave_measure` of the kinetic-energy windows at
-    centre + PERSISTENCE_LAGS. Reads a reproduce_gpu.py store (ke_window, v_window, window_lag) or
+    centre + PERSISTENCE_LAGS. Reads a ``hertzian reproduce`` store (ke_window, v_window, window_lag) or
     averages velocity snapshots of a sweep store."""
     n = int(ds.sizes["grain"])
     taus = ds.tau.values

@@ -40,8 +40,9 @@ def example_path(name: str = "impact") -> Path:
 def resolve_device(device: str | None) -> str:
     import warp as wp
 
-    wp.config.log_level = wp.LOG_WARNING
-    wp.init()
+    from ..devices import init_warp
+
+    init_warp()
     if device is None:
         return "cuda" if wp.is_cuda_available() else "cpu"
     try:
