@@ -80,7 +80,7 @@ class AccuracyRecord:
     reference_limited: bool
     """True when ``error`` is within a factor 10 of the reference's own estimated error."""
     kernel: str = "step"
-    """Which kernel ran (ensemble/calibrate.py): the same for every run of a study."""
+    """Which kernel ran (ensemble/solvers/calibrate.py): the same for every run of a study."""
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -164,7 +164,7 @@ def richardson_estimate(u_h: np.ndarray, u_2h: np.ndarray, u_4h: np.ndarray, *,
 def study_kernel(scene: Scene, device: str | None) -> str:
     """The kernel every run of a study uses, so that their times compare (``auto`` would switch kernels with
     the run length): on a CPU the chain-per-thread sweep where it applies, else the per-step kernel; on a
-    GPU ``auto`` (ensemble/calibrate.py)."""
+    GPU ``auto`` (ensemble/solvers/calibrate.py)."""
     import warp as wp
 
     from kernels.cpu import sweepable
@@ -178,16 +178,13 @@ def study_kernel(scene: Scene, device: str | None) -> str:
 
 def _run(scene: Scene, device: str | None, kernel: str = "auto"):
     """(RunResult, name of the kernel that ran)."""
-    import warp as wp
-
+    from .devices import default_device, init_warp
     from .model import build_model
-    from .runner import Runner, default_device
+    from .runner import Runner
 
-    wp.init()
-    runner = Runner(build_model([scene], device or default_device()), kernel=kernel)
-    result = runner.run()
-    fused = getattr(runner, "fused", None)
-    return result, (fused.describe() if fused is not None else "step")
+    init_warp()
+    result = Runner(build_model([scene], device or default_device()), kernel=kernel).run()
+    return result, result.kernel
 
 
 def reference_run(scene: Scene, dt: float, every: float, device: str | None = None, *,
@@ -238,7 +235,7 @@ def work_precision(scene: Scene, methods: list[str], dts: list[float], precision
                    kernel: str | None = None, progress=None) -> tuple[list[AccuracyRecord], ReferenceRun, float]:
     """Run every (precision, method, dt) of a study and measure it against a gear6 reference.
 
-    Returns (records, reference, record interval). ``kernel`` (ensemble/calibrate.py KERNELS) is the
+    Returns (records, reference, record interval). ``kernel`` (ensemble/solvers/calibrate.py KERNELS) is the
     same for every run; default :func:`study_kernel`. ``progress(text)`` is called before each run.
     """
     from .check import check_scene

@@ -26,11 +26,13 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from .calibrate import states_equal
+from .devices import init_warp
 from .model import build_model
 from .peers import JaxGear4, NumpyGear4, PeerProblem, jax_available
 from .runner import Runner
 from .scene import Scene, scene_from_dict
+from .solvers import choose_config, make_solver
+from .solvers.calibrate import states_equal, whole_chain_configs
 
 DATE = "2026-11"
 KERNEL_CHOICES = ("all", "auto", "step", "tile", "window", "sweep")
@@ -99,12 +101,12 @@ class Implementation:
 
 def _warp_impl(name: str, runner: Runner) -> Implementation:
     dev = runner.model.device
-    fused = runner.fused
-    if fused is None:
-        kernel, chunk = "step", (512 if runner.use_graph else 1)
+    solver = runner.solver
+    kernel = solver.describe()
+    if solver.kind == "step":
+        chunk = solver.config.graph_steps if solver.use_graph else 1
     else:
-        kernel = fused.describe()
-        chunk = fused.steps_per_launch if fused.steps_per_launch < (1 << 20) else 1
+        chunk = solver.steps_per_launch if solver.steps_per_launch < (1 << 20) else 1
         if dev.is_cuda:
             chunk = math.lcm(chunk, 512)
     return Implementation(
@@ -147,7 +149,7 @@ def run_bench(device: str, sizes: list[tuple[int, int]], *, kernel: str = "all",
     """Bench every implementation at every (chains, grains); returns one record (dict) per implementation and size."""
     if kernel not in KERNEL_CHOICES:
         raise ValueError(f"kernel = {kernel!r}: one of {', '.join(KERNEL_CHOICES)}")
-    wp.init()
+    init_warp()
     dev = wp.get_device(device)
     log = log or (lambda message: None)
     bandwidth = copy_bandwidth(dev)
@@ -170,12 +172,12 @@ def run_bench(device: str, sizes: list[tuple[int, int]], *, kernel: str = "all",
         runner = Runner(model, kernel="step")
         initial = runner.buffers[0].x.numpy().copy()
 
-        def reset(fused) -> None:
+        def reset(solver) -> None:
             runner.buffers[0].x.assign(initial)
             runner.buffers[0].clock.zero_()
-            runner.status.zero_()
-            runner.parity = 0
-            runner.fused = fused
+            runner.buffers[0].status.zero_()
+            runner.current = runner.buffers[0]
+            runner.solver = solver
 
         # reference: the per-step kernel after check_steps steps
         runner.advance(check_steps)
@@ -203,30 +205,29 @@ def run_bench(device: str, sizes: list[tuple[int, int]], *, kernel: str = "all",
                 f"x{gs / on_wall:5.2f} wall  diff {diff:.1e}")
 
         # the project's kernels
-        from .calibrate import make_stepper, whole_chain_plans
-
         names = {"all": ["step", "tile", "window"] if dev.is_cuda else ["step", "sweep"],
                  "auto": ["auto"]}.get(kernel, [kernel])
+        step_solver = runner.solver
         for name in names:
-            fused = None
             if (kernel == "all" and name == "window" and chains >= (dev.sm_count or 1) and grains <= 1024
-                    and whole_chain_plans(model)):
+                    and whole_chain_configs(model)):
                 log("  window: skipped (whole chains fit a block and fill the GPU)")
                 continue
+            solver = step_solver
             if name != "step":
                 try:
                     # a bench run is long by design: auto decides as for a long run
-                    fused = make_stepper(model, name, run_steps=None, buffers=runner.buffers, log=log)
+                    config = choose_config(model, name, run_steps=None, states=runner.buffers, log=log)
                 except ValueError as err:
                     log(f"  {name}: skipped ({err})")
                     continue
-                if fused is not None:
-                    fused.load()
-            reset(fused)
+                solver = step_solver if config.kind == "step" else make_solver(model, config)
+                solver.load()
+            reset(solver)
             runner.advance(check_steps)
-            label = name if name != "auto" else (fused.name if fused is not None else "step")
+            label = name if name != "auto" else solver.kind
             bench(_warp_impl(f"warp-{label}", runner), wall, chains)
-            del fused
+            del solver
         del runner
         gc.collect()
 

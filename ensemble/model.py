@@ -3,8 +3,8 @@
 ``build_model(scenes, device)`` checks that the scenes can share one launch (same grain
 count, boundaries, integrator, dt and record layout), derives the kernel
 :class:`~kernels.features.Features` from what the chains actually use, and uploads only the
-arrays those features need. ``model.state()`` allocates one state buffer; a stepper
-ping-pongs between two.
+arrays those features need. ``model.state_pair()`` allocates the two state buffers a solver
+ping-pongs between (they share one ``status`` and one trace ring).
 """
 
 from __future__ import annotations
@@ -75,6 +75,12 @@ class State:
     """Driver's work up to the previous step, shape (chains,) or (0,) without a drive."""
     power: wp.array
     """Driver's power at the previous step, shape (chains,) or (0,)."""
+    status: wp.array
+    """Per-chain status code (ensemble.status.Status), shape (chains,), int32. Both halves of a ping-pong
+    pair hold the *same* array: kernels read it to freeze a non-finite chain and the record kernel writes it."""
+    traces: wp.array
+    """Trace ring, shape (2, chains, samples per record, traced grains) [u and dt·v], or (2, 0, 0, 0);
+    shared by both halves like ``status``; the record step reads it back once per record."""
 
 
 @dataclass(frozen=True)
@@ -108,22 +114,44 @@ class Model:
     def real(self):
         return wp.float64 if self.features.precision == "float64" else wp.float32
 
-    def state(self) -> State:
-        """A zeroed state buffer (all grains at their static positions, at rest, clock 0)."""
+    @property
+    def trace_capacity(self) -> int:
+        """Trace samples kept between two records (the ring's length)."""
+        scene = self.scenes[0]
+        return scene.steps_per_record // scene.trace_stride if scene.record.traces else 0
+
+    def state(self, *, like: State | None = None) -> State:
+        """A zeroed state buffer (all grains at their static positions, at rest, clock 0).
+
+        ``like``: the other half of a ping-pong pair, whose ``status`` and trace ring this one shares.
+        """
         c, n = self.chain_count, self.grain_count
         driven = self.features.surface == "driven"
+        if like is None:
+            traced = len(self.scenes[0].record.traces)
+            shape = (2, c, self.trace_capacity, traced) if traced else (2, 0, 0, 0)
+            status = wp.zeros(c, dtype=wp.int32, device=self.device)
+            traces = wp.zeros(shape, dtype=self.real, device=self.device)
+        else:
+            status, traces = like.status, like.traces
         return State(
             x=wp.zeros((self.features.values, c, n), dtype=self.real, device=self.device),
             clock=wp.zeros(1, dtype=wp.int32, device=self.device),
             work=wp.zeros(c if driven else 0, dtype=wp.float64, device=self.device),
             power=wp.zeros(c if driven else 0, dtype=wp.float64, device=self.device),
+            status=status, traces=traces,
         )
 
-    def initial_state(self) -> State:
+    def state_pair(self) -> tuple[State, State]:
+        """(state at t = 0, a zeroed second half) sharing one ``status`` and one trace ring."""
+        first = self.initial_state()
+        return first, self.state(like=first)
+
+    def initial_state(self, *, like: State | None = None) -> State:
         """State at t = 0: static positions, v_0 = v_imp (impact) or the drive's, exact higher derivatives."""
         from .startup import initial_nordsieck
 
-        state = self.state()
+        state = self.state(like=like)
         x = np.zeros((self.features.values, self.chain_count, self.grain_count))
         for c, scene in enumerate(self.scenes):
             # exact Taylor start: keeps each Gear method at its own order (see ensemble/startup.py)

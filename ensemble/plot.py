@@ -1,9 +1,11 @@
-"""Figures of Sen, Manciu & Wright (1998) from hertzian stores, in the paper's representation.
+"""Pictures of hertzian stores: any store (``plot_store``) and the paper's figures (``plot_figure``).
 
-``plot_figure(dataset, "fig1", "fig1.png")`` draws one figure group from an ``xarray`` dataset
-opened from a store written by ``hertzian sweep sweeps/paper_*.toml`` (or by
-``docs/reproduce_gpu.py`` for Figs. 9-10). Matplotlib's Agg backend; program units throughout
-(length 1e-5 m, time 1.0102e-3 s).
+``plot_store(dataset, "run.png")`` draws one point of any store written by ``hertzian run`` or
+``hertzian sweep``: the depth–time picture of u or v, the traced grains' signals and the energy
+error against time. ``plot_figure(dataset, "fig1", "fig1.png")`` draws one figure group of Sen,
+Manciu & Wright (1998) from a store written by ``hertzian sweep sweeps/paper_*.toml`` or
+``hertzian reproduce``. Matplotlib's Agg backend; program units throughout (length 1e-5 m,
+time 1.0102e-3 s). Every reduction of the data is in ``ensemble.analysis``; this module draws.
 
 Signs: profile plots show the paper's sign, −u and −v (the change of a grain's *position*, positive
 toward the surface), because the paper plots grain positions; the compressive part of a pulse
@@ -54,17 +56,6 @@ def _grains(ds) -> int:
     return int(ds.sizes["grain"])
 
 
-def _times_in_flight(t: np.ndarray, heads: np.ndarray, grain_count: int, count: int, *,
-                     reach: float = 0.9) -> list[int]:
-    """Record indices of ``count`` snapshots evenly spread while the head goes from 10 % to
-    ``reach`` of the chain (before it meets the far end)."""
-    beyond = np.flatnonzero(heads > reach * grain_count)
-    stop = beyond[0] if beyond.size else len(t) - 1
-    start = np.flatnonzero(heads > 0.1 * grain_count)
-    start = start[0] if start.size and start[0] < stop else 1
-    return sorted(set(np.linspace(start, stop, count).round().astype(int).tolist()))
-
-
 def _cmap_colors(plt, n: int):
     cmap = plt.get_cmap("viridis")
     return [cmap(x) for x in np.linspace(0.0, 0.85, max(n, 1))]
@@ -91,7 +82,7 @@ def _profiles_vs_label(ax, plt, ds_point, *, label_axis: bool, count: int = 5, r
     n = u.shape[-1]
     if records is None:
         heads = an.head_positions(ds_point.v.values) if "v" in ds_point else an.head_positions(u)
-        records = _times_in_flight(t, heads, n, count)
+        records = an.times_in_flight(t, heads, n, count)
     x = an.paper_label(np.arange(n), n) if label_axis else np.arange(n)
     for color, r in zip(_cmap_colors(plt, len(records)), records):
         ax.plot(x, an.paper_displacement(u[r]), color=color, label=f"t = {t[r]:g}")
@@ -136,25 +127,11 @@ def fig2(ds, out: Path) -> Path:
     return _fig_profiles_by_vimp(ds, out, "fig2", label_axis=True, title="precompressed chain")
 
 
-def speeds_table(ds, *, first_grain: float = 100.0, last_grain: float = 800.0) -> np.ndarray:
-    """Pulse speed c [grains/time] at every (l0, v_imp) point of a Fig. 1(d) store, shape (l0, v_imp),
-    with its 1σ fit error as a second array: returns (c, error)."""
-    t = ds.t.values
-    v = ds.v.transpose("l0", "v_imp", "record", "grain").values
-    c = np.full(v.shape[:2], math.nan)
-    err = np.full(v.shape[:2], math.nan)
-    for i in range(v.shape[0]):
-        for j in range(v.shape[1]):
-            fit = an.pulse_speed(t, an.head_positions(v[i, j]), first_grain=first_grain, last_grain=last_grain)
-            c[i, j], err[i, j] = fit.slope, fit.slope_error
-    return c, err
-
-
 def fig1d(ds, out: Path) -> Path:
     """Fig. 1(d): ln c against ln v_imp for each l0, with the fitted α and the linear sound speeds."""
     _require(ds, "v", "l0", "v_imp", figure="fig1d")
     plt = _pyplot()
-    c, _ = speeds_table(ds)
+    c, _ = an.speeds_table(ds)
     v_imp, l0s = ds.v_imp.values, ds.l0.values
     a = _scene_value(ds, "chain", "a")
     fig, ax = plt.subplots(figsize=(6.0, 4.2))
@@ -191,7 +168,7 @@ def fig3(ds, out: Path) -> Path:
         _profiles_vs_label(axes[k], plt, point, label_axis=False)
         axes[k].set_title(f"({'ab'[k]}) l0 = {float(point.l0):g}, v_imp = {v_imp:g}")
         heads = an.head_positions(point.v.values)
-        records = _times_in_flight(t, heads, _grains(ds), 4, reach=0.8)
+        records = an.times_in_flight(t, heads, _grains(ds), 4, reach=0.8)
         u = point.u.values
         for color, r in zip(_cmap_colors(plt, len(records)), records):
             z = heads[r] - np.arange(u.shape[-1])
@@ -239,58 +216,15 @@ def fig4(ds, out: Path) -> Path:
 # ---- Figs. 5, 7, 8: impurities -------------------------------------------------------------
 
 
-def _impurity_points(ds):
-    """Indices along impurity_mass of the light, heavy and clean chains (clean may be missing)."""
-    masses = ds.impurity_mass.values
-    light = int(np.flatnonzero(masses < 1.0)[0])
-    heavy = int(np.flatnonzero(masses > 1.0)[0])
-    clean = np.flatnonzero(masses == 1.0)
-    return light, heavy, (int(clean[0]) if clean.size else None)
-
-
-def _impurity_grains(ds) -> list[int]:
-    import json
-
-    scene = json.loads(ds.attrs.get("scene", "{}"))
-    blocks = scene.get("impurities", [])
-    return list(blocks[0]["grains"]) if blocks else []
-
-
-def echo_table(ds, *, contact: str | None = None, traced: int | None = None) -> dict[str, an.Backscatter]:
-    """Backscatter at a traced grain (default: the shallowest) for light and heavy impurities, against
-    the clean chain of the same store; keys 'light/harmonic', 'heavy/own', …"""
-    light, heavy, clean = _impurity_points(ds)
-    if clean is None:
-        raise PlotError("the store has no clean reference chain (impurity_mass = 1)")
-    t = ds.trace_t.values
-    grains = ds.traced_grain.values
-    column = 0 if traced is None else int(np.flatnonzero(grains == traced)[0])
-    depth = float(np.mean(_impurity_grains(ds)))
-    contacts = [contact] if contact else [str(c) for c in ds.contact.values]
-    reference = ds.trace_v.isel(impurity_mass=clean, contact=0).values[:, column]
-    clean_v = ds.v.isel(impurity_mass=clean, contact=0).values
-    speed = an.pulse_speed(ds.t.values, an.head_positions(clean_v), first_grain=20, last_grain=depth - 20).slope
-    n = _grains(ds)
-    grain = int(grains[column])
-    after = (depth - 10 + (depth - 10 - grain)) / speed if speed > 0 else 0.0
-    until = (2 * n - 40 - grain) / speed if speed > 0 else math.inf
-    table = {}
-    for name, index in (("light", light), ("heavy", heavy)):
-        for rule in contacts:
-            signal = ds.trace_v.isel(impurity_mass=index).sel(contact=rule).values[:, column]
-            table[f"{name}/{rule}"] = an.backscatter(t, signal, reference, after=after, until=until)
-    return table
-
-
 def fig5(ds, out: Path) -> Path:
     """Fig. 5: displacement profiles with five light (a) and heavy (b) impurities, their difference (c),
     and (d) the echo at the surface grain for both contact rules."""
     _require(ds, "u", "v", "impurity_mass", "contact", "trace_v", figure="fig5")
     plt = _pyplot()
-    light, heavy, clean = _impurity_points(ds)
+    light, heavy, clean = an.impurity_points(ds)
     t = ds.t.values
     n = _grains(ds)
-    depth = float(np.mean(_impurity_grains(ds)))
+    depth = float(np.mean(an.impurity_grains(ds)))
     z = np.arange(n)
     fig, axes = plt.subplots(4, 1, figsize=(7.0, 10.0))
     reference = ds.v.isel(impurity_mass=clean if clean is not None else light, contact=0).values
@@ -302,8 +236,8 @@ def fig5(ds, out: Path) -> Path:
         u = ds.u.isel(impurity_mass=index).sel(contact="harmonic").values
         for color, r in zip(_cmap_colors(plt, len(records)), records):
             ax.plot(z, an.paper_displacement(u[r]), color=color, label=f"t = {t[r]:g}")
-        ax.axvspan(min(_impurity_grains(ds)) - 0.5, max(_impurity_grains(ds)) + 0.5, color="0.85")
-        ax.set_title(f"({'ab'[index == heavy]}) {len(_impurity_grains(ds))} {name} impurities around grain "
+        ax.axvspan(min(an.impurity_grains(ds)) - 0.5, max(an.impurity_grains(ds)) + 0.5, color="0.85")
+        ax.set_title(f"({'ab'[index == heavy]}) {len(an.impurity_grains(ds))} {name} impurities around grain "
                      f"{depth:g}, contact rule harmonic")
         ax.set_ylabel("−u [1e-5 m]")
         ax.legend(loc="best", ncol=4)
@@ -325,14 +259,14 @@ def fig5(ds, out: Path) -> Path:
 
 def _echo_panel(ax, ds, tag: str) -> None:
     """Velocity echo (signal − clean chain) at the shallowest traced grain, both contact rules."""
-    light, heavy, clean = _impurity_points(ds)
+    light, heavy, clean = an.impurity_points(ds)
     tt = ds.trace_t.values
     grain = int(ds.traced_grain.values[0])
     if clean is None:
         ax.set_visible(False)
         return
     reference = ds.trace_v.isel(impurity_mass=clean, contact=0).values[:, 0]
-    table = echo_table(ds)
+    table = an.echo_table(ds)
     start = min(b.arrival_time for b in table.values() if np.isfinite(b.arrival_time))
     window = (tt > start - 2.0) & (tt < start + 8.0)
     for name, index, color in (("light", light, "C3"), ("heavy", heavy, "C0")):
@@ -354,10 +288,10 @@ def fig7_8(ds, out: Path) -> Path:
     (right) impurities, at six times; bottom row: the echo at the surface grain."""
     _require(ds, "v", "impurity_mass", "contact", figure="fig7_8")
     plt = _pyplot()
-    light, heavy, clean = _impurity_points(ds)
+    light, heavy, clean = an.impurity_points(ds)
     t = ds.t.values
     n = _grains(ds)
-    depth = float(np.mean(_impurity_grains(ds)))
+    depth = float(np.mean(an.impurity_grains(ds)))
     reference = ds.v.isel(impurity_mass=clean if clean is not None else light, contact=0).values
     heads = an.head_positions(reference)
     t_hit = t[np.flatnonzero(heads >= depth)[0]]
@@ -372,7 +306,7 @@ def fig7_8(ds, out: Path) -> Path:
         for row, r in enumerate(records):
             ax = axes[row, col]
             ax.plot(z, -v[r], color="k")
-            ax.axvspan(min(_impurity_grains(ds)) - 0.5, max(_impurity_grains(ds)) + 0.5, color="0.85")
+            ax.axvspan(min(an.impurity_grains(ds)) - 0.5, max(an.impurity_grains(ds)) + 0.5, color="0.85")
             ax.set_title(f"{name} ({'abcdef'[row]}) t = {t[r]:g}", loc="left", fontsize=8)
             ax.set_xlim(0, n)
             if col == 0:
@@ -448,12 +382,7 @@ def depth(ds, out: Path) -> Path:
         v = ds.v.isel({dim[0]: k}).values if dim else ds.v.values
         heads = an.head_positions(v)
         fit = an.depth_law(t, heads, first_grain=50, last_grain=0.9 * n)
-        beyond = np.flatnonzero(heads > 0.9 * n)
-        stop = beyond[0] if beyond.size else len(t)
-        step = 4
-        h = heads[:stop]
-        speed = (h[step:] - h[:-step]) / (t[step:stop] - t[:stop - step])
-        mid = 0.5 * (h[step:] + h[:-step])
+        mid, speed = an.speed_against_depth(t, heads, last_grain=0.9 * n)
         label = f"{dim[0]} = {value:g}: " if dim else ""
         ax.loglog(mid, speed, ".", ms=3, color=f"C{k}", label=f"{label}c ∝ z^{fit.exponent:.4f}±{fit.exponent_error:.4f}")
     z = np.geomspace(5, n, 100)
@@ -467,60 +396,11 @@ def depth(ds, out: Path) -> Path:
 
 # ---- Figs. 9-10: driven columns ------------------------------------------------------------
 
-PAPER_DRIVE_TIMES = (60.0, 132.0, 204.0, 276.0, 492.0)
-"""Times of Figs. 9(a)-(e) and 10(a)-(e) for the 10 000-grain column."""
-PAPER_WINDOW = 1.5
-"""Fig. 9's caption: snapshots averaged over 1.5 time units."""
-
-
-def drive_times(grain_count: int) -> np.ndarray:
-    """The paper's snapshot times, scaled for a shorter column by its travel time ∝ N^(5/6)."""
-    return np.asarray(PAPER_DRIVE_TIMES) * (grain_count / 10000.0) ** (5.0 / 6.0)
-
-
-PERSISTENCE_LAGS = 1.5 * np.arange(8)
-"""Lags [time units] of the consecutive windows compared with a snapshot window (standing-wave measure)."""
-
-
-def driven_windows(ds) -> dict:
-    """Window-averaged profiles of a driven-column store at the paper's times (scaled to the column's
-    length): ``taus``, ``centres``, ``ke`` and ``v`` (tau, centre, grain), and ``persistence``
-    [tau][centre] — :func:`analysis.standing_wave_measure` of the kinetic-energy windows at
-    centre + PERSISTENCE_LAGS. Reads a reproduce_gpu.py store (ke_window, v_window, window_lag) or
-    averages velocity snapshots of a sweep store."""
-    n = _grains(ds)
-    taus = ds.tau.values
-    if "ke_window" in ds.variables:
-        lag = ds.window_lag.values
-        block = ds.window_block.values
-        starts = np.flatnonzero(lag == 0)
-        centres = ds.window_t.values[starts]
-        ke_all, v_all = ds.ke_window.values, ds.v_window.values
-        ke, vel = ke_all[:, starts], v_all[:, starts]
-        persistence = [[an.standing_wave_measure(ke_all[i, block == block[k]]) for k in starts]
-                       for i in range(len(taus))]
-    else:
-        t = ds.t.values
-        centres = drive_times(n)
-        centres = centres[centres + 0.5 * PAPER_WINDOW <= t[-1] + 1e-9]
-        v = ds.v.transpose("tau", "record", "grain").values
-        energy = an.kinetic_energy(v)
-        ke = an.window_average(t, energy, centres, PAPER_WINDOW)
-        vel = an.window_average(t, v, centres, PAPER_WINDOW)
-        persistence = []
-        for i in range(len(taus)):
-            rows = []
-            for centre in centres:
-                lagged = [c for c in centre + PERSISTENCE_LAGS if c + 0.5 * PAPER_WINDOW <= t[-1] + 1e-9]
-                rows.append(an.standing_wave_measure(an.window_average(t, energy[i], lagged, PAPER_WINDOW)))
-            persistence.append(rows)
-    return {"taus": taus, "centres": centres, "ke": ke, "v": vel, "persistence": persistence}
-
 
 def _fig_driven(ds, out: Path, which: str) -> Path:
     _require(ds, "tau", figure=which)
     plt = _pyplot()
-    windows = driven_windows(ds)
+    windows = an.driven_windows(ds)
     taus, centres = windows["taus"], windows["centres"]
     n = _grains(ds)
     data = windows["ke"] if which == "fig9" else -windows["v"]
@@ -534,11 +414,11 @@ def _fig_driven(ds, out: Path, which: str) -> Path:
             corr = windows["persistence"][col][row].correlation[1:]
             text = f"({'abcdef'[row]}) t = {centre:.4g}, τ = {tau:g}"
             if corr.size:
-                text += f"; shape corr. over next {PAPER_WINDOW * corr.size:g} t.u.: {np.nanmean(corr):.2f}"
+                text += f"; shape corr. over next {an.PAPER_WINDOW * corr.size:g} t.u.: {np.nanmean(corr):.2f}"
             ax.set_title(text, loc="left", fontsize=7.5)
         axes[-1, col].set_xlabel("depth z [grain diameters]")
     label = "mean kinetic energy per grain" if which == "fig9" else f"mean −v ({PAPER_SIGN})"
-    fig.suptitle(f"{'Fig. 9' if which == 'fig9' else 'Fig. 10'}: {label}, averaged over {PAPER_WINDOW:g} time units;\n"
+    fig.suptitle(f"{'Fig. 9' if which == 'fig9' else 'Fig. 10'}: {label}, averaged over {an.PAPER_WINDOW:g} time units;\n"
                  f"{n}-grain column, g = 1, surface driven 2 sin(2πt/τ), bottom fixed", fontsize=8)
     return _finish(fig, out, note=SIGN_NOTE)
 
@@ -551,6 +431,75 @@ def fig9(ds, out: Path) -> Path:
 def fig10(ds, out: Path) -> Path:
     """Fig. 10: time-averaged velocity against depth in the driven column, for each τ."""
     return _fig_driven(ds, out, "fig10")
+
+
+# ---- any store ---------------------------------------------------------------------------------
+
+
+def point_dims(ds) -> list[str]:
+    """The sweep axes of a store (the dims of ``status``; none for a single run)."""
+    return [str(d) for d in ds.status.dims] if "status" in ds.variables else []
+
+
+def select_point(ds, at: dict[str, float] | None = None):
+    """One point of a store: the coordinate nearest each value in ``at`` {axis: value}, the first along
+    every other axis. Raises PlotError naming an unknown axis."""
+    at = dict(at or {})
+    for dim in point_dims(ds):
+        if dim in at:
+            ds = ds.sel({dim: at.pop(dim)}, method="nearest")
+        else:
+            ds = ds.isel({dim: 0})
+    if at:
+        raise PlotError(f"no sweep axis {', '.join(at)}; the store's axes: {', '.join(point_dims(ds)) or 'none'}")
+    return ds
+
+
+def plot_store(ds, out: str | Path, *, field: str = "v", at: dict[str, float] | None = None) -> Path:
+    """One point of any store: depth–time picture of ``field`` (u or v, the store's sign: + into the chain),
+    the traced grains' velocities, and the relative energy error against time."""
+    if field not in ("u", "v"):
+        raise PlotError(f"field {field!r}: u or v")
+    _require(ds, field, "energy", figure=f"a {field} picture")
+    point = select_point(ds, at)
+    plt = _pyplot()
+    traced = "trace_v" in point.variables and point.sizes.get("traced", 0) > 0
+    rows = 2 + traced
+    fig, axes = plt.subplots(rows, 1, figsize=(7.0, 3.0 * rows), squeeze=False)
+    axes = axes[:, 0]
+    t = point.t.values
+    data = point[field].values
+    n = data.shape[-1]
+    limit = float(np.nanmax(np.abs(data))) or 1.0
+    half = 0.5 * (t[-1] - t[0]) / max(len(t) - 1, 1) or 0.5   # each record's row centred on its time
+    image = axes[0].imshow(data, origin="lower", aspect="auto", cmap="RdBu_r", vmin=-limit, vmax=limit,
+                           extent=(-0.5, n - 0.5, t[0] - half, t[-1] + half), interpolation="nearest")
+    fig.colorbar(image, ax=axes[0], label=f"{field} [{'1e-5 m' if field == 'u' else '1e-5 m per time unit'}]")
+    axes[0].set_xlabel("grain (depth; surface = 0)")
+    axes[0].set_ylabel(f"t [{TIME_UNIT}]")
+    where = ", ".join(f"{d} = {point[d].values:g}" for d in point_dims(ds) if d in point.coords)
+    axes[0].set_title(f"{field}(grain, t), + into the chain; {n} grains, {len(t)} records" + (f"; {where}" if where
+                                                                                              else ""))
+    ax = axes[1]
+    if traced:
+        tt = point.trace_t.values
+        for k, grain in enumerate(point.traced_grain.values):
+            ax.plot(tt, point.trace_v.values[:, k], lw=0.7, label=f"grain {int(grain)}")
+        ax.set_xlabel(f"t [{TIME_UNIT}]")
+        ax.set_ylabel("v [1e-5 m per time unit]")
+        ax.set_title("traced grains' velocity (+ into the chain)")
+        ax.legend(loc="best", ncol=4)
+        ax = axes[2]
+    drift, scale = an.energy_drift(point.energy.values, point.work.values if "work" in point.variables else None)
+    ax.plot(t, drift, ".-", ms=3)
+    ax.axhline(0, color="0.6", lw=0.5)
+    ax.set_xlabel(f"t [{TIME_UNIT}]")
+    ax.set_ylabel(f"(E − E(0){' − W' if 'work' in point.variables else ''}) / {scale}")
+    title = "energy error at the records"
+    if "energy_error" in point.variables:
+        title += f"; max over the run (records and checks between): {float(point.energy_error):.3g}"
+    ax.set_title(title)
+    return _finish(fig, Path(out))
 
 
 FIGURES: dict[str, Callable] = {

@@ -1,60 +1,33 @@
-"""Run an ensemble: step between records (a CUDA graph on GPUs), reduce on the device at records.
+"""Run an ensemble: start → for each record: advance (a solver) → record → hand off.
 
 ``run_ensemble(scenes)`` is the whole job for compatible scenes; ``run_scene(scene)`` runs one.
 The host synchronises only at record times; everything between two records is launched
-without reading anything back.
+without reading anything back. Stepping is the solver's (ensemble/solvers), the device checks
+and host copies the recorder's (ensemble/recorder.py); this module only sequences them.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import warp as wp
 
 from kernels.features import Features
-from kernels.records import record_kernel, track_extremes
-from kernels.step import step_kernel
 
+from .devices import default_device, init_warp
 from .model import Model, State, build_model
+from .recorder import Recorder
 from .scene import Scene
+from .solvers import SolverConfig, choose_config, make_solver
 from .status import Status
 
-GRAPH_STEPS = 512
-"""Steps per captured CUDA graph (even, so that the ping-pong parity is unchanged by a replay)."""
 MONITOR_MIN_STEPS = 512
 MONITOR_STEPS_PER_GRAIN = 16
 """Between records, energy, overlap and finiteness are also checked on the device every
 max(MONITOR_MIN_STEPS, MONITOR_STEPS_PER_GRAIN · grains) steps (the check loops over a chain's
 grains in one thread, so its cadence scales with the grain count to cost ≲ 1 %)."""
-
-
-class Stepper:
-    """Advances a model's state: ``step(state_in, state_out)`` never reads and writes one buffer."""
-
-    def __init__(self, model: Model):
-        self.model = model
-        self.kernel = step_kernel(model.features)
-
-    def launch_args(self, state_in: State, state_out: State, trace_buffer: wp.array, status: wp.array):
-        m = self.model
-        scene = m.scenes[0]
-        inputs = [state_in.x, state_in.clock, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent,
-                  m.drive, status, m.trace_slot, scene.trace_stride, state_in.work, state_in.power, m.dt]
-        outputs = [state_out.x, state_out.clock, trace_buffer, state_out.work, state_out.power]
-        return inputs, outputs
-
-    def step(self, state_in: State, state_out: State, trace_buffer: wp.array, status: wp.array) -> None:
-        """One step for every chain; ``status`` (per chain) freezes non-finite chains."""
-        inputs, outputs = self.launch_args(state_in, state_out, trace_buffer, status)
-        wp.launch(self.kernel, dim=(self.model.chain_count, self.model.grain_count), inputs=inputs,
-                  outputs=outputs, device=self.model.device)
-
-    def recorded_launch(self, state_in: State, state_out: State, trace_buffer: wp.array, status: wp.array):
-        inputs, outputs = self.launch_args(state_in, state_out, trace_buffer, status)
-        return wp.launch(self.kernel, dim=(self.model.chain_count, self.model.grain_count), inputs=inputs,
-                         outputs=outputs, device=self.model.device, record_cmd=True)
 
 
 @dataclass
@@ -82,9 +55,11 @@ class RunResult:
     """Snapshots by name ('u', 'v'), each (chains, R, grains)."""
     trace_t: np.ndarray | None = None
     traces: dict[str, np.ndarray] = field(default_factory=dict)
-    kernel: str = "step"
-    """Which kernel advanced the state: 'step' (one step per launch) or a fused kernel's description."""
     """Trace samples by name ('u', 'v'), each (chains, S, traced)."""
+    kernel: str = "step"
+    """Which solver advanced the state: 'step' (one step per launch), 'sweep' or a fused kernel's description."""
+    solver: SolverConfig | None = None
+    """The SolverConfig that ran."""
 
     @property
     def chain_count(self) -> int:
@@ -108,96 +83,34 @@ class RunResult:
 
 
 class Runner:
-    """Integrates one model from t = 0 to its scenes' duration, keeping what the scenes ask for."""
+    """Integrates one model from t = 0 to its scenes' duration, keeping what the scenes ask for.
+
+    ``kernel``: a SolverConfig, or a kind for ``ensemble.solvers.choose_config`` ('auto', 'step', 'tile',
+    'window', 'sweep'). ``use_graph`` overrides the config's CUDA-graph choice.
+    """
 
     def __init__(self, model: Model, *, use_graph: bool | None = None, energy_tolerance: float = 1e-2,
-                 kernel: str = "auto", monitor_every: int | None = None):
+                 kernel: str | SolverConfig = "auto", monitor_every: int | None = None):
         self.model = model
         self.monitor_every = (max(MONITOR_MIN_STEPS, MONITOR_STEPS_PER_GRAIN * model.grain_count)
                               if monitor_every is None else monitor_every)
         """Steps between device-side checks of energy, overlap and finiteness (0: at records only)."""
-        self.stepper = Stepper(model)
-        self.record = record_kernel(model.features)
-        self.use_graph = model.device.is_cuda if use_graph is None else use_graph
         self.energy_tolerance = energy_tolerance
-        scene = model.scenes[0]
-        c, real, dev = model.chain_count, model.real, model.device
-        self.buffers = (model.initial_state(), model.state())
-        self.parity = 0
-        traced = len(scene.record.traces)
-        capacity = scene.steps_per_record // scene.trace_stride if traced else 0
-        self.trace_buffer = wp.zeros((2, c, capacity, traced) if traced else (2, 0, 0, 0), dtype=real, device=dev)
-        self.energy = wp.zeros(c, dtype=wp.float64, device=dev)
-        self.work = wp.zeros(c, dtype=wp.float64, device=dev)
-        self.max_overlap = wp.zeros(c, dtype=wp.float64, device=dev)
-        self.status = wp.zeros(c, dtype=wp.int32, device=dev)
-        self.initial_energy = wp.zeros(c, dtype=wp.float64, device=dev)
-        self.energy_deviation = wp.zeros(c, dtype=wp.float64, device=dev)
-        self.largest_overlap = wp.full(c, -1.0e300, dtype=wp.float64, device=dev)
-        self.graphs: dict[tuple[int, int], object] = {}
-        self.commands = None
-        # many steps per launch where the features allow (``kernel``: see ensemble/calibrate.py); None: per-step
-        from .calibrate import make_stepper
-
-        self.fused = make_stepper(model, kernel, run_steps=scene.step_count)
-        if self.fused is not None:
-            self.fused.load()
-
-    # ---- stepping -----------------------------------------------------------------
-    def _plain(self, n_steps: int) -> None:
-        if self.commands is None:
-            a, b = self.buffers
-            self.commands = (self.stepper.recorded_launch(a, b, self.trace_buffer, self.status),
-                             self.stepper.recorded_launch(b, a, self.trace_buffer, self.status))
-        for _ in range(n_steps):
-            self.commands[self.parity].launch()
-            self.parity ^= 1
-
-    def _graph(self, n_steps: int) -> None:
-        key = (n_steps, self.parity)
-        if key not in self.graphs:
-            parity = self.parity
-            with wp.ScopedCapture(device=self.model.device) as capture:
-                for _ in range(n_steps):
-                    self.stepper.step(self.buffers[parity], self.buffers[parity ^ 1], self.trace_buffer,
-                                      self.status)
-                    parity ^= 1
-            self.graphs[key] = capture.graph
-        wp.capture_launch(self.graphs[key])
-        self.parity ^= n_steps & 1
+        self.buffers = model.state_pair()
+        """The two state halves (sharing status and the trace ring); ``current`` is the one holding now."""
+        self.current: State = self.buffers[0]
+        config = kernel if isinstance(kernel, SolverConfig) else choose_config(
+            model, kernel, run_steps=model.scenes[0].step_count)
+        if use_graph is not None:
+            config = replace(config, use_graph=use_graph)
+        self.solver = make_solver(model, config)
+        self.solver.load()
+        self.recorder = Recorder(model)
 
     def advance(self, n_steps: int) -> None:
-        """Take ``n_steps`` steps (no host synchronisation)."""
-        if self.fused is not None:
-            self.parity = self.fused.advance(self.buffers, self.parity, self.status, n_steps,
-                                             use_graph=self.use_graph)
-            return
-        if not self.use_graph:
-            self._plain(n_steps)
-            return
-        while n_steps >= GRAPH_STEPS:
-            self._graph(GRAPH_STEPS)
-            n_steps -= GRAPH_STEPS
-        if n_steps:
-            self._graph(n_steps)
-
-    @property
-    def current(self) -> State:
-        return self.buffers[self.parity]
-
-    def reduce(self, step: int) -> None:
-        """Energy, work, largest overlap and status of every chain at ``step`` (device only, no sync)."""
-        m, s = self.model, self.current
-        wp.launch(self.record, dim=m.chain_count,
-                  inputs=[s.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.drive,
-                          s.work, s.power, step, m.dt, m.validity_overlap],
-                  outputs=[self.energy, self.work, self.max_overlap, self.status], device=m.device)
-        if step == 0:
-            wp.copy(self.initial_energy, self.energy)
-        wp.launch(track_extremes, dim=m.chain_count,
-                  inputs=[self.energy, self.work, self.initial_energy, int(m.features.surface == "driven"),
-                          self.max_overlap],
-                  outputs=[self.energy_deviation, self.largest_overlap], device=m.device)
+        """Take ``n_steps`` steps from ``current`` (no host synchronisation)."""
+        other = self.buffers[1] if self.current is self.buffers[0] else self.buffers[0]
+        self.current = self.solver.advance(self.current, other, n_steps)
 
     def advance_monitored(self, first_step: int, n_steps: int) -> None:
         """``advance`` in pieces of ``monitor_every`` steps with a device-side check after each piece."""
@@ -208,76 +121,38 @@ class Runner:
             self.advance(piece)
             done += piece
             if done < n_steps:
-                self.reduce(first_step + done)
+                self.recorder.check(self.current, first_step + done)
 
-    # ---- the run --------------------------------------------------------------------
     def run(self, progress=None) -> RunResult:
         """Integrate to the end; ``progress(done_records, total_records)`` is called after each record."""
-        m = self.model
+        m, rec = self.model, self.recorder
         scene = m.scenes[0]
-        real_np = np.float64 if m.features.precision == "float64" else np.float32
-        records, spr, stride = scene.record_count, scene.steps_per_record, scene.trace_stride
-        c, n = m.chain_count, m.grain_count
-        fields = {name: np.zeros((c, records, n), dtype=real_np) for name in scene.record.fields}
-        traced = len(scene.record.traces)
-        samples_per_record = spr // stride if traced else 0
-        sample_count = (records - 1) * samples_per_record + 1 if traced else 0
-        traces = {name: np.zeros((c, sample_count, traced), dtype=real_np) for name in ("u", "v")} if traced else {}
-        energy = np.zeros((c, records))
-        work = np.zeros((c, records)) if m.features.surface == "driven" else None
-        trace_order = (np.arange(1, samples_per_record + 1) % samples_per_record) if traced else None
-
-        # compile before the clock starts (the per-step kernel only where it is the one that runs)
-        if self.fused is None:
-            wp.load_module(self.stepper.kernel.module, device=m.device)
-        wp.load_module(self.record.module, device=m.device)
-        wp.load_module(track_extremes.module, device=m.device)
+        spr = scene.steps_per_record
+        record_steps = [r * spr for r in range(scene.record_count)]
+        rec.load()   # compile before the clock starts (the solver loaded in __init__)
         wp.synchronize_device(m.device)
         start = time.perf_counter()
-
-        def take_record(r: int) -> None:
-            self.reduce(r * spr)
-            x = self.current.x
-            if "u" in fields:
-                fields["u"][:, r] = x[0].numpy()
-            if "v" in fields:
-                fields["v"][:, r] = x[1].numpy() / real_np(m.dt)
-            energy[:, r] = self.energy.numpy()
-            if work is not None:
-                work[:, r] = self.work.numpy()
-            if traced:
-                if r == 0:
-                    traces["u"][:, 0] = x[0].numpy()[:, list(scene.record.traces)]
-                    traces["v"][:, 0] = x[1].numpy()[:, list(scene.record.traces)] / real_np(m.dt)
-                else:
-                    buffer = self.trace_buffer.numpy()[:, :, trace_order]
-                    rows = slice(1 + (r - 1) * samples_per_record, 1 + r * samples_per_record)
-                    traces["u"][:, rows] = buffer[0]
-                    traces["v"][:, rows] = buffer[1] / real_np(m.dt)
+        for r, step in enumerate(record_steps):
+            if r:
+                self.advance_monitored(record_steps[r - 1], step - record_steps[r - 1])
+            rec.record(self.current, r, step)
             if progress is not None:
-                progress(r + 1, records)
-
-        take_record(0)
-        for r in range(1, records):
-            self.advance_monitored((r - 1) * spr, spr)
-            take_record(r)
+                progress(r + 1, len(record_steps))
         wp.synchronize_device(m.device)
         wall = time.perf_counter() - start
 
-        status = self.status.numpy().copy()
-        max_overlap = self.largest_overlap.numpy()
+        status = self.current.status.numpy().copy()
         # max over records and the checks between them (the records alone would miss peaks in between)
-        energy_error = energy_errors(energy, work, m.injected_energy, deviation=self.energy_deviation.numpy())
+        energy_error = energy_errors(rec.energy, rec.work, m.injected_energy, deviation=rec.energy_deviation.numpy())
         drift = (status == Status.OK) & (energy_error > self.energy_tolerance) & (
-            (m.injected_energy > 0) | (work is not None))
+            (m.injected_energy > 0) | (rec.work is not None))
         status[drift] = Status.ENERGY_DRIFT
         return RunResult(
             scenes=m.scenes, features=m.features, device=str(m.device),
-            t=np.arange(records) * spr * m.dt, energy=energy, work=work, status=status,
-            max_overlap=max_overlap, energy_error=energy_error, wall_seconds=wall,
-            steps=(records - 1) * spr, fields=fields,
-            trace_t=(np.arange(sample_count) * stride * m.dt) if traced else None, traces=traces,
-            kernel="step" if self.fused is None else self.fused.describe(),
+            t=np.array(record_steps) * m.dt, energy=rec.energy, work=rec.work, status=status,
+            max_overlap=rec.largest_overlap.numpy(), energy_error=energy_error, wall_seconds=wall,
+            steps=record_steps[-1], fields=rec.fields, trace_t=rec.trace_t, traces=rec.traces,
+            kernel=self.solver.describe(), solver=self.solver.config,
         )
 
 
@@ -302,15 +177,10 @@ def energy_errors(energy: np.ndarray, work: np.ndarray | None, injected: np.ndar
     return np.where(np.isfinite(err), err, np.inf)
 
 
-def default_device() -> str:
-    """'cuda' when a CUDA device is present, else 'cpu'."""
-    return "cuda" if wp.is_cuda_available() else "cpu"
-
-
 def run_ensemble(scenes: list[Scene], device: str | None = None, *, progress=None,
                  use_graph: bool | None = None) -> RunResult:
     """Run compatible scenes as one ensemble (one kernel launch per step for all chains)."""
-    wp.init()
+    init_warp()
     model = build_model(list(scenes), device or default_device())
     return Runner(model, use_graph=use_graph).run(progress)
 

@@ -8,23 +8,21 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import warp as wp
 
-from ensemble.calibrate import SweepStepper, make_stepper
 from ensemble.model import build_model
 from ensemble.runner import Runner
+from ensemble.solvers import STEP, SWEEP, SolverConfig, SweepSolver, choose_config
 from tests.test_tile import CASES, chains, per_step
 
 
 def sweep(model, steps: int, status=None, steps_per_launch: int = 1 << 30) -> np.ndarray:
-    stepper = SweepStepper(model, steps_per_launch)
-    buffers = (model.initial_state(), model.state())
-    flags = wp.zeros(model.chain_count, dtype=wp.int32, device=model.device)
+    solver = SweepSolver(model, SolverConfig("sweep", steps_per_launch=steps_per_launch))
+    start, scratch = model.state_pair()
     if status is not None:
-        flags.assign(status)
-    parity = stepper.advance(buffers, 0, flags, steps)
-    assert buffers[parity].clock.numpy()[0] == steps
-    return buffers[parity].x.numpy()
+        start.status.assign(status)
+    end = solver.advance(start, scratch, steps)
+    assert end.clock.numpy()[0] == steps
+    return end.x.numpy()
 
 
 @pytest.mark.parametrize("case", list(CASES))
@@ -51,7 +49,7 @@ def test_runner_sweep_run_equals_per_step_run():
     model = build_model(scenes, "cpu")
     reference = Runner(model, kernel="step").run()
     runner = Runner(model, kernel="sweep")
-    assert isinstance(runner.fused, SweepStepper)
+    assert isinstance(runner.solver, SweepSolver)
     result = runner.run()
     np.testing.assert_array_equal(result.u, reference.u)
     np.testing.assert_array_equal(result.v, reference.v)
@@ -61,12 +59,12 @@ def test_runner_sweep_run_equals_per_step_run():
 
 def test_kernel_choice():
     model = build_model(chains(2, chain={"grains": 10}), "cpu")
-    assert make_stepper(model, "step") is None
-    assert make_stepper(model, "auto", run_steps=10) is None            # too short to repay a compile
-    assert isinstance(make_stepper(model, "auto", run_steps=10**8), SweepStepper)
+    assert choose_config(model, "step") == STEP
+    assert choose_config(model, "auto", run_steps=10) == STEP            # too short to repay a compile
+    assert choose_config(model, "auto", run_steps=10**8) == SWEEP
     traced = build_model(chains(2, chain={"grains": 10}, record={"traces": [0]}), "cpu")
-    assert make_stepper(traced, "auto", run_steps=10**8) is None        # traces stay on the per-step kernel
+    assert choose_config(traced, "auto", run_steps=10**8) == STEP        # traces stay on the per-step kernel
     with pytest.raises(ValueError):
-        make_stepper(traced, "sweep")
+        choose_config(traced, "sweep")
     with pytest.raises(ValueError):
-        make_stepper(model, "fastest")
+        choose_config(model, "fastest")

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 import warp as wp
 
-from ensemble.calibrate import TileStepper
 from ensemble.model import build_model
 from ensemble.runner import Runner
 from ensemble.scene import scene_from_dict
+from ensemble.solvers import TileSolver, config_of
 from kernels.features import STATUS_NON_FINITE
 from kernels.ghost import plan_windows
 from kernels.tile import fusable, plan_tile
@@ -35,20 +35,19 @@ def chains(n_chains: int, **sections) -> list:
 def per_step(model, steps: int, status=None) -> np.ndarray:
     runner = Runner(model, kernel="step", use_graph=False)
     if status is not None:
-        runner.status.assign(status)
+        runner.current.status.assign(status)
     runner.advance(steps)
     return runner.current.x.numpy()
 
 
 def fused(model, plan, steps: int, status=None) -> np.ndarray:
-    stepper = TileStepper(model, plan)
-    buffers = (model.initial_state(), model.state())
-    flags = wp.zeros(model.chain_count, dtype=wp.int32, device=model.device)
+    solver = TileSolver(model, config_of(plan))
+    start, scratch = model.state_pair()
     if status is not None:
-        flags.assign(status)
-    parity = stepper.advance(buffers, 0, flags, steps)
-    assert buffers[parity].clock.numpy()[0] == steps
-    return buffers[parity].x.numpy()
+        start.status.assign(status)
+    end = solver.advance(start, scratch, steps)
+    assert end.clock.numpy()[0] == steps
+    return end.x.numpy()
 
 
 def assert_same(got: np.ndarray, want: np.ndarray, device) -> None:
@@ -107,10 +106,9 @@ def test_runner_with_fused_kernel_records_the_same(device):
                     record={"every": 0.01})
     model = build_model(scenes, device)
     reference = Runner(model, kernel="step").run()
-    runner = Runner(model, kernel="step")
-    runner.fused = TileStepper(model, plan_tile(model.features, 40, 2, grains_per_lane=4, lanes_per_chain=8,
-                                                steps_per_launch=8, windowed=True))
-    runner.fused.load()
+    runner = Runner(model, kernel=config_of(plan_tile(model.features, 40, 2, grains_per_lane=4, lanes_per_chain=8,
+                                                      steps_per_launch=8, windowed=True)))
+    assert runner.solver.kind == "window"
     result = runner.run()
     for name in ("u", "v"):
         assert_same(result.fields[name], reference.fields[name], device)

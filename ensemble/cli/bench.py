@@ -7,7 +7,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from .cli import DeviceOption, app, fail, resolve_device
+from .app import DeviceOption, app, fail, resolve_device
 
 
 def _counts(text: str, flag: str) -> list[int]:
@@ -40,7 +40,7 @@ def bench(
     warmed up and timed; rates are medians. Ratios: to the memory wall (measured copy bandwidth over
     64 bytes per grain-step) and to the best implementation of the size.
     """
-    from .bench import KERNEL_CHOICES, run_bench
+    from ..bench import KERNEL_CHOICES, run_bench
 
     chain_list, grain_list = _counts(chains, "--chains"), _counts(grains, "--grains")
     if len(chain_list) > 1 and len(grain_list) > 1 and len(chain_list) != len(grain_list):

@@ -1,8 +1,5 @@
-"""``hertzian accuracy`` (work–precision study) and ``hertzian check`` (is dt safe?), SPEC §7.
-
-See ensemble/accuracy.py and ensemble/check.py for what is measured and how; docs/stability.md
-for measured numbers.
-"""
+"""``hertzian accuracy``: the work–precision study of one scene (see ensemble/accuracy.py; numbers in
+docs/stability.md)."""
 
 from __future__ import annotations
 
@@ -13,12 +10,10 @@ from typing import Annotated, Optional
 
 import typer
 
-from .cli import DeviceOption, SetOption, _load, app, fail, resolve_device
-from .scene import METHODS, SceneError
+from ..scene import METHODS, SceneError
+from .app import DeviceOption, SceneArgument, SetOption, app, fail, load_scene_or_fail, resolve_device
 
 
-SceneArgument = Annotated[Optional[Path], typer.Argument(help="Scene TOML (SPEC §8). Default: the built-in "
-                                                          "example.")]
 
 
 def _number(value: float) -> str:
@@ -56,9 +51,9 @@ def accuracy(
     runs at 1, 2 and 4 times the reference step and printed). Times in program units
     (1.0102e-3 s); seconds are wall seconds without compilation.
     """
-    from .accuracy import parse_list, parse_steps, plot_work_precision, work_precision
+    from ..accuracy import parse_list, parse_steps, plot_work_precision, work_precision
 
-    loaded = _load(scene, set_, None)
+    loaded = load_scene_or_fail(scene, set_, None)
     try:
         method_list = parse_list("--methods", methods, METHODS)
         steps = parse_steps(dt)
@@ -74,7 +69,7 @@ def accuracy(
             raise SceneError("--reference-factor", reference_factor, "must be an integer ≥ 1")
         if records < 1:
             raise SceneError("--records", records, "must be ≥ 1")
-        from .calibrate import KERNELS
+        from ..solvers import KERNELS
 
         if kernel is not None and kernel not in KERNELS:
             raise SceneError("--kernel", kernel, f"allowed: {', '.join(KERNELS)}")
@@ -134,47 +129,3 @@ def accuracy(
                    "(reference_limited); use a larger --reference-factor", err=True)
     if plot is not None and not quiet:
         typer.echo(f"wrote {plot}", err=True)
-
-
-@app.command()
-def check(
-    scene: SceneArgument = None,
-    as_json: Annotated[bool, typer.Option("--json", help="Print the estimates as a JSON object.")] = False,
-    set_: SetOption = None,
-):
-    """Before running: the stiffest contact time scale of a scene, steps per contact time, and whether dt is safe.
-
-    Bounds the largest overlap (static overlaps plus the impact energy or drive), takes the
-    linearised stiffness n(n−1)a_c δ^(n−2) there and the contact time T = 2π sqrt(m_red/k),
-    and compares dt with each method's stability limit (ω_max·dt) and with the steps per
-    contact time measured to keep the energy error below 1e-6 (docs/stability.md). Program units.
-    """
-    from .check import ACCURATE_STEPS_PER_CONTACT_TIME, STABLE_OMEGA_DT, check_scene
-
-    loaded = _load(scene, set_, None)
-    result = check_scene(loaded)
-    if as_json:
-        typer.echo(json.dumps(result.to_dict(), indent=1))
-        return
-    n = loaded.chain.grains
-    k = result.stiffest_contact
-    where = ("surface wall" if k == 0 else "bottom wall" if k == n else f"grains {k - 1}–{k}") if k >= 0 else "none"
-    lines = [
-        f"largest overlap (bound)   {result.largest_overlap:.4g}  (validity limit 0.1·diameter = "
-        f"{result.validity_overlap:g})",
-        f"stiffest contact          {where}: k = {result.stiffness:.4g}, m_red = {result.reduced_mass:.4g}",
-        f"contact time T            {result.contact_time:.4g}  (2π sqrt(m_red/k))",
-        f"dt                        {result.dt:g} ({result.method}, {loaded.integrator.precision})",
-        f"steps per contact time    {result.steps_per_contact_time:.4g}  (accurate ≥ "
-        f"{ACCURATE_STEPS_PER_CONTACT_TIME[result.method]:g})",
-        f"ω_max·dt                  {result.omega_dt:.4g}  (stable ≤ {STABLE_OMEGA_DT[result.method]:.3g})",
-        f"suggested dt              {result.suggested_dt:.3g}",
-        f"verdict                   {result.verdict}",
-    ]
-    for line in lines:
-        typer.echo(line)
-    for note in result.notes:
-        typer.echo(f"note: {note}")
-    warning = result.warning()
-    if warning:
-        typer.echo(f"warning: {warning}")

@@ -13,8 +13,8 @@ from typing import Annotated, Optional
 
 import typer
 
-from .cli import DeviceOption, PrecisionOption, SetOption, app, fail, resolve_device
-from .scene import SceneError, parse_overrides
+from .app import DeviceOption, PrecisionOption, SetOption, app, fail, resolve_device
+from ..scene import SceneError, parse_overrides
 
 
 class _Progress:
@@ -75,7 +75,7 @@ def corner_dt_warnings(definition, scenes) -> list[str]:
 
     import numpy as np
 
-    from .check import dt_warning
+    from ..check import dt_warning
 
     shape = list(definition.shape)
     if shape:
@@ -128,7 +128,7 @@ def sweep(
         fail(f"--scheduler = {scheduler!r}: give either --workers (a local cluster) or --scheduler, not both")
     if resume and overwrite:
         fail("--resume = true: --resume continues a store, --overwrite replaces it; give one")
-    from .sweep import load_sweep, sweep_scenes
+    from ..sweep import load_sweep, sweep_scenes
 
     try:
         sets = parse_overrides(set_)
@@ -151,8 +151,8 @@ def sweep(
             fail(f"--out = {str(out)!r}: parent directory does not exist")
     dev = resolve_device(device)
 
-    from .planner import describe, plan_sweep
-    from .sweep_store import SweepStoreError, check_resumable
+    from ..planner import describe, plan_sweep
+    from ..sweep_store import SweepStoreError, check_resumable
 
     block = None
     resuming = resume and out.exists()
@@ -179,7 +179,7 @@ def _connect(workers, scheduler, stack: contextlib.ExitStack):
     """A Dask client (starting a LocalCluster for --workers), closed with ``stack``; bad address → exit 2."""
     from distributed import Client
 
-    from .distributed import local_cluster
+    from ..distributed import local_cluster
 
     if workers is not None:
         cluster = stack.enter_context(local_cluster(workers))
@@ -195,9 +195,9 @@ def _run(definition, scenes, plan, out: Path, dev: str, *, resuming: bool, overw
     import numpy as np
     import zarr
 
-    from .distributed import jobs_for, run_distributed, run_serial, warm_kernels, warm_workers
-    from .planner import format_bytes
-    from .sweep_store import (batch_records, completed_batches, create_sweep_store, finalize, remove_partial_files,
+    from ..distributed import jobs_for, run_distributed, run_serial, warm_kernels, warm_workers
+    from ..planner import format_bytes
+    from ..sweep_store import (batch_records, completed_batches, create_sweep_store, finalize, remove_partial_files,
                               status_codes, store_bytes)
 
     distributed = workers is not None or scheduler is not None

@@ -1,0 +1,74 @@
+"""``hertzian plot``: a picture of any store, or one figure group of Sen, Manciu & Wright (1998), as a PNG."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from .app import app, fail
+
+
+def _parse_at(items: list[str] | None) -> dict[str, float]:
+    at = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        try:
+            if not sep or not key:
+                raise ValueError
+            at[key.strip()] = float(value)
+        except ValueError:
+            fail(f"--at = {item!r}: must be written axis=number, e.g. --at v_imp=0.01")
+    return at
+
+
+@app.command()
+def plot(
+    store: Annotated[Path, typer.Argument(help="A store written by `hertzian run`, `hertzian sweep` or "
+                                          "`hertzian reproduce`.")],
+    figure: Annotated[Optional[str], typer.Option(
+        "--figure", help="A paper figure group instead of the store picture: fig1 | fig1d | fig2 | fig3 | fig4 | "
+        "fig5 | fig6 | depth | fig7_8 | fig9 | fig10 (the store must hold that figure's sweep).")] = None,
+    field: Annotated[str, typer.Option("--field", help="u | v: the field of the depth–time picture.")] = "v",
+    at: Annotated[Optional[list[str]], typer.Option(
+        "--at", help="Which point of a sweep store: axis=value, nearest coordinate (repeatable; default: the "
+        "first along each axis).")] = None,
+    out: Annotated[Optional[Path], typer.Option("--out", help="PNG file to write (default: STORE's name "
+                                                "with .png, or FIGURE.png).")] = None,
+):
+    """Draw a store: the depth–time picture of u or v, the traced grains and the energy error of one point
+    (program units: length 1e-5 m, time 1.0102e-3 s; the store's sign, + into the chain). With --figure,
+    a paper figure group in the paper's representation (profiles in the paper's sign, + toward the surface)."""
+    from ..plot import FIGURES, PlotError, plot_figure, plot_store
+
+    if figure is not None and figure not in FIGURES:
+        fail(f"--figure = {figure!r}: allowed: {', '.join(FIGURES)}")
+    if field not in ("u", "v"):
+        fail(f"--field = {field!r}: u or v")
+    points = _parse_at(at)
+    if not store.exists():
+        fail(f"store = {str(store)!r}: no such store")
+    if out is None:
+        out = Path(f"{figure}.png") if figure else Path(store.name).with_suffix(".png")
+    if out.suffix.lower() != ".png":
+        fail(f"--out = {str(out)!r}: must end in .png")
+    if not out.parent.exists():
+        fail(f"--out = {str(out)!r}: parent directory does not exist")
+    import xarray as xr
+
+    try:
+        dataset = xr.open_zarr(store)
+    except Exception as err:  # noqa: BLE001  (any unreadable store is bad input)
+        fail(f"store = {str(store)!r}: not a readable Zarr store ({type(err).__name__})")
+    what = f"--figure = {figure!r}" if figure else f"store = {str(store)!r}"
+    try:
+        if figure:
+            plot_figure(dataset, figure, out)
+        else:
+            plot_store(dataset, out, field=field, at=points)
+    except PlotError as err:
+        fail(f"{what}: {err}")
+    except (KeyError, IndexError, ValueError) as err:  # a store of another sweep than the figure's
+        fail(f"{what}: store {str(store)!r} does not hold this figure's sweep ({err})")
+    typer.echo(f"wrote {out}")

@@ -1,0 +1,66 @@
+"""``hertzian run``: one scene to a Zarr store."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from .app import DeviceOption, PrecisionOption, SetOption, app, fail, load_scene_or_fail, resolve_device
+
+
+@app.command()
+def run(
+    scene: Annotated[Optional[Path], typer.Argument(help="Scene TOML (SPEC §8). Default: the built-in example "
+                                                   "(1000-grain impact, l0 = 1e-4, v_imp = 1e-2).")] = None,
+    out: Annotated[Path, typer.Option("--out", help="Zarr store to write.")] = Path("hertzian-run.zarr"),
+    device: DeviceOption = None,
+    precision: PrecisionOption = None,
+    set_: SetOption = None,
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing store.")] = False,
+    quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
+    strict: Annotated[bool, typer.Option("--strict", help="Refuse (exit 2) when dt looks unstable or "
+                                         "inaccurate (see hertzian check) instead of warning.")] = False,
+):
+    """Run one scene and store it as Zarr (times in program units of 1.0102e-3 s)."""
+    loaded = load_scene_or_fail(scene, set_, precision)
+    from ..check import dt_warning
+
+    unsafe = dt_warning(loaded)
+    if unsafe and strict:
+        fail(unsafe)
+    if unsafe:
+        typer.echo(f"warning: {unsafe}", err=True)
+    if out.exists() and not overwrite:
+        fail(f"--out = {str(out)!r}: exists; choose another path or pass --overwrite")
+    if not out.parent.exists():
+        fail(f"--out = {str(out)!r}: parent directory does not exist")
+    dev = resolve_device(device)
+
+    from ..runner import run_scene
+    from ..store import write_result
+
+    progress = None
+    if not quiet and sys.stderr.isatty():
+        from rich.progress import BarColumn, Progress, TimeRemainingColumn
+
+        bar = Progress("[progress.description]{task.description}", BarColumn(), "{task.completed}/{task.total} records",
+                       TimeRemainingColumn(), transient=True)
+        bar.start()
+        task = bar.add_task("integrating", total=loaded.record_count)
+        progress = lambda done, total: bar.update(task, completed=done)  # noqa: E731
+    try:
+        result = run_scene(loaded, dev, progress=progress)
+    finally:
+        if progress is not None:
+            bar.stop()
+    write_result(out, result, overwrite=overwrite)
+    status = int(result.status[0])
+    typer.echo(
+        f"{loaded.chain.grains} grains, {result.steps} steps of {loaded.integrator.method} "
+        f"dt={loaded.integrator.dt:g} on {result.device} ({result.kernel} kernel): {result.wall_seconds:.2f} s, "
+        f"{result.grain_steps_per_second:.3g} grain-steps/s, energy error {result.energy_error[0]:.2e}, "
+        f"status {status}")
+    typer.echo(f"wrote {out}")

@@ -1,0 +1,62 @@
+"""Starting Warp quietly, and the default device.
+
+On a machine without an NVIDIA driver, Warp's native initialisation prints "Warp CUDA warning:
+Could not find or load the NVIDIA CUDA driver" to the process's stderr even when only the CPU is
+wanted. :func:`init_warp` looks for the driver library first (as Warp does) and, when there is
+none, starts Warp with stderr silenced for the moment of initialisation only.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import os
+import sys
+
+
+def cuda_driver_present() -> bool:
+    """Whether the NVIDIA driver library can be loaded (libcuda.so / libcuda.so.1, nvcuda.dll)."""
+    names = ("nvcuda.dll",) if sys.platform == "win32" else ("libcuda.so", "libcuda.so.1")
+    for name in names:
+        try:
+            ctypes.CDLL(name)
+            return True
+        except OSError:
+            continue
+    return sys.platform == "darwin"  # no CUDA there; Warp prints nothing either
+
+
+@contextlib.contextmanager
+def _stderr_silenced():
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
+def init_warp() -> None:
+    """``wp.init()`` at warning log level, without the missing-driver warning on CPU-only machines."""
+    import warp as wp
+
+    wp.config.log_level = wp.LOG_WARNING
+    if cuda_driver_present():
+        wp.init()
+        return
+    try:
+        with _stderr_silenced():
+            wp.init()
+    except OSError:   # no file descriptor 2 to redirect (an embedded interpreter): start as usual
+        wp.init()
+
+
+def default_device() -> str:
+    """'cuda' when a CUDA device is present, else 'cpu'."""
+    import warp as wp
+
+    init_warp()
+    return "cuda" if wp.is_cuda_available() else "cpu"

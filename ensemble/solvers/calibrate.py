@@ -1,0 +1,277 @@
+"""Which solver steps an ensemble, and in what launch shape: a short measured calibration, cached.
+
+This module only *chooses* a :class:`SolverConfig` (and remembers the choice); the solvers
+themselves are in this package's ``step``, ``tile`` and ``sweep`` modules. Kinds (``--kernel``):
+
+* ``step`` — one Gear/Verlet step per launch over (chain, grain) (``kernels/step.py``): every feature,
+  memory-bound on GPUs (the whole state through device memory every step).
+* ``tile`` — whole chains in one block, K steps per launch (``kernels/tile.py``), CUDA.
+* ``window`` — long chains cut into blocks with ghost zones, K ≤ ghost steps per launch
+  (``kernels/tile.py`` + ``kernels/ghost.py``), CUDA.
+* ``sweep`` — one CPU thread per chain, many steps per launch (``kernels/cpu.py``).
+* ``auto`` — per-step for features the fused kernels lack (drive, traces) and for runs too short to
+  repay a compile; else ``sweep`` on a CPU, and on a GPU the fastest of a few ``tile``/``window``
+  shapes, timed once per (device, features, grains, chains) and remembered in
+  ``$HERTZIAN_CACHE`` (default ``~/.cache/hertzian/calibration.json``).
+
+Every fused kernel reproduces the per-step kernel's arithmetic (tests/test_tile.py,
+tests/test_cpu_kernel.py), so the choice changes speed, not results.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import statistics
+import time
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+import warp as wp
+
+from kernels.cpu import sweepable
+from kernels.tile import fusable, plan_tile
+
+from ..model import Model, State
+from .config import STEP, SWEEP, SolverConfig
+from .tile import TileSolver, config_of
+
+KERNELS = ("auto", "step", "tile", "window", "sweep")
+
+AUTO_MIN_GRAIN_STEPS_CPU = 2e8
+"""Below this many grain-steps in a run, ``auto`` keeps the per-step kernel on a CPU (a compile costs seconds)."""
+AUTO_MIN_GRAIN_STEPS_GPU = 5e9
+"""Likewise on a GPU, where a calibration costs tens of seconds the first time."""
+CALIBRATION_VERSION = 2
+"""Bumped when the cached fields change (2: a SolverConfig)."""
+
+
+# ---- candidate launch shapes ----------------------------------------------------------------------
+
+REGISTERS = {4: 128, 8: 232, 16: 255}
+"""Registers per thread of the gear4 float64 fused kernel for G grains per lane, padded/windowed variants
+(ptxas for sm_90 reports 122, 216 and 255 for the plain variants; launches of 264 lanes at G = 8 and 528 at
+G = 4 were refused on the H100, so windowed variants use a little more)."""
+
+
+def _fits(lanes: int, G: int, registers: int = 65536) -> bool:
+    """Whether a block of ``lanes`` threads at G grains per lane fits in ``registers`` (whole warps count)."""
+    return -(-lanes // 32) * 32 * REGISTERS[G] <= registers
+
+
+def _sm_count(model: Model) -> int:
+    return (getattr(model.device, "sm_count", 0) or 1) if model.device.is_cuda else 1
+
+
+def whole_chain_configs(model: Model) -> list[SolverConfig]:
+    """Whole-chain shapes worth timing for this model (block ≤ 1024 threads, registers permitting)."""
+    f, n, c = model.features, model.grain_count, model.chain_count
+    plans = []
+    for G, regs in ((8, 0), (4, 0), (8, 168), (16, 0)):
+        lanes = -(-n // G)
+        if -(-lanes // 32) * 32 * (regs or REGISTERS[G]) > 65536:
+            continue
+        per_block = 1
+        while per_block * 2 * lanes <= 128 and per_block * 2 <= c:
+            per_block *= 2          # short chains: several per block, blocks of ≥ 64–128 threads
+        for cpb in sorted({1, per_block}):
+            try:
+                plans.append(config_of(plan_tile(f, n, c, grains_per_lane=G, chains_per_block=cpb,
+                                                 steps_per_launch=64, max_registers=regs)))
+            except ValueError:
+                pass
+    return plans
+
+
+def window_configs(model: Model) -> list[SolverConfig]:
+    """Windowed shapes worth timing: with many chains the fewest blocks per chain that fit an SM, or two per SM
+    (G = 4 or 8, K = 32 or 64); with few chains, enough blocks to fill the GPU, or half as many (G = 4, K = 16
+    or 32)."""
+    f, n, c = model.features, model.grain_count, model.chain_count
+    sms = _sm_count(model)
+    plans = []
+    many = c >= sms
+    for G in ((8, 4) if many else (4,)):
+        for K in ((32, 64) if many else (16, 32)):
+            b_max = n // (2 * K)          # keep the interior at least twice the ghost zone
+            b_min = 2
+            while b_min <= b_max and not _fits(-(-(-(-n // b_min) + 2 * K) // G), G):
+                b_min += 1
+            if b_min > b_max:
+                continue
+            b_fill = min(b_max, max(b_min, -(-2 * sms // c)))
+            b_mid = max(b_min, min(b_fill, round(math.sqrt(b_min * b_fill))))
+            b_two = b_min                 # two blocks per SM: half an SM's registers per block
+            while b_two < b_max and not _fits(-(-(-(-n // b_two) + 2 * K) // G), G, 32768):
+                b_two += 1
+            for b in sorted({b_min, b_two} if many else {b_mid, b_fill}):
+                interior = -(-n // b)
+                lanes = -(-(interior + 2 * K) // G)
+                try:
+                    plans.append(config_of(plan_tile(f, n, c, grains_per_lane=G, lanes_per_chain=lanes,
+                                                     steps_per_launch=K, windowed=True)))
+                except ValueError:
+                    pass
+    return plans
+
+
+def default_config(model: Model) -> SolverConfig:
+    """A shape chosen without timing: whole chains when they fill the GPU, else windows."""
+    n, c = model.grain_count, model.chain_count
+    sms = getattr(model.device, "sm_count", 132) or 132
+    whole = [p for p in whole_chain_configs(model) if p.shape.max_registers == 0]
+    if n <= 1024 and c >= 2 * sms and whole:
+        return whole[0]
+    windows = window_configs(model)
+    if windows:
+        return windows[0]
+    return whole[0]
+
+
+# ---- measuring --------------------------------------------------------------------------------------
+
+def time_solver(solver, *, steps: int, repeats: int = 3, states: tuple[State, State] | None = None) -> float:
+    """Median seconds per step of ``solver`` (warm-up excluded), on ``states`` or a scratch pair made from the
+    model's initial state (the content is overwritten)."""
+    m = solver.model
+    pair = states or m.state_pair()
+    solver.load()
+
+    def advance(current: State) -> State:
+        return solver.advance(current, pair[1] if current is pair[0] else pair[0], steps)
+
+    current = advance(pair[0])   # warm-up (and graph capture)
+    wp.synchronize_device(m.device)
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        current = advance(current)
+        wp.synchronize_device(m.device)
+        times.append(time.perf_counter() - start)
+    return statistics.median(times) / steps
+
+
+def cache_path() -> Path:
+    """Where calibrations are remembered (``$HERTZIAN_CACHE`` or ``~/.cache/hertzian/calibration.json``)."""
+    return Path(os.environ.get("HERTZIAN_CACHE", Path.home() / ".cache" / "hertzian" / "calibration.json"))
+
+
+def _cache_key(model: Model) -> str:
+    c = model.chain_count
+    bucket = 1 << max(0, math.ceil(math.log2(c)))       # chain counts within a factor 2 share a choice
+    return json.dumps([CALIBRATION_VERSION, wp.__version__, model.device.name, asdict(model.features),
+                       model.grain_count, bucket])
+
+
+def _read_cache() -> dict:
+    try:
+        return json.loads(cache_path().read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def _write_cache(entries: dict) -> None:
+    path = cache_path()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".tmp")
+        tmp.write_text(json.dumps(entries, indent=1))
+        tmp.replace(path)
+    except OSError:
+        pass  # a read-only home only costs a re-calibration
+
+
+def calibrate(model: Model, *, configs: list[SolverConfig] | None = None, steps: int | None = None,
+              states: tuple[State, State] | None = None,
+              log=None) -> tuple[SolverConfig, list[tuple[SolverConfig, float]]]:
+    """Time candidate fused shapes on ``model`` and return (fastest config, [(config, seconds per step)]).
+
+    ``states``: a state pair to time on (overwritten); default: a fresh pair from the initial state.
+    """
+    if configs is None:
+        configs = whole_chain_configs(model)
+        if not configs or model.chain_count < _sm_count(model) or model.grain_count > 1024:
+            configs = configs + window_configs(model)
+    states = states or model.state_pair()
+    results, failures = [], []
+    for config in configs:
+        k = config.steps_per_launch
+        n_steps = steps or k * max(2, -(-256 // k))
+        try:
+            solver = TileSolver(model, config)
+            seconds = time_solver(solver, steps=n_steps, states=states)
+        except Exception as err:  # a shape the device refuses (registers, shared memory) is skipped
+            failures.append(f"{config.describe()}: {type(err).__name__}: {err}")
+            if log:
+                log(f"  {failures[-1]}")
+            continue
+        results.append((config, seconds))
+        if log:
+            log(f"  {solver.describe()}: {model.chain_count * model.grain_count / seconds:.3g} grain-steps/s")
+    if not results:
+        raise RuntimeError("no fused launch shape ran on this device: " + "; ".join(failures))
+    best = min(results, key=lambda r: r[1])[0]
+    return best, results
+
+
+def calibrated_config(model: Model, *, states: tuple[State, State] | None = None, log=None) -> SolverConfig:
+    """The cached calibration for this model's (device, features, grains, chain-count bucket); calibrate once."""
+    entries = _read_cache()
+    key = _cache_key(model)
+    if key in entries:
+        try:
+            return SolverConfig.from_dict(entries[key])
+        except (KeyError, TypeError, ValueError):
+            pass
+    best, _ = calibrate(model, states=states, log=log)
+    entries = _read_cache()
+    entries[key] = best.to_dict()
+    _write_cache(entries)
+    return best
+
+
+def choose_config(model: Model, kernel: str = "auto", *, run_steps: int | None = None, calibrate_now: bool = True,
+                  states: tuple[State, State] | None = None, log=None) -> SolverConfig:
+    """The SolverConfig to use for ``model``.
+
+    ``kernel`` is one of KERNELS; a forced kind that cannot run these features raises ValueError.
+    ``run_steps`` (steps of the run) lets ``auto`` keep short runs on the per-step solver. ``states``:
+    a state pair a calibration may overwrite (default: a fresh one).
+    """
+    if kernel not in KERNELS:
+        raise ValueError(f"kernel = {kernel!r}: one of {', '.join(KERNELS)}")
+    f = model.features
+    if kernel == "step":
+        return STEP
+    if kernel == "sweep":
+        if not model.device.is_cpu:
+            raise ValueError("kernel = 'sweep': a CPU kernel; use --device cpu")
+        if not sweepable(f):
+            raise ValueError(f"kernel = 'sweep': no drive and no traces (features {f})")
+        return SWEEP
+    if kernel in ("tile", "window"):
+        if not fusable(f):
+            raise ValueError(f"kernel = {kernel!r}: no drive and no traces (features {f})")
+        configs = whole_chain_configs(model) if kernel == "tile" else window_configs(model)
+        if not configs:
+            raise ValueError(f"kernel = {kernel!r}: no launch shape fits {model.grain_count} grains")
+        if model.device.is_cuda and calibrate_now and len(configs) > 1:
+            return calibrate(model, configs=configs, states=states, log=log)[0]
+        return configs[0]
+    # auto
+    if not fusable(f):
+        return STEP
+    work = model.chain_count * model.grain_count * (run_steps if run_steps is not None else math.inf)
+    if model.device.is_cpu:
+        return SWEEP if work >= AUTO_MIN_GRAIN_STEPS_CPU else STEP
+    if work < AUTO_MIN_GRAIN_STEPS_GPU:
+        return STEP
+    return calibrated_config(model, states=states, log=log) if calibrate_now else default_config(model)
+
+
+def states_equal(a: np.ndarray, b: np.ndarray) -> float:
+    """Largest |a − b| relative to the largest |b| (0 when bitwise equal)."""
+    scale = float(np.max(np.abs(b))) or 1.0
+    return float(np.max(np.abs(a - b))) / scale

@@ -1,0 +1,78 @@
+"""SolverConfig: which solver advances a model, in which compile-time launch shape. Frozen, hashable."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+from kernels.tile import TileShape
+
+SOLVER_KINDS = ("step", "tile", "window", "sweep")
+"""``step``: one Gear/Verlet step per launch over (chain, grain), every feature (kernels/step.py).
+``tile``: whole chains per block, K steps per launch (kernels/tile.py), no drive and no traces.
+``window``: long chains cut into blocks with ghost zones, K ≤ ghost steps per launch (kernels/tile.py +
+kernels/ghost.py), no drive and no traces.
+``sweep``: one CPU thread per chain, every step of an ``advance`` in one launch (kernels/cpu.py)."""
+
+GRAPH_STEPS = 512
+"""Steps per captured CUDA graph of the per-step solver (a graph of many launches, replayed)."""
+WHOLE = 1 << 30
+"""``steps_per_launch`` of the sweep solver: the whole ``advance`` in one launch."""
+
+
+@dataclass(frozen=True)
+class SolverConfig:
+    """Everything that chooses a solver and its compiled code; the chain count only sets block counts.
+
+    Runtime geometry (blocks per chain, window interior) follows from ``shape``, ``steps_per_launch`` and
+    the model's grain and chain counts (``ensemble.solvers.tile.tile_plan``).
+    """
+
+    kind: str = "step"
+    """One of SOLVER_KINDS."""
+    shape: TileShape | None = None
+    """Compile-time launch shape of the tile and window kernels; None for step and sweep."""
+    steps_per_launch: int = 1
+    """Steps one kernel launch takes (1 for step, K for tile/window, WHOLE for sweep)."""
+    use_graph: bool | None = None
+    """Capture launches in CUDA graphs and replay them; None: on CUDA devices (never on the CPU)."""
+    graph_steps: int | None = None
+    """Steps per captured graph (the per-step solver: GRAPH_STEPS); None: one graph per ``advance`` length."""
+
+    def __post_init__(self):
+        if self.kind not in SOLVER_KINDS:
+            raise ValueError(f"solver kind = {self.kind!r}: one of {', '.join(SOLVER_KINDS)}")
+        if (self.shape is not None) != (self.kind in ("tile", "window")):
+            raise ValueError(f"solver kind = {self.kind!r}: a launch shape is needed by tile and window only")
+        if self.kind == "window" and not self.shape.windowed or self.kind == "tile" and self.shape.windowed:
+            raise ValueError(f"solver kind = {self.kind!r} does not match shape.windowed = {self.shape.windowed}")
+        if self.steps_per_launch < 1:
+            raise ValueError(f"steps_per_launch = {self.steps_per_launch}: must be at least 1")
+
+    def describe(self) -> str:
+        """Short text: 'step', 'sweep', or 'tile (G=8 lanes=4 K=64)' and the like."""
+        if self.shape is None:
+            return self.kind
+        s = self.shape
+        text = f"G={s.grains_per_lane} lanes={s.lanes_per_chain}"
+        if s.chains_per_block > 1:
+            text += f" chains/block={s.chains_per_block}"
+        if s.max_registers:
+            text += f" regs<={s.max_registers}"
+        if not s.fast_sqrt:
+            text += " sqrt=rn"
+        return f"{self.kind} ({text} K={self.steps_per_launch})"
+
+    def to_dict(self) -> dict:
+        """JSON-ready fields (store attributes, calibration cache)."""
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "SolverConfig":
+        shape = data.get("shape")
+        return cls(**{**data, "shape": TileShape(**shape) if shape else None})
+
+
+STEP = SolverConfig("step", graph_steps=GRAPH_STEPS)
+"""The per-step solver's config."""
+SWEEP = SolverConfig("sweep", steps_per_launch=WHOLE)
+"""The CPU sweep solver's config."""
