@@ -76,3 +76,61 @@ def initial_nordsieck(scene: Scene, values: int, dt: float, static: StaticState 
     """Scaled Nordsieck vector at t = 0, shape (values, grains): x_k = dt^k u_k."""
     coeffs = taylor_coefficients(scene, values - 1, static)
     return coeffs * dt ** np.arange(values)[:, None]
+
+
+# ---- many chains at once -------------------------------------------------------------------
+
+def _drive_coefficient(amplitude: float, period: float, k: int) -> float:
+    omega = 2.0 * math.pi / period
+    return amplitude * omega**k * round(math.sin(k * math.pi / 2)) / math.factorial(k)
+
+
+def taylor_coefficients_of(chains, order: int, static=None) -> np.ndarray:
+    """:func:`taylor_coefficients` of every chain of a ChainSet, shape (order + 1, chains, grains),
+    vectorised over chains with the same arithmetic per element (same bits)."""
+    from .chains import per_unique
+    from .static import static_arrays
+
+    st = static if static is not None else static_arrays(chains)
+    scene = chains.template
+    count, n_grains = len(chains), scene.chain.grains
+    u = np.zeros((order + 1, count, n_grains))
+    driven = scene.boundary.surface == "driven"
+    fixed = scene.boundary.bottom == "fixed"
+    if driven:
+        amplitude, period = chains.column("excitation.drive_amplitude"), chains.column("excitation.drive_period")
+        for k in range(1, order + 1):
+            u[k, :, 0] = per_unique(lambda a, p, k=k: _drive_coefficient(a, p, k), amplitude, period)
+    elif order >= 1:
+        u[1, :, 0] = chains.column("excitation.impact")
+    a_c, delta0 = st.contact_constant, st.static_overlap
+    loaded = (a_c > 0) & (delta0 > 0)
+    inv_mass = 1.0 / st.mass
+    exponents = np.unique(st.exponent).tolist()
+    for k in range(0, order - 1):
+        d = np.zeros((k + 1, count, n_grains + 1))
+        d[0] = delta0
+        d[1:, :, 1:n_grains] = u[1:k + 1, :, :-1] - u[1:k + 1, :, 1:]
+        d[1:, :, 0] = -u[1:k + 1, :, 0]
+        d[1:, :, n_grains] = u[1:k + 1, :, -1]
+        force_k = np.zeros((count, n_grains + 1))
+        if k >= 1 and np.any(loaded):
+            for n in exponents:
+                # one exponent at a time: the power series takes n − 1 as a Python float, as per scene
+                mask = loaded & (st.exponent == n)[:, None]
+                if np.any(mask):
+                    w = _power_series(d[:, mask], n - 1.0)
+                    force_k[mask] = n * a_c[mask] * w[k]
+        accel_k = (force_k[:, :-1] - force_k[:, 1:]) * inv_mass
+        if driven:
+            accel_k[:, 0] = u[k + 2, :, 0] * (k + 1) * (k + 2)
+        if fixed:
+            accel_k[:, -1] = 0.0
+        u[k + 2] = accel_k / ((k + 1) * (k + 2))
+    return u
+
+
+def initial_nordsieck_of(chains, values: int, dt: float, static=None) -> np.ndarray:
+    """Scaled Nordsieck vectors of every chain at t = 0, shape (values, chains, grains)."""
+    coeffs = taylor_coefficients_of(chains, values - 1, static)
+    return coeffs * (dt ** np.arange(values))[:, None, None]
