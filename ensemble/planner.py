@@ -320,3 +320,16 @@ def describe(plan: Plan, sweep: Sweep, *, max_rows: int = 20) -> str:
     if len(plan.batches) > max_rows:
         lines.append(f"    … {len(plan.batches) - max_rows} more")
     return "\n".join(lines)
+
+
+def single_batch_plan(shape: tuple[int, ...], scene: Scene, features: Features, device: str) -> Plan:
+    """The plan of an ensemble already run as one launch (``hertzian run``, ``write_result``): one
+    launch group, one batch covering the whole grid ``shape`` (() for a single run)."""
+    shape = tuple(shape)
+    device_bytes, host_bytes = chain_memory(scene, features)
+    group = LaunchGroup(key=launch_key(scene), features=features, point_count=math.prod(shape),
+                        device_bytes_per_chain=device_bytes, host_bytes_per_chain=host_bytes,
+                        grain_steps_per_chain=scene.chain.grains * scene.step_count)
+    batch = Batch(index=0, group=0, region=tuple((0, n) for n in shape), grid_shape=shape)
+    return Plan(shape=shape, block=shape, groups=(group,), batches=(batch,),
+                point_group=np.zeros(shape, dtype=np.int64), device=str(device), memory_budget=0)
