@@ -102,12 +102,17 @@ class ChainSet(Sequence):
 def per_unique(function, *columns: np.ndarray) -> np.ndarray:
     """``function(*row)`` (Python floats in, a float out) for every row of ``columns``, evaluated once
     per distinct row: scalar formulas keep exactly the arithmetic (and bits) of the per-scene code."""
+    columns = [np.asarray(c, dtype=np.float64) for c in columns]
     count = len(columns[0])
-    stacked = np.stack([np.asarray(c, dtype=np.float64) for c in columns], axis=1)
     if count == 0:
         return np.zeros(0)
-    if np.all(stacked == stacked[:1]):
-        return np.full(count, float(function(*stacked[0].tolist())))
-    rows, inverse = np.unique(stacked, axis=0, return_inverse=True)
-    values = np.array([float(function(*row)) for row in rows.tolist()])
+    # distinct rows by integer codes (one 1-D unique per column, NaN equal to NaN), not a sort of rows
+    code = np.zeros(count, dtype=np.int64)
+    for column in columns:
+        values, inverse = np.unique(column, return_inverse=True)
+        # renumber after each column so the combined code stays below the row count (no overflow)
+        code = np.unique(code * len(values) + inverse.reshape(-1), return_inverse=True)[1].reshape(-1)
+    _, first, inverse = np.unique(code, return_index=True, return_inverse=True)
+    rows = np.stack([c[first] for c in columns], axis=1).tolist()
+    values = np.array([float(function(*row)) for row in rows])
     return values[inverse.reshape(-1)]

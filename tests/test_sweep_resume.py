@@ -195,6 +195,10 @@ def test_resume_refuses_a_store_of_another_package_version(tmp_path, sweep_file)
 def test_resume_refuses_a_run_store(tmp_path, sweep_file):
     scene = sweep_scenes(load_sweep(sweep_file))[0]
     out = write_result(tmp_path / "run.zarr", run_scene(scene, "cpu"))
+    # a run is a sweep with no axes: its store is refused as another sweep's
+    _refused(sweep_cli(sweep_file, "--out", out, "--resume", *FLAGS), "made from a different sweep")
+    root = zarr.open_group(str(out), mode="r+")
+    del root.attrs["sweep_fingerprint"]
     _refused(sweep_cli(sweep_file, "--out", out, "--resume", *FLAGS), "not a hertzian sweep store")
     bogus = tmp_path / "bogus.zarr"
     bogus.mkdir()
