@@ -141,8 +141,9 @@ def summarize(
     count = len(columns["status"])
     if as_json:
         names = list(columns)
+        # indented for reading; a large store's list unindented (json's C encoder, ~10× faster)
         typer.echo(json.dumps([dict(zip(names, row)) for row in zip(*[columns[n].tolist() for n in names])],
-                              indent=1))
+                              indent=1 if count <= 1000 else None))
         return
     from rich.console import Console
     from rich.table import Table
