@@ -21,8 +21,9 @@ from typing import Any
 
 from kernels.features import Features
 
+from .chains import ChainSet
 from .planner import Batch, Plan
-from .scene import Scene
+from .sweep import SweepPoints
 
 
 @dataclass(frozen=True)
@@ -31,16 +32,17 @@ class BatchJob:
 
     store: str
     batch: Batch
-    scenes: tuple[Scene, ...]
-    """The batch's scenes, in the order of ``batch.points``."""
+    chains: ChainSet
+    """The batch's chains (a template scene and per-chain parameter arrays), in the order of
+    ``batch.points``."""
     features: Features
     """Kernel variant of the batch's launch group."""
     grain_steps: int
 
 
-def jobs_for(store: str | Path, plan: Plan, scenes: list[Scene], batches: Iterable[Batch]) -> list[BatchJob]:
-    """One job per batch (``scenes``: every point's scene in C order)."""
-    return [BatchJob(store=str(store), batch=b, scenes=tuple(scenes[p] for p in b.points),
+def jobs_for(store: str | Path, plan: Plan, points: SweepPoints, batches: Iterable[Batch]) -> list[BatchJob]:
+    """One job per batch (``points``: the sweep expanded by ``ensemble.sweep.expand``)."""
+    return [BatchJob(store=str(store), batch=b, chains=points.chains(b.points),
                      features=plan.groups[b.group].features, grain_steps=plan.batch_grain_steps(b))
             for b in batches]
 
@@ -72,9 +74,12 @@ def run_job(job: BatchJob, device: str, progress: Callable[[int, int], None] | N
     from .sweep_store import write_batch
 
     _quiet_warp()
-    model = build_model(list(job.scenes), device, features=job.features)
-    result = Runner(model).run(progress)
-    return write_batch(job.store, job.batch, result, grain_steps=job.grain_steps, worker=worker)
+    start = time.perf_counter()
+    runner = Runner(build_model(job.chains, device, features=job.features))  # model, initial state, stepper
+    build = time.perf_counter() - start
+    result = runner.run(progress)
+    return write_batch(job.store, job.batch, result, grain_steps=job.grain_steps, worker=worker,
+                       build_seconds=build)
 
 
 def worker_device(requested: str | None, worker_name: Any = None) -> str:

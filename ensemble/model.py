@@ -17,6 +17,7 @@ import warp as wp
 
 from kernels.features import Features
 
+from .chains import ChainSet, per_unique
 from .scene import Scene, SceneError
 from .static import StaticState, static_state
 
@@ -87,7 +88,8 @@ class State:
 class Model:
     """An ensemble of chains ready to integrate on one device. Arrays a feature doesn't use have size 0."""
 
-    scenes: tuple[Scene, ...]
+    scenes: "tuple[Scene, ...] | ChainSet"
+    """The chains' scenes: a tuple, or a ChainSet (template + per-chain arrays) indexed like one."""
     features: Features
     device: wp.context.Device
     chain_count: int
@@ -109,6 +111,8 @@ class Model:
     """Overlap beyond which the Hertz law is not trusted (0.1·diameter), shape (chains,), float64."""
     injected_energy: np.ndarray
     """½ m_0 v_imp² per chain (0 without an impact), float64."""
+    _static: object = None
+    """StaticArrays of a ChainSet model (reused by the Taylor start), else None."""
 
     @property
     def real(self):
@@ -152,10 +156,15 @@ class Model:
         from .startup import initial_nordsieck
 
         state = self.state(like=like)
-        x = np.zeros((self.features.values, self.chain_count, self.grain_count))
-        for c, scene in enumerate(self.scenes):
-            # exact Taylor start: keeps each Gear method at its own order (see ensemble/startup.py)
-            x[:, c, :] = initial_nordsieck(scene, self.features.values, self.dt)
+        if isinstance(self.scenes, ChainSet):
+            from .startup import initial_nordsieck_of
+
+            x = initial_nordsieck_of(self.scenes, self.features.values, self.dt, self._static)
+        else:
+            x = np.zeros((self.features.values, self.chain_count, self.grain_count))
+            for c, scene in enumerate(self.scenes):
+                # exact Taylor start: keeps each Gear method at its own order (see ensemble/startup.py)
+                x[:, c, :] = initial_nordsieck(scene, self.features.values, self.dt)
         state.x.assign(x.astype(np.float64 if self.features.precision == "float64" else np.float32))
         return state
 
@@ -171,13 +180,18 @@ def covers(wider: Features, needed: Features) -> bool:
         and wider.heterogeneous >= needed.heterogeneous and (needed.hertz or not wider.hertz))
 
 
-def build_model(scenes: list[Scene], device: str | None = None, *, features: Features | None = None) -> Model:
+def build_model(scenes: "list[Scene] | ChainSet", device: str | None = None, *,
+                features: Features | None = None) -> Model:
     """Upload an ensemble of compatible scenes to ``device`` (default: CUDA if present, else CPU).
 
-    ``features`` forces a wider kernel variant than the scenes need (e.g. to run one member of an
-    ensemble alone with the ensemble's kernel).
+    ``scenes``: a list of scenes, or a :class:`~ensemble.chains.ChainSet` (a template scene and
+    per-chain parameter arrays; built with numpy, no scene per chain, same bits as the list of its
+    scenes). ``features`` forces a wider kernel variant than the scenes need (e.g. to run one member
+    of an ensemble alone with the ensemble's kernel).
     """
     device = wp.get_device(device)
+    if isinstance(scenes, ChainSet):
+        return _build_model_of(scenes, device, features)
     if not scenes:
         raise SceneError("scenes", [], "an ensemble needs at least one scene")
     statics = [static_state(s) for s in scenes]
@@ -230,4 +244,90 @@ def build_model(scenes: list[Scene], device: str | None = None, *, features: Fea
         trace_slot=upload(trace_slot, wp.int32),
         validity_overlap=upload(np.array([0.1 * s.chain.diameter for s in scenes]), wp.float64),
         injected_energy=np.array([s.injected_energy for s in scenes]),
+    )
+
+
+def chain_set_features(chains: ChainSet, static) -> Features:
+    """features_of for a ChainSet, from its static arrays (no scene per chain)."""
+    first = chains.template
+    any_static = bool(np.any(static.static_overlap > 0))
+    heterogeneous = bool(first.impurities)
+    if not any_static:
+        kind = "none"
+    elif heterogeneous or bool(np.any(chains.column("chain.gravity") > 0)):
+        kind = "profile"
+    else:
+        kind = "uniform"
+    return Features(
+        method=first.integrator.method,
+        precision=first.integrator.precision,
+        surface=first.boundary.surface,
+        bottom=first.boundary.bottom,
+        static=kind,
+        heterogeneous=heterogeneous,
+        hertz=bool(np.all(chains.column("chain.exponent") == 2.5)),
+        traces=bool(first.record.traces),
+    )
+
+
+def _build_model_of(chains: ChainSet, device, features: Features | None) -> Model:
+    """build_model for a ChainSet: every per-chain array from numpy over the set (bitwise equal to the
+    per-scene path, checked by tests/test_vectorised.py)."""
+    from .static import static_arrays
+
+    if len(chains) == 0:
+        raise SceneError("scenes", [], "an ensemble needs at least one scene")
+    scene = chains.template
+    st = static_arrays(chains)
+    f = chain_set_features(chains, st)
+    if features is not None:
+        if not covers(features, f):
+            raise ValueError(f"kernel features {features} cannot run scenes that need {f}")
+        f = features
+    np_real = np.float64 if f.precision == "float64" else np.float32
+    real = wp.float64 if f.precision == "float64" else wp.float32
+    c_count, n = len(chains), scene.chain.grains
+
+    def upload(array, dtype=real):
+        return wp.array(np.ascontiguousarray(array), dtype=dtype, device=device)
+
+    if f.heterogeneous:
+        inverse_mass = 1.0 / st.mass
+        contact_constant = st.contact_constant
+    else:
+        inverse_mass = (1.0 / chains.column("chain.mass"))[:, None]
+        contact_constant = chains.column("chain.a")[:, None]
+    if f.static == "profile":
+        static_overlap = st.static_overlap
+    elif f.static == "uniform":
+        static_overlap = st.static_overlap.max(axis=1)[:, None]
+    else:
+        static_overlap = np.zeros((0, 0))
+    exponent = np.zeros(0) if f.hertz else st.exponent
+    if f.surface == "driven":
+        drive = np.stack([chains.column("excitation.drive_amplitude"),
+                          per_unique(lambda p: 2.0 * math.pi / p, chains.column("excitation.drive_period"))], axis=1)
+    else:
+        drive = np.zeros((0, 2))
+    trace_slot = np.full(n if f.traces else 0, -1, dtype=np.int32)
+    for slot, grain in enumerate(scene.record.traces):
+        trace_slot[grain] = slot
+    impact = chains.column("excitation.impact")
+    injected = per_unique(lambda m0, v: 0.5 * m0 * v**2, st.mass[:, 0], impact)
+    return Model(
+        scenes=chains,
+        features=f,
+        device=device,
+        chain_count=c_count,
+        grain_count=n,
+        dt=scene.integrator.dt,
+        inverse_mass=upload(inverse_mass.astype(np_real)),
+        contact_constant=upload(contact_constant.astype(np_real)),
+        static_overlap=upload(static_overlap.astype(np_real)),
+        exponent=upload(exponent.astype(np_real)),
+        drive=upload(drive, wp.float64),
+        trace_slot=upload(trace_slot, wp.int32),
+        validity_overlap=upload(per_unique(lambda d: 0.1 * d, chains.column("chain.diameter")), wp.float64),
+        injected_energy=injected,
+        _static=st,
     )

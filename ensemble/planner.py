@@ -17,15 +17,16 @@
 from __future__ import annotations
 
 import math
-from dataclasses import astuple, dataclass
+from dataclasses import astuple, dataclass, replace
 
 import numpy as np
 
 from kernels.features import Features
 
-from .model import SHARED_KEYS, features_of
+from .model import SHARED_KEYS, STATIC_LEVELS, chain_set_features, features_of  # noqa: F401
 from .scene import Scene, SceneError
-from .sweep import Sweep
+from .static import static_arrays
+from .sweep import CHUNK_ELEMENTS, Sweep, SweepPoints, expand, static_subgrid
 
 CPU_MEMORY_BUDGET = 2 << 30
 """Bytes a CPU batch may use (state and results live in the same memory)."""
@@ -63,16 +64,29 @@ class Batch:
     """Index into Plan.groups."""
     region: tuple[tuple[int, int], ...]
     """(start, stop) along each sweep dimension."""
-    points: tuple[int, ...]
-    """Flat (C-order) indices of the points, in the order they are launched and written."""
+    grid_shape: tuple[int, ...] = ()
+    """Points along each sweep dimension of the whole grid."""
 
     @property
     def shape(self) -> tuple[int, ...]:
         return tuple(stop - start for start, stop in self.region)
 
     @property
+    def size(self) -> int:
+        """Points in the batch."""
+        return math.prod(self.shape)
+
+    @property
     def slices(self) -> tuple[slice, ...]:
         return tuple(slice(start, stop) for start, stop in self.region)
+
+    @property
+    def points(self) -> np.ndarray:
+        """Flat (C-order) indices of the points, in the order they are launched and written, int64."""
+        if not self.region:
+            return np.zeros(1, dtype=np.int64)
+        grids = np.meshgrid(*[np.arange(a, z) for a, z in self.region], indexing="ij")
+        return np.ravel_multi_index(tuple(g.ravel() for g in grids), self.grid_shape).astype(np.int64)
 
 
 @dataclass(frozen=True)
@@ -106,13 +120,13 @@ class Plan:
         return sum(g.grain_steps_per_chain * g.point_count for g in self.groups)
 
     def batch_grain_steps(self, batch: Batch) -> int:
-        return len(batch.points) * self.groups[batch.group].grain_steps_per_chain
+        return batch.size * self.groups[batch.group].grain_steps_per_chain
 
     def batch_device_bytes(self, batch: Batch) -> int:
-        return len(batch.points) * self.groups[batch.group].device_bytes_per_chain
+        return batch.size * self.groups[batch.group].device_bytes_per_chain
 
     def batch_host_bytes(self, batch: Batch) -> int:
-        return len(batch.points) * self.groups[batch.group].host_bytes_per_chain
+        return batch.size * self.groups[batch.group].host_bytes_per_chain
 
 
 def launch_key(scene: Scene) -> tuple:
@@ -176,40 +190,41 @@ def block_for(shape: tuple[int, ...], splitting: list[bool], target: int) -> tup
 
 
 def batches_for(shape: tuple[int, ...], block: tuple[int, ...], point_group: np.ndarray) -> list[Batch]:
-    """Every block of the grid in C order, as batches."""
+    """Every block of the grid in C order, as batches (a block never mixes launch groups: it has
+    extent 1 along every dimension where the group changes)."""
     counts = [math.ceil(n / b) for n, b in zip(shape, block)]
     batches = []
     for index, corner in enumerate(np.ndindex(*counts)):
         region = tuple((c * b, min((c + 1) * b, n)) for c, b, n in zip(corner, block, shape))
-        grids = np.meshgrid(*[np.arange(a, z) for a, z in region], indexing="ij")
-        flat = np.ravel_multi_index(tuple(g.ravel() for g in grids), shape) if shape else np.array([0])
-        groups = np.unique(point_group.reshape(-1)[flat])
-        assert len(groups) == 1, "a block mixes launch groups"
-        batches.append(Batch(index=index, group=int(groups[0]), region=region,
-                             points=tuple(int(p) for p in flat)))
+        group = point_group[tuple(start for start, _ in region)] if shape else point_group.reshape(-1)[0]
+        batches.append(Batch(index=index, group=int(group), region=region, grid_shape=tuple(shape)))
     return batches
 
 
-def plan_sweep(sweep: Sweep, scenes: list[Scene], device: str, *, batch_size: int | None = None,
-               block: tuple[int, ...] | None = None) -> Plan:
-    """Group ``scenes`` (one per point, C order) into launches on ``device``.
+def plan_sweep(sweep: Sweep, points: "SweepPoints | list[Scene] | None", device: str, *,
+               batch_size: int | None = None, block: tuple[int, ...] | None = None) -> Plan:
+    """Group the sweep's points into launches on ``device``, without a scene per point.
 
-    ``batch_size`` caps points per batch; ``block`` (from an existing store) fixes the batch shape.
+    ``points``: the sweep expanded by ``ensemble.sweep.expand`` (a list of scenes or None expands it
+    here). ``batch_size`` caps points per batch; ``block`` (from an existing store) fixes the batch shape.
     """
+    if not isinstance(points, SweepPoints):
+        points = expand(sweep)
     shape = sweep.shape
+    template_keys = [launch_key(t) for t in points.templates]
     keys: dict[tuple, int] = {}
-    point_group = np.array([keys.setdefault(launch_key(s), len(keys)) for s in scenes],
-                           dtype=np.int64).reshape(shape)
-    members: list[list[Scene]] = [[] for _ in keys]
-    for s, g in zip(scenes, point_group.reshape(-1)):
-        members[g].append(s)
+    template_group = np.array([keys.setdefault(k, len(keys)) for k in template_keys], dtype=np.int64)
+    flat = np.arange(sweep.point_count, dtype=np.int64)
+    point_group = template_group[points.template_index(flat)].reshape(shape)
+    counts = np.bincount(point_group.reshape(-1), minlength=len(keys))
     groups = []
-    for key, group_scenes in zip(keys, members):
-        features = features_of(_distinct_statics(group_scenes))
-        mem = [chain_memory(s, features) for s in group_scenes[:1]]
-        first = group_scenes[0]
-        groups.append(LaunchGroup(key=key, features=features, point_count=len(group_scenes),
-                                  device_bytes_per_chain=mem[0][0], host_bytes_per_chain=mem[0][1],
+    for g, key in enumerate(keys):
+        members = [t for t in range(len(points.templates)) if template_group[t] == g]
+        features = _group_features(points, members)
+        first = points.templates[members[0]]
+        device_bytes, host_bytes = chain_memory(first, features)
+        groups.append(LaunchGroup(key=key, features=features, point_count=int(counts[g]),
+                                  device_bytes_per_chain=device_bytes, host_bytes_per_chain=host_bytes,
                                   grain_steps_per_chain=first.chain.grains * first.step_count))
     budget = device_budget(device)
     splitting = _splitting_dims(point_group)
@@ -219,7 +234,7 @@ def plan_sweep(sweep: Sweep, scenes: list[Scene], device: str, *, batch_size: in
         cpu = not wp.get_device(device).is_cuda
         per_device = max(g.device_bytes_per_chain + (g.host_bytes_per_chain if cpu else 0) for g in groups)
         per_host = max(g.host_bytes_per_chain for g in groups)
-        grains = scenes[0].chain.grains
+        grains = points.templates[0].chain.grains
         fit = min(budget // per_device, HOST_MEMORY_BUDGET // per_host, max(1, MAX_GRAIN_THREADS // grains))
         if fit < 1:
             raise SceneError("chain.grains", grains, f"one chain needs {per_device} bytes, more than the "
@@ -234,6 +249,30 @@ def plan_sweep(sweep: Sweep, scenes: list[Scene], device: str, *, batch_size: in
     batches = batches_for(shape, block, point_group)
     return Plan(shape=shape, block=block, groups=tuple(groups), batches=tuple(batches),
                 point_group=point_group, device=str(device), memory_budget=budget)
+
+
+def _group_features(points: SweepPoints, templates: list[int]) -> Features:
+    """The kernel variant covering every point of the given templates, as ``features_of`` over every
+    point's scene: only the static configurations are scanned (the parameter dimensions that hold a
+    static key — exponent and gravity included — at every index, the others at index 0), in chunks."""
+    combined = None
+    for t in templates:
+        chains = static_subgrid(points, t)
+        step = max(1, CHUNK_ELEMENTS // (chains.template.chain.grains + 1))
+        for start in range(0, len(chains), step):
+            part = chains.take(np.arange(start, min(start + step, len(chains))))
+            found = chain_set_features(part, static_arrays(part))
+            combined = found if combined is None else _widen(combined, found)
+    return combined
+
+
+def _widen(a: Features, b: Features) -> Features:
+    """features_of over the union of two sets of chains (sharing method, precision, boundaries, traces)."""
+    static = STATIC_LEVELS[max(STATIC_LEVELS.index(a.static), STATIC_LEVELS.index(b.static))]
+    heterogeneous = a.heterogeneous or b.heterogeneous
+    if static == "uniform" and heterogeneous:
+        static = "profile"
+    return replace(a, static=static, heterogeneous=heterogeneous, hertz=a.hertz and b.hertz)
 
 
 def _distinct_statics(scenes: list[Scene]) -> list[Scene]:
@@ -281,3 +320,16 @@ def describe(plan: Plan, sweep: Sweep, *, max_rows: int = 20) -> str:
     if len(plan.batches) > max_rows:
         lines.append(f"    … {len(plan.batches) - max_rows} more")
     return "\n".join(lines)
+
+
+def single_batch_plan(shape: tuple[int, ...], scene: Scene, features: Features, device: str) -> Plan:
+    """The plan of an ensemble already run as one launch (``hertzian run``, ``write_result``): one
+    launch group, one batch covering the whole grid ``shape`` (() for a single run)."""
+    shape = tuple(shape)
+    device_bytes, host_bytes = chain_memory(scene, features)
+    group = LaunchGroup(key=launch_key(scene), features=features, point_count=math.prod(shape),
+                        device_bytes_per_chain=device_bytes, host_bytes_per_chain=host_bytes,
+                        grain_steps_per_chain=scene.chain.grains * scene.step_count)
+    batch = Batch(index=0, group=0, region=tuple((0, n) for n in shape), grid_shape=shape)
+    return Plan(shape=shape, block=shape, groups=(group,), batches=(batch,),
+                point_group=np.zeros(shape, dtype=np.int64), device=str(device), memory_budget=0)

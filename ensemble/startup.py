@@ -76,3 +76,78 @@ def initial_nordsieck(scene: Scene, values: int, dt: float, static: StaticState 
     """Scaled Nordsieck vector at t = 0, shape (values, grains): x_k = dt^k u_k."""
     coeffs = taylor_coefficients(scene, values - 1, static)
     return coeffs * dt ** np.arange(values)[:, None]
+
+
+# ---- many chains at once -------------------------------------------------------------------
+
+def _drive_coefficient(amplitude: float, period: float, k: int) -> float:
+    omega = 2.0 * math.pi / period
+    return amplitude * omega**k * round(math.sin(k * math.pi / 2)) / math.factorial(k)
+
+
+def taylor_coefficients_of(chains, order: int, static=None) -> np.ndarray:
+    """:func:`taylor_coefficients` of every chain of a ChainSet, shape (order + 1, chains, grains),
+    vectorised over chains with the same arithmetic per element (same bits)."""
+    from .chains import per_unique
+    from .static import static_arrays
+
+    st = static if static is not None else static_arrays(chains)
+    scene = chains.template
+    count, n_grains = len(chains), scene.chain.grains
+    u = np.zeros((order + 1, count, n_grains))
+    driven = scene.boundary.surface == "driven"
+    fixed = scene.boundary.bottom == "fixed"
+    if driven:
+        amplitude, period = chains.column("excitation.drive_amplitude"), chains.column("excitation.drive_period")
+        for k in range(1, order + 1):
+            u[k, :, 0] = per_unique(lambda a, p, k=k: _drive_coefficient(a, p, k), amplitude, period)
+    elif order >= 1:
+        u[1, :, 0] = chains.column("excitation.impact")
+    a_c, delta0 = st.contact_constant, st.static_overlap
+    loaded = (a_c > 0) & (delta0 > 0)
+    any_loaded = bool(np.any(loaded))
+    inv_mass = 1.0 / st.mass
+    exponents = np.unique(st.exponent).tolist()
+    groups = [(slice(None), exponents[0])] if len(exponents) == 1 else [
+        (st.exponent == n, n) for n in exponents]
+    d = np.zeros((order, count, n_grains + 1))
+    d[0] = delta0
+    # the power series w = δ^(n−1) of each exponent group, grown one order per k: its rows 0…k−1 depend
+    # on δ_0…δ_{k−1} only, so each is computed once, by the recurrence of _power_series, element by element
+    series = []
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for rows, n in groups:
+            w = np.zeros((order, *delta0[rows].shape))
+            w[0] = delta0[rows] ** (n - 1.0)
+            series.append(w)
+    for k in range(0, order - 1):
+        # overlap series of every padded contact up to order k (rows 1…k rewritten each order)
+        d[1:k + 1, :, 1:n_grains] = u[1:k + 1, :, :-1] - u[1:k + 1, :, 1:]
+        d[1:k + 1, :, 0] = -u[1:k + 1, :, 0]
+        d[1:k + 1, :, n_grains] = u[1:k + 1, :, -1]
+        force_k = np.zeros((count, n_grains + 1))
+        if k >= 1 and any_loaded:
+            for (rows, n), w in zip(groups, series):
+                # every contact at once, then only the loaded ones kept: elementwise the same operations
+                # as the per-scene code on its loaded contacts (n − 1 a Python float, as there)
+                p = n - 1.0
+                delta = d[:, rows] if not isinstance(rows, slice) else d
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    acc = np.zeros_like(delta[0])
+                    for j in range(1, k + 1):
+                        acc += ((p + 1.0) * j - k) * delta[j] * w[k - j]
+                    w[k] = acc / (k * delta[0])
+                    force_k[rows] = np.where(loaded[rows], n * a_c[rows] * w[k], 0.0)
+        accel_k = (force_k[:, :-1] - force_k[:, 1:]) * inv_mass
+        if driven:
+            accel_k[:, 0] = u[k + 2, :, 0] * (k + 1) * (k + 2)
+        if fixed:
+            accel_k[:, -1] = 0.0
+        u[k + 2] = accel_k / ((k + 1) * (k + 2))
+    return u
+
+
+def initial_nordsieck_of(chains, values: int, dt: float, static=None) -> np.ndarray:
+    """Scaled Nordsieck vectors of every chain at t = 0, shape (values, chains, grains)."""
+    coeffs = taylor_coefficients_of(chains, values - 1, static)
+    return coeffs * (dt ** np.arange(values))[:, None, None]

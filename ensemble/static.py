@@ -87,3 +87,95 @@ def static_state(scene: Scene) -> StaticState:
         overlap = np.where(carried > 0, (carried / (n * np.where(a_c > 0, a_c, 1.0))) ** (1.0 / (n - 1.0)), 0.0)
     return StaticState(mass=mass, self_constant=self_a, contact_constant=a_c, carried_force=carried,
                        static_overlap=overlap, exponent=n, surface_force=f0)
+
+
+# ---- many chains at once -------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class StaticArrays:
+    """Static equilibrium of a :class:`~ensemble.chains.ChainSet`, one row per chain, float64.
+
+    Row ``c`` equals, bit for bit, :func:`static_state` of the set's scene ``c``.
+    """
+
+    mass: np.ndarray
+    """Grain masses, shape (chains, N)."""
+    self_constant: np.ndarray
+    """Self-constants, shape (chains, N)."""
+    contact_constant: np.ndarray
+    """a_c of each padded contact, shape (chains, N + 1)."""
+    carried_force: np.ndarray
+    """Static force of each padded contact, shape (chains, N + 1)."""
+    static_overlap: np.ndarray
+    """δ0 of each padded contact [length], shape (chains, N + 1)."""
+    exponent: np.ndarray
+    """n per chain, shape (chains,)."""
+    surface_force: np.ndarray
+    """F0 per chain [force], shape (chains,)."""
+
+
+def _surface_force(load, l0, exponent, a) -> float:
+    # ChainSpec.surface_force, on Python floats (load NaN = unset)
+    if load == load:
+        return float(load)
+    if l0 == 0.0:
+        return 0.0
+    return exponent * a * l0 ** (exponent - 1.0)
+
+
+def _power_by_exponent(base: np.ndarray, exponent: np.ndarray, power) -> np.ndarray:
+    """``base ** power(n)`` row by row, with one numpy call per distinct n (a Python-float power, as the
+    per-scene code computes it)."""
+    out = np.empty_like(base)
+    for n in np.unique(exponent).tolist():
+        rows = exponent == n
+        out[rows] = base[rows] ** power(n)
+    return out
+
+
+def static_arrays(chains) -> StaticArrays:
+    """:func:`static_state` of every chain of a ChainSet, vectorised over chains (same bits)."""
+    from .chains import per_unique
+
+    scene = chains.template
+    count, n_grains = len(chains), scene.chain.grains
+    mass = np.repeat(chains.column("chain.mass")[:, None], n_grains, axis=1)
+    self_a = np.repeat(chains.column("chain.a")[:, None], n_grains, axis=1)
+    own = np.zeros(n_grains, dtype=bool)
+    for k, imp in enumerate(scene.impurities):
+        idx = np.asarray(imp.grains)
+        imp_mass = chains.column(f"impurities.{k}.mass")
+        if imp_mass is not None:
+            mass[:, idx] = imp_mass[:, None]
+        imp_a = chains.column(f"impurities.{k}.a")
+        if imp_a is not None:
+            self_a[:, idx] = imp_a[:, None]
+        own[idx] = imp.contact == "own"
+
+    left, right = self_a[:, :-1], self_a[:, 1:]
+    inner = 2.0 * left * right / (left + right)
+    own_left, own_right = own[:-1], own[1:]
+    inner = np.where(own_left & ~own_right, left, inner)
+    inner = np.where(own_right & ~own_left, right, inner)
+    inner = np.where(left == right, left, inner)
+    a_c = np.zeros((count, n_grains + 1))
+    a_c[:, 1:n_grains] = inner
+    if scene.boundary.surface == "wall":
+        a_c[:, 0] = self_a[:, 0]
+    if scene.boundary.bottom == "wall":
+        a_c[:, n_grains] = self_a[:, -1]
+
+    exponent = chains.column("chain.exponent")
+    load = chains.column("chain.load")
+    f0 = per_unique(_surface_force, load if load is not None else np.full(count, np.nan),
+                    chains.column("chain.l0"), exponent, chains.column("chain.a"))
+    g = chains.column("chain.gravity")
+    carried = np.zeros((count, n_grains + 1))
+    carried[:, 1:] = f0[:, None] + g[:, None] * np.cumsum(mass, axis=1)
+    carried[:, 0] = f0
+    carried[a_c == 0.0] = 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = carried / (exponent[:, None] * np.where(a_c > 0, a_c, 1.0))
+        overlap = np.where(carried > 0, _power_by_exponent(ratio, exponent, lambda n: 1.0 / (n - 1.0)), 0.0)
+    return StaticArrays(mass=mass, self_constant=self_a, contact_constant=a_c, carried_force=carried,
+                        static_overlap=overlap, exponent=exponent, surface_force=f0)

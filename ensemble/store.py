@@ -71,89 +71,79 @@ def provenance(result: RunResult) -> dict[str, Any]:
     }
 
 
-def chunks_for(shape: tuple[int, ...], itemsize: int, *, lead: int = 0) -> tuple[int, ...]:
-    """Chunks of about CHUNK_BYTES: whole trailing dims, split along the first dims as needed."""
-    chunks = list(shape)
-    for axis in range(len(shape)):
-        total = int(np.prod(chunks)) * itemsize
-        if total <= CHUNK_BYTES or axis >= len(shape) - 1:
-            break
-        rest = int(np.prod(chunks[axis + 1:])) * itemsize
-        chunks[axis] = max(1, min(chunks[axis], CHUNK_BYTES // max(rest, 1)))
-    return tuple(max(1, c) for c in chunks)
+def _flat_scene(scene) -> dict[str, Any]:
+    """A scene as dotted keys (``chain.l0``, ``impurities.0.mass``; lists as JSON-ready lists)."""
+    data = scene.to_dict()
+    out = {}
+    for section, values in data.items():
+        if section == "impurities":
+            out["impurities"] = len(values)
+            for k, block in enumerate(values):
+                out.update({f"impurities.{k}.{key}": value for key, value in block.items()})
+            continue
+        out.update({f"{section}.{key}": value for key, value in values.items()})
+    return out
 
 
-def _array(group, name: str, data: np.ndarray, dims: tuple[str, ...], attrs: dict | None = None):
-    data = np.asarray(data)
-    arr = group.create_array(name, shape=data.shape, dtype=data.dtype,
-                             chunks=chunks_for(data.shape, data.dtype.itemsize) if data.ndim else (),
-                             dimension_names=list(dims), fill_value=0, attributes=attrs or {})
-    arr[...] = data
-    return arr
+def scene_differences(scenes) -> dict[str, list]:
+    """Dotted scene keys whose values differ between ``scenes`` → every scene's value, in order."""
+    flats = [_flat_scene(s) for s in scenes]
+    keys = sorted(set().union(*flats))
+    return {k: [f.get(k) for f in flats] for k in keys if any(f.get(k) != flats[0].get(k) for f in flats)}
+
+
+def _axis_key(name: str, values: np.ndarray, dim: int, shape: tuple[int, ...], differences: dict) -> str:
+    """The scene key that varies exactly like axis ``name`` (its values along dimension ``dim``), or ''."""
+    for key, per_point in differences.items():
+        grid = np.array(per_point, dtype=object).reshape(shape)
+        along = np.moveaxis(grid, dim, 0).reshape(shape[dim], -1)
+        if all(len(set(map(repr, row))) == 1 for row in along) and [row[0] for row in along] == list(values):
+            return key
+    return ""
 
 
 def write_result(path: str | Path, result: RunResult, *, axes: dict[str, np.ndarray] | None = None,
                  sweep: dict | None = None, overwrite: bool = False) -> Path:
-    """Write a run (or an ensemble shaped by ``axes``: name → coordinate values) as a Zarr v3 store."""
+    """Write a run (or an ensemble shaped by ``axes``: name → coordinate values, C order) as a Zarr v3
+    store, through the sweep store's writer: a run is a sweep with no axes, one batch.
+
+    Scenes that differ between points are kept: the ``scene`` attribute holds the first point's,
+    ``scene_overrides`` (JSON) every differing dotted key's value at every point, and an axis whose
+    values are exactly one differing key's gets that key as its ``scene_key``. ``sweep`` (plain
+    data) is stored as the ``sweep`` attribute when given.
+    """
+    from .planner import single_batch_plan
+    from .sweep import Axis, Dimension, Sweep
+    from .sweep_store import create_sweep_store, finalize, write_batch
+
     path = Path(path)
-    axes = dict(axes or {})
+    axes = {name: np.asarray(values) for name, values in (axes or {}).items()}
     shape = tuple(len(v) for v in axes.values())
     if int(np.prod(shape)) != result.chain_count:
         raise ValueError(f"axes {shape} do not match {result.chain_count} chains")
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path} exists (pass --overwrite to replace it)")
-    axis_dims = tuple(axes)
-    scene = result.scenes[0]
-
-    def per_point(array: np.ndarray) -> np.ndarray:
-        return array.reshape(shape + array.shape[1:])
-
+    scenes = result.scenes
+    scene = scenes[0]
+    differences = scene_differences(list(scenes)) if len(scenes) > 1 else {}
+    dimensions = tuple(
+        Dimension(axes=(Axis(name=name, key=_axis_key(name, values.tolist(), d, shape, differences),
+                             values=tuple(values.tolist())),))
+        for d, (name, values) in enumerate(axes.items()))
+    definition = Sweep(base=scene, dimensions=dimensions)
+    plan = single_batch_plan(shape, scene, result.features, result.device)
+    attributes = {"scene_overrides": json.dumps(differences)}
+    if sweep is not None:
+        attributes["sweep"] = json.dumps(sweep)
     tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent if path.parent.exists() else None))
     try:
-        root = zarr.open_group(store=str(tmp / "store.zarr"), mode="w", zarr_format=3)
-        for name, values in axes.items():
-            _array(root, name, np.asarray(values), (name,))
-        _array(root, "t", result.t, ("record",), {"units": "program time (1.0102e-3 s)"})
-        _array(root, "grain", np.arange(result.grain_count, dtype=np.int32), ("grain",),
-               {"long_name": "grain index from the surface"})
-        for name, data in result.fields.items():
-            _array(root, name, per_point(data), axis_dims + ("record", "grain"),
-                   {"coordinates": "t", "units": "program length (1e-5 m)" if name == "u" else
-                    "program velocity (1e-5 m / 1.0102e-3 s)", "long_name": {"u": "displacement from static "
-                    "equilibrium, positive toward the bottom", "v": "velocity, positive toward the bottom"}[name]})
-        if scene.record.energy:
-            _array(root, "energy", per_point(result.energy), axis_dims + ("record",),
-                   {"coordinates": "t", "long_name": "total energy relative to the static state "
-                    "(SPEC §5 E minus a constant)"})
-            if result.work is not None:
-                _array(root, "work", per_point(result.work), axis_dims + ("record",),
-                       {"coordinates": "t", "long_name": "work done by the driver on the chain"})
-        if result.trace_t is not None:
-            _array(root, "trace_t", result.trace_t, ("sample",))
-            _array(root, "traced_grain", np.asarray(scene.record.traces, dtype=np.int32), ("traced",))
-            for name, data in result.traces.items():
-                _array(root, f"trace_{name}", per_point(data), axis_dims + ("sample", "traced"),
-                       {"coordinates": "trace_t traced_grain"})
-        _array(root, "status", per_point(result.status.astype(np.int32)), axis_dims,
-               {"flag_values": [int(k) for k in status_attrs()], "flag_meanings": status_attrs()})
-        _array(root, "energy_error", per_point(result.energy_error), axis_dims,
-               {"long_name": "max_t |E(t) - E(0) [- W(t)]| / E_inj (absolute when nothing is injected)"})
-        _array(root, "max_overlap", per_point(result.max_overlap), axis_dims)
-        wall = np.full(result.chain_count, result.wall_seconds / result.chain_count)
-        _array(root, "wall_seconds", per_point(wall), axis_dims,
-               {"long_name": "wall seconds of the ensemble, shared evenly among its chains"})
-        root.attrs.update({
-            "schema_version": SCHEMA_VERSION,
-            "scene": json.dumps(scene.to_dict()) if not axes else json.dumps(scene.to_dict()),
-            "scenes_differ_along": axis_dims,
-            "sweep": json.dumps(sweep) if sweep is not None else "",
-            "status_codes": status_attrs(),
-            "provenance": provenance(result),
-        })
-        consolidate(tmp / "store.zarr")
+        target = tmp / "store.zarr"
+        create_sweep_store(target, definition, scene, plan, device=result.device, attributes=attributes)
+        write_batch(target, plan.batches[0], result, grain_steps=result.grain_count * result.steps * result.chain_count)
+        finalize(target)
         if path.exists():
             shutil.rmtree(path)
-        (tmp / "store.zarr").rename(path)
+        target.rename(path)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return path
@@ -170,44 +160,57 @@ def open_store(path: str | Path):
     return group
 
 
+SUMMARY_SCHEME = ("method", "precision", "dt", "steps", "grains")
+
+
+def summary_columns(path: str | Path) -> dict[str, np.ndarray]:
+    """Per point, as columns over the points in C order (vectorised; reads only the per-point
+    variables, never u/v/traces): every axis value, status, status name, energy error, max overlap,
+    wall seconds, grain-steps per second, device and the scheme (method, precision, dt, steps, grains)."""
+    group = open_store(path)
+    attrs = group.attrs.asdict() if hasattr(group.attrs, "asdict") else dict(group.attrs)
+    prov = dict(attrs["provenance"])
+    dims = list(attrs.get("scenes_differ_along", []))
+    status = np.asarray(group["status"][...])
+    shape = status.shape
+    count = status.size
+    axis_dims = {name: dims.index(spec["dim"]) for name, spec in dict(attrs.get("sweep_axes", {})).items()}
+    axis_dims = axis_dims or {a: k for k, a in enumerate(dims)}
+    index = np.unravel_index(np.arange(count), shape) if shape else ()
+    columns: dict[str, np.ndarray] = {}
+    for name, d in axis_dims.items():
+        columns[name] = np.asarray(group[name][...])[index[d]]
+    codes = attrs["status_codes"]
+    flat_status = status.reshape(-1).astype(np.int64)
+    names = {int(k): v.split(":")[0] for k, v in codes.items()}
+    columns["status"] = flat_status
+    unique, inverse = np.unique(flat_status, return_inverse=True)
+    columns["status_name"] = np.array([names.get(c, "?") for c in unique.tolist()], dtype=object)[inverse.reshape(-1)]
+    members = set(group.array_keys())
+    for name in ("energy_error", "max_overlap", "wall_seconds"):
+        columns[name] = np.asarray(group[name][...], dtype=np.float64).reshape(-1)
+    if "grain_steps_per_second" in members:
+        columns["grain_steps_per_second"] = np.asarray(group["grain_steps_per_second"][...],
+                                                       dtype=np.float64).reshape(-1)
+    else:
+        columns["grain_steps_per_second"] = np.full(count, float(prov["grain_steps_per_second"]))
+    columns["device"] = np.full(count, prov["device"], dtype=object)
+    launch_groups = list(attrs.get("launch_groups", []))
+    if "launch_group" in members and launch_groups:
+        point_group = np.asarray(group["launch_group"][...]).reshape(-1).astype(np.int64)
+        valid = (point_group >= 0) & (point_group < len(launch_groups))
+        for key in SUMMARY_SCHEME:
+            table = np.array([g[key] for g in launch_groups] + [prov[key]], dtype=object)
+            columns[key] = table[np.where(valid, point_group, len(launch_groups))]
+    else:
+        for key in SUMMARY_SCHEME:
+            columns[key] = np.full(count, prov[key], dtype=object)
+    return columns
+
+
 def summary_records(path: str | Path) -> list[dict[str, Any]]:
     """One record per point: its axis values, status, energy error, wall seconds and throughput."""
-    group = open_store(path)
-    prov = dict(group.attrs["provenance"])
-    axes = list(group.attrs.get("scenes_differ_along", []))
-    status = np.asarray(group["status"][...])
-    err = np.asarray(group["energy_error"][...])
-    wall = np.asarray(group["wall_seconds"][...])
-    overlap = np.asarray(group["max_overlap"][...])
-    codes = group.attrs["status_codes"]
-    # sweeps: every axis (zipped ones are coordinates along their group's dimension), per-point
-    # throughput, and per-point scheme from the point's launch group; runs have none of these
-    axis_dims = {name: axes.index(spec["dim"]) for name, spec in dict(group.attrs.get("sweep_axes", {})).items()}
-    axis_dims = axis_dims or {a: k for k, a in enumerate(axes)}
-    coords = {a: np.asarray(group[a][...]) for a in axis_dims}
-    members = set(group.array_keys())
-    rate = np.asarray(group["grain_steps_per_second"][...]) if "grain_steps_per_second" in members else None
-    point_group = np.asarray(group["launch_group"][...]) if "launch_group" in members else None
-    launch_groups = list(group.attrs.get("launch_groups", []))
-    records = []
-    for index in np.ndindex(status.shape):
-        rec = {a: coords[a][index[k]].item() for a, k in axis_dims.items()}
-        scheme = prov
-        if point_group is not None and 0 <= int(point_group[index]) < len(launch_groups):
-            scheme = launch_groups[int(point_group[index])]
-        rec.update({
-            "status": int(status[index]),
-            "status_name": codes.get(str(int(status[index])), "?").split(":")[0],
-            "energy_error": float(err[index]),
-            "max_overlap": float(overlap[index]),
-            "wall_seconds": float(wall[index]),
-            "grain_steps_per_second": float(rate[index]) if rate is not None else prov["grain_steps_per_second"],
-            "device": prov["device"],
-            "method": scheme["method"],
-            "precision": scheme["precision"],
-            "dt": scheme["dt"],
-            "steps": scheme["steps"],
-            "grains": scheme["grains"],
-        })
-        records.append(rec)
-    return records
+    columns = summary_columns(path)
+    names = list(columns)
+    values = [columns[n].tolist() for n in names]
+    return [dict(zip(names, row)) for row in zip(*values)]

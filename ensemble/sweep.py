@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from .chains import ChainSet, is_per_chain_key
 from .scene import Scene, SceneError, UnknownKeyError, apply_overrides, read_toml, scene_from_dict
 
 AXIS_KEYS = ("name", "key", "values", "linspace", "logspace")
@@ -370,3 +371,172 @@ def sweep_scenes(sweep: Sweep) -> list[Scene]:
             raise SceneError("trace times", f"{tt[1]:g} vs {tt0[1]:g}", "every point must sample traces at "
                              "the same times")
     return scenes
+
+
+# ---- expansion without one scene per point --------------------------------------------------
+
+STATIC_KEYS = ("chain.mass", "chain.a", "chain.exponent", "chain.l0", "chain.load", "chain.gravity")
+"""Per-chain keys that the static state depends on (with impurities.K.mass|a)."""
+CHUNK_ELEMENTS = 1 << 22
+"""Chains × grains computed at once when the planner scans static states (memory bound)."""
+
+
+def _is_static_key(key: str) -> bool:
+    return key in STATIC_KEYS or key.startswith("impurities.")
+
+
+@dataclass(frozen=True, eq=False)
+class SweepPoints:
+    """Every point of a sweep without a Scene per point.
+
+    Dimensions whose axes are all per-chain scalars (``ensemble.chains.PER_CHAIN_KEYS``) are
+    *parameter* dimensions: their values become per-chain arrays. The others are *structural*
+    (grain count, boundaries, integrator, record, impurity contact rule): one validated
+    *template* scene per combination of their values. Point ``p``'s scene is its template with
+    its parameter values; ``chains(points)`` gives a batch as a ChainSet.
+    """
+
+    sweep: Sweep
+    structural: tuple[int, ...]
+    """Indices (into sweep.dimensions) of structural dimensions."""
+    parameter: tuple[int, ...]
+    """Indices of parameter dimensions."""
+    templates: tuple[Scene, ...]
+    """One scene per combination of structural values (C order over the structural dimensions),
+    taken at index 0 of every parameter dimension."""
+
+    @property
+    def point_count(self) -> int:
+        return self.sweep.point_count
+
+    def grid_index(self, points: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Per-dimension indices of flat (C-order) point indices."""
+        points = np.asarray(points, dtype=np.int64)
+        if not self.sweep.shape:
+            return ()
+        return np.unravel_index(points, self.sweep.shape)
+
+    def template_index(self, points: np.ndarray) -> np.ndarray:
+        """Template of each flat point index."""
+        points = np.asarray(points, dtype=np.int64)
+        if not self.structural:
+            return np.zeros(points.shape, dtype=np.int64)
+        index = self.grid_index(points)
+        shape = self.sweep.shape
+        return np.ravel_multi_index(tuple(index[d] for d in self.structural),
+                                    tuple(shape[d] for d in self.structural)).astype(np.int64)
+
+    def chains(self, points: np.ndarray) -> ChainSet:
+        """The points (flat indices, all of one template) as a ChainSet, in the given order."""
+        points = np.asarray(points, dtype=np.int64)
+        templates = np.unique(self.template_index(points))
+        if len(templates) != 1:
+            raise ValueError("the points of one ChainSet must share their structural keys")
+        index = self.grid_index(points)
+        values = {}
+        for d in self.parameter:
+            for axis in self.sweep.dimensions[d].axes:
+                values[axis.key] = np.asarray(axis.values, dtype=np.float64)[index[d]]
+        return ChainSet.of(self.templates[int(templates[0])], values, len(points))
+
+    def scene(self, point: int) -> Scene:
+        """The validated scene of one flat point index (as ``Sweep.scene_at``)."""
+        index = np.unravel_index(int(point), self.sweep.shape) if self.sweep.shape else ()
+        return self.sweep.scene_at(tuple(int(i) for i in index))
+
+
+def _extreme_indices(dimension: Dimension) -> list[int]:
+    """Indices along a parameter dimension whose points bound every scene rule: each axis's smallest
+    and largest value for a single numeric axis; every index of a zip group (whose values pair up)
+    or of non-numeric values."""
+    axes = dimension.axes
+    coordinate = axes[0].coordinate()
+    if len(axes) > 1 or coordinate.dtype.kind not in "fiu":
+        return list(range(dimension.size))
+    return sorted({int(np.argmin(coordinate)), int(np.argmax(coordinate))})
+
+
+def corner_points(expanded: SweepPoints) -> list[tuple[int, ...]]:
+    """Grid indices that validate the whole grid: every structural combination × the extreme indices
+    of every parameter dimension (see :func:`validate_grid`)."""
+    import itertools
+
+    sweep = expanded.sweep
+    choices = []
+    for d, dimension in enumerate(sweep.dimensions):
+        choices.append(range(dimension.size) if d in expanded.structural else _extreme_indices(dimension))
+    return list(itertools.product(*choices))
+
+
+def validate_grid(expanded: SweepPoints) -> int:
+    """Validate the grid by its corners and value ranges; return how many scenes were built.
+
+    Scene rules on per-chain scalars are ranges (> 0, ≥ 0, finite) or conditions on a value being
+    nonzero (a load and l0 together, an impact on a driven surface), so a grid whose every
+    structural combination passes at the smallest and largest value of each parameter axis passes
+    everywhere; zipped axes are checked at every index since their values pair up.
+    """
+    points = corner_points(expanded)
+    for index in points:
+        expanded.sweep.scene_at(index)
+    return len(points)
+
+
+def _check_layout(templates: list[Scene]) -> None:
+    first = templates[0]
+    for key, get in LAYOUT_KEYS:
+        values = {get(s) for s in templates}
+        if len(values) > 1:
+            raise SceneError(key, sorted(map(str, values)), "every point of a sweep shares the store's "
+                             "record/grain layout; sweep this key in separate sweeps")
+    t0, tt0 = record_times(first), trace_times(first)
+    for s in templates:
+        t = record_times(s)
+        if not np.allclose(t, t0, rtol=1e-9, atol=0):
+            raise SceneError("record times", f"{t[1]:g} vs {t0[1]:g}", "every point must record at the same "
+                             "times (record.every a whole number of steps of each dt)")
+        tt = trace_times(s)
+        if tt is not None and not np.allclose(tt, tt0, rtol=1e-9, atol=0):
+            raise SceneError("trace times", f"{tt[1]:g} vs {tt0[1]:g}", "every point must sample traces at "
+                             "the same times")
+
+
+def expand(sweep: Sweep, *, validate: bool = True) -> SweepPoints:
+    """Templates for the structural combinations, parameter dimensions as arrays; validates the grid by
+    its corners (:func:`validate_grid`) and checks that every point shares the store layout."""
+    structural, parameter = [], []
+    for d, dimension in enumerate(sweep.dimensions):
+        (parameter if all(is_per_chain_key(a.key) for a in dimension.axes) else structural).append(d)
+    shape = sweep.shape
+    templates = []
+    for combo in np.ndindex(*[shape[d] for d in structural]):
+        index = [0] * len(shape)
+        for d, i in zip(structural, combo):
+            index[d] = i
+        templates.append(sweep.scene_at(tuple(index)))
+    expanded = SweepPoints(sweep=sweep, structural=tuple(structural), parameter=tuple(parameter),
+                           templates=tuple(templates))
+    if validate:
+        validate_grid(expanded)
+    _check_layout(templates)
+    return expanded
+
+
+def static_subgrid(expanded: SweepPoints, template: int) -> ChainSet:
+    """The distinct static configurations of one template's points: the product of the parameter
+    dimensions that hold a static key (others at index 0), as a ChainSet."""
+    sweep = expanded.sweep
+    shape = sweep.shape
+    dims = [d for d in expanded.parameter if any(_is_static_key(a.key) for a in sweep.dimensions[d].axes)]
+    base = [0] * len(shape)
+    if expanded.structural:
+        combo = np.unravel_index(template, tuple(shape[d] for d in expanded.structural))
+        for d, i in zip(expanded.structural, combo):
+            base[d] = int(i)
+    grids = np.meshgrid(*[np.arange(shape[d]) for d in dims], indexing="ij") if dims else []
+    count = int(np.prod([shape[d] for d in dims])) if dims else 1
+    index = [np.full(count, b, dtype=np.int64) for b in base]
+    for d, grid in zip(dims, grids):
+        index[d] = grid.reshape(-1)
+    points = np.ravel_multi_index(tuple(index), shape) if shape else np.zeros(1, dtype=np.int64)
+    return expanded.chains(points)

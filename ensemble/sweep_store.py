@@ -17,9 +17,14 @@ Crash safety:
    dimensions by exactly that block (big variables are sharded: one shard = one batch, inner
    chunks of about 1 MiB, a few points each). So a batch writes whole chunks only, no two batches (or workers) ever
    write one file, and zarr's LocalStore writes each file atomically (temporary file + rename).
-3. :func:`write_batch` writes the batch's data, then its completion record (the zarr group
-   ``batches/NNNNNN`` whose attributes say where and how fast it ran). Resuming skips batches
-   with a record and reruns the others, which rewrites the same chunks with the same bits.
+3. :func:`write_batch` writes the batch's data, then its completion record: one row of the
+   small arrays in the ``batches`` group — ``batches/record`` (float64: wall seconds,
+   grain-steps, throughput, energy error, finish time, …), ``batches/where`` (device, host,
+   worker, kernel) — and last its flag in ``batches/done`` (int8, 1 = finished). Every array
+   there is chunked one batch per chunk, so workers never write one file, and a store of 10⁶
+   points has a few hundred bytes of metadata for them however many batches it has. Resuming
+   skips batches whose flag is set and reruns the others, which rewrites the same chunks with
+   the same bits.
 4. :func:`finalize` sums the records into the ``provenance`` attribute and re-consolidates.
 """
 
@@ -30,6 +35,7 @@ import math
 import platform
 import shutil
 import tempfile
+import time
 import warnings
 from datetime import datetime, timezone
 from pathlib import Path
@@ -37,6 +43,7 @@ from typing import Any
 
 import numpy as np
 import zarr
+import zarr.errors
 
 from .model import SHARED_KEYS
 from .planner import Batch, Plan
@@ -49,7 +56,12 @@ from .sweep import Sweep, record_times, trace_times
 NOT_RUN = -1
 """``status`` of a point whose batch has not finished."""
 BATCHES = "batches"
-"""Group holding one completion record (a subgroup with attributes) per finished batch."""
+"""Group holding the completion records: arrays ``done``, ``record`` and ``where`` over batches."""
+RECORD_COLUMNS = ("points", "wall_seconds", "grain_steps", "grain_steps_per_second", "energy_error_max",
+                  "finished", "build_seconds", "write_seconds")
+"""Columns of ``batches/record`` (float64; ``finished`` in seconds since 1970-01-01 UTC)."""
+WHERE_COLUMNS = ("device", "host", "worker", "kernel")
+"""Columns of ``batches/where`` (strings)."""
 INNER_CHUNK_BYTES = 1 << 20
 """Target size of an inner chunk (what reading one point costs at least): about 1 MiB."""
 TIMING_VARIABLES = ("wall_seconds", "grain_steps_per_second")
@@ -227,13 +239,18 @@ def _provenance(plan: Plan, device: str) -> dict[str, Any]:
     }
 
 
-def create_sweep_store(path: str | Path, sweep: Sweep, scenes: list[Scene], plan: Plan, *, device: str,
-                       overwrite: bool = False) -> Path:
-    """Create the whole store (metadata, coordinates, attributes) with no batch written; atomic."""
+def create_sweep_store(path: str | Path, sweep: Sweep, scene: "Scene | list[Scene]", plan: Plan, *, device: str,
+                       overwrite: bool = False, attributes: dict[str, Any] | None = None) -> Path:
+    """Create the whole store (metadata, coordinates, attributes) with no batch written; atomic.
+
+    ``scene``: any point's scene (they share the layout), e.g. ``SweepPoints.templates[0]``;
+    ``attributes`` are added to the root group's.
+    """
     path = Path(path)
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path} exists")
-    scene = scenes[0]
+    if not isinstance(scene, Scene):
+        scene = scene[0]
     dims = sweep.dims
     shape = sweep.shape
     tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent if path.parent.exists() else None))
@@ -261,7 +278,16 @@ def create_sweep_store(path: str | Path, sweep: Sweep, scenes: list[Scene], plan
         lg = root.create_array("launch_group", shape=shape, dtype=np.int32, chunks=plan.block or (),
                                dimension_names=list(dims), fill_value=-1, attributes=group_attrs)
         lg[...] = plan.point_group.astype(np.int32)
-        root.create_group(BATCHES, attributes={"long_name": "one completion record per finished batch"})
+        batches = root.create_group(BATCHES, attributes={"long_name": "completion records, one row per batch"})
+        count = len(plan.batches)
+        batches.create_array("done", shape=(count,), dtype=np.int8, chunks=(1,), fill_value=0,
+                             dimension_names=["batch"], attributes={"long_name": "1 once the batch is written"})
+        batches.create_array("record", shape=(count, len(RECORD_COLUMNS)), dtype=np.float64,
+                             chunks=(1, len(RECORD_COLUMNS)), fill_value=np.nan,
+                             dimension_names=["batch", "column"], attributes={"columns": list(RECORD_COLUMNS)})
+        batches.create_array("where", shape=(count, len(WHERE_COLUMNS)), dtype=str, chunks=(1, len(WHERE_COLUMNS)),
+                             fill_value="", dimension_names=["batch", "column"],
+                             attributes={"columns": list(WHERE_COLUMNS)})
         root.attrs.update({
             "schema_version": SCHEMA_VERSION,
             "scene": json.dumps(sweep.base.to_dict()),
@@ -273,6 +299,7 @@ def create_sweep_store(path: str | Path, sweep: Sweep, scenes: list[Scene], plan
             "launch_groups": launch_groups_attr(plan),
             "status_codes": status_codes(),
             "provenance": _provenance(plan, device),
+            **(attributes or {}),
         })
         consolidate(target)
         if path.exists():
@@ -310,11 +337,12 @@ def check_resumable(path: str | Path, sweep: Sweep) -> tuple[int, ...]:
 
 
 def completed_batches(path: str | Path) -> set[int]:
-    """Indices of batches whose completion record exists."""
-    folder = Path(path) / BATCHES
-    if not folder.is_dir():
+    """Indices of batches whose completion flag is set."""
+    try:
+        done = zarr.open_array(store=str(path), path=f"{BATCHES}/done", mode="r")
+    except (FileNotFoundError, KeyError, zarr.errors.NodeNotFoundError):
         return set()
-    return {int(p.name) for p in folder.iterdir() if p.name.isdigit() and (p / "zarr.json").is_file()}
+    return {int(i) for i in np.flatnonzero(np.asarray(done[...]) == 1)}
 
 
 def remove_partial_files(path: str | Path) -> int:
@@ -329,8 +357,12 @@ def remove_partial_files(path: str | Path) -> int:
 # ---- filling -----------------------------------------------------------------------------
 
 def write_batch(path: str | Path, batch: Batch, result: RunResult, *, grain_steps: int,
-                worker: str = "") -> dict[str, Any]:
-    """Write one batch's results into its block, then its completion record; return the record."""
+                worker: str = "", build_seconds: float = 0.0) -> dict[str, Any]:
+    """Write one batch's results into its block, then its completion record; return the record.
+
+    ``build_seconds``: host time spent building the batch's model and initial state (recorded).
+    """
+    write_start = time.perf_counter()
     path = Path(path)
     region = batch.slices
     shape = batch.shape
@@ -356,33 +388,53 @@ def write_batch(path: str | Path, batch: Batch, result: RunResult, *, grain_step
     put("max_overlap", result.max_overlap)
     put("wall_seconds", np.full(chains, wall / chains))
     put("grain_steps_per_second", np.full(chains, rate))
-    codes, counts = np.unique(result.status, return_counts=True)
+    finished = datetime.now(timezone.utc)
     record = {
-        "batch": batch.index,
-        "points": chains,
-        "device": result.device,
-        "host": platform.node(),
-        "worker": worker,
-        "wall_seconds": wall,
-        "grain_steps": int(grain_steps),
-        "grain_steps_per_second": rate,
-        "status_counts": {str(int(c)): int(k) for c, k in zip(codes, counts)},
+        "points": chains, "wall_seconds": wall, "grain_steps": int(grain_steps), "grain_steps_per_second": rate,
         "energy_error_max": float(np.max(result.energy_error)) if chains else 0.0,
-        "finished": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "finished": finished.timestamp(), "build_seconds": float(build_seconds),
+        "write_seconds": time.perf_counter() - write_start,
     }
-    # the completion record comes last: a batch without one is rerun on --resume
-    zarr.open_group(store=str(path), path=f"{BATCHES}/{batch.index:06d}", mode="w", attributes=record)
-    return record
+    where = {"device": result.device, "host": platform.node(), "worker": worker,
+             "kernel": str(getattr(result, "kernel", ""))}
+    batches = zarr.open_group(store=str(path), path=BATCHES, mode="r+")
+    batches["record"][batch.index] = np.array([record[c] for c in RECORD_COLUMNS], dtype=np.float64)
+    batches["where"][batch.index] = np.array([where[c] for c in WHERE_COLUMNS], dtype=object)
+    # the completion flag comes last: a batch without it is rerun on --resume
+    batches["done"][batch.index] = 1
+    codes, counts = np.unique(result.status, return_counts=True)
+    return {"batch": batch.index, **record, "grain_steps": int(grain_steps), **where,
+            "status_counts": {str(int(c)): int(k) for c, k in zip(codes, counts)},
+            "finished": finished.isoformat(timespec="seconds")}
 
 
-def batch_records(path: str | Path) -> list[dict[str, Any]]:
-    """Every completion record, by batch index."""
-    folder = Path(path) / BATCHES
-    records = []
-    for index in sorted(completed_batches(path)):
-        meta = json.loads((folder / f"{index:06d}" / "zarr.json").read_text())
-        records.append(meta.get("attributes", {}))
-    return records
+def batch_records(path: str | Path, *, status_counts: bool = False) -> list[dict[str, Any]]:
+    """Every finished batch's completion record, by batch index (``status_counts`` reads the batch's
+    status block too)."""
+    done = sorted(completed_batches(path))
+    if not done:
+        return []
+    batches = zarr.open_group(store=str(path), path=BATCHES, mode="r")
+    record = np.asarray(batches["record"][...])
+    where = np.asarray(batches["where"][...])
+    status = None
+    if status_counts:
+        status = np.asarray(zarr.open_array(store=str(path), path="status", mode="r")[...])
+        block = tuple(zarr.open_group(store=str(path), mode="r").attrs["sweep_block"])
+    out = []
+    for index in done:
+        rec = {"batch": index, **dict(zip(RECORD_COLUMNS, record[index].tolist())),
+               **dict(zip(WHERE_COLUMNS, [str(x) for x in where[index]]))}
+        rec["points"], rec["grain_steps"] = int(rec["points"]), int(rec["grain_steps"])
+        rec["finished"] = datetime.fromtimestamp(rec["finished"], timezone.utc).isoformat(timespec="seconds")
+        if status is not None:
+            counts_shape = [math.ceil(n / b) for n, b in zip(status.shape, block)]
+            corner = np.unravel_index(index, counts_shape) if counts_shape else ()
+            region = tuple(slice(c * b, (c + 1) * b) for c, b in zip(corner, block))
+            codes, counts = np.unique(status[region], return_counts=True)
+            rec["status_counts"] = {str(int(c)): int(k) for c, k in zip(codes, counts)}
+        out.append(rec)
+    return out
 
 
 def finalize(path: str | Path, *, session_seconds: float | None = None, session_grain_steps: int = 0) -> dict:
@@ -396,7 +448,11 @@ def finalize(path: str | Path, *, session_seconds: float | None = None, session_
         wall = sum(r["wall_seconds"] for r in records)
         steps = sum(r["grain_steps"] for r in records)
         devices = sorted({r["device"] for r in records})
+        kernels = sorted({r["kernel"] for r in records if r["kernel"]})
         prov.update({
+            "kernel": ",".join(kernels),
+            "build_seconds": sum(r["build_seconds"] for r in records),
+            "write_seconds": sum(r["write_seconds"] for r in records),
             "device": ",".join(devices) if devices else prov["device"],
             "hosts": sorted({r["host"] for r in records}),
             "wall_seconds": wall,

@@ -63,9 +63,13 @@ def test_status_names_are_in_the_store(tmp_path):
     write_result(tmp_path / "s.zarr", result, axes={"a": np.array([5657.0, 1e10])})
     group = zarr.open_group(str(tmp_path / "s.zarr"), mode="r")
     codes = dict(group.attrs["status_codes"])
-    assert {int(k) for k in codes} == {int(s) for s in Status}
+    # every run status, plus the sweep writer's -1 (NOT_RUN: a batch not yet written)
+    assert {int(k) for k in codes} == {int(s) for s in Status} | {-1}
     assert codes[str(int(Status.NON_FINITE))].startswith("NON_FINITE")
     assert list(group["status"][...]) == [0, int(Status.NON_FINITE)]
+    # the second point's scene is kept (not only the first's): the axis is the scene key chain.a
+    assert group["a"].attrs["scene_key"] == "chain.a"
+    assert json.loads(group.attrs["scene_overrides"]) == {"chain.a": [5657.0, 1e10]}
 
 
 def test_gravity_100_on_ten_thousand_grains():

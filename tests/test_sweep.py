@@ -17,7 +17,7 @@ from ensemble.runner import Runner, run_scene
 from ensemble.scene import SceneError
 from ensemble.store import summary_records, write_result
 from ensemble.sweep import load_sweep, sweep_from_dict, sweep_scenes
-from ensemble.sweep_store import chunk_layout, create_sweep_store, differing_arrays
+from ensemble.sweep_store import batch_records, chunk_layout, create_sweep_store, differing_arrays
 
 SWEEP = """
 [scene.chain]
@@ -297,9 +297,14 @@ def test_chunks_are_the_batch_blocks(tmp_path):
         assert outer[:2] == plan.block and all(o >= s for o, s in zip(outer[2:], arr.shape[2:])), name
         if arr.shards:
             assert all(s % c == 0 for s, c in zip(arr.shards, arr.chunks)), name
-    records = [json.loads((out / "batches" / f"{b.index:06d}" / "zarr.json").read_text())["attributes"]
-               for b in plan.batches]
+    records = batch_records(out)
+    assert [r["batch"] for r in records] == [b.index for b in plan.batches]
     assert [r["points"] for r in records] == [2, 2, 2] and all(r["device"] == "cpu" for r in records)
+    # completion records are three small arrays chunked one batch per chunk, not a group per batch
+    batches = group["batches"]
+    assert sorted(batches.array_keys()) == ["done", "record", "where"] and not list(batches.group_keys())
+    for name in ("done", "record", "where"):
+        assert batches[name].shape[0] == 3 and batches[name].chunks[0] == 1, name
 
 
 @pytest.mark.parametrize("block,trailing,chunks,shards", [

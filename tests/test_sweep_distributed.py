@@ -1,14 +1,13 @@
 """Scale-out: two Dask worker processes (CPU, one thread each) fill one store, equal bitwise to the
 serial run; each worker writes its own batches."""
 
-import json
 
 import pytest
 from typer.testing import CliRunner
 
 from ensemble.cli import app
 from ensemble.distributed import worker_device
-from ensemble.sweep_store import differing_arrays
+from ensemble.sweep_store import batch_records, differing_arrays
 
 distributed = pytest.importorskip("distributed")
 
@@ -60,7 +59,7 @@ def test_two_workers_write_one_store_equal_to_the_serial_run(tmp_path):
                                   cluster.scheduler_address, *flags])
         assert result.exit_code == 0, result.stderr
     assert differing_arrays(parallel, serial) == []
-    records = [json.loads(p.read_text())["attributes"] for p in sorted(parallel.glob("batches/*/zarr.json"))]
+    records = batch_records(parallel)
     assert len(records) == 8 and sum(r["points"] for r in records) == 16
     assert {r["worker"] for r in records} == {"0", "1"}  # both workers wrote batches
     local = tmp_path / "local.zarr"  # --workers 2 starts its own LocalCluster

@@ -6,6 +6,7 @@ See docs/sweeps.md for the file format, resuming and running on several GPUs or 
 from __future__ import annotations
 
 import contextlib
+import json
 import sys
 import time
 from pathlib import Path
@@ -48,7 +49,7 @@ class _Progress:
     def record(self, job, done: int, total: int) -> None:
         if not self.enabled:
             return
-        scene = job.scenes[0]
+        scene = job.chains.template
         fraction = (done - 1) / max(total - 1, 1)
         t = (done - 1) * scene.steps_per_record * scene.integrator.dt
         self.bar.update(self.task, completed=self.finished_steps + fraction * job.grain_steps,
@@ -65,7 +66,7 @@ class _Progress:
             self.bar.stop()
 
 
-def corner_dt_warnings(definition, scenes) -> list[str]:
+def corner_dt_warnings(definition, scenes=None) -> list[str]:
     """``hertzian check``'s dt warning at the corners of the grid (at most 64 points).
 
     The stiffest contact grows monotonically with v_imp, l0, g, drive amplitude and the impurity
@@ -85,7 +86,8 @@ def corner_dt_warnings(definition, scenes) -> list[str]:
         points = [0]
     lines = []
     for index in points:
-        message = dt_warning(scenes[index])
+        scene = definition.scene_at(tuple(int(i) for i in np.unravel_index(index, shape))) if shape else definition.base
+        message = dt_warning(scene)
         if message:
             names = definition.coordinates_at(np.unravel_index(index, shape)) if shape else {}
             where = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in names.items())
@@ -115,6 +117,9 @@ def sweep(
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
     strict: Annotated[bool, typer.Option("--strict", help="Refuse (exit 2) when dt looks unstable or "
                                          "inaccurate at a corner of the grid (see hertzian check).")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="Print a JSON summary with the time split (load, "
+                                          "expand, plan, store creation, model build, kernel, store writes) on "
+                                          "stdout.")] = False,
 ):
     """Run a parameter sweep (SPEC §8) as batched ensembles into one Zarr store with one dimension per axis.
 
@@ -128,17 +133,22 @@ def sweep(
         fail(f"--scheduler = {scheduler!r}: give either --workers (a local cluster) or --scheduler, not both")
     if resume and overwrite:
         fail("--resume = true: --resume continues a store, --overwrite replaces it; give one")
-    from ..sweep import load_sweep, sweep_scenes
+    from ..sweep import expand, load_sweep
 
+    timing = {}
+    clock = time.perf_counter()
     try:
         sets = parse_overrides(set_)
         if precision is not None:
             sets["integrator.precision"] = precision
         definition = load_sweep(sweep_file, sets)
-        scenes = sweep_scenes(definition)
+        timing["load"] = time.perf_counter() - clock
+        clock = time.perf_counter()
+        points = expand(definition)
+        timing["expand"] = time.perf_counter() - clock
     except SceneError as err:
         fail(str(err))
-    unsafe = corner_dt_warnings(definition, scenes)
+    unsafe = corner_dt_warnings(definition)
     if unsafe and strict:
         fail(unsafe[0])
     for line in unsafe:
@@ -161,18 +171,26 @@ def sweep(
             block = check_resumable(out, definition)
         except SweepStoreError as err:
             fail(f"--resume = {str(out)!r}: {err}")
+    clock = time.perf_counter()
     try:
-        plan = plan_sweep(definition, scenes, dev, batch_size=batch_size, block=block)
+        plan = plan_sweep(definition, points, dev, batch_size=batch_size, block=block)
     except SceneError as err:
         fail(str(err))
+    timing["plan"] = time.perf_counter() - clock
     if dry_run:
-        typer.echo(describe(plan, definition))
+        if as_json:
+            typer.echo(describe(plan, definition), err=True)
+            typer.echo(json.dumps({"points": plan.point_count, "batches": len(plan.batches),
+                                   "batch_size": plan.batch_size, "grain_steps": plan.grain_steps,
+                                   "device": dev, "seconds": timing}, indent=1))
+        else:
+            typer.echo(describe(plan, definition))
         return
     if resuming and batch_size is not None and plan.batch_size != batch_size:
         typer.echo(f"note: --batch-size {batch_size} ignored: {out} was planned with batches of up to "
                    f"{plan.batch_size} points", err=True)
-    _run(definition, scenes, plan, out, dev, resuming=resuming, overwrite=overwrite, workers=workers,
-         scheduler=scheduler, requested_device=device, quiet=quiet)
+    _run(definition, points, plan, out, dev, resuming=resuming, overwrite=overwrite, workers=workers,
+         scheduler=scheduler, requested_device=device, quiet=quiet, timing=timing, as_json=as_json)
 
 
 def _connect(workers, scheduler, stack: contextlib.ExitStack):
@@ -190,8 +208,8 @@ def _connect(workers, scheduler, stack: contextlib.ExitStack):
         fail(f"--scheduler = {scheduler!r}: cannot connect ({type(err).__name__}: {err})")
 
 
-def _run(definition, scenes, plan, out: Path, dev: str, *, resuming: bool, overwrite: bool, workers, scheduler,
-         requested_device, quiet: bool) -> None:
+def _run(definition, points, plan, out: Path, dev: str, *, resuming: bool, overwrite: bool, workers, scheduler,
+         requested_device, quiet: bool, timing: dict, as_json: bool) -> None:
     import numpy as np
     import zarr
 
@@ -213,15 +231,21 @@ def _run(definition, scenes, plan, out: Path, dev: str, *, resuming: bool, overw
                 typer.echo(f"note: earlier batches ran on {', '.join(sorted(earlier))}, these run on {dev}: "
                            "results agree to rounding, not bit for bit, across device kinds", err=True)
         else:
-            create_sweep_store(out, definition, scenes, plan, device=label, overwrite=overwrite)
+            clock = time.perf_counter()
+            create_sweep_store(out, definition, points.templates[0], plan, device=label, overwrite=overwrite)
+            timing["create_store"] = time.perf_counter() - clock
             done = set()
+        clock = time.perf_counter()
         pending = [b for b in plan.batches if b.index not in done]
         # workers may run elsewhere: give them the absolute store path
-        jobs = jobs_for(out.resolve(), plan, scenes, pending)
+        jobs = jobs_for(out.resolve(), plan, points, pending)
+        timing["jobs"] = time.perf_counter() - clock
+        clock = time.perf_counter()
         features = [g.features for g in plan.groups]
         warm_kernels(features, dev)
         if client is not None:
             warm_workers(client, features, requested_device)
+        timing["warm_kernels"] = time.perf_counter() - clock
         progress = _Progress(not quiet and sys.stderr.isatty(), total_batches=len(plan.batches),
                              done_batches=len(done), grain_steps=sum(j.grain_steps for j in jobs))
         start = time.perf_counter()
@@ -239,7 +263,14 @@ def _run(definition, scenes, plan, out: Path, dev: str, *, resuming: bool, overw
             progress.stop()
         session = time.perf_counter() - start
     session_steps = sum(j.grain_steps for j in jobs)
+    clock = time.perf_counter()
     prov = finalize(out, session_seconds=session, session_grain_steps=session_steps)
+    timing["finalize"] = time.perf_counter() - clock
+    records = [r for r in batch_records(out) if r["batch"] in {j.batch.index for j in jobs}]
+    timing["batches"] = session
+    timing["build"] = sum(r["build_seconds"] for r in records)
+    timing["kernel"] = sum(r["wall_seconds"] for r in records)
+    timing["write"] = sum(r["write_seconds"] for r in records)
 
     status = np.asarray(zarr.open_array(store=str(out), path="status", mode="r")[...])
     codes, counts = np.unique(status, return_counts=True)
@@ -248,5 +279,18 @@ def _run(definition, scenes, plan, out: Path, dev: str, *, resuming: bool, overw
     ran = f"ran {len(jobs)} of {len(plan.batches)} batches" if resuming else f"{len(plan.batches)} batches"
     typer.echo(f"{plan.point_count} points, {ran} on {label}: {session:.2f} s, "
                f"{session_steps / max(session, 1e-12):.3g} grain-steps/s (per device "
-               f"{prov['grain_steps_per_second']:.3g}); status: {status_text}; store {format_bytes(store_bytes(out))}")
-    typer.echo(f"wrote {out}")
+               f"{prov['grain_steps_per_second']:.3g}); status: {status_text}; store {format_bytes(store_bytes(out))}",
+               err=as_json)
+    typer.echo(f"wrote {out}", err=as_json)
+    if as_json:
+        typer.echo(json.dumps({
+            "points": plan.point_count, "batches": len(plan.batches), "batches_run": len(jobs), "device": label,
+            "grain_steps": session_steps, "grain_steps_per_second": session_steps / max(session, 1e-12),
+            "status_counts": {str(int(c)): int(k) for c, k in zip(codes, counts)}, "store": str(out),
+            "store_bytes": store_bytes(out),
+            "seconds": timing,
+            # host time of this command outside the integration (interpreter start-up and imports excluded)
+            "seconds_outside_kernel": sum(timing.get(k, 0.0) for k in ("load", "expand", "plan", "create_store",
+                                                                        "jobs", "warm_kernels", "finalize"))
+                                      + timing["batches"] - timing["kernel"],
+        }, indent=1))
