@@ -116,14 +116,14 @@ def run_sweep_group(path: Path, overrides: dict[str, Any], out: Path, device: st
 
     from .distributed import jobs_for, run_serial, warm_kernels
     from .planner import plan_sweep
-    from .sweep import load_sweep, sweep_scenes
+    from .sweep import expand, load_sweep
     from .sweep_store import create_sweep_store, finalize
 
     definition = load_sweep(path, overrides)
-    scenes = sweep_scenes(definition)
-    plan = plan_sweep(definition, scenes, device)
-    create_sweep_store(out, definition, scenes, plan, device=device, overwrite=True)
-    jobs = jobs_for(out.resolve(), plan, scenes, plan.batches)
+    points = expand(definition)
+    plan = plan_sweep(definition, points, device)
+    create_sweep_store(out, definition, points.templates[0], plan, device=device, overwrite=True)
+    jobs = jobs_for(out.resolve(), plan, points, plan.batches)
     warm_kernels([g.features for g in plan.groups], device)
     start = time.perf_counter()
     run_serial(jobs, device)
@@ -132,9 +132,9 @@ def run_sweep_group(path: Path, overrides: dict[str, Any], out: Path, device: st
     prov = finalize(out, session_seconds=session, session_grain_steps=grain_steps)
     status = np.asarray(zarr.open_array(store=str(out), path="status", mode="r")[...]).ravel()
     codes, counts = np.unique(status, return_counts=True)
-    scene = scenes[0]
+    scene = points.scene(0)
     return {
-        "points": len(scenes), "grains": scene.chain.grains, "steps": scene.step_count, "dt": scene.integrator.dt,
+        "points": points.point_count, "grains": scene.chain.grains, "steps": scene.step_count, "dt": scene.integrator.dt,
         "method": scene.integrator.method, "device": prov["device"], "wall_seconds": session,
         "grain_steps": grain_steps, "grain_steps_per_second": grain_steps / max(session, 1e-12),
         "energy_error_max": prov["energy_error_max"],

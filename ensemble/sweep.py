@@ -426,12 +426,14 @@ class SweepPoints:
         return np.ravel_multi_index(tuple(index[d] for d in self.structural),
                                     tuple(shape[d] for d in self.structural)).astype(np.int64)
 
-    def chains(self, points: np.ndarray) -> ChainSet:
-        """The points (flat indices, all of one template) as a ChainSet, in the given order."""
+    def chains(self, points: np.ndarray) -> "ChainSet | list[Scene]":
+        """The points (flat indices) as a ChainSet in the given order (a list of scenes when they span templates)."""
         points = np.asarray(points, dtype=np.int64)
         templates = np.unique(self.template_index(points))
         if len(templates) != 1:
-            raise ValueError("the points of one ChainSet must share their structural keys")
+            # a launch group may join templates that differ only in a key that changes no kernel
+            # (an impurity's contact rule): such a batch runs as one scene per point, as before
+            return [self.scene(int(p)) for p in points]
         index = self.grid_index(points)
         values = {}
         for d in self.parameter:
