@@ -24,6 +24,8 @@ EXIT_BAD_INPUT = 2
 DeviceOption = Annotated[Optional[str], typer.Option("--device", help="cpu | cuda | cuda:N (default: cuda if present, else cpu).")]
 SetOption = Annotated[Optional[list[str]], typer.Option("--set", help="Override a scene key, e.g. --set chain.l0=1e-4 (repeatable).")]
 PrecisionOption = Annotated[Optional[str], typer.Option("--precision", help="float64 | float32 (overrides integrator.precision).")]
+KernelOption = Annotated[str, typer.Option("--kernel", help="auto | step | tile | window | sweep: which kernel "
+                                           "steps the chains (ensemble/calibrate.py); results are the same.")]
 
 
 def fail(message: str) -> None:
@@ -74,11 +76,23 @@ def run(
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
     strict: Annotated[bool, typer.Option("--strict", help="Refuse (exit 2) when dt looks unstable or "
                                          "inaccurate (see hertzian check) instead of warning.")] = False,
+    kernel: KernelOption = "auto",
 ):
     """Run one scene and store it as Zarr (times in program units of 1.0102e-3 s)."""
-    loaded = _load(scene, set_, precision)
-    from .check import dt_warning
+    from .calibrate import KERNELS
 
+    if kernel not in KERNELS:
+        fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)}")
+    loaded = _load(scene, set_, precision)
+    from .check import dt_warning, memory_refusal
+
+    too_big = memory_refusal(loaded)  # the host first, before Warp starts
+    if too_big:
+        fail(too_big)
+    dev = resolve_device(device)
+    too_big = memory_refusal(loaded, dev) if dev.startswith("cuda") else None
+    if too_big:
+        fail(too_big)
     unsafe = dt_warning(loaded)
     if unsafe and strict:
         fail(unsafe)
@@ -88,10 +102,15 @@ def run(
         fail(f"--out = {str(out)!r}: exists; choose another path or pass --overwrite")
     if not out.parent.exists():
         fail(f"--out = {str(out)!r}: parent directory does not exist")
-    dev = resolve_device(device)
 
-    from .runner import run_scene
+    from .model import build_model
+    from .runner import Runner
     from .store import write_result
+
+    try:
+        runner = Runner(build_model([loaded], dev), kernel=kernel)
+    except ValueError as err:  # a forced kernel that cannot run this scene here
+        fail(f"--kernel = {kernel!r}: {str(err).split(': ', 1)[-1]}")
 
     progress = None
     if not quiet and sys.stderr.isatty():
@@ -103,7 +122,7 @@ def run(
         task = bar.add_task("integrating", total=loaded.record_count)
         progress = lambda done, total: bar.update(task, completed=done)  # noqa: E731
     try:
-        result = run_scene(loaded, dev, progress=progress)
+        result = runner.run(progress)
     finally:
         if progress is not None:
             bar.stop()

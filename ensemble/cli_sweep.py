@@ -13,7 +13,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from .cli import DeviceOption, PrecisionOption, SetOption, app, fail, resolve_device
+from .cli import DeviceOption, KernelOption, PrecisionOption, SetOption, app, fail, resolve_device
 from .scene import SceneError, parse_overrides
 
 
@@ -50,7 +50,7 @@ class _Progress:
             return
         scene = job.scenes[0]
         fraction = (done - 1) / max(total - 1, 1)
-        t = (done - 1) * scene.steps_per_record * scene.integrator.dt
+        t = float(scene.record_times[done - 1])
         self.bar.update(self.task, completed=self.finished_steps + fraction * job.grain_steps,
                         sim=f"{t:.4g}/{scene.integrator.duration:g}")
 
@@ -115,6 +115,9 @@ def sweep(
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
     strict: Annotated[bool, typer.Option("--strict", help="Refuse (exit 2) when dt looks unstable or "
                                          "inaccurate at a corner of the grid (see hertzian check).")] = False,
+    allow_large: Annotated[bool, typer.Option("--allow-large", help="Run sweeps of more than 10^7 points "
+                                              "(refused by default).")] = False,
+    kernel: KernelOption = "auto",
 ):
     """Run a parameter sweep (SPEC §8) as batched ensembles into one Zarr store with one dimension per axis.
 
@@ -128,16 +131,23 @@ def sweep(
         fail(f"--scheduler = {scheduler!r}: give either --workers (a local cluster) or --scheduler, not both")
     if resume and overwrite:
         fail("--resume = true: --resume continues a store, --overwrite replaces it; give one")
-    from .sweep import load_sweep, sweep_scenes
+    from .calibrate import KERNELS
+    from .check import memory_refusal
+    from .sweep import MAX_POINTS, load_sweep, sweep_scenes
 
+    if kernel not in KERNELS:
+        fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)}")
     try:
         sets = parse_overrides(set_)
         if precision is not None:
             sets["integrator.precision"] = precision
-        definition = load_sweep(sweep_file, sets)
+        definition = load_sweep(sweep_file, sets, max_points=None if allow_large else MAX_POINTS)
         scenes = sweep_scenes(definition)
     except SceneError as err:
         fail(str(err))
+    too_big = memory_refusal(scenes[0])  # one chain (the planner sizes batches); before any array is built
+    if too_big:
+        fail(too_big)
     unsafe = corner_dt_warnings(definition, scenes)
     if unsafe and strict:
         fail(unsafe[0])
@@ -165,6 +175,8 @@ def sweep(
         plan = plan_sweep(definition, scenes, dev, batch_size=batch_size, block=block)
     except SceneError as err:
         fail(str(err))
+    if kernel != "auto":
+        _check_kernel(kernel, plan, scenes, dev)
     if dry_run:
         typer.echo(describe(plan, definition))
         return
@@ -172,7 +184,21 @@ def sweep(
         typer.echo(f"note: --batch-size {batch_size} ignored: {out} was planned with batches of up to "
                    f"{plan.batch_size} points", err=True)
     _run(definition, scenes, plan, out, dev, resuming=resuming, overwrite=overwrite, workers=workers,
-         scheduler=scheduler, requested_device=device, quiet=quiet)
+         scheduler=scheduler, requested_device=device, quiet=quiet, kernel=kernel)
+
+
+def _check_kernel(kernel: str, plan, scenes, dev: str) -> None:
+    """Refuse (exit 2) a forced ``--kernel`` that cannot run some launch group, before anything is written."""
+    from .calibrate import make_stepper
+    from .model import build_model
+
+    for index, group in enumerate(plan.groups):
+        batch = next(b for b in plan.batches if b.group == index)
+        model = build_model([scenes[batch.points[0]]], dev, features=group.features)
+        try:
+            make_stepper(model, kernel, calibrate_now=False)
+        except ValueError as err:
+            fail(f"--kernel = {kernel!r}: {str(err).split(': ', 1)[-1]}")
 
 
 def _connect(workers, scheduler, stack: contextlib.ExitStack):
@@ -191,7 +217,7 @@ def _connect(workers, scheduler, stack: contextlib.ExitStack):
 
 
 def _run(definition, scenes, plan, out: Path, dev: str, *, resuming: bool, overwrite: bool, workers, scheduler,
-         requested_device, quiet: bool) -> None:
+         requested_device, quiet: bool, kernel: str = "auto") -> None:
     import numpy as np
     import zarr
 
@@ -217,7 +243,7 @@ def _run(definition, scenes, plan, out: Path, dev: str, *, resuming: bool, overw
             done = set()
         pending = [b for b in plan.batches if b.index not in done]
         # workers may run elsewhere: give them the absolute store path
-        jobs = jobs_for(out.resolve(), plan, scenes, pending)
+        jobs = jobs_for(out.resolve(), plan, scenes, pending, kernel=kernel)
         features = [g.features for g in plan.groups]
         warm_kernels(features, dev)
         if client is not None:

@@ -36,12 +36,15 @@ class BatchJob:
     features: Features
     """Kernel variant of the batch's launch group."""
     grain_steps: int
+    kernel: str = "auto"
+    """Which kernel steps the batch (``--kernel``, ensemble/calibrate.py KERNELS)."""
 
 
-def jobs_for(store: str | Path, plan: Plan, scenes: list[Scene], batches: Iterable[Batch]) -> list[BatchJob]:
+def jobs_for(store: str | Path, plan: Plan, scenes: list[Scene], batches: Iterable[Batch], *,
+             kernel: str = "auto") -> list[BatchJob]:
     """One job per batch (``scenes``: every point's scene in C order)."""
     return [BatchJob(store=str(store), batch=b, scenes=tuple(scenes[p] for p in b.points),
-                     features=plan.groups[b.group].features, grain_steps=plan.batch_grain_steps(b))
+                     features=plan.groups[b.group].features, grain_steps=plan.batch_grain_steps(b), kernel=kernel)
             for b in batches]
 
 
@@ -73,7 +76,7 @@ def run_job(job: BatchJob, device: str, progress: Callable[[int, int], None] | N
 
     _quiet_warp()
     model = build_model(list(job.scenes), device, features=job.features)
-    result = Runner(model).run(progress)
+    result = Runner(model, kernel=job.kernel).run(progress)
     return write_batch(job.store, job.batch, result, grain_steps=job.grain_steps, worker=worker)
 
 

@@ -29,6 +29,7 @@ SHARED_KEYS = (
     ("integrator.dt", lambda s: s.integrator.dt),
     ("steps per record", lambda s: s.steps_per_record),
     ("record count", lambda s: s.record_count),
+    ("record steps", lambda s: s.record_steps.tobytes()),
     ("trace stride", lambda s: s.trace_stride),
     ("record.traces", lambda s: s.record.traces),
     ("record.fields", lambda s: s.record.fields),
@@ -100,7 +101,7 @@ class Model:
     trace_slot: wp.array
     """For each grain its column in the trace buffer, or -1; shape (grains,) or (0,)."""
     validity_overlap: wp.array
-    """Overlap beyond which the Hertz law is not trusted (0.1·diameter), shape (chains,), float64."""
+    """Overlap beyond which the Hertz law is not trusted (ChainSpec.validity_overlap), shape (chains,), float64."""
     injected_energy: np.ndarray
     """½ m_0 v_imp² per chain (0 without an impact), float64."""
 
@@ -200,6 +201,6 @@ def build_model(scenes: list[Scene], device: str | None = None, *, features: Fea
         exponent=upload(exponent.astype(np_real)),
         drive=upload(drive, wp.float64),
         trace_slot=upload(trace_slot, wp.int32),
-        validity_overlap=upload(np.array([0.1 * s.chain.diameter for s in scenes]), wp.float64),
+        validity_overlap=upload(np.array([s.chain.validity_overlap for s in scenes]), wp.float64),
         injected_energy=np.array([s.injected_energy for s in scenes]),
     )

@@ -216,16 +216,16 @@ class Runner:
         m = self.model
         scene = m.scenes[0]
         real_np = np.float64 if m.features.precision == "float64" else np.float32
-        records, spr, stride = scene.record_count, scene.steps_per_record, scene.trace_stride
+        # records at these steps; the pieces between them may differ in length (ensemble/scene.py)
+        records, record_steps, stride = scene.record_count, scene.record_steps, scene.trace_stride
         c, n = m.chain_count, m.grain_count
         fields = {name: np.zeros((c, records, n), dtype=real_np) for name in scene.record.fields}
         traced = len(scene.record.traces)
-        samples_per_record = spr // stride if traced else 0
-        sample_count = (records - 1) * samples_per_record + 1 if traced else 0
+        capacity = self.trace_buffer.shape[2]
+        sample_count = scene.trace_sample_count
         traces = {name: np.zeros((c, sample_count, traced), dtype=real_np) for name in ("u", "v")} if traced else {}
         energy = np.zeros((c, records))
         work = np.zeros((c, records)) if m.features.surface == "driven" else None
-        trace_order = (np.arange(1, samples_per_record + 1) % samples_per_record) if traced else None
 
         # compile before the clock starts (the per-step kernel only where it is the one that runs)
         if self.fused is None:
@@ -236,7 +236,7 @@ class Runner:
         start = time.perf_counter()
 
         def take_record(r: int) -> None:
-            self.reduce(r * spr)
+            self.reduce(int(record_steps[r]))
             x = self.current.x
             if "u" in fields:
                 fields["u"][:, r] = x[0].numpy()
@@ -250,8 +250,9 @@ class Runner:
                     traces["u"][:, 0] = x[0].numpy()[:, list(scene.record.traces)]
                     traces["v"][:, 0] = x[1].numpy()[:, list(scene.record.traces)] / real_np(m.dt)
                 else:
-                    buffer = self.trace_buffer.numpy()[:, :, trace_order]
-                    rows = slice(1 + (r - 1) * samples_per_record, 1 + r * samples_per_record)
+                    # sample k (at step k·stride) sits in ring slot k % capacity
+                    rows = slice(int(record_steps[r - 1]) // stride + 1, int(record_steps[r]) // stride + 1)
+                    buffer = self.trace_buffer.numpy()[:, :, np.arange(rows.start, rows.stop) % capacity]
                     traces["u"][:, rows] = buffer[0]
                     traces["v"][:, rows] = buffer[1] / real_np(m.dt)
             if progress is not None:
@@ -259,7 +260,7 @@ class Runner:
 
         take_record(0)
         for r in range(1, records):
-            self.advance_monitored((r - 1) * spr, spr)
+            self.advance_monitored(int(record_steps[r - 1]), int(record_steps[r] - record_steps[r - 1]))
             take_record(r)
         wp.synchronize_device(m.device)
         wall = time.perf_counter() - start
@@ -273,9 +274,9 @@ class Runner:
         status[drift] = Status.ENERGY_DRIFT
         return RunResult(
             scenes=m.scenes, features=m.features, device=str(m.device),
-            t=np.arange(records) * spr * m.dt, energy=energy, work=work, status=status,
+            t=record_steps * m.dt, energy=energy, work=work, status=status,
             max_overlap=max_overlap, energy_error=energy_error, wall_seconds=wall,
-            steps=(records - 1) * spr, fields=fields,
+            steps=int(record_steps[-1]), fields=fields,
             trace_t=(np.arange(sample_count) * stride * m.dt) if traced else None, traces=traces,
             kernel="step" if self.fused is None else self.fused.describe(),
         )
