@@ -89,10 +89,6 @@ def run(
     too_big = memory_refusal(loaded)  # the host first, before Warp starts
     if too_big:
         fail(too_big)
-    dev = resolve_device(device)
-    too_big = memory_refusal(loaded, dev) if dev.startswith("cuda") else None
-    if too_big:
-        fail(too_big)
     unsafe = dt_warning(loaded)
     if unsafe and strict:
         fail(unsafe)
@@ -102,6 +98,10 @@ def run(
         fail(f"--out = {str(out)!r}: exists; choose another path or pass --overwrite")
     if not out.parent.exists():
         fail(f"--out = {str(out)!r}: parent directory does not exist")
+    dev = resolve_device(device)
+    too_big = memory_refusal(loaded, dev) if dev.startswith("cuda") else None
+    if too_big:
+        fail(too_big)
 
     from .model import build_model
     from .runner import Runner
