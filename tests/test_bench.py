@@ -12,7 +12,7 @@ from ensemble.bench import bench_scenes
 from ensemble.cli import app
 from ensemble.model import build_model
 from ensemble.peers import NumpyGear4, problem_from_model
-from tests.test_tile import per_step
+from fused_cases import per_step
 
 
 def invoke(*args):

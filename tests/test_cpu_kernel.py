@@ -13,7 +13,7 @@ import warp as wp
 from ensemble.calibrate import SweepStepper, make_stepper
 from ensemble.model import build_model
 from ensemble.runner import Runner
-from tests.test_tile import CASES, chains, per_step
+from fused_cases import CASES, chains, per_step
 
 
 def sweep(model, steps: int, status=None, steps_per_launch: int = 1 << 30) -> np.ndarray:
