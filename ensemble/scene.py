@@ -521,8 +521,11 @@ def _validate(s: Scene) -> None:
                              f"must divide record.every and integrator.duration into whole steps (every = "
                              f"{r.every if r.every is not None else i.duration:g}, duration = {i.duration:g}, "
                              f"trace_every = {s.trace_stride} steps of dt = {i.dt:g})")
-    for key, value in (("chain.l0" if c.load is None else "chain.load", c.surface_force),
-                       ("excitation.impact", s.injected_energy)):
-        if not math.isfinite(value):
-            raise SceneError(key, getattr(c, key.split(".")[1]) if key.startswith("chain") else e.impact,
-                             "too large: the load or energy it gives overflows float64")
+    for key, value, derived in (("chain.l0" if c.load is None else "chain.load", c.l0 if c.load is None else c.load,
+                                 lambda: c.surface_force), ("excitation.impact", e.impact, lambda: s.injected_energy)):
+        try:
+            finite = math.isfinite(derived())
+        except OverflowError:
+            finite = False
+        if not finite:
+            raise SceneError(key, value, "too large: the load or energy it gives overflows float64")
