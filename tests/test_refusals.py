@@ -264,3 +264,32 @@ def test_fuzzed_sweep_files_are_refused_cleanly(tmp_path, axes, zipped, scene_ed
     if not refused_in_process(lambda: sweep_scenes(load_sweep(path))):
         return
     assert_refused(invoke("sweep", path, "--out", out, "--device", "cpu"), out)
+
+
+def test_sweep_ends_at_the_duration(tmp_path):
+    """The same schedule in a sweep store: t ends at the duration, and each point's last record equals
+    the point run alone."""
+    import xarray as xr
+
+    text = (toml_text({"scene": {**BASE, "integrator": {"duration": 0.1, "dt": 1e-3}, "record": {"every": 0.03}}})
+            + '\n[[axis]]\nname = "v_imp"\nkey = "excitation.impact"\nvalues = [1e-2, 2e-2]\n')
+    path = tmp_path / "sweep.toml"
+    path.write_text(text)
+    out = tmp_path / "sweep.zarr"
+    result = invoke("sweep", path, "--out", out, "--device", "cpu", "--quiet")
+    assert result.exit_code == 0, result.output
+    ds = xr.open_zarr(out)
+    np.testing.assert_allclose(ds.t.values, [0.0, 0.03, 0.06, 0.09, 0.1], rtol=0, atol=1e-12)
+    alone = run_scene(load_sweep(path).scene_at((1,)), "cpu")
+    np.testing.assert_array_equal(ds.u.sel(v_imp=2e-2).values, alone.u[0])
+
+
+def test_sweep_points_with_different_record_times_are_refused(tmp_path):
+    """dt = 1e-3 records at 0.01, 0.02, …; dt = 3e-3 at the nearest steps 0.009, 0.021, …: one store
+    cannot hold both, so the sweep is refused before anything is written."""
+    text = (toml_text({"scene": {**BASE, "integrator": {"duration": 0.1, "dt": 1e-3}, "record": {"every": 0.01}}})
+            + '\n[[axis]]\nname = "step"\nkey = "integrator.dt"\nvalues = [1e-3, 3e-3]\n')
+    path = tmp_path / "sweep.toml"
+    path.write_text(text)
+    out = tmp_path / "sweep.zarr"
+    assert_refused(invoke("sweep", path, "--out", out, "--device", "cpu"), out, "record times")
