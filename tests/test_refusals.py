@@ -293,3 +293,12 @@ def test_sweep_points_with_different_record_times_are_refused(tmp_path):
     path.write_text(text)
     out = tmp_path / "sweep.zarr"
     assert_refused(invoke("sweep", path, "--out", out, "--device", "cpu"), out, "record times")
+
+
+def test_check_takes_precision(tmp_path):
+    scene = tmp_path / "s.toml"
+    scene.write_text(toml_text(BASE))
+    shown = invoke("check", scene, "--precision", "float32")
+    assert shown.exit_code == 0 and "(gear4, float32)" in shown.stdout, shown.output
+    assert_refused(invoke("check", scene, "--precision", "float16"), tmp_path / "none",
+                   "integrator.precision = 'float16'")
