@@ -22,6 +22,7 @@ import os
 import statistics
 import time
 from dataclasses import dataclass
+from datetime import datetime, timezone
 
 import numpy as np
 import warp as wp
@@ -34,7 +35,13 @@ from .scene import Scene, scene_from_dict
 from .solvers import choose_config, make_solver
 from .solvers.calibrate import states_equal, whole_chain_configs
 
-DATE = "2026-11"
+
+
+def today() -> str:
+    """The date of a measurement, UTC, ISO 8601 (YYYY-MM-DD), from the clock at the time it is taken."""
+    return datetime.now(timezone.utc).date().isoformat()
+
+
 KERNEL_CHOICES = ("all", "auto", "step", "tile", "window", "sweep")
 PROJECT_TOLERANCE = 1e-13
 """Largest relative state difference allowed between the project's kernels (same arithmetic)."""
@@ -198,7 +205,7 @@ def run_bench(device: str, sizes: list[tuple[int, int]], *, kernel: str = "all",
                 "seconds": seconds, "grain_steps_per_second": gs, "steps_per_second": n / seconds,
                 "bytes_per_grain_step": bytes_per_grain_step, "memory_wall_grain_steps_per_second": on_wall,
                 "ratio_to_memory_wall": gs / on_wall, "max_relative_difference": diff,
-                "date": DATE,
+                "date": today(),
             }
             size_records.append(rec)
             log(f"  {impl.name:12s} {impl.kernel:44s} {gs:10.3g} GS/s {n / seconds:10.3g} steps/s "

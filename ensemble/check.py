@@ -49,7 +49,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .scene import Scene
+from .scene import VALIDITY_FRACTION, Scene
 from .static import static_state
 
 STABLE_OMEGA_DT = {"verlet": 2.0, "gear4": math.sqrt(2.0), "gear5": 1.12, "gear6": 0.85}
@@ -62,8 +62,6 @@ ACCURATE_STEPS_PER_CONTACT_TIME = {"gear4": 400.0, "gear5": 300.0, "gear6": 400.
 STABILITY_MARGIN = 2.0
 """The suggested dt stays this factor below the stability limit."""
 
-VALIDITY_FRACTION = 0.1
-"""Overlaps above this fraction of the diameter are beyond where the Hertz law holds (SPEC, Status)."""
 
 
 @dataclass(frozen=True)
@@ -86,7 +84,7 @@ class StepCheck:
     highest_frequency: float
     """Upper bound on the chain's highest angular frequency ω_max [1/time]."""
     validity_overlap: float
-    """0.1·diameter [length]."""
+    """VALIDITY_FRACTION·diameter [length] (ChainSpec.validity_overlap)."""
     notes: tuple[str, ...] = field(default_factory=tuple)
 
     @property
@@ -111,7 +109,7 @@ class StepCheck:
 
     @property
     def beyond_validity(self) -> bool:
-        """Whether the largest overlap may exceed 0.1·diameter (Hertz law not trusted there)."""
+        """Whether the largest overlap may exceed the validity overlap (Hertz law not trusted there)."""
         return self.largest_overlap > self.validity_overlap
 
     @property
@@ -267,7 +265,7 @@ def check_scene(scene: Scene) -> StepCheck:
         notes.append("no loaded contact: nothing ever touches with a positive stiffness")
         return StepCheck(method=scene.integrator.method, dt=scene.integrator.dt, largest_overlap=0.0,
                          stiffest_contact=-1, stiffness=0.0, reduced_mass=math.inf, contact_time=math.inf,
-                         highest_frequency=0.0, validity_overlap=VALIDITY_FRACTION * scene.chain.diameter,
+                         highest_frequency=0.0, validity_overlap=scene.chain.validity_overlap,
                          notes=tuple(notes))
     k_star = int(np.argmax(omega2))
 
@@ -282,9 +280,9 @@ def check_scene(scene: Scene) -> StepCheck:
 
     if n > 3.0:
         notes.append(f"exponent n = {n:g} is outside the range the accuracy thresholds were measured on (2 … 3)")
-    validity = VALIDITY_FRACTION * scene.chain.diameter
+    validity = scene.chain.validity_overlap
     if np.max(largest) > validity:
-        notes.append(f"largest overlap {np.max(largest):.3g} may exceed 0.1·diameter = {validity:g}, "
+        notes.append(f"largest overlap {np.max(largest):.3g} may exceed {VALIDITY_FRACTION:g}·diameter = {validity:g}, "
                      "beyond where the Hertz law holds (status OVERLAP_BEYOND_VALIDITY)")
     return StepCheck(
         method=scene.integrator.method, dt=scene.integrator.dt, largest_overlap=float(np.max(largest)),
@@ -327,3 +325,72 @@ def growth_per_period(method: str, omega_dt: float) -> float:
     """ρ^(2π/(ω dt)) − 1: relative amplitude change per oscillation period on ü = −ω²u."""
     rho = float(np.max(np.abs(np.linalg.eigvals(amplification_matrix(method, omega_dt)))))
     return rho ** (2.0 * math.pi / omega_dt) - 1.0
+
+
+# ---- can it run at all? (before anything is allocated) -------------------------------------------
+
+HOST_SETUP_ARRAYS = 16
+"""Per-grain float64 arrays the host builds while setting a chain up (static state, Nordsieck start)."""
+
+
+def memory_needed(scene: Scene, chains: int = 1) -> dict[str, int]:
+    """Bytes a run of ``chains`` chains of ``scene`` allocates, by part, computed without allocating.
+
+    ``state``: two state buffers of Nordsieck values plus per-grain constants and the trace ring (on the
+    device); ``records``: snapshots, energy and work (on the host, float64 at most); ``traces``: trace
+    samples (host); ``setup``: host arrays used to build the chain.
+    """
+    from kernels.features import GEAR_VALUES
+
+    item = 8 if scene.integrator.precision == "float64" else 4
+    n, traced = scene.chain.grains, len(scene.record.traces)
+    records = scene.record_count
+    ring = scene.steps_per_record // scene.trace_stride if traced else 0
+    state = chains * (2 * GEAR_VALUES[scene.integrator.method] * n + 3 * n + 2 + 2 * ring * traced) * item
+    return {
+        "state": state,
+        "records": chains * (len(scene.record.fields) * n + 2) * records * 8,
+        "traces": chains * 2 * scene.trace_sample_count * traced * 8,
+        "setup": HOST_SETUP_ARRAYS * n * 8,
+    }
+
+
+def available_host_bytes() -> int:
+    """Memory the operating system can give this process now (MemAvailable), in bytes."""
+    try:
+        with open("/proc/meminfo") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    import os
+
+    return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+
+
+def memory_refusal(scene: Scene, device: str | None = None, chains: int = 1) -> str | None:
+    """One line (key = value: bytes needed vs available) when a run cannot fit in memory, else None.
+
+    Always checks the host: it builds the state before uploading it and keeps the results (on a CPU
+    the state lives there too). With a CUDA ``device`` also checks the state against its free memory.
+    Needs no Warp for the host check, so it can run before any device is touched.
+    """
+    need = memory_needed(scene, chains)
+    checks = [("state and results", sum(need.values()), available_host_bytes(), "available on the host")]
+    if device is not None and str(device).startswith("cuda"):
+        import warp as wp
+
+        checks.append(("state", need["state"], int(wp.get_device(device).free_memory), f"free on {device}"))
+    for what, needed, limit, where in checks:
+        if needed > limit:
+            part = max(("state", "records", "traces"), key=need.get)
+            key, value = {"state": ("chain.grains", scene.chain.grains),
+                          "records": ("record.every", scene.record.every),
+                          "traces": ("record.trace_every", scene.record.trace_every)}[part]
+            if value is None:
+                key, value = "chain.grains", scene.chain.grains
+            return (f"{key} = {value!r}: the run needs {needed:.3g} bytes of memory for its {what} "
+                    f"({scene.chain.grains} grains, {scene.record_count} records), more than the {limit:.3g} "
+                    f"bytes {where}")
+    return None

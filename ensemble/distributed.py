@@ -38,12 +38,15 @@ class BatchJob:
     features: Features
     """Kernel variant of the batch's launch group."""
     grain_steps: int
+    kernel: str = "auto"
+    """Which solver steps the batch (``--kernel``: auto | step | tile | window | sweep)."""
 
 
-def jobs_for(store: str | Path, plan: Plan, points: SweepPoints, batches: Iterable[Batch]) -> list[BatchJob]:
+def jobs_for(store: str | Path, plan: Plan, points: SweepPoints, batches: Iterable[Batch], *,
+             kernel: str = "auto") -> list[BatchJob]:
     """One job per batch (``points``: the sweep expanded by ``ensemble.sweep.expand``)."""
     return [BatchJob(store=str(store), batch=b, chains=points.chains(b.points),
-                     features=plan.groups[b.group].features, grain_steps=plan.batch_grain_steps(b))
+                     features=plan.groups[b.group].features, grain_steps=plan.batch_grain_steps(b), kernel=kernel)
             for b in batches]
 
 
@@ -75,7 +78,7 @@ def run_job(job: BatchJob, device: str, progress: Callable[[int, int], None] | N
 
     _quiet_warp()
     start = time.perf_counter()
-    runner = Runner(build_model(job.chains, device, features=job.features))  # model, initial state, stepper
+    runner = Runner(build_model(job.chains, device, features=job.features), kernel=job.kernel)
     build = time.perf_counter() - start
     result = runner.run(progress)
     return write_batch(job.store, job.batch, result, grain_steps=job.grain_steps, worker=worker,

@@ -30,6 +30,7 @@ SHARED_KEYS = (
     ("integrator.dt", lambda s: s.integrator.dt),
     ("steps per record", lambda s: s.steps_per_record),
     ("record count", lambda s: s.record_count),
+    ("record steps", lambda s: s.record_steps.tobytes()),
     ("trace stride", lambda s: s.trace_stride),
     ("record.traces", lambda s: s.record.traces),
     ("record.fields", lambda s: s.record.fields),
@@ -108,7 +109,7 @@ class Model:
     trace_slot: wp.array
     """For each grain its column in the trace buffer, or -1; shape (grains,) or (0,)."""
     validity_overlap: wp.array
-    """Overlap beyond which the Hertz law is not trusted (0.1·diameter), shape (chains,), float64."""
+    """Overlap beyond which the Hertz law is not trusted (ChainSpec.validity_overlap), shape (chains,), float64."""
     injected_energy: np.ndarray
     """½ m_0 v_imp² per chain (0 without an impact), float64."""
     _static: object = None
@@ -122,7 +123,11 @@ class Model:
     def trace_capacity(self) -> int:
         """Trace samples kept between two records (the ring's length)."""
         scene = self.scenes[0]
-        return scene.steps_per_record // scene.trace_stride if scene.record.traces else 0
+        if not scene.record.traces:
+            return 0
+        # the most samples taken between two records (samples at steps k·stride, records at record_steps)
+        per_gap = np.diff(np.asarray(scene.record_steps) // scene.trace_stride)
+        return max(1, int(per_gap.max())) if per_gap.size else 1
 
     def state(self, *, like: State | None = None) -> State:
         """A zeroed state buffer (all grains at their static positions, at rest, clock 0).
@@ -242,7 +247,7 @@ def build_model(scenes: "list[Scene] | ChainSet", device: str | None = None, *,
         exponent=upload(exponent.astype(np_real)),
         drive=upload(drive, wp.float64),
         trace_slot=upload(trace_slot, wp.int32),
-        validity_overlap=upload(np.array([0.1 * s.chain.diameter for s in scenes]), wp.float64),
+        validity_overlap=upload(np.array([s.chain.validity_overlap for s in scenes]), wp.float64),
         injected_energy=np.array([s.injected_energy for s in scenes]),
     )
 

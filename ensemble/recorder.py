@@ -34,19 +34,18 @@ class Recorder:
         """Running max over checks of the largest overlap (device)."""
 
         self.real_np = np.float64 if m.features.precision == "float64" else np.float32
-        records, spr, n = scene.record_count, scene.steps_per_record, m.grain_count
+        records, n = scene.record_count, m.grain_count
         self.fields = {name: np.zeros((c, records, n), dtype=self.real_np) for name in scene.record.fields}
         self.traced = list(scene.record.traces)
-        self.samples_per_record = m.trace_capacity
-        sample_count = (records - 1) * self.samples_per_record + 1 if self.traced else 0
+        self.capacity = m.trace_capacity
+        self.record_steps = scene.record_steps
+        self.stride = scene.trace_stride
+        sample_count = scene.trace_sample_count
         self.traces = ({name: np.zeros((c, sample_count, len(self.traced)), dtype=self.real_np)
                         for name in ("u", "v")} if self.traced else {})
         self.trace_t = (np.arange(sample_count) * scene.trace_stride * m.dt) if self.traced else None
         self.energy = np.zeros((c, records))
         self.work = np.zeros((c, records)) if m.features.surface == "driven" else None
-        # the ring holds sample k of a record interval at slot k % capacity: the last sample sits at slot 0
-        self.trace_order = (np.arange(1, self.samples_per_record + 1) % self.samples_per_record
-                            if self.traced else None)
 
     def load(self) -> None:
         """Compile and load the reduction kernels (before a clock starts)."""
@@ -84,7 +83,9 @@ class Recorder:
                 self.traces["u"][:, 0] = x[0].numpy()[:, self.traced]
                 self.traces["v"][:, 0] = x[1].numpy()[:, self.traced] / dt
             else:
-                ring = state.traces.numpy()[:, :, self.trace_order]
-                rows = slice(1 + (r - 1) * self.samples_per_record, 1 + r * self.samples_per_record)
+                # sample k (taken at step k·stride) sits in ring slot k % capacity
+                rows = slice(int(self.record_steps[r - 1]) // self.stride + 1,
+                             int(self.record_steps[r]) // self.stride + 1)
+                ring = state.traces.numpy()[:, :, np.arange(rows.start, rows.stop) % self.capacity]
                 self.traces["u"][:, rows] = ring[0]
                 self.traces["v"][:, rows] = ring[1] / dt

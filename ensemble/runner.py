@@ -127,8 +127,8 @@ class Runner:
         """Integrate to the end; ``progress(done_records, total_records)`` is called after each record."""
         m, rec = self.model, self.recorder
         scene = m.scenes[0]
-        spr = scene.steps_per_record
-        record_steps = [r * spr for r in range(scene.record_count)]
+        # records at these steps; the pieces between them may differ in length (Scene.record_steps)
+        record_steps = [int(k) for k in scene.record_steps]
         rec.load()   # compile before the clock starts (the solver loaded in __init__)
         wp.synchronize_device(m.device)
         start = time.perf_counter()

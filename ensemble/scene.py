@@ -10,11 +10,14 @@ naming the key, the value and what is allowed.
 from __future__ import annotations
 
 import difflib
+import functools
 import math
 import tomllib
 from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 SURFACE_KINDS = ("wall", "load", "free", "driven")
 BOTTOM_KINDS = ("wall", "fixed", "free")
@@ -22,6 +25,11 @@ METHODS = ("gear4", "gear5", "gear6", "verlet")
 PRECISIONS = ("float64", "float32")
 CONTACT_RULES = ("harmonic", "own")
 FIELDS = ("u", "v")
+MAX_STEPS = 2**31 - 1
+"""Most steps a run may take: the kernels count steps in an int32 clock."""
+VALIDITY_FRACTION = 0.1
+"""Overlaps above this fraction of the grain diameter are beyond where the Hertz law holds
+(status OVERLAP_BEYOND_VALIDITY; ``hertzian check`` warns)."""
 
 
 class SceneError(ValueError):
@@ -45,7 +53,12 @@ class ChainSpec:
     exponent: float = 2.5
     """Contact-law exponent n (5/2 is Hertz)."""
     diameter: float = 100.0
-    """Grain diameter [1e-5 m]; used for the validity check δ ≤ 0.1·diameter."""
+    """Grain diameter [1e-5 m]; used for the validity check δ ≤ VALIDITY_FRACTION·diameter (0.1·diameter)."""
+
+    @property
+    def validity_overlap(self) -> float:
+        """Largest overlap where the Hertz law is trusted: VALIDITY_FRACTION·diameter [length]."""
+        return VALIDITY_FRACTION * self.diameter
     l0: float = 0.0
     """Precompression: static overlap of two equal grains under the load [length]."""
     load: float | None = None
@@ -144,28 +157,69 @@ class Scene:
         _validate(self)
 
     # ---- derived step counts -------------------------------------------------------
+    # Records fall on the steps nearest to t = r·every (r = 0, 1, …) and the last one on the step
+    # nearest to the duration, also when the duration is not a multiple of ``every``. Where
+    # ``every`` is a whole number of steps (to 1e-9) the records are exactly that many steps apart.
     @property
-    def steps_per_record(self) -> int:
-        """Integration steps between two snapshots."""
-        every = self.record.every if self.record.every is not None else self.integrator.duration
-        return max(1, round(every / self.integrator.dt))
+    def _every(self) -> float:
+        return self.record.every if self.record.every is not None else self.integrator.duration
 
     @property
-    def record_count(self) -> int:
-        """Snapshots, including t = 0."""
-        every = self.record.every if self.record.every is not None else self.integrator.duration
-        return max(1, round(self.integrator.duration / every)) + 1
+    def _whole_steps_per_record(self) -> int | None:
+        """``every/dt`` when it is a whole number (to 1e-9 relative), else None."""
+        ratio = self._every / self.integrator.dt
+        whole = round(ratio)
+        return whole if whole >= 1 and abs(ratio - whole) <= 1e-9 * ratio else None
 
     @property
     def step_count(self) -> int:
-        """Total integration steps."""
-        return (self.record_count - 1) * self.steps_per_record
+        """Total integration steps: the step nearest to ``integrator.duration``."""
+        return max(1, round(self.integrator.duration / self.integrator.dt))
+
+    @property
+    def steps_per_record(self) -> int:
+        """Integration steps between two records (the longest such gap where they differ)."""
+        whole = self._whole_steps_per_record
+        return whole if whole is not None else math.ceil(self._every / self.integrator.dt)
+
+    @property
+    def record_count(self) -> int:
+        """Records, including t = 0 and the end (computed without listing them)."""
+        end, whole = self.step_count, self._whole_steps_per_record
+        if whole is not None:
+            return -(-end // whole) + 1
+        ratio = self._every / self.integrator.dt
+        last = int(end / ratio) + 2             # largest r with round(r·ratio) < end, found from above
+        while last > 0 and round(last * ratio) >= end:
+            last -= 1
+        return last + 2
+
+    @functools.cached_property
+    def record_steps(self) -> np.ndarray:
+        """Step index of each record, int64, shape (record_count,): round(r·every/dt), the last at
+        round(duration/dt). Records are at t = record_steps·dt."""
+        count, end, whole = self.record_count, self.step_count, self._whole_steps_per_record
+        r = np.arange(count, dtype=np.int64)
+        steps = r * whole if whole is not None else np.rint(r * (self._every / self.integrator.dt)).astype(np.int64)
+        steps[-1] = end
+        steps.flags.writeable = False
+        return steps
+
+    @property
+    def record_times(self) -> np.ndarray:
+        """Record times t = record_steps·dt [time], shape (record_count,)."""
+        return self.record_steps * self.integrator.dt
 
     @property
     def trace_stride(self) -> int:
         """Steps between two trace samples."""
         te = self.record.trace_every
         return 1 if te is None else max(1, round(te / self.integrator.dt))
+
+    @property
+    def trace_sample_count(self) -> int:
+        """Trace samples of a run (t = 0 included); 0 without traces."""
+        return self.step_count // self.trace_stride + 1 if self.record.traces else 0
 
     @property
     def injected_energy(self) -> float:
@@ -437,10 +491,17 @@ def _validate(s: Scene) -> None:
                          + _did_you_mean(i.method, METHODS))
     if i.precision not in PRECISIONS:
         raise SceneError("integrator.precision", i.precision, "must be float64 or float32")
+    steps = i.duration / i.dt
+    if not (steps <= MAX_STEPS + 0.5):
+        raise SceneError("integrator.duration", i.duration,
+                         f"needs {steps:.3g} steps of integrator.dt = {i.dt:g}; the step counter holds at most "
+                         f"{MAX_STEPS} (int32): shorten the run or raise dt")
     if r.every is not None:
         _positive("record.every", r.every)
         if r.every > i.duration * (1 + 1e-12):
             raise SceneError("record.every", r.every, f"must not exceed integrator.duration = {i.duration}")
+        if r.every < i.dt * (1 - 1e-9):
+            raise SceneError("record.every", r.every, f"must be ≥ integrator.dt = {i.dt:g} (records fall on steps)")
     for name in r.fields:
         if name not in FIELDS:
             raise SceneError("record.fields", name, f"allowed fields: {', '.join(FIELDS)}")
@@ -451,7 +512,20 @@ def _validate(s: Scene) -> None:
         raise SceneError("record.traces", list(r.traces), "grains must not repeat")
     if r.trace_every is not None:
         _positive("record.trace_every", r.trace_every)
-        if s.steps_per_record % s.trace_stride:
+        if r.trace_every < i.dt * (1 - 1e-9):
             raise SceneError("record.trace_every", r.trace_every,
-                             f"must divide record.every into whole steps (every = {s.steps_per_record} steps "
-                             f"of dt, trace_every = {s.trace_stride} steps)")
+                             f"must be ≥ integrator.dt = {i.dt:g} (samples fall on steps)")
+        if s.trace_stride > 1 and (s._whole_steps_per_record is None or s.steps_per_record % s.trace_stride
+                                   or s.step_count % s.trace_stride):
+            raise SceneError("record.trace_every", r.trace_every,
+                             f"must divide record.every and integrator.duration into whole steps (every = "
+                             f"{r.every if r.every is not None else i.duration:g}, duration = {i.duration:g}, "
+                             f"trace_every = {s.trace_stride} steps of dt = {i.dt:g})")
+    for key, value, derived in (("chain.l0" if c.load is None else "chain.load", c.l0 if c.load is None else c.load,
+                                 lambda: c.surface_force), ("excitation.impact", e.impact, lambda: s.injected_energy)):
+        try:
+            finite = math.isfinite(derived())
+        except OverflowError:
+            finite = False
+        if not finite:
+            raise SceneError(key, value, "too large: the load or energy it gives overflows float64")

@@ -34,6 +34,14 @@ RESERVED_NAMES = frozenset({
     "batch", "batches",
 })
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+MAX_POINTS = 10**7
+"""Sweeps with more points are refused unless asked for (``--allow-large``): counted from the axis
+lengths before any axis is expanded."""
+
+
+def _refuse_size(key: str, count: int, max_points: int | None) -> None:
+    if max_points is not None and count > max_points:
+        raise SceneError(key, count, f"more than {max_points} sweep points; pass --allow-large to insist")
 
 
 @dataclass(frozen=True)
@@ -157,7 +165,7 @@ def _scalar_list(key: str, values: Any) -> tuple:
     return tuple(values)
 
 
-def _spacing(key: str, spec: Any, log: bool) -> tuple:
+def _spacing(key: str, spec: Any, log: bool, max_points: int | None = MAX_POINTS) -> tuple:
     what = "[from_exponent, to_exponent, count]" if log else "[first, last, count]"
     if (not isinstance(spec, list) or len(spec) != 3
             or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in spec)):
@@ -168,13 +176,14 @@ def _spacing(key: str, spec: Any, log: bool) -> tuple:
     if not (float(count).is_integer() and count >= 1):
         raise SceneError(key, spec, f"must be {what}; count must be an integer ≥ 1")
     count = int(count)
+    _refuse_size(key, count, max_points)
     if count > 1 and start == stop:
         raise SceneError(key, spec, "first and last must differ when count > 1 (values must not repeat)")
     values = np.logspace(start, stop, count) if log else np.linspace(start, stop, count)
     return tuple(float(v) for v in values.tolist())
 
 
-def _parse_axis(k: int, raw: Any) -> Axis:
+def _parse_axis(k: int, raw: Any, max_points: int | None = MAX_POINTS) -> Axis:
     where = f"axis[{k}]"
     if not isinstance(raw, dict):
         raise SceneError(where, raw, "must be a table ([[axis]] with name, key and values/linspace/logspace)")
@@ -199,7 +208,7 @@ def _parse_axis(k: int, raw: Any) -> Axis:
     if spacing == "values":
         values = _scalar_list(f"{where}.values", raw["values"])
     else:
-        values = _spacing(f"{where}.{spacing}", raw[spacing], log=spacing == "logspace")
+        values = _spacing(f"{where}.{spacing}", raw[spacing], log=spacing == "logspace", max_points=max_points)
     return Axis(name=name, key=key, values=values)
 
 
@@ -249,9 +258,10 @@ def _parse_zips(raw: Any, names: list[str]) -> list[tuple[str, ...]]:
 
 
 def sweep_from_dict(data: dict, *, base_dir: str | Path = ".", overrides: dict[str, Any] | None = None,
-                    source: str = "") -> Sweep:
+                    source: str = "", max_points: int | None = MAX_POINTS) -> Sweep:
     """Build a sweep from parsed TOML: ``scene`` (path relative to ``base_dir``, or a table), ``[[axis]]``,
-    ``[[zip]]``. ``overrides`` (``--set``) apply to the base scene before the axes."""
+    ``[[zip]]``. ``overrides`` (``--set``) apply to the base scene before the axes. More than ``max_points``
+    points (None: no limit) are refused before the grid is expanded."""
     if not isinstance(data, dict):
         raise SceneError("sweep", data, "must be a table")
     for key in data:
@@ -279,7 +289,7 @@ def sweep_from_dict(data: dict, *, base_dir: str | Path = ".", overrides: dict[s
         raw_axes = [raw_axes]
     if not isinstance(raw_axes, list):
         raise SceneError("axis", raw_axes, "must be an array of tables ([[axis]])")
-    axes = [_parse_axis(k, raw) for k, raw in enumerate(raw_axes)]
+    axes = [_parse_axis(k, raw, max_points) for k, raw in enumerate(raw_axes)]
     names, keys = {}, {}
     for k, axis in enumerate(axes):
         if axis.name in names:
@@ -313,15 +323,18 @@ def sweep_from_dict(data: dict, *, base_dir: str | Path = ".", overrides: dict[s
             raise SceneError(f"axis[{names[lead.name]}].values", list(lead.values),
                              "values must not repeat: they label a store dimension (in a [[zip]] group "
                              "only the first axis labels it)")
+    _refuse_size("sweep points", math.prod(d.size for d in dimensions), max_points)
     return Sweep(base=base, dimensions=tuple(dimensions), zips=tuple(zips), source=source)
 
 
-def load_sweep(path: str | Path, overrides: dict[str, Any] | None = None) -> Sweep:
+def load_sweep(path: str | Path, overrides: dict[str, Any] | None = None, *,
+               max_points: int | None = MAX_POINTS) -> Sweep:
     """Read and validate a sweep file (the points' scenes are checked by :func:`sweep_scenes`)."""
     path = Path(path)
     if not path.is_file():
         raise SceneError("sweep file", str(path), "no such file")
-    return sweep_from_dict(read_toml(path), base_dir=path.parent, overrides=overrides, source=str(path))
+    return sweep_from_dict(read_toml(path), base_dir=path.parent, overrides=overrides, source=str(path),
+                           max_points=max_points)
 
 
 # ---- what every point must share ------------------------------------------------------
@@ -331,7 +344,7 @@ LAYOUT_KEYS = (
     ("record count", lambda s: s.record_count),
     ("record.fields", lambda s: s.record.fields),
     ("record.traces", lambda s: s.record.traces),
-    ("trace samples per record", lambda s: s.steps_per_record // s.trace_stride if s.record.traces else 0),
+    ("trace samples", lambda s: s.trace_sample_count),
     ("record.energy", lambda s: s.record.energy),
     ("boundary.surface (driven or not)", lambda s: s.boundary.surface == "driven"),
 )
@@ -339,16 +352,15 @@ LAYOUT_KEYS = (
 
 
 def record_times(scene: Scene) -> np.ndarray:
-    """Snapshot times, computed exactly as the runner does."""
-    return np.arange(scene.record_count) * scene.steps_per_record * scene.integrator.dt
+    """Snapshot times, computed exactly as the runner does (Scene.record_times)."""
+    return scene.record_times
 
 
 def trace_times(scene: Scene) -> np.ndarray | None:
     """Trace sample times, as the runner computes them (None without traces)."""
     if not scene.record.traces:
         return None
-    count = (scene.record_count - 1) * (scene.steps_per_record // scene.trace_stride) + 1
-    return np.arange(count) * scene.trace_stride * scene.integrator.dt
+    return np.arange(scene.trace_sample_count) * scene.trace_stride * scene.integrator.dt
 
 
 def sweep_scenes(sweep: Sweep) -> list[Scene]:

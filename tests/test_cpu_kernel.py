@@ -12,7 +12,7 @@ import pytest
 from ensemble.model import build_model
 from ensemble.runner import Runner
 from ensemble.solvers import STEP, SWEEP, SolverConfig, SweepSolver, choose_config
-from tests.test_tile import CASES, chains, per_step
+from fused_cases import CASES, chains, per_step
 
 
 def sweep(model, steps: int, status=None, steps_per_launch: int = 1 << 30) -> np.ndarray:

@@ -86,7 +86,7 @@ def test_gravity_100_on_ten_thousand_grains():
     assert result.status[0] == Status.OVERLAP_BEYOND_VALIDITY
     bottom = static_state(scene).static_overlap.max()
     assert bottom <= result.max_overlap[0] <= check.largest_overlap   # the static bottom, within the bound
-    assert 0 < result.energy_error[0] < 1e-5
+    assert 0 < result.energy_error[0] <= 1e-6  # what check's accuracy threshold promises
 
 
 def test_energy_drift_is_flagged():
@@ -129,12 +129,13 @@ def extreme(case: str, method: str):
 @pytest.mark.parametrize("method", ["gear4", "verlet"])
 @pytest.mark.parametrize("case", list(EXTREMES))
 def test_extreme_case_at_the_suggested_step_conserves_energy(case, method):
-    """At check's suggested dt (≈ its 'accurate' steps per contact time) every extreme keeps E to ≤ 1e-5."""
+    """At check's suggested dt (≈ its 'accurate' steps per contact time) every extreme keeps E to ≤ 1e-6,
+    the energy error ACCURATE_STEPS_PER_CONTACT_TIME was measured to guarantee."""
     scene = extreme(case, method)
     assert check_scene(scene).verdict == "ok"
     result = run_scene(scene, "cpu")
     assert result.status[0] == Status.OK
-    assert result.energy_error[0] < 1e-5, result.energy_error[0]
+    assert result.energy_error[0] <= 1e-6, result.energy_error[0]
 
 
 @pytest.mark.parametrize("factor, tolerance", [(10.0, 1e-6), (0.01, 1e-9)])

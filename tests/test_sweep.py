@@ -376,8 +376,9 @@ def test_unsafe_dt_warns_and_strict_refuses(tmp_path):
     """`hertzian check`'s warning at the grid's corners; --strict exits 2 and writes nothing."""
     path = write(tmp_path)
     out = tmp_path / "unsafe.zarr"
-    refused = sweep_cli(path, "--out", out, "--device", "cpu", "--set", "integrator.dt=5e-3", "--strict")
+    coarse = ("--set", "integrator.dt=5e-3", "--set", "record.trace_every=5e-3")
+    refused = sweep_cli(path, "--out", out, "--device", "cpu", *coarse, "--strict")
     assert refused.exit_code == 2 and "looks inaccurate" in refused.stderr
     assert not out.exists()
-    warned = sweep_cli(path, "--dry-run", "--device", "cpu", "--set", "integrator.dt=5e-3")
+    warned = sweep_cli(path, "--dry-run", "--device", "cpu", *coarse)
     assert warned.exit_code == 0 and "warning: point 0" in warned.stderr

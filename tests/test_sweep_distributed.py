@@ -2,14 +2,13 @@
 serial run; each worker writes its own batches."""
 
 
+import distributed  # a hard dependency (dask[distributed]): a missing one must fail, not skip
 import pytest
 from typer.testing import CliRunner
 
 from ensemble.cli import app
 from ensemble.distributed import worker_device
 from ensemble.sweep_store import batch_records, differing_arrays
-
-distributed = pytest.importorskip("distributed")
 
 SWEEP = """
 [scene.chain]

@@ -24,6 +24,8 @@ SetOption = Annotated[Optional[list[str]], typer.Option("--set", help="Override 
 SceneArgument = Annotated[Optional[Path], typer.Argument(help="Scene TOML (SPEC §8). Default: the built-in "
                                                           "example.")]
 PrecisionOption = Annotated[Optional[str], typer.Option("--precision", help="float64 | float32 (overrides integrator.precision).")]
+KernelOption = Annotated[str, typer.Option("--kernel", help="auto | step | tile | window | sweep: which solver "
+                                           "steps the chains (ensemble/solvers); results are the same.")]
 
 
 def fail(message: str) -> None:

@@ -7,13 +7,14 @@ from typing import Annotated
 
 import typer
 
-from .app import SceneArgument, SetOption, app, load_scene_or_fail
+from .app import PrecisionOption, SceneArgument, SetOption, app, fail, load_scene_or_fail
 
 
 @app.command()
 def check(
     scene: SceneArgument = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the estimates as a JSON object.")] = False,
+    precision: PrecisionOption = None,
     set_: SetOption = None,
 ):
     """Before running: the stiffest contact time scale of a scene, steps per contact time, and whether dt is safe.
@@ -23,9 +24,13 @@ def check(
     and compares dt with each method's stability limit (ω_max·dt) and with the steps per
     contact time measured to keep the energy error below 1e-6 (docs/stability.md). Program units.
     """
-    from ..check import ACCURATE_STEPS_PER_CONTACT_TIME, STABLE_OMEGA_DT, check_scene
+    from ..check import ACCURATE_STEPS_PER_CONTACT_TIME, STABLE_OMEGA_DT, check_scene, memory_refusal
+    from ..scene import VALIDITY_FRACTION
 
-    loaded = load_scene_or_fail(scene, set_, None)
+    loaded = load_scene_or_fail(scene, set_, precision)
+    too_big = memory_refusal(loaded)
+    if too_big:
+        fail(too_big)
     result = check_scene(loaded)
     if as_json:
         typer.echo(json.dumps(result.to_dict(), indent=1))
@@ -34,7 +39,7 @@ def check(
     k = result.stiffest_contact
     where = ("surface wall" if k == 0 else "bottom wall" if k == n else f"grains {k - 1}–{k}") if k >= 0 else "none"
     lines = [
-        f"largest overlap (bound)   {result.largest_overlap:.4g}  (validity limit 0.1·diameter = "
+        f"largest overlap (bound)   {result.largest_overlap:.4g}  (validity limit {VALIDITY_FRACTION:g}·diameter = "
         f"{result.validity_overlap:g})",
         f"stiffest contact          {where}: k = {result.stiffness:.4g}, m_red = {result.reduced_mass:.4g}",
         f"contact time T            {result.contact_time:.4g}  (2π sqrt(m_red/k))",

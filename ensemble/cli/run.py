@@ -8,7 +8,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from .app import DeviceOption, PrecisionOption, SetOption, app, fail, load_scene_or_fail, resolve_device
+from .app import DeviceOption, KernelOption, PrecisionOption, SetOption, app, fail, load_scene_or_fail, resolve_device
 
 
 @app.command()
@@ -23,10 +23,19 @@ def run(
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
     strict: Annotated[bool, typer.Option("--strict", help="Refuse (exit 2) when dt looks unstable or "
                                          "inaccurate (see hertzian check) instead of warning.")] = False,
+    kernel: KernelOption = "auto",
 ):
     """Run one scene and store it as Zarr (times in program units of 1.0102e-3 s)."""
+    from ..solvers import KERNELS
+
+    if kernel not in KERNELS:
+        fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)}")
     loaded = load_scene_or_fail(scene, set_, precision)
-    from ..check import dt_warning
+    from ..check import dt_warning, memory_refusal
+
+    too_big = memory_refusal(loaded)  # the host first, before Warp starts
+    if too_big:
+        fail(too_big)
 
     unsafe = dt_warning(loaded)
     if unsafe and strict:
@@ -38,9 +47,18 @@ def run(
     if not out.parent.exists():
         fail(f"--out = {str(out)!r}: parent directory does not exist")
     dev = resolve_device(device)
+    too_big = memory_refusal(loaded, dev) if dev.startswith("cuda") else None
+    if too_big:
+        fail(too_big)
 
-    from ..runner import run_scene
+    from ..model import build_model
+    from ..runner import Runner
     from ..store import write_result
+
+    try:
+        runner = Runner(build_model([loaded], dev), kernel=kernel)
+    except ValueError as err:  # a forced kernel that cannot run this scene here
+        fail(f"--kernel = {kernel!r}: {str(err).split(': ', 1)[-1]}")
 
     progress = None
     if not quiet and sys.stderr.isatty():
@@ -52,7 +70,7 @@ def run(
         task = bar.add_task("integrating", total=loaded.record_count)
         progress = lambda done, total: bar.update(task, completed=done)  # noqa: E731
     try:
-        result = run_scene(loaded, dev, progress=progress)
+        result = runner.run(progress)
     finally:
         if progress is not None:
             bar.stop()

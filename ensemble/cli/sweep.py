@@ -14,7 +14,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from .app import DeviceOption, PrecisionOption, SetOption, app, fail, resolve_device
+from .app import DeviceOption, KernelOption, PrecisionOption, SetOption, app, fail, resolve_device
 from ..scene import SceneError, parse_overrides
 
 
@@ -51,7 +51,7 @@ class _Progress:
             return
         scene = job.chains.template
         fraction = (done - 1) / max(total - 1, 1)
-        t = (done - 1) * scene.steps_per_record * scene.integrator.dt
+        t = float(scene.record_times[done - 1])
         self.bar.update(self.task, completed=self.finished_steps + fraction * job.grain_steps,
                         sim=f"{t:.4g}/{scene.integrator.duration:g}")
 
@@ -120,6 +120,9 @@ def sweep(
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON summary with the time split (load, "
                                           "expand, plan, store creation, model build, kernel, store writes) on "
                                           "stdout.")] = False,
+    allow_large: Annotated[bool, typer.Option("--allow-large", help="Run sweeps of more than 10^7 points "
+                                              "(refused by default).")] = False,
+    kernel: KernelOption = "auto",
 ):
     """Run a parameter sweep (SPEC §8) as batched ensembles into one Zarr store with one dimension per axis.
 
@@ -133,21 +136,29 @@ def sweep(
         fail(f"--scheduler = {scheduler!r}: give either --workers (a local cluster) or --scheduler, not both")
     if resume and overwrite:
         fail("--resume = true: --resume continues a store, --overwrite replaces it; give one")
-    from ..sweep import expand, load_sweep
+    from ..check import memory_refusal
+    from ..solvers import KERNELS
+    from ..sweep import MAX_POINTS, expand, load_sweep
 
+    if kernel not in KERNELS:
+        fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)}")
     timing = {}
     clock = time.perf_counter()
     try:
         sets = parse_overrides(set_)
         if precision is not None:
             sets["integrator.precision"] = precision
-        definition = load_sweep(sweep_file, sets)
+        definition = load_sweep(sweep_file, sets, max_points=None if allow_large else MAX_POINTS)
         timing["load"] = time.perf_counter() - clock
         clock = time.perf_counter()
         points = expand(definition)
         timing["expand"] = time.perf_counter() - clock
     except SceneError as err:
         fail(str(err))
+    # one chain of the largest kind (the planner sizes batches); before any array is built
+    too_big = memory_refusal(max(points.templates, key=lambda t: t.chain.grains))
+    if too_big:
+        fail(too_big)
     unsafe = corner_dt_warnings(definition)
     if unsafe and strict:
         fail(unsafe[0])
@@ -177,6 +188,8 @@ def sweep(
     except SceneError as err:
         fail(str(err))
     timing["plan"] = time.perf_counter() - clock
+    if kernel != "auto":
+        _check_kernel(kernel, plan, points, dev)
     if dry_run:
         if as_json:
             typer.echo(describe(plan, definition), err=True)
@@ -190,7 +203,21 @@ def sweep(
         typer.echo(f"note: --batch-size {batch_size} ignored: {out} was planned with batches of up to "
                    f"{plan.batch_size} points", err=True)
     _run(definition, points, plan, out, dev, resuming=resuming, overwrite=overwrite, workers=workers,
-         scheduler=scheduler, requested_device=device, quiet=quiet, timing=timing, as_json=as_json)
+         scheduler=scheduler, requested_device=device, quiet=quiet, timing=timing, as_json=as_json, kernel=kernel)
+
+
+def _check_kernel(kernel: str, plan, points, dev: str) -> None:
+    """Refuse (exit 2) a forced ``--kernel`` that cannot run some launch group, before anything is written."""
+    from ..model import build_model
+    from ..solvers import choose_config
+
+    for index, group in enumerate(plan.groups):
+        batch = next(b for b in plan.batches if b.group == index)
+        model = build_model([points.scene(int(batch.points[0]))], dev, features=group.features)
+        try:
+            choose_config(model, kernel, calibrate_now=False)
+        except ValueError as err:
+            fail(f"--kernel = {kernel!r}: {str(err).split(': ', 1)[-1]}")
 
 
 def _connect(workers, scheduler, stack: contextlib.ExitStack):
@@ -209,7 +236,7 @@ def _connect(workers, scheduler, stack: contextlib.ExitStack):
 
 
 def _run(definition, points, plan, out: Path, dev: str, *, resuming: bool, overwrite: bool, workers, scheduler,
-         requested_device, quiet: bool, timing: dict, as_json: bool) -> None:
+         requested_device, quiet: bool, timing: dict, as_json: bool, kernel: str = "auto") -> None:
     import numpy as np
     import zarr
 
@@ -238,7 +265,7 @@ def _run(definition, points, plan, out: Path, dev: str, *, resuming: bool, overw
         clock = time.perf_counter()
         pending = [b for b in plan.batches if b.index not in done]
         # workers may run elsewhere: give them the absolute store path
-        jobs = jobs_for(out.resolve(), plan, points, pending)
+        jobs = jobs_for(out.resolve(), plan, points, pending, kernel=kernel)
         timing["jobs"] = time.perf_counter() - clock
         clock = time.perf_counter()
         features = [g.features for g in plan.groups]

@@ -1,0 +1,77 @@
+"""Shared by the fused-kernel tests (test_tile.py, test_cpu_kernel.py, test_bench.py): small ensembles,
+the per-step kernel's state after some steps, and the cases that exercise each kernel layout.
+
+A plain module next to the tests (imported as ``fused_cases``, like ``reference`` and ``conftest``),
+so no test imports another test file.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ensemble.runner import Runner
+from ensemble.scene import scene_from_dict
+
+MOVED = 1e-3
+"""A grain has moved once its |u| or dt·|v| exceeds this fraction of the chain's largest."""
+
+
+def chains(n_chains: int, **sections) -> list:
+    """``n_chains`` scenes that differ in their impact speed."""
+    data = {k: dict(v) if isinstance(v, dict) else v for k, v in sections.items()}
+    data.setdefault("integrator", {}).setdefault("duration", 10.0)
+    data.setdefault("excitation", {}).setdefault("impact", 1e-2)
+    base = scene_from_dict(data)
+    return [base.with_overrides({"excitation.impact": base.excitation.impact * (1 + 0.3 * c)})
+            for c in range(n_chains)]
+
+
+def per_step(model, steps: int, status=None) -> np.ndarray:
+    """State (values, chains, grains) after ``steps`` steps of the per-step kernel."""
+    runner = Runner(model, kernel="step", use_graph=False)
+    if status is not None:
+        runner.current.status.assign(status)
+    runner.advance(steps)
+    return runner.current.x.numpy()
+
+
+def window_ranges(plan, grains: int) -> list[tuple[int, int]]:
+    """[first, last) grains each block of a chain writes back (one range for whole-chain plans)."""
+    if not plan.shape.windowed:
+        return [(0, grains)]
+    return [(b * plan.interior, min((b + 1) * plan.interior, grains)) for b in range(plan.blocks_per_chain)]
+
+
+def assert_every_window_moved(x: np.ndarray, ranges: list[tuple[int, int]], *, held_bottom: bool) -> None:
+    """In every chain of state ``x`` the last free grain of every window has really moved (the pulse,
+    not a round-off precursor, reached it), so each window, its ghost exchange and the bottom are compared."""
+    u, dv = np.abs(x[0]), np.abs(x[1])
+    for c in range(x.shape[1]):
+        for first, last in ranges:
+            g = last - 2 if held_bottom and last == x.shape[2] else last - 1
+            moved = max(u[c, g] / u[c].max(), dv[c, g] / dv[c].max())
+            assert moved > MOVED, f"chain {c}: grain {g} (window {first}…{last - 1}) has not moved ({moved:.2g})"
+
+
+CASES = {
+    # name: (scene sections, chain count, plan keywords, steps); steps: until the pulse has reached the
+    # bottom of every chain (asserted by the tests), odd so the last fused launch is a partial one
+    "walls, padded lanes": (
+        dict(chain={"grains": 37, "l0": 1e-4}, integrator={"dt": 5e-4}), 2,
+        dict(grains_per_lane=4), 4501),
+    "free ends, 2 chains per block": (
+        dict(chain={"grains": 12}, boundary={"surface": "free", "bottom": "free"},
+             integrator={"dt": 5e-4}), 5,
+        dict(grains_per_lane=4, chains_per_block=2), 2501),
+    "windows, fixed bottom, impurities, gravity": (
+        dict(chain={"grains": 50, "gravity": 1.0, "l0": 1e-4}, boundary={"bottom": "fixed"},
+             impurities=[{"grains": [10, 11, 30], "mass": 0.5, "a": 3000.0}], integrator={"dt": 5e-4}), 2,
+        dict(grains_per_lane=4, lanes_per_chain=8, steps_per_launch=6, windowed=True), 2501),
+    "verlet, exponent 2, surface load": (
+        dict(chain={"grains": 20, "exponent": 2.0, "l0": 1e-4}, boundary={"surface": "load"},
+             integrator={"method": "verlet", "dt": 2e-4}), 2,
+        dict(grains_per_lane=8), 1501),
+    "gear6, full lanes": (
+        dict(chain={"grains": 16, "l0": 1e-4}, integrator={"method": "gear6", "dt": 5e-4}), 3,
+        dict(grains_per_lane=8), 2501),
+}
