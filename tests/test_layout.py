@@ -29,7 +29,7 @@ def test_repository_refers_to_nothing_outside_itself():
     pattern = re.compile(r"\.\./shared|/tmp/|/work/|/home/|/root/")
     offenders = []
     for name in files:
-        if not name.endswith((".py", ".md", ".toml", ".txt", ".yml", ".yaml")):
+        if not name.endswith((".py", ".md", ".toml", ".txt", ".yml", ".yaml")) or name == "tests/test_layout.py":
             continue
         if name.startswith(("docs/gpu_logs/", "docs/logs/")) and not name.endswith((".md", ".py")):
             continue  # raw logs keep the commands exactly as they were typed
