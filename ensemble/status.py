@@ -8,7 +8,13 @@ from kernels.features import STATUS_NON_FINITE, STATUS_OK, STATUS_OVERLAP_BEYOND
 
 
 class Status(IntEnum):
-    """Status of one chain after a run; ``OK = 0``."""
+    """Status of one chain after a run; ``OK = 0``.
+
+    Precedence: the record kernel sets NON_FINITE whatever the chain's code was (and the solvers then
+    freeze the chain); it sets OVERLAP_BEYOND_VALIDITY only on an OK chain; the runner sets
+    ENERGY_DRIFT at the end only on a chain still OK. The array lives in ``State.status``, shared by
+    both halves of a ping-pong pair.
+    """
 
     OK = STATUS_OK
     NON_FINITE = STATUS_NON_FINITE
