@@ -20,7 +20,6 @@ import numpy as np
 import zarr
 
 from .runner import RunResult
-from .status import status_attrs
 
 SCHEMA_VERSION = 1
 CHUNK_BYTES = 8 << 20
