@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import zarr
 
+from .chains import ChainSet
 from .runner import RunResult
 
 SCHEMA_VERSION = 1
@@ -83,7 +84,7 @@ def write_result(path: str | Path, result: RunResult, *, axes: dict[str, np.ndar
     data) is stored as the ``sweep`` attribute when given.
     """
     from .planner import single_batch_plan
-    from .sweep import Axis, Dimension, Sweep
+    from .sweep import RESERVED_NAMES, Axis, Dimension, Sweep
     from .sweep_store import create_sweep_store, finalize, write_batch
 
     path = Path(path)
@@ -91,11 +92,17 @@ def write_result(path: str | Path, result: RunResult, *, axes: dict[str, np.ndar
     shape = tuple(len(v) for v in axes.values())
     if int(np.prod(shape)) != result.chain_count:
         raise ValueError(f"axes {shape} do not match {result.chain_count} chains")
+    clash = sorted(set(axes) & RESERVED_NAMES)
+    if clash:
+        raise ValueError(f"axis names {clash} are store variable names; choose others")
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path} exists (pass --overwrite to replace it)")
     scenes = result.scenes
     scene = scenes[0]
-    differences = scene_differences(list(scenes)) if len(scenes) > 1 else {}
+    if isinstance(scenes, ChainSet):  # differences straight from the per-chain arrays
+        differences = {k: v.tolist() for k, v in scenes.values.items() if np.any(v != v[0])}
+    else:
+        differences = scene_differences(list(scenes)) if len(scenes) > 1 else {}
     dimensions = tuple(
         Dimension(axes=(Axis(name=name, key=_axis_key(name, values.tolist(), d, shape, differences),
                              values=tuple(values.tolist())),))
