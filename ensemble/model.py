@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from kernels.features import Features
+from kernels.features import GEAR_VALUES, Features
 
 from .chains import ChainSet, per_unique
 from .scene import Scene, SceneError
@@ -245,17 +245,26 @@ def chain_set_features(chains: ChainSet, static) -> Features:
 def _build_model_of(chains: ChainSet, device, features: Features | None) -> Model:
     """build_model for a ChainSet: every per-chain array from numpy over the set (bitwise equal to the
     per-scene path, checked by tests/test_vectorised.py)."""
+    from .startup import taylor_window
     from .static import static_arrays
 
     if len(chains) == 0:
         raise SceneError("scenes", [], "an ensemble needs at least one scene")
     scene = chains.template
-    st = static_arrays(chains)
+    # Homogeneous chains without gravity carry the same static force on every contact, so their
+    # static state (all a uniform or absent static overlap needs) and the Taylor start come from the
+    # first grains alone; impurities or gravity need every grain's.
+    window = None
+    if not scene.impurities and not np.any(chains.column("chain.gravity") > 0):
+        window = taylor_window(scene.chain.grains, GEAR_VALUES[scene.integrator.method] - 1)
+    st = static_arrays(chains, grains=window)
     f = chain_set_features(chains, st)
     if features is not None:
         if not covers(features, f):
             raise ValueError(f"kernel features {features} cannot run scenes that need {f}")
         f = features
+    if window is not None and (f.static == "profile" or f.heterogeneous):
+        st = static_arrays(chains)  # a wider variant was asked for: it reads every contact
     np_real = np.float64 if f.precision == "float64" else np.float32
     real = wp.float64 if f.precision == "float64" else wp.float32
     c_count, n = len(chains), scene.chain.grains
