@@ -128,16 +128,22 @@ class Model:
         from .startup import initial_nordsieck
 
         state = self.state()
+        np_real = np.float64 if self.features.precision == "float64" else np.float32
         if isinstance(self.scenes, ChainSet):
             from .startup import initial_nordsieck_of
 
-            x = initial_nordsieck_of(self.scenes, self.features.values, self.dt, self._static)
+            # only the first grains move at t = 0 (startup.taylor_window): fill those, zeros elsewhere
+            window = initial_nordsieck_of(self.scenes, self.features.values, self.dt, self._static, whole=False)
+            x = np.zeros((self.features.values, self.chain_count, self.grain_count), dtype=np_real)
+            x[:, :, :window.shape[2]] = window.astype(np_real)
+            state.x.assign(x)
+            return state
         else:
             x = np.zeros((self.features.values, self.chain_count, self.grain_count))
             for c, scene in enumerate(self.scenes):
                 # exact Taylor start: keeps each Gear method at its own order (see ensemble/startup.py)
                 x[:, c, :] = initial_nordsieck(scene, self.features.values, self.dt)
-        state.x.assign(x.astype(np.float64 if self.features.precision == "float64" else np.float32))
+        state.x.assign(x.astype(np_real))
         return state
 
 

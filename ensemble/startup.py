@@ -96,10 +96,11 @@ def taylor_window(grains: int, order: int) -> int:
     return min(grains, order + 2)
 
 
-def taylor_coefficients_of(chains, order: int, static=None) -> np.ndarray:
+def taylor_coefficients_of(chains, order: int, static=None, *, whole: bool = True) -> np.ndarray:
     """:func:`taylor_coefficients` of every chain of a ChainSet, shape (order + 1, chains, grains),
     vectorised over chains with the same arithmetic per element (same bits), computed on the
-    :func:`taylor_window` (zeros beyond, as the per-scene recursion gives them)."""
+    :func:`taylor_window` (zeros beyond, as the per-scene recursion gives them; ``whole=False``
+    returns only the window's grains)."""
     from .chains import per_unique
     from .static import static_arrays
 
@@ -158,14 +159,15 @@ def taylor_coefficients_of(chains, order: int, static=None) -> np.ndarray:
         if fixed and not cut:
             accel_k[:, -1] = 0.0
         u[k + 2] = accel_k / ((k + 1) * (k + 2))
-    if not cut:
+    if not cut or not whole:
         return u
-    whole = np.zeros((order + 1, count, n_total))
-    whole[:, :, :n_grains] = u
-    return whole
+    out = np.zeros((order + 1, count, n_total))
+    out[:, :, :n_grains] = u
+    return out
 
 
-def initial_nordsieck_of(chains, values: int, dt: float, static=None) -> np.ndarray:
-    """Scaled Nordsieck vectors of every chain at t = 0, shape (values, chains, grains)."""
-    coeffs = taylor_coefficients_of(chains, values - 1, static)
+def initial_nordsieck_of(chains, values: int, dt: float, static=None, *, whole: bool = True) -> np.ndarray:
+    """Scaled Nordsieck vectors of every chain at t = 0, shape (values, chains, grains) (``whole=False``:
+    only the first :func:`taylor_window` grains; the others are zero)."""
+    coeffs = taylor_coefficients_of(chains, values - 1, static, whole=whole)
     return coeffs * (dt ** np.arange(values))[:, None, None]

@@ -63,6 +63,31 @@ name = "method"
 key = "integrator.method"
 values = ["gear5", "gear4"]
 """,
+    # a driven surface in float32 with gravity: drive parameters per chain, a long chain (cut Taylor window)
+    "driven_float32": """
+[scene.chain]
+grains = 30
+gravity = 1.0
+[scene.boundary]
+surface = "driven"
+bottom = "fixed"
+[scene.excitation]
+drive_amplitude = 1e-3
+drive_period = 5.0
+[scene.integrator]
+method = "gear5"
+precision = "float32"
+dt = 1e-4
+duration = 0.01
+[[axis]]
+name = "amplitude"
+key = "excitation.drive_amplitude"
+values = [1e-3, 3e-4]
+[[axis]]
+name = "period"
+key = "excitation.drive_period"
+values = [5.0, 0.7, 2.0]
+""",
     # a zip of a structural and a per-chain key, exponents that differ per chain
     "zip_structural": """
 [scene.chain]
