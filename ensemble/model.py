@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from kernels.features import Features
+from kernels.features import GEAR_VALUES, Features
 
 from .chains import ChainSet, per_unique
 from .scene import Scene, SceneError
@@ -161,16 +161,22 @@ class Model:
         from .startup import initial_nordsieck
 
         state = self.state(like=like)
+        np_real = np.float64 if self.features.precision == "float64" else np.float32
         if isinstance(self.scenes, ChainSet):
             from .startup import initial_nordsieck_of
 
-            x = initial_nordsieck_of(self.scenes, self.features.values, self.dt, self._static)
+            # only the first grains move at t = 0 (startup.taylor_window): fill those, zeros elsewhere
+            window = initial_nordsieck_of(self.scenes, self.features.values, self.dt, self._static, whole=False)
+            x = np.zeros((self.features.values, self.chain_count, self.grain_count), dtype=np_real)
+            x[:, :, :window.shape[2]] = window.astype(np_real)
+            state.x.assign(x)
+            return state
         else:
             x = np.zeros((self.features.values, self.chain_count, self.grain_count))
             for c, scene in enumerate(self.scenes):
                 # exact Taylor start: keeps each Gear method at its own order (see ensemble/startup.py)
                 x[:, c, :] = initial_nordsieck(scene, self.features.values, self.dt)
-        state.x.assign(x.astype(np.float64 if self.features.precision == "float64" else np.float32))
+        state.x.assign(x.astype(np_real))
         return state
 
 
@@ -278,17 +284,26 @@ def chain_set_features(chains: ChainSet, static) -> Features:
 def _build_model_of(chains: ChainSet, device, features: Features | None) -> Model:
     """build_model for a ChainSet: every per-chain array from numpy over the set (bitwise equal to the
     per-scene path, checked by tests/test_vectorised.py)."""
+    from .startup import taylor_window
     from .static import static_arrays
 
     if len(chains) == 0:
         raise SceneError("scenes", [], "an ensemble needs at least one scene")
     scene = chains.template
-    st = static_arrays(chains)
+    # Homogeneous chains without gravity carry the same static force on every contact, so their
+    # static state (all a uniform or absent static overlap needs) and the Taylor start come from the
+    # first grains alone; impurities or gravity need every grain's.
+    window = None
+    if not scene.impurities and not np.any(chains.column("chain.gravity") > 0):
+        window = taylor_window(scene.chain.grains, GEAR_VALUES[scene.integrator.method] - 1)
+    st = static_arrays(chains, grains=window)
     f = chain_set_features(chains, st)
     if features is not None:
         if not covers(features, f):
             raise ValueError(f"kernel features {features} cannot run scenes that need {f}")
         f = features
+    if window is not None and (f.static == "profile" or f.heterogeneous):
+        st = static_arrays(chains)  # a wider variant was asked for: it reads every contact
     np_real = np.float64 if f.precision == "float64" else np.float32
     real = wp.float64 if f.precision == "float64" else wp.float32
     c_count, n = len(chains), scene.chain.grains

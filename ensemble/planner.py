@@ -2,7 +2,8 @@
 
 * A **launch group** is the set of points that share ``ensemble.model.SHARED_KEYS`` (grain
   count, boundaries, method, precision, dt, record layout): they can share one kernel launch.
-  Each group gets one kernel variant (``features_of`` over *all* its points), so a point's result
+  Each group gets one kernel variant (``features_of`` over *all* its points, computed from their
+  static configurations without a scene per point), so a point's result
   does not depend on which batch it lands in: batch size and worker count change the speed,
   never the bits.
 * A **batch** is one launch and one work unit: a hyper-rectangular *block* of the sweep grid,
@@ -17,13 +18,13 @@
 from __future__ import annotations
 
 import math
-from dataclasses import astuple, dataclass, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from kernels.features import Features
 
-from .model import SHARED_KEYS, STATIC_LEVELS, chain_set_features, features_of  # noqa: F401
+from .model import SHARED_KEYS, STATIC_LEVELS, chain_set_features
 from .scene import Scene, SceneError
 from .static import static_arrays
 from .sweep import CHUNK_ELEMENTS, Sweep, SweepPoints, expand, static_subgrid
@@ -273,15 +274,6 @@ def _widen(a: Features, b: Features) -> Features:
     if static == "uniform" and heterogeneous:
         static = "profile"
     return replace(a, static=static, heterogeneous=heterogeneous, hertz=a.hertz and b.hertz)
-
-
-def _distinct_statics(scenes: list[Scene]) -> list[Scene]:
-    """One scene per distinct set of keys that decide the kernel variant (features_of is then cheap)."""
-    seen = {}
-    for s in scenes:
-        key = (astuple(s.chain), s.boundary, bool(s.impurities))
-        seen.setdefault(key, s)
-    return list(seen.values())
 
 
 def format_bytes(count: float) -> str:

@@ -85,15 +85,30 @@ def _drive_coefficient(amplitude: float, period: float, k: int) -> float:
     return amplitude * omega**k * round(math.sin(k * math.pi / 2)) / math.factorial(k)
 
 
-def taylor_coefficients_of(chains, order: int, static=None) -> np.ndarray:
+def taylor_window(grains: int, order: int) -> int:
+    """Grains from the surface that can move in the Taylor start up to ``order``.
+
+    At t = 0 only the surface grain moves (an impact, or the drive); each order of the recursion
+    carries a nonzero derivative at most one contact further every two orders (u_{k+2} from the
+    overlaps of orders ≤ k). So u_k = 0 exactly beyond grain k/2: the coefficients of the first
+    ``order + 2`` grains, cut there as if the next grain stood still, are the whole chain's.
+    """
+    return min(grains, order + 2)
+
+
+def taylor_coefficients_of(chains, order: int, static=None, *, whole: bool = True) -> np.ndarray:
     """:func:`taylor_coefficients` of every chain of a ChainSet, shape (order + 1, chains, grains),
-    vectorised over chains with the same arithmetic per element (same bits)."""
+    vectorised over chains with the same arithmetic per element (same bits), computed on the
+    :func:`taylor_window` (zeros beyond, as the per-scene recursion gives them; ``whole=False``
+    returns only the window's grains)."""
     from .chains import per_unique
     from .static import static_arrays
 
-    st = static if static is not None else static_arrays(chains)
     scene = chains.template
-    count, n_grains = len(chains), scene.chain.grains
+    count, n_total = len(chains), scene.chain.grains
+    n_grains = taylor_window(n_total, order)
+    cut = n_grains < n_total
+    st = static if static is not None else static_arrays(chains, grains=n_grains)
     u = np.zeros((order + 1, count, n_grains))
     driven = scene.boundary.surface == "driven"
     fixed = scene.boundary.bottom == "fixed"
@@ -103,10 +118,10 @@ def taylor_coefficients_of(chains, order: int, static=None) -> np.ndarray:
             u[k, :, 0] = per_unique(lambda a, p, k=k: _drive_coefficient(a, p, k), amplitude, period)
     elif order >= 1:
         u[1, :, 0] = chains.column("excitation.impact")
-    a_c, delta0 = st.contact_constant, st.static_overlap
+    a_c, delta0 = st.contact_constant[:, :n_grains + 1], st.static_overlap[:, :n_grains + 1]
     loaded = (a_c > 0) & (delta0 > 0)
     any_loaded = bool(np.any(loaded))
-    inv_mass = 1.0 / st.mass
+    inv_mass = 1.0 / st.mass[:, :n_grains]
     exponents = np.unique(st.exponent).tolist()
     groups = [(slice(None), exponents[0])] if len(exponents) == 1 else [
         (st.exponent == n, n) for n in exponents]
@@ -124,7 +139,7 @@ def taylor_coefficients_of(chains, order: int, static=None) -> np.ndarray:
         # overlap series of every padded contact up to order k (rows 1…k rewritten each order)
         d[1:k + 1, :, 1:n_grains] = u[1:k + 1, :, :-1] - u[1:k + 1, :, 1:]
         d[1:k + 1, :, 0] = -u[1:k + 1, :, 0]
-        d[1:k + 1, :, n_grains] = u[1:k + 1, :, -1]
+        d[1:k + 1, :, n_grains] = u[1:k + 1, :, -1]  # the bottom wall, or the still grain past the cut
         force_k = np.zeros((count, n_grains + 1))
         if k >= 1 and any_loaded:
             for (rows, n), w in zip(groups, series):
@@ -141,13 +156,18 @@ def taylor_coefficients_of(chains, order: int, static=None) -> np.ndarray:
         accel_k = (force_k[:, :-1] - force_k[:, 1:]) * inv_mass
         if driven:
             accel_k[:, 0] = u[k + 2, :, 0] * (k + 1) * (k + 2)
-        if fixed:
+        if fixed and not cut:
             accel_k[:, -1] = 0.0
         u[k + 2] = accel_k / ((k + 1) * (k + 2))
-    return u
+    if not cut or not whole:
+        return u
+    out = np.zeros((order + 1, count, n_total))
+    out[:, :, :n_grains] = u
+    return out
 
 
-def initial_nordsieck_of(chains, values: int, dt: float, static=None) -> np.ndarray:
-    """Scaled Nordsieck vectors of every chain at t = 0, shape (values, chains, grains)."""
-    coeffs = taylor_coefficients_of(chains, values - 1, static)
+def initial_nordsieck_of(chains, values: int, dt: float, static=None, *, whole: bool = True) -> np.ndarray:
+    """Scaled Nordsieck vectors of every chain at t = 0, shape (values, chains, grains) (``whole=False``:
+    only the first :func:`taylor_window` grains; the others are zero)."""
+    coeffs = taylor_coefficients_of(chains, values - 1, static, whole=whole)
     return coeffs * (dt ** np.arange(values))[:, None, None]

@@ -95,7 +95,8 @@ def static_state(scene: Scene) -> StaticState:
 class StaticArrays:
     """Static equilibrium of a :class:`~ensemble.chains.ChainSet`, one row per chain, float64.
 
-    Row ``c`` equals, bit for bit, :func:`static_state` of the set's scene ``c``.
+    Row ``c`` equals, bit for bit, :func:`static_state` of the set's scene ``c`` (its leading
+    columns when computed for the first grains only).
     """
 
     mass: np.ndarray
@@ -133,17 +134,25 @@ def _power_by_exponent(base: np.ndarray, exponent: np.ndarray, power) -> np.ndar
     return out
 
 
-def static_arrays(chains) -> StaticArrays:
-    """:func:`static_state` of every chain of a ChainSet, vectorised over chains (same bits)."""
+def static_arrays(chains, *, grains: int | None = None) -> StaticArrays:
+    """:func:`static_state` of every chain of a ChainSet, vectorised over chains (same bits).
+
+    ``grains`` < N computes only the first ``grains`` grains and contacts 0 … ``grains`` (the last one
+    an inner contact, its constant from grains ``grains``−1 and ``grains``): the arrays are then the
+    leading columns of the full ones, bit for bit (a prefix of the cumulative mass is the same sum).
+    """
     from .chains import per_unique
 
     scene = chains.template
-    count, n_grains = len(chains), scene.chain.grains
+    count, n_total = len(chains), scene.chain.grains
+    window = n_total if grains is None or grains >= n_total else int(grains)
+    cut = window < n_total
+    n_grains = window + 1 if cut else n_total  # one grain past the window gives the last contact's constant
     mass = np.repeat(chains.column("chain.mass")[:, None], n_grains, axis=1)
     self_a = np.repeat(chains.column("chain.a")[:, None], n_grains, axis=1)
     own = np.zeros(n_grains, dtype=bool)
     for k, imp in enumerate(scene.impurities):
-        idx = np.asarray(imp.grains)
+        idx = np.asarray([g for g in imp.grains if g < n_grains], dtype=np.int64)
         imp_mass = chains.column(f"impurities.{k}.mass")
         if imp_mass is not None:
             mass[:, idx] = imp_mass[:, None]
@@ -162,15 +171,17 @@ def static_arrays(chains) -> StaticArrays:
     a_c[:, 1:n_grains] = inner
     if scene.boundary.surface == "wall":
         a_c[:, 0] = self_a[:, 0]
-    if scene.boundary.bottom == "wall":
+    if scene.boundary.bottom == "wall" and not cut:
         a_c[:, n_grains] = self_a[:, -1]
+    if cut:
+        mass, self_a, a_c = mass[:, :window], self_a[:, :window], a_c[:, :window + 1]
 
     exponent = chains.column("chain.exponent")
     load = chains.column("chain.load")
     f0 = per_unique(_surface_force, load if load is not None else np.full(count, np.nan),
                     chains.column("chain.l0"), exponent, chains.column("chain.a"))
     g = chains.column("chain.gravity")
-    carried = np.zeros((count, n_grains + 1))
+    carried = np.zeros((count, window + 1))
     carried[:, 1:] = f0[:, None] + g[:, None] * np.cumsum(mass, axis=1)
     carried[:, 0] = f0
     carried[a_c == 0.0] = 0.0

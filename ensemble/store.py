@@ -1,30 +1,27 @@
 """Zarr v3 stores (SPEC §6), readable by ``xarray.open_zarr``.
 
-A run is a sweep with no axes: variables carry the sweep axes first (none for a run), then
-``record``/``grain`` or ``sample``/``traced``. Each variable has ``dimension_names`` and the
-group has consolidated metadata. Stores are written into a temporary directory and renamed
-into place, so a failed write leaves nothing behind and never clobbers an existing store.
+One writer (``ensemble.sweep_store``): a run is a sweep with no axes. Variables carry the sweep
+axes first (none for a run), then ``record``/``grain`` or ``sample``/``traced``. Each variable
+has ``dimension_names`` and the group has consolidated metadata. :func:`write_result` writes
+into a temporary directory and renames it into place, so a failed write leaves nothing behind
+and never clobbers an existing store. :func:`summary_columns` reads the per-point variables.
 """
 
 from __future__ import annotations
 
 import json
-import platform
 import shutil
 import tempfile
-from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import zarr
 
+from .chains import ChainSet
 from .runner import RunResult
-from .status import status_attrs
 
 SCHEMA_VERSION = 1
-CHUNK_BYTES = 8 << 20
-"""Target chunk size: about 8 MiB."""
 
 
 def consolidate(path: str | Path) -> None:
@@ -43,32 +40,6 @@ def package_version() -> str:
         return version("hertzian")
     except PackageNotFoundError:
         return "0+unknown"
-
-
-def provenance(result: RunResult) -> dict[str, Any]:
-    """What produced a result: versions, device, scheme, cost and error."""
-    import warp as wp
-
-    scene = result.scenes[0]
-    return {
-        "package": "hertzian",
-        "package_version": package_version(),
-        "warp_version": wp.config.version,
-        "python_version": platform.python_version(),
-        "device": result.device,
-        "precision": scene.integrator.precision,
-        "method": scene.integrator.method,
-        "dt": scene.integrator.dt,
-        "steps": result.steps,
-        "chains": result.chain_count,
-        "grains": result.grain_count,
-        "wall_seconds": result.wall_seconds,
-        "grain_steps_per_second": result.grain_steps_per_second,
-        "energy_error_max": float(np.max(result.energy_error)) if result.energy_error.size else 0.0,
-        "kernel_features": {k: getattr(result.features, k) for k in result.features.__dataclass_fields__},
-        "kernel": getattr(result, "kernel", "step"),
-        "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-    }
 
 
 def _flat_scene(scene) -> dict[str, Any]:
@@ -113,7 +84,7 @@ def write_result(path: str | Path, result: RunResult, *, axes: dict[str, np.ndar
     data) is stored as the ``sweep`` attribute when given.
     """
     from .planner import single_batch_plan
-    from .sweep import Axis, Dimension, Sweep
+    from .sweep import RESERVED_NAMES, Axis, Dimension, Sweep
     from .sweep_store import create_sweep_store, finalize, write_batch
 
     path = Path(path)
@@ -121,11 +92,17 @@ def write_result(path: str | Path, result: RunResult, *, axes: dict[str, np.ndar
     shape = tuple(len(v) for v in axes.values())
     if int(np.prod(shape)) != result.chain_count:
         raise ValueError(f"axes {shape} do not match {result.chain_count} chains")
+    clash = sorted(set(axes) & RESERVED_NAMES)
+    if clash:
+        raise ValueError(f"axis names {clash} are store variable names; choose others")
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path} exists (pass --overwrite to replace it)")
     scenes = result.scenes
     scene = scenes[0]
-    differences = scene_differences(list(scenes)) if len(scenes) > 1 else {}
+    if isinstance(scenes, ChainSet):  # differences straight from the per-chain arrays
+        differences = {k: v.tolist() for k, v in scenes.values.items() if np.any(v != v[0])}
+    else:
+        differences = scene_differences(list(scenes)) if len(scenes) > 1 else {}
     dimensions = tuple(
         Dimension(axes=(Axis(name=name, key=_axis_key(name, values.tolist(), d, shape, differences),
                              values=tuple(values.tolist())),))
@@ -185,7 +162,7 @@ def summary_columns(path: str | Path) -> dict[str, np.ndarray]:
     names = {int(k): v.split(":")[0] for k, v in codes.items()}
     columns["status"] = flat_status
     unique, inverse = np.unique(flat_status, return_inverse=True)
-    columns["status_name"] = np.array([names.get(c, "?") for c in unique.tolist()], dtype=object)[inverse.reshape(-1)]
+    columns["status_name"] = np.array([names.get(c, "?") for c in unique.tolist()] or ["?"])[inverse.reshape(-1)]
     members = set(group.array_keys())
     for name in ("energy_error", "max_overlap", "wall_seconds"):
         columns[name] = np.asarray(group[name][...], dtype=np.float64).reshape(-1)
@@ -194,17 +171,17 @@ def summary_columns(path: str | Path) -> dict[str, np.ndarray]:
                                                        dtype=np.float64).reshape(-1)
     else:
         columns["grain_steps_per_second"] = np.full(count, float(prov["grain_steps_per_second"]))
-    columns["device"] = np.full(count, prov["device"], dtype=object)
+    columns["device"] = np.full(count, str(prov["device"]))
     launch_groups = list(attrs.get("launch_groups", []))
+    # the scheme of every point from its launch group: plain numpy (numbers, fixed-width strings)
     if "launch_group" in members and launch_groups:
         point_group = np.asarray(group["launch_group"][...]).reshape(-1).astype(np.int64)
-        valid = (point_group >= 0) & (point_group < len(launch_groups))
-        for key in SUMMARY_SCHEME:
-            table = np.array([g[key] for g in launch_groups] + [prov[key]], dtype=object)
-            columns[key] = table[np.where(valid, point_group, len(launch_groups))]
+        point_group = np.where((point_group >= 0) & (point_group < len(launch_groups)), point_group,
+                               len(launch_groups))
     else:
-        for key in SUMMARY_SCHEME:
-            columns[key] = np.full(count, prov[key], dtype=object)
+        point_group = np.full(count, len(launch_groups), dtype=np.int64)
+    for key in SUMMARY_SCHEME:
+        columns[key] = np.array([g[key] for g in launch_groups] + [prov[key]])[point_group]
     return columns
 
 

@@ -7,8 +7,12 @@ of the first axis the group lists; the group's other axes become coordinates alo
 dimension (``ds.l0`` over ``v_imp``), so ``ds.u.sel(v_imp=…)`` selects on the first and
 ``ds.swap_dims(v_imp="l0")`` on another.
 
-Every point's scene is built (and so validated) before anything runs; bad input raises
-:class:`~ensemble.scene.SceneError` naming the key, the value and what is allowed.
+:func:`expand` turns a sweep into :class:`SweepPoints` without a scene per point: one
+template scene per combination of the *structural* dimensions, the per-chain scalars of the
+*parameter* dimensions as arrays (``ensemble.chains.ChainSet`` per batch). The grid is validated
+before anything runs, by its corners and value ranges (:func:`validate_grid`); bad input raises
+:class:`~ensemble.scene.SceneError` naming the key, the value, what is allowed and the point.
+:func:`sweep_scenes` still builds every point's scene (the reference path of the tests).
 """
 
 from __future__ import annotations
@@ -364,7 +368,8 @@ def trace_times(scene: Scene) -> np.ndarray | None:
 
 
 def sweep_scenes(sweep: Sweep) -> list[Scene]:
-    """Build and validate every point's scene; check that all points share the store layout."""
+    """Build and validate every point's scene; check that all points share the store layout (the
+    per-point reference path; ``expand`` does the same without a scene per point)."""
     scenes = sweep.scenes()
     first = scenes[0]
     for key, get in LAYOUT_KEYS:

@@ -1,9 +1,9 @@
 """Sweeps at scale on the CPU: a dry run of 10⁶ points, a real run of 10⁵ small chains.
 
-The per-point cost these guard against: building one Scene per point took ~0.36 ms
-(``Scene.with_overrides``), so 10⁶ points spent ~6 minutes before planning; the vectorised
-expansion plans them in about a second on 2 cores (docs/logs/sweep_scale_cpu.txt). The time
-bounds below are loose (a loaded CI machine) but far below what a per-point path costs.
+The per-point cost these guard against: building one Scene per point took ~0.3 ms of CPU
+(28.7 s for a 10⁵-point dry run), so 10⁶ points spent ~5 minutes before planning; the
+vectorised expansion plans them in under a second on 2 cores (docs/logs/sweep_scale_cpu.txt).
+The time bounds below are loose (a loaded CI machine) but far below what a per-point path costs.
 """
 
 import json
@@ -36,7 +36,7 @@ def test_dry_run_of_a_million_points_plans_in_seconds_and_writes_nothing(tmp_pat
     assert report["points"] == 10**6 and report["grain_steps"] == 10**6 * 100 * 10**4
     assert report["batches"] * report["batch_size"] >= 10**6
     seconds = report["seconds"]
-    # ≤ 5 s is the target on an idle 2-core CPU (measured ~1 s); 60 s still fails a per-point path (~360 s)
+    # ≤ 5 s is the target on this 2-core CPU (measured 0.4–0.7 s); 60 s still fails a per-point path (~300 s)
     assert seconds["load"] + seconds["expand"] + seconds["plan"] < 60 and elapsed < 90
     assert "points: 1000000 over v_imp (100) × l0 (100) × impurity_mass (100)" in result.stderr
     assert list(tmp_path.iterdir()) == []
