@@ -302,3 +302,18 @@ def test_check_takes_precision(tmp_path):
     assert shown.exit_code == 0 and "(gear4, float32)" in shown.stdout, shown.output
     assert_refused(invoke("check", scene, "--precision", "float16"), tmp_path / "none",
                    "integrator.precision = 'float16'")
+
+
+def test_sweep_kernel_option(tmp_path):
+    text = toml_text({"scene": BASE}) + '\n[[axis]]\nname = "v_imp"\nkey = "excitation.impact"\nvalues = [1e-2, 2e-2]\n'
+    path = tmp_path / "sweep.toml"
+    path.write_text(text)
+    out = tmp_path / "sweep.zarr"
+    assert_refused(invoke("sweep", path, "--out", out, "--device", "cpu", "--kernel", "sweep",
+                          "--set", "record.traces=[0]"), out, "--kernel = 'sweep': no drive and no traces")
+    done = invoke("sweep", path, "--out", out, "--device", "cpu", "--kernel", "sweep", "--quiet")
+    assert done.exit_code == 0, done.output
+    import xarray as xr
+
+    alone = run_scene(load_sweep(path).scene_at((1,)), "cpu")   # per-step kernel: the same bits
+    np.testing.assert_array_equal(xr.open_zarr(out).u.sel(v_imp=2e-2).values, alone.u[0])
