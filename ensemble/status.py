@@ -4,16 +4,16 @@ from __future__ import annotations
 
 from enum import IntEnum
 
-from kernels.features import STATUS_NON_FINITE, STATUS_OK, STATUS_OVERLAP_BEYOND_VALIDITY
+from kernels.features import STATUS_ENERGY_DRIFT, STATUS_NON_FINITE, STATUS_OK, STATUS_OVERLAP_BEYOND_VALIDITY
 
 
 class Status(IntEnum):
-    """Status of one chain after a run; ``OK = 0``."""
+    """Status of one chain after a run; ``OK = 0``. The values are kernels.features' STATUS_* codes."""
 
     OK = STATUS_OK
     NON_FINITE = STATUS_NON_FINITE
     OVERLAP_BEYOND_VALIDITY = STATUS_OVERLAP_BEYOND_VALIDITY
-    ENERGY_DRIFT = 3
+    ENERGY_DRIFT = STATUS_ENERGY_DRIFT
 
     @property
     def message(self) -> str:

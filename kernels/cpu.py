@@ -45,7 +45,8 @@ def sweep_kernel(features: Features):
     HETERO = f.heterogeneous
     HERTZ = f.hertz
     contact_force, excess_force = contact_functions(f.precision, f.hertz)
-    predicted_position, correct = nordsieck_functions(f.method, f.precision)
+    nordsieck = nordsieck_functions(f.method, f.precision)
+    predicted_position, correct = nordsieck.predicted_position, nordsieck.correct
 
     @wp.func
     def contact(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),

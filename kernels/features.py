@@ -14,10 +14,14 @@ GEAR_CORRECTOR = {
     "gear6": ((3, 20), (251, 360), (1, 1), (11, 18), (1, 6), (1, 60)),
 }
 
-# Per-chain status codes written by the record kernel (see ensemble.status for names).
+# Per-chain status codes, defined here only (kernels write them; ensemble.status.Status names them).
 STATUS_OK = 0
 STATUS_NON_FINITE = 1
+"""The state became NaN/inf (record kernel); the step kernels then freeze the chain."""
 STATUS_OVERLAP_BEYOND_VALIDITY = 2
+"""An overlap exceeded the Hertz law's validity (record kernel)."""
+STATUS_ENERGY_DRIFT = 3
+"""Energy error above the tolerance (set on the host after a run)."""
 
 
 @dataclass(frozen=True)

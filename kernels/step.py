@@ -30,7 +30,8 @@ def step_kernel(features: Features):
     TRACES = f.traces
     _, excess_force = contact_functions(f.precision, f.hertz)
     params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz)
-    predicted_position, correct = nordsieck_functions(f.method, f.precision)
+    nordsieck = nordsieck_functions(f.method, f.precision)
+    predicted_position, correct = nordsieck.predicted_position, nordsieck.correct
 
     @wp.func
     def contact(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),
