@@ -19,6 +19,7 @@ from typing import Any
 SURFACE_KINDS = ("wall", "load", "free", "driven")
 BOTTOM_KINDS = ("wall", "fixed", "free")
 METHODS = ("gear4", "gear5", "gear6", "verlet")
+EVENT_MODES = ("auto", "off")
 PRECISIONS = ("float64", "float32")
 CONTACT_RULES = ("harmonic", "own")
 FIELDS = ("u", "v")
@@ -111,6 +112,9 @@ class IntegratorSpec:
     """Time step [time]."""
     precision: str = "float64"
     """float64 | float32."""
+    events: str = "auto"
+    """auto: Gear steps near a contact opening/closing are event-aware (kernels/events.py) when some
+    contact can open; off: plain Gear steps everywhere (the results before event-aware steps)."""
 
 
 @dataclass(frozen=True)
@@ -437,6 +441,8 @@ def _validate(s: Scene) -> None:
                          + _did_you_mean(i.method, METHODS))
     if i.precision not in PRECISIONS:
         raise SceneError("integrator.precision", i.precision, "must be float64 or float32")
+    if i.events not in EVENT_MODES:
+        raise SceneError("integrator.events", i.events, f"must be one of {', '.join(EVENT_MODES)}")
     if r.every is not None:
         _positive("record.every", r.every)
         if r.every > i.duration * (1 + 1e-12):

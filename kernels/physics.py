@@ -172,3 +172,28 @@ def excess_potential(delta0: wp.float64, d: wp.float64, a_c: wp.float64, n: wp.f
             total = total + term
         return scale * total
     return scale * (wp.pow(wp.float64(1.0) + r, n) - wp.float64(1.0) - n * r)
+
+
+@functools.cache
+def contact_derivatives(precision: str, hertz: bool):
+    """``derivatives(delta, a_c, n) -> vec2(F'(δ), F''(δ))`` of F = n·a·max(δ,0)^(n−1); 0 for δ ≤ 0.
+
+    Used by event-aware steps (kernels/events.py) to restart a grain's Nordsieck vector from its
+    exact derivatives: ȧ = Σ ±F'·δ̇/m, ä = Σ ±(F''·δ̇² + F'·δ̈)/m. F'' is singular at δ → 0⁺ for
+    Hertz (n − 3 < 0); the restart only happens away from δ = 0 (see kernels/events.py).
+    """
+    real = wp.float64 if precision == "float64" else wp.float32
+    vec2 = wp.types.vector(2, real)
+
+    @wp.func
+    def derivatives(delta: real, a_c: real, n: real) -> vec2:
+        if delta <= real(0):
+            return vec2(real(0), real(0))
+        if wp.static(hertz):
+            root = wp.sqrt(delta)
+            return vec2(real(15) / real(4) * a_c * root, real(15) / real(8) * a_c / root)
+        else:
+            first = n * (n - real(1)) * a_c * wp.pow(delta, n - real(2))
+            return vec2(first, first * (n - real(2)) / delta)
+
+    return derivatives

@@ -40,7 +40,7 @@ from .physics import contact_forces, contact_functions, contact_parameters
 
 def fusable(features: Features) -> bool:
     """True when the fused kernels implement every feature of this set (no drive, no traces)."""
-    return features.surface != "driven" and not features.traces
+    return features.surface != "driven" and not features.traces and features.event_window == 0
 
 
 @dataclass(frozen=True)
