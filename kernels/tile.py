@@ -34,13 +34,14 @@ from typing import Any
 import warp as wp
 
 from .features import STATUS_NON_FINITE, Features
+from .events import event_functions
 from .gear import nordsieck_functions
 from .physics import contact_forces, contact_functions, contact_parameters
 
 
 def fusable(features: Features) -> bool:
     """True when the fused kernels implement every feature of this set (no drive, no traces)."""
-    return features.surface != "driven" and not features.traces and features.event_window == 0
+    return features.surface != "driven" and not features.traces
 
 
 @dataclass(frozen=True)
@@ -102,7 +103,13 @@ def tile_kernel(features: Features, shape: TileShape):
     state_t = wp.types.matrix(shape=(Q, G), dtype=real)
     grain_vec = wp.types.vector(length=G, dtype=real)
     contact_vec = wp.types.vector(length=G + 1, dtype=real)
-    edge_t = wp.types.vector(length=2, dtype=real)
+    EVENTS = f.event_window > 0
+    edge_t = wp.types.vector(length=2 + 2 * Q if EVENTS else 2, dtype=real)
+    vec3 = wp.types.vector(3, real)
+    if EVENTS:
+        near_event, event_step = event_functions(f)
+    else:
+        near_event = event_step = None
     value_vec = nordsieck.values
 
     @wp.func
@@ -115,19 +122,38 @@ def tile_kernel(features: Features, shape: TileShape):
     @wp.func
     def advance(s: state_t, edges: Any, lane: int, has_left: bool, has_right: bool,
                 delta0: contact_vec, a_c: contact_vec, force0: contact_vec, n: real,
-                inv_m: grain_vec, hh: real, contact_bits: int, move_bits: int) -> state_t:
+                inv_m: grain_vec, hh: real, contact_bits: int, move_bits: int, h: real) -> state_t:
         # 1. predict
         up = grain_vec()
         for k in range(G):
             up[k] = nordsieck.predict_position(column(s, k))
         # 2. exchange the lane's edge positions with its neighbours (virtual grains outside sit at 0)
-        wp.tile_assign(edges, wp.tile(edge_t(up[0], up[G - 1]), preserve_type=True))
+        if wp.static(EVENTS):
+            # events also need the neighbour lanes' edge grains' Nordsieck vectors
+            edge = edge_t()
+            edge[0] = up[0]
+            edge[1] = up[G - 1]
+            for q in range(Q):
+                edge[2 + q] = s[q, 0]
+                edge[2 + Q + q] = s[q, G - 1]
+            wp.tile_assign(edges, wp.tile(edge, preserve_type=True))
+        else:
+            wp.tile_assign(edges, wp.tile(edge_t(up[0], up[G - 1]), preserve_type=True))
         u_left = real(0)
         u_right = real(0)
         if has_left:
             u_left = wp.tile_extract(edges, lane - 1, 1)
         if has_right:
             u_right = wp.tile_extract(edges, lane + 1, 0)
+        if wp.static(EVENTS):
+            left_values = value_vec()
+            right_values = value_vec()
+            if has_left:
+                for q in range(Q):
+                    left_values[q] = wp.tile_extract(edges, lane - 1, 2 + Q + q)
+            if has_right:
+                for q in range(Q):
+                    right_values[q] = wp.tile_extract(edges, lane + 1, 2 + q)
         # 3. every contact of the lane once (the two edge contacts also in the neighbour lane)
         delta = contact_vec()
         delta[0] = delta0[0] + (u_left - up[0])
@@ -153,6 +179,40 @@ def tile_kernel(features: Features, shape: TileShape):
             else:
                 for q in range(Q):
                     out[q, k] = new[q]
+        if wp.static(EVENTS):
+            # grains touching a contact near an opening or closing: kernels/step.py's event test and step
+            for k in range(G):
+                own = column(s, k)
+                above = left_values
+                u_above = u_left
+                if k > 0:
+                    above = column(s, wp.max(k - 1, 0))
+                    u_above = up[wp.max(k - 1, 0)]
+                below = right_values
+                u_below = u_right
+                if k < G - 1:
+                    below = column(s, wp.min(k + 1, G - 1))
+                    u_below = up[wp.min(k + 1, G - 1)]
+                has_above = (contact_bits & (1 << k)) != 0
+                has_below = (contact_bits & (1 << (k + 1))) != 0
+                p_above = vec3(delta0[k], a_c[k], n)
+                p_below = vec3(delta0[k + 1], a_c[k + 1], n)
+                flagged = False
+                if has_above:
+                    flagged = near_event(p_above[0] + (above[0] - own[0]), p_above[0] + (u_above - up[k]),
+                                         above[1] - own[1], h)
+                if has_below:
+                    flagged = flagged or near_event(p_below[0] + (own[0] - below[0]), p_below[0] + (up[k] - u_below),
+                                                    own[1] - below[1], h)
+                if flagged:
+                    new = event_step(own, above, below, has_above, has_below, p_above, p_below, inv_m[k], h)
+                    if wp.static(FIXED):
+                        moving = (move_bits & (1 << k)) != 0
+                        for q in range(Q):
+                            out[q, k] = wp.where(moving, new[q], s[q, k])
+                    else:
+                        for q in range(Q):
+                            out[q, k] = new[q]
         return out
 
     @wp.kernel(module="unique", enable_backward=False, grid_stride=False,
@@ -256,12 +316,12 @@ def tile_kernel(features: Features, shape: TileShape):
         edges_odd = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
         for _pair in range(steps / 2):
             s = advance(s, edges_even, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                        contact_bits, move_bits)
+                        contact_bits, move_bits, h)
             s = advance(s, edges_odd, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                        contact_bits, move_bits)
+                        contact_bits, move_bits, h)
         if steps % 2 == 1:
             s = advance(s, edges_even, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                        contact_bits, move_bits)
+                        contact_bits, move_bits, h)
 
         # write back the interior; a frozen (non-finite) chain keeps its state
         frozen = status[cc] == wp.static(STATUS_NON_FINITE)
