@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from kernels.features import GEAR_VALUES, Features
+from kernels.features import EVENT_WINDOW, GEAR_VALUES, Features
 
 from .chains import ChainSet, per_unique
 from .scene import Scene, SceneError
@@ -28,6 +28,7 @@ SHARED_KEYS = (
     ("integrator.method", lambda s: s.integrator.method),
     ("integrator.precision", lambda s: s.integrator.precision),
     ("integrator.dt", lambda s: s.integrator.dt),
+    ("integrator.events", lambda s: s.integrator.events),
     ("steps per record", lambda s: s.steps_per_record),
     ("record count", lambda s: s.record_count),
     ("record steps", lambda s: s.record_steps.tobytes()),
@@ -62,7 +63,31 @@ def features_of(scenes: list[Scene], statics: list[StaticState] | None = None) -
         heterogeneous=heterogeneous,
         hertz=all(s.chain.exponent == 2.5 for s in scenes),
         traces=bool(first.record.traces),
+        event_window=EVENT_WINDOW if first.integrator.events == "auto" and first.integrator.method != "verlet"
+        and any(contact_can_open(s, st) for s, st in zip(scenes, statics)) else 0.0,
     )
+
+
+def contact_can_open(scene: Scene, static: StaticState) -> bool:
+    """Whether some contact of the scene may open (or close) during the run, by an energy bound.
+
+    Opening contact k from its static overlap δ0 > 0 stores at least the excess potential
+    V(0) − V(δ0) + V'(δ0)·δ0 = (n − 1)·a_c·δ0^n in it; every contact's excess potential is ≥ 0 and
+    their sum is at most the injected energy (energy is conserved), so if that exceeds the injected
+    energy for every contact, none can open. A drive (energy not bounded) or a contact without static
+    overlap may always open.
+    """
+    if scene.boundary.surface == "driven":
+        return True
+    present = static.contact_constant > 0
+    if not np.any(present):
+        return False
+    delta0 = static.static_overlap[present]
+    a_c = static.contact_constant[present]
+    n = static.exponent
+    if np.any(delta0 <= 0):
+        return True
+    return bool(np.any((n - 1) * a_c * delta0**n <= scene.injected_energy))
 
 
 @dataclass(frozen=True)
@@ -185,8 +210,8 @@ STATIC_LEVELS = ("none", "uniform", "profile")
 
 def covers(wider: Features, needed: Features) -> bool:
     """Whether a kernel variant ``wider`` can run scenes that need ``needed``."""
-    return (wider.method, wider.precision, wider.surface, wider.bottom, wider.traces) == (
-        needed.method, needed.precision, needed.surface, needed.bottom, needed.traces) and (
+    return (wider.method, wider.precision, wider.surface, wider.bottom, wider.traces, wider.event_window) == (
+        needed.method, needed.precision, needed.surface, needed.bottom, needed.traces, needed.event_window) and (
         STATIC_LEVELS.index(wider.static) >= STATIC_LEVELS.index(needed.static)
         and wider.heterogeneous >= needed.heterogeneous and (needed.hertz or not wider.hertz))
 
@@ -278,7 +303,22 @@ def chain_set_features(chains: ChainSet, static) -> Features:
         heterogeneous=heterogeneous,
         hertz=bool(np.all(chains.column("chain.exponent") == 2.5)),
         traces=bool(first.record.traces),
+        event_window=EVENT_WINDOW if first.integrator.events == "auto" and first.integrator.method != "verlet"
+        and chain_set_can_open(chains, static) else 0.0,
     )
+
+
+def chain_set_can_open(chains: ChainSet, static) -> bool:
+    """:func:`contact_can_open` for any chain of a ChainSet, vectorised over its static arrays."""
+    if chains.template.boundary.surface == "driven":
+        return True
+    present = static.contact_constant > 0
+    impact = chains.column("excitation.impact")
+    impact = np.zeros(len(chains)) if impact is None else impact
+    injected = 0.5 * static.mass[:, 0] * impact**2
+    delta0 = np.where(present, static.static_overlap, 1.0)
+    bound = (static.exponent[:, None] - 1) * static.contact_constant * delta0 ** static.exponent[:, None]
+    return bool(np.any(present & ((static.static_overlap <= 0) | (bound <= injected[:, None]))))
 
 
 def _build_model_of(chains: ChainSet, device, features: Features | None) -> Model:

@@ -273,7 +273,8 @@ def _widen(a: Features, b: Features) -> Features:
     heterogeneous = a.heterogeneous or b.heterogeneous
     if static == "uniform" and heterogeneous:
         static = "profile"
-    return replace(a, static=static, heterogeneous=heterogeneous, hertz=a.hertz and b.hertz)
+    return replace(a, static=static, heterogeneous=heterogeneous, hertz=a.hertz and b.hertz,
+                   event_window=max(a.event_window, b.event_window))
 
 
 def format_bytes(count: float) -> str:

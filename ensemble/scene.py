@@ -22,6 +22,7 @@ import numpy as np
 SURFACE_KINDS = ("wall", "load", "free", "driven")
 BOTTOM_KINDS = ("wall", "fixed", "free")
 METHODS = ("gear4", "gear5", "gear6", "verlet")
+EVENT_MODES = ("auto", "off")
 PRECISIONS = ("float64", "float32")
 CONTACT_RULES = ("harmonic", "own")
 FIELDS = ("u", "v")
@@ -124,6 +125,9 @@ class IntegratorSpec:
     """Time step [time]."""
     precision: str = "float64"
     """float64 | float32."""
+    events: str = "auto"
+    """auto: Gear steps near a contact opening/closing are event-aware (kernels/events.py) when some
+    contact can open; off: plain Gear steps everywhere (the results before event-aware steps)."""
 
 
 @dataclass(frozen=True)
@@ -496,6 +500,8 @@ def _validate(s: Scene) -> None:
         raise SceneError("integrator.duration", i.duration,
                          f"needs {steps:.3g} steps of integrator.dt = {i.dt:g}; the step counter holds at most "
                          f"{MAX_STEPS} (int32): shorten the run or raise dt")
+    if i.events not in EVENT_MODES:
+        raise SceneError("integrator.events", i.events, f"must be one of {', '.join(EVENT_MODES)}")
     if r.every is not None:
         _positive("record.every", r.every)
         if r.every > i.duration * (1 + 1e-12):

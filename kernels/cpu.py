@@ -20,8 +20,9 @@ import functools
 import warp as wp
 
 from .features import STATUS_NON_FINITE, Features
+from .events import event_functions
 from .gear import nordsieck_functions
-from .physics import contact_functions
+from .physics import contact_functions, contact_parameters
 
 
 def sweepable(features: Features) -> bool:
@@ -45,7 +46,15 @@ def sweep_kernel(features: Features):
     HETERO = f.heterogeneous
     HERTZ = f.hertz
     contact_force, excess_force = contact_functions(f.precision, f.hertz)
-    predicted_position, correct = nordsieck_functions(f.method, f.precision)
+    nordsieck = nordsieck_functions(f.method, f.precision)
+    predicted_position, correct = nordsieck.predicted_position, nordsieck.correct
+    EVENTS = f.event_window > 0
+    values_t = nordsieck.values
+    params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz)
+    if EVENTS:
+        near_event, event_step = event_functions(f)
+    else:
+        near_event = event_step = None
 
     @wp.func
     def contact(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),
@@ -101,6 +110,9 @@ def sweep_kernel(features: Features):
 
         for _step in range(steps):
             u_here = predicted_position(x_out, c, 0)
+            if wp.static(EVENTS):
+                u_above = real(0)         # predicted position of the grain above (0: the wall)
+                above_old = values_t()    # its Nordsieck vector at t_n (already overwritten in x_out)
             force_above = real(0)  # excess force of the contact above the current grain
             if wp.static(SURFACE_WALL):
                 force_above = contact(static_overlap, contact_constant, c, 0, -u_here, a_c0, delta00, force00, n)
@@ -118,13 +130,43 @@ def sweep_kernel(features: Features):
                 held = False
                 if wp.static(FIXED):
                     held = i == last
+                if wp.static(EVENTS):
+                    own_old = nordsieck.load(x_out, c, i)
                 if not held:
                     m_inv = inv_m
                     if wp.static(HETERO):
                         m_inv = inverse_mass[c, i]
                     half_h2_acc = real(0.5) * h * h * (force_above - force_below) * m_inv
-                    correct(x_out, x_out, c, i, u_here, half_h2_acc)
+                    if wp.static(EVENTS):
+                        # kernels/step.py's event test and event step, on the same data
+                        below = values_t()
+                        has_below = wp.static(BOTTOM_WALL)
+                        if i < last:
+                            below = nordsieck.load(x_out, c, i + 1)
+                            has_below = True
+                        has_above = wp.static(SURFACE_WALL)
+                        if i > 0:
+                            has_above = True
+                        p_above = params(static_overlap, contact_constant, exponent, c, i)
+                        p_below = params(static_overlap, contact_constant, exponent, c, i + 1)
+                        flagged = False
+                        if has_above:
+                            flagged = near_event(p_above[0] + (above_old[0] - own_old[0]),
+                                                 p_above[0] + (u_above - u_here), above_old[1] - own_old[1], h)
+                        if has_below:
+                            flagged = flagged or near_event(p_below[0] + (own_old[0] - below[0]),
+                                                            p_below[0] + (u_here - u_next), own_old[1] - below[1], h)
+                        if flagged:
+                            nordsieck.store(x_out, c, i, event_step(own_old, above_old, below, has_above, has_below,
+                                                                    p_above, p_below, m_inv, h))
+                        else:
+                            correct(x_out, x_out, c, i, u_here, half_h2_acc)
+                    else:
+                        correct(x_out, x_out, c, i, u_here, half_h2_acc)
                 force_above = force_below
+                if wp.static(EVENTS):
+                    u_above = u_here
+                    above_old = own_old
                 u_here = u_next
 
     return sweep

@@ -14,10 +14,18 @@ GEAR_CORRECTOR = {
     "gear6": ((3, 20), (251, 360), (1, 1), (11, 18), (1, 6), (1, 60)),
 }
 
-# Per-chain status codes written by the record kernel (see ensemble.status for names).
+EVENT_WINDOW = 1e-2
+"""Default event window [time] (kernels/events.py): a fixed time, so that the treatment keeps the
+method's order as dt shrinks; about 1/20 of a contact time at v_imp = 1e-2 (program units)."""
+
+# Per-chain status codes, defined here only (kernels write them; ensemble.status.Status names them).
 STATUS_OK = 0
 STATUS_NON_FINITE = 1
+"""The state became NaN/inf (record kernel); the step kernels then freeze the chain."""
 STATUS_OVERLAP_BEYOND_VALIDITY = 2
+"""An overlap exceeded the Hertz law's validity (record kernel)."""
+STATUS_ENERGY_DRIFT = 3
+"""Energy error above the tolerance (set on the host after a run)."""
 
 
 @dataclass(frozen=True)
@@ -38,6 +46,9 @@ class Features:
     hertz: bool = True
     """Exponent 5/2 (sqrt, no pow); else a per-chain exponent."""
     traces: bool = False
+    event_window: float = 0.0
+    """Event-aware Gear steps (kernels/events.py): a contact within this time [time] of opening or
+    closing is stepped without the kink; 0: off (no event code is generated)."""
 
     @property
     def values(self) -> int:

@@ -1,92 +1,130 @@
-"""Nordsieck predictor and corrector as ``@wp.func`` (SPEC §4), shared by the per-step and CPU kernels.
+"""Nordsieck predictor and corrector as ``@wp.func`` (SPEC §4), written once for every kernel.
 
 The state of a grain is its scaled Nordsieck vector x0 = u, x1 = dt·v, x2 = dt²/2·a, x3 = dt³/6·ȧ, …
 (Verlet keeps x0, x1, x2 the same way). Prediction is the Pascal-triangle matrix; the corrector
 adds C_k·(dt²/2·a(u_pred) − x2_pred) with Allen & Tildesley's coefficients, written as exact
 fractions so float64 kernels see correctly rounded constants.
+
+The functions work on one grain's values as a vector (``wp.types.vector(Q, real)``): the per-step
+and CPU kernels load it from the state array, the fused kernel from its registers. Every kernel
+therefore performs the same operations in the same order, which is what keeps them bitwise equal.
 """
 
 import functools
+from typing import NamedTuple
 
 import warp as wp
 
 from .features import GEAR_CORRECTOR, GEAR_VALUES
 
 
-@functools.cache
-def nordsieck_functions(method: str, precision: str):
-    """``(predicted_position, correct)`` for one method and precision (cached).
+class Nordsieck(NamedTuple):
+    """The ``@wp.func``s of one method and precision (see :func:`nordsieck_functions`)."""
 
-    ``predicted_position(x, c, j)`` → u of grain j of chain c at t + dt (x has shape (values, chains, grains)).
-    ``correct(x_src, x_dst, c, i, u_pred, half_h2_acc)`` writes grain i's corrected vector to ``x_dst``
-    (``x_src`` may be the same array: grain i's old values are read before any is written) and
-    returns (x0, x1) = (u, dt·v).
-    """
+    values: type
+    """``wp.types.vector(Q, real)``: one grain's Nordsieck vector."""
+    predict_position: object
+    """``predict_position(v) -> real``: u at t + dt."""
+    corrected: object
+    """``corrected(v, u_pred, half_h2_acc) -> values``: the vector at t + dt (``u_pred`` from predict_position)."""
+    load: object
+    """``load(x, c, i) -> values``: grain i of chain c from a state array of shape (values, chains, grains)."""
+    store: object
+    """``store(x, c, i, v)``."""
+    predicted_position: object
+    """``predicted_position(x, c, j) -> real``: predict_position(load(x, c, j))."""
+    correct: object
+    """``correct(x_src, x_dst, c, i, u_pred, half_h2_acc) -> vec2(u, dt·v)``: corrects grain i into x_dst
+    (``x_src`` may be ``x_dst``: the old values are read before any is written)."""
+
+
+@functools.cache
+def nordsieck_functions(method: str, precision: str) -> Nordsieck:
+    """The predictor and corrector of one method and precision (cached)."""
     real = wp.float64 if precision == "float64" else wp.float32
     vec2 = wp.types.vector(2, real)
     Q = GEAR_VALUES[method]
+    values_t = wp.types.vector(Q, real)
     GEAR = method != "verlet"
     C = GEAR_CORRECTOR.get(method, ((0, 1),) * 6)
     C = C + ((0, 1),) * (6 - len(C))
 
     @wp.func
-    def predicted_position(x: wp.array3d(dtype=real), c: int, j: int) -> real:
-        p = x[0, c, j] + x[1, c, j] + x[2, c, j]
+    def predict_position(v: values_t) -> real:
+        p = v[0] + v[1] + v[2]
         if wp.static(Q >= 4):
-            p += x[3, c, j]
+            p += v[3]
         if wp.static(Q >= 5):
-            p += x[4, c, j]
+            p += v[4]
         if wp.static(Q >= 6):
-            p += x[5, c, j]
+            p += v[5]
         return p
 
     @wp.func
-    def correct(x_src: wp.array3d(dtype=real), x_dst: wp.array3d(dtype=real), c: int, i: int,
-                u_pred: real, half_h2_acc: real) -> vec2:
-        x0 = real(0)
-        x1 = real(0)
+    def corrected(v: values_t, u_pred: real, half_h2_acc: real) -> values_t:
+        new = values_t()
         if wp.static(GEAR):
-            p1 = x_src[1, c, i] + real(2) * x_src[2, c, i]
-            p2 = x_src[2, c, i]
+            p1 = v[1] + real(2) * v[2]
+            p2 = v[2]
             p3 = real(0)
             p4 = real(0)
             p5 = real(0)
             if wp.static(Q >= 4):
-                x3 = x_src[3, c, i]
+                x3 = v[3]
                 p1 += real(3) * x3
                 p2 += real(3) * x3
                 p3 = x3
             if wp.static(Q >= 5):
-                x4 = x_src[4, c, i]
+                x4 = v[4]
                 p1 += real(4) * x4
                 p2 += real(6) * x4
                 p3 += real(4) * x4
                 p4 = x4
             if wp.static(Q >= 6):
-                x5 = x_src[5, c, i]
+                x5 = v[5]
                 p1 += real(5) * x5
                 p2 += real(10) * x5
                 p3 += real(10) * x5
                 p4 += real(5) * x5
                 p5 = x5
             corr = half_h2_acc - p2
-            x0 = u_pred + real(wp.static(C[0][0])) / real(wp.static(C[0][1])) * corr
-            x1 = p1 + real(wp.static(C[1][0])) / real(wp.static(C[1][1])) * corr
-            x_dst[0, c, i] = x0
-            x_dst[1, c, i] = x1
-            x_dst[2, c, i] = half_h2_acc  # C2 = 1
-            x_dst[3, c, i] = p3 + real(wp.static(C[3][0])) / real(wp.static(C[3][1])) * corr
+            new[0] = u_pred + real(wp.static(C[0][0])) / real(wp.static(C[0][1])) * corr
+            new[1] = p1 + real(wp.static(C[1][0])) / real(wp.static(C[1][1])) * corr
+            new[2] = half_h2_acc  # C2 = 1
+            if wp.static(Q >= 4):
+                new[3] = p3 + real(wp.static(C[3][0])) / real(wp.static(C[3][1])) * corr
             if wp.static(Q >= 5):
-                x_dst[4, c, i] = p4 + real(wp.static(C[4][0])) / real(wp.static(C[4][1])) * corr
+                new[4] = p4 + real(wp.static(C[4][0])) / real(wp.static(C[4][1])) * corr
             if wp.static(Q >= 6):
-                x_dst[5, c, i] = p5 + real(wp.static(C[5][0])) / real(wp.static(C[5][1])) * corr
+                new[5] = p5 + real(wp.static(C[5][0])) / real(wp.static(C[5][1])) * corr
         else:
             # velocity Verlet: dt·v_new = dt·v + dt²/2 (a + a_new)
-            x0 = u_pred
-            x1 = x_src[1, c, i] + x_src[2, c, i] + half_h2_acc
-            x_dst[0, c, i] = x0
-            x_dst[1, c, i] = x1
-            x_dst[2, c, i] = half_h2_acc
-        return vec2(x0, x1)
+            new[0] = u_pred
+            new[1] = v[1] + v[2] + half_h2_acc
+            new[2] = half_h2_acc
+        return new
 
-    return predicted_position, correct
+    @wp.func
+    def load(x: wp.array3d(dtype=real), c: int, i: int) -> values_t:
+        v = values_t()
+        for q in range(wp.static(Q)):
+            v[q] = x[q, c, i]
+        return v
+
+    @wp.func
+    def store(x: wp.array3d(dtype=real), c: int, i: int, v: values_t):
+        for q in range(wp.static(Q)):
+            x[q, c, i] = v[q]
+
+    @wp.func
+    def predicted_position(x: wp.array3d(dtype=real), c: int, j: int) -> real:
+        return predict_position(load(x, c, j))
+
+    @wp.func
+    def correct(x_src: wp.array3d(dtype=real), x_dst: wp.array3d(dtype=real), c: int, i: int,
+                u_pred: real, half_h2_acc: real) -> vec2:
+        new = corrected(load(x_src, c, i), u_pred, half_h2_acc)
+        store(x_dst, c, i, new)
+        return vec2(new[0], new[1])
+
+    return Nordsieck(values_t, predict_position, corrected, load, store, predicted_position, correct)

@@ -11,6 +11,42 @@ import functools
 
 import warp as wp
 
+# The fast path of the CUDA compiler's correctly rounded float64 sqrt (sqrt.rn.f64 on sm_90), written
+# out so that a lane's G + 1 square roots carry no branch each: one test for the rare inputs that need
+# the slow path (zero, subnormal, huge, negative, inf/nan), which then take wp.sqrt. In range it is the
+# same instruction sequence, hence the same bits; tests/test_tile.py and the GPU bench check this.
+_SQRT_FAST_PATH = """
+#if defined(__CUDA_ARCH__)
+    double y0_hi;
+    asm("rsqrt.approx.ftz.f64 %0, %1;" : "=d"(y0_hi) : "d"(x));
+    const double y0 = __hiloint2double(__double2hiint(y0_hi), __double2hiint(x) - 0x3500000);
+    const double e = __fma_rn(-__dmul_rn(y0, y0), x, 1.0);
+    const double p = __fma_rn(e, 0.375, 0.5);
+    const double y1 = __fma_rn(p, __dmul_rn(y0, e), y0);
+    const double s = __dmul_rn(y1, x);
+    const double h = __hiloint2double(__double2hiint(y1) - 0x100000, __double2loint(y1));
+    return __fma_rn(__fma_rn(s, -s, x), h, s);
+#else
+    return sqrt(x);
+#endif
+"""
+
+_SQRT_NEEDS_SLOW_PATH = """
+#if defined(__CUDA_ARCH__)
+    return ((unsigned int)(__double2hiint(x) - 0x3500000) >= 0x7ca00000u) ? 1 : 0;
+#else
+    return 0;
+#endif
+"""
+
+
+@wp.func_native(_SQRT_FAST_PATH)
+def sqrt_fast_path(x: wp.float64) -> wp.float64: ...
+
+
+@wp.func_native(_SQRT_NEEDS_SLOW_PATH)
+def sqrt_needs_slow_path(x: wp.float64) -> int: ...
+
 
 @functools.cache
 def contact_functions(precision: str, hertz: bool):
@@ -31,6 +67,50 @@ def contact_functions(precision: str, hertz: bool):
         return contact_force(delta0 + d, a_c, n) - contact_force(delta0, a_c, n)
 
     return contact_force, excess_force
+
+
+@functools.cache
+def contact_forces(precision: str, hertz: bool, count: int, *, branchless: bool, fast_sqrt: bool):
+    """``forces(delta, a_c, force0, n) -> F(delta) − force0`` over a vector of ``count`` contacts.
+
+    The fused kernel's form of the contact law (one lane's contacts at once). ``branchless`` (Hertz
+    only): the square root of a safe argument, then a select, instead of a branch per contact — the
+    same bits as :func:`contact_functions`' ``contact_force``. ``fast_sqrt`` (float64 Hertz): on CUDA
+    the sqrt's fast path with one slow-path test for all ``count`` contacts (same bits again).
+    """
+    real = wp.float64 if precision == "float64" else wp.float32
+    contact_vec = wp.types.vector(length=count, dtype=real)
+    BRANCHLESS = branchless and hertz
+    FAST_SQRT = BRANCHLESS and fast_sqrt and precision == "float64"
+    contact_force, _ = contact_functions(precision, hertz)
+
+    @wp.func
+    def forces(delta: contact_vec, a_c: contact_vec, force0: contact_vec, n: real) -> contact_vec:
+        force = contact_vec()
+        if wp.static(BRANCHLESS):
+            # F = 5/2 a δ sqrt(δ), 0 for δ ≤ 0 (no tension), without a branch per contact
+            root = contact_vec()
+            slow = int(0)
+            for k in range(wp.static(count)):
+                safe = wp.where(delta[k] <= real(0), real(1), delta[k])
+                if wp.static(FAST_SQRT):
+                    root[k] = sqrt_fast_path(safe)
+                    slow = slow | sqrt_needs_slow_path(safe)
+                else:
+                    root[k] = wp.sqrt(safe)
+            if wp.static(FAST_SQRT):
+                if slow != 0:
+                    for k in range(wp.static(count)):
+                        root[k] = wp.sqrt(wp.where(delta[k] <= real(0), real(1), delta[k]))
+            for k in range(wp.static(count)):
+                hertz_force = real(5) / real(2) * a_c[k] * delta[k] * root[k]
+                force[k] = wp.where(delta[k] <= real(0), real(0), hertz_force) - force0[k]
+        else:
+            for k in range(wp.static(count)):
+                force[k] = contact_force(delta[k], a_c[k], n) - force0[k]
+        return force
+
+    return forces
 
 
 @functools.cache
@@ -92,3 +172,28 @@ def excess_potential(delta0: wp.float64, d: wp.float64, a_c: wp.float64, n: wp.f
             total = total + term
         return scale * total
     return scale * (wp.pow(wp.float64(1.0) + r, n) - wp.float64(1.0) - n * r)
+
+
+@functools.cache
+def contact_derivatives(precision: str, hertz: bool):
+    """``derivatives(delta, a_c, n) -> vec2(F'(δ), F''(δ))`` of F = n·a·max(δ,0)^(n−1); 0 for δ ≤ 0.
+
+    Used by event-aware steps (kernels/events.py) to restart a grain's Nordsieck vector from its
+    exact derivatives: ȧ = Σ ±F'·δ̇/m, ä = Σ ±(F''·δ̇² + F'·δ̈)/m. F'' is singular at δ → 0⁺ for
+    Hertz (n − 3 < 0); the restart only happens away from δ = 0 (see kernels/events.py).
+    """
+    real = wp.float64 if precision == "float64" else wp.float32
+    vec2 = wp.types.vector(2, real)
+
+    @wp.func
+    def derivatives(delta: real, a_c: real, n: real) -> vec2:
+        if delta <= real(0):
+            return vec2(real(0), real(0))
+        if wp.static(hertz):
+            root = wp.sqrt(delta)
+            return vec2(real(15) / real(4) * a_c * root, real(15) / real(8) * a_c / root)
+        else:
+            first = n * (n - real(1)) * a_c * wp.pow(delta, n - real(2))
+            return vec2(first, first * (n - real(2)) / delta)
+
+    return derivatives

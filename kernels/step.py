@@ -12,6 +12,7 @@ import functools
 import warp as wp
 
 from .features import STATUS_NON_FINITE, Features
+from .events import event_functions
 from .gear import nordsieck_functions
 from .physics import contact_functions, contact_parameters
 
@@ -30,7 +31,35 @@ def step_kernel(features: Features):
     TRACES = f.traces
     _, excess_force = contact_functions(f.precision, f.hertz)
     params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz)
-    predicted_position, correct = nordsieck_functions(f.method, f.precision)
+    nordsieck = nordsieck_functions(f.method, f.precision)
+    predicted_position, correct = nordsieck.predicted_position, nordsieck.correct
+    EVENTS = f.event_window > 0
+    values_t = nordsieck.values
+    vec3 = wp.types.vector(3, real)
+    if EVENTS:
+        near_event, event_step = event_functions(f)
+    else:
+        near_event = event_step = None
+
+    @wp.func
+    def driver_values(amplitude: wp.float64, omega: wp.float64, t: wp.float64, dt: wp.float64) -> values_t:
+        # the driver's scaled Nordsieck vector at t: x_j = dt^j/j! · d^j/dt^j (A sin ωt)
+        v = values_t()
+        s = wp.sin(omega * t)
+        co = wp.cos(omega * t)
+        scale = amplitude
+        for j in range(wp.static(Q)):
+            phase = j % 4
+            w = s
+            if phase == 1:
+                w = co
+            elif phase == 2:
+                w = -s
+            elif phase == 3:
+                w = -co
+            v[j] = real(scale * w)
+            scale = scale * omega * dt / wp.float64(j + 1)
+        return v
 
     @wp.func
     def contact(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),
@@ -111,6 +140,54 @@ def step_kernel(features: Features):
                 return
 
         u_p = predicted_position(x_in, c, i)
+        if wp.static(EVENTS):
+            # a grain touching a contact near an opening or closing takes an event step (kernels/events.py)
+            own = nordsieck.load(x_in, c, i)
+            above = values_t()
+            below = values_t()
+            u_above_p = real(0)
+            u_below_p = real(0)
+            has_above = False
+            has_below = False
+            if i > 0:
+                has_above = True
+                if wp.static(DRIVEN):
+                    if i == 1:
+                        above = driver_values(amplitude, omega, wp.float64(step_new - 1) * dt, dt)
+                        u_above_p = real(u_drive)
+                    else:
+                        above = nordsieck.load(x_in, c, i - 1)
+                        u_above_p = nordsieck.predict_position(above)
+                else:
+                    above = nordsieck.load(x_in, c, i - 1)
+                    u_above_p = nordsieck.predict_position(above)
+            else:
+                has_above = wp.static(SURFACE_WALL)
+            if i < n_grains - 1:
+                has_below = True
+                below = nordsieck.load(x_in, c, i + 1)
+                u_below_p = nordsieck.predict_position(below)
+            else:
+                has_below = wp.static(BOTTOM_WALL)
+            p_above = params(static_overlap, contact_constant, exponent, c, i)
+            p_below = params(static_overlap, contact_constant, exponent, c, i + 1)
+            flagged = False
+            if has_above:
+                flagged = near_event(p_above[0] + (above[0] - own[0]), p_above[0] + (u_above_p - u_p),
+                                     above[1] - own[1], h)
+            if has_below:
+                flagged = flagged or near_event(p_below[0] + (own[0] - below[0]), p_below[0] + (u_p - u_below_p),
+                                                own[1] - below[1], h)
+            if flagged:
+                inv_m_event = real(0)
+                if wp.static(HETERO):
+                    inv_m_event = inverse_mass[c, i]
+                else:
+                    inv_m_event = inverse_mass[c, 0]
+                new_values = event_step(own, above, below, has_above, has_below, p_above, p_below, inv_m_event, h)
+                nordsieck.store(x_out, c, i, new_values)
+                write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, new_values[0], new_values[1])
+                return
         up = real(0)    # excess force of the contact above grain i (pushes it toward the bottom)
         down = real(0)  # excess force of the contact below grain i
         if i > 0:

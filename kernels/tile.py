@@ -10,7 +10,8 @@ grains ``base … base + G − 1`` as one small matrix (values × G). One step i
 3. sweep the lane's G + 1 contacts once each (the edge contacts are also computed by the
    neighbour lane: (G + 1)/G contact evaluations per grain), correct each grain.
 
-The arithmetic is the per-step kernel's (``kernels/step.py``) expression for expression, so on
+The predictor/corrector (kernels/gear.py) and the contact law (kernels/physics.py) are the per-step
+kernel's own functions; only the loops around them differ, so on
 the same device the results agree to the last bit wherever the compiler contracts alike.
 
 Grains outside the chain (padding of the last lane, or of a window past an end) hold value 0 and are
@@ -32,45 +33,10 @@ from typing import Any
 
 import warp as wp
 
-from .features import GEAR_CORRECTOR, STATUS_NON_FINITE, Features
-from .physics import contact_functions, contact_parameters
-
-
-# The fast path of the CUDA compiler's correctly rounded float64 sqrt (sqrt.rn.f64 on sm_90), written
-# out so that a lane's G + 1 square roots carry no branch each: one test for the rare inputs that need
-# the slow path (zero, subnormal, huge, negative, inf/nan), which then take wp.sqrt. In range it is the
-# same instruction sequence, hence the same bits; tests/test_tile.py and the GPU bench check this.
-_SQRT_FAST_PATH = """
-#if defined(__CUDA_ARCH__)
-    double y0_hi;
-    asm("rsqrt.approx.ftz.f64 %0, %1;" : "=d"(y0_hi) : "d"(x));
-    const double y0 = __hiloint2double(__double2hiint(y0_hi), __double2hiint(x) - 0x3500000);
-    const double e = __fma_rn(-__dmul_rn(y0, y0), x, 1.0);
-    const double p = __fma_rn(e, 0.375, 0.5);
-    const double y1 = __fma_rn(p, __dmul_rn(y0, e), y0);
-    const double s = __dmul_rn(y1, x);
-    const double h = __hiloint2double(__double2hiint(y1) - 0x100000, __double2loint(y1));
-    return __fma_rn(__fma_rn(s, -s, x), h, s);
-#else
-    return sqrt(x);
-#endif
-"""
-
-_SQRT_NEEDS_SLOW_PATH = """
-#if defined(__CUDA_ARCH__)
-    return ((unsigned int)(__double2hiint(x) - 0x3500000) >= 0x7ca00000u) ? 1 : 0;
-#else
-    return 0;
-#endif
-"""
-
-
-@wp.func_native(_SQRT_FAST_PATH)
-def sqrt_fast_path(x: wp.float64) -> wp.float64: ...
-
-
-@wp.func_native(_SQRT_NEEDS_SLOW_PATH)
-def sqrt_needs_slow_path(x: wp.float64) -> int: ...
+from .features import STATUS_NON_FINITE, Features
+from .events import event_functions
+from .gear import nordsieck_functions
+from .physics import contact_forces, contact_functions, contact_parameters
 
 
 def fusable(features: Features) -> bool:
@@ -117,9 +83,6 @@ def tile_kernel(features: Features, shape: TileShape):
         raise ValueError(f"fused kernels do not implement surface={f.surface!r} / traces={f.traces}")
     real = wp.float64 if f.precision == "float64" else wp.float32
     Q = f.values
-    GEAR = f.method != "verlet"
-    C = GEAR_CORRECTOR.get(f.method, ((0, 1),) * 6)
-    C = C + ((0, 1),) * (6 - len(C))
     G = shape.grains_per_lane
     L = shape.lanes_per_chain
     CPB = shape.chains_per_block
@@ -133,39 +96,64 @@ def tile_kernel(features: Features, shape: TileShape):
     HETERO = f.heterogeneous
     params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz)
     HERTZ = f.hertz
-    BRANCHLESS = shape.branchless
-    FAST_SQRT = shape.fast_sqrt and HERTZ and f.precision == "float64"
     contact_force, _ = contact_functions(f.precision, f.hertz)
+    forces = contact_forces(f.precision, f.hertz, G + 1, branchless=shape.branchless, fast_sqrt=shape.fast_sqrt)
+    nordsieck = nordsieck_functions(f.method, f.precision)
 
     state_t = wp.types.matrix(shape=(Q, G), dtype=real)
     grain_vec = wp.types.vector(length=G, dtype=real)
     contact_vec = wp.types.vector(length=G + 1, dtype=real)
-    edge_t = wp.types.vector(length=2, dtype=real)
-    value_vec = wp.types.vector(length=Q, dtype=real)
+    EVENTS = f.event_window > 0
+    edge_t = wp.types.vector(length=2 + 2 * Q if EVENTS else 2, dtype=real)
+    vec3 = wp.types.vector(3, real)
+    if EVENTS:
+        near_event, event_step = event_functions(f)
+    else:
+        near_event = event_step = None
+    value_vec = nordsieck.values
+
+    @wp.func
+    def column(s: state_t, k: int) -> value_vec:
+        v = value_vec()
+        for q in range(Q):
+            v[q] = s[q, k]
+        return v
 
     @wp.func
     def advance(s: state_t, edges: Any, lane: int, has_left: bool, has_right: bool,
                 delta0: contact_vec, a_c: contact_vec, force0: contact_vec, n: real,
-                inv_m: grain_vec, hh: real, contact_bits: int, move_bits: int) -> state_t:
+                inv_m: grain_vec, hh: real, contact_bits: int, move_bits: int, h: real) -> state_t:
         # 1. predict
         up = grain_vec()
         for k in range(G):
-            p = s[0, k] + s[1, k] + s[2, k]
-            if wp.static(Q >= 4):
-                p += s[3, k]
-            if wp.static(Q >= 5):
-                p += s[4, k]
-            if wp.static(Q >= 6):
-                p += s[5, k]
-            up[k] = p
+            up[k] = nordsieck.predict_position(column(s, k))
         # 2. exchange the lane's edge positions with its neighbours (virtual grains outside sit at 0)
-        wp.tile_assign(edges, wp.tile(edge_t(up[0], up[G - 1]), preserve_type=True))
+        if wp.static(EVENTS):
+            # events also need the neighbour lanes' edge grains' Nordsieck vectors
+            edge = edge_t()
+            edge[0] = up[0]
+            edge[1] = up[G - 1]
+            for q in range(Q):
+                edge[2 + q] = s[q, 0]
+                edge[2 + Q + q] = s[q, G - 1]
+            wp.tile_assign(edges, wp.tile(edge, preserve_type=True))
+        else:
+            wp.tile_assign(edges, wp.tile(edge_t(up[0], up[G - 1]), preserve_type=True))
         u_left = real(0)
         u_right = real(0)
         if has_left:
             u_left = wp.tile_extract(edges, lane - 1, 1)
         if has_right:
             u_right = wp.tile_extract(edges, lane + 1, 0)
+        if wp.static(EVENTS):
+            left_values = value_vec()
+            right_values = value_vec()
+            if has_left:
+                for q in range(Q):
+                    left_values[q] = wp.tile_extract(edges, lane - 1, 2 + Q + q)
+            if has_right:
+                for q in range(Q):
+                    right_values[q] = wp.tile_extract(edges, lane + 1, 2 + q)
         # 3. every contact of the lane once (the two edge contacts also in the neighbour lane)
         delta = contact_vec()
         delta[0] = delta0[0] + (u_left - up[0])
@@ -174,28 +162,7 @@ def tile_kernel(features: Features, shape: TileShape):
             if k < G - 1:
                 u_below = up[wp.min(k + 1, G - 1)]
             delta[k + 1] = delta0[k + 1] + (up[k] - u_below)
-        force = contact_vec()
-        if wp.static(BRANCHLESS and HERTZ):
-            # F = 5/2 a δ sqrt(δ), 0 for δ ≤ 0 (no tension), without a branch per contact
-            root = contact_vec()
-            slow = int(0)
-            for k in range(G + 1):
-                safe = wp.where(delta[k] <= real(0), real(1), delta[k])
-                if wp.static(FAST_SQRT):
-                    root[k] = sqrt_fast_path(safe)
-                    slow = slow | sqrt_needs_slow_path(safe)
-                else:
-                    root[k] = wp.sqrt(safe)
-            if wp.static(FAST_SQRT):
-                if slow != 0:
-                    for k in range(G + 1):
-                        root[k] = wp.sqrt(wp.where(delta[k] <= real(0), real(1), delta[k]))
-            for k in range(G + 1):
-                hertz = real(5) / real(2) * a_c[k] * delta[k] * root[k]
-                force[k] = wp.where(delta[k] <= real(0), real(0), hertz) - force0[k]
-        else:
-            for k in range(G + 1):
-                force[k] = contact_force(delta[k], a_c[k], n) - force0[k]
+        force = forces(delta, a_c, force0, n)
         if wp.static(MASKED and FREE_END):
             for k in range(G + 1):
                 if (contact_bits & (1 << k)) == 0:
@@ -204,45 +171,7 @@ def tile_kernel(features: Features, shape: TileShape):
         out = s
         for k in range(G):
             half_h2_acc = hh * (force[k] - force[k + 1]) * inv_m[k]
-            new = value_vec()
-            if wp.static(GEAR):
-                p1 = s[1, k] + real(2) * s[2, k]
-                p2 = s[2, k]
-                p3 = real(0)
-                p4 = real(0)
-                p5 = real(0)
-                if wp.static(Q >= 4):
-                    x3 = s[3, k]
-                    p1 += real(3) * x3
-                    p2 += real(3) * x3
-                    p3 = x3
-                if wp.static(Q >= 5):
-                    x4 = s[4, k]
-                    p1 += real(4) * x4
-                    p2 += real(6) * x4
-                    p3 += real(4) * x4
-                    p4 = x4
-                if wp.static(Q >= 6):
-                    x5 = s[5, k]
-                    p1 += real(5) * x5
-                    p2 += real(10) * x5
-                    p3 += real(10) * x5
-                    p4 += real(5) * x5
-                    p5 = x5
-                corr = half_h2_acc - p2
-                new[0] = up[k] + real(wp.static(C[0][0])) / real(wp.static(C[0][1])) * corr
-                new[1] = p1 + real(wp.static(C[1][0])) / real(wp.static(C[1][1])) * corr
-                new[2] = half_h2_acc
-                if wp.static(Q >= 4):
-                    new[3] = p3 + real(wp.static(C[3][0])) / real(wp.static(C[3][1])) * corr
-                if wp.static(Q >= 5):
-                    new[4] = p4 + real(wp.static(C[4][0])) / real(wp.static(C[4][1])) * corr
-                if wp.static(Q >= 6):
-                    new[5] = p5 + real(wp.static(C[5][0])) / real(wp.static(C[5][1])) * corr
-            else:
-                new[0] = up[k]
-                new[1] = s[1, k] + s[2, k] + half_h2_acc
-                new[2] = half_h2_acc
+            new = nordsieck.corrected(column(s, k), up[k], half_h2_acc)
             if wp.static(FIXED):
                 moving = (move_bits & (1 << k)) != 0
                 for q in range(Q):
@@ -250,6 +179,40 @@ def tile_kernel(features: Features, shape: TileShape):
             else:
                 for q in range(Q):
                     out[q, k] = new[q]
+        if wp.static(EVENTS):
+            # grains touching a contact near an opening or closing: kernels/step.py's event test and step
+            for k in range(G):
+                own = column(s, k)
+                above = left_values
+                u_above = u_left
+                if k > 0:
+                    above = column(s, wp.max(k - 1, 0))
+                    u_above = up[wp.max(k - 1, 0)]
+                below = right_values
+                u_below = u_right
+                if k < G - 1:
+                    below = column(s, wp.min(k + 1, G - 1))
+                    u_below = up[wp.min(k + 1, G - 1)]
+                has_above = (contact_bits & (1 << k)) != 0
+                has_below = (contact_bits & (1 << (k + 1))) != 0
+                p_above = vec3(delta0[k], a_c[k], n)
+                p_below = vec3(delta0[k + 1], a_c[k + 1], n)
+                flagged = False
+                if has_above:
+                    flagged = near_event(p_above[0] + (above[0] - own[0]), p_above[0] + (u_above - up[k]),
+                                         above[1] - own[1], h)
+                if has_below:
+                    flagged = flagged or near_event(p_below[0] + (own[0] - below[0]), p_below[0] + (up[k] - u_below),
+                                                    own[1] - below[1], h)
+                if flagged:
+                    new = event_step(own, above, below, has_above, has_below, p_above, p_below, inv_m[k], h)
+                    if wp.static(FIXED):
+                        moving = (move_bits & (1 << k)) != 0
+                        for q in range(Q):
+                            out[q, k] = wp.where(moving, new[q], s[q, k])
+                    else:
+                        for q in range(Q):
+                            out[q, k] = new[q]
         return out
 
     @wp.kernel(module="unique", enable_backward=False, grid_stride=False,
@@ -353,12 +316,12 @@ def tile_kernel(features: Features, shape: TileShape):
         edges_odd = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
         for _pair in range(steps / 2):
             s = advance(s, edges_even, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                        contact_bits, move_bits)
+                        contact_bits, move_bits, h)
             s = advance(s, edges_odd, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                        contact_bits, move_bits)
+                        contact_bits, move_bits, h)
         if steps % 2 == 1:
             s = advance(s, edges_even, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                        contact_bits, move_bits)
+                        contact_bits, move_bits, h)
 
         # write back the interior; a frozen (non-finite) chain keeps its state
         frozen = status[cc] == wp.static(STATUS_NON_FINITE)
