@@ -398,8 +398,13 @@ CHUNK_ELEMENTS = 1 << 22
 """Chains × grains computed at once when the planner scans static states (memory bound)."""
 
 
+FEATURE_KEYS = STATIC_KEYS + ("excitation.impact",)
+"""Per-chain keys that decide the kernel variant: the static state's, and the impact speed (whether a
+contact can open, hence event-aware steps, depends on the injected energy: ensemble.model.contact_can_open)."""
+
+
 def _is_static_key(key: str) -> bool:
-    return key in STATIC_KEYS or key.startswith("impurities.")
+    return key in FEATURE_KEYS or key.startswith("impurities.")
 
 
 @dataclass(frozen=True, eq=False)
@@ -542,8 +547,8 @@ def expand(sweep: Sweep, *, validate: bool = True) -> SweepPoints:
 
 
 def static_subgrid(expanded: SweepPoints, template: int) -> ChainSet:
-    """The distinct static configurations of one template's points: the product of the parameter
-    dimensions that hold a static key (others at index 0), as a ChainSet."""
+    """The distinct configurations of one template's points that decide its kernel variant: the product
+    of the parameter dimensions that hold a FEATURE_KEYS key (others at index 0), as a ChainSet."""
     sweep = expanded.sweep
     shape = sweep.shape
     dims = [d for d in expanded.parameter if any(_is_static_key(a.key) for a in sweep.dimensions[d].axes)]
