@@ -228,14 +228,13 @@ def test_a_bad_value_inside_a_parameter_axis_is_refused_naming_the_point():
         expand(sweep_from_dict(data))
 
 
-def test_zipped_parameter_axes_are_checked_at_every_index():
-    # l0 and load are each fine at their extremes, but index 1 sets both (refused by the scene)
+def test_zipped_axes_are_checked_at_each_axis_extremes_not_only_the_leading_ones():
+    # the leading axis is fine everywhere; the companion exponent is ≤ 1 at point 1 only (same signs)
     data = {"scene": {"chain": {"grains": 5}, "integrator": {"duration": 0.01, "dt": 1e-4}},
             "axis": [{"name": "v_imp", "key": "excitation.impact", "values": [1e-3, 2e-3, 3e-3]},
-                     {"name": "l0", "key": "chain.l0", "values": [0.0, 1e-4, 0.0]},
-                     {"name": "load", "key": "chain.load", "values": [1.0, 2.0, 0.0]}],
-            "zip": [{"axes": ["v_imp", "l0", "load"]}]}
-    with pytest.raises(SceneError, match="chain.load.*not both"):
+                     {"name": "exponent", "key": "chain.exponent", "values": [2.5, 1.0, 3.0]}],
+            "zip": [{"axes": ["v_imp", "exponent"]}]}
+    with pytest.raises(SceneError, match=r"chain.exponent = 1.0.*at sweep point v_imp=0.002, exponent=1.0"):
         expand(sweep_from_dict(data))
 
 
