@@ -464,11 +464,10 @@ def _extreme_indices(dimension: Dimension) -> list[int]:
     if len(coordinates) == 1:
         return sorted({int(np.argmin(coordinates[0])), int(np.argmax(coordinates[0]))})
     values = np.stack([c.astype(np.float64) for c in coordinates], axis=1)
-    patterns, inverse = np.unique(np.sign(values), axis=0, return_inverse=True)
-    inverse = inverse.reshape(-1)
+    code = ((np.sign(values) + 1).astype(np.int64) * 3 ** np.arange(values.shape[1])).sum(axis=1)
     chosen = set()
-    for pattern in range(len(patterns)):
-        members = np.flatnonzero(inverse == pattern)
+    for pattern in np.unique(code):
+        members = np.flatnonzero(code == pattern)
         for column in values[members].T:
             chosen.update((int(members[np.argmin(column)]), int(members[np.argmax(column)])))
     return sorted(chosen)
