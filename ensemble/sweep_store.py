@@ -184,12 +184,8 @@ def chunk_layout(block: tuple[int, ...], trailing: tuple[int, ...], itemsize: in
 
 def _create(group, name: str, shape, dtype, dims, block, trailing, fill, attrs):
     chunks, shards = chunk_layout(tuple(block), tuple(trailing), np.dtype(dtype).itemsize)
-    # Float64 fields barely compress (zstd saved 4 %) and compressing made a batch's write ~2.5× slower
-    # (best of two runs, docs/logs/zarr_compression_cpu.txt): per-record and trace variables are stored
-    # raw; per-point scalars keep zarr's default.
-    codecs = {"compressors": None} if trailing else {}
     return group.create_array(name, shape=tuple(shape), dtype=dtype, chunks=chunks, shards=shards,
-                              dimension_names=list(dims), fill_value=fill, attributes=attrs, **codecs)
+                              dimension_names=list(dims), fill_value=fill, attributes=attrs)
 
 
 def _small(group, name: str, data: np.ndarray, dims: tuple[str, ...], attrs: dict | None = None):
