@@ -259,10 +259,13 @@ def _group_features(points: SweepPoints, templates: list[int]) -> Features:
     combined = None
     for t in templates:
         chains = static_subgrid(points, t)
-        step = max(1, CHUNK_ELEMENTS // (chains.template.chain.grains + 1))
+        # homogeneous chains without gravity carry one static force on every contact: the first
+        # contacts decide (as in build_model); otherwise every contact is scanned
+        window = None if chains.template.impurities or np.any(chains.column("chain.gravity") > 0) else 2
+        step = max(1, CHUNK_ELEMENTS // ((window or chains.template.chain.grains) + 1))
         for start in range(0, len(chains), step):
             part = chains.take(np.arange(start, min(start + step, len(chains))))
-            found = chain_set_features(part, static_arrays(part))
+            found = chain_set_features(part, static_arrays(part, grains=window))
             combined = found if combined is None else _widen(combined, found)
     return combined
 

@@ -470,14 +470,26 @@ class SweepPoints:
 
 
 def _extreme_indices(dimension: Dimension) -> list[int]:
-    """Indices along a parameter dimension whose points bound every scene rule: each axis's smallest
-    and largest value for a single numeric axis; every index of a zip group (whose values pair up)
-    or of non-numeric values."""
-    axes = dimension.axes
-    coordinate = axes[0].coordinate()
-    if len(axes) > 1 or coordinate.dtype.kind not in "fiu":
+    """Indices along a parameter dimension whose points bound every scene rule.
+
+    One numeric axis: its smallest and largest value. A zip group of numeric axes: its values pair
+    up, so for each pattern of signs (−, 0, +) the group's points take, the smallest and largest
+    value of each axis among them (at most 3^axes patterns, however long the zip). Non-numeric values:
+    every index.
+    """
+    coordinates = [a.coordinate() for a in dimension.axes]
+    if any(c.dtype.kind not in "fiu" for c in coordinates):
         return list(range(dimension.size))
-    return sorted({int(np.argmin(coordinate)), int(np.argmax(coordinate))})
+    if len(coordinates) == 1:
+        return sorted({int(np.argmin(coordinates[0])), int(np.argmax(coordinates[0]))})
+    values = np.stack([c.astype(np.float64) for c in coordinates], axis=1)
+    code = ((np.sign(values) + 1).astype(np.int64) * 3 ** np.arange(values.shape[1])).sum(axis=1)
+    chosen = set()
+    for pattern in np.unique(code):
+        members = np.flatnonzero(code == pattern)
+        for column in values[members].T:
+            chosen.update((int(members[np.argmin(column)]), int(members[np.argmax(column)])))
+    return sorted(chosen)
 
 
 def corner_points(expanded: SweepPoints) -> list[tuple[int, ...]]:
@@ -495,10 +507,11 @@ def corner_points(expanded: SweepPoints) -> list[tuple[int, ...]]:
 def validate_grid(expanded: SweepPoints) -> int:
     """Validate the grid by its corners and value ranges; return how many scenes were built.
 
-    Scene rules on per-chain scalars are ranges (> 0, ≥ 0, finite) or conditions on a value being
-    nonzero (a load and l0 together, an impact on a driven surface), so a grid whose every
+    Scene rules on per-chain scalars are ranges (> 0, ≥ 0, > 1, finite) or conditions on a value
+    being nonzero (a load and l0 together, an impact on a driven surface), so a grid whose every
     structural combination passes at the smallest and largest value of each parameter axis passes
-    everywhere; zipped axes are checked at every index since their values pair up.
+    everywhere; zipped axes pair up, so they are checked per sign pattern (:func:`_extreme_indices`).
+    tests/test_vectorised.py checks this against validating every point on generated grids.
     """
     points = corner_points(expanded)
     for index in points:

@@ -228,12 +228,86 @@ def test_a_bad_value_inside_a_parameter_axis_is_refused_naming_the_point():
         expand(sweep_from_dict(data))
 
 
-def test_zipped_parameter_axes_are_checked_at_every_index():
-    # l0 and load are each fine at their extremes, but index 1 sets both (refused by the scene)
+def test_zipped_axes_are_checked_at_each_axis_extremes_not_only_the_leading_ones():
+    # the leading axis is fine everywhere; the companion exponent is ≤ 1 at point 1 only (same signs)
     data = {"scene": {"chain": {"grains": 5}, "integrator": {"duration": 0.01, "dt": 1e-4}},
             "axis": [{"name": "v_imp", "key": "excitation.impact", "values": [1e-3, 2e-3, 3e-3]},
-                     {"name": "l0", "key": "chain.l0", "values": [0.0, 1e-4, 0.0]},
-                     {"name": "load", "key": "chain.load", "values": [1.0, 2.0, 0.0]}],
-            "zip": [{"axes": ["v_imp", "l0", "load"]}]}
-    with pytest.raises(SceneError, match="chain.load.*not both"):
+                     {"name": "exponent", "key": "chain.exponent", "values": [2.5, 1.0, 3.0]}],
+            "zip": [{"axes": ["v_imp", "exponent"]}]}
+    with pytest.raises(SceneError, match=r"chain.exponent = 1.0.*at sweep point v_imp=0.002, exponent=1.0"):
         expand(sweep_from_dict(data))
+
+
+# ---- validation by corners equals validation of every point --------------------------------------
+
+from hypothesis import HealthCheck, example, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from ensemble.sweep import sweep_scenes  # noqa: E402
+
+PARAMETER_VALUES = {
+    "chain.l0": [0.0, 1e-4, -1e-5, 2e-4],
+    "chain.load": [0.0, 3.0, -1.0],
+    "chain.gravity": [0.0, 0.5, -0.1],
+    "chain.mass": [1.0, 0.5, 0.0, 2.0],
+    "chain.exponent": [2.5, 1.5, 1.0, 3.0],
+    "excitation.impact": [0.0, 1e-2, -1e-3, 5e-2],
+    "excitation.drive_amplitude": [0.0, 1e-3, -1e-3],
+    "excitation.drive_period": [5.0, 0.0, 2.0],
+    "impurities.0.mass": [1.0, 0.0, 3.0],
+}
+
+
+@st.composite
+def small_sweeps(draw):
+    keys = draw(st.lists(st.sampled_from(sorted(PARAMETER_VALUES)), min_size=1, max_size=3, unique=True))
+    size = draw(st.integers(1, 3))
+    axes = []
+    for k, key in enumerate(keys):
+        values = draw(st.lists(st.sampled_from(PARAMETER_VALUES[key]), min_size=size, max_size=size))
+        axes.append({"name": f"a{k}", "key": key, "values": values})
+    zip_them = len(axes) > 1 and draw(st.booleans())
+    if not zip_them:
+        for axis in axes:  # a store dimension's values must not repeat
+            axis["values"] = list(dict.fromkeys(axis["values"]))
+    else:
+        # the zip's first axis labels the dimension (distinct values); the others pair up with it
+        axes.insert(0, {"name": "lead", "key": "chain.diameter", "values": [100.0 + i for i in range(size)]})
+    surfaces = draw(st.lists(st.sampled_from(["wall", "free", "driven", "load"]), min_size=1, max_size=2,
+                             unique=True))
+    axes.append({"name": "surface", "key": "boundary.surface", "values": surfaces})
+    data = {"scene": {"chain": {"grains": 6}, "impurities": [{"grains": [2], "mass": 1.0}],
+                      "excitation": {"drive_period": 5.0},
+                      "integrator": {"duration": 0.01, "dt": 1e-4}},
+            "axis": axes}
+    if zip_them:
+        data["zip"] = [{"axes": [a["name"] for a in axes[:-1]]}]
+    return data
+
+
+ZIP_WITH_A_BAD_MIDDLE = {
+    "scene": {"chain": {"grains": 6}, "integrator": {"duration": 0.01, "dt": 1e-4}},
+    "axis": [{"name": "lead", "key": "chain.diameter", "values": [100.0, 101.0, 102.0]},
+             {"name": "a0", "key": "excitation.impact", "values": [0.0, -1e-3, 0.0]}],
+    "zip": [{"axes": ["lead", "a0"]}]}
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(small_sweeps())
+@example(ZIP_WITH_A_BAD_MIDDLE)
+def test_validation_by_corners_refuses_exactly_the_grids_with_a_bad_point(data):
+    try:
+        sweep = sweep_from_dict(data)
+    except SceneError:
+        return  # refused while parsing (both paths share it)
+    try:
+        sweep_scenes(sweep)  # every point's scene
+        every_point = None
+    except SceneError as err:
+        every_point = err
+    try:
+        expand(sweep)
+        corners = None
+    except SceneError as err:
+        corners = err
+    assert (every_point is None) == (corners is None), (data, every_point, corners)
