@@ -78,3 +78,15 @@ def test_every_kernel_takes_the_same_event_steps(case):
     np.testing.assert_array_equal(sweep(model, steps, steps_per_launch=7), want)
     plan = plan_tile(model.features, model.grain_count, model.chain_count, **plan_keywords)
     np.testing.assert_array_equal(fused(model, plan, steps), want)
+
+
+def test_bad_event_modes_are_one_line_errors():
+    from typer.testing import CliRunner
+
+    from ensemble.cli import app
+
+    for args, key in ((["accuracy", "--events", "maybe", "--dt", "2e-4"], "--events"),
+                      (["check", "--set", "integrator.events=maybe"], "integrator.events")):
+        result = CliRunner().invoke(app, args)
+        assert result.exit_code == 2, result.output
+        assert key in result.output and "Traceback" not in result.output
