@@ -32,7 +32,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from .scene import METHODS, PRECISIONS, Scene, SceneError
+from .scene import EVENT_MODES, METHODS, PRECISIONS, Scene, SceneError
 from .status import Status
 
 REFERENCE_METHOD = "gear6"
@@ -78,6 +78,8 @@ class AccuracyRecord:
     status: int
     status_name: str
     reference_limited: bool
+    events: str = "auto"
+    """integrator.events of the run: auto (event-aware Gear steps, kernels/events.py) or off."""
     """True when ``error`` is within a factor 10 of the reference's own estimated error."""
     kernel: str = "step"
     """Which kernel ran (ensemble/solvers/calibrate.py): the same for every run of a study."""
@@ -124,10 +126,12 @@ def common_record_interval(dts: list[float], duration: float, *, records: int = 
     return float(multiple * target)
 
 
-def study_scene(scene: Scene, *, method: str, dt: float, precision: str, every: float) -> Scene:
+def study_scene(scene: Scene, *, method: str, dt: float, precision: str, every: float,
+                events: str | None = None) -> Scene:
     """The scene as a study runs it: one method/step/precision, positions every ``every``, no traces."""
     return scene.with_overrides({
         "integrator.method": method, "integrator.dt": dt, "integrator.precision": precision,
+        "integrator.events": events or scene.integrator.events,
         "record.every": every, "record.fields": ["u"], "record.traces": [], "record.trace_every": None,
         "record.energy": True,
     })
@@ -232,11 +236,14 @@ def parse_steps(text: str) -> list[float]:
 
 def work_precision(scene: Scene, methods: list[str], dts: list[float], precisions: list[str], *,
                    device: str | None = None, reference_factor: int = 4, records: int = 40,
-                   kernel: str | None = None, progress=None) -> tuple[list[AccuracyRecord], ReferenceRun, float]:
-    """Run every (precision, method, dt) of a study and measure it against a gear6 reference.
+                   kernel: str | None = None, progress=None,
+                   events: list[str] | None = None) -> tuple[list[AccuracyRecord], ReferenceRun, float]:
+    """Run every (events, precision, method, dt) of a study and measure it against a gear6 reference.
 
     Returns (records, reference, record interval). ``kernel`` (ensemble/solvers/calibrate.py KERNELS) is the
     same for every run; default :func:`study_kernel`. ``progress(text)`` is called before each run.
+    ``events`` (integrator.events modes, default the scene's): with both, every run is made with and
+    without event-aware steps (before/after curves); the reference uses them unless only "off" is asked.
     """
     from .check import check_scene
 
@@ -248,6 +255,11 @@ def work_precision(scene: Scene, methods: list[str], dts: list[float], precision
             raise SceneError("--precision", p, "allowed: float32, float64, both")
     if reference_factor < 1:
         raise SceneError("--reference-factor", reference_factor, "must be ≥ 1")
+    events = events or [scene.integrator.events]
+    for e in events:
+        if e not in EVENT_MODES:
+            raise SceneError("--events", e, "allowed: auto, off, both")
+    scene = scene.with_overrides({"integrator.events": "auto" if "auto" in events else "off"})
     dts = sorted(set(dts), reverse=True)
     duration = scene.integrator.duration
     if dts[0] > duration:
@@ -256,17 +268,17 @@ def work_precision(scene: Scene, methods: list[str], dts: list[float], precision
     every = common_record_interval(dts + [reference_dt, 2 * reference_dt, 4 * reference_dt], duration,
                                    records=records, preferred=scene.record.every)
     # validate every study scene before running anything
-    plan = [(p, m, dt, study_scene(scene, method=m, dt=dt, precision=p, every=every))
-            for p in precisions for m in methods for dt in dts]
+    plan = [(e, p, m, dt, study_scene(scene, method=m, dt=dt, precision=p, every=every, events=e))
+            for e in events for p in precisions for m in methods for dt in dts]
     if progress:
         progress(f"reference: {REFERENCE_METHOD} float64 at dt = {reference_dt:g}, 2·dt and 4·dt")
-    kernel = kernel or study_kernel(plan[0][3], device)
+    kernel = kernel or study_kernel(plan[0][4], device)
     reference = reference_run(scene, reference_dt, every, device, kernel=kernel)
     contact_time = check_scene(scene).contact_time
     out = []
-    for p, m, dt, s in plan:
+    for e, p, m, dt, s in plan:
         if progress:
-            progress(f"{m} {p} dt = {dt:g}")
+            progress(f"{m} {p} dt = {dt:g}" + (f" events {e}" if len(events) > 1 else ""))
         r, ran = _run(s, device, kernel)
         err = relative_error(r.u[0], reference.u)
         status = int(r.status[0])
@@ -275,7 +287,7 @@ def work_precision(scene: Scene, methods: list[str], dts: list[float], precision
             seconds=float(r.wall_seconds), grain_steps_per_second=float(r.grain_steps_per_second),
             steps=int(r.steps), steps_per_contact_time=contact_time / dt, status=status,
             status_name=Status(status).name if status in Status._value2member_map_ else str(status),
-            reference_limited=bool(err < RESOLVED_FACTOR * reference.error_estimate), kernel=ran))
+            reference_limited=bool(err < RESOLVED_FACTOR * reference.error_estimate), kernel=ran, events=e))
     return out, reference, every
 
 
@@ -292,19 +304,28 @@ def plot_work_precision(records: list[AccuracyRecord], path, *, title: str = "",
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.8), constrained_layout=True)
     colours = {"gear4": "C0", "gear5": "C1", "gear6": "C2", "verlet": "C3"}
-    lines = sorted({(r.method, r.precision) for r in records}, key=lambda k: (k[1], METHODS.index(k[0])))
-    methods = {m for m, _ in lines}
+    lines = sorted({(r.method, r.precision, r.events) for r in records},
+                   key=lambda k: (k[2], k[1], METHODS.index(k[0])))
+    several_events = len({k[2] for k in lines}) > 1
+    methods = {m for m, _, _ in lines}
     labelled = {m for m in methods if m == "verlet"} | {min((m for m in methods if m != "verlet"), default="")}
-    for method, precision in lines:
-        rows = sorted((r for r in records if r.method == method and r.precision == precision), key=lambda r: r.seconds)
+    for method, precision, events in lines:
+        rows = sorted((r for r in records if r.method == method and r.precision == precision
+                       and r.events == events), key=lambda r: r.seconds)
         seconds = np.array([r.seconds for r in rows])
         colour = colours.get(method, "k")
         marker = "o" if precision == "float64" else "s"
+        style = "-" if precision == "float64" else "--"
+        label = f"{method} {precision}"
+        if several_events:
+            label += f" events {events}"
+            if events == "off":
+                style, marker = ":", "x"
         for ax, values in ((axes[0], [r.error for r in rows]), (axes[1], [r.energy_error for r in rows])):
             values = np.array(values, dtype=float)
             ok = np.isfinite(values) & (values > 0)
-            ax.loglog(seconds[ok], values[ok], marker=marker, linestyle="-" if precision == "float64" else "--",
-                      color=colour, label=f"{method} {precision}", markersize=4)
+            ax.loglog(seconds[ok], values[ok], marker=marker, linestyle=style,
+                      color=colour, label=label, markersize=4)
         for r in rows:
             if r.reference_limited and np.isfinite(r.error) and r.error > 0:
                 axes[0].plot([r.seconds], [r.error], marker=marker, markersize=7, markerfacecolor="white",

@@ -34,6 +34,9 @@ def accuracy(
                                                   "--dt / this (gear6, float64).")] = 4,
     records: Annotated[int, typer.Option("--records", help="About this many snapshots are compared "
                                          "(the record interval is a common multiple of all steps).")] = 40,
+    events: Annotated[Optional[str], typer.Option("--events", help="auto | off | both: event-aware Gear steps "
+                                                  "near contacts that open or close (integrator.events); both: "
+                                                  "before/after curves (default: the scene's).")] = None,
     kernel: Annotated[Optional[str], typer.Option("--kernel", help="Kernel for every run (auto | step | tile | "
                                                   "window | sweep); default: sweep on a CPU, auto on a GPU.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list of records.")] = False,
@@ -65,6 +68,14 @@ def accuracy(
             precisions = [precision]
         else:
             raise SceneError("--precision", precision, "allowed: float64, float32, both")
+        if events is None:
+            event_modes = [loaded.integrator.events]
+        elif events == "both":
+            event_modes = ["auto", "off"]
+        elif events in ("auto", "off"):
+            event_modes = [events]
+        else:
+            raise SceneError("--events", events, "allowed: auto, off, both")
         if reference_factor < 1:
             raise SceneError("--reference-factor", reference_factor, "must be an integer ≥ 1")
         if records < 1:
@@ -86,7 +97,7 @@ def accuracy(
     try:
         results, reference, every = work_precision(loaded, method_list, steps, precisions, device=dev,
                                                    reference_factor=reference_factor, records=records,
-                                                   kernel=kernel, progress=progress)
+                                                   kernel=kernel, progress=progress, events=event_modes)
     except SceneError as err:
         fail(str(err))
     except ValueError as err:  # a forced --kernel that cannot run these features or on this device
@@ -110,12 +121,12 @@ def accuracy(
         from rich.table import Table
 
         table = Table(title=f"{scene or 'built-in example'}: error against run time")
-        for col in ("method", "precision", "dt", "steps/T", "error", "energy error", "seconds", "grain-steps/s",
-                    "status"):
-            table.add_column(col, justify="left" if col in ("method", "precision", "status") else "right")
+        for col in ("method", "precision", "events", "dt", "steps/T", "error", "energy error", "seconds",
+                    "grain-steps/s", "status"):
+            table.add_column(col, justify="left" if col in ("method", "precision", "events", "status") else "right")
         for r in results:
             error = _number(r.error) + (" *" if r.reference_limited else "")
-            table.add_row(r.method, r.precision, f"{r.dt:g}", f"{r.steps_per_contact_time:.3g}", error,
+            table.add_row(r.method, r.precision, r.events, f"{r.dt:g}", f"{r.steps_per_contact_time:.3g}", error,
                           _number(r.energy_error), f"{r.seconds:.3g}", f"{r.grain_steps_per_second:.3g}",
                           r.status_name)
         console = Console(width=140)

@@ -1,0 +1,92 @@
+"""Event-aware Gear steps (kernels/events.py): contacts that open or close keep the method's order.
+
+Checked against independent things: the order of accuracy as the log-error/log-dt slope against a
+gear6 reference at dt/4 (Richardson-checked by ensemble/accuracy.py), the same study with the
+treatment switched off (the order it repairs), and bitwise equality of every kernel on the CPU.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from conftest import make_scene
+from ensemble.accuracy import work_precision
+from ensemble.model import build_model, features_of
+from kernels.features import Features
+from kernels.step import step_kernel
+from kernels.tile import plan_tile
+from tests.test_cpu_kernel import sweep
+from tests.test_tile import chains, fused, per_step
+
+DTS = [2e-3, 1e-3, 5e-4]
+
+
+def slope(dts, errors):
+    return np.polyfit(np.log(dts), np.log(errors), 1)[0]
+
+
+def test_l0_zero_keeps_gear4_order():
+    """l0 = 0: every contact closes ahead of the solitary wave and opens behind it. Plain Gear steps
+    fall to order ≈ 2; event-aware steps give gear4 its order 4 back (slope ≥ 3.5)."""
+    scene = make_scene(chain={"grains": 20, "l0": 0.0}, excitation={"impact": 1e-2},
+                       integrator={"duration": 1.0}, record={"every": 0.25, "fields": ["u"]})
+    records, reference, _ = work_precision(scene, ["gear4"], DTS, ["float64"], device="cpu", events=["auto", "off"])
+    errors = {e: [r.error for r in records if r.events == e] for e in ("auto", "off")}
+    assert not any(r.reference_limited for r in records), records
+    assert slope(DTS, errors["auto"]) >= 3.5, errors
+    assert slope(DTS, errors["off"]) < 2.5, errors
+    assert errors["auto"][-1] < errors["off"][-1] / 10, errors
+
+
+def test_scenes_without_possible_events_compile_no_event_code():
+    strong = make_scene(chain={"grains": 20, "l0": 1e-2}, excitation={"impact": 1e-4})
+    assert features_of([strong]).event_window == 0  # (n−1)·a·δ0^n exceeds the injected energy
+    loose = make_scene(chain={"grains": 20, "l0": 0.0}, excitation={"impact": 1e-2})
+    assert features_of([loose]).event_window > 0
+    assert features_of([loose.with_overrides({"integrator.events": "off"})]).event_window == 0
+    assert features_of([loose.with_overrides({"integrator.method": "verlet"})]).event_window == 0
+    # off is today's kernel: the same feature key, hence the same cached kernel object
+    off = features_of([loose.with_overrides({"integrator.events": "off"})])
+    assert off == Features(**{**off.__dict__, "event_window": 0.0})
+    assert step_kernel(off) is step_kernel(Features(method="gear4", surface="wall", bottom="wall", static="none"))
+
+
+EVENT_CASES = {
+    # name: (scene sections, chain count, tile plan keywords); kept to two variants (compile time)
+    "l0 = 0, gear4, free ends, 2 chains per block": (
+        dict(chain={"grains": 30, "l0": 0.0}, boundary={"surface": "free", "bottom": "free"},
+             integrator={"dt": 5e-4}), 3, dict(grains_per_lane=4, chains_per_block=2)),
+    "wall, light impurity, fixed bottom, gear5, windows": (
+        dict(chain={"grains": 40, "l0": 0.0}, boundary={"bottom": "fixed"},
+             impurities=[{"grains": [5], "mass": 0.3}], integrator={"method": "gear5", "dt": 5e-4}), 2,
+        dict(grains_per_lane=4, lanes_per_chain=8, steps_per_launch=6, windowed=True)),
+}
+
+
+@pytest.mark.parametrize("case", [pytest.param(case, marks=[pytest.mark.slow] if "windows" in case else [])
+                                  for case in EVENT_CASES])
+def test_every_kernel_takes_the_same_event_steps(case):
+    sections, n_chains, plan_keywords = EVENT_CASES[case]
+    steps = 300
+    model = build_model(chains(n_chains, **sections), "cpu")
+    assert model.features.event_window > 0
+    want = per_step(model, steps)
+    off = {**sections, "integrator": {**sections["integrator"], "events": "off"}}
+    plain = per_step(build_model(chains(n_chains, **off), "cpu"), steps)
+    assert np.max(np.abs(want - plain)) > 0  # event steps were taken
+    np.testing.assert_array_equal(sweep(model, steps, steps_per_launch=7), want)
+    plan = plan_tile(model.features, model.grain_count, model.chain_count, **plan_keywords)
+    np.testing.assert_array_equal(fused(model, plan, steps), want)
+
+
+def test_bad_event_modes_are_one_line_errors():
+    from typer.testing import CliRunner
+
+    from ensemble.cli import app
+
+    for args, key in ((["accuracy", "--events", "maybe", "--dt", "2e-4"], "--events"),
+                      (["check", "--set", "integrator.events=maybe"], "integrator.events")):
+        result = CliRunner().invoke(app, args)
+        assert result.exit_code == 2, result.output
+        assert key in result.output and "Traceback" not in result.output
