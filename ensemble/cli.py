@@ -155,6 +155,7 @@ from . import cli_sweep  # noqa: E402,F401  (registers commands)
 from . import cli_bench  # noqa: E402,F401  (registers commands)
 from . import cli_accuracy  # noqa: E402,F401  (registers commands)
 from . import cli_plot  # noqa: E402,F401  (registers commands)
+from . import cli_detect  # noqa: E402,F401  (registers commands)
 
 
 def main() -> None:
