@@ -45,6 +45,9 @@ def detect(
                                         "(0: the library grid only).")] = 3,
     iterations: Annotated[int, typer.Option("--iterations", help="Gauss–Newton iterations (one ensemble run "
                                             "each).")] = 2,
+    window: Annotated[Optional[float], typer.Option("--window", help="Analyse the samples with t ≤ this "
+                                                    "[program time] (default: until the pulse reflected by the "
+                                                    "bottom returns to the surface).")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the result as a JSON object.")] = False,
     plot: Annotated[Optional[Path], typer.Option("--plot", help="Draw signal, best fit, residual and the "
                                                  "posterior over depth into this PNG.")] = None,
@@ -77,17 +80,17 @@ def detect(
     if iterations < 1:
         fail(f"--iterations = {iterations}: must be an integer ≥ 1")
     try:
-        measured = read_signal(signal)
         from .detect import check_base
 
         check_base(base)
+        measured = read_signal(signal)
     except SceneError as err:
         fail(str(err))
     dev = resolve_device(device)
     try:
         result, library = run_detection(measured, base, block=block, noise=noise, device=dev, depth_range=depth_range,
                                         mass_ratio_range=(low, high), mass_steps=mass_steps, refine=refine,
-                                        iterations=iterations, use_cache=not no_cache, batch_size=batch_size)
+                                        iterations=iterations, window=window, use_cache=not no_cache, batch_size=batch_size)
     except SceneError as err:
         fail(str(err))
     if plot is not None:
@@ -107,7 +110,7 @@ def detect(
         a, b = result.depths_searched
         s = result.seconds
         library_text = "cached" if result.library_from_cache else f"{s['library']:.2f} s"
-        typer.echo(f"searched     depths {a} … {b}, mass ratio {low:g} … {high:g}; forward dt {result.dt:g} on {dev}; "
+        typer.echo(f"searched     depths {a} … {b}, mass ratio {low:g} … {high:g}, t ≤ {result.window:g}; forward dt {result.dt:g} on {dev}; "
                    f"library {library_text}, "
                    f"refinement {s['refinement']:.2f} s, total {s['total']:.2f} s")
     if plot is not None:

@@ -442,6 +442,8 @@ class Detection:
     noise_before_echo: float | None
     """σ estimated from the samples before the earliest possible echo (None with --noise)."""
     depths_searched: tuple[int, int]
+    window: float
+    """Samples with t ≤ window were analysed [time]."""
     block: int
     best_fit: np.ndarray
     """Model surface velocity of the best candidate (the clean chain for none), shape (S,)."""
@@ -467,6 +469,7 @@ class Detection:
             "noise_source": self.noise_source,
             "noise_before_echo": self.noise_before_echo,
             "depths_searched": list(self.depths_searched),
+            "window": self.window,
             "block": self.block,
             "credible": CREDIBLE,
             "dt": self.dt,
@@ -495,22 +498,20 @@ def default_depths(fronts: np.ndarray, duration: float, grain_count: int, block:
     return np.arange(first, min(last, deepest) + 1)
 
 
-def estimate_noise(signal: Signal, clean: np.ndarray, fronts: np.ndarray, first_depth: int) -> tuple[float, str]:
-    """rms of (signal − clean model) before the earliest possible echo t < 2 t_front(first_depth)."""
+def estimate_noise(signal: Signal, clean: np.ndarray, fronts: np.ndarray, first_depth: int
+                   ) -> tuple[float | None, str]:
+    """rms of (signal − clean model) before the earliest possible echo, t < 2 t_front(first_depth).
+
+    None when fewer than NOISE_MIN_SAMPLES samples precede it.
+    """
     end = 2 * fronts[first_depth]
     window = signal.t < end
     count = int(window.sum())
     if count < NOISE_MIN_SAMPLES:
-        raise SceneError("--noise", "estimate", f"only {count} samples precede the earliest possible echo "
-                         f"(t < {end:.4g}, from depth {first_depth}); at least {NOISE_MIN_SAMPLES} are needed: "
-                         "give --noise σ, a finer signal, or a deeper --depths start")
+        return None, f"only {count} samples before the earliest possible echo (t < {end:.4g})"
     residual = signal.v[window] - clean[window]
     sigma = float(np.sqrt(np.mean(residual**2)))
-    floor = 1e-12 * max(float(np.max(np.abs(clean))), 1e-300)
-    source = f"rms of signal − clean model over {count} samples, t < {end:.4g} (before the earliest echo)"
-    if sigma < floor:
-        sigma, source = floor, source + f"; at the floor {floor:.3g} (noise-free signal)"
-    return sigma, source
+    return sigma, f"{count} samples before the earliest possible echo (t < {end:.4g})"
 
 
 def _class_bounds(grid: Grid) -> dict:
@@ -518,65 +519,115 @@ def _class_bounds(grid: Grid) -> dict:
     return {"light": (math.log(low), 0.0), "heavy": (0.0, math.log(high))}
 
 
+INTERPOLATION_POINTS = 8
+"""Points per library interval in ln μ at which the cubic interpolant of the traces is evaluated."""
+
+
+def lagrange_weights(nodes: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Local cubic Lagrange interpolation on increasing ``nodes``: values and x-derivatives at ``points``.
+
+    Returns W, dW of shape (P, n) so that f(points) ≈ W @ f(nodes), f'(points) ≈ dW @ f(nodes); each
+    point uses the 4 nodes around it (3 or 2 where fewer exist).
+    """
+    n = nodes.size
+    width = min(4, n)
+    W = np.zeros((points.size, n))
+    dW = np.zeros((points.size, n))
+    for p, x in enumerate(points):
+        i = int(np.clip(np.searchsorted(nodes, x) - 1, 0, n - 1))
+        first = int(np.clip(i - 1, 0, n - width))
+        idx = range(first, first + width)
+        for a in idx:
+            others = [b for b in idx if b != a]
+            denominator = np.prod([nodes[a] - nodes[b] for b in others])
+            W[p, a] = np.prod([x - nodes[b] for b in others]) / denominator
+            dW[p, a] = sum(np.prod([x - nodes[c] for c in others if c != b]) for b in others) / denominator
+    return W, dW
+
+
 def _library_quadratics(signal: np.ndarray, library: Library, kind: str) -> list[Quadratic | None]:
-    """Per depth, the Gauss–Newton quadratic at the class's best library point (J from grid neighbours)."""
+    """Per depth, the Gauss–Newton quadratic at the best point of the class's interpolated library.
+
+    The traces are interpolated in x = ln μ (local cubic through the library's ratios and the clean
+    chain at x = 0) at INTERPOLATION_POINTS points per interval; x0 is the point of least RSS, J the
+    interpolant's derivative there.
+    """
     grid = library.grid
     columns = grid.light if kind == "light" else grid.heavy
     xs = np.concatenate([grid.log_mass_ratio[columns], [0.0]])
     order = np.argsort(xs)
     xs = xs[order]
+    fine = np.linspace(xs[0], xs[-1], (xs.size - 1) * INTERPOLATION_POINTS + 1)
+    W, dW = lagrange_weights(xs, fine)
     out = []
     for k in range(len(grid.depths)):
         models = np.concatenate([library.traces[k, columns], library.clean[None]])[order]
         ok = np.concatenate([library.ok[k, columns], [True]])[order]
-        residual = signal[None] - models
-        rss = np.where(ok, np.einsum("ms,ms->m", residual, residual), np.inf)
-        j = int(np.argmin(rss))
-        if not np.isfinite(rss[j]):
+        usable = (np.abs(W) > 0) @ (~ok) == 0
+        if not usable.any():
             out.append(None)
             continue
-        lo, hi = max(j - 1, 0), min(j + 1, len(xs) - 1)
-        if not (ok[lo] and ok[hi]) or lo == hi:
-            lo, hi = j, j
-        jac = (models[hi] - models[lo]) / (xs[hi] - xs[lo]) if hi > lo else np.zeros_like(signal)
-        out.append(quadratic_at(signal, xs[j], models[j], jac))
+        interpolated = W @ np.where(ok[:, None], models, 0.0)
+        residual = signal[None] - interpolated
+        rss = np.where(usable, np.einsum("ms,ms->m", residual, residual), np.inf)
+        j = int(np.argmin(rss))
+        out.append(quadratic_at(signal, fine[j], interpolated[j], dW[j] @ np.where(ok[:, None], models, 0.0)))
     return out
 
 
 def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None = None, device: str = "cpu",
            depth_range: tuple[int, int] | None = None, mass_ratio_range=(0.25, 4.0), mass_steps: int = 7,
-           refine: int = 3, iterations: int = 2, step: float = 0.02, use_cache: bool = True,
-           batch_size: int = 4096, library: Library | None = None) -> tuple[Detection, Library]:
+           refine: int = 3, iterations: int = 2, step: float = 0.02, window: float | None = None,
+           use_cache: bool = True, batch_size: int = 4096) -> tuple[Detection, Library]:
     """Class, depth and mass ratio of an impurity in BASE from a surface signal (see the module docstring).
 
     ``refine``: depths per class refined by Gauss–Newton (0: the library alone); ``iterations``: ensemble
-    runs of refinement; ``step``: finite-difference step in ln μ.
+    runs of refinement; ``step``: finite-difference step in ln μ; ``window``: the samples with t ≤ window
+    are analysed (default: until the pulse reflected by the bottom returns, 2 t_front(N − 1)).
     """
     started = time.perf_counter()
     if block < 1 or block >= base.chain.grains:
         raise SceneError("--block", block, f"must be an integer 1 … {base.chain.grains - 1}")
     if noise is not None and not (noise > 0 and math.isfinite(noise)):
         raise SceneError("--noise", noise, "must be a number > 0 (σ of the noise, program velocity)")
-    if refine < 0 or iterations < 1:
+    if refine < 0:
         raise SceneError("--refine", refine, "must be an integer ≥ 0")
+    if iterations < 1:
+        raise SceneError("--iterations", iterations, "must be an integer ≥ 1")
+    if window is not None and not window > 0:
+        raise SceneError("--window", window, "must be a time > 0")
+    # the pulse fronts of the clean chain (cached under a key of BASE and the sample times)
+    fronts = _cached_fronts(forward_scene(base, signal.spacing, signal.sample_count), device, use_cache)
+    end = 2 * float(fronts[-1]) if window is None else float(window)
+    count = min(signal.sample_count, int(np.searchsorted(signal.t, end * (1 + 1e-12), side="right")))
+    if count < 3:
+        raise SceneError("--window", f"{end:g}", "leaves fewer than 3 samples")
+    signal = Signal(t=signal.t[:count], v=signal.v[:count], source=signal.source)
+    depths = default_depths(fronts, float(signal.t[-1]), base.chain.grains, block, depth_range)
     forward = forward_scene(base, signal.spacing, signal.sample_count)
-    if library is None:
-        # the depths depend on the pulse fronts: cached alongside under a key without the grid
-        fronts = _cached_fronts(forward, device, use_cache)
-        depths = default_depths(fronts, float(signal.t[-1]), base.chain.grains, block, depth_range)
-        key_grid = make_grid(depths, mass_ratio_range, mass_steps, block)
-        library = build_library(forward, key_grid, device, fronts=fronts, use_cache=use_cache,
-                                batch_size=batch_size)
+    library = build_library(forward, make_grid(depths, mass_ratio_range, mass_steps, block), device, fronts=fronts,
+                            use_cache=use_cache, batch_size=batch_size)
     library_seconds = library.build_seconds
     grid = library.grid
     depths = grid.depths
+    s = signal.v
+    floor = 1e-12 * float(np.max(np.abs(library.clean)))
     if noise is None:
-        sigma, noise_source = estimate_noise(signal, library.clean, library.fronts, int(depths[0]))
+        # first estimate (picks the depths to refine): before the earliest possible echo, else the
+        # best library candidate's residual
+        window_sigma, window_text = estimate_noise(signal, library.clean, library.fronts, int(depths[0]))
+        if window_sigma is not None:
+            sigma = window_sigma
+        else:
+            residual = s[None, None] - library.traces
+            best = min(float(np.min(np.where(library.ok, np.einsum("dms,dms->dm", residual, residual), np.inf))),
+                       float((s - library.clean) @ (s - library.clean)))
+            sigma = math.sqrt(best / (signal.sample_count - 2))
+        sigma = max(sigma, floor)
     else:
         sigma, noise_source = float(noise), "given (--noise)"
 
     refine_start = time.perf_counter()
-    s = signal.v
     bounds = _class_bounds(grid)
     quads = {kind: _library_quadratics(s, library, kind) for kind in ("light", "heavy")}
     log_prior_depth = -math.log(len(depths))
@@ -618,13 +669,13 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
     refine_seconds = time.perf_counter() - refine_start
 
     rss_clean = float((s - library.clean) @ (s - library.clean))
-    window_sigma = sigma
     if noise is None:
         # second estimate, from every sample: the best candidate's residual (2 fitted parameters)
         best_rss = min([rss_clean] + [q.rss0 for kind in quads for q in quads[kind] if q is not None])
-        sigma = max(math.sqrt(best_rss / (signal.sample_count - 2)), 1e-12 * float(np.max(np.abs(library.clean))))
-        noise_source = (f"rms residual of the best candidate over all {signal.sample_count} samples "
-                        f"(RSS/(S − 2)); before the earliest echo: {window_sigma:.4g} ({noise_source})")
+        sigma = max(math.sqrt(best_rss / (signal.sample_count - 2)), floor)
+        noise_source = (f"rms residual of the best candidate over all {signal.sample_count} samples, RSS/(S − 2); "
+                        + (f"rms of signal − clean chain before the earliest echo: {window_sigma:.4g} over {window_text}"
+                           if window_sigma is not None else window_text))
     norm = -0.5 * signal.sample_count * math.log(2 * math.pi * sigma**2)
     per_depth = {kind: depth_logz(kind) + log_prior_depth for kind in ("light", "heavy")}
     log_z = {"none": norm - rss_clean / (2 * sigma**2),
@@ -678,7 +729,7 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
         kind=kind, class_probability=probability, log_evidence=log_z, depth=depth, depth_interval=depth_interval,
         mass_ratio=mass_ratio, mass_ratio_interval=mass_interval, noise=sigma, noise_source=noise_source,
         noise_before_echo=window_sigma if noise is None else None,
-        depths_searched=(int(depths[0]), int(depths[-1])), block=grid.block, best_fit=best_fit,
+        depths_searched=(int(depths[0]), int(depths[-1])), window=float(signal.t[-1]), block=grid.block, best_fit=best_fit,
         depth_posterior=posterior, seconds=seconds, library_from_cache=library.from_cache,
         dt=forward.integrator.dt, refined_depths=refined,
     ), library
@@ -709,6 +760,8 @@ def plot_detection(signal: Signal, detection: Detection, library: Library, path:
     import matplotlib.pyplot as plt
 
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 7), constrained_layout=True)
+    count = detection.best_fit.size  # the analysed window
+    signal = Signal(t=signal.t[:count], v=signal.v[:count], source=signal.source)
     top.plot(signal.t, signal.v, lw=0.8, color="0.5", label="signal")
     top.plot(signal.t, detection.best_fit, lw=0.9, color="C0", label="best fit")
     residual = signal.v - detection.best_fit
