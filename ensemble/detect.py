@@ -11,20 +11,28 @@ divides the sample spacing (no interpolation). A whole library of candidate chai
 ratio, coarse) is one ensemble run (:func:`ensemble.runner.run_ensemble`), cached per BASE under
 ``$HERTZIAN_DETECT_CACHE`` (default ``~/.cache/hertzian/detect/``).
 
-**Noise model.** i.i.d. Gaussian noise of standard deviation σ: ``--noise σ``, or estimated as the rms
-of ``v − v_clean`` over the samples that precede the earliest possible echo, ``t < 2 t_front(d_min)``,
-where ``t_front(d)`` is the time the pulse front (``v_d > 1e-4 v_imp``) reaches grain d in the BASE
-chain's own clean run and ``d_min`` the shallowest depth searched (an echo cannot return faster than the
-pulse that causes it travels out).
+**Window.** The samples up to the return of the pulse reflected by the bottom, ``t ≤ 2 t_front(N − 1)``,
+are analysed (``window`` to change it), where ``t_front(d)`` is the time the pulse front (``v_d > 1e-4
+v_imp``) reaches grain d in the BASE chain's own clean run. After that time the surface signal is
+dominated by the bottom reflection, whose timing depends so strongly on the impurity that the
+likelihood becomes rugged in μ. Depths whose echo cannot start inside the window are not searched.
+
+**Noise model.** i.i.d. Gaussian noise of standard deviation σ: ``--noise σ``, or estimated twice. First
+as the rms of ``v − v_clean`` over the samples before the earliest possible echo, ``t < 2 t_front(d_min)``
+(``d_min`` the shallowest depth searched; an echo cannot return faster than the pulse that causes it
+travels out), or, when fewer than NOISE_MIN_SAMPLES samples precede it, from the best library
+candidate's residual; this σ picks the depths to refine. Then from every sample, ``RSS_best / (S − 2)``
+of the best candidate after refinement; the posterior uses this one.
 
 **Posterior.** Likelihood ∝ exp(−‖v − v_model‖² / 2σ²); priors: the three classes equally likely,
 depth uniform over the searched depths, ``x = ln μ`` uniform over ``[ln μ_min, 0)`` (light) or
 ``(0, ln μ_max]`` (heavy); ``none`` is the clean chain. For each depth and class the residual sum of
 squares is modelled as a quadratic in x (Gauss–Newton: ``RSS(x) ≈ RSS(x0) − 2 J·r (x − x0) + J·J (x − x0)²``
-with ``J = ∂v/∂x`` by finite differences), integrated in closed form over the class's range (a truncated
-Gaussian). The library gives x0 and J at every depth (neighbouring grid ratios); the best ``refine``
-depths of each class are then refined by Gauss–Newton, each iteration one more ensemble run of three
-chains per candidate (x0 − h, x0, x0 + h). Class probabilities are the normalised class evidences;
+with ``J = ∂v/∂x``), integrated in closed form over the class's range (a truncated Gaussian). From the
+library, x0 is the best of the traces interpolated in x (local cubic through the library's ratios and
+the clean chain at x = 0) and J the interpolant's derivative; the best ``refine`` depths of each class are
+then refined by Gauss–Newton with J by central differences, each iteration one more ensemble run of
+three chains per candidate (x0 − h, x0, x0 + h). Class probabilities are the normalised class evidences;
 the depth is the posterior mode, with the central 95 % interval of the depth posterior; the mass
 ratio is exp(x) at the mode's Gauss–Newton optimum, with the central 95 % interval of the class's
 posterior over x (a mixture over depths of truncated Gaussians).

@@ -230,3 +230,27 @@ def test_forward_scene_samples_on_steps():
     assert scene.trace_stride == 13 and scene.integrator.dt == pytest.approx(0.0125 / 13, rel=1e-15)
     assert scene.integrator.duration == pytest.approx(1.25, rel=1e-15)
     assert scene.step_count == 100 * 13
+
+
+def test_study_summary_counts():
+    """The study's tables from hand-made records: accuracy, depth within ±1 (class right too), coverage."""
+    from ensemble.detect_study import summarize
+
+    def record(true_class, kind, true_depth, depth, covered):
+        return {"host": "h", "snr_db": 26.0, "true_class": true_class, "class": kind, "true_depth": true_depth,
+                "depth": depth, "true_mass_ratio": 0.5 if true_class == "light" else 2.0,
+                "depth_fraction": None if true_depth is None else true_depth / 100,
+                "class_correct": true_class == kind,
+                "depth_error": None if true_depth is None or depth is None else depth - true_depth,
+                "mass_ratio_covered": covered, "seconds": {"total": 1.0}}
+
+    rows = [record("light", "light", 10, 10, True), record("light", "light", 10, 12, False),
+            record("heavy", "light", 50, 50, False), record("heavy", "none", 50, None, None),
+            record("none", "none", None, None, None)]
+    table = summarize(rows)["h"]["26.0"]
+    assert table["class_accuracy"] == pytest.approx(3 / 5)
+    assert table["depth_within_1"] == pytest.approx(1 / 4)     # 4 impure; the heavy-as-light at d=50 does not count
+    assert table["depth_exact"] == pytest.approx(1 / 4)
+    assert table["mass_ratio_interval_coverage"] == pytest.approx(1 / 3)
+    assert table["confusion"]["heavy"] == {"none": 1, "light": 1, "heavy": 0}
+    assert table["confusion"]["none"]["none"] == 1 and table["confusion"]["light"]["light"] == 2
