@@ -583,6 +583,40 @@ def _library_quadratics(signal: np.ndarray, library: Library, kind: str) -> list
     return out
 
 
+FIRST_ECHO_GRAINS = 10
+"""The first-echo score of depth d uses the samples before the echo from depth d + this could start."""
+
+
+def _first_echo_scores(signal: np.ndarray, t: np.ndarray, library: Library, kind: str
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """Per depth: how much the class's interpolated library reduces the RSS of the clean chain over the
+    samples before 2 t_front(d + FIRST_ECHO_GRAINS) (its first echo and little else), and the best x there."""
+    grid = library.grid
+    columns = grid.light if kind == "light" else grid.heavy
+    xs = np.concatenate([grid.log_mass_ratio[columns], [0.0]])
+    order = np.argsort(xs)
+    xs = xs[order]
+    fine = np.linspace(xs[0], xs[-1], (xs.size - 1) * INTERPOLATION_POINTS + 1)
+    W, _ = lagrange_weights(xs, fine)
+    n = library.fronts.size
+    gain = np.full(len(grid.depths), -np.inf)
+    best_x = np.zeros(len(grid.depths))
+    for k, depth in enumerate(grid.depths):
+        end = int(np.searchsorted(t, 2 * library.fronts[min(n - 1, int(depth) + FIRST_ECHO_GRAINS)]))
+        if end < 2:
+            continue
+        models = np.concatenate([library.traces[k, columns, :end], library.clean[None, :end]])[order]
+        ok = np.concatenate([library.ok[k, columns], [True]])[order]
+        usable = (np.abs(W) > 0) @ (~ok) == 0
+        residual = signal[None, :end] - W @ np.where(ok[:, None], models, 0.0)
+        rss = np.where(usable, np.einsum("ms,ms->m", residual, residual), np.inf)
+        j = int(np.argmin(rss))
+        clean = signal[:end] - library.clean[:end]
+        gain[k] = float(clean @ clean) - rss[j]
+        best_x[k] = fine[j]
+    return gain, best_x
+
+
 def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None = None, device: str = "cpu",
            depth_range: tuple[int, int] | None = None, mass_ratio_range=(0.25, 4.0), mass_steps: int = 7,
            refine: int = 3, iterations: int = 2, step: float = 0.02, window: float | None = None,
@@ -646,16 +680,21 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
 
     refined: dict[str, list[int]] = {"light": [], "heavy": []}
     if refine > 0:
-        # candidates: the best `refine` depths of each class by their library evidence
+        # candidates per class: the best `refine` depths by their library evidence over the window, and the
+        # best `refine` by how much of the first echo they explain (robust where later reverberations make
+        # the library's interpolation in μ poor); Gauss–Newton starts from each one's own best x
         todo = []
         for kind in ("light", "heavy"):
+            lo, hi = bounds[kind]
             logz = depth_logz(kind)
-            for k in np.argsort(-logz)[:refine]:
-                if np.isfinite(logz[k]):
-                    lo, hi = bounds[kind]
-                    q = quads[kind][k]
-                    x0 = min(max(q.optimum, lo + step), hi - step)
-                    todo.append((kind, int(k), x0))
+            starts = [(int(k), quads[kind][k].optimum) for k in np.argsort(-logz)[:refine] if np.isfinite(logz[k])]
+            gain, first_x = _first_echo_scores(s, signal.t, library, kind)
+            starts += [(int(k), first_x[k]) for k in np.argsort(-gain)[:refine] if np.isfinite(gain[k])]
+            for k, x in starts:
+                x0 = min(max(x, lo + step), hi - step)
+                if not any(kk == k and cc == kind and abs(xx - x0) < 2 * step for cc, kk, xx in todo):
+                    todo.append((kind, k, x0))
+        final: dict[tuple[str, int], Quadratic] = {}
         for _ in range(iterations):
             candidates = []
             for kind, k, x0 in todo:
@@ -665,14 +704,16 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
             for n, (kind, k, x0) in enumerate(todo):
                 minus, centre, plus = traces[3 * n: 3 * n + 3]
                 if not ok[3 * n: 3 * n + 3].all():
-                    nxt.append((kind, k, x0))
                     continue
                 q = quadratic_at(s, x0, centre, (plus - minus) / (2 * step))
-                quads[kind][k] = q  # the simulated quadratic replaces the library's estimate
+                best = final.get((kind, k))
+                if best is None or q.rss0 < best.rss0:
+                    final[(kind, k)] = q
                 lo, hi = bounds[kind]
                 nxt.append((kind, k, min(max(q.optimum, lo + step), hi - step)))
             todo = nxt
-        for kind, k, _ in todo:
+        for (kind, k), q in final.items():
+            quads[kind][k] = q  # the simulated quadratic replaces the library's estimate
             refined[kind].append(int(depths[k]))
     refine_seconds = time.perf_counter() - refine_start
 
