@@ -168,3 +168,60 @@ def _by(rows: list[dict], key: str) -> dict:
 
 def write_study(result: dict, path: str | Path) -> None:
     Path(path).write_text(json.dumps(result, indent=1, default=float))
+
+
+def markdown_tables(result: dict) -> str:
+    """The study's summary as Markdown tables (what docs/detection.md quotes)."""
+    lines = []
+    meta = result["meta"]
+    lines.append(f"Study file `{meta['study_file']}`, device {meta['device']} ({meta['cpu']}), {meta['date']}, "
+                 f"{meta['wall_seconds']:.0f} s wall in all.\n")
+    lines.append("| host | grains | g | block | dt (truth dt) | window | depths planted |")
+    lines.append("| --- | --- | --- | --- | --- | --- | --- |")
+    for h in meta["hosts"]:
+        lines.append(f"| {h['name']} | {h['grains']} | {h['gravity']:g} | {h['block']} | {h['dt']:g} ({h['truth_dt']:g}) "
+                     f"| t ≤ {h['window']:.4g} | {', '.join(map(str, h['depths']))} |")
+    lines.append("")
+    lines.append("| host | SNR [dB] | detections | class correct | depth exact | depth ±1 | μ in 95 % interval "
+                 "| s / detection (median) |")
+    lines.append("| --- | --- | --- | --- | --- | --- | --- | --- |")
+
+    def fmt(x):
+        return "–" if x is None else f"{x:.3f}"
+
+    for host, per_snr in result["summary"].items():
+        for snr, row in per_snr.items():
+            lines.append(f"| {host} | {float(snr):g} | {row['detections']} | {fmt(row['class_accuracy'])} | "
+                         f"{fmt(row['depth_exact'])} | {fmt(row['depth_within_1'])} | "
+                         f"{fmt(row['mass_ratio_interval_coverage'])} | {row['seconds_per_detection_median']:.2f} |")
+    lines.append("")
+    for host, per_snr in result["summary"].items():
+        for snr, row in per_snr.items():
+            c = row["confusion"]
+            lines.append(f"Confusion, {host}, SNR {float(snr):g} dB (rows: truth, columns: detected)\n")
+            lines.append("| truth \\ detected | none | light | heavy |")
+            lines.append("| --- | --- | --- | --- |")
+            for tc in ("none", "light", "heavy"):
+                lines.append(f"| {tc} | {c[tc]['none']} | {c[tc]['light']} | {c[tc]['heavy']} |")
+            lines.append("")
+    for host, per_snr in result["summary"].items():
+        snrs = list(per_snr)
+        for key, title in (("by_depth_fraction", "depth / N"), ("by_mass_ratio", "mass ratio")):
+            values = list(per_snr[snrs[0]][key])
+            lines.append(f"{host}: class correct and depth within ±1 (with the class right) by {title}\n")
+            lines.append(f"| {title} | " + " | ".join(f"{float(s):g} dB" for s in snrs) + " |")
+            lines.append("| --- | " + " | ".join("---" for _ in snrs) + " |")
+            for v in values:
+                cells = []
+                for s in snrs:
+                    cell = per_snr[s][key].get(v)
+                    cells.append("–" if cell is None else f"{cell['class_accuracy']:.2f} / {cell['depth_within_1']:.2f}")
+                lines.append(f"| {v} | " + " | ".join(cells) + " |")
+            lines.append("")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    import sys
+
+    print(markdown_tables(json.loads(Path(sys.argv[1]).read_text())))
