@@ -12,6 +12,9 @@ import typer
 from .cli import DeviceOption, SetOption, _load, app, fail, resolve_device
 from .scene import SceneError
 
+MISFIT_WARNING = 3.0
+"""Warn when the best fit's σ exceeds the σ before the earliest echo by more than this factor."""
+
 
 def _pair(key: str, text: str, sep: str, kind):
     parts = text.split(sep)
@@ -113,6 +116,10 @@ def detect(
         typer.echo(f"searched     depths {a} … {b}, mass ratio {low:g} … {high:g}, t ≤ {result.window:g}; forward dt {result.dt:g} on {dev}; "
                    f"library {library_text}, "
                    f"refinement {s['refinement']:.2f} s, total {s['total']:.2f} s")
+    if result.misfit_ratio is not None and result.misfit_ratio > MISFIT_WARNING:
+        typer.echo(f"warning: the best fit leaves σ = {result.noise:.3g}, {result.misfit_ratio:.1f}× the noise before "
+                   "the earliest echo: the model misses part of the signal (a local minimum, an impurity outside "
+                   "the search, or model error); the intervals are not to be trusted", err=True)
     if plot is not None:
         typer.echo(f"wrote {plot}", err=True)
 

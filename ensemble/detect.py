@@ -464,6 +464,11 @@ class Detection:
     """Step of the forward model [time]."""
     refined_depths: dict = field(default_factory=dict)
 
+    @property
+    def misfit_ratio(self) -> float | None:
+        """σ of the best fit over σ before the earliest echo: ≫ 1 means the best model misses the signal."""
+        return None if not self.noise_before_echo else self.noise / self.noise_before_echo
+
     def to_dict(self) -> dict:
         return {
             "class": self.kind,
@@ -476,6 +481,7 @@ class Detection:
             "noise": self.noise,
             "noise_source": self.noise_source,
             "noise_before_echo": self.noise_before_echo,
+            "misfit_ratio": self.misfit_ratio,
             "depths_searched": list(self.depths_searched),
             "window": self.window,
             "block": self.block,
