@@ -1,0 +1,168 @@
+"""``hertzian detect`` (locate and identify a buried impurity from the surface signal) and
+``hertzian detect-study`` (its accuracy study). See ensemble/detect.py and docs/detection.md."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from ..scene import SceneError
+from .app import DeviceOption, SetOption, app, fail, load_scene_or_fail, resolve_device
+
+MISFIT_WARNING = 3.0
+"""Warn when the best fit's σ exceeds the σ before the earliest echo by more than this factor."""
+
+
+def _pair(key: str, text: str, sep: str, kind):
+    parts = text.split(sep)
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        return kind(parts[0]), kind(parts[1])
+    except ValueError:
+        fail(f"{key} = {text!r}: must be written A{sep}B with two {'integers' if kind is int else 'numbers'}")
+
+
+@app.command()
+def detect(
+    signal: Annotated[Path, typer.Argument(help="CSV with the header line t,v (grain 0's velocity sampled "
+                                           "uniformly from the impact at t = 0, program units), or a hertzian "
+                                           "store with a trace of grain 0.")],
+    scene: Annotated[Optional[Path], typer.Option("--scene", help="BASE scene TOML: the host chain without "
+                                                  "impurities (grains, l0, gravity, boundaries, impact, "
+                                                  "integrator); its duration and record are replaced.")] = None,
+    block: Annotated[int, typer.Option("--block", help="Impurity block length in grains (depth = its first "
+                                       "grain).")] = 1,
+    noise: Annotated[Optional[float], typer.Option("--noise", help="σ of the i.i.d. Gaussian noise [program "
+                                                   "velocity]; default: estimated (see docs/detection.md).")] = None,
+    depths: Annotated[Optional[str], typer.Option("--depths", help="Depths searched, A:B (default: ⌈N/20⌉ to "
+                                                  "the deepest whose echo can start within the signal).")] = None,
+    mass_range: Annotated[str, typer.Option("--mass-range", help="Prior range of the mass ratio μ_min,μ_max "
+                                            "(μ_min < 1 < μ_max).")] = "0.25,4",
+    mass_steps: Annotated[int, typer.Option("--mass-steps", help="Library mass ratios on each side of 1 "
+                                            "(log-spaced).")] = 7,
+    refine: Annotated[int, typer.Option("--refine", help="Depths per class refined by Gauss–Newton in ln μ "
+                                        "(0: the library grid only).")] = 3,
+    iterations: Annotated[int, typer.Option("--iterations", help="Gauss–Newton iterations (one ensemble run "
+                                            "each).")] = 2,
+    window: Annotated[Optional[float], typer.Option("--window", help="Analyse the samples with t ≤ this "
+                                                    "[program time] (default: until the pulse reflected by the "
+                                                    "bottom returns to the surface).")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the result as a JSON object.")] = False,
+    plot: Annotated[Optional[Path], typer.Option("--plot", help="Draw signal, best fit, residual and the "
+                                                 "posterior over depth into this PNG.")] = None,
+    no_cache: Annotated[bool, typer.Option("--no-cache", help="Neither read nor write the library cache.")] = False,
+    batch_size: Annotated[int, typer.Option("--batch-size", help="Chains per ensemble run of the library.")] = 4096,
+    device: DeviceOption = None,
+    set_: SetOption = None,
+):
+    """Locate and identify a buried impurity (class none | light | heavy, depth, mass ratio) from the
+    surface grain's velocity after an impact.
+
+    A library of candidate chains (BASE + one impurity block at every depth × log-spaced mass ratios)
+    is simulated as one ensemble with surface traces at the signal's sample times and cached per BASE
+    (``$HERTZIAN_DETECT_CACHE``, default ~/.cache/hertzian/detect); the best depths are refined by
+    Gauss–Newton in ln μ. Noise: i.i.d. Gaussian; posterior with equal class odds, uniform depth and
+    uniform ln μ priors; intervals are central 95 %. Program units (time 1.0102e-3 s, length 1e-5 m).
+    """
+    from ..detect import detect as run_detection
+    from ..detect import plot_detection, read_signal
+
+    if scene is None:
+        fail("--scene: required: the BASE scene TOML (the host chain without impurities)")
+    base = load_scene_or_fail(scene, set_, None)
+    low, high = _pair("--mass-range", mass_range, ",", float)
+    depth_range = _pair("--depths", depths, ":", int) if depths is not None else None
+    if plot is not None and not plot.parent.exists():
+        fail(f"--plot = {str(plot)!r}: parent directory does not exist")
+    if batch_size < 1:
+        fail(f"--batch-size = {batch_size}: must be an integer ≥ 1")
+    if iterations < 1:
+        fail(f"--iterations = {iterations}: must be an integer ≥ 1")
+    try:
+        from ..detect import check_base
+
+        check_base(base)
+        measured = read_signal(signal)
+    except SceneError as err:
+        fail(str(err))
+    dev = resolve_device(device)
+    try:
+        result, library = run_detection(measured, base, block=block, noise=noise, device=dev, depth_range=depth_range,
+                                        mass_ratio_range=(low, high), mass_steps=mass_steps, refine=refine,
+                                        iterations=iterations, window=window, use_cache=not no_cache, batch_size=batch_size)
+    except SceneError as err:
+        fail(str(err))
+    if plot is not None:
+        plot_detection(measured, result, library, plot)
+    if as_json:
+        typer.echo(json.dumps(result.to_dict(), indent=1))
+    else:
+        p = result.class_probability
+        typer.echo(f"class        {result.kind}  (p: none {p['none']:.3g}, light {p['light']:.3g}, "
+                   f"heavy {p['heavy']:.3g})")
+        if result.kind != "none":
+            lo, hi = result.depth_interval
+            mlo, mhi = result.mass_ratio_interval
+            typer.echo(f"depth        {result.depth}  (95 %: {lo} … {hi}; block of {result.block})")
+            typer.echo(f"mass ratio   {result.mass_ratio:.4g}  (95 %: {mlo:.4g} … {mhi:.4g})")
+        typer.echo(f"noise σ      {result.noise:.4g}  ({result.noise_source})")
+        a, b = result.depths_searched
+        s = result.seconds
+        library_text = "cached" if result.library_from_cache else f"{s['library']:.2f} s"
+        typer.echo(f"searched     depths {a} … {b}, mass ratio {low:g} … {high:g}, t ≤ {result.window:g}; forward dt {result.dt:g} on {dev}; "
+                   f"library {library_text}, "
+                   f"refinement {s['refinement']:.2f} s, total {s['total']:.2f} s")
+    if result.misfit_ratio is not None and result.misfit_ratio > MISFIT_WARNING:
+        typer.echo(f"warning: the best fit leaves σ = {result.noise:.3g}, {result.misfit_ratio:.1f}× the noise before "
+                   "the earliest echo: the model misses part of the signal (a local minimum, an impurity outside "
+                   "the search, or model error); the intervals are not to be trusted", err=True)
+    if plot is not None:
+        typer.echo(f"wrote {plot}", err=True)
+
+
+@app.command("detect-study")
+def detect_study(
+    study: Annotated[Path, typer.Argument(help="Study TOML (e.g. sweeps/detect_study.toml).")],
+    out: Annotated[Path, typer.Option("--out", help="JSON file to write (records and summary).")] =
+        Path("detect-study.json"),
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing --out.")] = False,
+    device: DeviceOption = None,
+    quiet: Annotated[bool, typer.Option("--quiet", help="No progress lines on stderr.")] = False,
+):
+    """Accuracy study of detect: planted impurities (independent runs at half the step), seeded noise at
+    given SNRs (relative to the echo peak), detection; class accuracy, depth error, interval coverage,
+    confusion matrices and seconds per detection, written as JSON."""
+    from ..detect_study import load_study, run_study, write_study
+
+    if out.exists() and not overwrite:
+        fail(f"--out = {str(out)!r}: exists; choose another path or pass --overwrite")
+    if not out.parent.exists():
+        fail(f"--out = {str(out)!r}: parent directory does not exist")
+    try:
+        load_study(study)
+    except SceneError as err:
+        fail(str(err))
+    dev = resolve_device(device)
+
+    def progress(record: dict) -> None:
+        if not quiet:
+            typer.echo(f"{record['host']} snr {record['snr_db']:g} true {record['true_class']} d={record['true_depth']} "
+                       f"μ={record['true_mass_ratio']:g} → {record['class']} d={record['depth']} "
+                       f"μ={record['mass_ratio']:.3g} ({record['seconds']['total']:.2f} s)", err=True)
+
+    try:
+        result = run_study(study, dev, progress=progress)
+    except SceneError as err:
+        fail(str(err))
+    write_study(result, out)
+    for host, per_snr in result["summary"].items():
+        for snr, row in per_snr.items():
+            typer.echo(f"{host} SNR {float(snr):g} dB: class {row['class_accuracy']:.3f}, depth ±1 "
+                       f"{row['depth_within_1'] if row['depth_within_1'] is None else round(row['depth_within_1'], 3)}, "
+                       f"μ coverage {row['mass_ratio_interval_coverage']}, "
+                       f"{row['seconds_per_detection_median']:.2f} s/detection")
+    typer.echo(f"wrote {out} ({result['meta']['wall_seconds']:.0f} s)")

@@ -1,0 +1,842 @@
+"""Soliton spectroscopy: locate and identify a buried impurity from the surface grain's velocity.
+
+The measurement is the velocity ``v(t)`` of grain 0 after an impact at t = 0, sampled uniformly.
+The host chain without impurities (BASE) is known. The unknowns are the class (``none``, ``light``,
+``heavy``), the depth ``d`` (index of the impurity grain; of the first grain of a block of ``block``
+grains) and the mass ratio ``μ = m_impurity / m_host`` (contact constant as the host's).
+
+**Forward model.** BASE plus one impurity block at depth d with mass μ·m, impact at grain 0, grain 0's
+velocity traced at exactly the signal's sample times: the step is the largest ``dt' ≤ dt_BASE`` that
+divides the sample spacing (no interpolation). A whole library of candidate chains (depth × mass
+ratio, coarse) is one ensemble run (:func:`ensemble.runner.run_ensemble`), cached per BASE under
+``$HERTZIAN_DETECT_CACHE`` (default ``~/.cache/hertzian/detect/``).
+
+**Window.** The samples up to the return of the pulse reflected by the bottom, ``t ≤ 2 t_front(N − 1)``,
+are analysed (``window`` to change it), where ``t_front(d)`` is the time the pulse front (``v_d > 1e-4
+v_imp``) reaches grain d in the BASE chain's own clean run. After that time the surface signal is
+dominated by the bottom reflection, whose timing depends so strongly on the impurity that the
+likelihood becomes rugged in μ. Depths whose echo cannot start inside the window are not searched.
+
+**Noise model.** i.i.d. Gaussian noise of standard deviation σ: ``--noise σ``, or estimated twice. First
+as the rms of ``v − v_clean`` over the samples before the earliest possible echo, ``t < 2 t_front(d_min)``
+(``d_min`` the shallowest depth searched; an echo cannot return faster than the pulse that causes it
+travels out), or, when fewer than NOISE_MIN_SAMPLES samples precede it, from the best library
+candidate's residual; this σ picks the depths to refine. Then from every sample, ``RSS_best / (S − 2)``
+of the best candidate after refinement; the posterior uses this one.
+
+**Posterior.** Likelihood ∝ exp(−‖v − v_model‖² / 2σ²); priors: the three classes equally likely,
+depth uniform over the searched depths, ``x = ln μ`` uniform over ``[ln μ_min, 0)`` (light) or
+``(0, ln μ_max]`` (heavy); ``none`` is the clean chain. For each depth and class the residual sum of
+squares is modelled as a quadratic in x (Gauss–Newton: ``RSS(x) ≈ RSS(x0) − 2 J·r (x − x0) + J·J (x − x0)²``
+with ``J = ∂v/∂x``), integrated in closed form over the class's range (a truncated Gaussian). From the
+library, x0 is the best of the traces interpolated in x (local cubic through the library's ratios and
+the clean chain at x = 0) and J the interpolant's derivative; the best ``refine`` depths of each class are
+then refined by Gauss–Newton with J by central differences, each iteration one more ensemble run of
+three chains per candidate (x0 − h, x0, x0 + h). Class probabilities are the normalised class evidences;
+the depth is the posterior mode, with the central 95 % interval of the depth posterior; the mass
+ratio is exp(x) at the mode's Gauss–Newton optimum, with the central 95 % interval of the class's
+posterior over x (a mixture over depths of truncated Gaussians).
+
+Units: program units (time 1.0102e-3 s, length 1e-5 m), as the scenes.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import json
+import math
+import os
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from .scene import ImpuritySpec, Scene, SceneError
+
+CLASSES = ("none", "light", "heavy")
+FRONT_THRESHOLD = 1e-4
+"""The pulse front reaches a grain when its velocity first exceeds this fraction of v_imp."""
+NOISE_MIN_SAMPLES = 8
+"""Fewest samples before the earliest possible echo from which σ is estimated."""
+CREDIBLE = 0.95
+"""Probability inside the reported intervals."""
+LIBRARY_VERSION = 1
+"""Bumped when the cached library's content or layout changes."""
+
+
+# ---- the signal ------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Signal:
+    """Surface grain velocity sampled uniformly from the impact at t = 0 (program units)."""
+
+    t: np.ndarray
+    """Sample times [time], shape (S,), t[0] = 0, uniform spacing."""
+    v: np.ndarray
+    """Velocity of grain 0 [length/time], positive toward the bottom, shape (S,)."""
+    source: str = ""
+
+    @property
+    def spacing(self) -> float:
+        """Sample spacing [time]."""
+        return float(self.t[1] - self.t[0])
+
+    @property
+    def sample_count(self) -> int:
+        return int(self.t.size)
+
+
+def signal_from_arrays(t, v, source: str = "signal") -> Signal:
+    """Check and wrap sampled data: finite, at least 3 samples, uniform t from 0 (relative 1e-6)."""
+    t = np.asarray(t, dtype=np.float64).ravel()
+    v = np.asarray(v, dtype=np.float64).ravel()
+    if t.size != v.size:
+        raise SceneError(source, f"{t.size} times, {v.size} values", "t and v must have the same length")
+    if t.size < 3:
+        raise SceneError(source, f"{t.size} samples", "needs at least 3 samples")
+    for name, values in (("t", t), ("v", v)):
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            raise SceneError(f"{source}: {name}[{bad[0]}]", float(values[bad[0]]), "values must be finite numbers")
+    spacing = (t[-1] - t[0]) / (t.size - 1)
+    if not spacing > 0:
+        raise SceneError(f"{source}: t", f"{t[0]} … {t[-1]}", "times must increase")
+    steps = np.diff(t)
+    worst = int(np.argmax(np.abs(steps - spacing)))
+    if abs(steps[worst] - spacing) > 1e-6 * spacing:
+        raise SceneError(f"{source}: t[{worst + 1}] − t[{worst}]", float(steps[worst]),
+                         f"samples must be uniform (spacing {spacing:.6g}, tolerance 1e-6 relative)")
+    if abs(t[0]) > 1e-6 * spacing:
+        raise SceneError(f"{source}: t[0]", float(t[0]), "the signal must start at the impact, t = 0")
+    return Signal(t=np.arange(t.size) * spacing, v=v, source=source)
+
+
+def read_signal(path: str | Path) -> Signal:
+    """A CSV file with the header ``t,v``, or a hertzian store (Zarr) with a trace of grain 0."""
+    path = Path(path)
+    if not path.exists():
+        raise SceneError("SIGNAL", str(path), "no such file or store")
+    if path.is_dir():
+        return _signal_from_store(path)
+    try:
+        with path.open(newline="") as handle:
+            rows = list(csv.reader(handle))
+    except (OSError, UnicodeDecodeError) as err:
+        raise SceneError("SIGNAL", str(path), f"cannot be read as a CSV text file ({err.__class__.__name__})") from None
+    rows = [row for row in rows if row and any(cell.strip() for cell in row)]
+    if not rows:
+        raise SceneError("SIGNAL", str(path), "is empty; expected a header line t,v and samples")
+    header = [cell.strip().lower() for cell in rows[0]]
+    if header != ["t", "v"]:
+        raise SceneError(f"{path}: header", ",".join(rows[0]), "the first line must be the header t,v")
+    t, v = [], []
+    for number, row in enumerate(rows[1:], start=2):
+        if len(row) != 2:
+            raise SceneError(f"{path}: line {number}", ",".join(row), "must hold two numbers t,v")
+        try:
+            t.append(float(row[0]))
+            v.append(float(row[1]))
+        except ValueError:
+            raise SceneError(f"{path}: line {number}", ",".join(row), "must hold two numbers t,v") from None
+    return signal_from_arrays(t, v, source=str(path))
+
+
+def _signal_from_store(path: Path) -> Signal:
+    from .store import open_store
+
+    try:
+        group = open_store(path)
+    except (ValueError, FileNotFoundError, OSError) as err:
+        raise SceneError("SIGNAL", str(path), f"is not a hertzian store ({err})") from None
+    members = set(group.array_keys())
+    if not {"trace_t", "trace_v", "traced_grain"} <= members:
+        raise SceneError("SIGNAL", str(path), "the store has no traces (record.traces = [0] in its scene)")
+    traced = list(np.asarray(group["traced_grain"][...]))
+    if 0 not in traced:
+        raise SceneError("SIGNAL", str(path), f"the store traces grains {traced}, not grain 0")
+    data = np.asarray(group["trace_v"][...])
+    if data.ndim != 2 and int(np.prod(data.shape[:-2])) != 1:
+        raise SceneError("SIGNAL", str(path), f"the store holds {int(np.prod(data.shape[:-2]))} points; "
+                         "give a store of one run")
+    data = data.reshape(data.shape[-2:])
+    return signal_from_arrays(np.asarray(group["trace_t"][...]), data[:, traced.index(0)], source=str(path))
+
+
+def write_signal_csv(path: str | Path, signal: Signal) -> None:
+    """Write a signal as CSV with the header ``t,v`` (full float64 precision)."""
+    with Path(path).open("w") as handle:
+        handle.write("t,v\n")
+        for t, v in zip(signal.t, signal.v):
+            handle.write(f"{float(t)!r},{float(v)!r}\n")
+
+
+# ---- forward model ------------------------------------------------------------------------
+
+def check_base(base: Scene) -> None:
+    """BASE must be an impact on a chain without impurities (the host chain)."""
+    if base.impurities:
+        raise SceneError("BASE impurities", len(base.impurities), "the host chain must have no impurities")
+    if base.boundary.surface == "driven" or not base.excitation.impact > 0:
+        raise SceneError("BASE excitation.impact", base.excitation.impact,
+                         "detection needs an impact (> 0) at grain 0, not a drive")
+
+
+def forward_scene(base: Scene, spacing: float, sample_count: int) -> Scene:
+    """BASE set up to trace grain 0's velocity at t = k·spacing, k = 0 … sample_count − 1.
+
+    The step becomes spacing / ceil(spacing / dt_BASE) (≤ BASE's dt) so that samples fall on steps.
+    """
+    check_base(base)
+    steps_per_sample = max(1, math.ceil(spacing / base.integrator.dt * (1 - 1e-9)))
+    dt = spacing / steps_per_sample
+    duration = spacing * (sample_count - 1)
+    return base.with_overrides({
+        "integrator.dt": dt, "integrator.duration": duration, "record.every": duration, "record.fields": [],
+        "record.traces": [0], "record.trace_every": spacing, "record.energy": True,
+    })
+
+
+def impurity_scene(forward: Scene, depth: int, mass_ratio: float, block: int = 1) -> Scene:
+    """``forward`` with grains depth … depth + block − 1 of mass mass_ratio · m_host (contact constant as host)."""
+    grains = tuple(range(int(depth), int(depth) + int(block)))
+    return replace(forward, impurities=(ImpuritySpec(grains=grains, mass=float(mass_ratio) * forward.chain.mass),))
+
+
+def front_times(forward: Scene, device: str) -> np.ndarray:
+    """When the pulse front reaches each grain in the clean chain [time], shape (N,); inf if never.
+
+    One clean run tracing about 50 grains; the front is where v first exceeds FRONT_THRESHOLD · v_imp;
+    grains in between are interpolated linearly.
+    """
+    from .runner import run_scene
+
+    n = forward.chain.grains
+    stride = max(1, n // 50)
+    traced = sorted(set(range(0, n, stride)) | {n - 1})
+    result = run_scene(replace(forward, record=replace(forward.record, traces=tuple(traced))), device)
+    v = result.traces["v"][0]
+    t = result.trace_t
+    threshold = FRONT_THRESHOLD * forward.excitation.impact
+    times = np.full(len(traced), np.inf)
+    for k, grain in enumerate(traced):
+        hit = np.flatnonzero(v[:, k] > threshold)
+        times[k] = 0.0 if grain == 0 else (t[hit[0]] if hit.size else np.inf)
+    finite = np.isfinite(times)
+    out = np.full(n, np.inf)
+    grains = np.asarray(traced)
+    last = grains[finite][-1]
+    out[: last + 1] = np.interp(np.arange(last + 1), grains[finite], times[finite])
+    return out
+
+
+# ---- the library --------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Grid:
+    """The candidates searched: depths × log mass ratios, for blocks of ``block`` grains."""
+
+    depths: np.ndarray
+    """Depths searched (first grain of the block), shape (D,), int."""
+    log_mass_ratio: np.ndarray
+    """x = ln μ of the library's candidates, shape (M,): the light ones (< 0) then the heavy ones (> 0)."""
+    block: int = 1
+    mass_ratio_range: tuple[float, float] = (0.25, 4.0)
+    """Prior range of μ: light in [μ_min, 1), heavy in (1, μ_max]."""
+
+    @property
+    def light(self) -> np.ndarray:
+        return np.flatnonzero(self.log_mass_ratio < 0)
+
+    @property
+    def heavy(self) -> np.ndarray:
+        return np.flatnonzero(self.log_mass_ratio > 0)
+
+    def to_dict(self) -> dict:
+        return {"depths": [int(d) for d in self.depths], "log_mass_ratio": [float(x) for x in self.log_mass_ratio],
+                "block": int(self.block), "mass_ratio_range": [float(m) for m in self.mass_ratio_range]}
+
+
+def make_grid(depths, mass_ratio_range=(0.25, 4.0), mass_steps: int = 7, block: int = 1) -> Grid:
+    """``mass_steps`` log-spaced ratios on each side of 1 (1 itself is the clean chain)."""
+    low, high = mass_ratio_range
+    if not (0 < low < 1 < high):
+        raise SceneError("--mass-range", f"{low},{high}", "must be two numbers μ_min < 1 < μ_max, both > 0")
+    if mass_steps < 1:
+        raise SceneError("--mass-steps", mass_steps, "must be an integer ≥ 1")
+    light = np.linspace(math.log(low), 0.0, mass_steps + 1)[:-1]
+    heavy = np.linspace(0.0, math.log(high), mass_steps + 1)[1:]
+    return Grid(depths=np.asarray(depths, dtype=int), log_mass_ratio=np.concatenate([light, heavy]), block=int(block),
+                mass_ratio_range=(float(low), float(high)))
+
+
+@dataclass
+class Library:
+    """Surface traces of every candidate chain, and what the clean chain tells about the host."""
+
+    key: str
+    grid: Grid
+    forward: Scene
+    """The forward scene (BASE tracing grain 0 at the signal's times)."""
+    clean: np.ndarray
+    """Clean chain's surface velocity, shape (S,)."""
+    traces: np.ndarray
+    """Candidates' surface velocity, shape (D, M, S) (depths × log mass ratios × samples)."""
+    ok: np.ndarray
+    """Whether each candidate ran without a status flag, shape (D, M), bool."""
+    fronts: np.ndarray
+    """Pulse front arrival at each grain of the clean chain [time], shape (N,)."""
+    build_seconds: float
+    """Wall seconds it took to simulate (0 when it came from the cache)."""
+    from_cache: bool = False
+
+
+def cache_dir() -> Path:
+    """Where libraries are cached: ``$HERTZIAN_DETECT_CACHE`` or ``~/.cache/hertzian/detect``."""
+    return Path(os.environ.get("HERTZIAN_DETECT_CACHE", Path.home() / ".cache" / "hertzian" / "detect"))
+
+
+def library_key(forward: Scene, grid: Grid) -> str:
+    """Hash of the forward scene (BASE + signal times) and the grid."""
+    text = json.dumps({"version": LIBRARY_VERSION, "scene": forward.to_dict(), "grid": grid.to_dict()},
+                      sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+def run_candidates(forward: Scene, candidates: list[tuple[int, float]], block: int, device: str, *,
+                   batch_size: int = 4096) -> tuple[np.ndarray, np.ndarray]:
+    """Surface traces of candidate (depth, mass ratio) chains (ensembles of ≤ batch_size chains).
+
+    Returns (traces (C, S), ok (C,)); a depth < 0 or mass ratio 1 means the clean chain.
+    """
+    from .runner import run_ensemble
+    from .status import Status
+
+    scenes = [forward if depth < 0 or mass_ratio == 1.0 else impurity_scene(forward, depth, mass_ratio, block)
+              for depth, mass_ratio in candidates]
+    traces, ok = [], []
+    for start in range(0, len(scenes), batch_size):
+        result = run_ensemble(scenes[start:start + batch_size], device)
+        traces.append(result.traces["v"][:, :, 0].astype(np.float64))
+        ok.append(result.status == Status.OK)
+    return np.concatenate(traces), np.concatenate(ok)
+
+
+def build_library(forward: Scene, grid: Grid, device: str, *, fronts: np.ndarray | None = None,
+                  use_cache: bool = True, batch_size: int = 4096) -> Library:
+    """The library for a forward scene and grid, from the cache when it is there (else simulated and saved)."""
+    key = library_key(forward, grid)
+    path = cache_dir() / f"{key}.npz"
+    if use_cache and path.is_file():
+        with np.load(path) as data:
+            return Library(key=key, grid=grid, forward=forward, clean=data["clean"], traces=data["traces"],
+                           ok=data["ok"], fronts=data["fronts"], build_seconds=0.0, from_cache=True)
+    start = time.perf_counter()
+    if fronts is None:
+        fronts = front_times(forward, device)
+    candidates = [(-1, 1.0)] + [(int(d), math.exp(x)) for d in grid.depths for x in grid.log_mass_ratio]
+    traces, ok = run_candidates(forward, candidates, grid.block, device, batch_size=batch_size)
+    shape = (len(grid.depths), len(grid.log_mass_ratio))
+    library = Library(key=key, grid=grid, forward=forward, clean=traces[0],
+                      traces=traces[1:].reshape(shape + (-1,)), ok=ok[1:].reshape(shape), fronts=fronts,
+                      build_seconds=time.perf_counter() - start)
+    if use_cache:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".tmp.npz")
+        np.savez(tmp, clean=library.clean, traces=library.traces, ok=library.ok, fronts=library.fronts)
+        tmp.replace(path)
+    return library
+
+
+# ---- Gaussian helpers ----------------------------------------------------------------------
+
+def log_normal_cdf(z: float) -> float:
+    """log Φ(z), accurate in the far left tail."""
+    if z > -30.0:
+        return math.log(0.5 * math.erfc(-z / math.sqrt(2.0)))
+    # asymptotic series: Φ(z) ≈ φ(z)/|z| (1 − 1/z² + 3/z⁴)
+    return -0.5 * z * z - math.log(-z) - 0.5 * math.log(2 * math.pi) + math.log1p(-1 / z**2 + 3 / z**4)
+
+
+def log_normal_mass(lo: float, hi: float) -> float:
+    """log(Φ(hi) − Φ(lo)) for lo < hi, stable in both tails."""
+    if lo > 0:  # use symmetry so the difference is taken in the left tail
+        lo, hi = -hi, -lo
+    a, b = log_normal_cdf(lo), log_normal_cdf(hi)
+    if b - a < 1e-300:
+        return -math.inf
+    return b + math.log(-math.expm1(a - b))
+
+
+def logsumexp(values) -> float:
+    values = np.asarray(values, dtype=float)
+    if values.size == 0 or not np.any(np.isfinite(values)):
+        return -math.inf
+    top = np.max(values[np.isfinite(values)])
+    return float(top + math.log(np.sum(np.exp(values[np.isfinite(values)] - top))))
+
+
+@dataclass
+class Quadratic:
+    """RSS(x) ≈ rss0 − 2 g (x − x0) + H (x − x0)² near x0 (Gauss–Newton model of one depth and class)."""
+
+    x0: float
+    rss0: float
+    g: float
+    """J·r, r = signal − model(x0)."""
+    H: float
+    """J·J."""
+
+    @property
+    def optimum(self) -> float:
+        return self.x0 + self.g / self.H if self.H > 0 else self.x0
+
+    @property
+    def rss_min(self) -> float:
+        return max(self.rss0 - self.g * self.g / self.H, 0.0) if self.H > 0 else self.rss0
+
+    def log_integral(self, lo: float, hi: float, sigma: float) -> float:
+        """log ∫_lo^hi exp(−RSS(x)/2σ²) dx / (hi − lo) (the prior-averaged likelihood, without constants)."""
+        width = hi - lo
+        if self.H <= 0 or sigma / math.sqrt(self.H) > 1e6 * width:
+            return -self.rss0 / (2 * sigma**2)
+        s = sigma / math.sqrt(self.H)
+        m = self.optimum
+        return (-self.rss_min / (2 * sigma**2) + math.log(math.sqrt(2 * math.pi) * s)
+                + log_normal_mass((lo - m) / s, (hi - m) / s) - math.log(width))
+
+    def cdf(self, x: float, lo: float, hi: float, sigma: float) -> float:
+        """Posterior CDF of x on [lo, hi] under this quadratic (a truncated Gaussian)."""
+        if self.H <= 0:
+            return min(max((x - lo) / (hi - lo), 0.0), 1.0)
+        s = sigma / math.sqrt(self.H)
+        m = self.optimum
+        total = log_normal_mass((lo - m) / s, (hi - m) / s)
+        if x <= lo or total == -math.inf:
+            return 0.0 if x <= lo else min(max((x - lo) / (hi - lo), 0.0), 1.0)
+        if x >= hi:
+            return 1.0
+        return math.exp(log_normal_mass((lo - m) / s, (x - m) / s) - total)
+
+
+def quadratic_at(signal: np.ndarray, x0: float, model: np.ndarray, jacobian: np.ndarray) -> Quadratic:
+    r = signal - model
+    return Quadratic(x0=float(x0), rss0=float(r @ r), g=float(jacobian @ r), H=float(jacobian @ jacobian))
+
+
+# ---- detection ------------------------------------------------------------------------------
+
+@dataclass
+class Detection:
+    """What the surface signal says about an impurity (program units)."""
+
+    kind: str
+    """none | light | heavy."""
+    class_probability: dict
+    """Posterior probability of each class (equal prior odds)."""
+    log_evidence: dict
+    """ln of each class's evidence p(signal | class) (Gaussian noise model, σ below)."""
+    depth: int | None
+    """Posterior mode of the depth (first grain of the block) for the class found; None for none."""
+    depth_interval: tuple[int, int] | None
+    mass_ratio: float | None
+    """m_impurity / m_host at the mode; 1 for none."""
+    mass_ratio_interval: tuple[float, float] | None
+    noise: float
+    """σ used [length/time]."""
+    noise_source: str
+    """'given' or how it was estimated."""
+    noise_before_echo: float | None
+    """σ estimated from the samples before the earliest possible echo (None with --noise)."""
+    depths_searched: tuple[int, int]
+    window: float
+    """Samples with t ≤ window were analysed [time]."""
+    block: int
+    best_fit: np.ndarray
+    """Model surface velocity of the best candidate (the clean chain for none), shape (S,)."""
+    depth_posterior: dict
+    """Per class (light, heavy): p(depth | class), shape (D,)."""
+    seconds: dict = field(default_factory=dict)
+    """Wall seconds: library (0 if cached), refinement, total."""
+    library_from_cache: bool = False
+    dt: float = 0.0
+    """Step of the forward model [time]."""
+    refined_depths: dict = field(default_factory=dict)
+
+    @property
+    def misfit_ratio(self) -> float | None:
+        """σ of the best fit over σ before the earliest echo: ≫ 1 means the best model misses the signal."""
+        return None if not self.noise_before_echo else self.noise / self.noise_before_echo
+
+    def to_dict(self) -> dict:
+        return {
+            "class": self.kind,
+            "depth": self.depth,
+            "depth_interval": list(self.depth_interval) if self.depth_interval else None,
+            "mass_ratio": self.mass_ratio,
+            "mass_ratio_interval": list(self.mass_ratio_interval) if self.mass_ratio_interval else None,
+            "log_evidence": self.log_evidence,
+            "class_probability": self.class_probability,
+            "noise": self.noise,
+            "noise_source": self.noise_source,
+            "noise_before_echo": self.noise_before_echo,
+            "misfit_ratio": self.misfit_ratio,
+            "depths_searched": list(self.depths_searched),
+            "window": self.window,
+            "block": self.block,
+            "credible": CREDIBLE,
+            "dt": self.dt,
+            "seconds": self.seconds,
+            "library_from_cache": self.library_from_cache,
+            "refined_depths": self.refined_depths,
+        }
+
+
+def default_depths(fronts: np.ndarray, duration: float, grain_count: int, block: int,
+                   depth_range: tuple[int, int] | None = None) -> np.ndarray:
+    """Depths searched: from max(1, ⌈N/20⌉) (or the given start) to the deepest whose echo can start in the record."""
+    last_fit = grain_count - block
+    if depth_range is not None:
+        first, last = depth_range
+        if not (1 <= first <= last <= last_fit):
+            raise SceneError("--depths", f"{first}:{last}", f"must satisfy 1 ≤ first ≤ last ≤ {last_fit} "
+                             f"(N − block)")
+    else:
+        first, last = max(1, math.ceil(grain_count / 20)), last_fit
+    reachable = np.flatnonzero(2 * fronts[: last_fit + 1] < duration)
+    deepest = int(reachable[-1]) if reachable.size else 0
+    if deepest < first:
+        raise SceneError("SIGNAL duration", f"{duration:g}", f"is shorter than one echo: the echo from depth "
+                         f"{first} cannot start before t = {2 * fronts[first]:.4g}")
+    return np.arange(first, min(last, deepest) + 1)
+
+
+def estimate_noise(signal: Signal, clean: np.ndarray, fronts: np.ndarray, first_depth: int
+                   ) -> tuple[float | None, str]:
+    """rms of (signal − clean model) before the earliest possible echo, t < 2 t_front(first_depth).
+
+    None when fewer than NOISE_MIN_SAMPLES samples precede it.
+    """
+    end = 2 * fronts[first_depth]
+    window = signal.t < end
+    count = int(window.sum())
+    if count < NOISE_MIN_SAMPLES:
+        return None, f"only {count} samples before the earliest possible echo (t < {end:.4g})"
+    residual = signal.v[window] - clean[window]
+    sigma = float(np.sqrt(np.mean(residual**2)))
+    return sigma, f"{count} samples before the earliest possible echo (t < {end:.4g})"
+
+
+def _class_bounds(grid: Grid) -> dict:
+    low, high = grid.mass_ratio_range
+    return {"light": (math.log(low), 0.0), "heavy": (0.0, math.log(high))}
+
+
+INTERPOLATION_POINTS = 8
+"""Points per library interval in ln μ at which the cubic interpolant of the traces is evaluated."""
+
+
+def lagrange_weights(nodes: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Local cubic Lagrange interpolation on increasing ``nodes``: values and x-derivatives at ``points``.
+
+    Returns W, dW of shape (P, n) so that f(points) ≈ W @ f(nodes), f'(points) ≈ dW @ f(nodes); each
+    point uses the 4 nodes around it (3 or 2 where fewer exist).
+    """
+    n = nodes.size
+    width = min(4, n)
+    W = np.zeros((points.size, n))
+    dW = np.zeros((points.size, n))
+    for p, x in enumerate(points):
+        i = int(np.clip(np.searchsorted(nodes, x) - 1, 0, n - 1))
+        first = int(np.clip(i - 1, 0, n - width))
+        idx = range(first, first + width)
+        for a in idx:
+            others = [b for b in idx if b != a]
+            denominator = np.prod([nodes[a] - nodes[b] for b in others])
+            W[p, a] = np.prod([x - nodes[b] for b in others]) / denominator
+            dW[p, a] = sum(np.prod([x - nodes[c] for c in others if c != b]) for b in others) / denominator
+    return W, dW
+
+
+def _library_quadratics(signal: np.ndarray, library: Library, kind: str) -> list[Quadratic | None]:
+    """Per depth, the Gauss–Newton quadratic at the best point of the class's interpolated library.
+
+    The traces are interpolated in x = ln μ (local cubic through the library's ratios and the clean
+    chain at x = 0) at INTERPOLATION_POINTS points per interval; x0 is the point of least RSS, J the
+    interpolant's derivative there.
+    """
+    grid = library.grid
+    columns = grid.light if kind == "light" else grid.heavy
+    xs = np.concatenate([grid.log_mass_ratio[columns], [0.0]])
+    order = np.argsort(xs)
+    xs = xs[order]
+    fine = np.linspace(xs[0], xs[-1], (xs.size - 1) * INTERPOLATION_POINTS + 1)
+    W, dW = lagrange_weights(xs, fine)
+    out = []
+    for k in range(len(grid.depths)):
+        models = np.concatenate([library.traces[k, columns], library.clean[None]])[order]
+        ok = np.concatenate([library.ok[k, columns], [True]])[order]
+        usable = (np.abs(W) > 0) @ (~ok) == 0
+        if not usable.any():
+            out.append(None)
+            continue
+        interpolated = W @ np.where(ok[:, None], models, 0.0)
+        residual = signal[None] - interpolated
+        rss = np.where(usable, np.einsum("ms,ms->m", residual, residual), np.inf)
+        j = int(np.argmin(rss))
+        out.append(quadratic_at(signal, fine[j], interpolated[j], dW[j] @ np.where(ok[:, None], models, 0.0)))
+    return out
+
+
+FIRST_ECHO_GRAINS = 10
+"""The first-echo score of depth d uses the samples before the echo from depth d + this could start."""
+
+
+def _first_echo_scores(signal: np.ndarray, t: np.ndarray, library: Library, kind: str
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """Per depth: how much the class's interpolated library reduces the RSS of the clean chain over the
+    samples before 2 t_front(d + FIRST_ECHO_GRAINS) (its first echo and little else), and the best x there."""
+    grid = library.grid
+    columns = grid.light if kind == "light" else grid.heavy
+    xs = np.concatenate([grid.log_mass_ratio[columns], [0.0]])
+    order = np.argsort(xs)
+    xs = xs[order]
+    fine = np.linspace(xs[0], xs[-1], (xs.size - 1) * INTERPOLATION_POINTS + 1)
+    W, _ = lagrange_weights(xs, fine)
+    n = library.fronts.size
+    gain = np.full(len(grid.depths), -np.inf)
+    best_x = np.zeros(len(grid.depths))
+    for k, depth in enumerate(grid.depths):
+        end = int(np.searchsorted(t, 2 * library.fronts[min(n - 1, int(depth) + FIRST_ECHO_GRAINS)]))
+        if end < 2:
+            continue
+        models = np.concatenate([library.traces[k, columns, :end], library.clean[None, :end]])[order]
+        ok = np.concatenate([library.ok[k, columns], [True]])[order]
+        usable = (np.abs(W) > 0) @ (~ok) == 0
+        residual = signal[None, :end] - W @ np.where(ok[:, None], models, 0.0)
+        rss = np.where(usable, np.einsum("ms,ms->m", residual, residual), np.inf)
+        j = int(np.argmin(rss))
+        clean = signal[:end] - library.clean[:end]
+        gain[k] = float(clean @ clean) - rss[j]
+        best_x[k] = fine[j]
+    return gain, best_x
+
+
+def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None = None, device: str = "cpu",
+           depth_range: tuple[int, int] | None = None, mass_ratio_range=(0.25, 4.0), mass_steps: int = 7,
+           refine: int = 3, iterations: int = 2, step: float = 0.02, window: float | None = None,
+           use_cache: bool = True, batch_size: int = 4096) -> tuple[Detection, Library]:
+    """Class, depth and mass ratio of an impurity in BASE from a surface signal (see the module docstring).
+
+    ``refine``: depths per class refined by Gauss–Newton (0: the library alone); ``iterations``: ensemble
+    runs of refinement; ``step``: finite-difference step in ln μ; ``window``: the samples with t ≤ window
+    are analysed (default: until the pulse reflected by the bottom returns, 2 t_front(N − 1)).
+    """
+    started = time.perf_counter()
+    if block < 1 or block >= base.chain.grains:
+        raise SceneError("--block", block, f"must be an integer 1 … {base.chain.grains - 1}")
+    if noise is not None and not (noise > 0 and math.isfinite(noise)):
+        raise SceneError("--noise", noise, "must be a number > 0 (σ of the noise, program velocity)")
+    if refine < 0:
+        raise SceneError("--refine", refine, "must be an integer ≥ 0")
+    if iterations < 1:
+        raise SceneError("--iterations", iterations, "must be an integer ≥ 1")
+    if window is not None and not window > 0:
+        raise SceneError("--window", window, "must be a time > 0")
+    # the pulse fronts of the clean chain (cached under a key of BASE and the sample times)
+    fronts = _cached_fronts(forward_scene(base, signal.spacing, signal.sample_count), device, use_cache)
+    end = 2 * float(fronts[-1]) if window is None else float(window)
+    count = min(signal.sample_count, int(np.searchsorted(signal.t, end * (1 + 1e-12), side="right")))
+    if count < 3:
+        raise SceneError("--window", f"{end:g}", "leaves fewer than 3 samples")
+    signal = Signal(t=signal.t[:count], v=signal.v[:count], source=signal.source)
+    depths = default_depths(fronts, float(signal.t[-1]), base.chain.grains, block, depth_range)
+    forward = forward_scene(base, signal.spacing, signal.sample_count)
+    library = build_library(forward, make_grid(depths, mass_ratio_range, mass_steps, block), device, fronts=fronts,
+                            use_cache=use_cache, batch_size=batch_size)
+    library_seconds = library.build_seconds
+    grid = library.grid
+    depths = grid.depths
+    s = signal.v
+    floor = 1e-12 * float(np.max(np.abs(library.clean)))
+    if noise is None:
+        # first estimate (picks the depths to refine): before the earliest possible echo, else the
+        # best library candidate's residual
+        window_sigma, window_text = estimate_noise(signal, library.clean, library.fronts, int(depths[0]))
+        if window_sigma is not None:
+            sigma = window_sigma
+        else:
+            residual = s[None, None] - library.traces
+            best = min(float(np.min(np.where(library.ok, np.einsum("dms,dms->dm", residual, residual), np.inf))),
+                       float((s - library.clean) @ (s - library.clean)))
+            sigma = math.sqrt(best / (signal.sample_count - 2))
+        sigma = max(sigma, floor)
+    else:
+        sigma, noise_source = float(noise), "given (--noise)"
+
+    refine_start = time.perf_counter()
+    bounds = _class_bounds(grid)
+    quads = {kind: _library_quadratics(s, library, kind) for kind in ("light", "heavy")}
+    log_prior_depth = -math.log(len(depths))
+
+    def depth_logz(kind: str) -> np.ndarray:
+        lo, hi = bounds[kind]
+        return np.array([q.log_integral(lo, hi, sigma) if q is not None else -math.inf for q in quads[kind]])
+
+    refined: dict[str, list[int]] = {"light": [], "heavy": []}
+    if refine > 0:
+        # candidates per class: the best `refine` depths by their library evidence over the window, and the
+        # best `refine` by how much of the first echo they explain (robust where later reverberations make
+        # the library's interpolation in μ poor); Gauss–Newton starts from each one's own best x
+        todo = []
+        for kind in ("light", "heavy"):
+            lo, hi = bounds[kind]
+            logz = depth_logz(kind)
+            starts = [(int(k), quads[kind][k].optimum) for k in np.argsort(-logz)[:refine] if np.isfinite(logz[k])]
+            gain, first_x = _first_echo_scores(s, signal.t, library, kind)
+            starts += [(int(k), first_x[k]) for k in np.argsort(-gain)[:refine] if np.isfinite(gain[k])]
+            for k, x in starts:
+                x0 = min(max(x, lo + step), hi - step)
+                if not any(kk == k and cc == kind and abs(xx - x0) < 2 * step for cc, kk, xx in todo):
+                    todo.append((kind, k, x0))
+        final: dict[tuple[str, int], Quadratic] = {}
+        for _ in range(iterations):
+            candidates = []
+            for kind, k, x0 in todo:
+                candidates += [(int(depths[k]), math.exp(x0 + dx)) for dx in (-step, 0.0, step)]
+            traces, ok = run_candidates(forward, candidates, grid.block, device, batch_size=batch_size)
+            nxt = []
+            for n, (kind, k, x0) in enumerate(todo):
+                minus, centre, plus = traces[3 * n: 3 * n + 3]
+                if not ok[3 * n: 3 * n + 3].all():
+                    continue
+                q = quadratic_at(s, x0, centre, (plus - minus) / (2 * step))
+                best = final.get((kind, k))
+                if best is None or q.rss0 < best.rss0:
+                    final[(kind, k)] = q
+                lo, hi = bounds[kind]
+                nxt.append((kind, k, min(max(q.optimum, lo + step), hi - step)))
+            todo = nxt
+        for (kind, k), q in final.items():
+            quads[kind][k] = q  # the simulated quadratic replaces the library's estimate
+            refined[kind].append(int(depths[k]))
+    refine_seconds = time.perf_counter() - refine_start
+
+    rss_clean = float((s - library.clean) @ (s - library.clean))
+    if noise is None:
+        # second estimate, from every sample: the best candidate's residual (2 fitted parameters)
+        best_rss = min([rss_clean] + [q.rss0 for kind in quads for q in quads[kind] if q is not None])
+        sigma = max(math.sqrt(best_rss / (signal.sample_count - 2)), floor)
+        noise_source = (f"rms residual of the best candidate over all {signal.sample_count} samples, RSS/(S − 2); "
+                        + (f"rms of signal − clean chain before the earliest echo: {window_sigma:.4g} over {window_text}"
+                           if window_sigma is not None else window_text))
+    norm = -0.5 * signal.sample_count * math.log(2 * math.pi * sigma**2)
+    per_depth = {kind: depth_logz(kind) + log_prior_depth for kind in ("light", "heavy")}
+    log_z = {"none": norm - rss_clean / (2 * sigma**2),
+             "light": norm + logsumexp(per_depth["light"]),
+             "heavy": norm + logsumexp(per_depth["heavy"])}
+    total = logsumexp(list(log_z.values()))
+    probability = {kind: math.exp(log_z[kind] - total) for kind in CLASSES}
+    kind = max(CLASSES, key=lambda c: log_z[c])
+    posterior = {}
+    for c in ("light", "heavy"):
+        w = per_depth[c] - logsumexp(per_depth[c])
+        posterior[c] = np.exp(w)
+
+    depth = depth_interval = mass_ratio = mass_interval = None
+    best_fit = library.clean
+    if kind == "none":
+        mass_ratio = 1.0
+    else:
+        p = posterior[kind]
+        k_best = int(np.argmax(p))
+        depth = int(depths[k_best])
+        cdf = np.cumsum(p)
+        tail = (1 - CREDIBLE) / 2
+        depth_interval = (int(depths[int(np.searchsorted(cdf, tail))]),
+                          int(depths[min(int(np.searchsorted(cdf, 1 - tail)), len(depths) - 1)]))
+        lo, hi = bounds[kind]
+        q = quads[kind][k_best]
+        x_best = min(max(q.optimum, lo), hi)
+        mass_ratio = math.exp(x_best)
+        weights = [(p[k], quads[kind][k]) for k in range(len(depths)) if p[k] > 1e-12 and quads[kind][k] is not None]
+        wsum = sum(w for w, _ in weights)
+
+        def mixture_cdf(x: float) -> float:
+            return sum(w * qq.cdf(x, lo, hi, sigma) for w, qq in weights) / wsum
+
+        def quantile(target: float) -> float:
+            a, b = lo, hi
+            for _ in range(80):
+                mid = 0.5 * (a + b)
+                if mixture_cdf(mid) < target:
+                    a = mid
+                else:
+                    b = mid
+            return 0.5 * (a + b)
+
+        mass_interval = (math.exp(quantile(tail)), math.exp(quantile(1 - tail)))
+        best_fit = run_candidates(forward, [(depth, mass_ratio)], grid.block, device)[0][0]
+    seconds = {"library": library_seconds, "refinement": refine_seconds,
+               "total": time.perf_counter() - started}
+    return Detection(
+        kind=kind, class_probability=probability, log_evidence=log_z, depth=depth, depth_interval=depth_interval,
+        mass_ratio=mass_ratio, mass_ratio_interval=mass_interval, noise=sigma, noise_source=noise_source,
+        noise_before_echo=window_sigma if noise is None else None,
+        depths_searched=(int(depths[0]), int(depths[-1])), window=float(signal.t[-1]), block=grid.block, best_fit=best_fit,
+        depth_posterior=posterior, seconds=seconds, library_from_cache=library.from_cache,
+        dt=forward.integrator.dt, refined_depths=refined,
+    ), library
+
+
+def _cached_fronts(forward: Scene, device: str, use_cache: bool) -> np.ndarray:
+    key = hashlib.sha256(json.dumps({"version": LIBRARY_VERSION, "scene": forward.to_dict()},
+                                    sort_keys=True).encode()).hexdigest()[:24]
+    path = cache_dir() / f"fronts-{key}.npy"
+    if use_cache and path.is_file():
+        return np.load(path)
+    fronts = front_times(forward, device)
+    if use_cache:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".tmp.npy")
+        np.save(tmp, fronts)
+        tmp.replace(path)
+    return fronts
+
+
+# ---- plot -------------------------------------------------------------------------------------
+
+def plot_detection(signal: Signal, detection: Detection, library: Library, path: str | Path) -> None:
+    """Signal, best fit and residual (top); posterior over depth of both classes (bottom)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 7), constrained_layout=True)
+    count = detection.best_fit.size  # the analysed window
+    signal = Signal(t=signal.t[:count], v=signal.v[:count], source=signal.source)
+    top.plot(signal.t, signal.v, lw=0.8, color="0.5", label="signal")
+    top.plot(signal.t, detection.best_fit, lw=0.9, color="C0", label="best fit")
+    residual = signal.v - detection.best_fit
+    top.plot(signal.t, residual, lw=0.6, color="C3", label="residual")
+    scale = max(float(np.max(np.abs(signal.v - library.clean))), 5 * detection.noise)
+    top.set_ylim(-3 * scale, 3 * scale)
+    top.set_xlabel("t [program time, 1.0102e-3 s]")
+    top.set_ylabel("v of grain 0 [program velocity]")
+    what = detection.kind if detection.kind == "none" else (
+        f"{detection.kind}, depth {detection.depth} {list(detection.depth_interval)}, "
+        f"μ = {detection.mass_ratio:.3g} [{detection.mass_ratio_interval[0]:.3g}, "
+        f"{detection.mass_ratio_interval[1]:.3g}]")
+    top.set_title(f"{signal.source}: {what}; σ = {detection.noise:.3g}", fontsize=9)
+    top.legend(fontsize=8, loc="upper right")
+    for kind, color in (("light", "C2"), ("heavy", "C1")):
+        p = detection.depth_posterior[kind] * detection.class_probability[kind]
+        bottom.bar(library.grid.depths, p, color=color, alpha=0.7, width=1.0, label=f"{kind}")
+    bottom.set_xlabel("depth (first impurity grain)")
+    bottom.set_ylabel("p(depth, class | signal)")
+    bottom.set_title(f"p(none) = {detection.class_probability['none']:.3g}", fontsize=9)
+    bottom.legend(fontsize=8)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -1,0 +1,256 @@
+"""`hertzian detect`: impurities planted by independent runs of the project's own simulator (their
+scenes written here from scratch, at half the detector's step), Gaussian noise added at a stated SNR
+(20·log10 of the echo peak max|v − v_clean| over σ), and recovered: class, depth, and a mass ratio
+inside the 95 % interval. Also: a clean chain is called `none`, the library cache is reused and
+gives the same answer, the closed-form Gaussian integrals match quadrature, and bad signals are
+refused with one line and exit code 2."""
+
+import json
+import math
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from ensemble.detect import (Quadratic, detect, forward_scene, log_normal_mass, read_signal, signal_from_arrays,
+                             write_signal_csv)
+from ensemble.runner import run_scene
+from ensemble.scene import SceneError, scene_from_dict
+
+GRAINS = 40
+SPACING = 0.01
+SAMPLES = 551          # t = 0 … 5.5: past the return of the bottom reflection (≈ 4.6)
+SNR_DB = 26.0
+BASE = {
+    "chain": {"grains": GRAINS, "l0": 1e-4},
+    "excitation": {"impact": 1e-2},
+    "integrator": {"method": "gear4", "dt": 1e-3, "duration": 1.0},
+}
+BASE_TOML = """
+[chain]
+grains = 40
+l0 = 1e-4
+[excitation]
+impact = 1e-2
+[integrator]
+method = "gear4"
+dt = 1e-3
+duration = 1.0
+"""
+
+
+def truth_velocity(impurity: dict | None) -> np.ndarray:
+    """Grain 0's velocity from an independent run: scene written from scratch, step dt/2."""
+    data = {**BASE, "integrator": {"method": "gear4", "dt": 5e-4, "duration": SPACING * (SAMPLES - 1)},
+            "record": {"traces": [0], "trace_every": SPACING}}
+    if impurity is not None:
+        data["impurities"] = [impurity]
+    result = run_scene(scene_from_dict(data), "cpu")
+    assert result.status[0] == 0
+    return result.traces["v"][0, :, 0]
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory):
+    path = tmp_path_factory.mktemp("detect-cache")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("HERTZIAN_DETECT_CACHE", str(path))
+        yield path
+
+
+@pytest.fixture(scope="module")
+def clean_velocity():
+    return truth_velocity(None)
+
+
+def noisy_signal(velocity, clean, seed, snr_db=SNR_DB, sigma=None):
+    peak = float(np.max(np.abs(velocity - clean)))
+    sigma = sigma if sigma is not None else peak / 10 ** (snr_db / 20)
+    noise = np.random.default_rng(seed).normal(scale=sigma, size=velocity.size)
+    return signal_from_arrays(np.arange(SAMPLES) * SPACING, velocity + noise, source="test"), sigma
+
+
+CASES = [  # (depth, block, mass ratio) — ratios off the library grid (0.25…4, 7 log steps a side)
+    (10, 1, 0.5),
+    (27, 1, 0.75),
+    (6, 1, 2.0),
+    (30, 1, 3.0),
+    (12, 3, 1.5),
+]
+
+
+@pytest.mark.parametrize("depth,block,mass_ratio", CASES)
+def test_recovers_a_planted_impurity(cache, clean_velocity, depth, block, mass_ratio):
+    velocity = truth_velocity({"grains": list(range(depth, depth + block)), "mass": mass_ratio})
+    signal, sigma = noisy_signal(velocity, clean_velocity, seed=1000 + depth)
+    result, _ = detect(signal, scene_from_dict(BASE), block=block, device="cpu")
+    expected = "light" if mass_ratio < 1 else "heavy"
+    assert result.kind == expected, result.to_dict()
+    assert result.class_probability[expected] > 0.99
+    assert result.depth == depth, result.to_dict()
+    # the 95 % interval misses the truth in 1 case of 20 by design (the study measures its coverage);
+    # here: within the matching 3-standard-deviation interval (misses 3 in 1000), and narrow
+    lo, hi = result.mass_ratio_interval
+    centre, half = 0.5 * math.log(hi * lo), 0.5 * math.log(hi / lo)
+    assert abs(math.log(mass_ratio) - centre) <= 3.0 / 1.96 * half, result.to_dict()
+    assert hi / lo < 1.5                      # an interval that says something
+    assert result.depth_interval[0] <= depth <= result.depth_interval[1]
+    assert 0.7 < result.noise / sigma < 1.3   # the noise estimate is the noise that was added
+
+
+def test_clean_chain_is_none(cache, clean_velocity):
+    """No impurity: the clean class wins; σ is that of an impurity echo at 26 dB (from a 0.75 block)."""
+    echo = truth_velocity({"grains": [20], "mass": 0.75})
+    sigma = float(np.max(np.abs(echo - clean_velocity))) / 10 ** (SNR_DB / 20)
+    for seed in (1, 2, 3):
+        signal, _ = noisy_signal(clean_velocity, clean_velocity, seed=seed, sigma=sigma)
+        result, _ = detect(signal, scene_from_dict(BASE), device="cpu")
+        assert result.kind == "none", result.to_dict()
+        assert result.class_probability["none"] > 0.5
+        assert result.depth is None and result.mass_ratio == 1.0
+
+
+def test_second_signal_reuses_the_library(tmp_path, monkeypatch, clean_velocity):
+    """Same BASE and sample times: the second call loads the cached library and gives the same answer."""
+    monkeypatch.setenv("HERTZIAN_DETECT_CACHE", str(tmp_path))
+    velocity = truth_velocity({"grains": [15], "mass": 0.6})
+    signal, _ = noisy_signal(velocity, clean_velocity, seed=7)
+    first, _ = detect(signal, scene_from_dict(BASE), device="cpu", refine=1, iterations=1)
+    assert not first.library_from_cache and first.seconds["library"] > 0
+    assert len(list(tmp_path.glob("*.npz"))) == 1
+    second, _ = detect(signal, scene_from_dict(BASE), device="cpu", refine=1, iterations=1)
+    assert second.library_from_cache and second.seconds["library"] == 0
+    assert second.seconds["total"] < first.seconds["total"]
+    a, b = first.to_dict(), second.to_dict()
+    for d in (a, b):
+        d.pop("seconds"), d.pop("library_from_cache")
+    assert a == b
+    assert np.array_equal(first.best_fit, second.best_fit)
+
+
+def test_gaussian_integrals_match_quadrature():
+    """The closed-form evidence of a quadratic RSS (a truncated Gaussian) against a fine trapezoid sum."""
+    assert math.exp(log_normal_mass(-1.0, 1.0)) == pytest.approx(math.erf(1 / math.sqrt(2)), rel=1e-12)
+    # far tail: Φ(−40) − Φ(−41) ≈ φ(40)/40 (to 1e-3), where the direct difference underflows
+    expected = -0.5 * 40**2 - math.log(40) - 0.5 * math.log(2 * math.pi)
+    assert log_normal_mass(-41.0, -40.0) == pytest.approx(expected, abs=2e-3)
+    assert log_normal_mass(40.0, 41.0) == pytest.approx(expected, abs=2e-3)
+    sigma = 0.3
+    for q, lo, hi in [(Quadratic(x0=-0.4, rss0=5.0, g=0.6, H=4.0), -1.4, 0.0),
+                      (Quadratic(x0=0.2, rss0=2.0, g=-3.0, H=9.0), 0.0, 1.4),      # optimum outside the range
+                      (Quadratic(x0=-0.1, rss0=1.0, g=0.0, H=0.0), -1.0, 0.0)]:     # flat: no sensitivity
+        x = np.linspace(lo, hi, 200001)
+        rss = q.rss0 - 2 * q.g * (x - q.x0) + q.H * (x - q.x0) ** 2
+        f = np.exp(-rss / (2 * sigma**2))
+        numeric = math.log(np.sum((f[1:] + f[:-1]) / 2 * np.diff(x)) / (hi - lo))
+        assert q.log_integral(lo, hi, sigma) == pytest.approx(numeric, abs=1e-8)
+        mid = 0.5 * (lo + hi)
+        cdf = np.sum(((f[1:] + f[:-1]) / 2 * np.diff(x))[x[1:] <= mid]) / np.sum((f[1:] + f[:-1]) / 2 * np.diff(x))
+        assert q.cdf(mid, lo, hi, sigma) == pytest.approx(cdf, abs=1e-6)
+
+
+def test_signal_checks(tmp_path):
+    t = np.arange(10) * 0.1
+    with pytest.raises(SceneError, match="uniform"):
+        signal_from_arrays(np.r_[t[:5], t[5:] + 0.01], np.zeros(10))
+    with pytest.raises(SceneError, match="finite"):
+        signal_from_arrays(t, np.r_[np.zeros(9), np.nan])
+    with pytest.raises(SceneError, match="t = 0"):
+        signal_from_arrays(t + 0.1, np.zeros(10))
+    path = tmp_path / "s.csv"
+    write_signal_csv(path, signal_from_arrays(t, np.sin(t)))
+    back = read_signal(path)
+    assert np.array_equal(back.v, np.sin(t)) and np.allclose(back.t, t, rtol=0, atol=1e-15)
+
+
+def hertzian(*args, env=None):
+    return subprocess.run([sys.executable, "-m", "ensemble.cli", *args], capture_output=True, text=True, env=env)
+
+
+def write_csv(path, rows, header="t,v"):
+    path.write_text((header + "\n" if header else "") + "\n".join(f"{t!r},{v!r}" for t, v in rows) + "\n")
+
+
+def test_cli_bad_signals_exit_2_one_line(tmp_path):
+    base = tmp_path / "base.toml"
+    base.write_text(BASE_TOML)
+    good = [(k * SPACING, 0.0) for k in range(SAMPLES)]
+    cases = {
+        "no_header.csv": (good, None, "the first line must be the header t,v"),
+        "nonuniform.csv": ([(t + (0.003 if k > 100 else 0.0), v) for k, (t, v) in enumerate(good)], "t,v",
+                           "samples must be uniform"),
+        "nan.csv": ([(t, math.nan if k == 7 else v) for k, (t, v) in enumerate(good)], "t,v",
+                    "v[7] = nan: values must be finite"),
+        "short.csv": ([(k * SPACING, 0.0) for k in range(5)], "t,v", "shorter than one echo"),
+    }
+    for name, (rows, header, message) in cases.items():
+        path = tmp_path / name
+        write_csv(path, rows, header)
+        plot = tmp_path / f"{name}.png"
+        out = hertzian("detect", str(path), "--scene", str(base), "--device", "cpu", "--plot", str(plot), "--no-cache")
+        assert out.returncode == 2, (name, out.stderr)
+        lines = [line for line in out.stderr.splitlines() if line.startswith("error")]
+        assert len(lines) == 1 and message in lines[0], (name, out.stderr)
+        assert "Traceback" not in out.stderr and not plot.exists()
+    out = hertzian("detect", str(tmp_path / "nan.csv"))
+    assert out.returncode == 2 and "--scene: required" in out.stderr
+    impure = tmp_path / "impure.toml"
+    impure.write_text(BASE_TOML + "[[impurities]]\ngrains = [3]\nmass = 0.5\n")
+    out = hertzian("detect", str(tmp_path / "nonuniform.csv"), "--scene", str(impure))
+    assert out.returncode == 2 and "must have no impurities" in out.stderr
+
+
+def test_cli_reads_a_store_and_prints_json(tmp_path, cache):
+    """`hertzian run` writes the signal (a store with grain 0 traced); `detect --json` finds the impurity."""
+    scene = tmp_path / "planted.toml"
+    scene.write_text(BASE_TOML.replace("duration = 1.0", f"duration = {SPACING * (SAMPLES - 1)!r}")
+                     + f"[record]\ntraces = [0]\ntrace_every = {SPACING}\n[[impurities]]\ngrains = [18]\nmass = 0.4\n")
+    store = tmp_path / "planted.zarr"
+    assert hertzian("run", str(scene), "--out", str(store), "--device", "cpu").returncode == 0
+    base = tmp_path / "base.toml"
+    base.write_text(BASE_TOML)
+    import os
+
+    env = {**os.environ, "HERTZIAN_DETECT_CACHE": str(cache)}
+    plot = tmp_path / "fit.png"
+    out = hertzian("detect", str(store), "--scene", str(base), "--json", "--device", "cpu", "--noise", "1e-5",
+                   "--plot", str(plot), env=env)
+    assert out.returncode == 0, out.stderr
+    result = json.loads(out.stdout)
+    assert result["class"] == "light" and result["depth"] == 18
+    assert result["mass_ratio_interval"][0] <= 0.4 <= result["mass_ratio_interval"][1]
+    assert set(result["log_evidence"]) == {"none", "light", "heavy"} and plot.stat().st_size > 0
+
+
+def test_forward_scene_samples_on_steps():
+    """A sample spacing that the BASE step does not divide: the step shrinks so that samples fall on steps."""
+    scene = forward_scene(scene_from_dict(BASE), 0.0125, 101)   # 12.5 steps of 1e-3 → 13 steps of 0.0125/13
+    assert scene.trace_stride == 13 and scene.integrator.dt == pytest.approx(0.0125 / 13, rel=1e-15)
+    assert scene.integrator.duration == pytest.approx(1.25, rel=1e-15)
+    assert scene.step_count == 100 * 13
+
+
+def test_study_summary_counts():
+    """The study's tables from hand-made records: accuracy, depth within ±1 (class right too), coverage."""
+    from ensemble.detect_study import summarize
+
+    def record(true_class, kind, true_depth, depth, covered):
+        return {"host": "h", "snr_db": 26.0, "true_class": true_class, "class": kind, "true_depth": true_depth,
+                "depth": depth, "true_mass_ratio": 0.5 if true_class == "light" else 2.0,
+                "depth_fraction": None if true_depth is None else true_depth / 100,
+                "class_correct": true_class == kind,
+                "depth_error": None if true_depth is None or depth is None else depth - true_depth,
+                "mass_ratio_covered": covered, "seconds": {"total": 1.0}}
+
+    rows = [record("light", "light", 10, 10, True), record("light", "light", 10, 12, False),
+            record("heavy", "light", 50, 50, False), record("heavy", "none", 50, None, None),
+            record("none", "none", None, None, None)]
+    table = summarize(rows)["h"]["26.0"]
+    assert table["class_accuracy"] == pytest.approx(3 / 5)
+    assert table["depth_within_1"] == pytest.approx(1 / 4)     # 4 impure; the heavy-as-light at d=50 does not count
+    assert table["depth_exact"] == pytest.approx(1 / 4)
+    assert table["mass_ratio_interval_coverage"] == pytest.approx(1 / 3)
+    assert table["confusion"]["heavy"] == {"none": 1, "light": 1, "heavy": 0}
+    assert table["confusion"]["none"]["none"] == 1 and table["confusion"]["light"]["light"] == 2
