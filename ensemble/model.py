@@ -161,9 +161,11 @@ STATIC_LEVELS = ("none", "uniform", "profile")
 
 
 def covers(wider: Features, needed: Features) -> bool:
-    """Whether a kernel variant ``wider`` can run scenes that need ``needed``."""
-    return (wider.method, wider.precision, wider.surface, wider.bottom, wider.traces, wider.event_window) == (
-        needed.method, needed.precision, needed.surface, needed.bottom, needed.traces, needed.event_window) and (
+    """Whether a kernel variant ``wider`` can run scenes that need ``needed`` (a kernel with event-aware
+    steps also runs scenes in which no contact can open)."""
+    return (wider.method, wider.precision, wider.surface, wider.bottom, wider.traces) == (
+        needed.method, needed.precision, needed.surface, needed.bottom, needed.traces) and (
+        needed.event_window in (0.0, wider.event_window)) and (
         STATIC_LEVELS.index(wider.static) >= STATIC_LEVELS.index(needed.static)
         and wider.heterogeneous >= needed.heterogeneous and (needed.hertz or not wider.hertz))
 

@@ -9,7 +9,7 @@ import warp as wp
 from ensemble.model import build_model, features_of
 from ensemble.runner import Runner, run_ensemble, run_scene
 from ensemble.static import static_state
-from kernels.features import Features
+from kernels.features import EVENT_WINDOW, Features
 from kernels.physics import contact_functions, contact_potential, excess_potential
 from kernels.step import step_kernel
 
@@ -239,7 +239,7 @@ def test_unused_features_generate_no_code():
 
 def test_unused_features_allocate_no_memory():
     model = build_model([impact_scene(chain={"l0": 0.0})], "cpu")
-    assert model.features == Features(static="none", traces=True)
+    assert model.features == Features(static="none", traces=True, event_window=EVENT_WINDOW)
     assert model.static_overlap.size == 0 and model.exponent.size == 0 and model.drive.size == 0
     assert model.inverse_mass.shape == (1, 1) and model.contact_constant.shape == (1, 1)
     assert model.state().work.size == 0
