@@ -14,7 +14,9 @@ with ``p`` the observed order clamped to [1, 6] (a non-smooth problem — contac
 l0 = 0 — shows a lower order and gets a larger, more honest estimate; at round-off the
 differences stop shrinking and ``p`` falls to 1, so the estimate becomes the difference itself).
 Records whose error is within a factor 10 of ``err_ref`` are marked ``reference_limited``: their
-error is not resolved by this reference. A reference that is not finite is refused.
+error is not resolved by this reference. A reference that is not finite is refused. The reference
+takes event-aware steps (kernels/events.py) unless only ``events = ["off"]`` is studied; with
+``events = ["auto", "off"]`` every run is made both ways (before/after curves, docs/stability.md §6b).
 
 **Error.** ``max over records and grains |u − u_ref| / max|u_ref|``: positions compared at the same
 times, so every step (and the reference's) must divide the record interval. The study chooses

@@ -390,6 +390,7 @@ def memory_refusal(scene: Scene, device: str | None = None, chains: int = 1) -> 
                           "traces": ("record.trace_every", scene.record.trace_every)}[part]
             if value is None:
                 key, value = "chain.grains", scene.chain.grains
+            needed = float(needed) if needed < 1e300 else float("inf")  # an int past float range prints as inf
             return (f"{key} = {value!r}: the run needs {needed:.3g} bytes of memory for its {what} "
                     f"({scene.chain.grains} grains, {scene.record_count} records), more than the {limit:.3g} "
                     f"bytes {where}")

@@ -521,6 +521,8 @@ def _validate(s: Scene) -> None:
         if r.trace_every < i.dt * (1 - 1e-9):
             raise SceneError("record.trace_every", r.trace_every,
                              f"must be ≥ integrator.dt = {i.dt:g} (samples fall on steps)")
+        if r.trace_every > i.duration * (1 + 1e-12):
+            raise SceneError("record.trace_every", r.trace_every, f"must not exceed integrator.duration = {i.duration}")
         if s.trace_stride > 1 and (s._whole_steps_per_record is None or s.steps_per_record % s.trace_stride
                                    or s.step_count % s.trace_stride):
             raise SceneError("record.trace_every", r.trace_every,
