@@ -173,7 +173,7 @@ def study_kernel(scene: Scene, device: str | None) -> str:
     GPU ``auto`` (ensemble/solvers/calibrate.py)."""
     import warp as wp
 
-    from kernels.cpu import sweepable
+    from hertzian.kernels.cpu import sweepable
 
     from .model import features_of
 

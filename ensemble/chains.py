@@ -3,8 +3,8 @@
 A sweep over impact speed × precompression × impurity mass varies only per-chain *scalars*;
 the grain count, boundaries, integrator, record layout and impurity positions are shared.
 :class:`ChainSet` keeps one validated *template* scene and, for each varying key of
-:data:`PER_CHAIN_KEYS`, one float64 array with a value per chain. ``ensemble.model`` builds a
-model from it, ``ensemble.static`` and ``ensemble.startup`` compute the static state and the
+:data:`PER_CHAIN_KEYS`, one float64 array with a value per chain. ``hertzian.ensemble.model`` builds a
+model from it, ``hertzian.ensemble.static`` and ``hertzian.ensemble.startup`` compute the static state and the
 exact Taylor start over the whole set with numpy, and ``chains[i]`` still gives the scene of
 chain ``i`` (built on demand) where a scene is wanted.
 """

@@ -5,7 +5,7 @@ contact is ``k = dF/dδ = n (n−1) a_c δ^(n−2)``, so the fastest motion in a
 largest overlap the run can reach. That overlap is bounded by energy, scene by scene:
 
 * **static overlaps** ``δ0`` of every contact (precompression, gravity at the bottom of a column,
-  impurity constants): :func:`ensemble.static.static_state`;
+  impurity constants): :func:`hertzian.ensemble.static.static_state`;
 * **an impact** puts ``E = ½ m_0 v_imp²`` into the chain. The energy relative to the static state
   is ``Σ ½ m v² + Σ_c [V(δ_c) − V(δ0_c) − V'(δ0_c)(δ_c − δ0_c)]`` (docs/architecture.md), a sum of
   non-negative terms (V is convex) that is conserved, so no contact's excess potential can exceed
@@ -305,7 +305,7 @@ def amplification_matrix(method: str, omega_dt: float) -> np.ndarray:
     The same predictor–corrector (Allen & Tildesley coefficients) and velocity Verlet the kernels
     run; its spectral radius decides linear stability (STABLE_OMEGA_DT).
     """
-    from kernels.features import GEAR_CORRECTOR
+    from hertzian.kernels.features import GEAR_CORRECTOR
 
     z2 = omega_dt * omega_dt
     if method == "verlet":
@@ -340,7 +340,7 @@ def memory_needed(scene: Scene, chains: int = 1) -> dict[str, int]:
     device); ``records``: snapshots, energy and work (on the host, float64 at most); ``traces``: trace
     samples (host); ``setup``: host arrays used to build the chain.
     """
-    from kernels.features import GEAR_VALUES
+    from hertzian.kernels.features import GEAR_VALUES
 
     item = 8 if scene.integrator.precision == "float64" else 4
     n, traced = scene.chain.grains, len(scene.record.traces)

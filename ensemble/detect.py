@@ -8,7 +8,7 @@ grains) and the mass ratio ``μ = m_impurity / m_host`` (contact constant as the
 **Forward model.** BASE plus one impurity block at depth d with mass μ·m, impact at grain 0, grain 0's
 velocity traced at exactly the signal's sample times: the step is the largest ``dt' ≤ dt_BASE`` that
 divides the sample spacing (no interpolation). A whole library of candidate chains (depth × mass
-ratio, coarse) is one ensemble run (:func:`ensemble.runner.run_ensemble`), cached per BASE under
+ratio, coarse) is one ensemble run (:func:`hertzian.ensemble.runner.run_ensemble`), cached per BASE under
 ``$HERTZIAN_DETECT_CACHE`` (default ``~/.cache/hertzian/detect/``).
 
 **Window.** The samples up to the return of the pulse reflected by the bottom, ``t ≤ 2 t_front(N − 1)``,

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from kernels.features import Features
+from hertzian.kernels.features import Features
 
 from .chains import ChainSet
 from .planner import Batch, Plan
@@ -44,7 +44,7 @@ class BatchJob:
 
 def jobs_for(store: str | Path, plan: Plan, points: SweepPoints, batches: Iterable[Batch], *,
              kernel: str = "auto") -> list[BatchJob]:
-    """One job per batch (``points``: the sweep expanded by ``ensemble.sweep.expand``)."""
+    """One job per batch (``points``: the sweep expanded by ``hertzian.ensemble.sweep.expand``)."""
     return [BatchJob(store=str(store), batch=b, chains=points.chains(b.points),
                      features=plan.groups[b.group].features, grain_steps=plan.batch_grain_steps(b), kernel=kernel)
             for b in batches]
@@ -60,8 +60,8 @@ def _quiet_warp():
 
 def warm_kernels(features: Iterable[Features], device: str) -> None:
     """Build and load every kernel variant on ``device`` once, so workers find them in Warp's cache."""
-    from kernels.records import record_kernel
-    from kernels.step import step_kernel
+    from hertzian.kernels.records import record_kernel
+    from hertzian.kernels.step import step_kernel
 
     wp = _quiet_warp()
     for f in set(features):

@@ -2,7 +2,7 @@
 
 ``build_model(scenes, device)`` checks that the scenes can share one launch (same grain
 count, boundaries, integrator, dt and record layout), derives the kernel
-:class:`~kernels.features.Features` from what the chains actually use, and uploads only the
+:class:`~hertzian.kernels.features.Features` from what the chains actually use, and uploads only the
 arrays those features need. ``model.state_pair()`` allocates the two state buffers a solver
 ping-pongs between (they share one ``status`` and one trace ring).
 """
@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from kernels.features import EVENT_WINDOW, GEAR_VALUES, Features
+from hertzian.kernels.features import EVENT_WINDOW, GEAR_VALUES, Features
 
 from .chains import ChainSet, per_unique
 from .scene import Scene, SceneError
@@ -103,7 +103,7 @@ class State:
     power: wp.array
     """Driver's power at the previous step, shape (chains,) or (0,)."""
     status: wp.array
-    """Per-chain status code (ensemble.status.Status), shape (chains,), int32. Both halves of a ping-pong
+    """Per-chain status code (hertzian.ensemble.status.Status), shape (chains,), int32. Both halves of a ping-pong
     pair hold the *same* array: kernels read it to freeze a non-finite chain and the record kernel writes it."""
     traces: wp.array
     """Trace ring, shape (2, chains, samples per record, traced grains) [u and dt·v], or (2, 0, 0, 0);
@@ -223,7 +223,7 @@ def build_model(scenes: "list[Scene] | ChainSet", device: str | None = None, *,
                 features: Features | None = None) -> Model:
     """Upload an ensemble of compatible scenes to ``device`` (default: CUDA if present, else CPU).
 
-    ``scenes``: a list of scenes, or a :class:`~ensemble.chains.ChainSet` (a template scene and
+    ``scenes``: a list of scenes, or a :class:`~hertzian.ensemble.chains.ChainSet` (a template scene and
     per-chain parameter arrays; built with numpy, no scene per chain, same bits as the list of its
     scenes). ``features`` forces a wider kernel variant than the scenes need (e.g. to run one member
     of an ensemble alone with the ensemble's kernel).

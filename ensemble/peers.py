@@ -49,7 +49,7 @@ class PeerProblem:
 
 
 def problem_from_model(model) -> PeerProblem:
-    """The peer problem equivalent to an ensemble :class:`~ensemble.model.Model` (benchmark features only)."""
+    """The peer problem equivalent to an ensemble :class:`~hertzian.ensemble.model.Model` (benchmark features only)."""
     f = model.features
     if (f.method != "gear4" or f.heterogeneous or f.static == "profile" or not f.hertz or f.traces
             or f.surface == "driven" or f.bottom == "fixed" or f.precision != "float64"):

@@ -1,6 +1,6 @@
 """Plan a sweep: launch groups, batch blocks sized by memory, and the work each batch is.
 
-* A **launch group** is the set of points that share ``ensemble.model.SHARED_KEYS`` (grain
+* A **launch group** is the set of points that share ``hertzian.ensemble.model.SHARED_KEYS`` (grain
   count, boundaries, method, precision, dt, record layout): they can share one kernel launch.
   Each group gets one kernel variant (``features_of`` over *all* its points, computed from their
   static configurations without a scene per point), so a point's result
@@ -22,7 +22,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from kernels.features import Features
+from hertzian.kernels.features import Features
 
 from .model import SHARED_KEYS, STATIC_LEVELS, chain_set_features
 from .scene import Scene, SceneError
@@ -131,7 +131,7 @@ class Plan:
 
 
 def launch_key(scene: Scene) -> tuple:
-    """What two points must share to run in one launch (ensemble.model.SHARED_KEYS)."""
+    """What two points must share to run in one launch (hertzian.ensemble.model.SHARED_KEYS)."""
     return tuple(get(scene) for _, get in SHARED_KEYS)
 
 
@@ -206,7 +206,7 @@ def plan_sweep(sweep: Sweep, points: "SweepPoints | list[Scene] | None", device:
                batch_size: int | None = None, block: tuple[int, ...] | None = None) -> Plan:
     """Group the sweep's points into launches on ``device``, without a scene per point.
 
-    ``points``: the sweep expanded by ``ensemble.sweep.expand`` (a list of scenes or None expands it
+    ``points``: the sweep expanded by ``hertzian.ensemble.sweep.expand`` (a list of scenes or None expands it
     here). ``batch_size`` caps points per batch; ``block`` (from an existing store) fixes the batch shape.
     """
     if not isinstance(points, SweepPoints):

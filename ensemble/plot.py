@@ -5,7 +5,7 @@
 error against time. ``plot_figure(dataset, "fig1", "fig1.png")`` draws one figure group of Sen,
 Manciu & Wright (1998) from a store written by ``hertzian sweep sweeps/paper_*.toml`` or
 ``hertzian reproduce``. Matplotlib's Agg backend; program units throughout (length 1e-5 m,
-time 1.0102e-3 s). Every reduction of the data is in ``ensemble.analysis``; this module draws.
+time 1.0102e-3 s). Every reduction of the data is in ``hertzian.ensemble.analysis``; this module draws.
 
 Signs: profile plots show the paper's sign, −u and −v (the change of a grain's *position*, positive
 toward the surface), because the paper plots grain positions; the compressive part of a pulse

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from kernels.records import record_kernel, track_extremes
+from hertzian.kernels.records import record_kernel, track_extremes
 
 from .model import Model, State
 

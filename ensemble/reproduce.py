@@ -103,8 +103,10 @@ def group_of(name: str) -> str:
 
 
 def default_sweeps_dir() -> Path:
-    """The repository's ``sweeps/`` folder (next to the ``ensemble`` package)."""
-    return Path(__file__).resolve().parent.parent / "sweeps"
+    """The repository's ``sweeps/`` folder, installed as package data (``hertzian.sweeps``)."""
+    from importlib import resources
+
+    return Path(str(resources.files("hertzian.sweeps")))
 
 
 # ---- a sweep group ---------------------------------------------------------------------------

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import warp as wp
 
-from kernels.features import Features
+from hertzian.kernels.features import Features
 
 from .devices import default_device, init_warp
 from .model import Model, State, build_model
@@ -44,7 +44,7 @@ class RunResult:
     work: np.ndarray | None
     """Driver's work up to each record, shape (chains, R), driven scenes only."""
     status: np.ndarray
-    """Per-chain status code (see ensemble.status.Status), shape (chains,)."""
+    """Per-chain status code (see hertzian.ensemble.status.Status), shape (chains,)."""
     max_overlap: np.ndarray
     """Largest overlap seen at any record [length], shape (chains,)."""
     energy_error: np.ndarray
@@ -85,7 +85,7 @@ class RunResult:
 class Runner:
     """Integrates one model from t = 0 to its scenes' duration, keeping what the scenes ask for.
 
-    ``kernel``: a SolverConfig, or a kind for ``ensemble.solvers.choose_config`` ('auto', 'step', 'tile',
+    ``kernel``: a SolverConfig, or a kind for ``hertzian.ensemble.solvers.choose_config`` ('auto', 'step', 'tile',
     'window', 'sweep'). ``use_graph`` overrides the config's CUDA-graph choice.
     """
 

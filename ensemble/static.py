@@ -93,7 +93,7 @@ def static_state(scene: Scene) -> StaticState:
 
 @dataclass(frozen=True)
 class StaticArrays:
-    """Static equilibrium of a :class:`~ensemble.chains.ChainSet`, one row per chain, float64.
+    """Static equilibrium of a :class:`~hertzian.ensemble.chains.ChainSet`, one row per chain, float64.
 
     Row ``c`` equals, bit for bit, :func:`static_state` of the set's scene ``c`` (its leading
     columns when computed for the first grains only).

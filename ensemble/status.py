@@ -4,11 +4,11 @@ from __future__ import annotations
 
 from enum import IntEnum
 
-from kernels.features import STATUS_ENERGY_DRIFT, STATUS_NON_FINITE, STATUS_OK, STATUS_OVERLAP_BEYOND_VALIDITY
+from hertzian.kernels.features import STATUS_ENERGY_DRIFT, STATUS_NON_FINITE, STATUS_OK, STATUS_OVERLAP_BEYOND_VALIDITY
 
 
 class Status(IntEnum):
-    """Status of one chain after a run; ``OK = 0``. The values are kernels.features' STATUS_* codes.
+    """Status of one chain after a run; ``OK = 0``. The values are hertzian.kernels.features' STATUS_* codes.
 
     Precedence: the record kernel sets NON_FINITE whatever the chain's code was (and the solvers then
     freeze the chain); it sets OVERLAP_BEYOND_VALIDITY only on an OK chain; the runner sets

@@ -1,6 +1,6 @@
 """Zarr v3 stores (SPEC §6), readable by ``xarray.open_zarr``.
 
-One writer (``ensemble.sweep_store``): a run is a sweep with no axes. Variables carry the sweep
+One writer (``hertzian.ensemble.sweep_store``): a run is a sweep with no axes. Variables carry the sweep
 axes first (none for a run), then ``record``/``grain`` or ``sample``/``traced``. Each variable
 has ``dimension_names`` and the group has consolidated metadata. :func:`write_result` writes
 into a temporary directory and renames it into place, so a failed write leaves nothing behind

@@ -9,9 +9,9 @@ dimension (``ds.l0`` over ``v_imp``), so ``ds.u.sel(v_imp=…)`` selects on the 
 
 :func:`expand` turns a sweep into :class:`SweepPoints` without a scene per point: one
 template scene per combination of the *structural* dimensions, the per-chain scalars of the
-*parameter* dimensions as arrays (``ensemble.chains.ChainSet`` per batch). The grid is validated
+*parameter* dimensions as arrays (``hertzian.ensemble.chains.ChainSet`` per batch). The grid is validated
 before anything runs, by its corners and value ranges (:func:`validate_grid`); bad input raises
-:class:`~ensemble.scene.SceneError` naming the key, the value, what is allowed and the point.
+:class:`~hertzian.ensemble.scene.SceneError` naming the key, the value, what is allowed and the point.
 :func:`sweep_scenes` still builds every point's scene (the reference path of the tests).
 """
 
@@ -400,7 +400,7 @@ CHUNK_ELEMENTS = 1 << 22
 
 FEATURE_KEYS = STATIC_KEYS + ("excitation.impact",)
 """Per-chain keys that decide the kernel variant: the static state's, and the impact speed (whether a
-contact can open, hence event-aware steps, depends on the injected energy: ensemble.model.contact_can_open)."""
+contact can open, hence event-aware steps, depends on the injected energy: hertzian.ensemble.model.contact_can_open)."""
 
 
 def _is_static_key(key: str) -> bool:
@@ -411,7 +411,7 @@ def _is_static_key(key: str) -> bool:
 class SweepPoints:
     """Every point of a sweep without a Scene per point.
 
-    Dimensions whose axes are all per-chain scalars (``ensemble.chains.PER_CHAIN_KEYS``) are
+    Dimensions whose axes are all per-chain scalars (``hertzian.ensemble.chains.PER_CHAIN_KEYS``) are
     *parameter* dimensions: their values become per-chain arrays. The others are *structural*
     (grain count, boundaries, integrator, record, impurity contact rule): one validated
     *template* scene per combination of their values. Point ``p``'s scene is its template with

@@ -1,6 +1,6 @@
 """A sweep's Zarr v3 store (SPEC §6): one group, sweep dimensions first, filled batch by batch.
 
-Layout, as ``ensemble.store.write_result`` writes a run, with the sweep dimensions in front:
+Layout, as ``hertzian.ensemble.store.write_result`` writes a run, with the sweep dimensions in front:
 ``u``/``v`` (*dims, record, grain), ``energy`` (*dims, record), ``trace_u``/``trace_v``
 (*dims, sample, traced), per point ``status``, ``energy_error``, ``max_overlap``,
 ``wall_seconds``, ``grain_steps_per_second`` and ``launch_group``; coordinates for every axis

@@ -18,7 +18,7 @@ EVENT_WINDOW = 1e-2
 """Default event window [time] (kernels/events.py): a fixed time, so that the treatment keeps the
 method's order as dt shrinks; about 1/20 of a contact time at v_imp = 1e-2 (program units)."""
 
-# Per-chain status codes, defined here only (kernels write them; ensemble.status.Status names them).
+# Per-chain status codes, defined here only (kernels write them; hertzian.ensemble.status.Status names them).
 STATUS_OK = 0
 STATUS_NON_FINITE = 1
 """The state became NaN/inf (record kernel); the step kernels then freeze the chain."""

@@ -55,7 +55,7 @@ class TileShape:
     chains_per_block: int = 1
     """Chains sharing one block (1 when windowed)."""
     windowed: bool = False
-    """Long-chain mode: several blocks per chain, each a window with ghost zones (see kernels.ghost)."""
+    """Long-chain mode: several blocks per chain, each a window with ghost zones (see hertzian.kernels.ghost)."""
     masked: bool = True
     """Compile the padding and free-end masks (off only when every lane is full and both ends are walls)."""
     branchless: bool = True
@@ -372,7 +372,7 @@ def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_
 
     Whole chains: ``lanes_per_chain = ceil(grain_count / grains_per_lane)`` unless given (it must cover
     the chain), ``chains_per_block`` chains per block. Windowed: ``lanes_per_chain`` lanes hold a window,
-    its ghost zones are ``steps_per_launch`` grains (see kernels.ghost). Raises ValueError for shapes
+    its ghost zones are ``steps_per_launch`` grains (see hertzian.kernels.ghost). Raises ValueError for shapes
     that cannot work (a block over 1024 threads, a window without interior).
     """
     from .ghost import plan_windows

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ensemble.runner import Runner
-from ensemble.scene import scene_from_dict
+from hertzian.ensemble.runner import Runner
+from hertzian.ensemble.scene import scene_from_dict
 
 MOVED = 1e-3
 """A grain has moved once its |u| or dt·|v| exceeds this fraction of the chain's largest."""

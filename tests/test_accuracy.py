@@ -12,10 +12,10 @@ import time
 import numpy as np
 import pytest
 
-from ensemble.accuracy import common_record_interval, relative_error, richardson_estimate, work_precision
-from ensemble.runner import run_scene
-from ensemble.scene import SceneError
-from ensemble.store import summary_records, write_result
+from hertzian.ensemble.accuracy import common_record_interval, relative_error, richardson_estimate, work_precision
+from hertzian.ensemble.runner import run_scene
+from hertzian.ensemble.scene import SceneError
+from hertzian.ensemble.store import summary_records, write_result
 
 from conftest import make_scene
 
@@ -108,7 +108,7 @@ def test_run_reports_energy_error_next_to_wall_seconds(tmp_path):
 
 
 def hertzian(*args, cwd):
-    return subprocess.run([sys.executable, "-c", "from ensemble.cli import main; main()", *args],
+    return subprocess.run([sys.executable, "-c", "from hertzian.ensemble.cli import main; main()", *args],
                           capture_output=True, text=True, cwd=cwd)
 
 

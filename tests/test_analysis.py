@@ -1,4 +1,4 @@
-"""ensemble.analysis on synthetic profiles with known answers (no simulation)."""
+"""hertzian.ensemble.analysis on synthetic profiles with known answers (no simulation)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from ensemble import analysis as an
+from hertzian.ensemble import analysis as an
 
 
 def test_fit_line_exact_and_noisy():

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from ensemble.bench import bench_scenes
-from ensemble.cli import app
-from ensemble.model import build_model
-from ensemble.peers import NumpyGear4, problem_from_model
+from hertzian.ensemble.bench import bench_scenes
+from hertzian.ensemble.cli import app
+from hertzian.ensemble.model import build_model
+from hertzian.ensemble.peers import NumpyGear4, problem_from_model
 from fused_cases import per_step
 
 

@@ -14,11 +14,11 @@ import sys
 import numpy as np
 import pytest
 
-from ensemble.check import (STABLE_OMEGA_DT, amplification_matrix, check_scene, dt_warning, excess_potential,
+from hertzian.ensemble.check import (STABLE_OMEGA_DT, amplification_matrix, check_scene, dt_warning, excess_potential,
                             growth_per_period, overlap_reach)
-from ensemble.model import build_model
-from ensemble.runner import Runner, run_scene
-from ensemble.static import static_state
+from hertzian.ensemble.model import build_model
+from hertzian.ensemble.runner import Runner, run_scene
+from hertzian.ensemble.static import static_state
 
 from conftest import make_scene
 
@@ -173,9 +173,9 @@ def test_suggested_dt_passes_its_own_check(method):
 
 
 def hertzian(*args, cwd):
-    """The ``hertzian`` entry point in a subprocess (``python -m ensemble.cli`` would miss commands that
-    register from other modules: they register on the imported ``ensemble.cli``, not on ``__main__``)."""
-    return subprocess.run([sys.executable, "-c", "from ensemble.cli import main; main()", *args],
+    """The ``hertzian`` entry point in a subprocess (``python -m hertzian.ensemble.cli`` would miss commands that
+    register from other modules: they register on the imported ``hertzian.ensemble.cli``, not on ``__main__``)."""
+    return subprocess.run([sys.executable, "-c", "from hertzian.ensemble.cli import main; main()", *args],
                           capture_output=True, text=True, cwd=cwd)
 
 

@@ -9,9 +9,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ensemble.model import build_model
-from ensemble.runner import Runner
-from ensemble.solvers import STEP, SWEEP, SolverConfig, SweepSolver, choose_config
+from hertzian.ensemble.model import build_model
+from hertzian.ensemble.runner import Runner
+from hertzian.ensemble.solvers import STEP, SWEEP, SolverConfig, SweepSolver, choose_config
 from fused_cases import CASES, chains, per_step
 
 

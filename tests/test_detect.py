@@ -14,10 +14,10 @@ import time
 import numpy as np
 import pytest
 
-from ensemble.detect import (Quadratic, detect, forward_scene, log_normal_mass, read_signal, signal_from_arrays,
+from hertzian.ensemble.detect import (Quadratic, detect, forward_scene, log_normal_mass, read_signal, signal_from_arrays,
                              write_signal_csv)
-from ensemble.runner import run_scene
-from ensemble.scene import SceneError, scene_from_dict
+from hertzian.ensemble.runner import run_scene
+from hertzian.ensemble.scene import SceneError, scene_from_dict
 
 GRAINS = 40
 SPACING = 0.01
@@ -166,7 +166,7 @@ def test_signal_checks(tmp_path):
 
 
 def hertzian(*args, env=None):
-    return subprocess.run([sys.executable, "-m", "ensemble.cli", *args], capture_output=True, text=True, env=env)
+    return subprocess.run([sys.executable, "-m", "hertzian.ensemble.cli", *args], capture_output=True, text=True, env=env)
 
 
 def write_csv(path, rows, header="t,v"):
@@ -234,7 +234,7 @@ def test_forward_scene_samples_on_steps():
 
 def test_study_summary_counts():
     """The study's tables from hand-made records: accuracy, depth within ±1 (class right too), coverage."""
-    from ensemble.detect_study import summarize
+    from hertzian.ensemble.detect_study import summarize
 
     def record(true_class, kind, true_depth, depth, covered):
         return {"host": "h", "snr_db": 26.0, "true_class": true_class, "class": kind, "true_depth": true_depth,

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 from conftest import make_scene
-from ensemble.accuracy import work_precision
-from ensemble.model import build_model, features_of
-from kernels.features import Features
-from kernels.step import step_kernel
-from kernels.tile import plan_tile
+from hertzian.ensemble.accuracy import work_precision
+from hertzian.ensemble.model import build_model, features_of
+from hertzian.kernels.features import Features
+from hertzian.kernels.step import step_kernel
+from hertzian.kernels.tile import plan_tile
 from tests.test_cpu_kernel import sweep
 from tests.test_tile import chains, fused, per_step
 
@@ -83,7 +83,7 @@ def test_every_kernel_takes_the_same_event_steps(case):
 def test_bad_event_modes_are_one_line_errors():
     from typer.testing import CliRunner
 
-    from ensemble.cli import app
+    from hertzian.ensemble.cli import app
 
     for args, key in ((["accuracy", "--events", "maybe", "--dt", "2e-4"], "--events"),
                       (["check", "--set", "integrator.events=maybe"], "integrator.events")):

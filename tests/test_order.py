@@ -6,8 +6,8 @@ step 4x smaller than the finest tested. The Gear methods start from exact Taylor
 import numpy as np
 import pytest
 
-from ensemble.model import build_model
-from ensemble.runner import Runner, run_scene
+from hertzian.ensemble.model import build_model
+from hertzian.ensemble.runner import Runner, run_scene
 
 from conftest import make_scene
 

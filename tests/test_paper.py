@@ -2,7 +2,7 @@
 
 Each test runs short chains at the paper's parameters (program units, gear4, dt = 1.25e-4 — ten
 times the paper's step; the energy error of every run is checked) and compares what
-ensemble.analysis measures with something independent: an exact scaling law, a closed form
+hertzian.ensemble.analysis measures with something independent: an exact scaling law, a closed form
 (sound speed of a compressed chain or column, Nesterenko's soliton), linear acoustics, or the
 paper's claim where no theory exists. docs/reproduction.md has the full-size numbers.
 """
@@ -14,9 +14,9 @@ import math
 import numpy as np
 import pytest
 
-from ensemble import analysis as an
-from ensemble.runner import run_ensemble
-from ensemble.scene import scene_from_dict
+from hertzian.ensemble import analysis as an
+from hertzian.ensemble.runner import run_ensemble
+from hertzian.ensemble.scene import scene_from_dict
 
 DT = 1.25e-4
 A = 5657.0
@@ -235,8 +235,8 @@ def test_plot_cli_draws_a_figure_and_refuses_bad_input(tmp_path):
     with one line and exit code 2."""
     from typer.testing import CliRunner
 
-    from ensemble.cli import app
-    from ensemble.store import write_result
+    from hertzian.ensemble.cli import app
+    from hertzian.ensemble.store import write_result
 
     speeds = [1e-3, 1e-2, 1e-1]
     scenes = [_scene(chain={"grains": 40, "l0": 1e-6}, excitation={"impact": v}, integrator={"duration": 2.0},

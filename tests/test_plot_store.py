@@ -7,9 +7,9 @@ import pytest
 import xarray as xr
 from typer.testing import CliRunner
 
-from ensemble.analysis import energy_drift
-from ensemble.cli import app
-from ensemble.plot import PlotError, select_point
+from hertzian.ensemble.analysis import energy_drift
+from hertzian.ensemble.cli import app
+from hertzian.ensemble.plot import PlotError, select_point
 
 cli = CliRunner()
 

@@ -18,10 +18,10 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
-from ensemble.cli import app
-from ensemble.runner import run_scene
-from ensemble.scene import MAX_STEPS, SceneError, load_scene
-from ensemble.sweep import MAX_POINTS, load_sweep, sweep_scenes
+from hertzian.ensemble.cli import app
+from hertzian.ensemble.runner import run_scene
+from hertzian.ensemble.scene import MAX_STEPS, SceneError, load_scene
+from hertzian.ensemble.sweep import MAX_POINTS, load_sweep, sweep_scenes
 
 from conftest import make_scene
 
@@ -221,7 +221,7 @@ def test_fuzzed_scene_files_are_refused_cleanly(tmp_path, edits, broken):
     out = tmp_path / "fuzz.zarr"
 
     def load():
-        from ensemble.check import memory_refusal
+        from hertzian.ensemble.check import memory_refusal
 
         loaded = load_scene(scene)
         if memory_refusal(loaded):

@@ -8,14 +8,14 @@ import pytest
 import xarray as xr
 from typer.testing import CliRunner
 
-from ensemble.cli import app
-from ensemble.reproduce import GROUPS, default_sweeps_dir, group_of
+from hertzian.ensemble.cli import app
+from hertzian.ensemble.reproduce import GROUPS, default_sweeps_dir, group_of
 
 cli = CliRunner()
 
 
 def test_every_group_has_its_sweep_file_and_figures_known_to_plot():
-    from ensemble.plot import FIGURES
+    from hertzian.ensemble.plot import FIGURES
 
     for name, group in GROUPS.items():
         assert (default_sweeps_dir() / group.sweep).is_file(), name

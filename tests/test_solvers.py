@@ -9,10 +9,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ensemble.model import build_model
-from ensemble.solvers import STEP, SWEEP, SolverConfig, config_of, make_solver
-from kernels.features import STATUS_NON_FINITE
-from kernels.tile import plan_tile
+from hertzian.ensemble.model import build_model
+from hertzian.ensemble.solvers import STEP, SWEEP, SolverConfig, config_of, make_solver
+from hertzian.kernels.features import STATUS_NON_FINITE
+from hertzian.kernels.tile import plan_tile
 from tests.test_tile import chains
 
 

@@ -16,13 +16,13 @@ import numpy as np
 import pytest
 import zarr
 
-from ensemble.accuracy import work_precision
-from ensemble.check import check_scene
-from ensemble.model import build_model
-from ensemble.runner import Runner, run_ensemble, run_scene
-from ensemble.static import static_state
-from ensemble.status import Status
-from ensemble.store import write_result
+from hertzian.ensemble.accuracy import work_precision
+from hertzian.ensemble.check import check_scene
+from hertzian.ensemble.model import build_model
+from hertzian.ensemble.runner import Runner, run_ensemble, run_scene
+from hertzian.ensemble.static import static_state
+from hertzian.ensemble.status import Status
+from hertzian.ensemble.store import write_result
 
 from conftest import DEVICES, make_scene
 

@@ -1,5 +1,5 @@
 """The one store writer: a run (or an ensemble written from code) is a sweep with no axes (or with the
-caller's axes), written by ``ensemble.sweep_store`` through ``write_result``."""
+caller's axes), written by ``hertzian.ensemble.sweep_store`` through ``write_result``."""
 
 import json
 
@@ -8,12 +8,12 @@ import pytest
 import xarray as xr
 import zarr
 
-from ensemble.chains import ChainSet
-from ensemble.model import build_model
-from ensemble.runner import Runner, run_ensemble, run_scene
-from ensemble.scene import scene_from_dict
-from ensemble.store import summary_records, write_result
-from ensemble.sweep_store import batch_records, completed_batches
+from hertzian.ensemble.chains import ChainSet
+from hertzian.ensemble.model import build_model
+from hertzian.ensemble.runner import Runner, run_ensemble, run_scene
+from hertzian.ensemble.scene import scene_from_dict
+from hertzian.ensemble.store import summary_records, write_result
+from hertzian.ensemble.sweep_store import batch_records, completed_batches
 
 SCENE = {"chain": {"grains": 8, "l0": 1e-4}, "excitation": {"impact": 1e-2},
          "integrator": {"dt": 1e-4, "duration": 0.01}, "record": {"every": 0.005, "traces": [0, 7]}}

@@ -10,14 +10,14 @@ import xarray as xr
 import zarr
 from typer.testing import CliRunner
 
-from ensemble.cli import app
-from ensemble.model import build_model
-from ensemble.planner import batches_for, block_for, plan_sweep
-from ensemble.runner import Runner, run_scene
-from ensemble.scene import SceneError
-from ensemble.store import summary_records, write_result
-from ensemble.sweep import load_sweep, sweep_from_dict, sweep_scenes
-from ensemble.sweep_store import batch_records, chunk_layout, create_sweep_store, differing_arrays
+from hertzian.ensemble.cli import app
+from hertzian.ensemble.model import build_model
+from hertzian.ensemble.planner import batches_for, block_for, plan_sweep
+from hertzian.ensemble.runner import Runner, run_scene
+from hertzian.ensemble.scene import SceneError
+from hertzian.ensemble.store import summary_records, write_result
+from hertzian.ensemble.sweep import load_sweep, sweep_from_dict, sweep_scenes
+from hertzian.ensemble.sweep_store import batch_records, chunk_layout, create_sweep_store, differing_arrays
 
 SWEEP = """
 [scene.chain]
@@ -355,7 +355,7 @@ def test_scene_error_from_planner_is_a_scene_error(tmp_path):
 
 def test_non_leading_zip_axis_may_repeat_values():
     """Only the first axis of a [[zip]] group labels the store dimension; the others are coordinates."""
-    from ensemble.sweep import sweep_from_dict
+    from hertzian.ensemble.sweep import sweep_from_dict
 
     data = {
         "scene": {"chain": {"grains": 10}, "excitation": {"impact": 1e-2}, "integrator": {"duration": 0.01}},

@@ -6,9 +6,9 @@ import distributed  # a hard dependency (dask[distributed]): a missing one must 
 import pytest
 from typer.testing import CliRunner
 
-from ensemble.cli import app
-from ensemble.distributed import worker_device
-from ensemble.sweep_store import batch_records, differing_arrays
+from hertzian.ensemble.cli import app
+from hertzian.ensemble.distributed import worker_device
+from hertzian.ensemble.sweep_store import batch_records, differing_arrays
 
 SWEEP = """
 [scene.chain]

@@ -15,12 +15,12 @@ import pytest
 import xarray as xr
 from typer.testing import CliRunner
 
-from ensemble.cli import app
-from ensemble.model import build_model
-from ensemble.planner import plan_sweep
-from ensemble.runner import Runner
-from ensemble.store import summary_columns
-from ensemble.sweep import expand, load_sweep
+from hertzian.ensemble.cli import app
+from hertzian.ensemble.model import build_model
+from hertzian.ensemble.planner import plan_sweep
+from hertzian.ensemble.runner import Runner
+from hertzian.ensemble.store import summary_columns
+from hertzian.ensemble.sweep import expand, load_sweep
 
 SWEEPS = Path(__file__).parent.parent / "sweeps"
 cli = CliRunner()

@@ -14,12 +14,12 @@ import numpy as np
 import pytest
 import warp as wp
 
-from ensemble.model import build_model
-from ensemble.runner import Runner
-from ensemble.solvers import TileSolver, config_of
-from kernels.features import STATUS_NON_FINITE
-from kernels.ghost import plan_windows
-from kernels.tile import fusable, plan_tile
+from hertzian.ensemble.model import build_model
+from hertzian.ensemble.runner import Runner
+from hertzian.ensemble.solvers import TileSolver, config_of
+from hertzian.kernels.features import STATUS_NON_FINITE
+from hertzian.kernels.ghost import plan_windows
+from hertzian.kernels.tile import fusable, plan_tile
 
 from fused_cases import CASES, assert_every_window_moved, chains, per_step, window_ranges
 

@@ -13,13 +13,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ensemble.chains import ChainSet
-from ensemble.model import build_model, features_of
-from ensemble.planner import plan_sweep
-from ensemble.scene import SceneError
-from ensemble.startup import initial_nordsieck, initial_nordsieck_of
-from ensemble.static import static_arrays, static_state
-from ensemble.sweep import Dimension, expand, load_sweep, sweep_from_dict
+from hertzian.ensemble.chains import ChainSet
+from hertzian.ensemble.model import build_model, features_of
+from hertzian.ensemble.planner import plan_sweep
+from hertzian.ensemble.scene import SceneError
+from hertzian.ensemble.startup import initial_nordsieck, initial_nordsieck_of
+from hertzian.ensemble.static import static_arrays, static_state
+from hertzian.ensemble.sweep import Dimension, expand, load_sweep, sweep_from_dict
 
 SWEEPS = sorted((Path(__file__).parent.parent / "sweeps").glob("*.toml"))
 
@@ -208,7 +208,7 @@ def test_planner_groups_and_features_equal_per_scene_features(case, tmp_path):
         assert group.point_count == len(members)
         assert group.features == features_of(members)
     # points with equal launch keys share a group, others do not
-    keys = [tuple(get(s) for _, get in __import__("ensemble.model", fromlist=["SHARED_KEYS"]).SHARED_KEYS)
+    keys = [tuple(get(s) for _, get in __import__("hertzian.ensemble.model", fromlist=["SHARED_KEYS"]).SHARED_KEYS)
             for s in scenes]
     for p in range(len(scenes)):
         for q in range(len(scenes)):
@@ -244,7 +244,7 @@ def test_zipped_axes_are_checked_at_each_axis_extremes_not_only_the_leading_ones
 from hypothesis import HealthCheck, example, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
-from ensemble.sweep import sweep_scenes  # noqa: E402
+from hertzian.ensemble.sweep import sweep_scenes  # noqa: E402
 
 PARAMETER_VALUES = {
     "chain.l0": [0.0, 1e-4, -1e-5, 2e-4],

@@ -20,7 +20,7 @@ COMMANDS = ("run", "summarize", "check", "accuracy", "sweep", "bench", "plot", "
 
 
 def register(module: str) -> None:
-    """Import a command module (a dotted name, e.g. 'ensemble.cli_detect') so its commands register."""
+    """Import a command module (a dotted name, e.g. 'hertzian.ensemble.cli_detect') so its commands register."""
     import_module(module)
 
 

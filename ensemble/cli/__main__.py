@@ -1,4 +1,4 @@
-"""``python -m ensemble.cli``: the same commands as the ``hertzian`` script."""
+"""``python -m hertzian.ensemble.cli``: the same commands as the ``hertzian`` script."""
 
 from . import main
 

@@ -36,7 +36,7 @@ def fail(message: str) -> None:
 
 def example_path(name: str = "impact") -> Path:
     """A built-in example scene shipped with the package."""
-    return Path(str(resources.files("ensemble.examples") / f"{name}.toml"))
+    return Path(str(resources.files("hertzian.ensemble.examples") / f"{name}.toml"))
 
 
 def resolve_device(device: str | None) -> str:

@@ -31,8 +31,8 @@ from pathlib import Path
 import numpy as np
 import warp as wp
 
-from kernels.cpu import sweepable
-from kernels.tile import fusable, plan_tile
+from hertzian.kernels.cpu import sweepable
+from hertzian.kernels.tile import fusable, plan_tile
 
 from ..model import Model, State
 from .config import STEP, SWEEP, SolverConfig

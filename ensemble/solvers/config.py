@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
-from kernels.tile import TileShape
+from hertzian.kernels.tile import TileShape
 
 SOLVER_KINDS = ("step", "tile", "window", "sweep")
 """``step``: one Gear/Verlet step per launch over (chain, grain), every feature (kernels/step.py).
@@ -24,7 +24,7 @@ class SolverConfig:
     """Everything that chooses a solver and its compiled code; the chain count only sets block counts.
 
     Runtime geometry (blocks per chain, window interior) follows from ``shape``, ``steps_per_launch`` and
-    the model's grain and chain counts (``ensemble.solvers.tile.tile_plan``).
+    the model's grain and chain counts (``hertzian.ensemble.solvers.tile.tile_plan``).
     """
 
     kind: str = "step"

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import warp as wp
 
-from kernels.step import step_kernel
+from hertzian.kernels.step import step_kernel
 
 from ..model import Model, State
 from .base import Solver

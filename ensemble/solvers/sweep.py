@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from kernels.cpu import launch_sweep, sweep_kernel
+from hertzian.kernels.cpu import launch_sweep, sweep_kernel
 
 from ..model import Model, State
 from .base import Solver

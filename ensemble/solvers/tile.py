@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from kernels.ghost import plan_windows
-from kernels.tile import TilePlan, launch_tile, tile_kernel
+from hertzian.kernels.ghost import plan_windows
+from hertzian.kernels.tile import TilePlan, launch_tile, tile_kernel
 
 from ..model import Model, State
 from .base import Solver
@@ -23,7 +23,7 @@ def tile_plan(config: SolverConfig, grain_count: int, chain_count: int) -> TileP
 
 
 def config_of(plan: TilePlan) -> SolverConfig:
-    """The SolverConfig of a kernels.tile.TilePlan (e.g. from ``plan_tile``)."""
+    """The SolverConfig of a hertzian.kernels.tile.TilePlan (e.g. from ``plan_tile``)."""
     return SolverConfig("window" if plan.shape.windowed else "tile", shape=plan.shape,
                         steps_per_launch=plan.steps_per_launch)
 

@@ -130,11 +130,11 @@ def run_case(case: dict):
     """Run one golden case on the CPU and return its RunResult."""
     import warp as wp
 
-    from ensemble.model import build_model
-    from ensemble.runner import Runner
-    from ensemble.scene import scene_from_dict
-    from ensemble.solvers import config_of
-    from kernels.tile import plan_tile
+    from hertzian.ensemble.model import build_model
+    from hertzian.ensemble.runner import Runner
+    from hertzian.ensemble.scene import scene_from_dict
+    from hertzian.ensemble.solvers import config_of
+    from hertzian.kernels.tile import plan_tile
 
     wp.init()
     # the stored outputs predate event-aware Gear steps: pin them off (integrator.events = "off"
