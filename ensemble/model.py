@@ -46,14 +46,23 @@ def features_of(scenes: list[Scene], statics: list[StaticState] | None = None) -
         if len(values) > 1:
             raise SceneError(key, sorted(map(str, values)), "chains in one ensemble must share this")
     statics = statics or [static_state(s) for s in scenes]
-    any_static = any(np.any(st.static_overlap > 0) for st in statics)
-    heterogeneous = any(s.impurities for s in scenes)
+    return _features(first, any_static=any(np.any(st.static_overlap > 0) for st in statics),
+                     heterogeneous=any(s.impurities for s in scenes),
+                     gravity=any(s.chain.gravity > 0 for s in scenes),
+                     hertz=all(s.chain.exponent == 2.5 for s in scenes),
+                     can_open=lambda: any(contact_can_open(s, st) for s, st in zip(scenes, statics)))
+
+
+def _features(first: Scene, *, any_static: bool, heterogeneous: bool, gravity: bool, hertz: bool,
+              can_open) -> Features:
+    """The feature set from what the chains use (``can_open()`` is asked only where events may apply)."""
     if not any_static:
         static = "none"
-    elif heterogeneous or any(s.chain.gravity > 0 for s in scenes):
+    elif heterogeneous or gravity:
         static = "profile"
     else:
         static = "uniform"
+    events = first.integrator.events == "auto" and first.integrator.method != "verlet" and can_open()
     return Features(
         method=first.integrator.method,
         precision=first.integrator.precision,
@@ -61,10 +70,9 @@ def features_of(scenes: list[Scene], statics: list[StaticState] | None = None) -
         bottom=first.boundary.bottom,
         static=static,
         heterogeneous=heterogeneous,
-        hertz=all(s.chain.exponent == 2.5 for s in scenes),
+        hertz=hertz,
         traces=bool(first.record.traces),
-        event_window=EVENT_WINDOW if first.integrator.events == "auto" and first.integrator.method != "verlet"
-        and any(contact_can_open(s, st) for s, st in zip(scenes, statics)) else 0.0,
+        event_window=EVENT_WINDOW if events else 0.0,
     )
 
 
@@ -288,27 +296,11 @@ def build_model(scenes: "list[Scene] | ChainSet", device: str | None = None, *,
 
 def chain_set_features(chains: ChainSet, static) -> Features:
     """features_of for a ChainSet, from its static arrays (no scene per chain)."""
-    first = chains.template
-    any_static = bool(np.any(static.static_overlap > 0))
-    heterogeneous = bool(first.impurities)
-    if not any_static:
-        kind = "none"
-    elif heterogeneous or bool(np.any(chains.column("chain.gravity") > 0)):
-        kind = "profile"
-    else:
-        kind = "uniform"
-    return Features(
-        method=first.integrator.method,
-        precision=first.integrator.precision,
-        surface=first.boundary.surface,
-        bottom=first.boundary.bottom,
-        static=kind,
-        heterogeneous=heterogeneous,
-        hertz=bool(np.all(chains.column("chain.exponent") == 2.5)),
-        traces=bool(first.record.traces),
-        event_window=EVENT_WINDOW if first.integrator.events == "auto" and first.integrator.method != "verlet"
-        and chain_set_can_open(chains, static) else 0.0,
-    )
+    return _features(chains.template, any_static=bool(np.any(static.static_overlap > 0)),
+                     heterogeneous=bool(chains.template.impurities),
+                     gravity=bool(np.any(chains.column("chain.gravity") > 0)),
+                     hertz=bool(np.all(chains.column("chain.exponent") == 2.5)),
+                     can_open=lambda: chain_set_can_open(chains, static))
 
 
 def chain_set_can_open(chains: ChainSet, static) -> bool:

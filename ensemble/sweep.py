@@ -371,22 +371,7 @@ def sweep_scenes(sweep: Sweep) -> list[Scene]:
     """Build and validate every point's scene; check that all points share the store layout (the
     per-point reference path; ``expand`` does the same without a scene per point)."""
     scenes = sweep.scenes()
-    first = scenes[0]
-    for key, get in LAYOUT_KEYS:
-        values = {get(s) for s in scenes}
-        if len(values) > 1:
-            raise SceneError(key, sorted(map(str, values)), "every point of a sweep shares the store's "
-                             "record/grain layout; sweep this key in separate sweeps")
-    t0, tt0 = record_times(first), trace_times(first)
-    for s in scenes:
-        t = record_times(s)
-        if not np.allclose(t, t0, rtol=1e-9, atol=0):
-            raise SceneError("record times", f"{t[1]:g} vs {t0[1]:g}", "every point must record at the same "
-                             "times (record.every a whole number of steps of each dt)")
-        tt = trace_times(s)
-        if tt is not None and not np.allclose(tt, tt0, rtol=1e-9, atol=0):
-            raise SceneError("trace times", f"{tt[1]:g} vs {tt0[1]:g}", "every point must sample traces at "
-                             "the same times")
+    _check_layout(scenes)
     return scenes
 
 
