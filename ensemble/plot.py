@@ -387,8 +387,9 @@ def modes(ds, out: Path) -> Path:
     a = 5657.0 if not np.isfinite(a) else a
     l0 = _scene_value(ds, "chain", "l0")
     band_edge = 2.0 * math.sqrt(float(an.hertz_stiffness(a, 2.5 * a * l0 ** 1.5))) / (2 * math.pi)
-    fig, axes = plt.subplots(3, 1, figsize=(7.5, 8.4))
+    fig, axes = plt.subplots(4, 1, figsize=(7.5, 11.0))
     colors = {clean: "k"}
+    starts = np.arange(arrival + 5.0, tt[-1] - 5.0 + 1e-9, 5.0)
     late = tt >= arrival + 5.0
     for k, (mass, stiffness) in enumerate(zip(masses, stiff)):
         v = ds.trace_v.isel(impurity_mass=k).values[:, column]
@@ -399,22 +400,33 @@ def modes(ds, out: Path) -> Path:
         axes[1].plot(tt[late] - arrival, v[late], color=color, lw=0.6, label=name)
         freq, power = an.power_spectrum(tt[late], v[late])
         axes[2].semilogy(freq[1:], power[1:], color=color, lw=0.7, label=name)
+        rms = [np.sqrt(np.mean(v[(tt >= lo) & (tt < lo + 5.0)] ** 2)) for lo in starts]
+        axes[3].plot(starts + 2.5 - arrival, rms, "o-", color=color, ms=3, label=name)
     for ax in axes[:2]:
         ax.axhline(0, color="0.6", lw=0.5)
         ax.set_xlabel(f"t − {arrival:.2f} (clean pulse's arrival) [{TIME_UNIT}]")
         ax.set_ylabel(f"v at grain {site} [9.9 mm/s]")
         ax.legend(loc="upper right", fontsize=7)
+    axes[0].set_xlim(-2.0, 10.0)
     axes[0].set_title(f"(a) velocity of grain {site} (+ into the chain): the impurity itself, or the clean chain's "
                       "grain", fontsize=8.5)
     axes[1].set_title("(b) the same from 5 time units after the pulse's arrival (the ringing, if any)", fontsize=8.5)
     axes[2].axvline(band_edge, color="0.4", ls="--", lw=0.8)
-    axes[2].text(band_edge, axes[2].get_ylim()[1], f" linear band edge {band_edge:.2f}", va="top", fontsize=7)
+    axes[2].text(band_edge, 0.5, f" linear band edge {band_edge:.2f}", va="center", fontsize=7,
+                 transform=axes[2].get_xaxis_transform())
     axes[2].set_xlim(0, 3 * band_edge)
+    top = max(line.get_ydata().max() for line in axes[2].get_lines()[:-1])
+    axes[2].set_ylim(top * 1e-8, top * 3)
     axes[2].set_xlabel("frequency [cycles per time unit]")
     axes[2].set_ylabel("power of (b) [arb. units]")
     axes[2].set_title(f"(c) power spectrum of (b); l0 = {l0:g}, v_imp = {_scene_value(ds, 'excitation', 'impact'):g}, "
                       "g = 0", fontsize=8.5)
     axes[2].legend(loc="upper right", fontsize=7)
+    axes[3].set_xlabel(f"t − {arrival:.2f}, middle of each 5-unit window [{TIME_UNIT}]")
+    axes[3].set_ylabel("rms v [9.9 mm/s]")
+    axes[3].set_ylim(0, None)
+    axes[3].set_title(f"(d) rms velocity of grain {site} over 5-unit windows: how long the ringing lasts", fontsize=8.5)
+    axes[3].legend(loc="lower left", fontsize=7)
     return _finish(fig, out)
 
 

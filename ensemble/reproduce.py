@@ -584,6 +584,44 @@ def compare(out_dir: Path) -> dict[str, Any]:
     return out
 
 
+def measure_stores(root: Path, *, figures_dir: Path | None = None, command: str = "") -> dict[str, Any]:
+    """Re-measure every group store under ``root`` (``root/<group>/<group>.zarr`` with its ``log.json``, as
+    ``hertzian reproduce --figure <group> --out-dir root/<group>`` writes them) with the current analysis,
+    and optionally redraw each group's figures into ``figures_dir``. Returns a log: date, command, each
+    group's run (from its log.json: device, date, command, wall seconds) and measurements, and
+    :func:`compare` across groups."""
+    import warp as wp
+    import xarray as xr
+
+    from .plot import plot_figure
+
+    log: dict[str, Any] = {"command": command, "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                           "platform": platform.platform(), "cpu_count": _cpu_count(),
+                           "warp_version": wp.config.version, "groups": {}}
+    for name, group in GROUPS.items():
+        run_log = root / name / "log.json"
+        store = root / name / f"{name}.zarr"
+        if name == "fig9_10" or not run_log.exists() or not store.exists():
+            continue
+        runs = json.loads(run_log.read_text())
+        run = runs["runs"][0]
+        entry = {"run": {k: runs[k] for k in ("command", "date", "device", "device_name", "cpu_count", "platform")},
+                 "points": run["points"], "grains": run["grains"], "steps": run["steps"], "dt": run["dt"],
+                 "wall_seconds": run["wall_seconds"], "grain_steps_per_second": run["grain_steps_per_second"],
+                 "energy_error_max": run["energy_error_max"], "status_counts": run["status_counts"]}
+        with xr.open_zarr(store) as ds:
+            entry["measurements"] = measure(name, ds)
+            if figures_dir is not None:
+                entry["figures"] = {}
+                for figure in group.figures:
+                    png = figures_dir / (f"{name}.png" if len(group.figures) == 1 else f"{figure}.png")
+                    plot_figure(ds, figure, png)
+                    entry["figures"][figure] = f"hertzian plot {store} --figure {figure} --out {png}"
+        log["groups"][name] = entry
+    log["comparisons"] = compare(root)
+    return finite(log)
+
+
 # ---- the whole paper -------------------------------------------------------------------------------
 
 
