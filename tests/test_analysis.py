@@ -213,6 +213,11 @@ def test_linear_chain_modes_closed_forms():
     assert omega[-1] == pytest.approx(math.sqrt(4 * stiffness / (0.5 * 1.5)), rel=1e-10)
     assert omega[-2] < 2 * math.sqrt(stiffness)
     assert shapes[100, -1] ** 2 > 0.5                      # localised at the light mass
+    # two unequal masses between walls, three unequal springs: the 2×2 closed form
+    k0, k1, k2, m0, m1 = 3.0, 5.0, 7.0, 2.0, 0.5
+    trace, det = (k0 + k1) / m0 + (k1 + k2) / m1, ((k0 + k1) * (k1 + k2) - k1 ** 2) / (m0 * m1)
+    roots = np.sqrt([(trace - math.sqrt(trace ** 2 - 4 * det)) / 2, (trace + math.sqrt(trace ** 2 - 4 * det)) / 2])
+    np.testing.assert_allclose(an.linear_chain_modes([m0, m1], [k0, k1, k2])[0], roots, rtol=1e-12)
     assert an.hertz_stiffness(5657.0, 2.5 * 5657.0 * 1e-6) == pytest.approx(3.75 * 5657.0 * 1e-2, rel=1e-12)
 
 
