@@ -110,7 +110,8 @@ def _fig_profiles_by_vimp(ds, out: Path, figure: str, *, label_axis: bool, title
         _profiles_vs_label(ax, plt, point, label_axis=label_axis)
         l0 = float(point.l0) if "l0" in point.variables and point.l0.size == 1 else _scene_value(ds, "chain", "l0")
         heads = an.head_positions(point.v.values)
-        flight = np.flatnonzero((heads > 0.1 * _grains(ds)) & (heads < 0.9 * _grains(ds)))
+        beyond = np.flatnonzero(heads > 0.9 * _grains(ds))     # before the head first reaches 0.9 of the chain
+        flight = np.flatnonzero(heads[:beyond[0] if beyond.size else len(heads)] > 0.1 * _grains(ds))
         ratio = max(an.overlap_behind_head(point.u.values[r], heads[r], l0=l0) for r in flight) if flight.size \
             else math.nan
         ax.set_title(f"({'abcdef'[k]}) {title}, l0 = {l0:g}, v_imp = {v_imp:g}; largest overlap behind the "

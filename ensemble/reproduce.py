@@ -488,7 +488,9 @@ def _pulse_measurements(ds, name: str) -> dict[str, Any]:
         heads = an.head_positions(v)
         fit = an.pulse_speed(t, heads, first_grain=100, last_grain=800)
         entry: dict[str, Any] = {"l0": l0, "v_imp": v_imp, "speed": fit.slope, "speed_error": fit.slope_error}
-        flight = np.flatnonzero((heads > 0.1 * n) & (heads < 0.9 * n))
+        beyond = np.flatnonzero(heads > 0.9 * n)     # before the head first reaches 0.9 of the chain
+        stop = beyond[0] if beyond.size else len(t)
+        flight = np.flatnonzero(heads[:stop] > 0.1 * n)
         ratios = [an.overlap_behind_head(u[r], heads[r], l0=l0) for r in flight]
         entry["overlap_behind_head_over_head"] = {"max": float(np.nanmax(ratios)), "min": float(np.nanmin(ratios)),
                                                   "t_range": [float(t[flight[0]]), float(t[flight[-1]])]}
@@ -512,10 +514,104 @@ def _pulse_measurements(ds, name: str) -> dict[str, Any]:
     return out
 
 
+def _speed_measurements(ds) -> dict[str, Any]:
+    """Fig. 1(d): c per (l0, v_imp), α per l0 and lumped (all points; v_imp ≥ 1e-2 only)."""
+    c, err = an.speeds_table(ds)
+    v_imp, l0s = ds.v_imp.values, ds.l0.values
+    out: dict[str, Any] = {"v_imp": v_imp.tolist(), "l0": l0s.tolist(), "speed": c.tolist(), "speed_error": err.tolist()}
+    out["alpha"] = {f"l0={l0:g}": [an.speed_exponent(v_imp, c[i]).exponent, an.speed_exponent(v_imp, c[i]).exponent_error]
+                    for i, l0 in enumerate(l0s)}
+    lumped = an.speed_exponent(np.tile(v_imp, len(l0s)), c.ravel())
+    strong = v_imp >= 1e-2 - 1e-12
+    lumped_strong = an.speed_exponent(np.tile(v_imp[strong], len(l0s)), c[:, strong].ravel())
+    out["alpha_lumped"] = [lumped.exponent, lumped.exponent_error]
+    out["alpha_lumped_v_imp_from_1e-2"] = [lumped_strong.exponent, lumped_strong.exponent_error]
+    return out
+
+
+def _width_measurements(ds) -> dict[str, Any]:
+    """Fig. 1: W(t) (region displaced by ≥ half the largest displacement) while the head is short of
+    0.9 of the chain: dW/dt and the exponent of W ∝ t^β."""
+    t = ds.t.values
+    n = int(ds.sizes["grain"])
+    out = {}
+    for k, v_imp in enumerate(ds.v_imp.values):
+        heads = an.head_positions(ds.v.isel(v_imp=k).values)
+        widths = an.shock_widths(ds.u.isel(v_imp=k).values)
+        beyond = np.flatnonzero(heads > 0.9 * n)   # until the head first reaches 0.9 of the chain
+        keep = (np.arange(t.size) < (beyond[0] if beyond.size else t.size)) & (t > 0) & np.isfinite(widths)
+        line = an.fit_line(t[keep], widths[keep])
+        power = an.fit_power_law(t[keep], widths[keep])
+        out[f"v_imp={v_imp:g}"] = {"dW_dt": [line.slope, line.slope_error], "beta": [power.exponent,
+                                                                                    power.exponent_error]}
+    return out
+
+
+def _tilt_measurements(ds) -> dict[str, Any]:
+    """Fig. 4: tilt of the top of the in-going pulse (u) and of the reflected one (−u) at the figure's times."""
+    t = ds.t.values
+    u, v = ds.u.values, ds.v.values
+    n = u.shape[-1]
+    heads = an.head_positions(v)
+    arrive = np.flatnonzero(heads > 0.98 * n)
+    t_wall = float(t[arrive[0]] if arrive.size else t[-1])
+    before = [int(np.argmin(np.abs(t - f * t_wall))) for f in (0.25, 0.5, 0.75, 0.95)]
+    after = [int(np.argmin(np.abs(t - tt))) for tt in np.linspace(t_wall, t[-1], 5)[1:]]
+    return {"t_wall": t_wall,
+            "in_going": {f"t={t[r]:g}": an.plateau_tilt(u[r]) for r in before},
+            "reflected": {f"t={t[r]:g}": an.plateau_tilt(-u[r]) for r in after},
+            "speed": an.pulse_speed(t, heads, first_grain=100, last_grain=0.9 * n).slope}
+
+
+def _column_measurements(ds, name: str) -> dict[str, Any]:
+    """Fig. 6: bumps and largest displacement per g at the figure's time; depth law: β per v_imp and
+    c / closed form."""
+    t = ds.t.values
+    n = int(ds.sizes["grain"])
+    scene = json.loads(ds.attrs["scene"])
+    if name == "fig6":
+        heads = an.head_positions(ds.v.sel(g=ds.g.values.max()).values)
+        inside = np.flatnonzero(heads <= 0.8 * n)
+        r = int(inside[-1]) if inside.size else len(t) - 1
+        out: dict[str, Any] = {"t": float(t[r])}
+        for g in ds.g.values:
+            v = ds.v.sel(g=g).values[r]
+            head = an.pulse_head(v)
+            out[f"g={g:g}"] = {"head": head, "bumps_10pc": an.count_bumps(v, head, fraction=0.1),
+                               "bumps_30pc": an.count_bumps(v, head, fraction=0.3),
+                               "largest_u_below_grain_2": float(np.max(np.abs(ds.u.sel(g=g).values[r][3:])))}
+        return out
+    dim = [d for d in ds.v.dims if d not in ("record", "grain")]
+    out = {}
+    g = float(scene["chain"]["gravity"])
+    a = float(scene["chain"].get("a", 5657.0))
+    for k, value in enumerate(ds[dim[0]].values):
+        heads = an.head_positions(ds.v.isel({dim[0]: k}).values)
+        fit = an.depth_law(t, heads, first_grain=50, last_grain=0.9 * n)
+        ranges = {str(first): an.depth_law(t, heads, first_grain=first, last_grain=0.9 * n).exponent
+                  for first in (20, 100, 200)}
+        mid, speed = an.speed_against_depth(t, heads, last_grain=0.9 * n)
+        keep = (mid >= 50) & np.isfinite(speed)
+        ratio = speed[keep] / an.column_sound_speed(mid[keep], gravity=g, a=a)
+        out[f"{dim[0]}={value:g}"] = {"beta": [fit.exponent, fit.exponent_error], "beta_by_first_grain": ranges,
+                                      "c_over_closed_form": [float(np.mean(ratio)), float(np.min(ratio)),
+                                                             float(np.max(ratio))]}
+    return out
+
+
 def measure(name: str, ds) -> dict[str, Any]:
     """The numbers docs/reproduction.md quotes for group ``name``, from its store (empty if none)."""
     if name in ("fig1", "fig2", "fig3", "fig3_load"):
-        return _pulse_measurements(ds, name)
+        out = _pulse_measurements(ds, name)
+        if name == "fig1":
+            out["width"] = _width_measurements(ds)
+        return out
+    if name == "fig1d":
+        return _speed_measurements(ds)
+    if name == "fig4":
+        return _tilt_measurements(ds)
+    if name in ("fig6", "depth"):
+        return _column_measurements(ds, name)
     if name.startswith("fig5_modes"):
         return _mode_measurements(ds)
     if name.startswith("fig5") or name.startswith("fig7_8"):
@@ -578,10 +674,14 @@ def compare(out_dir: Path) -> dict[str, Any]:
                                            ref.trace_v.isel(impurity_mass=clean, contact=0).values[:, 0],
                                            after=after, until=until, fraction=f)
                         tables.setdefault(f"{name}/{rule}", {})[str(f)] = [b.leading_sign, b.arrival_time,
-                                                                           b.amplitude]
-            out[f"{group}_echo_by_threshold (sign, arrival, amplitude)"] = tables
+                                                                           b.amplitude, b.peak_sign]
+            out[f"{group}_echo_by_threshold (sign, arrival, amplitude, peak sign)"] = tables
     out["light_heavy_contrast_at_surface"] = contrast
     return out
+
+
+FIGURE_FILES = {"depth": "fig6_depth.png"}
+"""PNG names in docs/figures/ that differ from the group's name."""
 
 
 def measure_stores(root: Path, *, figures_dir: Path | None = None, command: str = "") -> dict[str, Any]:
@@ -614,7 +714,8 @@ def measure_stores(root: Path, *, figures_dir: Path | None = None, command: str 
             if figures_dir is not None:
                 entry["figures"] = {}
                 for figure in group.figures:
-                    png = figures_dir / (f"{name}.png" if len(group.figures) == 1 else f"{figure}.png")
+                    png = figures_dir / (FIGURE_FILES.get(name, f"{name}.png") if len(group.figures) == 1
+                                         else f"{figure}.png")
                     plot_figure(ds, figure, png)
                     entry["figures"][figure] = f"hertzian plot {store} --figure {figure} --out {png}"
         log["groups"][name] = entry
