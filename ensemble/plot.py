@@ -97,14 +97,14 @@ def _profiles_vs_label(ax, plt, ds_point, *, label_axis: bool, count: int = 5, r
         ax.set_xlim(0, n)
         ax.set_xlabel("depth z [grain diameters] (surface = 0)")
     ax.set_ylabel("−u [1e-5 m]")
-    ax.legend(loc="best", ncol=2)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7)
 
 
 def _fig_profiles_by_vimp(ds, out: Path, figure: str, *, label_axis: bool, title: str) -> Path:
     _require(ds, "u", "v", "v_imp", figure=figure)
     plt = _pyplot()
     speeds = ds.v_imp.values
-    fig, axes = plt.subplots(len(speeds), 1, figsize=(7.0, 2.4 * len(speeds)), squeeze=False)
+    fig, axes = plt.subplots(len(speeds), 1, figsize=(8.0, 2.5 * len(speeds)), squeeze=False)
     for k, (ax, v_imp) in enumerate(zip(axes[:, 0], speeds)):
         point = ds.isel(v_imp=k)
         _profiles_vs_label(ax, plt, point, label_axis=label_axis)
@@ -114,8 +114,8 @@ def _fig_profiles_by_vimp(ds, out: Path, figure: str, *, label_axis: bool, title
         flight = np.flatnonzero(heads[:beyond[0] if beyond.size else len(heads)] > 0.1 * _grains(ds))
         ratio = max(an.overlap_behind_head(point.u.values[r], heads[r], l0=l0) for r in flight) if flight.size \
             else math.nan
-        ax.set_title(f"({'abcdef'[k]}) {title}, l0 = {l0:g}, v_imp = {v_imp:g}; largest overlap behind the "
-                     f"front / at the front ≤ {ratio:.2f}")
+        ax.set_title(f"({'abcdef'[k]}) {title}, l0 = {l0:g}, v_imp = {v_imp:g}\nlargest overlap more than 10 grains "
+                     f"behind the front ≤ {ratio:.2f} × the front's", fontsize=8.5)
     return _finish(fig, out, note=SIGN_NOTE)
 
 
@@ -170,7 +170,7 @@ def fig3(ds, out: Path) -> Path:
     plt = _pyplot()
     dim = "l0"
     points = ds.sizes[dim]
-    fig, axes = plt.subplots(points + 1, 1, figsize=(7.5, 2.6 * (points + 1) + 1.2),
+    fig, axes = plt.subplots(points + 1, 1, figsize=(8.0, 2.6 * (points + 1) + 1.2),
                              gridspec_kw={"height_ratios": [1] * points + [1.5]})
     t = ds.t.values
     for k in range(points):
@@ -182,8 +182,9 @@ def fig3(ds, out: Path) -> Path:
         times = an.PAPER_TAIL_TIMES.get(l0) or [t[r] for r in an.times_in_flight(t, heads, _grains(ds), 4, reach=0.8)]
         records = [int(np.argmin(np.abs(t - x))) for x in times]
         _profiles_vs_label(axes[k], plt, point, label_axis=False, records=records)
-        axes[k].set_title(f"({'ab'[k]}) l0 = {l0:g}, v_imp = {v_imp:g}, surface {_scene_value(ds, 'boundary', 'surface')}"
-                          f": head at c = {speed:.2f} grains per time unit")
+        surface = _scene_value(ds, "boundary", "surface")
+        axes[k].set_title(f"({'ab'[k]}) l0 = {l0:g}, v_imp = {v_imp:g}, surface {surface}: head at c = {speed:.2f} "
+                          "grains per time unit")
         u = point.u.values
         load = _scene_value(ds, "boundary", "surface") == "load"
         for color, r in zip(_cmap_colors(plt, len(records)), records):
@@ -195,7 +196,8 @@ def fig3(ds, out: Path) -> Path:
             style = "-" if k == 0 else "--"
             axes[points].semilogy(z[keep], env[keep], style, color=color,
                                   label=f"({'ab'[k]}) t = {t[r]:g}: λ = {fit.decay_length:.0f}, "
-                                        f"λ/(c t) = {fit.decay_length / (speed * t[r]):.2f}, R² = {fit.r_squared:.2f}")
+                                        f"λ/(c t) = {fit.decay_length / (speed * t[r]):.2f}, "
+                                        f"R² = {fit.r_squared:.2f}")
     axes[points].set_xlabel("z = grains behind the head")
     axes[points].set_ylabel("compressive u" + (" − rear level" if _scene_value(ds, "boundary", "surface") == "load"
                                                 else "") + ", envelope [1e-5 m]", fontsize=8)
@@ -323,7 +325,7 @@ def _echo_panel(ax, ds, tag: str, *, span: tuple[float, float] = (-0.3, 2.0), le
                  "triangles: first sample with |echo| ≥ 20 % of its largest (where the leading sign is read)",
                  fontsize=8)
     if legend == "below":
-        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.22), ncol=2, fontsize=6.5)
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.3), ncol=2, fontsize=6.5)
     else:
         ax.legend(loc=legend, fontsize=6.5)
 
@@ -345,7 +347,7 @@ def fig7_8(ds, out: Path) -> Path:
     has_traces = "trace_v" in ds.variables and clean is not None
     rows = len(records) + (1 if has_traces else 0)
     fig, axes = plt.subplots(rows, 2, figsize=(9.0, 1.45 * rows + 1.6), sharex=False,
-                             gridspec_kw={"height_ratios": [1] * len(records) + ([2.2] if has_traces else [])})
+                             gridspec_kw={"height_ratios": [1] * len(records) + ([2.6] if has_traces else [])})
     z = np.arange(n)
     for col, (index, name) in enumerate(((light, "Fig. 7: light"), (heavy, "Fig. 8: heavy"))):
         v = ds.v.isel(impurity_mass=index).sel(contact="harmonic").values
@@ -364,7 +366,7 @@ def fig7_8(ds, out: Path) -> Path:
         for a in axes[-1]:
             a.remove()
         ax = fig.add_subplot(gs[-1, :])
-        _echo_panel(ax, ds, "(g)")
+        _echo_panel(ax, ds, "(g)", legend="below")
     fig.suptitle(f"g = {_scene_value(ds, 'chain', 'gravity'):g} column, v_imp = "
                  f"{_scene_value(ds, 'excitation', 'impact'):g}; −v [1e-5 m / 1.0102 ms] ({PAPER_SIGN}); "
                  "contact rule harmonic", fontsize=8)

@@ -356,6 +356,20 @@ TAIL_TIMES = an.PAPER_TAIL_TIMES
 """Fig. 3: times [time units] of the tail fits per l0."""
 
 
+def _first_lobes(ds, grain: int, after: float, until: float, reference=None) -> dict[str, Any]:
+    """Sign and relative height of each echo's first lobe at a traced grain (light/heavy × contact)."""
+    light, heavy, clean = an.impurity_points(ds)
+    column = int(np.flatnonzero(ds.traced_grain.values == grain)[0])
+    if reference is None:
+        reference = ds.trace_v.isel(impurity_mass=clean, contact=0).values[:, column]
+    out = {}
+    for name, index in (("light", light), ("heavy", heavy)):
+        for rule in [str(c) for c in ds.contact.values]:
+            out[f"{name}/{rule}"] = list(an.first_lobe(ds.trace_t.values, ds.trace_v.isel(impurity_mass=index).sel(
+                contact=rule).values[:, column], reference, after=after, until=until))
+    return out
+
+
 def _echo_measurements(ds) -> dict[str, Any]:
     """Per traced grain: the echo table at every threshold, and the light/heavy contrast."""
     out: dict[str, Any] = {}
@@ -373,6 +387,7 @@ def _echo_measurements(ds) -> dict[str, Any]:
             "peak_sign": {key: b.peak_sign for key, b in tables[0.2].items()},
             "peak_time": {key: b.peak_time for key, b in tables[0.2].items()},
             "light_heavy_contrast": an.contrast_table(ds, traced=grain),
+            "first_lobe (sign, height / largest)": _first_lobes(ds, grain, after, until),
         }
     return out
 
@@ -518,9 +533,11 @@ def _speed_measurements(ds) -> dict[str, Any]:
     """Fig. 1(d): c per (l0, v_imp), α per l0 and lumped (all points; v_imp ≥ 1e-2 only)."""
     c, err = an.speeds_table(ds)
     v_imp, l0s = ds.v_imp.values, ds.l0.values
-    out: dict[str, Any] = {"v_imp": v_imp.tolist(), "l0": l0s.tolist(), "speed": c.tolist(), "speed_error": err.tolist()}
-    out["alpha"] = {f"l0={l0:g}": [an.speed_exponent(v_imp, c[i]).exponent, an.speed_exponent(v_imp, c[i]).exponent_error]
-                    for i, l0 in enumerate(l0s)}
+    out: dict[str, Any] = {"v_imp": v_imp.tolist(), "l0": l0s.tolist(), "speed": c.tolist(),
+                           "speed_error": err.tolist(), "alpha": {}}
+    for i, l0 in enumerate(l0s):
+        fit = an.speed_exponent(v_imp, c[i])
+        out["alpha"][f"l0={l0:g}"] = [fit.exponent, fit.exponent_error]
     lumped = an.speed_exponent(np.tile(v_imp, len(l0s)), c.ravel())
     strong = v_imp >= 1e-2 - 1e-12
     lumped_strong = an.speed_exponent(np.tile(v_imp[strong], len(l0s)), c[:, strong].ravel())
@@ -558,8 +575,8 @@ def _tilt_measurements(ds) -> dict[str, Any]:
     before = [int(np.argmin(np.abs(t - f * t_wall))) for f in (0.25, 0.5, 0.75, 0.95)]
     after = [int(np.argmin(np.abs(t - tt))) for tt in np.linspace(t_wall, t[-1], 5)[1:]]
     return {"t_wall": t_wall,
-            "in_going": {f"t={t[r]:g}": an.plateau_tilt(u[r]) for r in before},
-            "reflected": {f"t={t[r]:g}": an.plateau_tilt(-u[r]) for r in after},
+            "in_going": {f"t={t[r]:g}": an.plateau_tilt(u[r], fraction=0.9) for r in before},
+            "reflected": {f"t={t[r]:g}": an.plateau_tilt(-u[r], fraction=0.9) for r in after},
             "speed": an.pulse_speed(t, heads, first_grain=100, last_grain=0.9 * n).slope}
 
 
@@ -676,6 +693,9 @@ def compare(out_dir: Path) -> dict[str, Any]:
                         tables.setdefault(f"{name}/{rule}", {})[str(f)] = [b.leading_sign, b.arrival_time,
                                                                            b.amplitude, b.peak_sign]
             out[f"{group}_echo_by_threshold (sign, arrival, amplitude, peak sign)"] = tables
+            out[f"{group}_first_lobe (sign, height / largest)"] = _first_lobes(
+                ds, int(ds.traced_grain.values[0]), after, until,
+                reference=ref.trace_v.isel(impurity_mass=clean, contact=0).values[:, 0])
     out["light_heavy_contrast_at_surface"] = contrast
     return out
 

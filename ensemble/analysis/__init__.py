@@ -45,23 +45,22 @@ from .common import (LineFit, PowerLawFit, energy_drift, fit_line, fit_power_law
                      paper_label)
 from .drive import (PAPER_DRIVE_TIMES, PAPER_WINDOW, PERSISTENCE_LAGS, StandingWave, drive_times, driven_windows,
                     kinetic_energy, profile_nodes, standing_wave_measure, window_average)
-from .echoes import (Backscatter, backscatter, contrast_table, echo_contrast, echo_table, echo_window, hertz_stiffness,
-                     impurity_grains, impurity_points, linear_chain_modes, power_spectrum)
-from .pulses import (NESTERENKO_FWHM, NESTERENKO_SUPPORT, PAPER_TAIL_TIMES, TailFit, front_position, full_width_half_maximum,
-                     head_positions, nesterenko_speed, overlap_behind_head, overlaps, plateau_tilt, rear_level, pulse_head, pulse_speed, running_max,
-                     shock_width, shock_widths, speed_exponent, speed_history, speeds_table, tail_decay,
-                     times_in_flight)
+from .echoes import (Backscatter, backscatter, contrast_table, echo_contrast, echo_table, echo_window,
+                     first_lobe, hertz_stiffness, impurity_grains, impurity_points, linear_chain_modes, power_spectrum)
+from .pulses import (NESTERENKO_FWHM, NESTERENKO_SUPPORT, PAPER_TAIL_TIMES, TailFit, front_position,
+                     full_width_half_maximum, head_positions, nesterenko_speed, overlap_behind_head, overlaps,
+                     plateau_tilt, pulse_head, pulse_speed, rear_level, running_max, shock_width, shock_widths,
+                     speed_exponent, speed_history, speeds_table, tail_decay, times_in_flight)
 from .pulses import _parabolic_peak  # noqa: F401  (sub-sample peak position; tests use it)
 
 __all__ = [
-    "Backscatter", "LineFit", "contrast_table", "echo_contrast", "echo_window", "hertz_stiffness",
-    "linear_chain_modes", "power_spectrum", "NESTERENKO_FWHM", "NESTERENKO_SUPPORT", "PAPER_DRIVE_TIMES", "PAPER_TAIL_TIMES", "PAPER_WINDOW",
-    "PERSISTENCE_LAGS", "PowerLawFit", "StandingWave", "TailFit", "backscatter", "column_sound_speed",
-    "count_bumps", "depth_law", "drive_times", "driven_windows", "echo_table", "energy_drift", "fit_line",
-    "fit_power_law",
-    "front_position", "full_width_half_maximum", "head_positions", "impurity_grains", "impurity_points",
-    "kinetic_energy", "nesterenko_speed", "overlap_behind_head", "overlaps", "rear_level", "paper_displacement", "paper_label", "plateau_tilt", "profile_nodes",
-    "pulse_head", "pulse_speed", "running_max", "shock_width", "shock_widths", "speed_against_depth",
-    "speed_exponent", "speed_history", "speeds_table", "standing_wave_measure", "tail_decay", "times_in_flight",
-    "window_average",
+    "Backscatter", "LineFit", "NESTERENKO_FWHM", "NESTERENKO_SUPPORT", "PAPER_DRIVE_TIMES", "PAPER_TAIL_TIMES",
+    "PAPER_WINDOW", "PERSISTENCE_LAGS", "PowerLawFit", "StandingWave", "TailFit", "backscatter", "column_sound_speed",
+    "contrast_table", "count_bumps", "depth_law", "drive_times", "driven_windows", "echo_contrast", "echo_table",
+    "echo_window", "energy_drift", "first_lobe", "fit_line", "fit_power_law", "front_position", "full_width_half_maximum",
+    "head_positions", "hertz_stiffness", "impurity_grains", "impurity_points", "kinetic_energy", "linear_chain_modes",
+    "nesterenko_speed", "overlap_behind_head", "overlaps", "paper_displacement", "paper_label", "plateau_tilt",
+    "power_spectrum", "profile_nodes", "pulse_head", "pulse_speed", "rear_level", "running_max", "shock_width",
+    "shock_widths", "speed_against_depth", "speed_exponent", "speed_history", "speeds_table", "standing_wave_measure",
+    "tail_decay", "times_in_flight", "window_average",
 ]

@@ -51,6 +51,23 @@ def backscatter(t, signal, reference=None, *, after: float = 0.0, until: float =
                        int(np.sign(ew[peak])))
 
 
+def first_lobe(t, signal, reference=None, *, after: float = 0.0, until: float = math.inf,
+               fraction: float = 0.05) -> tuple[int, float]:
+    """The echo's first lobe: its sign and its largest |echo| divided by the echo's largest, the lobe
+    starting where |echo| first reaches ``fraction`` of the largest and ending at the next sign change."""
+    t = np.asarray(t, dtype=float)
+    echo = np.asarray(signal, dtype=float) - (0.0 if reference is None else np.asarray(reference, dtype=float))
+    ew = echo[(t >= after) & (t <= until)]
+    if ew.size == 0 or not np.any(ew != 0):
+        return 0, math.nan
+    largest = np.max(np.abs(ew))
+    start = int(np.flatnonzero(np.abs(ew) >= fraction * largest)[0])
+    sign = np.sign(ew[start])
+    flips = np.flatnonzero(np.sign(ew[start:]) != sign)
+    stop = start + (int(flips[0]) if flips.size else ew.size - start)
+    return int(sign), float(np.max(np.abs(ew[start:stop])) / largest)
+
+
 def impurity_points(ds):
     """Indices along impurity_mass of the light, heavy and clean chains (clean may be missing)."""
     masses = ds.impurity_mass.values
