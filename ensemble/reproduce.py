@@ -419,7 +419,8 @@ def _profile_measurements(ds) -> dict[str, Any]:
         best = int(np.argmin(left))
         entry = {
             "profile_difference": float(np.linalg.norm(pl - ph) / np.linalg.norm(ph)),
-            "profile_difference_after_shift": float(left[best] / np.linalg.norm(ph[40:-40])),
+            "profile_difference_after_shift": (float(left[best] / np.linalg.norm(ph[40:-40])) if ph[40:-40].any()
+                                               else math.nan),   # NaN: chain too short for the shifts
             "shift_grains": int(list(shifts)[best]),
             "block_dynamic_overlap_max": {
                 "light": float(np.max(an.overlaps(u_light, l0)[:, contacts] - l0)),
