@@ -301,7 +301,9 @@ def _echo_panel(ax, ds, tag: str, *, span: tuple[float, float] = (-0.3, 2.0), le
     tt = ds.trace_t.values
     grain = int(ds.traced_grain.values[0])
     if clean is None:
-        ax.set_visible(False)
+        ax.axis("off")
+        ax.text(0.5, 0.5, f"{tag} no echo panel: this store has no clean chain (impurity_mass = 1) to subtract",
+                ha="center", va="center", fontsize=8, transform=ax.transAxes)
         return
     reference = ds.trace_v.isel(impurity_mass=clean, contact=0).values[:, 0]
     table = an.echo_table(ds)
