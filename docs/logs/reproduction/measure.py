@@ -14,6 +14,7 @@ comparisons across groups; see ``ensemble.reproduce.measure_stores``) and the PN
 """
 
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -21,7 +22,8 @@ from ensemble.reproduce import measure_stores
 
 root = Path(sys.argv[1] if len(sys.argv) > 1 else "out/paper")
 here = Path(__file__).resolve().parent
-log = measure_stores(root, figures_dir=here.parent.parent / "figures",
+figures = Path(os.path.relpath(here.parent.parent / "figures"))   # relative: no machine paths in the log
+log = measure_stores(root, figures_dir=figures,
                      command=f"python docs/logs/reproduction/measure.py {root}")
 (here / "measurements.json").write_text(json.dumps(log, indent=1))
 print(f"wrote {here / 'measurements.json'}: {len(log['groups'])} groups")
