@@ -29,6 +29,9 @@ PAPER_SIGN = "paper sign: + toward the surface"
 SIGN_NOTE = ("−u, −v: the paper's sign (change of grain position, + toward the surface); hertzian's u, v are "
              "+ into the chain. Program units: length 1e-5 m, time 1.0102 ms.")
 TIME_UNIT = "time units of 1.0102 ms"
+VELOCITY_UNIT = "1e-5 m per 1.0102 ms = 9.9 mm/s"
+ENERGY_UNIT = "2.3e-9 J"
+"""Program energy unit: 2.36e-5 kg × (9.9e-3 m/s)²."""
 
 
 class PlotError(ValueError):
@@ -94,19 +97,25 @@ def _profiles_vs_label(ax, plt, ds_point, *, label_axis: bool, count: int = 5, r
         ax.set_xlim(0, n)
         ax.set_xlabel("depth z [grain diameters] (surface = 0)")
     ax.set_ylabel("−u [1e-5 m]")
-    ax.legend(loc="best", ncol=2)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7)
 
 
 def _fig_profiles_by_vimp(ds, out: Path, figure: str, *, label_axis: bool, title: str) -> Path:
     _require(ds, "u", "v", "v_imp", figure=figure)
     plt = _pyplot()
     speeds = ds.v_imp.values
-    fig, axes = plt.subplots(len(speeds), 1, figsize=(7.0, 2.4 * len(speeds)), squeeze=False)
+    fig, axes = plt.subplots(len(speeds), 1, figsize=(8.0, 2.5 * len(speeds)), squeeze=False)
     for k, (ax, v_imp) in enumerate(zip(axes[:, 0], speeds)):
         point = ds.isel(v_imp=k)
         _profiles_vs_label(ax, plt, point, label_axis=label_axis)
         l0 = float(point.l0) if "l0" in point.variables and point.l0.size == 1 else _scene_value(ds, "chain", "l0")
-        ax.set_title(f"({'abcdef'[k]}) {title}, l0 = {l0:g}, v_imp = {v_imp:g}")
+        heads = an.head_positions(point.v.values)
+        beyond = np.flatnonzero(heads > 0.9 * _grains(ds))     # before the head first reaches 0.9 of the chain
+        flight = np.flatnonzero(heads[:beyond[0] if beyond.size else len(heads)] > 0.1 * _grains(ds))
+        ratio = max(an.overlap_behind_head(point.u.values[r], heads[r], l0=l0) for r in flight) if flight.size \
+            else math.nan
+        ax.set_title(f"({'abcdef'[k]}) {title}, l0 = {l0:g}, v_imp = {v_imp:g}\nlargest overlap more than 10 grains "
+                     f"behind the front ≤ {ratio:.2f} × the front's", fontsize=8.5)
     return _finish(fig, out, note=SIGN_NOTE)
 
 
@@ -155,34 +164,46 @@ def fig1d(ds, out: Path) -> Path:
 
 
 def fig3(ds, out: Path) -> Path:
-    """Fig. 3(a),(b): long tails in the compressive regime, and (c) their exponential envelopes."""
+    """Fig. 3(a),(b): long tails in the compressive regime at the times of the tail fits
+    (``analysis.PAPER_TAIL_TIMES``), and (c) their exponential envelopes with λ/(c t)."""
     _require(ds, "u", "v", "l0", figure="fig3")
     plt = _pyplot()
     dim = "l0"
     points = ds.sizes[dim]
-    fig, axes = plt.subplots(points + 1, 1, figsize=(7.0, 2.5 * (points + 1)))
+    fig, axes = plt.subplots(points + 1, 1, figsize=(8.0, 2.6 * (points + 1) + 1.2),
+                             gridspec_kw={"height_ratios": [1] * points + [1.5]})
     t = ds.t.values
     for k in range(points):
         point = ds.isel({dim: k})
+        l0 = float(point.l0)
         v_imp = float(point.v_imp) if "v_imp" in point.variables else _scene_value(ds, "excitation", "impact")
-        _profiles_vs_label(axes[k], plt, point, label_axis=False)
-        axes[k].set_title(f"({'ab'[k]}) l0 = {float(point.l0):g}, v_imp = {v_imp:g}")
         heads = an.head_positions(point.v.values)
-        records = an.times_in_flight(t, heads, _grains(ds), 4, reach=0.8)
+        speed = an.pulse_speed(t, heads, first_grain=100, last_grain=800).slope
+        times = an.PAPER_TAIL_TIMES.get(l0) or [t[r] for r in an.times_in_flight(t, heads, _grains(ds), 4, reach=0.8)]
+        records = [int(np.argmin(np.abs(t - x))) for x in times]
+        _profiles_vs_label(axes[k], plt, point, label_axis=False, records=records)
+        surface = _scene_value(ds, "boundary", "surface")
+        axes[k].set_title(f"({'ab'[k]}) l0 = {l0:g}, v_imp = {v_imp:g}, surface {surface}: head at c = {speed:.2f} "
+                          "grains per time unit")
         u = point.u.values
+        load = _scene_value(ds, "boundary", "surface") == "load"
         for color, r in zip(_cmap_colors(plt, len(records)), records):
             z = heads[r] - np.arange(u.shape[-1])
-            env = an.running_max(u[r], 11)
+            level = an.rear_level(u[r]) if load else 0.0   # a constant-force surface shifts the whole rear
+            env = an.running_max(u[r] - level, 11)
             keep = (z >= 0) & (env > 0)
-            fit = an.tail_decay(u[r], heads[r])
+            fit = an.tail_decay(u[r], heads[r], baseline=level)
             style = "-" if k == 0 else "--"
             axes[points].semilogy(z[keep], env[keep], style, color=color,
-                                  label=f"l0 = {float(point.l0):g}, t = {t[r]:g}: λ = {fit.decay_length:.0f} "
-                                        f"≈ {fit.decay_length / heads[r]:.2f}·(head depth)")
+                                  label=f"({'ab'[k]}) t = {t[r]:g}: λ = {fit.decay_length:.0f}, "
+                                        f"λ/(c t) = {fit.decay_length / (speed * t[r]):.2f}, "
+                                        f"R² = {fit.r_squared:.2f}")
     axes[points].set_xlabel("z = grains behind the head")
-    axes[points].set_ylabel("compressive u, envelope [1e-5 m]")
-    axes[points].set_title("(c) tail envelopes (running max over 11 grains); λ from exp(−z/λ) fits")
-    axes[points].legend(loc="lower left", ncol=2, fontsize=6.5)
+    axes[points].set_ylabel("compressive u" + (" − rear level" if _scene_value(ds, "boundary", "surface") == "load"
+                                                else "") + ", envelope [1e-5 m]", fontsize=8)
+    axes[points].set_title("(c) tail envelopes (running max over 11 grains), (a) solid, (b) dashed; "
+                           "λ from exp(−z/λ) fits for z ≥ 10")
+    axes[points].legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2, fontsize=6.5)
     return _finish(fig, out, note=SIGN_NOTE)
 
 
@@ -217,16 +238,17 @@ def fig4(ds, out: Path) -> Path:
 
 
 def fig5(ds, out: Path) -> Path:
-    """Fig. 5: displacement profiles with five light (a) and heavy (b) impurities, their difference (c),
-    and (d) the echo at the surface grain for both contact rules."""
+    """Fig. 5: displacement profiles with light (a) and heavy (b) impurities; (c) the reflected pulses
+    of both, (d) their difference light − heavy, (e) the echo at the surface grain, both contact rules."""
     _require(ds, "u", "v", "impurity_mass", "contact", "trace_v", figure="fig5")
     plt = _pyplot()
     light, heavy, clean = an.impurity_points(ds)
     t = ds.t.values
     n = _grains(ds)
-    depth = float(np.mean(an.impurity_grains(ds)))
+    block = an.impurity_grains(ds)
+    depth = float(np.mean(block))
     z = np.arange(n)
-    fig, axes = plt.subplots(4, 1, figsize=(7.0, 10.0))
+    fig, axes = plt.subplots(5, 1, figsize=(7.5, 14.0))
     reference = ds.v.isel(impurity_mass=clean if clean is not None else light, contact=0).values
     speed = an.pulse_speed(t, an.head_positions(reference), first_grain=20, last_grain=depth - 20).slope
     t_hit = depth / speed
@@ -236,51 +258,78 @@ def fig5(ds, out: Path) -> Path:
         u = ds.u.isel(impurity_mass=index).sel(contact="harmonic").values
         for color, r in zip(_cmap_colors(plt, len(records)), records):
             ax.plot(z, an.paper_displacement(u[r]), color=color, label=f"t = {t[r]:g}")
-        ax.axvspan(min(an.impurity_grains(ds)) - 0.5, max(an.impurity_grains(ds)) + 0.5, color="0.85")
-        ax.set_title(f"({'ab'[index == heavy]}) {len(an.impurity_grains(ds))} {name} impurities around grain "
-                     f"{depth:g}, contact rule harmonic")
+        ax.axvspan(min(block) - 0.5, max(block) + 0.5, color="0.85")
+        ax.set_title(f"({'ab'[index == heavy]}) {len(block)} {name} impurit{'ies' if len(block) > 1 else 'y'} "
+                     f"around grain {depth:g} (grey), contact rule harmonic", fontsize=8.5)
         ax.set_ylabel("−u [1e-5 m]")
-        ax.legend(loc="best", ncol=4)
+        ax.set_xlim(0, n)
+        ax.legend(loc="upper right", ncol=4)
     r = records[-1]
+    front = z < depth - 10
+    profiles = {}
     for rule, light_style, heavy_style in (("harmonic", "--", "-"), ("own", ":", "-.")):
-        axes[2].plot(z, an.paper_displacement(ds.u.isel(impurity_mass=light).sel(contact=rule).values[r]),
-                     light_style, color="C3", label=f"light, {rule}")
-        axes[2].plot(z, an.paper_displacement(ds.u.isel(impurity_mass=heavy).sel(contact=rule).values[r]),
-                     heavy_style, color="C0", label=f"heavy, {rule}")
-    axes[2].set_xlim(0, depth)
-    axes[2].set_title(f"(c) reflected pulses at t = {t[r]:g}: light (dashed) and heavy (solid)")
+        pl = an.paper_displacement(ds.u.isel(impurity_mass=light).sel(contact=rule).values[r])
+        ph = an.paper_displacement(ds.u.isel(impurity_mass=heavy).sel(contact=rule).values[r])
+        profiles[rule] = (pl, ph)
+        axes[2].plot(z[front], pl[front], light_style, color="C3", label=f"light, {rule}")
+        axes[2].plot(z[front], ph[front], heavy_style, color="C0", label=f"heavy, {rule}")
+    axes[2].set_title(f"(c) reflected pulses at t = {t[r]:g}, moving toward the surface: light (red) and heavy (blue)")
     axes[2].set_ylabel("−u [1e-5 m]")
-    axes[2].legend(loc="best", ncol=2)
-    for ax in axes[:3]:
+    axes[2].legend(loc="upper right", ncol=2)
+    for rule, style in (("harmonic", "-"), ("own", ":")):
+        pl, ph = profiles[rule]
+        relative = np.linalg.norm(pl[front] - ph[front]) / np.linalg.norm(ph[front])
+        axes[3].plot(z[front], pl[front] - ph[front], style, color="k",
+                     label=f"{rule}: ‖light − heavy‖ / ‖heavy‖ = {relative:.2f}")
+    axes[3].axhline(0, color="0.6", lw=0.5)
+    axes[3].set_title(f"(d) difference of the reflected profiles, light − heavy, at t = {t[r]:g}")
+    axes[3].set_ylabel("Δ(−u) [1e-5 m]")
+    axes[3].legend(loc="upper right")
+    for ax in axes[2:4]:
+        ax.set_xlim(0, depth)
+    for ax in axes[:4]:
         ax.set_xlabel("depth z [grain diameters] (surface = 0)")
-    _echo_panel(axes[3], ds, "(d)")
+    _echo_panel(axes[4], ds, "(e)", span=(-1.0, 8.0), legend="below")
     return _finish(fig, out, note=SIGN_NOTE)
 
 
-def _echo_panel(ax, ds, tag: str) -> None:
-    """Velocity echo (signal − clean chain) at the shallowest traced grain, both contact rules."""
+def _echo_panel(ax, ds, tag: str, *, span: tuple[float, float] = (-0.3, 2.0), legend: str = "lower right") -> None:
+    """Velocity echo (signal − clean chain) at the shallowest traced grain, both contact rules, from
+    ``span[0]`` before the echo's first arrival to ``span[1]`` after it; the first sample reaching 20 % of
+    each echo's largest value (where its leading sign is read) is marked."""
     light, heavy, clean = an.impurity_points(ds)
     tt = ds.trace_t.values
     grain = int(ds.traced_grain.values[0])
     if clean is None:
-        ax.set_visible(False)
+        ax.axis("off")
+        ax.text(0.5, 0.5, f"{tag} no echo panel: this store has no clean chain (impurity_mass = 1) to subtract",
+                ha="center", va="center", fontsize=8, transform=ax.transAxes)
         return
     reference = ds.trace_v.isel(impurity_mass=clean, contact=0).values[:, 0]
     table = an.echo_table(ds)
-    start = min(b.arrival_time for b in table.values() if np.isfinite(b.arrival_time))
-    window = (tt > start - 2.0) & (tt < start + 8.0)
+    early = an.echo_table(ds, fraction=0.05)
+    start = min(b.arrival_time for b in early.values() if np.isfinite(b.arrival_time))
+    window = (tt > start + span[0]) & (tt < start + span[1])
     for name, index, color in (("light", light, "C3"), ("heavy", heavy, "C0")):
-        for rule, style in (("harmonic", "-"), ("own", ":")):
+        for rule, style, marker in (("harmonic", "-", "v"), ("own", ":", "^")):
             echo = ds.trace_v.isel(impurity_mass=index).sel(contact=rule).values[:, 0] - reference
             b = table[f"{name}/{rule}"]
             ax.plot(tt[window], -echo[window], style, color=color,
-                    label=f"{name}, {rule}: leading {'into chain' if b.leading_sign > 0 else 'toward surface'}, "
-                          f"|echo| ≤ {b.amplitude:.2g}")
+                    label=f"{name}, {rule}: first lobe {'into chain' if b.leading_sign > 0 else 'toward surface'}"
+                          f", |echo| ≤ {b.amplitude:.2g}")
+            k = int(np.argmin(np.abs(tt - b.arrival_time)))
+            ax.plot(tt[k], -echo[k], marker, color=color, ms=5)
     ax.axhline(0, color="0.6", lw=0.5)
+    ax.set_xlim(start + span[0], start + span[1])
     ax.set_xlabel(f"t [{TIME_UNIT}]")
-    ax.set_ylabel(f"−(v − v_clean) at grain {grain}")
-    ax.set_title(f"{tag} backscattered velocity at grain {grain} ({PAPER_SIGN}), minus the clean chain")
-    ax.legend(loc="best", fontsize=6.5)
+    ax.set_ylabel("−(v − v_clean) [9.9 mm/s]", fontsize=7.5)
+    ax.set_title(f"{tag} echo at grain {grain}, −(v − v_clean) ({PAPER_SIGN});\n"
+                 "triangles: first sample with |echo| ≥ 20 % of its largest (where the leading sign is read)",
+                 fontsize=8)
+    if legend == "below":
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.3), ncol=2, fontsize=6.5)
+    else:
+        ax.legend(loc=legend, fontsize=6.5)
 
 
 def fig7_8(ds, out: Path) -> Path:
@@ -299,7 +348,8 @@ def fig7_8(ds, out: Path) -> Path:
     records = [int(np.argmin(np.abs(t - x))) for x in times]
     has_traces = "trace_v" in ds.variables and clean is not None
     rows = len(records) + (1 if has_traces else 0)
-    fig, axes = plt.subplots(rows, 2, figsize=(8.0, 1.45 * rows + 0.6), sharex=False)
+    fig, axes = plt.subplots(rows, 2, figsize=(9.0, 1.45 * rows + 1.6), sharex=False,
+                             gridspec_kw={"height_ratios": [1] * len(records) + ([2.6] if has_traces else [])})
     z = np.arange(n)
     for col, (index, name) in enumerate(((light, "Fig. 7: light"), (heavy, "Fig. 8: heavy"))):
         v = ds.v.isel(impurity_mass=index).sel(contact="harmonic").values
@@ -310,7 +360,7 @@ def fig7_8(ds, out: Path) -> Path:
             ax.set_title(f"{name} ({'abcdef'[row]}) t = {t[r]:g}", loc="left", fontsize=8)
             ax.set_xlim(0, n)
             if col == 0:
-                ax.set_ylabel("−v", fontsize=8)
+                ax.set_ylabel("−v [9.9 mm/s]", fontsize=7.5)
         axes[len(records) - 1, col].set_xlabel("depth z [grain diameters]")
     if has_traces:
         ax = axes[-1, 0]
@@ -318,11 +368,71 @@ def fig7_8(ds, out: Path) -> Path:
         for a in axes[-1]:
             a.remove()
         ax = fig.add_subplot(gs[-1, :])
-        _echo_panel(ax, ds, "(g)")
+        _echo_panel(ax, ds, "(g)", legend="below")
     fig.suptitle(f"g = {_scene_value(ds, 'chain', 'gravity'):g} column, v_imp = "
                  f"{_scene_value(ds, 'excitation', 'impact'):g}; −v [1e-5 m / 1.0102 ms] ({PAPER_SIGN}); "
                  "contact rule harmonic", fontsize=8)
     return _finish(fig, out, note=SIGN_NOTE)
+
+
+def modes(ds, out: Path) -> Path:
+    """Sec. IV: velocity of the impurity grain after the pulse has passed, light / heavy / none (the clean
+    chain's same grain), and its power spectrum against the linear chain's band edge."""
+    _require(ds, "trace_v", "impurity_mass", figure="modes")
+    plt = _pyplot()
+    site = an.impurity_grains(ds)[0]
+    column = int(np.flatnonzero(ds.traced_grain.values == site)[0])
+    tt = ds.trace_t.values
+    masses = ds.impurity_mass.values
+    stiff = ds.impurity_a.values if "impurity_a" in ds.variables else [math.nan] * len(masses)
+    clean = int(np.flatnonzero(masses == 1.0)[0])
+    v_clean = ds.trace_v.isel(impurity_mass=clean).values[:, column]
+    arrival = float(tt[np.flatnonzero(np.abs(v_clean) >= 0.5 * np.max(np.abs(v_clean)))[0]])
+    a = _scene_value(ds, "chain", "a")
+    a = 5657.0 if not np.isfinite(a) else a
+    l0 = _scene_value(ds, "chain", "l0")
+    band_edge = 2.0 * math.sqrt(float(an.hertz_stiffness(a, 2.5 * a * l0 ** 1.5))) / (2 * math.pi)
+    fig, axes = plt.subplots(4, 1, figsize=(7.5, 11.0))
+    colors = {clean: "k"}
+    starts = np.arange(arrival + 5.0, tt[-1] - 5.0 + 1e-9, 5.0)
+    late = tt >= arrival + 5.0
+    for k, (mass, stiffness) in enumerate(zip(masses, stiff)):
+        v = ds.trace_v.isel(impurity_mass=k).values[:, column]
+        color = colors.get(k, "C3" if mass < 1 else "C0")
+        name = "no impurity (clean chain)" if k == clean else f"{'light' if mass < 1 else 'heavy'} (m = {mass:g}, " \
+                                                              f"a = {stiffness:g})"
+        axes[0].plot(tt - arrival, v, color=color, lw=0.6, label=name)
+        axes[1].plot(tt[late] - arrival, v[late], color=color, lw=0.6, label=name)
+        freq, power = an.power_spectrum(tt[late], v[late])
+        axes[2].semilogy(freq[1:], power[1:], color=color, lw=0.7, label=name)
+        rms = [np.sqrt(np.mean(v[(tt >= lo) & (tt < lo + 5.0)] ** 2)) for lo in starts]
+        axes[3].plot(starts + 2.5 - arrival, rms, "o-", color=color, ms=3, label=name)
+    for ax in axes[:2]:
+        ax.axhline(0, color="0.6", lw=0.5)
+        ax.set_xlabel(f"t − {arrival:.2f} (clean pulse's arrival) [{TIME_UNIT}]")
+        ax.set_ylabel(f"v at grain {site} [9.9 mm/s]")
+        ax.legend(loc="upper right", fontsize=7)
+    axes[0].set_xlim(-2.0, 10.0)
+    axes[0].set_title(f"(a) velocity of grain {site} (+ into the chain): the impurity itself, or the clean chain's "
+                      "grain", fontsize=8.5)
+    axes[1].set_title("(b) the same from 5 time units after the pulse's arrival (the ringing, if any)", fontsize=8.5)
+    axes[2].axvline(band_edge, color="0.4", ls="--", lw=0.8)
+    axes[2].text(band_edge, 0.5, f" linear band edge {band_edge:.2f}", va="center", fontsize=7,
+                 transform=axes[2].get_xaxis_transform())
+    axes[2].set_xlim(0, 3 * band_edge)
+    top = max(line.get_ydata().max() for line in axes[2].get_lines()[:-1])
+    axes[2].set_ylim(top * 1e-8, top * 3)
+    axes[2].set_xlabel("frequency [cycles per time unit]")
+    axes[2].set_ylabel("power of (b) [arb. units]")
+    axes[2].set_title(f"(c) power spectrum of (b); l0 = {l0:g}, v_imp = {_scene_value(ds, 'excitation', 'impact'):g}, "
+                      "g = 0", fontsize=8.5)
+    axes[2].legend(loc="upper right", fontsize=7)
+    axes[3].set_xlabel(f"t − {arrival:.2f}, middle of each 5-unit window [{TIME_UNIT}]")
+    axes[3].set_ylabel("rms v [9.9 mm/s]")
+    axes[3].set_ylim(0, None)
+    axes[3].set_title(f"(d) rms velocity of grain {site} over 5-unit windows: how long the ringing lasts", fontsize=8.5)
+    axes[3].legend(loc="lower left", fontsize=7)
+    return _finish(fig, out)
 
 
 # ---- Fig. 6 and the depth law --------------------------------------------------------------
@@ -404,23 +514,29 @@ def _fig_driven(ds, out: Path, which: str) -> Path:
     taus, centres = windows["taus"], windows["centres"]
     n = _grains(ds)
     data = windows["ke"] if which == "fig9" else -windows["v"]
-    fig, axes = plt.subplots(len(centres), len(taus), figsize=(4.0 * len(taus), 1.35 * len(centres) + 0.8),
+    fig, axes = plt.subplots(len(centres), len(taus), figsize=(4.4 * len(taus), 1.4 * len(centres) + 1.2),
                              squeeze=False)
+    ylabel = f"⟨m v²/2⟩ [{ENERGY_UNIT}]" if which == "fig9" else "⟨−v⟩ [9.9 mm/s]"
     for col, tau in enumerate(taus):
         for row, centre in enumerate(centres):
             ax = axes[row, col]
             ax.plot(np.arange(n), data[col, row], color="k", lw=0.5)
             ax.set_xlim(0, n)
+            ax.set_ylabel(ylabel, fontsize=7)
             corr = windows["persistence"][col][row].correlation[1:]
             text = f"({'abcdef'[row]}) t = {centre:.4g}, τ = {tau:g}"
             if corr.size:
                 text += f"; shape corr. over next {an.PAPER_WINDOW * corr.size:g} t.u.: {np.nanmean(corr):.2f}"
             ax.set_title(text, loc="left", fontsize=7.5)
-        axes[-1, col].set_xlabel("depth z [grain diameters]")
-    label = "mean kinetic energy per grain" if which == "fig9" else f"mean −v ({PAPER_SIGN})"
-    fig.suptitle(f"{'Fig. 9' if which == 'fig9' else 'Fig. 10'}: {label}, averaged over {an.PAPER_WINDOW:g} time units;\n"
-                 f"{n}-grain column, g = 1, surface driven 2 sin(2πt/τ), bottom fixed", fontsize=8)
-    return _finish(fig, out, note=SIGN_NOTE)
+        axes[-1, col].set_xlabel("depth z [grain diameters] (surface = 0)")
+    label = "kinetic energy per grain" if which == "fig9" else f"velocity −v ({PAPER_SIGN})"
+    fig.suptitle(f"{'Fig. 9' if which == 'fig9' else 'Fig. 10'}: {label}, averaged over {an.PAPER_WINDOW:g} "
+                 f"time units\n{n}-grain column, g = 1, surface driven 2 sin(2πt/τ), bottom grain fixed; "
+                 f"left τ = {taus[0]:g}" + (f", right τ = {taus[1]:g}" if len(taus) > 1 else ""), fontsize=8)
+    note = (SIGN_NOTE + " The paper's panel (f) (a later time) is not part of this run."
+            if which == "fig10" else "Program units: energy 2.36e-5 kg × (9.9 mm/s)² = 2.3e-9 J, time 1.0102 ms. "
+            "The paper's panel (f) (a later time) is not part of this run.")
+    return _finish(fig, out, note=note)
 
 
 def fig9(ds, out: Path) -> Path:
@@ -504,7 +620,7 @@ def plot_store(ds, out: str | Path, *, field: str = "v", at: dict[str, float] | 
 
 FIGURES: dict[str, Callable] = {
     "fig1": fig1, "fig1d": fig1d, "fig2": fig2, "fig3": fig3, "fig4": fig4, "fig5": fig5, "fig6": fig6,
-    "depth": depth, "fig7_8": fig7_8, "fig9": fig9, "fig10": fig10,
+    "depth": depth, "fig7_8": fig7_8, "fig9": fig9, "fig10": fig10, "modes": modes,
 }
 """Figure name → drawing function (dataset, output path)."""
 

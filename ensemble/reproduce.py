@@ -65,6 +65,8 @@ GROUPS: dict[str, Group] = {
                   {"chain.grains": 200, "integrator.duration": 12.0}),
     "fig3": Group("paper_fig3.toml", ("fig3",),
                   {"chain.grains": 200, "integrator.duration": 12.0}),
+    "fig3_load": Group("paper_fig3_load.toml", ("fig3",),
+                       {"chain.grains": 200, "integrator.duration": 12.0}),
     "fig4": Group("paper_fig4.toml", ("fig4",),
                   {"chain.grains": 300, "integrator.duration": 13.0}),
     "fig5": Group("paper_fig5.toml", ("fig5",),
@@ -73,6 +75,9 @@ GROUPS: dict[str, Group] = {
     "fig5_single": Group("paper_fig5_single.toml", ("fig5",),
                          {"chain.grains": 150, "impurities.0.grains": [75], "record.traces": [0, 15, 35, 60],
                           "integrator.duration": 12.0}),
+    "fig5_modes": Group("paper_fig5_modes.toml", ("modes",),
+                        {"chain.grains": 150, "impurities.0.grains": [75], "record.traces": [74, 75, 76, 95],
+                         "integrator.duration": 16.0}),
     "fig6": Group("paper_fig6.toml", ("fig6",),
                   {"chain.grains": 200, "integrator.duration": 2.5}),
     "depth": Group("paper_fig6_depth.toml", ("depth",),
@@ -83,6 +88,9 @@ GROUPS: dict[str, Group] = {
     "fig7_8_single": Group("paper_fig7_8_single.toml", ("fig7_8",),
                            {"chain.grains": 200, "impurities.0.grains": [100], "record.traces": [0, 20, 50],
                             "integrator.duration": 5.0}),
+    "fig7_8_slow": Group("paper_fig7_8_slow.toml", ("fig7_8",),
+                         {"chain.grains": 200, "impurities.0.grains": _IMPURITY_5, "record.traces": [0, 20, 50],
+                          "integrator.duration": 6.0}),
     "fig9_10": Group("paper_fig9_10.toml", ("fig9", "fig10"), {"chain.grains": 300}),
 }
 """Figure group → its sweep and figures, in the paper's order."""
@@ -342,6 +350,402 @@ def run_drive_group(path: Path, out_dir: Path, device: str, *, quick: bool, grai
     return runs
 
 
+# ---- measurements behind docs/reproduction.md ------------------------------------------------------
+
+ECHO_FRACTIONS = (0.05, 0.1, 0.2, 0.3, 0.4, 0.5)
+"""Thresholds (fraction of the largest |echo|) at which the echo's leading sign is read."""
+TAIL_TIMES = an.PAPER_TAIL_TIMES
+"""Fig. 3: times [time units] of the tail fits per l0."""
+
+
+def _first_lobes(ds, grain: int, after: float, until: float, reference=None) -> dict[str, Any]:
+    """Sign and relative height of each echo's first lobe at a traced grain (light/heavy × contact)."""
+    light, heavy, clean = an.impurity_points(ds)
+    column = int(np.flatnonzero(ds.traced_grain.values == grain)[0])
+    if reference is None:
+        reference = ds.trace_v.isel(impurity_mass=clean, contact=0).values[:, column]
+    out = {}
+    for name, index in (("light", light), ("heavy", heavy)):
+        for rule in [str(c) for c in ds.contact.values]:
+            out[f"{name}/{rule}"] = list(an.first_lobe(ds.trace_t.values, ds.trace_v.isel(impurity_mass=index).sel(
+                contact=rule).values[:, column], reference, after=after, until=until))
+    return out
+
+
+def _echo_measurements(ds) -> dict[str, Any]:
+    """Per traced grain: the echo table at every threshold, and the light/heavy contrast."""
+    out: dict[str, Any] = {}
+    for grain in ds.traced_grain.values:
+        grain = int(grain)
+        tables = {f: an.echo_table(ds, traced=grain, fraction=f) for f in ECHO_FRACTIONS}
+        after, until = an.echo_window(ds, grain)
+        out[f"grain {grain}"] = {
+            "window": [after, until],
+            "leading_sign_by_threshold": {key: {str(f): tables[f][key].leading_sign for f in ECHO_FRACTIONS}
+                                          for key in tables[0.2]},
+            "arrival_by_threshold": {key: {str(f): tables[f][key].arrival_time for f in ECHO_FRACTIONS}
+                                     for key in tables[0.2]},
+            "amplitude": {key: b.amplitude for key, b in tables[0.2].items()},
+            "peak_sign": {key: b.peak_sign for key, b in tables[0.2].items()},
+            "peak_time": {key: b.peak_time for key, b in tables[0.2].items()},
+            "light_heavy_contrast": an.contrast_table(ds, traced=grain),
+            "first_lobe (sign, height / largest)": _first_lobes(ds, grain, after, until),
+        }
+    return out
+
+
+def _profile_measurements(ds) -> dict[str, Any]:
+    """Fig. 5's caption, per contact rule: reflected profiles (light vs heavy), the block's compressions,
+    and whether the reflected tail is exponential."""
+    light, heavy, clean = an.impurity_points(ds)
+    t = ds.t.values
+    block = an.impurity_grains(ds)
+    depth = float(np.mean(block))
+    l0 = float(json.loads(ds.attrs["scene"])["chain"].get("l0", 0.0))
+    clean_v = ds.v.isel(impurity_mass=clean, contact=0).values
+    speed = an.pulse_speed(t, an.head_positions(clean_v), first_grain=20, last_grain=depth - 20).slope
+    t_hit = depth / speed
+    record = int(np.argmin(np.abs(t - 1.8 * t_hit)))
+    out: dict[str, Any] = {"t_reflected": float(t[record]), "speed": speed}
+    contacts = slice(min(block) - 1, max(block) + 1)   # contacts (i, i+1) touching the block
+    clean_u = ds.u.isel(impurity_mass=clean, contact=0).values
+    clean_max = float(np.max(an.overlaps(clean_u, l0)[:, contacts] - l0))
+    for rule in [str(c) for c in ds.contact.values]:
+        u_light = ds.u.isel(impurity_mass=light).sel(contact=rule).values
+        u_heavy = ds.u.isel(impurity_mass=heavy).sel(contact=rule).values
+        front = slice(0, int(depth) - 10)
+        pl, ph = -u_light[record, front], -u_heavy[record, front]
+        # best shift of the heavy profile onto the light one (the arrival difference), then what is left
+        shifts = range(-30, 31)
+        left = [np.linalg.norm(pl[40:-40] - np.roll(ph, s)[40:-40]) for s in shifts]
+        best = int(np.argmin(left))
+        entry = {
+            "profile_difference": float(np.linalg.norm(pl - ph) / np.linalg.norm(ph)),
+            "profile_difference_after_shift": (float(left[best] / np.linalg.norm(ph[40:-40])) if ph[40:-40].any()
+                                               else math.nan),   # NaN: chain too short for the shifts
+            "shift_grains": int(list(shifts)[best]),
+            "block_dynamic_overlap_max": {
+                "light": float(np.max(an.overlaps(u_light, l0)[:, contacts] - l0)),
+                "heavy": float(np.max(an.overlaps(u_heavy, l0)[:, contacts] - l0)),
+                "clean": clean_max},
+        }
+        tails = {}
+        for name, u in (("light", u_light), ("heavy", u_heavy)):
+            reflected = -u[record, front]           # the reflected pulse moves toward the surface
+            head = float(np.argmax(reflected))
+            fit = an.tail_decay(reflected[::-1], reflected.size - 1 - head)   # "behind" = deeper
+            tails[name] = {"head": head, "decay_length": fit.decay_length, "r_squared": fit.r_squared,
+                           "points": fit.points}
+        entry["reflected_tail"] = tails
+        out[rule] = entry
+    return out
+
+
+def _mode_measurements(ds) -> dict[str, Any]:
+    """Sec. IV: does a light impurity ring after the pulse has passed? The impurity site's velocity against
+    the clean chain's same grain, and linear theory of the precompressed chain (normal modes)."""
+    scene = json.loads(ds.attrs["scene"])
+    a = float(scene["chain"].get("a", 5657.0))
+    l0 = float(scene["chain"]["l0"])
+    n = int(ds.sizes["grain"])
+    site = an.impurity_grains(ds)[0]
+    column = int(np.flatnonzero(ds.traced_grain.values == site)[0])
+    tt = ds.trace_t.values
+    masses, stiffnesses = ds.impurity_mass.values, ds.impurity_a.values
+    clean = int(np.flatnonzero(masses == 1.0)[0])
+    v_clean = ds.trace_v.isel(impurity_mass=clean).values[:, column]
+    arrival = float(tt[np.flatnonzero(np.abs(v_clean) >= 0.5 * np.max(np.abs(v_clean)))[0]])
+    peak = float(np.max(np.abs(v_clean)))
+    load = 2.5 * a * l0 ** 1.5
+    out: dict[str, Any] = {"site": site, "arrival": arrival, "clean_peak_velocity": peak}
+    windows = [(arrival + 5.0 + 10.0 * k, arrival + 15.0 + 10.0 * k) for k in range(4)]
+    windows = [w for w in windows if w[1] <= tt[-1] + 1e-9]
+    out["windows"] = windows
+    band_edge = None
+    for k, (mass, stiffness) in enumerate(zip(masses, stiffnesses)):
+        v = ds.trace_v.isel(impurity_mass=k).values[:, column]
+        rms = [float(np.sqrt(np.mean(v[(tt >= lo) & (tt < hi)] ** 2)) / peak) for lo, hi in windows]
+        late = (tt >= arrival + 5.0)
+        freq, power = an.power_spectrum(tt[late], v[late])
+        m = np.ones(n)
+        m[site] = mass
+        ac = np.full(n + 1, a)
+        ac[site] = ac[site + 1] = 2 * stiffness * a / (stiffness + a)
+        omega, shapes = an.linear_chain_modes(m, an.hertz_stiffness(ac, load))
+        ipr = np.sum(shapes ** 4, axis=0)
+        if mass == 1.0:
+            band_edge = float(omega[-1] / (2 * np.pi))
+        out[f"m={mass:g}"] = {
+            "rms_over_clean_peak": rms,
+            "spectral_peak_frequency": float(freq[np.argmax(power[1:]) + 1]),
+            "linear_band_edge_frequency": float(omega[-1] / (2 * np.pi)),
+            "linear_largest_mode_localisation": float(np.max(ipr)),
+            "linear_most_localised_mode_frequency": float(omega[np.argmax(ipr)] / (2 * np.pi)),
+            "linear_site_weight_of_top_mode": float(shapes[site, -1] ** 2),
+            "_spectrum": (freq, power),
+        }
+    for key in [k for k in out if k.startswith("m=")]:
+        freq, power = out[key].pop("_spectrum")
+        out[key]["power_fraction_above_band_edge"] = float(power[freq > band_edge].sum() / power.sum())
+    return out
+
+
+def _pulse_measurements(ds, name: str) -> dict[str, Any]:
+    """Figs. 1–3: pulse speed, the overlap behind the front, and (Fig. 3) the tail fits."""
+    scene = json.loads(ds.attrs["scene"])
+    t = ds.t.values
+    n = int(ds.sizes["grain"])
+    out: dict[str, Any] = {}
+    dim = "l0" if name.startswith("fig3") else "v_imp"
+    for k in range(ds.sizes[dim]):
+        point = ds.isel({dim: k})
+        l0 = float(point.l0) if "l0" in point.variables and point.l0.size == 1 else float(scene["chain"]["l0"])
+        v_imp = float(point.v_imp) if "v_imp" in point.variables and point.v_imp.size == 1 else \
+            float(scene["excitation"]["impact"])
+        u, v = point.u.values, point.v.values
+        heads = an.head_positions(v)
+        fit = an.pulse_speed(t, heads, first_grain=100, last_grain=800)
+        entry: dict[str, Any] = {"l0": l0, "v_imp": v_imp, "speed": fit.slope, "speed_error": fit.slope_error}
+        beyond = np.flatnonzero(heads > 0.9 * n)     # before the head first reaches 0.9 of the chain
+        stop = beyond[0] if beyond.size else len(t)
+        flight = np.flatnonzero(heads[:stop] > 0.1 * n)
+        ratios = [an.overlap_behind_head(u[r], heads[r], l0=l0) for r in flight]
+        entry["overlap_behind_head_over_head"] = {"max": float(np.nanmax(ratios)), "min": float(np.nanmin(ratios)),
+                                                  "t_range": [float(t[flight[0]]), float(t[flight[-1]])]}
+        if name.startswith("fig3"):
+            fits = []
+            load = scene["boundary"].get("surface") == "load"
+            for time in TAIL_TIMES.get(l0, ()):
+                r = int(np.argmin(np.abs(t - time)))
+                level = an.rear_level(u[r]) if load else 0.0   # a constant-force surface shifts the rear
+                tail = an.tail_decay(u[r], heads[r], baseline=level)
+                raw = an.tail_decay(u[r], heads[r])
+                fits.append({"t": float(t[r]), "head": float(heads[r]), "baseline": level,
+                             "decay_length": tail.decay_length, "r_squared": tail.r_squared,
+                             "decay_over_ct": tail.decay_length / (fit.slope * t[r]),
+                             "decay_length_without_baseline": raw.decay_length,
+                             "r_squared_without_baseline": raw.r_squared})
+            growth = an.fit_power_law([f["t"] for f in fits], [f["decay_length"] for f in fits])
+            entry["tail"] = fits
+            entry["decay_length_exponent"] = [growth.exponent, growth.exponent_error]
+        out[f"{dim}={float(point[dim]):g}"] = entry
+    return out
+
+
+def _speed_measurements(ds) -> dict[str, Any]:
+    """Fig. 1(d): c per (l0, v_imp), α per l0 and lumped (all points; v_imp ≥ 1e-2 only)."""
+    c, err = an.speeds_table(ds)
+    v_imp, l0s = ds.v_imp.values, ds.l0.values
+    out: dict[str, Any] = {"v_imp": v_imp.tolist(), "l0": l0s.tolist(), "speed": c.tolist(),
+                           "speed_error": err.tolist(), "alpha": {}}
+    for i, l0 in enumerate(l0s):
+        fit = an.speed_exponent(v_imp, c[i])
+        out["alpha"][f"l0={l0:g}"] = [fit.exponent, fit.exponent_error]
+    lumped = an.speed_exponent(np.tile(v_imp, len(l0s)), c.ravel())
+    strong = v_imp >= 1e-2 - 1e-12
+    lumped_strong = an.speed_exponent(np.tile(v_imp[strong], len(l0s)), c[:, strong].ravel())
+    out["alpha_lumped"] = [lumped.exponent, lumped.exponent_error]
+    out["alpha_lumped_v_imp_from_1e-2"] = [lumped_strong.exponent, lumped_strong.exponent_error]
+    return out
+
+
+def _width_measurements(ds) -> dict[str, Any]:
+    """Fig. 1: W(t) (region displaced by ≥ half the largest displacement) while the head is short of
+    0.9 of the chain: dW/dt and the exponent of W ∝ t^β."""
+    t = ds.t.values
+    n = int(ds.sizes["grain"])
+    out = {}
+    for k, v_imp in enumerate(ds.v_imp.values):
+        heads = an.head_positions(ds.v.isel(v_imp=k).values)
+        widths = an.shock_widths(ds.u.isel(v_imp=k).values)
+        beyond = np.flatnonzero(heads > 0.9 * n)   # until the head first reaches 0.9 of the chain
+        keep = (np.arange(t.size) < (beyond[0] if beyond.size else t.size)) & (t > 0) & np.isfinite(widths)
+        line = an.fit_line(t[keep], widths[keep])
+        power = an.fit_power_law(t[keep], widths[keep])
+        out[f"v_imp={v_imp:g}"] = {"dW_dt": [line.slope, line.slope_error], "beta": [power.exponent,
+                                                                                    power.exponent_error]}
+    return out
+
+
+def _tilt_measurements(ds) -> dict[str, Any]:
+    """Fig. 4: tilt of the top of the in-going pulse (u) and of the reflected one (−u) at the figure's times."""
+    t = ds.t.values
+    u, v = ds.u.values, ds.v.values
+    n = u.shape[-1]
+    heads = an.head_positions(v)
+    arrive = np.flatnonzero(heads > 0.98 * n)
+    t_wall = float(t[arrive[0]] if arrive.size else t[-1])
+    before = [int(np.argmin(np.abs(t - f * t_wall))) for f in (0.25, 0.5, 0.75, 0.95)]
+    after = [int(np.argmin(np.abs(t - tt))) for tt in np.linspace(t_wall, t[-1], 5)[1:]]
+    return {"t_wall": t_wall,
+            "in_going": {f"t={t[r]:g}": an.plateau_tilt(u[r], fraction=0.9) for r in before},
+            "reflected": {f"t={t[r]:g}": an.plateau_tilt(-u[r], fraction=0.9) for r in after},
+            "speed": an.pulse_speed(t, heads, first_grain=100, last_grain=0.9 * n).slope}
+
+
+def _column_measurements(ds, name: str) -> dict[str, Any]:
+    """Fig. 6: bumps and largest displacement per g at the figure's time; depth law: β per v_imp and
+    c / closed form."""
+    t = ds.t.values
+    n = int(ds.sizes["grain"])
+    scene = json.loads(ds.attrs["scene"])
+    if name == "fig6":
+        heads = an.head_positions(ds.v.sel(g=ds.g.values.max()).values)
+        inside = np.flatnonzero(heads <= 0.8 * n)
+        r = int(inside[-1]) if inside.size else len(t) - 1
+        out: dict[str, Any] = {"t": float(t[r])}
+        for g in ds.g.values:
+            v = ds.v.sel(g=g).values[r]
+            head = an.pulse_head(v)
+            out[f"g={g:g}"] = {"head": head, "bumps_10pc": an.count_bumps(v, head, fraction=0.1),
+                               "bumps_30pc": an.count_bumps(v, head, fraction=0.3),
+                               "largest_u_below_grain_2": float(np.max(np.abs(ds.u.sel(g=g).values[r][3:])))}
+        return out
+    dim = [d for d in ds.v.dims if d not in ("record", "grain")]
+    out = {}
+    g = float(scene["chain"]["gravity"])
+    a = float(scene["chain"].get("a", 5657.0))
+    for k, value in enumerate(ds[dim[0]].values):
+        heads = an.head_positions(ds.v.isel({dim[0]: k}).values)
+        fit = an.depth_law(t, heads, first_grain=50, last_grain=0.9 * n)
+        ranges = {str(first): an.depth_law(t, heads, first_grain=first, last_grain=0.9 * n).exponent
+                  for first in (20, 100, 200)}
+        mid, speed = an.speed_against_depth(t, heads, last_grain=0.9 * n)
+        keep = (mid >= 50) & np.isfinite(speed)
+        ratio = speed[keep] / an.column_sound_speed(mid[keep], gravity=g, a=a)
+        out[f"{dim[0]}={value:g}"] = {"beta": [fit.exponent, fit.exponent_error], "beta_by_first_grain": ranges,
+                                      "c_over_closed_form": [float(np.mean(ratio)), float(np.min(ratio)),
+                                                             float(np.max(ratio))]}
+    return out
+
+
+def measure(name: str, ds) -> dict[str, Any]:
+    """The numbers docs/reproduction.md quotes for group ``name``, from its store (empty if none)."""
+    if name in ("fig1", "fig2", "fig3", "fig3_load"):
+        out = _pulse_measurements(ds, name)
+        if name == "fig1":
+            out["width"] = _width_measurements(ds)
+        return out
+    if name == "fig1d":
+        return _speed_measurements(ds)
+    if name == "fig4":
+        return _tilt_measurements(ds)
+    if name in ("fig6", "depth"):
+        return _column_measurements(ds, name)
+    if name.startswith("fig5_modes"):
+        return _mode_measurements(ds)
+    if name.startswith("fig5") or name.startswith("fig7_8"):
+        out = {"echo": _echo_measurements(ds)} if "impurity_mass" in ds.dims and np.any(ds.impurity_mass == 1.0) \
+            else {}
+        if name == "fig5":
+            out["profiles"] = _profile_measurements(ds)
+        return out
+    return {}
+
+
+def compare(out_dir: Path) -> dict[str, Any]:
+    """Measurements across groups (stores ``out_dir/<group>/<group>.zarr`` or ``out_dir/<group>.zarr``)."""
+    import xarray as xr
+
+    def store(group: str):
+        for path in (out_dir / group / f"{group}.zarr", out_dir / f"{group}.zarr"):
+            if path.exists():
+                return xr.open_zarr(path)
+        return None
+
+    out: dict[str, Any] = {}
+    fig1, fig2 = store("fig1"), store("fig2")
+    if fig1 is not None and fig2 is not None:
+        rows = {}
+        for k, v_imp in enumerate(fig1.v_imp.values):
+            u1, u2 = fig1.u.isel(v_imp=k).values, fig2.u.sel(v_imp=v_imp).values
+            heads = an.head_positions(fig1.v.isel(v_imp=k).values)
+            r = int(np.flatnonzero(heads > 500)[0])
+            change = np.abs(u2[r] - u1[r])
+            rows[f"v_imp={v_imp:g}"] = {
+                "t": float(fig1.t.values[r]),
+                "relative_profile_change": float(np.linalg.norm(u2[r] - u1[r]) / np.linalg.norm(u1[r])),
+                "largest_change_at_grain": int(np.argmax(change)),
+                "largest_displacement_ratio": float(np.max(u2[r]) / np.max(u1[r])),
+            }
+        out["fig2_vs_fig1"] = rows
+    contrast = {}
+    for group in ("fig5", "fig5_single", "fig7_8", "fig7_8_single", "fig7_8_slow"):
+        ds = store(group)
+        if ds is not None and np.any(ds.impurity_mass == 1.0):
+            contrast[group] = an.contrast_table(ds)
+    for group, reference in (("fig5_single", "fig5"), ("fig7_8_single", "fig7_8")):
+        ds, ref = store(group), store(reference)
+        if ds is not None and ref is not None:   # single impurities: the clean chain is in the five-impurity store
+            light, heavy, _ = an.impurity_points(ds)
+            clean = int(np.flatnonzero(ref.impurity_mass.values == 1.0)[0])
+            after, until = an.echo_window(ref, int(ds.traced_grain.values[0]))
+            contrast[group] = {str(rule): an.echo_contrast(
+                ds.trace_t.values, ds.trace_v.isel(impurity_mass=light).sel(contact=rule).values[:, 0],
+                ds.trace_v.isel(impurity_mass=heavy).sel(contact=rule).values[:, 0],
+                ref.trace_v.isel(impurity_mass=clean, contact=0).values[:, 0], after=after, until=until)
+                for rule in ds.contact.values}
+            tables = {}
+            for f in ECHO_FRACTIONS:
+                for name, index in (("light", light), ("heavy", heavy)):
+                    for rule in ds.contact.values:
+                        b = an.backscatter(ds.trace_t.values,
+                                           ds.trace_v.isel(impurity_mass=index).sel(contact=rule).values[:, 0],
+                                           ref.trace_v.isel(impurity_mass=clean, contact=0).values[:, 0],
+                                           after=after, until=until, fraction=f)
+                        tables.setdefault(f"{name}/{rule}", {})[str(f)] = [b.leading_sign, b.arrival_time,
+                                                                           b.amplitude, b.peak_sign]
+            out[f"{group}_echo_by_threshold (sign, arrival, amplitude, peak sign)"] = tables
+            out[f"{group}_first_lobe (sign, height / largest)"] = _first_lobes(
+                ds, int(ds.traced_grain.values[0]), after, until,
+                reference=ref.trace_v.isel(impurity_mass=clean, contact=0).values[:, 0])
+    out["light_heavy_contrast_at_surface"] = contrast
+    return out
+
+
+FIGURE_FILES = {"depth": "fig6_depth.png"}
+"""PNG names in docs/figures/ that differ from the group's name."""
+
+
+def measure_stores(root: Path, *, figures_dir: Path | None = None, command: str = "") -> dict[str, Any]:
+    """Re-measure every group store under ``root`` (``root/<group>/<group>.zarr`` with its ``log.json``, as
+    ``hertzian reproduce --figure <group> --out-dir root/<group>`` writes them) with the current analysis,
+    and optionally redraw each group's figures into ``figures_dir``. Returns a log: date, command, each
+    group's run (from its log.json: device, date, command, wall seconds) and measurements, and
+    :func:`compare` across groups."""
+    import warp as wp
+    import xarray as xr
+
+    from .plot import plot_figure
+
+    log: dict[str, Any] = {"command": command, "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                           "platform": platform.platform(), "cpu_count": _cpu_count(),
+                           "warp_version": wp.config.version, "groups": {}}
+    for name, group in GROUPS.items():
+        run_log = root / name / "log.json"
+        store = root / name / f"{name}.zarr"
+        if name == "fig9_10" or not run_log.exists() or not store.exists():
+            continue
+        runs = json.loads(run_log.read_text())
+        run = runs["runs"][0]
+        entry = {"run": {k: runs[k] for k in ("command", "date", "device", "device_name", "cpu_count", "platform")},
+                 "points": run["points"], "grains": run["grains"], "steps": run["steps"], "dt": run["dt"],
+                 "wall_seconds": run["wall_seconds"], "grain_steps_per_second": run["grain_steps_per_second"],
+                 "energy_error_max": run["energy_error_max"], "status_counts": run["status_counts"]}
+        with xr.open_zarr(store) as ds:
+            entry["measurements"] = measure(name, ds)
+            if figures_dir is not None:
+                entry["figures"] = {}
+                for figure in group.figures:
+                    png = figures_dir / (FIGURE_FILES.get(name, f"{name}.png") if len(group.figures) == 1
+                                         else f"{figure}.png")
+                    plot_figure(ds, figure, png)
+                    entry["figures"][figure] = f"hertzian plot {store} --figure {figure} --out {png}"
+        log["groups"][name] = entry
+    log["comparisons"] = compare(root)
+    return finite(log)
+
+
 # ---- the whole paper -------------------------------------------------------------------------------
 
 
@@ -405,6 +809,8 @@ def reproduce(out_dir: Path, *, groups: list[str] | None = None, quick: bool = F
                     failures += 1
                     figures[figure] = f"failed: {type(err).__name__}: {err}"
                     say(f"{name}: figure {figure} failed: {err}")
+            if name != "fig9_10":
+                runs[0]["measurements"] = measure(name, dataset)
         runs[0]["figures"] = figures
         log["runs"].extend(runs)
     log["total_seconds"] = time.perf_counter() - begin

@@ -198,3 +198,52 @@ def test_nesterenko_widths():
     support = s[profile > 0]
     assert support[-1] - support[0] == pytest.approx(an.NESTERENKO_SUPPORT, rel=1e-4)
     assert an.NESTERENKO_SUPPORT == pytest.approx(4.967, abs=1e-3)
+
+
+def test_linear_chain_modes_closed_forms():
+    """A uniform chain between walls: ω_k = 2√(K/m) sin(kπ/(2(n+1))). A light mass m' in it (same springs)
+    has one mode above the band, localised, at ω² = 4Km/(m'(2m − m')) (infinite-chain closed form)."""
+    n, stiffness = 201, 212.0
+    omega, shapes = an.linear_chain_modes(np.ones(n), np.full(n + 1, stiffness))
+    exact = 2 * math.sqrt(stiffness) * np.sin(np.arange(1, n + 1) * math.pi / (2 * (n + 1)))
+    np.testing.assert_allclose(omega, exact, rtol=1e-10)
+    masses = np.ones(n)
+    masses[100] = 0.5
+    omega, shapes = an.linear_chain_modes(masses, np.full(n + 1, stiffness))
+    assert omega[-1] == pytest.approx(math.sqrt(4 * stiffness / (0.5 * 1.5)), rel=1e-10)
+    assert omega[-2] < 2 * math.sqrt(stiffness)
+    assert shapes[100, -1] ** 2 > 0.5                      # localised at the light mass
+    # two unequal masses between walls, three unequal springs: the 2×2 closed form
+    k0, k1, k2, m0, m1 = 3.0, 5.0, 7.0, 2.0, 0.5
+    trace, det = (k0 + k1) / m0 + (k1 + k2) / m1, ((k0 + k1) * (k1 + k2) - k1 ** 2) / (m0 * m1)
+    roots = np.sqrt([(trace - math.sqrt(trace ** 2 - 4 * det)) / 2, (trace + math.sqrt(trace ** 2 - 4 * det)) / 2])
+    np.testing.assert_allclose(an.linear_chain_modes([m0, m1], [k0, k1, k2])[0], roots, rtol=1e-12)
+    assert an.hertz_stiffness(5657.0, 2.5 * 5657.0 * 1e-6) == pytest.approx(3.75 * 5657.0 * 1e-2, rel=1e-12)
+
+
+def test_echo_contrast_and_power_spectrum():
+    t = np.linspace(0.0, 10.0, 1001)
+    reference = np.sin(t)
+    echo = np.exp(-((t - 5.0) / 0.3) ** 2)
+    assert an.echo_contrast(t, reference + echo, reference + echo, reference) == 0.0
+    assert an.echo_contrast(t, reference + echo, reference - echo, reference) == pytest.approx(1.0, rel=1e-12)
+    assert an.echo_contrast(t, reference + echo, reference - echo, reference, after=6.0) < 1.0 + 1e-12
+    freq, power = an.power_spectrum(t, np.sin(2 * math.pi * 3.0 * t))
+    assert freq[np.argmax(power)] == pytest.approx(3.0, abs=0.1)
+
+
+def test_overlap_behind_head_and_rear_level():
+    u = np.zeros(300)
+    u[:200] = np.linspace(2e-3, 1e-3, 200)      # displaced region, SPEC sign (+ into the chain)
+    u[195:200] = np.linspace(1e-3 + 8e-4, 1e-3, 5)  # a step at the head: overlap 2e-4 per contact there
+    u[200:] = 0.0
+    assert an.overlaps(u, 1e-4)[199] == pytest.approx(1e-4 + 1e-3, rel=1e-12)
+    # behind the head the dynamic overlap is the ramp's 5e-6 per contact; at the head 1e-3
+    assert an.overlap_behind_head(u, 199.5, l0=1e-4) == pytest.approx(5.025e-6 / 1e-3, rel=1e-2)
+    u[50] += 5e-3                                  # one strongly compressed contact far behind the head
+    assert an.overlap_behind_head(u, 199.5) > 1.0
+    assert math.isnan(an.overlap_behind_head(u, math.nan))
+    assert an.rear_level(np.r_[np.full(10, 3e-5), np.zeros(20)]) == pytest.approx(3e-5)
+    fit = an.tail_decay(3e-5 + np.where(np.arange(300) <= 250, 1e-4 * np.exp(-(250 - np.arange(300)) / 40.0), 0.0),
+                        250.0, envelope=1, baseline=3e-5)
+    assert fit.decay_length == pytest.approx(40.0, rel=1e-6)

@@ -27,9 +27,12 @@ What is here, by paper section:
 
 * III A — :func:`pulse_head`, :func:`head_positions`, :func:`pulse_speed`, :func:`speed_history`
   (pulse position and speed c(t)); :func:`speed_exponent` (α in c ∝ v_imp^α);
-  :func:`shock_width` (W(t)); :func:`plateau_tilt` (flat vs sloping top, Fig. 4).
+  :func:`shock_width` (W(t)); :func:`plateau_tilt` (flat vs sloping top, Fig. 4);
+  :func:`overlaps`, :func:`overlap_behind_head` (Fig. 2(a)'s higher overlaps behind the front).
 * III B — :func:`tail_decay` (exponential tail P(z, t) ∝ exp(−z/λ), compared with c·t).
-* IV, V — :func:`backscatter` (arrival, amplitude and leading sign of the echo at a grain).
+* IV, V — :func:`backscatter` (arrival, amplitude and leading sign of the echo at a grain);
+  :func:`echo_contrast` (how different the light and heavy echoes are); :func:`power_spectrum`,
+  :func:`linear_chain_modes`, :func:`hertz_stiffness` (oscillations at an impurity site, linear theory).
 * V — :func:`depth_law` (c ∝ z^β, the paper's β = 1/6), :func:`column_sound_speed` (closed form),
   :func:`count_bumps` (tail bumps, Fig. 6).
 * VI — :func:`window_average`, :func:`standing_wave_measure`.
@@ -42,21 +45,22 @@ from .common import (LineFit, PowerLawFit, energy_drift, fit_line, fit_power_law
                      paper_label)
 from .drive import (PAPER_DRIVE_TIMES, PAPER_WINDOW, PERSISTENCE_LAGS, StandingWave, drive_times, driven_windows,
                     kinetic_energy, profile_nodes, standing_wave_measure, window_average)
-from .echoes import Backscatter, backscatter, echo_table, impurity_grains, impurity_points
-from .pulses import (NESTERENKO_FWHM, NESTERENKO_SUPPORT, TailFit, front_position, full_width_half_maximum,
-                     head_positions, nesterenko_speed, plateau_tilt, pulse_head, pulse_speed, running_max,
-                     shock_width, shock_widths, speed_exponent, speed_history, speeds_table, tail_decay,
-                     times_in_flight)
+from .echoes import (Backscatter, backscatter, contrast_table, echo_contrast, echo_table, echo_window,
+                     first_lobe, hertz_stiffness, impurity_grains, impurity_points, linear_chain_modes, power_spectrum)
+from .pulses import (NESTERENKO_FWHM, NESTERENKO_SUPPORT, PAPER_TAIL_TIMES, TailFit, front_position,
+                     full_width_half_maximum, head_positions, nesterenko_speed, overlap_behind_head, overlaps,
+                     plateau_tilt, pulse_head, pulse_speed, rear_level, running_max, shock_width, shock_widths,
+                     speed_exponent, speed_history, speeds_table, tail_decay, times_in_flight)
 from .pulses import _parabolic_peak  # noqa: F401  (sub-sample peak position; tests use it)
 
 __all__ = [
-    "Backscatter", "LineFit", "NESTERENKO_FWHM", "NESTERENKO_SUPPORT", "PAPER_DRIVE_TIMES", "PAPER_WINDOW",
-    "PERSISTENCE_LAGS", "PowerLawFit", "StandingWave", "TailFit", "backscatter", "column_sound_speed",
-    "count_bumps", "depth_law", "drive_times", "driven_windows", "echo_table", "energy_drift", "fit_line",
-    "fit_power_law",
-    "front_position", "full_width_half_maximum", "head_positions", "impurity_grains", "impurity_points",
-    "kinetic_energy", "nesterenko_speed", "paper_displacement", "paper_label", "plateau_tilt", "profile_nodes",
-    "pulse_head", "pulse_speed", "running_max", "shock_width", "shock_widths", "speed_against_depth",
-    "speed_exponent", "speed_history", "speeds_table", "standing_wave_measure", "tail_decay", "times_in_flight",
-    "window_average",
+    "Backscatter", "LineFit", "NESTERENKO_FWHM", "NESTERENKO_SUPPORT", "PAPER_DRIVE_TIMES", "PAPER_TAIL_TIMES",
+    "PAPER_WINDOW", "PERSISTENCE_LAGS", "PowerLawFit", "StandingWave", "TailFit", "backscatter", "column_sound_speed",
+    "contrast_table", "count_bumps", "depth_law", "drive_times", "driven_windows", "echo_contrast", "echo_table",
+    "echo_window", "energy_drift", "first_lobe", "fit_line", "fit_power_law", "front_position", "full_width_half_maximum",
+    "head_positions", "hertz_stiffness", "impurity_grains", "impurity_points", "kinetic_energy", "linear_chain_modes",
+    "nesterenko_speed", "overlap_behind_head", "overlaps", "paper_displacement", "paper_label", "plateau_tilt",
+    "power_spectrum", "profile_nodes", "pulse_head", "pulse_speed", "rear_level", "running_max", "shock_width",
+    "shock_widths", "speed_against_depth", "speed_exponent", "speed_history", "speeds_table", "standing_wave_measure",
+    "tail_decay", "times_in_flight", "window_average",
 ]

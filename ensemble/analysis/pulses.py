@@ -136,6 +136,33 @@ def plateau_tilt(profile, *, fraction: float = 0.8) -> float:
     return float(-line.slope * (hi - lo) / top)
 
 
+def overlaps(u, l0: float = 0.0):
+    """Overlap of every contact between neighbouring grains, l0 + u_i − u_(i+1) [length] (SPEC sign:
+    u + into the chain), (..., grain) → (..., grain − 1); the surface and bottom walls' contacts are left out."""
+    u = np.asarray(u, dtype=float)
+    return l0 + u[..., :-1] - u[..., 1:]
+
+
+def overlap_behind_head(u, head: float, *, l0: float = 0.0, near: int = 5, behind: int = 10) -> float:
+    """Fig. 2(a)'s "regions of even higher overlap" behind the shock front: the largest dynamic overlap
+    (overlap − l0) at contacts more than ``behind`` grains behind the head, divided by the largest one
+    within ``near`` grains of the head (> 1: behind the front some grains overlap more than at it).
+    NaN when the head is not inside the chain."""
+    if not np.isfinite(head):
+        return math.nan
+    dynamic = overlaps(u, l0) - l0
+    k = int(round(head))
+    at_head = dynamic[max(k - near, 0):min(k + near + 1, dynamic.size)]
+    rear = dynamic[:max(k - behind, 0)]
+    if at_head.size == 0 or rear.size == 0 or not np.max(at_head) > 0:
+        return math.nan
+    return float(np.max(rear) / np.max(at_head))
+
+
+PAPER_TAIL_TIMES = {1e-4: (5.0, 15.0, 25.0, 35.0), 1e-3: (5.0, 15.0, 25.0, 30.0)}
+"""Fig. 3: times [time units] of the tail fits per l0 (the head is short of 0.8 of a 1000-grain chain)."""
+
+
 @dataclass(frozen=True)
 class TailFit:
     """Exponential fit of the compressive tail behind the head: ``u ≈ A exp(−z/decay_length)``,
@@ -165,7 +192,8 @@ def running_max(profile, grains: int):
     return windows.max(axis=-1)
 
 
-def tail_decay(u, head: float, *, skip: int = 10, span: float | None = None, envelope: int = 11) -> TailFit:
+def tail_decay(u, head: float, *, skip: int = 10, span: float | None = None, envelope: int = 11,
+               baseline: float = 0.0) -> TailFit:
     """Fit ln u = ln A − z/λ over the grains behind the head where the displacement is along the
     compression (u > 0 in SPEC's sign; the paper's negative side of the y axis).
 
@@ -173,9 +201,11 @@ def tail_decay(u, head: float, *, skip: int = 10, span: float | None = None, env
     ``span`` limits z (default: back to the surface). The tail oscillates in sign from grain to
     grain, so the fit is to its upper envelope, the running maximum over ``envelope`` grains
     (1: the raw displacements). The paper's claim, P(z, t) ∝ exp(−z/ct), says λ grows like c·t,
-    i.e. like the head's depth.
+    i.e. like the head's depth. ``baseline``: the displacement the chain behind the pulse settles at,
+    subtracted first (0 with a surface wall; a uniform shift with a constant-force surface, see
+    :func:`rear_level`).
     """
-    p = running_max(u, envelope)
+    p = running_max(np.asarray(u, dtype=float) - baseline, envelope)
     if not np.isfinite(head):
         return TailFit(math.nan, math.nan, math.nan, math.nan, 0, head)
     grains = np.arange(p.size)
@@ -189,6 +219,13 @@ def tail_decay(u, head: float, *, skip: int = 10, span: float | None = None, env
     decay = -1.0 / line.slope
     return TailFit(decay, line.slope_error / line.slope**2, math.exp(line.intercept), line.r_squared,
                    line.points, head)
+
+
+def rear_level(u, *, grains: int = 10) -> float:
+    """Mean displacement of the ``grains`` grains nearest the surface: the level the chain behind a
+    pulse settles at (0 with a surface wall; with a constant-force surface the impact shifts the
+    whole rear of the chain by this much)."""
+    return float(np.mean(np.asarray(u, dtype=float)[..., :grains]))
 
 
 NESTERENKO_SUPPORT = math.pi * math.sqrt(2.5)

@@ -29,7 +29,7 @@ def plot(
                                           "`hertzian reproduce`.")],
     figure: Annotated[Optional[str], typer.Option(
         "--figure", help="A paper figure group instead of the store picture: fig1 | fig1d | fig2 | fig3 | fig4 | "
-        "fig5 | fig6 | depth | fig7_8 | fig9 | fig10 (the store must hold that figure's sweep).")] = None,
+        "fig5 | modes | fig6 | depth | fig7_8 | fig9 | fig10 (the store must hold that figure's sweep).")] = None,
     field: Annotated[str, typer.Option("--field", help="u | v: the field of the depth–time picture.")] = "v",
     at: Annotated[Optional[list[str]], typer.Option(
         "--at", help="Which point of a sweep store: axis=value, nearest coordinate (repeatable; default: the "

@@ -13,8 +13,9 @@ from .app import DeviceOption, app, fail, resolve_device
 @app.command()
 def reproduce(
     figure: Annotated[Optional[list[str]], typer.Option(
-        "--figure", help="A figure group or figure (fig1, fig1d, fig2, fig3, fig4, fig5, fig5_single, fig6, depth, "
-        "fig7_8, fig7_8_single, fig9_10 or fig9/fig10); repeatable. Default: every group.")] = None,
+        "--figure", help="A figure group or figure (fig1, fig1d, fig2, fig3, fig3_load, fig4, fig5, fig5_single, "
+        "fig5_modes or modes, fig6, depth, fig7_8, fig7_8_single, fig7_8_slow, fig9_10 or fig9/fig10); repeatable. "
+        "Default: every group.")] = None,
     quick: Annotated[bool, typer.Option("--quick", help="Short chains and times: the whole paper in minutes on a "
                                         "CPU (a test of the pipeline, not the paper's numbers).")] = False,
     out_dir: Annotated[Path, typer.Option("--out-dir", help="Folder for the stores, PNGs and log.json.")] = Path(
