@@ -12,8 +12,8 @@ from datetime import datetime, timezone
 
 import numpy as np
 
-from ensemble.detect import forward_scene, run_candidates
-from ensemble.scene import scene_from_dict
+from hertzian.ensemble.detect import forward_scene, run_candidates
+from hertzian.ensemble.scene import scene_from_dict
 
 base = scene_from_dict({"chain": {"grains": 80, "l0": 1e-4}, "excitation": {"impact": 1e-2},
                         "integrator": {"method": "gear4", "dt": 1e-3, "duration": 1.0}})
@@ -28,7 +28,7 @@ for m, trace in zip(ratios, traces):
     print(f"{m:.4f} {float(np.sum((trace - truth[0]) ** 2)):.3e}")
 
 # the detector on this noise-free signal (963 samples as in the study; it analyses t ≤ 8.74)
-from ensemble.detect import detect, signal_from_arrays
+from hertzian.ensemble.detect import detect, signal_from_arrays
 
 long_forward = forward_scene(base, 0.01, 963)
 signal_trace, _ = run_candidates(long_forward, [(4, 0.3)], 1, "cpu")

@@ -10,7 +10,7 @@ Usage, from the repository root, after one ``hertzian reproduce`` per group:
     python docs/logs/reproduction/measure.py out/paper
 
 Writes docs/logs/reproduction/measurements.json (each group's run log and measurements, and the
-comparisons across groups; see ``ensemble.reproduce.measure_stores``) and the PNGs in docs/figures/.
+comparisons across groups; see ``hertzian.ensemble.reproduce.measure_stores``) and the PNGs in docs/figures/.
 """
 
 import json
@@ -18,7 +18,7 @@ import os
 import sys
 from pathlib import Path
 
-from ensemble.reproduce import measure_stores
+from hertzian.ensemble.reproduce import measure_stores
 
 root = Path(sys.argv[1] if len(sys.argv) > 1 else "out/paper")
 here = Path(__file__).resolve().parent
