@@ -107,10 +107,11 @@ class Runner:
         self.solver.load()
         self.recorder = Recorder(model)
 
-    def advance(self, n_steps: int) -> None:
-        """Take ``n_steps`` steps from ``current`` (no host synchronisation)."""
+    def advance(self, n_steps: int, first_step: int | None = None) -> None:
+        """Take ``n_steps`` steps from ``current``, which holds ``first_step`` (no host synchronisation when
+        ``first_step`` is given)."""
         other = self.buffers[1] if self.current is self.buffers[0] else self.buffers[0]
-        self.current = self.solver.advance(self.current, other, n_steps)
+        self.current = self.solver.advance(self.current, other, n_steps, first_step=first_step)
 
     def advance_monitored(self, first_step: int, n_steps: int) -> None:
         """``advance`` in pieces of ``monitor_every`` steps with a device-side check after each piece."""
@@ -118,7 +119,7 @@ class Runner:
         done = 0
         while done < n_steps:
             piece = min(every, n_steps - done)
-            self.advance(piece)
+            self.advance(piece, first_step + done)
             done += piece
             if done < n_steps:
                 self.recorder.check(self.current, first_step + done)

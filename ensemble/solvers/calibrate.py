@@ -9,8 +9,8 @@ themselves are in this package's ``step``, ``tile`` and ``sweep`` modules. Kinds
 * ``window`` — long chains cut into blocks with ghost zones, K ≤ ghost steps per launch
   (``kernels/tile.py`` + ``kernels/ghost.py``), CUDA.
 * ``sweep`` — one CPU thread per chain, many steps per launch (``kernels/cpu.py``).
-* ``auto`` — per-step for features the fused kernels lack (drive, traces) and for runs too short to
-  repay a compile; else ``sweep`` on a CPU, and on a GPU the fastest of a few ``tile``/``window``
+* ``auto`` — per-step for features the fused kernels lack (see :func:`step_reason`) and for runs too
+  short to repay a compile; else ``sweep`` on a CPU, and on a GPU the fastest of a few ``tile``/``window``
   shapes, timed once per (device, features, grains, chains) and remembered in
   ``$HERTZIAN_CACHE`` (default ``~/.cache/hertzian/calibration.json``).
 
@@ -25,7 +25,7 @@ import math
 import os
 import statistics
 import time
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
@@ -46,6 +46,33 @@ AUTO_MIN_GRAIN_STEPS_GPU = 5e9
 """Likewise on a GPU, where a calibration costs tens of seconds the first time."""
 CALIBRATION_VERSION = 2
 """Bumped when the cached fields change (2: a SolverConfig)."""
+
+
+def stepping_features(features):
+    """The features a fused kernel is compiled for: traces are sampled between launches (solvers/base.py)."""
+    return replace(features, traces=False)
+
+
+def fused_lacks(model: Model) -> str | None:
+    """The feature of ``model`` that the device's fused kernel (CPU sweep, CUDA tile/window) lacks, or None."""
+    f = stepping_features(model.features)
+    if model.device.is_cpu:
+        return None if sweepable(f) else f"surface = {f.surface!r}"
+    return None if fusable(f) else f"surface = {f.surface!r}"
+
+
+def step_reason(model: Model, run_steps: int | None = None) -> str | None:
+    """Why ``auto`` picks the per-step kernel for ``model`` (one line), or None when it picks a fused one."""
+    lacks = fused_lacks(model)
+    if lacks:
+        kind = "sweep" if model.device.is_cpu else "tile/window"
+        return f"per-step kernel: the {kind} kernel lacks {lacks}"
+    work = model.chain_count * model.grain_count * (run_steps if run_steps is not None else math.inf)
+    limit = AUTO_MIN_GRAIN_STEPS_CPU if model.device.is_cpu else AUTO_MIN_GRAIN_STEPS_GPU
+    if work < limit:
+        return (f"per-step kernel: a short run ({work:.3g} grain-steps < {limit:.0e}) does not repay a fused "
+                f"kernel's compile (--kernel sweep/tile/window forces one)")
+    return None
 
 
 # ---- candidate launch shapes ----------------------------------------------------------------------
@@ -248,12 +275,12 @@ def choose_config(model: Model, kernel: str = "auto", *, run_steps: int | None =
     if kernel == "sweep":
         if not model.device.is_cpu:
             raise ValueError("kernel = 'sweep': a CPU kernel; use --device cpu")
-        if not sweepable(f):
-            raise ValueError(f"kernel = 'sweep': no drive and no traces (features {f})")
+        if not sweepable(stepping_features(f)):
+            raise ValueError(f"kernel = 'sweep': not implemented for {fused_lacks(model)} (features {f})")
         return SWEEP
     if kernel in ("tile", "window"):
-        if not fusable(f):
-            raise ValueError(f"kernel = {kernel!r}: no drive and no traces (features {f})")
+        if not fusable(stepping_features(f)):
+            raise ValueError(f"kernel = {kernel!r}: not implemented for surface = {f.surface!r} (features {f})")
         configs = whole_chain_configs(model) if kernel == "tile" else window_configs(model)
         if not configs:
             raise ValueError(f"kernel = {kernel!r}: no launch shape fits {model.grain_count} grains")
@@ -261,13 +288,10 @@ def choose_config(model: Model, kernel: str = "auto", *, run_steps: int | None =
             return calibrate(model, configs=configs, states=states, log=log)[0]
         return configs[0]
     # auto
-    if not fusable(f):
+    if step_reason(model, run_steps):
         return STEP
-    work = model.chain_count * model.grain_count * (run_steps if run_steps is not None else math.inf)
     if model.device.is_cpu:
-        return SWEEP if work >= AUTO_MIN_GRAIN_STEPS_CPU else STEP
-    if work < AUTO_MIN_GRAIN_STEPS_GPU:
-        return STEP
+        return SWEEP
     return calibrated_config(model, states=states, log=log) if calibrate_now else default_config(model)
 
 

@@ -10,13 +10,13 @@ from .config import SWEEP, SolverConfig
 
 
 class SweepSolver(Solver):
-    """One CPU thread per chain; no drive and no traces (those run on the step solver)."""
+    """One CPU thread per chain; traces are sampled between launches (base ``Solver.advance``)."""
 
     kind = "sweep"
 
     def __init__(self, model: Model, config: SolverConfig = SWEEP):
         super().__init__(model, config)
-        self.kernel = sweep_kernel(model.features)
+        self.kernel = sweep_kernel(self.kernel_features)
 
     def launch(self, state_in: State, state_out: State, steps: int) -> None:
         m = self.model

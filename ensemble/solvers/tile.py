@@ -29,13 +29,14 @@ def config_of(plan: TilePlan) -> SolverConfig:
 
 
 class TileSolver(Solver):
-    """K steps per launch with chains (or windows of them) held on-chip; no drive and no traces."""
+    """K steps per launch with chains (or windows of them) held on-chip; no drive; traces are sampled between
+    launches (base ``Solver.advance``)."""
 
     def __init__(self, model: Model, config: SolverConfig):
         super().__init__(model, config)
         self.kind = config.kind
         self.plan = tile_plan(config, model.grain_count, model.chain_count)
-        self.kernel = tile_kernel(model.features, config.shape)
+        self.kernel = tile_kernel(self.kernel_features, config.shape)
         self.block_dim = config.shape.block_dim
 
     def launch(self, state_in: State, state_out: State, steps: int) -> None:

@@ -1,0 +1,79 @@
+"""Traces and drive on the fused solvers (CPU sweep, tile, window) against the per-step kernel.
+
+The per-step kernel writes trace samples inside the step and integrates the driven surface grain
+itself (kernels/step.py); the fused solvers sample the ring between stride-aligned pieces and the
+sweep kernel copies the driven path expression for expression. On the CPU every record, every trace
+sample and the driver's work must agree bit for bit. Each case asserts that motion reached the
+last traced grain / the bottom of the chain before comparing (a test of zeros against zeros
+cannot fail).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from ensemble.model import build_model
+from ensemble.runner import Runner
+from ensemble.solvers import SWEEP, SolverConfig, choose_config, config_of
+from ensemble.solvers.calibrate import step_reason
+from kernels.tile import plan_tile
+
+from fused_cases import MOVED, chains
+
+TRACED = {"grains": 30, "l0": 1e-4}
+TRACE_RECORD = {"every": 0.1, "traces": [0, 13, 28], "trace_every": 4e-3, "fields": ["u", "v"]}
+"""Stride 8 steps (dt 5e-4): pieces between records and monitor checks are cut at trace steps."""
+
+
+def traced_scenes(**extra):
+    return chains(2, chain=dict(TRACED), integrator={"dt": 5e-4, "duration": 2.0}, record=dict(TRACE_RECORD),
+                  **extra)
+
+
+def run(model, kernel, monitor_every=11):
+    return Runner(model, kernel=kernel, use_graph=False, monitor_every=monitor_every).run()
+
+
+def assert_same_run(got, want, *, last_traced_moved=True):
+    assert got.traces and want.traces
+    if last_traced_moved:
+        u = np.abs(want.traces["u"])
+        assert np.all(u[:, :, -1].max(axis=1) > MOVED * u.max(axis=(1, 2))), "motion never reached the last trace"
+    for name in ("u", "v"):
+        np.testing.assert_array_equal(got.traces[name], want.traces[name])
+        np.testing.assert_array_equal(got.fields[name], want.fields[name])
+    np.testing.assert_array_equal(got.energy, want.energy)
+    if want.work is not None:
+        assert np.max(np.abs(want.work)) > 0
+        np.testing.assert_array_equal(got.work, want.work)
+    np.testing.assert_array_equal(got.status, want.status)
+
+
+def test_sweep_traces_equal_per_step():
+    model = build_model(traced_scenes(), "cpu")
+    want = run(model, "step")
+    got = run(model, "sweep")
+    assert got.kernel == "sweep"
+    assert_same_run(got, want)
+
+
+@pytest.mark.parametrize("windowed", [False, True])
+def test_tile_traces_equal_per_step(windowed):
+    model = build_model(traced_scenes(), "cpu")
+    f = replace(model.features, traces=False)
+    keywords = dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=5, windowed=True) if windowed else \
+        dict(grains_per_lane=4)
+    config = config_of(plan_tile(f, model.grain_count, model.chain_count, **keywords))
+    want = run(model, "step")
+    got = run(model, config)
+    assert_same_run(got, want)
+
+
+def test_auto_picks_sweep_for_traces():
+    model = build_model(traced_scenes(), "cpu")
+    assert choose_config(model, "auto", run_steps=10**8) == SWEEP
+    assert step_reason(model, 10**8) is None
+    assert "short run" in step_reason(model, 10)
