@@ -44,7 +44,8 @@ class TileSolver(Solver):
         launch_tile(self.plan, self.kernel, x_in=state_in.x, clock_in=state_in.clock, inverse_mass=m.inverse_mass,
                     contact_constant=m.contact_constant, static_overlap=m.static_overlap, exponent=m.exponent,
                     status=state_in.status, dt=m.dt, steps=steps, x_out=state_out.x, clock_out=state_out.clock,
-                    device=m.device)
+                    device=m.device, drive=m.drive, work_in=state_in.work, power_in=state_in.power,
+                    work_out=state_out.work, power_out=state_out.power)
 
     def describe(self) -> str:
         return f"{self.kind} ({self.plan.describe()})"
