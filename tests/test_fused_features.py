@@ -21,7 +21,7 @@ from ensemble.solvers import SWEEP, SolverConfig, choose_config, config_of
 from ensemble.solvers.calibrate import step_reason
 from kernels.tile import plan_tile
 
-from fused_cases import MOVED, chains
+from fused_cases import MOVED, assert_every_window_moved, chains, window_ranges
 
 TRACED = {"grains": 30, "l0": 1e-4}
 TRACE_RECORD = {"every": 0.1, "traces": [0, 13, 28], "trace_every": 4e-3, "fields": ["u", "v"]}
@@ -118,3 +118,34 @@ def test_sweep_drive_equals_per_step(case):
     last = -2 if DRIVEN_CASES[case].get("boundary") else -1
     assert np.all(u[:, :, last].max(axis=1) > MOVED * u.max(axis=(1, 2)))
     assert np.all(np.max(np.abs(want.work), axis=1) > 0)
+
+
+@pytest.mark.parametrize("windowed", [False, True])
+@pytest.mark.parametrize("case", list(DRIVEN_CASES))
+def test_tile_drive_equals_per_step(case, windowed):
+    sections = DRIVEN_CASES[case]
+    model = build_model(driven_scenes(**sections), "cpu")
+    f = replace(model.features, traces=False)
+    keywords = dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=5, windowed=True) if windowed else \
+        dict(grains_per_lane=4)
+    plan = plan_tile(f, model.grain_count, model.chain_count, **keywords)
+    want = run(model, "step")
+    got = run(model, config_of(plan))
+    held = "boundary" in sections
+    # every window (and its ghost exchange) saw the drive's motion before comparing
+    assert_every_window_moved(np.stack([np.abs(want.u).max(axis=1), np.abs(want.v).max(axis=1)]),
+                              window_ranges(plan, model.grain_count), held_bottom=held)
+    for name in ("u", "v"):
+        np.testing.assert_array_equal(got.fields[name], want.fields[name])
+        if want.traces:
+            np.testing.assert_array_equal(got.traces[name], want.traces[name])
+    np.testing.assert_array_equal(got.energy, want.energy)
+    assert np.all(np.max(np.abs(want.work), axis=1) > 0)
+    np.testing.assert_array_equal(got.work, want.work)
+
+
+def test_driven_window_needs_grains_0_and_1_in_one_lane():
+    model = build_model(driven_scenes(traces=False), "cpu")
+    with pytest.raises(ValueError, match="grains 0 and 1"):
+        plan_tile(model.features, model.grain_count, model.chain_count, grains_per_lane=4, lanes_per_chain=4,
+                  steps_per_launch=3, windowed=True)
