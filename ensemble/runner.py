@@ -21,6 +21,7 @@ from .model import Model, State, build_model
 from .recorder import Recorder
 from .scene import Scene
 from .solvers import SolverConfig, choose_config, make_solver
+from .solvers.calibrate import step_reason
 from .status import Status
 
 MONITOR_MIN_STEPS = 512
@@ -60,6 +61,8 @@ class RunResult:
     """Which solver advanced the state: 'step' (one step per launch), 'sweep' or a fused kernel's description."""
     solver: SolverConfig | None = None
     """The SolverConfig that ran."""
+    kernel_note: str | None = None
+    """Why the per-step kernel ran (a feature or a short run), or None; also appended to ``kernel``."""
 
     @property
     def chain_count(self) -> int:
@@ -101,6 +104,11 @@ class Runner:
         self.current: State = self.buffers[0]
         config = kernel if isinstance(kernel, SolverConfig) else choose_config(
             model, kernel, run_steps=model.scenes[0].step_count)
+        self.kernel_note = None
+        """Why the per-step kernel runs (one line), or None."""
+        if config.kind == "step":
+            self.kernel_note = (step_reason(model, model.scenes[0].step_count) if kernel == "auto"
+                                else "per-step kernel requested")
         if use_graph is not None:
             config = replace(config, use_graph=use_graph)
         self.solver = make_solver(model, config)
@@ -153,7 +161,8 @@ class Runner:
             t=np.array(record_steps) * m.dt, energy=rec.energy, work=rec.work, status=status,
             max_overlap=rec.largest_overlap.numpy(), energy_error=energy_error, wall_seconds=wall,
             steps=record_steps[-1], fields=rec.fields, trace_t=rec.trace_t, traces=rec.traces,
-            kernel=self.solver.describe(), solver=self.solver.config,
+            kernel=self.solver.describe() + (f" ({self.kernel_note})" if self.kernel_note else ""),
+            solver=self.solver.config, kernel_note=self.kernel_note,
         )
 
 

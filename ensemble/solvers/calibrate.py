@@ -53,26 +53,30 @@ def stepping_features(features):
     return replace(features, traces=False)
 
 
-def fused_lacks(model: Model) -> str | None:
-    """The feature of ``model`` that the device's fused kernel (CPU sweep, CUDA tile/window) lacks, or None."""
-    f = stepping_features(model.features)
-    if model.device.is_cpu:
-        return None if sweepable(f) else f"surface = {f.surface!r}"
-    return None if fusable(f) else f"surface = {f.surface!r}"
+def fused_lacks(features, is_cpu: bool) -> str | None:
+    """The feature the device's fused kernel (CPU sweep, CUDA tile/window) lacks, or None."""
+    f = stepping_features(features)
+    if is_cpu:
+        return None if sweepable(f) else f"features {f}"
+    return None if fusable(f) else f"features {f}"
+
+
+def step_reason_of(features, is_cpu: bool, grain_steps: float) -> str | None:
+    """Why ``auto`` picks the per-step kernel for a run of ``grain_steps`` (one line), or None."""
+    lacks = fused_lacks(features, is_cpu)
+    if lacks:
+        return f"the {'sweep' if is_cpu else 'tile/window'} kernel lacks {lacks}"
+    limit = AUTO_MIN_GRAIN_STEPS_CPU if is_cpu else AUTO_MIN_GRAIN_STEPS_GPU
+    if grain_steps < limit:
+        return (f"a short run ({grain_steps:.3g} grain-steps < {limit:.0e}) does not repay a fused kernel's "
+                f"compile; --kernel {'sweep' if is_cpu else 'tile/window'} forces one")
+    return None
 
 
 def step_reason(model: Model, run_steps: int | None = None) -> str | None:
     """Why ``auto`` picks the per-step kernel for ``model`` (one line), or None when it picks a fused one."""
-    lacks = fused_lacks(model)
-    if lacks:
-        kind = "sweep" if model.device.is_cpu else "tile/window"
-        return f"per-step kernel: the {kind} kernel lacks {lacks}"
     work = model.chain_count * model.grain_count * (run_steps if run_steps is not None else math.inf)
-    limit = AUTO_MIN_GRAIN_STEPS_CPU if model.device.is_cpu else AUTO_MIN_GRAIN_STEPS_GPU
-    if work < limit:
-        return (f"per-step kernel: a short run ({work:.3g} grain-steps < {limit:.0e}) does not repay a fused "
-                f"kernel's compile (--kernel sweep/tile/window forces one)")
-    return None
+    return step_reason_of(model.features, model.device.is_cpu, work)
 
 
 # ---- candidate launch shapes ----------------------------------------------------------------------
@@ -276,7 +280,7 @@ def choose_config(model: Model, kernel: str = "auto", *, run_steps: int | None =
         if not model.device.is_cpu:
             raise ValueError("kernel = 'sweep': a CPU kernel; use --device cpu")
         if not sweepable(stepping_features(f)):
-            raise ValueError(f"kernel = 'sweep': not implemented for {fused_lacks(model)} (features {f})")
+            raise ValueError(f"kernel = 'sweep': not implemented for features {f}")
         return SWEEP
     if kernel in ("tile", "window"):
         if not fusable(stepping_features(f)):
