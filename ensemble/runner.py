@@ -147,6 +147,7 @@ class Runner:
             rec.record(self.current, r, step)
             if progress is not None:
                 progress(r + 1, len(record_steps))
+        rec.finish()
         wp.synchronize_device(m.device)
         wall = time.perf_counter() - start
 
