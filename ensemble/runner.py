@@ -63,6 +63,10 @@ class RunResult:
     """The SolverConfig that ran."""
     kernel_note: str | None = None
     """Why the per-step kernel ran (a feature or a short run), or None; also appended to ``kernel``."""
+    timing: dict = field(default_factory=dict)
+    """Seconds: ``setup`` (kernel choice, calibration, compile/load), ``advance`` (host time in the
+    solver; on a CPU the kernels themselves), ``record`` (checks, host copies, unpacking), ``device``
+    (CUDA: summed event time of the advances; CPU: = advance), ``wall`` (= wall_seconds)."""
 
     @property
     def chain_count(self) -> int:
@@ -94,6 +98,7 @@ class Runner:
 
     def __init__(self, model: Model, *, use_graph: bool | None = None, energy_tolerance: float = 1e-2,
                  kernel: str | SolverConfig = "auto", monitor_every: int | None = None):
+        setup_start = time.perf_counter()
         self.model = model
         self.monitor_every = (max(MONITOR_MIN_STEPS, MONITOR_STEPS_PER_GRAIN * model.grain_count)
                               if monitor_every is None else monitor_every)
@@ -114,6 +119,8 @@ class Runner:
         self.solver = make_solver(model, config)
         self.solver.load()
         self.recorder = Recorder(model)
+        self.setup_seconds = time.perf_counter() - setup_start
+        """Kernel choice (and any calibration), solver construction and kernel compile/load [s]."""
 
     def advance(self, n_steps: int, first_step: int | None = None) -> None:
         """Take ``n_steps`` steps from ``current``, which holds ``first_step`` (no host synchronisation when
@@ -138,18 +145,36 @@ class Runner:
         scene = m.scenes[0]
         # records at these steps; the pieces between them may differ in length (Scene.record_steps)
         record_steps = [int(k) for k in scene.record_steps]
+        clock = time.perf_counter()
         rec.load()   # compile before the clock starts (the solver loaded in __init__)
         wp.synchronize_device(m.device)
+        setup = self.setup_seconds + time.perf_counter() - clock
+        events = [] if m.device.is_cuda else None
+        advance_seconds = record_seconds = 0.0
         start = time.perf_counter()
         for r, step in enumerate(record_steps):
             if r:
+                clock = time.perf_counter()
+                if events is not None:
+                    events.append(wp.record_event(wp.Event(m.device, enable_timing=True)))
                 self.advance_monitored(record_steps[r - 1], step - record_steps[r - 1])
+                if events is not None:
+                    events.append(wp.record_event(wp.Event(m.device, enable_timing=True)))
+                advance_seconds += time.perf_counter() - clock
+            clock = time.perf_counter()
             rec.record(self.current, r, step)
             if progress is not None:
                 progress(r + 1, len(record_steps))
+            record_seconds += time.perf_counter() - clock
+        clock = time.perf_counter()
         rec.finish()
         wp.synchronize_device(m.device)
+        record_seconds += time.perf_counter() - clock
         wall = time.perf_counter() - start
+        device_seconds = advance_seconds if events is None else sum(
+            wp.get_event_elapsed_time(a, b) for a, b in zip(events[::2], events[1::2])) / 1e3
+        timing = {"setup": setup, "advance": advance_seconds, "record": record_seconds, "device": device_seconds,
+                  "wall": wall}
 
         status = self.current.status.numpy().copy()
         # max over records and the checks between them (the records alone would miss peaks in between)
@@ -163,7 +188,7 @@ class Runner:
             max_overlap=rec.largest_overlap.numpy(), energy_error=energy_error, wall_seconds=wall,
             steps=record_steps[-1], fields=rec.fields, trace_t=rec.trace_t, traces=rec.traces,
             kernel=self.solver.describe() + (f" ({self.kernel_note})" if self.kernel_note else ""),
-            solver=self.solver.config, kernel_note=self.kernel_note,
+            solver=self.solver.config, kernel_note=self.kernel_note, timing=timing,
         )
 
 
