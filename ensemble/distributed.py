@@ -67,16 +67,6 @@ def warm_kernels(features: Iterable[Features], device: str) -> None:
     for f in set(features):
         wp.load_module(step_kernel(f).module, device=device)
         wp.load_module(record_kernel(f).module, device=device)
-        if wp.get_device(device).is_cpu:
-            # the CPU sweep kernel too (what auto picks for long runs) and the trace sampler
-            from kernels.cpu import sweep_kernel
-            from kernels.traces import trace_sample_kernel
-
-            from .solvers.calibrate import stepping_features
-
-            wp.load_module(sweep_kernel(stepping_features(f)).module, device=device)
-            if f.traces:
-                wp.load_module(trace_sample_kernel(f.precision).module, device=device)
 
 
 def run_job(job: BatchJob, device: str, progress: Callable[[int, int], None] | None = None, *,

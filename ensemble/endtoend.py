@@ -118,7 +118,7 @@ def bench_sweep(path: str | Path, device: str, *, kernel: str = "auto", override
             for job in jobs:
                 result, batch_build = integrate_job(job, device)
                 t = result.timing
-                totals["build"] += batch_build - t["setup"]
+                totals["build"] += batch_build - t["setup_in_init"]
                 totals["compile"] += t["setup"]
                 totals["kernel"] += t["advance"]
                 totals["record"] += t["record"]

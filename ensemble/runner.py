@@ -64,7 +64,8 @@ class RunResult:
     kernel_note: str | None = None
     """Why the per-step kernel ran (a feature or a short run), or None; also appended to ``kernel``."""
     timing: dict = field(default_factory=dict)
-    """Seconds: ``setup`` (kernel choice, calibration, compile/load), ``advance`` (host time in the
+    """Seconds: ``setup`` (kernel choice, calibration, compile/load; ``setup_in_init`` of it in
+    ``Runner.__init__``), ``advance`` (host time in the
     solver; on a CPU the kernels themselves), ``record`` (checks, host copies, unpacking), ``device``
     (CUDA: summed event time of the advances; CPU: = advance), ``wall`` (= wall_seconds)."""
 
@@ -173,7 +174,7 @@ class Runner:
         wall = time.perf_counter() - start
         device_seconds = advance_seconds if events is None else sum(
             wp.get_event_elapsed_time(a, b) for a, b in zip(events[::2], events[1::2])) / 1e3
-        timing = {"setup": setup, "advance": advance_seconds, "record": record_seconds, "device": device_seconds,
+        timing = {"setup": setup, "setup_in_init": self.setup_seconds, "advance": advance_seconds, "record": record_seconds, "device": device_seconds,
                   "wall": wall}
 
         status = self.current.status.numpy().copy()

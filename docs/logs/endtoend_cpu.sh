@@ -1,0 +1,24 @@
+#!/bin/sh
+# End-to-end CPU benchmark of docs/benchmarks.md ("End to end"): run from the repository root;
+# writes docs/logs/endtoend_cpu.txt (each command, then its --json record).
+# Device: the CPU of the session's machine (2 cores, shared with other jobs).
+set -e
+run() {
+    echo "## $(date -u +%Y-%m-%dT%H:%M:%SZ) hertzian $*"
+    python -m ensemble.cli "$@" --json
+}
+{
+    echo "# hertzian end-to-end bench, CPU ($(nproc) cores, $(uname -m)), $(git rev-parse --short HEAD)"
+    run bench --device cpu --cold --scene docs/bench/impact_1000_traces.toml
+    run bench --device cpu --scene docs/bench/impact_1000_traces.toml
+    for round in 1 2; do
+        run bench --device cpu --scene docs/bench/impact_1000.toml
+        run bench --device cpu --scene docs/bench/impact_1000_traces.toml
+        run bench --device cpu --scene docs/bench/driven_1000.toml
+    done
+    run bench --device cpu --scene docs/bench/impact_1000_traces.toml --kernel step
+    run bench --device cpu --scene docs/bench/driven_1000.toml --kernel step
+    run bench --device cpu --cold --sweep sweeps/example.toml
+    run bench --device cpu --sweep sweeps/example.toml
+    run bench --device cpu --sweep sweeps/cpu_100k.toml
+} 2>&1
