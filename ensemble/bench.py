@@ -258,7 +258,8 @@ def run_bench(device: str, sizes: list[tuple[int, int]], *, kernel: str = "all",
                 peer = JaxGear4(problem, str(dev))
                 peer.run(check_steps)
                 platform = peer.device.platform
-                impl = Implementation(name="jax", kernel=f"lax.scan ({platform})", chains=chains,
+                impl = Implementation(name="jax", kernel=f"lax.scan unroll={peer.unroll} ({platform})",
+                                      chains=chains,
                                       advance=peer.run, state=peer.state, tolerance=PEER_TOLERANCE,
                                       chunk=512 if platform == "gpu" else 1, cpu=platform == "cpu")
                 bench(impl, host_wall if platform == "cpu" else wall, chains)

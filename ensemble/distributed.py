@@ -72,15 +72,25 @@ def warm_kernels(features: Iterable[Features], device: str) -> None:
 def run_job(job: BatchJob, device: str, progress: Callable[[int, int], None] | None = None, *,
             worker: str = "") -> dict[str, Any]:
     """Run one batch on ``device`` and write it into the store; return its completion record."""
+    return write_job(job, *integrate_job(job, device, progress), worker=worker)
+
+
+def integrate_job(job: BatchJob, device: str, progress: Callable[[int, int], None] | None = None):
+    """Build and run one batch on ``device``; returns (RunResult, build seconds). Writes nothing."""
     from .model import build_model
     from .runner import Runner
-    from .sweep_store import write_batch
 
     _quiet_warp()
     start = time.perf_counter()
     runner = Runner(build_model(job.chains, device, features=job.features), kernel=job.kernel)
     build = time.perf_counter() - start
-    result = runner.run(progress)
+    return runner.run(progress), build
+
+
+def write_job(job: BatchJob, result, build: float, *, worker: str = "") -> dict[str, Any]:
+    """Write a finished batch into the store (its completion flag last); returns its completion record."""
+    from .sweep_store import write_batch
+
     return write_batch(job.store, job.batch, result, grain_steps=job.grain_steps, worker=worker,
                        build_seconds=build)
 
@@ -123,12 +133,27 @@ def run_job_on_worker(job: BatchJob, requested_device: str | None) -> dict[str, 
 
 def run_serial(jobs: list[BatchJob], device: str, *, on_record: Callable[[BatchJob, int, int], None] | None = None,
                on_done: Callable[[BatchJob, dict], None] | None = None) -> None:
-    """Run jobs one after the other in this process."""
-    for job in jobs:
-        progress = (lambda done, total, job=job: on_record(job, done, total)) if on_record else None
-        record = run_job(job, device, progress)
-        if on_done:
-            on_done(job, record)
+    """Run jobs one after the other in this process; each batch's store write runs in a background thread
+    while the next batch integrates (writes stay in batch order; ``on_done`` follows each write)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="hertzian-store") as writer:
+        pending = None
+
+        def settle():
+            job, future = pending
+            record = future.result()
+            if on_done:
+                on_done(job, record)
+
+        for job in jobs:
+            progress = (lambda done, total, job=job: on_record(job, done, total)) if on_record else None
+            result, build = integrate_job(job, device, progress)
+            if pending is not None:
+                settle()
+            pending = (job, writer.submit(write_job, job, result, build))
+        if pending is not None:
+            settle()
 
 
 def local_cluster(workers: int):

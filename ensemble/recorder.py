@@ -3,7 +3,10 @@
 ``check(state, step)`` launches the record kernel (energy, driver's work, largest overlap and the
 status flags, which a non-finite chain's later steps read to freeze it) and folds the result into
 running extremes; it never synchronises. ``record(state, r)`` does a check and then copies what the
-scenes keep (snapshots, energy, work, the trace ring) into host arrays.
+scenes keep (snapshots, energy, work, the trace ring) into one of two host staging buffers (page-
+locked on CUDA, so the copies are asynchronous and ordered before the next launches on the same
+stream); the buffer is unpacked into the host arrays only when it is reused two records later, or
+by ``finish()``, so a record never waits for the device.
 """
 
 from __future__ import annotations
@@ -47,6 +50,29 @@ class Recorder:
         self.energy = np.zeros((c, records))
         self.work = np.zeros((c, records)) if m.features.surface == "driven" else None
 
+        self.staging = [self._staging_buffer() for _ in range(2)]
+        """Two sets of host copies, used alternately (double buffering)."""
+        self.pending: list[tuple[int, object] | None] = [None, None]
+        """Per staging buffer: (record index, CUDA event after its copies) not yet unpacked, or None."""
+
+    def _staging_buffer(self) -> dict[str, wp.array]:
+        m = self.model
+        pinned = m.device.is_cuda
+        c, n = m.chain_count, m.grain_count
+
+        def host(shape, dtype):
+            return wp.empty(shape, dtype=dtype, device="cpu", pinned=pinned)
+
+        buf = {"energy": host(c, wp.float64)}
+        if self.work is not None:
+            buf["work"] = host(c, wp.float64)
+        if self.fields or self.traced:
+            buf["u"] = host((c, n), m.real)
+            buf["v"] = host((c, n), m.real)
+        if self.traced:
+            buf["ring"] = host((2, c, self.capacity, len(self.traced)), m.real)
+        return buf
+
     def load(self) -> None:
         """Compile and load the reduction kernels (before a clock starts)."""
         wp.load_module(self.kernel.module, device=self.model.device)
@@ -67,25 +93,53 @@ class Recorder:
                   outputs=[self.energy_deviation, self.largest_overlap], device=m.device)
 
     def record(self, state: State, r: int, step: int) -> None:
-        """Check at ``step`` and keep record ``r`` (snapshots, energy, work, the traces since record r − 1)."""
+        """Check at ``step`` and keep record ``r`` (snapshots, energy, work, the traces since record r − 1).
+
+        The device → host copies are queued into staging buffer r % 2 (asynchronous on CUDA); the host
+        arrays hold record r after ``finish()`` (or once the buffer is reused at record r + 2)."""
         self.check(state, step)
+        slot = r % 2
+        if self.pending[slot] is not None:
+            self._unpack(slot)
+        buf = self.staging[slot]
+        wp.copy(buf["energy"], self.energy_now)
+        if "work" in buf:
+            wp.copy(buf["work"], self.work_now)
+        if "u" in buf:
+            wp.copy(buf["u"], state.x[0])
+            wp.copy(buf["v"], state.x[1])
+        if "ring" in buf and r > 0:
+            wp.copy(buf["ring"], state.traces)
+        event = wp.record_event() if self.model.device.is_cuda else None
+        self.pending[slot] = (r, event)
+
+    def finish(self) -> None:
+        """Unpack every queued record into the host arrays (waits for their copies)."""
+        for slot in sorted((s for s in range(2) if self.pending[s] is not None), key=lambda s: self.pending[s][0]):
+            self._unpack(slot)
+
+    def _unpack(self, slot: int) -> None:
+        r, event = self.pending[slot]
+        if event is not None:
+            wp.synchronize_event(event)
+        buf = self.staging[slot]
         dt = self.real_np(self.model.dt)
-        x = state.x
         if "u" in self.fields:
-            self.fields["u"][:, r] = x[0].numpy()
+            self.fields["u"][:, r] = buf["u"].numpy()
         if "v" in self.fields:
-            self.fields["v"][:, r] = x[1].numpy() / dt
-        self.energy[:, r] = self.energy_now.numpy()
+            self.fields["v"][:, r] = buf["v"].numpy() / dt
+        self.energy[:, r] = buf["energy"].numpy()
         if self.work is not None:
-            self.work[:, r] = self.work_now.numpy()
+            self.work[:, r] = buf["work"].numpy()
         if self.traced:
             if r == 0:
-                self.traces["u"][:, 0] = x[0].numpy()[:, self.traced]
-                self.traces["v"][:, 0] = x[1].numpy()[:, self.traced] / dt
+                self.traces["u"][:, 0] = buf["u"].numpy()[:, self.traced]
+                self.traces["v"][:, 0] = buf["v"].numpy()[:, self.traced] / dt
             else:
                 # sample k (taken at step k·stride) sits in ring slot k % capacity
                 rows = slice(int(self.record_steps[r - 1]) // self.stride + 1,
                              int(self.record_steps[r]) // self.stride + 1)
-                ring = state.traces.numpy()[:, :, np.arange(rows.start, rows.stop) % self.capacity]
+                ring = buf["ring"].numpy()[:, :, np.arange(rows.start, rows.stop) % self.capacity]
                 self.traces["u"][:, rows] = ring[0]
                 self.traces["v"][:, rows] = ring[1] / dt
+        self.pending[slot] = None

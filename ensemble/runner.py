@@ -21,6 +21,7 @@ from .model import Model, State, build_model
 from .recorder import Recorder
 from .scene import Scene
 from .solvers import SolverConfig, choose_config, make_solver
+from .solvers.calibrate import step_reason
 from .status import Status
 
 MONITOR_MIN_STEPS = 512
@@ -60,6 +61,13 @@ class RunResult:
     """Which solver advanced the state: 'step' (one step per launch), 'sweep' or a fused kernel's description."""
     solver: SolverConfig | None = None
     """The SolverConfig that ran."""
+    kernel_note: str | None = None
+    """Why the per-step kernel ran (a feature or a short run), or None; also appended to ``kernel``."""
+    timing: dict = field(default_factory=dict)
+    """Seconds: ``setup`` (kernel choice, calibration, compile/load; ``setup_in_init`` of it in
+    ``Runner.__init__``), ``advance`` (host time in the
+    solver; on a CPU the kernels themselves), ``record`` (checks, host copies, unpacking), ``device``
+    (CUDA: summed event time of the advances; CPU: = advance), ``wall`` (= wall_seconds)."""
 
     @property
     def chain_count(self) -> int:
@@ -91,6 +99,7 @@ class Runner:
 
     def __init__(self, model: Model, *, use_graph: bool | None = None, energy_tolerance: float = 1e-2,
                  kernel: str | SolverConfig = "auto", monitor_every: int | None = None):
+        setup_start = time.perf_counter()
         self.model = model
         self.monitor_every = (max(MONITOR_MIN_STEPS, MONITOR_STEPS_PER_GRAIN * model.grain_count)
                               if monitor_every is None else monitor_every)
@@ -101,16 +110,24 @@ class Runner:
         self.current: State = self.buffers[0]
         config = kernel if isinstance(kernel, SolverConfig) else choose_config(
             model, kernel, run_steps=model.scenes[0].step_count)
+        self.kernel_note = None
+        """Why the per-step kernel runs (one line), or None."""
+        if config.kind == "step":
+            self.kernel_note = (step_reason(model, model.scenes[0].step_count) if kernel == "auto"
+                                else "per-step kernel requested")
         if use_graph is not None:
             config = replace(config, use_graph=use_graph)
         self.solver = make_solver(model, config)
         self.solver.load()
         self.recorder = Recorder(model)
+        self.setup_seconds = time.perf_counter() - setup_start
+        """Kernel choice (and any calibration), solver construction and kernel compile/load [s]."""
 
-    def advance(self, n_steps: int) -> None:
-        """Take ``n_steps`` steps from ``current`` (no host synchronisation)."""
+    def advance(self, n_steps: int, first_step: int | None = None) -> None:
+        """Take ``n_steps`` steps from ``current``, which holds ``first_step`` (no host synchronisation when
+        ``first_step`` is given)."""
         other = self.buffers[1] if self.current is self.buffers[0] else self.buffers[0]
-        self.current = self.solver.advance(self.current, other, n_steps)
+        self.current = self.solver.advance(self.current, other, n_steps, first_step=first_step)
 
     def advance_monitored(self, first_step: int, n_steps: int) -> None:
         """``advance`` in pieces of ``monitor_every`` steps with a device-side check after each piece."""
@@ -118,7 +135,7 @@ class Runner:
         done = 0
         while done < n_steps:
             piece = min(every, n_steps - done)
-            self.advance(piece)
+            self.advance(piece, first_step + done)
             done += piece
             if done < n_steps:
                 self.recorder.check(self.current, first_step + done)
@@ -129,17 +146,36 @@ class Runner:
         scene = m.scenes[0]
         # records at these steps; the pieces between them may differ in length (Scene.record_steps)
         record_steps = [int(k) for k in scene.record_steps]
+        clock = time.perf_counter()
         rec.load()   # compile before the clock starts (the solver loaded in __init__)
         wp.synchronize_device(m.device)
+        setup = self.setup_seconds + time.perf_counter() - clock
+        events = [] if m.device.is_cuda else None
+        advance_seconds = record_seconds = 0.0
         start = time.perf_counter()
         for r, step in enumerate(record_steps):
             if r:
+                clock = time.perf_counter()
+                if events is not None:
+                    events.append(wp.record_event(wp.Event(m.device, enable_timing=True)))
                 self.advance_monitored(record_steps[r - 1], step - record_steps[r - 1])
+                if events is not None:
+                    events.append(wp.record_event(wp.Event(m.device, enable_timing=True)))
+                advance_seconds += time.perf_counter() - clock
+            clock = time.perf_counter()
             rec.record(self.current, r, step)
             if progress is not None:
                 progress(r + 1, len(record_steps))
+            record_seconds += time.perf_counter() - clock
+        clock = time.perf_counter()
+        rec.finish()
         wp.synchronize_device(m.device)
+        record_seconds += time.perf_counter() - clock
         wall = time.perf_counter() - start
+        device_seconds = advance_seconds if events is None else sum(
+            wp.get_event_elapsed_time(a, b) for a, b in zip(events[::2], events[1::2])) / 1e3
+        timing = {"setup": setup, "setup_in_init": self.setup_seconds, "advance": advance_seconds, "record": record_seconds, "device": device_seconds,
+                  "wall": wall}
 
         status = self.current.status.numpy().copy()
         # max over records and the checks between them (the records alone would miss peaks in between)
@@ -152,7 +188,8 @@ class Runner:
             t=np.array(record_steps) * m.dt, energy=rec.energy, work=rec.work, status=status,
             max_overlap=rec.largest_overlap.numpy(), energy_error=energy_error, wall_seconds=wall,
             steps=record_steps[-1], fields=rec.fields, trace_t=rec.trace_t, traces=rec.traces,
-            kernel=self.solver.describe(), solver=self.solver.config,
+            kernel=self.solver.describe() + (f" ({self.kernel_note})" if self.kernel_note else ""),
+            solver=self.solver.config, kernel_note=self.kernel_note, timing=timing,
         )
 
 

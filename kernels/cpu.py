@@ -11,7 +11,8 @@ positions, which are already in registers, so overwriting grain ``i`` cannot dis
 ``i + 1``.
 
 The arithmetic is ``kernels/step.py``'s expression for expression (bitwise equal on the CPU;
-``tests/test_cpu_kernel.py``). Drive and traces are not implemented (per-step kernel).
+``tests/test_cpu_kernel.py``), the driven surface grain and the driver's work included
+(``tests/test_fused_features.py``). Traces are sampled between launches (kernels/traces.py).
 """
 
 
@@ -26,8 +27,8 @@ from .physics import contact_functions, contact_parameters
 
 
 def sweepable(features: Features) -> bool:
-    """True when the sweep kernel implements every feature of this set (no drive, no traces)."""
-    return features.surface != "driven" and not features.traces
+    """True when the sweep kernel implements every feature of this set (traces: sampled between launches)."""
+    return not features.traces
 
 
 @functools.cache
@@ -39,6 +40,7 @@ def sweep_kernel(features: Features):
     real = wp.float64 if f.precision == "float64" else wp.float32
     Q = f.values
     SURFACE_WALL = f.surface == "wall"
+    DRIVEN = f.surface == "driven"
     BOTTOM_WALL = f.bottom == "wall"
     FIXED = f.bottom == "fixed"
     STATIC = f.static != "none"
@@ -72,6 +74,26 @@ def sweep_kernel(features: Features):
             # one δ0 and one a_c per chain: F(δ0) is the same for every contact, computed once
             return contact_force(delta00 + d, a_c0, n) - force00
 
+    @wp.func
+    def driver_values(amplitude: wp.float64, omega: wp.float64, t: wp.float64, dt: wp.float64) -> values_t:
+        # kernels/step.py's driver_values: x_j = dt^j/j! · d^j/dt^j (A sin ωt)
+        v = values_t()
+        s = wp.sin(omega * t)
+        co = wp.cos(omega * t)
+        scale = amplitude
+        for j in range(wp.static(Q)):
+            phase = j % 4
+            w = s
+            if phase == 1:
+                w = co
+            elif phase == 2:
+                w = -s
+            elif phase == 3:
+                w = -co
+            v[j] = real(scale * w)
+            scale = scale * omega * dt / wp.float64(j + 1)
+        return v
+
     @wp.kernel(module="unique", enable_backward=False)
     def sweep(
         x_in: wp.array3d(dtype=real),
@@ -83,8 +105,13 @@ def sweep_kernel(features: Features):
         status: wp.array(dtype=wp.int32),
         dt: wp.float64,
         steps: int,
+        drive: wp.array2d(dtype=wp.float64),
+        work_in: wp.array(dtype=wp.float64),
+        power_in: wp.array(dtype=wp.float64),
         x_out: wp.array3d(dtype=real),
         clock_out: wp.array(dtype=wp.int32),
+        work_out: wp.array(dtype=wp.float64),
+        power_out: wp.array(dtype=wp.float64),
     ):
         c = wp.tid()
         n_grains = x_in.shape[2]
@@ -93,6 +120,9 @@ def sweep_kernel(features: Features):
         for i in range(n_grains):
             for q in range(wp.static(Q)):
                 x_out[q, c, i] = x_in[q, c, i]
+        if wp.static(DRIVEN):
+            work_out[c] = work_in[c]
+            power_out[c] = power_in[c]
         if status[c] == wp.static(STATUS_NON_FINITE):
             return  # a blown-up chain is frozen
 
@@ -107,9 +137,31 @@ def sweep_kernel(features: Features):
         inv_m = inverse_mass[c, 0]
         h = real(dt)
         last = n_grains - 1
+        if wp.static(DRIVEN):
+            amplitude = drive[c, 0]
+            omega = drive[c, 1]
+            work = work_in[c]
+            power_prev = power_in[c]
+            step_first = clock_in[0]
 
         for _step in range(steps):
             u_here = predicted_position(x_out, c, 0)
+            if wp.static(DRIVEN):
+                # kernels/step.py's driven grain 0: prescribed u_0, and the driver's work (state at t_n)
+                step_new = step_first + _step + 1
+                t_new = wp.float64(step_new) * dt
+                u_drive = amplitude * wp.sin(omega * t_new)
+                t_old = wp.float64(step_new - 1) * dt
+                d_old = x_out[0, c, 0] - x_out[0, c, 1]
+                force_old = wp.float64(contact(static_overlap, contact_constant, c, 1, d_old, a_c0, delta00,
+                                               force00, n))
+                power = force_old * amplitude * omega * wp.cos(omega * t_old)
+                work = work + dt * wp.float64(0.5) * (power_prev + power)
+                power_prev = power
+                x1_drive = real(dt * amplitude * omega * wp.cos(omega * t_new))
+                u_here = real(u_drive)
+                if wp.static(EVENTS):
+                    driver_old = driver_values(amplitude, omega, t_old, dt)
             if wp.static(EVENTS):
                 u_above = real(0)         # predicted position of the grain above (0: the wall)
                 above_old = values_t()    # its Nordsieck vector at t_n (already overwritten in x_out)
@@ -132,6 +184,13 @@ def sweep_kernel(features: Features):
                     held = i == last
                 if wp.static(EVENTS):
                     own_old = nordsieck.load(x_out, c, i)
+                if wp.static(DRIVEN):
+                    if i == 0:
+                        held = True
+                        x_out[0, c, 0] = real(u_drive)
+                        x_out[1, c, 0] = x1_drive
+                        for k in range(2, wp.static(Q)):
+                            x_out[k, c, 0] = real(0)
                 if not held:
                     m_inv = inv_m
                     if wp.static(HETERO):
@@ -167,15 +226,24 @@ def sweep_kernel(features: Features):
                 if wp.static(EVENTS):
                     u_above = u_here
                     above_old = own_old
+                    if wp.static(DRIVEN):
+                        if i == 0:
+                            above_old = driver_old   # step.py: grain 1 sees the driver's vector at t_n
                 u_here = u_next
+        if wp.static(DRIVEN):
+            work_out[c] = work
+            power_out[c] = power_prev
 
     return sweep
 
 
 def launch_sweep(kernel, *, x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status,
-                 dt: float, steps: int, x_out, clock_out, device, record_cmd: bool = False):
-    """Launch ``steps`` steps of the sweep kernel (one thread per chain); returns the Launch if recorded."""
+                 dt: float, steps: int, x_out, clock_out, device, drive, work_in, power_in, work_out, power_out,
+                 record_cmd: bool = False):
+    """Launch ``steps`` steps of the sweep kernel (one thread per chain); returns the Launch if recorded.
+
+    ``drive`` (chains, 2), ``work_*``/``power_*`` (chains,): the model's and states' arrays (size 0 undriven)."""
     return wp.launch(kernel, dim=x_in.shape[1],
                      inputs=[x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status,
-                             dt, steps],
-                     outputs=[x_out, clock_out], device=device, record_cmd=record_cmd)
+                             dt, steps, drive, work_in, power_in],
+                     outputs=[x_out, clock_out, work_out, power_out], device=device, record_cmd=record_cmd)

@@ -23,7 +23,10 @@ Long chains (more grains than a block holds) are cut into windows of ``interior`
 ``steps ≤ ghost`` steps a window's interior is exact; only the interior is written back. Windows read
 ``x_in`` and write ``x_out`` (never the same buffer), so no window sees another's partial update.
 
-Features not fused: drive (``surface = "driven"``) and traces; they stay on the per-step kernel.
+A driven surface (``surface = "driven"``): the lane holding grain 0 sets its predicted position to the
+driver's u_0(t_{n+1}), overwrites it with the driver's values after the corrector and accumulates the
+driver's work in registers, each in kernels/step.py's arithmetic (grain 1 must sit in grain 0's lane).
+Traces are sampled between launches (kernels/traces.py; the solver cuts advances at trace steps).
 """
 
 
@@ -40,8 +43,8 @@ from .physics import contact_forces, contact_functions, contact_parameters
 
 
 def fusable(features: Features) -> bool:
-    """True when the fused kernels implement every feature of this set (no drive, no traces)."""
-    return features.surface != "driven" and not features.traces
+    """True when the fused kernels implement every feature of this set (traces: sampled between launches)."""
+    return not features.traces
 
 
 @dataclass(frozen=True)
@@ -90,6 +93,7 @@ def tile_kernel(features: Features, shape: TileShape):
     WINDOWED = shape.windowed
     MASKED = shape.masked
     SURFACE_WALL = f.surface == "wall"
+    DRIVEN = f.surface == "driven"
     BOTTOM_WALL = f.bottom == "wall"
     FIXED = f.bottom == "fixed"
     FREE_END = (not SURFACE_WALL) or f.bottom == "free"
@@ -120,13 +124,49 @@ def tile_kernel(features: Features, shape: TileShape):
         return v
 
     @wp.func
+    def driver_values(amplitude: wp.float64, omega: wp.float64, t: wp.float64, dt: wp.float64) -> value_vec:
+        # kernels/step.py's driver_values: x_j = dt^j/j! · d^j/dt^j (A sin ωt)
+        v = value_vec()
+        s = wp.sin(omega * t)
+        co = wp.cos(omega * t)
+        scale = amplitude
+        for j in range(wp.static(Q)):
+            phase = j % 4
+            w = s
+            if phase == 1:
+                w = co
+            elif phase == 2:
+                w = -s
+            elif phase == 3:
+                w = -co
+            v[j] = real(scale * w)
+            scale = scale * omega * dt / wp.float64(j + 1)
+        return v
+
+    @wp.func
+    def driver_work(s: state_t, k0: int, work_power: wp.vec2d, delta0: contact_vec, a_c: contact_vec,
+                    force0: contact_vec, n: real, amplitude: wp.float64, omega: wp.float64, step_new: int,
+                    dt: wp.float64) -> wp.vec2d:
+        # kernels/step.py: driver's work, trapezoid of P = ΔF_01 · v_0 at t_n (grains 0 and 1 in this lane)
+        t_old = wp.float64(step_new - 1) * dt
+        d_old = s[0, k0] - s[0, k0 + 1]
+        force_old = wp.float64(contact_force(delta0[k0 + 1] + d_old, a_c[k0 + 1], n) - force0[k0 + 1])
+        power = force_old * amplitude * omega * wp.cos(omega * t_old)
+        return wp.vec2d(work_power[0] + dt * wp.float64(0.5) * (work_power[1] + power), power)
+
+    @wp.func
     def advance(s: state_t, edges: Any, lane: int, has_left: bool, has_right: bool,
                 delta0: contact_vec, a_c: contact_vec, force0: contact_vec, n: real,
-                inv_m: grain_vec, hh: real, contact_bits: int, move_bits: int, h: real) -> state_t:
+                inv_m: grain_vec, hh: real, contact_bits: int, move_bits: int, h: real,
+                k0: int, amplitude: wp.float64, omega: wp.float64, step_new: int, dt: wp.float64) -> state_t:
+        # k0: grain 0's index in this lane, or -1 (undriven, or grain 0 elsewhere)
         # 1. predict
         up = grain_vec()
         for k in range(G):
             up[k] = nordsieck.predict_position(column(s, k))
+        if wp.static(DRIVEN):
+            if k0 >= 0:
+                up[k0] = real(amplitude * wp.sin(omega * (wp.float64(step_new) * dt)))
         # 2. exchange the lane's edge positions with its neighbours (virtual grains outside sit at 0)
         if wp.static(EVENTS):
             # events also need the neighbour lanes' edge grains' Nordsieck vectors
@@ -193,6 +233,9 @@ def tile_kernel(features: Features, shape: TileShape):
                 if k < G - 1:
                     below = column(s, wp.min(k + 1, G - 1))
                     u_below = up[wp.min(k + 1, G - 1)]
+                if wp.static(DRIVEN):
+                    if k0 >= 0 and k == k0 + 1:
+                        above = driver_values(amplitude, omega, wp.float64(step_new - 1) * dt, dt)
                 has_above = (contact_bits & (1 << k)) != 0
                 has_below = (contact_bits & (1 << (k + 1))) != 0
                 p_above = vec3(delta0[k], a_c[k], n)
@@ -213,6 +256,14 @@ def tile_kernel(features: Features, shape: TileShape):
                     else:
                         for q in range(Q):
                             out[q, k] = new[q]
+        if wp.static(DRIVEN):
+            if k0 >= 0:
+                # the prescribed surface grain: the driver's u_0 and dt·v_0 at t_{n+1}, higher values 0
+                t_new = wp.float64(step_new) * dt
+                for q in range(Q):
+                    out[q, k0] = real(0)
+                out[0, k0] = real(amplitude * wp.sin(omega * t_new))
+                out[1, k0] = real(dt * amplitude * omega * wp.cos(omega * t_new))
         return out
 
     @wp.kernel(module="unique", enable_backward=False, grid_stride=False,
@@ -230,8 +281,13 @@ def tile_kernel(features: Features, shape: TileShape):
         interior: int,
         ghost: int,
         blocks_per_chain: int,
+        drive: wp.array2d(dtype=wp.float64),
+        work_in: wp.array(dtype=wp.float64),
+        power_in: wp.array(dtype=wp.float64),
         x_out: wp.array3d(dtype=real),
         clock_out: wp.array(dtype=wp.int32),
+        work_out: wp.array(dtype=wp.float64),
+        power_out: wp.array(dtype=wp.float64),
     ):
         block, lane = wp.tid()
         chain_count = x_in.shape[1]
@@ -312,19 +368,48 @@ def tile_kernel(features: Features, shape: TileShape):
         hh = real(0.5) * h * h
         has_left = lane_c > 0
         has_right = lane_c < L - 1
+        k0 = int(-1)            # grain 0's index in this lane (driven surface), else -1
+        amplitude = wp.float64(0)
+        omega = wp.float64(0)
+        step0 = clock_in[0]
+        work_power = wp.vec2d()
+        if wp.static(DRIVEN):
+            if live and base <= 0 and base + G > 0:
+                k0 = -base
+            amplitude = drive[cc, 0]
+            omega = drive[cc, 1]
+            work_power = wp.vec2d(work_in[cc], power_in[cc])
         edges_even = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
         edges_odd = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
         for _pair in range(steps / 2):
+            if wp.static(DRIVEN):
+                if k0 >= 0:
+                    work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
+                                             step0 + 2 * _pair + 1, dt)
             s = advance(s, edges_even, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                        contact_bits, move_bits, h)
+                        contact_bits, move_bits, h, k0, amplitude, omega, step0 + 2 * _pair + 1, dt)
+            if wp.static(DRIVEN):
+                if k0 >= 0:
+                    work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
+                                             step0 + 2 * _pair + 2, dt)
             s = advance(s, edges_odd, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                        contact_bits, move_bits, h)
+                        contact_bits, move_bits, h, k0, amplitude, omega, step0 + 2 * _pair + 2, dt)
         if steps % 2 == 1:
+            if wp.static(DRIVEN):
+                if k0 >= 0:
+                    work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
+                                             step0 + steps, dt)
             s = advance(s, edges_even, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                        contact_bits, move_bits, h)
+                        contact_bits, move_bits, h, k0, amplitude, omega, step0 + steps, dt)
 
         # write back the interior; a frozen (non-finite) chain keeps its state
         frozen = status[cc] == wp.static(STATUS_NON_FINITE)
+        if wp.static(DRIVEN):
+            if k0 >= 0 and keep_lo <= 0:
+                if frozen:
+                    work_power = wp.vec2d(work_in[cc], power_in[cc])
+                work_out[cc] = work_power[0]
+                power_out[cc] = work_power[1]
         for k in range(G):
             g = base + k
             if live and g >= keep_lo and g < keep_hi:
@@ -384,6 +469,9 @@ def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_
         if lanes_per_chain is None:
             raise ValueError("a windowed plan needs lanes_per_chain")
         windows = plan_windows(n, lanes_per_chain * G, steps_per_launch)
+        if features.surface == "driven" and windows.ghost % G == G - 1:
+            raise ValueError(f"a driven windowed plan needs grains 0 and 1 in one lane (ghost {windows.ghost} "
+                             f"≢ {G - 1} mod {G})")
         shape = TileShape(G, lanes_per_chain, 1, windowed=True, masked=True, branchless=branchless,
                           fast_sqrt=fast_sqrt, max_registers=max_registers)
         plan = TilePlan(shape, steps_per_launch, windows.interior, windows.ghost, windows.blocks_per_chain,
@@ -402,8 +490,11 @@ def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_
 
 
 def launch_tile(plan: TilePlan, kernel, *, x_in, clock_in, inverse_mass, contact_constant, static_overlap,
-                exponent, status, dt: float, steps: int, x_out, clock_out, device, record_cmd: bool = False):
-    """Launch ``steps`` fused steps (``steps ≤ plan.steps_per_launch`` when windowed); x_in and x_out differ."""
+                exponent, status, dt: float, steps: int, x_out, clock_out, device, drive, work_in, power_in,
+                work_out, power_out, record_cmd: bool = False):
+    """Launch ``steps`` fused steps (``steps ≤ plan.steps_per_launch`` when windowed); x_in and x_out differ.
+
+    ``drive`` (chains, 2), ``work_*``/``power_*`` (chains,): the model's and states' arrays (size 0 undriven)."""
     if plan.shape.windowed and steps > plan.ghost:
         raise ValueError(f"steps = {steps}: a windowed launch takes at most {plan.ghost}")
     device = wp.get_device(device)
@@ -413,5 +504,5 @@ def launch_tile(plan: TilePlan, kernel, *, x_in, clock_in, inverse_mass, contact
     return wp.launch_tiled(
         kernel, dim=[plan.block_count],
         inputs=[x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status, dt, steps,
-                plan.interior, plan.ghost, plan.blocks_per_chain],
-        outputs=[x_out, clock_out], block_dim=plan.shape.block_dim, device=device, record_cmd=record_cmd)
+                plan.interior, plan.ghost, plan.blocks_per_chain, drive, work_in, power_in],
+        outputs=[x_out, clock_out, work_out, power_out], block_dim=plan.shape.block_dim, device=device, record_cmd=record_cmd)

@@ -17,6 +17,11 @@ from hertzian.ensemble.peers import NumpyGear4, problem_from_model
 from fused_cases import per_step
 
 
+def plain_gear(scenes):
+    """The peers integrate plain Gear steps: compare with the per-step kernel's plain steps (events off)."""
+    return [s.with_overrides({"integrator.events": "off"}) for s in scenes]
+
+
 def invoke(*args):
     return CliRunner().invoke(app, ["bench", *args])
 
@@ -44,7 +49,7 @@ def test_bench_json_records():
 
 def test_numpy_peer_matches_per_step_kernel():
     # the peer is written from the equations, independently of the kernels: same state after 50 steps
-    model = build_model(bench_scenes(4, 30), "cpu")
+    model = build_model(plain_gear(bench_scenes(4, 30)), "cpu")
     peer = NumpyGear4(problem_from_model(model))
     peer.run(50)
     want = per_step(model, 50)
@@ -55,6 +60,46 @@ def test_bench_bad_input():
     for args, key in ((["--chains", "0"], "--chains"), (["--grains", "x"], "--grains"),
                       (["--kernel", "fastest"], "--kernel"), (["--device", "cpu", "--kernel", "tile"], "--kernel"),
                       (["--chains", "1,2", "--grains", "5,6,7"], "--grains")):
+        result = invoke(*args)
+        assert result.exit_code == 2, (args, result.output)
+        assert result.output.strip().startswith(f"error: {key} = ")
+        assert "Traceback" not in result.output
+
+
+def test_jax_peer_matches_per_step_kernel():
+    # tuple carry, scalar constants, searched unroll: still the same equations (skipped without JAX)
+    pytest.importorskip("jax")
+    from hertzian.ensemble.peers import JaxGear4
+
+    model = build_model(plain_gear(bench_scenes(3, 20)), "cpu")
+    peer = JaxGear4(problem_from_model(model), "cpu")
+    peer.run(50)
+    assert peer.unroll in JaxGear4.UNROLLS
+    want = per_step(model, 50)
+    assert np.max(np.abs(peer.state() - want)) <= 1e-12 * np.max(np.abs(want))
+
+
+def test_end_to_end_scene_json(tmp_path):
+    scene = tmp_path / "traced.toml"
+    scene.write_text('[chain]\ngrains = 30\nl0 = 1e-4\n[excitation]\nimpact = 1e-2\n'
+                     '[integrator]\ndt = 5e-4\nduration = 0.4\n'
+                     '[record]\nevery = 0.1\nfields = ["u"]\ntraces = [0, 29]\ntrace_every = 0.002\n')
+    started = time.perf_counter()
+    result = invoke("--device", "cpu", "--scene", str(scene), "--kernel", "sweep", "--json")
+    elapsed = time.perf_counter() - started
+    assert result.exit_code == 0, result.output
+    (record,) = json.loads(result.stdout)
+    assert record["kernel"] == "sweep" and record["steps"] == 800 and record["grain_steps"] == 30 * 800
+    s = record["seconds"]
+    parts = s["build"] + s["compile"] + s["kernel"] + s["record"] + s["store"]
+    assert 0 < s["kernel"] and 0 < s["store"] and parts <= s["total"] < elapsed
+    assert 0 < record["device_busy"] <= 1
+
+
+def test_end_to_end_bad_input(tmp_path):
+    for args, key in ((["--scene", str(tmp_path / "none.toml")], "--scene"),
+                      (["--scene", "a.toml", "--sweep", "b.toml"], "--sweep")):
+        (tmp_path / "a.toml").write_text("")
         result = invoke(*args)
         assert result.exit_code == 2, (args, result.output)
         assert result.output.strip().startswith(f"error: {key} = ")

@@ -63,8 +63,6 @@ def test_kernel_choice():
     assert choose_config(model, "auto", run_steps=10) == STEP            # too short to repay a compile
     assert choose_config(model, "auto", run_steps=10**8) == SWEEP
     traced = build_model(chains(2, chain={"grains": 10}, record={"traces": [0]}), "cpu")
-    assert choose_config(traced, "auto", run_steps=10**8) == STEP        # traces stay on the per-step kernel
-    with pytest.raises(ValueError):
-        choose_config(traced, "sweep")
+    assert choose_config(traced, "auto", run_steps=10**8) == SWEEP       # traces are sampled between launches
     with pytest.raises(ValueError):
         choose_config(model, "fastest")

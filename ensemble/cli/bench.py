@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import json
+import os
+import tempfile
+from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
 
-from .app import DeviceOption, app, fail, resolve_device
+from .app import DeviceOption, SetOption, app, fail, resolve_device
 
 
 def _counts(text: str, flag: str) -> list[int]:
@@ -33,6 +36,13 @@ def bench(
     repeats: Annotated[int, typer.Option("--repeats", help="Timed runs per implementation; the median counts.")] = 5,
     peers: Annotated[bool, typer.Option("--peers/--no-peers", help="Time the NumPy (and JAX) peers.")] = True,
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list of records.")] = False,
+    scene: Annotated[Optional[Path], typer.Option("--scene", help="End to end: time `hertzian run` of this scene "
+                                                  "file (records and store writes included).")] = None,
+    sweep: Annotated[Optional[Path], typer.Option("--sweep", help="End to end: time `hertzian sweep` of this "
+                                                  "sweep file (serial, store in a temporary directory).")] = None,
+    cold: Annotated[bool, typer.Option("--cold", help="End to end with empty Warp kernel and calibration caches "
+                                       "(a fresh temporary directory): what compile and calibration cost.")] = False,
+    set_: SetOption = None,
 ):
     """Grain-steps per second of every implementation, gear4 float64, the paper's chain (program units).
 
@@ -42,6 +52,9 @@ def bench(
     """
     from ..bench import KERNEL_CHOICES, run_bench
 
+    if scene is not None or sweep is not None:
+        _end_to_end(scene, sweep, device, kernel, cold, set_, as_json)
+        return
     chain_list, grain_list = _counts(chains, "--chains"), _counts(grains, "--grains")
     if len(chain_list) > 1 and len(grain_list) > 1 and len(chain_list) != len(grain_list):
         fail(f"--grains = {grains!r}: as many values as --chains ({len(chain_list)}), or one")
@@ -82,3 +95,53 @@ def bench(
                       f"{r['ratio_to_memory_wall']:.2f}", f"{r['ratio_to_best']:.2f}",
                       f"{r['max_relative_difference']:.1e}")
     Console(width=200).print(table)
+
+
+def _end_to_end(scene: Path | None, sweep: Path | None, device, kernel: str, cold: bool, set_, as_json: bool) -> None:
+    """``--scene`` / ``--sweep``: one whole run or sweep, split into build/compile/kernel/record/store seconds."""
+    from ..scene import SceneError, parse_overrides
+    from ..solvers import KERNELS
+
+    if scene is not None and sweep is not None:
+        fail(f"--sweep = {str(sweep)!r}: give --scene or --sweep, not both")
+    path = scene if scene is not None else sweep
+    if not path.is_file():
+        fail(f"--{'scene' if scene is not None else 'sweep'} = {str(path)!r}: no such file")
+    kernel = "auto" if kernel == "all" else kernel
+    if kernel not in KERNELS:
+        fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)} (end to end)")
+    try:
+        overrides = parse_overrides(set_)
+    except SceneError as err:
+        fail(str(err))
+    if cold:
+        import warp as wp
+
+        cache = tempfile.mkdtemp(prefix="hertzian-cold-")
+        wp.config.kernel_cache_dir = os.path.join(cache, "warp")
+        os.environ["HERTZIAN_CACHE"] = os.path.join(cache, "calibration.json")
+    dev = resolve_device(device)
+    from ..endtoend import bench_scene, bench_sweep
+
+    log = lambda message: typer.echo(message, err=True)  # noqa: E731
+    try:
+        if scene is not None:
+            record = bench_scene(scene, dev, kernel=kernel, overrides=overrides, log=log)
+        else:
+            record = bench_sweep(sweep, dev, kernel=kernel, overrides=overrides, log=log)
+    except SceneError as err:
+        fail(str(err))
+    except ValueError as err:  # a forced kernel that cannot run these features here
+        fail(f"--kernel = {kernel!r}: {str(err).split(': ', 1)[-1]}")
+    record["cold"] = cold
+    for note in record["notes"]:
+        typer.echo(f"note: {note}", err=True)
+    if as_json:
+        typer.echo(json.dumps([record], indent=1))
+        return
+    s = record["seconds"]
+    typer.echo(f"{record['workload']} on {record['device_name']} ({record['kernel']}; {'cold' if cold else 'warm'} "
+               f"caches): {s['total']:.2f} s end to end = build {s['build']:.2f} + compile {s['compile']:.2f} + "
+               f"kernel {s['kernel']:.2f} + record {s['record']:.2f} + store {s['store']:.2f} s; "
+               f"{record['grain_steps_per_second']:.3g} GS/s end to end, {record['kernel_grain_steps_per_second']:.3g} "
+               f"in the kernel; device busy {record['device_busy']:.0%}")

@@ -60,6 +60,8 @@ def run(
     except ValueError as err:  # a forced kernel that cannot run this scene here
         fail(f"--kernel = {kernel!r}: {str(err).split(': ', 1)[-1]}")
 
+    if runner.kernel_note:
+        typer.echo(f"note: per-step kernel: {runner.kernel_note}", err=True)
     progress = None
     if not quiet and sys.stderr.isatty():
         from rich.progress import BarColumn, Progress, TimeRemainingColumn

@@ -190,6 +190,8 @@ def sweep(
     timing["plan"] = time.perf_counter() - clock
     if kernel != "auto":
         _check_kernel(kernel, plan, points, dev)
+    else:
+        _per_step_notes(plan, dev)
     if dry_run:
         if as_json:
             typer.echo(describe(plan, definition), err=True)
@@ -204,6 +206,22 @@ def sweep(
                    f"{plan.batch_size} points", err=True)
     _run(definition, points, plan, out, dev, resuming=resuming, overwrite=overwrite, workers=workers,
          scheduler=scheduler, requested_device=device, quiet=quiet, timing=timing, as_json=as_json, kernel=kernel)
+
+
+def _per_step_notes(plan, dev: str) -> None:
+    """One line on stderr for each launch group that ``auto`` leaves on the per-step kernel, and why."""
+    import warp as wp
+
+    from ..solvers.calibrate import step_reason_of
+
+    is_cpu = wp.get_device(dev).is_cpu
+    for index, group in enumerate(plan.groups):
+        batch = next((b for b in plan.batches if b.group == index), None)
+        if batch is None:
+            continue
+        reason = step_reason_of(group.features, is_cpu, plan.batch_grain_steps(batch))
+        if reason:
+            typer.echo(f"note: launch group {index}: per-step kernel: {reason}", err=True)
 
 
 def _check_kernel(kernel: str, plan, points, dev: str) -> None:

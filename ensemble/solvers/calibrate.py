@@ -9,8 +9,8 @@ themselves are in this package's ``step``, ``tile`` and ``sweep`` modules. Kinds
 * ``window`` — long chains cut into blocks with ghost zones, K ≤ ghost steps per launch
   (``kernels/tile.py`` + ``kernels/ghost.py``), CUDA.
 * ``sweep`` — one CPU thread per chain, many steps per launch (``kernels/cpu.py``).
-* ``auto`` — per-step for features the fused kernels lack (drive, traces) and for runs too short to
-  repay a compile; else ``sweep`` on a CPU, and on a GPU the fastest of a few ``tile``/``window``
+* ``auto`` — per-step for features the fused kernels lack (see :func:`step_reason`) and for runs too
+  short to repay a compile; else ``sweep`` on a CPU, and on a GPU the fastest of a few ``tile``/``window``
   shapes, timed once per (device, features, grains, chains) and remembered in
   ``$HERTZIAN_CACHE`` (default ``~/.cache/hertzian/calibration.json``).
 
@@ -25,7 +25,7 @@ import math
 import os
 import statistics
 import time
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
@@ -46,6 +46,37 @@ AUTO_MIN_GRAIN_STEPS_GPU = 5e9
 """Likewise on a GPU, where a calibration costs tens of seconds the first time."""
 CALIBRATION_VERSION = 2
 """Bumped when the cached fields change (2: a SolverConfig)."""
+
+
+def stepping_features(features):
+    """The features a fused kernel is compiled for: traces are sampled between launches (solvers/base.py)."""
+    return replace(features, traces=False)
+
+
+def fused_lacks(features, is_cpu: bool) -> str | None:
+    """The feature the device's fused kernel (CPU sweep, CUDA tile/window) lacks, or None."""
+    f = stepping_features(features)
+    if is_cpu:
+        return None if sweepable(f) else f"features {f}"
+    return None if fusable(f) else f"features {f}"
+
+
+def step_reason_of(features, is_cpu: bool, grain_steps: float) -> str | None:
+    """Why ``auto`` picks the per-step kernel for a run of ``grain_steps`` (one line), or None."""
+    lacks = fused_lacks(features, is_cpu)
+    if lacks:
+        return f"the {'sweep' if is_cpu else 'tile/window'} kernel lacks {lacks}"
+    limit = AUTO_MIN_GRAIN_STEPS_CPU if is_cpu else AUTO_MIN_GRAIN_STEPS_GPU
+    if grain_steps < limit:
+        return (f"a short run ({grain_steps:.3g} grain-steps < {limit:.0e}) does not repay a fused kernel's "
+                f"compile; --kernel {'sweep' if is_cpu else 'tile/window'} forces one")
+    return None
+
+
+def step_reason(model: Model, run_steps: int | None = None) -> str | None:
+    """Why ``auto`` picks the per-step kernel for ``model`` (one line), or None when it picks a fused one."""
+    work = model.chain_count * model.grain_count * (run_steps if run_steps is not None else math.inf)
+    return step_reason_of(model.features, model.device.is_cpu, work)
 
 
 # ---- candidate launch shapes ----------------------------------------------------------------------
@@ -248,12 +279,12 @@ def choose_config(model: Model, kernel: str = "auto", *, run_steps: int | None =
     if kernel == "sweep":
         if not model.device.is_cpu:
             raise ValueError("kernel = 'sweep': a CPU kernel; use --device cpu")
-        if not sweepable(f):
-            raise ValueError(f"kernel = 'sweep': no drive and no traces (features {f})")
+        if not sweepable(stepping_features(f)):
+            raise ValueError(f"kernel = 'sweep': not implemented for features {f}")
         return SWEEP
     if kernel in ("tile", "window"):
-        if not fusable(f):
-            raise ValueError(f"kernel = {kernel!r}: no drive and no traces (features {f})")
+        if not fusable(stepping_features(f)):
+            raise ValueError(f"kernel = {kernel!r}: not implemented for surface = {f.surface!r} (features {f})")
         configs = whole_chain_configs(model) if kernel == "tile" else window_configs(model)
         if not configs:
             raise ValueError(f"kernel = {kernel!r}: no launch shape fits {model.grain_count} grains")
@@ -261,13 +292,10 @@ def choose_config(model: Model, kernel: str = "auto", *, run_steps: int | None =
             return calibrate(model, configs=configs, states=states, log=log)[0]
         return configs[0]
     # auto
-    if not fusable(f):
+    if step_reason(model, run_steps):
         return STEP
-    work = model.chain_count * model.grain_count * (run_steps if run_steps is not None else math.inf)
     if model.device.is_cpu:
-        return SWEEP if work >= AUTO_MIN_GRAIN_STEPS_CPU else STEP
-    if work < AUTO_MIN_GRAIN_STEPS_GPU:
-        return STEP
+        return SWEEP
     return calibrated_config(model, states=states, log=log) if calibrate_now else default_config(model)
 
 

@@ -8,10 +8,12 @@ from hertzian.kernels.tile import TileShape
 
 SOLVER_KINDS = ("step", "tile", "window", "sweep")
 """``step``: one Gear/Verlet step per launch over (chain, grain), every feature (kernels/step.py).
-``tile``: whole chains per block, K steps per launch (kernels/tile.py), no drive and no traces.
+``tile``: whole chains per block, K steps per launch (kernels/tile.py).
 ``window``: long chains cut into blocks with ghost zones, K ≤ ghost steps per launch (kernels/tile.py +
-kernels/ghost.py), no drive and no traces.
-``sweep``: one CPU thread per chain, every step of an ``advance`` in one launch (kernels/cpu.py)."""
+kernels/ghost.py).
+``sweep``: one CPU thread per chain, every step of an ``advance`` in one launch (kernels/cpu.py).
+The fused kinds (tile, window, sweep) take a drive in the kernel and traces between launches
+(solvers/base.py cuts each advance at trace steps and copies the traced grains into the ring)."""
 
 GRAPH_STEPS = 512
 """Steps per captured CUDA graph of the per-step solver (a graph of many launches, replayed)."""

@@ -29,13 +29,14 @@ def config_of(plan: TilePlan) -> SolverConfig:
 
 
 class TileSolver(Solver):
-    """K steps per launch with chains (or windows of them) held on-chip; no drive and no traces."""
+    """K steps per launch with chains (or windows of them) held on-chip; no drive; traces are sampled between
+    launches (base ``Solver.advance``)."""
 
     def __init__(self, model: Model, config: SolverConfig):
         super().__init__(model, config)
         self.kind = config.kind
         self.plan = tile_plan(config, model.grain_count, model.chain_count)
-        self.kernel = tile_kernel(model.features, config.shape)
+        self.kernel = tile_kernel(self.kernel_features, config.shape)
         self.block_dim = config.shape.block_dim
 
     def launch(self, state_in: State, state_out: State, steps: int) -> None:
@@ -43,7 +44,8 @@ class TileSolver(Solver):
         launch_tile(self.plan, self.kernel, x_in=state_in.x, clock_in=state_in.clock, inverse_mass=m.inverse_mass,
                     contact_constant=m.contact_constant, static_overlap=m.static_overlap, exponent=m.exponent,
                     status=state_in.status, dt=m.dt, steps=steps, x_out=state_out.x, clock_out=state_out.clock,
-                    device=m.device)
+                    device=m.device, drive=m.drive, work_in=state_in.work, power_in=state_in.power,
+                    work_out=state_out.work, power_out=state_out.power)
 
     def describe(self) -> str:
         return f"{self.kind} ({self.plan.describe()})"

@@ -1,0 +1,151 @@
+"""Traces and drive on the fused solvers (CPU sweep, tile, window) against the per-step kernel.
+
+The per-step kernel writes trace samples inside the step and integrates the driven surface grain
+itself (kernels/step.py); the fused solvers sample the ring between stride-aligned pieces and the
+sweep kernel copies the driven path expression for expression. On the CPU every record, every trace
+sample and the driver's work must agree bit for bit. Each case asserts that motion reached the
+last traced grain / the bottom of the chain before comparing (a test of zeros against zeros
+cannot fail).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from hertzian.ensemble.model import build_model
+from hertzian.ensemble.runner import Runner
+from hertzian.ensemble.solvers import SWEEP, SolverConfig, choose_config, config_of
+from hertzian.ensemble.solvers.calibrate import step_reason
+from hertzian.kernels.tile import plan_tile
+
+from fused_cases import MOVED, assert_every_window_moved, chains, window_ranges
+
+TRACED = {"grains": 30, "l0": 1e-4}
+TRACE_RECORD = {"every": 0.1, "traces": [0, 13, 28], "trace_every": 4e-3, "fields": ["u", "v"]}
+"""Stride 8 steps (dt 5e-4): pieces between records and monitor checks are cut at trace steps."""
+
+
+def traced_scenes(**extra):
+    return chains(2, chain=dict(TRACED), integrator={"dt": 5e-4, "duration": 2.0}, record=dict(TRACE_RECORD),
+                  **extra)
+
+
+def run(model, kernel, monitor_every=11):
+    return Runner(model, kernel=kernel, use_graph=False, monitor_every=monitor_every).run()
+
+
+def assert_same_run(got, want, *, last_traced_moved=True):
+    assert got.traces and want.traces
+    if last_traced_moved:
+        u = np.abs(want.traces["u"])
+        assert np.all(u[:, :, -1].max(axis=1) > MOVED * u.max(axis=(1, 2))), "motion never reached the last trace"
+    for name in ("u", "v"):
+        np.testing.assert_array_equal(got.traces[name], want.traces[name])
+        np.testing.assert_array_equal(got.fields[name], want.fields[name])
+    np.testing.assert_array_equal(got.energy, want.energy)
+    if want.work is not None:
+        assert np.max(np.abs(want.work)) > 0
+        np.testing.assert_array_equal(got.work, want.work)
+    np.testing.assert_array_equal(got.status, want.status)
+
+
+def test_sweep_traces_equal_per_step():
+    model = build_model(traced_scenes(), "cpu")
+    want = run(model, "step")
+    got = run(model, "sweep")
+    assert got.kernel == "sweep"
+    assert_same_run(got, want)
+
+
+@pytest.mark.parametrize("windowed", [False, True])
+def test_tile_traces_equal_per_step(windowed):
+    model = build_model(traced_scenes(), "cpu")
+    f = replace(model.features, traces=False)
+    keywords = dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=5, windowed=True) if windowed else \
+        dict(grains_per_lane=4)
+    config = config_of(plan_tile(f, model.grain_count, model.chain_count, **keywords))
+    want = run(model, "step")
+    got = run(model, config)
+    assert_same_run(got, want)
+
+
+def test_auto_picks_sweep_for_traces():
+    model = build_model(traced_scenes(), "cpu")
+    assert choose_config(model, "auto", run_steps=10**8) == SWEEP
+    assert step_reason(model, 10**8) is None
+    assert "short run" in step_reason(model, 10)
+
+
+def driven_scenes(*, traces: bool, **sections):
+    """Two driven chains (amplitudes differ) that open and close contacts at the surface."""
+    from hertzian.ensemble.scene import scene_from_dict
+
+    data = {"chain": {"grains": 24, "l0": 1e-4}, "boundary": {"surface": "driven"},
+            "excitation": {"drive_amplitude": 2e-4, "drive_period": 0.5},
+            "integrator": {"dt": 5e-4, "duration": 2.0},
+            "record": dict(TRACE_RECORD, traces=[0, 1, 12, 22]) if traces else {"every": 0.1, "fields": ["u", "v"]}}
+    for key, value in sections.items():
+        data.setdefault(key, {}).update(value)
+    base = scene_from_dict(data)
+    return [base, base.with_overrides({"excitation.drive_amplitude": 3e-4})]
+
+
+DRIVEN_CASES = {
+    "traces, events auto, bottom wall": dict(traces=True),
+    "no traces, events off, fixed bottom, gear5": dict(traces=False, boundary={"bottom": "fixed"},
+                                                      integrator={"events": "off", "method": "gear5"}),
+}
+
+
+@pytest.mark.parametrize("case", list(DRIVEN_CASES))
+def test_sweep_drive_equals_per_step(case):
+    model = build_model(driven_scenes(**DRIVEN_CASES[case]), "cpu")
+    want = run(model, "step")
+    got = run(model, "sweep")
+    assert got.kernel == "sweep"
+    if want.traces:
+        assert_same_run(got, want)
+    else:
+        for name in ("u", "v"):
+            np.testing.assert_array_equal(got.fields[name], want.fields[name])
+        np.testing.assert_array_equal(got.energy, want.energy)
+        np.testing.assert_array_equal(got.work, want.work)
+    # the drive reached the bottom (the last free grain moved), and the driver did work
+    u = np.abs(want.u)
+    last = -2 if DRIVEN_CASES[case].get("boundary") else -1
+    assert np.all(u[:, :, last].max(axis=1) > MOVED * u.max(axis=(1, 2)))
+    assert np.all(np.max(np.abs(want.work), axis=1) > 0)
+
+
+@pytest.mark.parametrize("windowed", [False, True])
+@pytest.mark.parametrize("case", list(DRIVEN_CASES))
+def test_tile_drive_equals_per_step(case, windowed):
+    sections = DRIVEN_CASES[case]
+    model = build_model(driven_scenes(**sections), "cpu")
+    f = replace(model.features, traces=False)
+    keywords = dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=5, windowed=True) if windowed else \
+        dict(grains_per_lane=4)
+    plan = plan_tile(f, model.grain_count, model.chain_count, **keywords)
+    want = run(model, "step")
+    got = run(model, config_of(plan))
+    held = "boundary" in sections
+    # every window (and its ghost exchange) saw the drive's motion before comparing
+    assert_every_window_moved(np.stack([np.abs(want.u).max(axis=1), np.abs(want.v).max(axis=1)]),
+                              window_ranges(plan, model.grain_count), held_bottom=held)
+    for name in ("u", "v"):
+        np.testing.assert_array_equal(got.fields[name], want.fields[name])
+        if want.traces:
+            np.testing.assert_array_equal(got.traces[name], want.traces[name])
+    np.testing.assert_array_equal(got.energy, want.energy)
+    assert np.all(np.max(np.abs(want.work), axis=1) > 0)
+    np.testing.assert_array_equal(got.work, want.work)
+
+
+def test_driven_window_needs_grains_0_and_1_in_one_lane():
+    model = build_model(driven_scenes(traces=False), "cpu")
+    with pytest.raises(ValueError, match="grains 0 and 1"):
+        plan_tile(model.features, model.grain_count, model.chain_count, grains_per_lane=4, lanes_per_chain=4,
+                  steps_per_launch=3, windowed=True)
