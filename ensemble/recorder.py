@@ -14,6 +14,7 @@ import warp as wp
 from kernels.records import record_kernel, track_extremes
 
 from .model import Model, State
+from .response import ResponseAccumulator
 
 
 class Recorder:
@@ -32,6 +33,9 @@ class Recorder:
         """Running max over checks of |E − E(0) [− W]| (device)."""
         self.largest_overlap = wp.full(c, -1.0e300, dtype=wp.float64, device=dev)
         """Running max over checks of the largest overlap (device)."""
+        damped = m.features.damping != "none"
+        self.dissipated_now = wp.zeros(c if damped else 0, dtype=wp.float64, device=dev)
+        """Energy dissipated by damping up to the last check, per chain (device; size 0 without damping)."""
 
         self.real_np = np.float64 if m.features.precision == "float64" else np.float32
         records, n = scene.record_count, m.grain_count
@@ -46,11 +50,15 @@ class Recorder:
         self.trace_t = (np.arange(sample_count) * scene.trace_stride * m.dt) if self.traced else None
         self.energy = np.zeros((c, records))
         self.work = np.zeros((c, records)) if m.features.surface == "driven" else None
+        self.dissipated = np.zeros((c, records)) if damped else None
+        self.response = ResponseAccumulator(m) if scene.has_response else None
 
     def load(self) -> None:
         """Compile and load the reduction kernels (before a clock starts)."""
         wp.load_module(self.kernel.module, device=self.model.device)
         wp.load_module(track_extremes.module, device=self.model.device)
+        if self.response is not None:
+            self.response.load()
 
     def check(self, state: State, step: int) -> None:
         """Energy, work, largest overlap and status of every chain at ``step`` (device only, no sync)."""
@@ -58,13 +66,14 @@ class Recorder:
         wp.launch(self.kernel, dim=m.chain_count,
                   inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.drive,
                           state.work, state.power, step, m.dt, m.validity_overlap],
-                  outputs=[self.energy_now, self.work_now, self.max_overlap_now, state.status], device=m.device)
+                  outputs=[self.energy_now, self.work_now, self.max_overlap_now, state.status, m.damping,
+                           state.dissipated, self.dissipated_now], device=m.device)
         if step == 0:
             wp.copy(self.initial_energy, self.energy_now)
         wp.launch(track_extremes, dim=m.chain_count,
                   inputs=[self.energy_now, self.work_now, self.initial_energy,
                           int(m.features.surface == "driven"), self.max_overlap_now],
-                  outputs=[self.energy_deviation, self.largest_overlap], device=m.device)
+                  outputs=[self.energy_deviation, self.largest_overlap, self.dissipated_now], device=m.device)
 
     def record(self, state: State, r: int, step: int) -> None:
         """Check at ``step`` and keep record ``r`` (snapshots, energy, work, the traces since record r − 1)."""
@@ -78,6 +87,8 @@ class Recorder:
         self.energy[:, r] = self.energy_now.numpy()
         if self.work is not None:
             self.work[:, r] = self.work_now.numpy()
+        if self.dissipated is not None:
+            self.dissipated[:, r] = self.dissipated_now.numpy()
         if self.traced:
             if r == 0:
                 self.traces["u"][:, 0] = x[0].numpy()[:, self.traced]

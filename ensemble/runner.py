@@ -43,6 +43,7 @@ class RunResult:
     """Energy relative to the static state, shape (chains, R). Differs from SPEC §5's E by a constant per chain."""
     work: np.ndarray | None
     """Driver's work up to each record, shape (chains, R), driven scenes only."""
+
     status: np.ndarray
     """Per-chain status code (see ensemble.status.Status), shape (chains,)."""
     max_overlap: np.ndarray
@@ -60,6 +61,10 @@ class RunResult:
     """Which solver advanced the state: 'step' (one step per launch), 'sweep' or a fused kernel's description."""
     solver: SolverConfig | None = None
     """The SolverConfig that ran."""
+    dissipated: np.ndarray | None = None
+    """Energy dissipated by damping up to each record, shape (chains, R), damped scenes only."""
+    response: dict[str, np.ndarray] = field(default_factory=dict)
+    """Response windows (ensemble/response.py): 'response', 'window_ke', 'driver_open', 'window_start'."""
 
     @property
     def chain_count(self) -> int:
@@ -113,15 +118,20 @@ class Runner:
         self.current = self.solver.advance(self.current, other, n_steps)
 
     def advance_monitored(self, first_step: int, n_steps: int) -> None:
-        """``advance`` in pieces of ``monitor_every`` steps with a device-side check after each piece."""
+        """``advance`` in pieces of ``monitor_every`` steps with a device-side check after each piece,
+        stopping also at the response windows' sample steps (sampled on the device, no sync)."""
         every = self.monitor_every if self.monitor_every > 0 else n_steps
-        done = 0
-        while done < n_steps:
-            piece = min(every, n_steps - done)
-            self.advance(piece)
-            done += piece
-            if done < n_steps:
-                self.recorder.check(self.current, first_step + done)
+        response = self.recorder.response
+        samples = set(response.sample_steps(first_step, first_step + n_steps)) if response is not None else set()
+        checks = set(range(first_step + every, first_step + n_steps, every))
+        done = first_step
+        for stop in sorted(samples | checks | {first_step + n_steps}):
+            self.advance(stop - done)
+            done = stop
+            if stop in checks:
+                self.recorder.check(self.current, stop)
+            if stop in samples:
+                response.sample(self.current, stop)
 
     def run(self, progress=None) -> RunResult:
         """Integrate to the end; ``progress(done_records, total_records)`` is called after each record."""
@@ -132,6 +142,8 @@ class Runner:
         rec.load()   # compile before the clock starts (the solver loaded in __init__)
         wp.synchronize_device(m.device)
         start = time.perf_counter()
+        if rec.response is not None and rec.response.start_step == 0:
+            rec.response.sample(self.current, 0)
         for r, step in enumerate(record_steps):
             if r:
                 self.advance_monitored(record_steps[r - 1], step - record_steps[r - 1])
@@ -143,7 +155,8 @@ class Runner:
 
         status = self.current.status.numpy().copy()
         # max over records and the checks between them (the records alone would miss peaks in between)
-        energy_error = energy_errors(rec.energy, rec.work, m.injected_energy, deviation=rec.energy_deviation.numpy())
+        energy_error = energy_errors(rec.energy, rec.work, m.injected_energy, deviation=rec.energy_deviation.numpy(),
+                                     dissipated=rec.dissipated)
         drift = (status == Status.OK) & (energy_error > self.energy_tolerance) & (
             (m.injected_energy > 0) | (rec.work is not None))
         status[drift] = Status.ENERGY_DRIFT
@@ -152,18 +165,22 @@ class Runner:
             t=np.array(record_steps) * m.dt, energy=rec.energy, work=rec.work, status=status,
             max_overlap=rec.largest_overlap.numpy(), energy_error=energy_error, wall_seconds=wall,
             steps=record_steps[-1], fields=rec.fields, trace_t=rec.trace_t, traces=rec.traces,
-            kernel=self.solver.describe(), solver=self.solver.config,
+            kernel=self.solver.describe(), solver=self.solver.config, dissipated=rec.dissipated,
+            response=rec.response.result() if rec.response is not None else {},
         )
 
 
 def energy_errors(energy: np.ndarray, work: np.ndarray | None, injected: np.ndarray, *,
-                  deviation: np.ndarray | None = None) -> np.ndarray:
+                  deviation: np.ndarray | None = None, dissipated: np.ndarray | None = None) -> np.ndarray:
     """SPEC §5: max_t |E(t) − E(0)| / E_inj; driven: |E − E(0) − W| / max|W|; absolute if nothing injected.
+    With damping the dissipated energy D is added: |E + D − E(0) [− W]|.
 
-    ``energy``/``work`` are the records (chains, R); ``deviation`` (chains,), if given, is the running
-    max of |E − E(0) [− W]| over finer device-side checks and is folded into the max.
+    ``energy``/``work``/``dissipated`` are the records (chains, R); ``deviation`` (chains,), if given, is the
+    running max of |E − E(0) [− W] [+ D]| over finer device-side checks and is folded into the max.
     """
     change = energy - energy[:, :1]
+    if dissipated is not None:
+        change = change + dissipated
     scale = np.asarray(injected, dtype=float).copy()
     if work is not None:
         change = change - work
