@@ -114,7 +114,11 @@ def record_kernel(features: Features):
             # does work F0_1·u_0(t) exactly. Adding it to work and energy makes both SPEC's (the
             # energy up to a constant): E − W is unchanged.
             static_work = wp.float64(contact_force(delta0, a_c, n)) * wp.float64(x[0, c, 0])
-            work[c] = work_in[c] + dt * wp.float64(0.5) * (power_in[c] + power) + static_work
+            closing = dt * wp.float64(0.5) * (power_in[c] + power)
+            if wp.static(DASHPOT):
+                if step == 0:
+                    closing = wp.float64(0.0)  # W(0) = 0 (the dashpot's power at t = 0 is not zero)
+            work[c] = work_in[c] + closing + static_work
             energy[c] = energy[c] + static_work
 
         if wp.static(DAMPED):

@@ -159,7 +159,13 @@ def step_kernel(features: Features):
                     p01 = params(static_overlap, contact_constant, exponent, c, 1)
                     force_old += wp.float64(dashpot(p01[0], d_old, rate_old, damping[c], h))
                 power = force_old * amplitude * omega * wp.cos(omega * t_old)
-                work_out[c] = work_in[c] + dt * wp.float64(0.5) * (power_in[c] + power)
+                if wp.static(DASHPOT):
+                    if step_new == 1:
+                        work_out[c] = work_in[c]  # W(0) = 0: the dashpot's power at t = 0 is not zero
+                    else:
+                        work_out[c] = work_in[c] + dt * wp.float64(0.5) * (power_in[c] + power)
+                else:
+                    work_out[c] = work_in[c] + dt * wp.float64(0.5) * (power_in[c] + power)
                 power_out[c] = power
                 x1_drive = real(dt * amplitude * omega * wp.cos(omega * t_new))
                 x_out[0, c, 0] = real(u_drive)
@@ -284,18 +290,18 @@ def step_kernel(features: Features):
                     above_u_old = real(0)
                     outer = i == 0  # the contact above belongs to no integrated grain above
                     if i > 0:
-                        if wp.static(DRIVEN) and i == 1:
-                            outer = True
-                            t_old_d = wp.float64(step_new - 1) * dt
-                            above_u = real(u_drive)
-                            above_u_old = real(amplitude * wp.sin(omega * t_old_d))
-                            above_rate = real(dt * amplitude * omega * wp.cos(omega * t_new))
-                            above_rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old_d))
-                        else:
-                            above_u = predicted_position(x_in, c, i - 1)
-                            above_u_old = x_in[0, c, i - 1]
-                            above_rate = predicted_rate(x_in, c, i - 1)
-                            above_rate_old = x_in[1, c, i - 1]
+                        above_u = predicted_position(x_in, c, i - 1)
+                        above_u_old = x_in[0, c, i - 1]
+                        above_rate = predicted_rate(x_in, c, i - 1)
+                        above_rate_old = x_in[1, c, i - 1]
+                        if wp.static(DRIVEN):
+                            if i == 1:
+                                outer = True
+                                t_old_d = wp.float64(step_new - 1) * dt
+                                above_u = real(u_drive)
+                                above_u_old = real(amplitude * wp.sin(omega * t_old_d))
+                                above_rate = real(dt * amplitude * omega * wp.cos(omega * t_new))
+                                above_rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old_d))
                     delta0_above = params(static_overlap, contact_constant, exponent, c, i)[0]
                     f_new = dashpot(delta0_above, above_u - u_p, above_rate - own_rate, gamma, h)
                     up += f_new
