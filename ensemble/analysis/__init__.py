@@ -32,7 +32,9 @@ What is here, by paper section:
 * IV, V — :func:`backscatter` (arrival, amplitude and leading sign of the echo at a grain).
 * V — :func:`depth_law` (c ∝ z^β, the paper's β = 1/6), :func:`column_sound_speed` (closed form),
   :func:`count_bumps` (tail bumps, Fig. 6).
-* VI — :func:`window_average`, :func:`standing_wave_measure`.
+* VI — :func:`window_average`, :func:`standing_wave_measure`; response maps (docs/drive.md):
+  :func:`standing_wave_ratio`, :func:`node_drift`, :func:`strobe_label`, :func:`point_response_numbers`,
+  :func:`response_map`.
 * Nesterenko's long-wave soliton — :func:`nesterenko_speed`, :data:`NESTERENKO_SUPPORT`,
   :data:`NESTERENKO_FWHM`, :func:`full_width_half_maximum`.
 """
@@ -40,8 +42,10 @@ What is here, by paper section:
 from .columns import column_sound_speed, count_bumps, depth_law, speed_against_depth
 from .common import (LineFit, PowerLawFit, energy_drift, fit_line, fit_power_law, paper_displacement,
                      paper_label)
-from .drive import (PAPER_DRIVE_TIMES, PAPER_WINDOW, PERSISTENCE_LAGS, StandingWave, drive_times, driven_windows,
-                    kinetic_energy, profile_nodes, standing_wave_measure, window_average)
+from .drive import (LABELS, MAP_METRICS, PAPER_DRIVE_TIMES, PAPER_WINDOW, PERSISTENCE_LAGS, StandingWave,
+                    drive_times, driven_windows, kinetic_energy, node_drift, point_response_numbers, profile_nodes,
+                    response_map, standing_wave_measure, standing_wave_ratio, strobe_label, strobe_samples,
+                    window_average)
 from .echoes import Backscatter, backscatter, echo_table, impurity_grains, impurity_points
 from .pulses import (NESTERENKO_FWHM, NESTERENKO_SUPPORT, TailFit, front_position, full_width_half_maximum,
                      head_positions, nesterenko_speed, plateau_tilt, pulse_head, pulse_speed, running_max,
@@ -58,5 +62,6 @@ __all__ = [
     "kinetic_energy", "nesterenko_speed", "paper_displacement", "paper_label", "plateau_tilt", "profile_nodes",
     "pulse_head", "pulse_speed", "running_max", "shock_width", "shock_widths", "speed_against_depth",
     "speed_exponent", "speed_history", "speeds_table", "standing_wave_measure", "tail_decay", "times_in_flight",
-    "window_average",
+    "window_average", "LABELS", "MAP_METRICS", "node_drift", "point_response_numbers", "response_map",
+    "standing_wave_ratio", "strobe_label", "strobe_samples",
 ]
