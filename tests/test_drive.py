@@ -188,3 +188,47 @@ def test_cli_refuses_bad_response_key(tmp_path):
     result = invoke("run", scene, "--out", out, "--device", "cpu", "--set", "record.response_start=0.5",
                     "--set", "record.harmonics=100")
     assert_refused(result, out, "record.harmonics = 100")
+
+
+def test_map_numbers_on_closed_forms():
+    """Standing-wave ratio and labels on signals whose answer is known."""
+    from ensemble import analysis as an
+
+    z = np.arange(50)
+    k = 2 * math.pi / 40
+    travelling = np.exp(-1j * k * z)                        # |V_1| constant: ratio 1
+    assert an.standing_wave_ratio(travelling) == pytest.approx(1.0, abs=1e-12)
+    mixed = np.exp(-1j * k * z) + 0.5 * np.exp(1j * k * z)  # (1 + r)/(1 − r) for reflection r = 0.5
+    assert an.standing_wave_ratio(mixed) == pytest.approx(3.0, rel=1e-2)
+    n = np.arange(200)
+    period2 = np.stack([np.where(n % 2, 1.0, -0.5), np.where(n % 2, 0.3, 0.2)], axis=1)
+    assert an.LABELS[an.strobe_label(period2)] == "periodic"
+    golden = (math.sqrt(5) - 1) / 2                          # an irrational rotation: quasi-periodic
+    quasi = np.stack([np.cos(2 * math.pi * golden * n), np.sin(2 * math.pi * golden * n)], axis=1)
+    assert an.LABELS[an.strobe_label(quasi)] == "quasi-periodic"
+    x = np.empty(200)
+    x[0] = 0.3
+    for j in range(1, 200):                                  # the logistic map at r = 4: chaotic
+        x[j] = 4 * x[j - 1] * (1 - x[j - 1])
+    assert an.LABELS[an.strobe_label(x)] == "chaotic"
+    assert an.LABELS[an.strobe_label(x[:10])] == "unknown"
+    counts, drift = an.node_drift(np.stack([np.abs(np.sin(k * z)) + 1e-3, np.abs(np.sin(k * (z - 2))) + 1e-3]))
+    assert list(counts) == [2, 3] and drift[0] == pytest.approx(2.0)  # nodes 20, 40 → 2, 22, 42
+
+
+def test_response_store_is_readable_by_xarray(tmp_path):
+    import xarray as xr
+
+    from ensemble.store import write_result
+
+    scene = driven(grains=8, amplitude=1e-6, duration=1.5, damping=("viscous", 1.0),
+                   record={"every": 0.5, "response_start": 0.5, "response_periods": 1, "response_windows": 2,
+                           "harmonics": 2})
+    result = run_scene(scene, "cpu")
+    write_result(tmp_path / "r.zarr", result)
+    ds = xr.open_zarr(tmp_path / "r.zarr")
+    assert ds.response.dims == ("window", "harmonic", "grain") and ds.response.dtype == np.complex128
+    assert list(ds.harmonic.values) == [0, 1, 2] and list(ds.window_start.values) == [0.5, 1.0]
+    assert ds.window_ke.dims == ("window", "grain") and ds.driver_open.dims == ("window",)
+    np.testing.assert_array_equal(ds.response.values, result.response["response"][0])
+    np.testing.assert_array_equal(ds.dissipated.values, result.dissipated[0])
