@@ -13,6 +13,7 @@ import platform
 import subprocess
 import sys
 from datetime import datetime, timezone
+from pathlib import Path
 
 import numpy as np
 import xarray as xr
@@ -53,7 +54,8 @@ def main(full: str, half: str) -> None:
         "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "device": f"CPU of the development machine ({platform.processor() or platform.machine()}, 2 cores, "
                   "shared with other jobs); no GPU this session",
-        "commit": subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip(),
+        "commit": subprocess.run(["git", "-C", str(Path(__file__).resolve().parent), "rev-parse", "--short", "HEAD"],
+                                 capture_output=True, text=True).stdout.strip(),
         "commands": ["hertzian sweep sweeps/drive_map.toml --out drive_map.zarr --device cpu",
                      "hertzian sweep sweeps/drive_map.toml --set integrator.dt=6.25e-5 --out drive_map_half.zarr "
                      "--device cpu",
