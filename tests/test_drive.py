@@ -232,3 +232,68 @@ def test_response_store_is_readable_by_xarray(tmp_path):
     assert ds.window_ke.dims == ("window", "grain") and ds.driver_open.dims == ("window",)
     np.testing.assert_array_equal(ds.response.values, result.response["response"][0])
     np.testing.assert_array_equal(ds.dissipated.values, result.dissipated[0])
+
+
+def test_drive_sweep_points_equal_runs_alone_and_the_map_is_drawn(tmp_path):
+    """A τ × A sweep in one launch (windows of different lengths per chain, a common sample stride)
+    gives each point the response of its chain run alone, bitwise; `hertzian plot --figure drive_map`
+    draws the map and writes its numbers."""
+    import json
+
+    import xarray as xr
+
+    from test_refusals import invoke
+
+    sweep = tmp_path / "map.toml"
+    sweep.write_text('''
+[scene.chain]
+grains = 10
+l0 = 1e-3
+[scene.boundary]
+surface = "driven"
+bottom = "fixed"
+[scene.excitation]
+drive_amplitude = 1e-4
+drive_period = 0.5
+[scene.integrator]
+dt = 1e-3
+duration = 2.0
+[scene.record]
+every = 0.5
+fields = ["v"]
+traces = [2, 5]
+trace_every = 0.05
+response_start = 0.5
+response_periods = 1
+response_windows = 2
+harmonics = 2
+[[axis]]
+name = "tau"
+key = "excitation.drive_period"
+values = [0.25, 0.5]
+[[axis]]
+name = "A"
+key = "excitation.drive_amplitude"
+values = [1e-4, 3e-3]
+''')
+    out = tmp_path / "map.zarr"
+    result = invoke("sweep", sweep, "--out", out, "--device", "cpu")
+    assert result.exit_code == 0, result.stdout + result.stderr
+    ds = xr.open_zarr(out)
+    assert ds.response.dims == ("tau", "A", "window", "harmonic", "grain")
+    point = ds.sel(tau=0.25, A=3e-3)
+    np.testing.assert_array_equal(point.window_start.values, [0.5, 0.75])
+    alone = run_scene(driven(grains=10, amplitude=3e-3, period=0.25, duration=2.0, damping=None,
+                             record={"every": 0.5, "fields": ["v"], "traces": [2, 5], "trace_every": 0.05,
+                                     "response_start": 0.5, "response_periods": 1, "response_windows": 2,
+                                     "harmonics": 2}), "cpu")
+    np.testing.assert_array_equal(point.response.values, alone.response["response"][0])
+    np.testing.assert_array_equal(point.driver_open.values, alone.response["driver_open"][0])
+    png = tmp_path / "map.png"
+    result = invoke("plot", out, "--figure", "drive_map", "--out", png)
+    assert result.exit_code == 0, result.stdout + result.stderr
+    numbers = json.loads(png.with_suffix(".json").read_text())["points"]
+    assert len(numbers) == 4 and png.stat().st_size > 0
+    assert {row["tau"] for row in numbers} == {0.25, 0.5}
+    result = invoke("plot", out, "--at", "tau=0.5", "--at", "A=1e-4", "--out", tmp_path / "point.png")
+    assert result.exit_code == 0, result.stdout + result.stderr
