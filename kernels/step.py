@@ -251,7 +251,6 @@ def step_kernel(features: Features):
             inv_m = inverse_mass[c, i]
         else:
             inv_m = inverse_mass[c, 0]
-        damp_half = real(0)  # h²/2 · viscous acceleration
         if wp.static(DAMPED):
             # damping forces at the predicted velocities; the dissipated power's trapezoid (t_n exact,
             # t_n+1 predicted) is accumulated per grain: its own viscous loss, the dashpot of the contact
@@ -263,7 +262,6 @@ def step_kernel(features: Features):
             loss_new = real(0)
             if wp.static(VISCOUS):
                 m_i = real(1) / inv_m
-                damp_half = -real(0.5) * h * gamma * own_rate
                 loss_old = gamma * m_i * own_rate_old * own_rate_old / (h * h)
                 loss_new = gamma * m_i * own_rate * own_rate / (h * h)
             if wp.static(DASHPOT):
@@ -312,8 +310,8 @@ def step_kernel(features: Features):
                         loss_old += f_old * (above_rate_old - own_rate_old) / h
             dissipated[c, i] = dissipated[c, i] + dt * wp.float64(0.5) * (wp.float64(loss_old) + wp.float64(loss_new))
         half_h2_acc = real(0.5) * h * h * (up - down) * inv_m
-        if wp.static(DAMPED):
-            half_h2_acc += damp_half
+        if wp.static(VISCOUS):
+            half_h2_acc -= real(0.5) * h * damping[c] * predicted_rate(x_in, c, i)  # h²/2 · (−γ v)
 
         new = correct(x_in, x_out, c, i, u_p, half_h2_acc)
         write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, new[0], new[1])
