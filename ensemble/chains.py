@@ -21,13 +21,14 @@ import numpy as np
 from .scene import Scene
 
 CHAIN_KEYS = ("chain.mass", "chain.a", "chain.exponent", "chain.diameter", "chain.l0", "chain.load",
-              "chain.gravity", "excitation.impact", "excitation.drive_amplitude", "excitation.drive_period")
+              "chain.gravity", "excitation.impact", "excitation.drive_amplitude", "excitation.drive_period",
+              "damping.gamma")
 IMPURITY_KEY = re.compile(r"^impurities\.(\d+)\.(mass|a)$")
 
 
 def is_per_chain_key(key: str) -> bool:
     """Whether a dotted scene key is a per-chain scalar (may differ between chains of one launch
-    and is held as an array): ``chain.*`` except ``grains``, ``excitation.*``, ``impurities.K.mass|a``."""
+    and is held as an array): ``chain.*`` except ``grains``, ``excitation.*``, ``damping.gamma``, ``impurities.K.mass|a``."""
     return key in CHAIN_KEYS or IMPURITY_KEY.match(key) is not None
 
 

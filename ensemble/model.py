@@ -35,6 +35,9 @@ SHARED_KEYS = (
     ("trace stride", lambda s: s.trace_stride),
     ("record.traces", lambda s: s.record.traces),
     ("record.fields", lambda s: s.record.fields),
+    ("damping.model", lambda s: s.damping.model),
+    ("response windows", lambda s: (s.record.response_start, s.record.response_periods,
+                                    s.record.response_windows, s.record.harmonics)),
 )
 
 
@@ -62,7 +65,9 @@ def _features(first: Scene, *, any_static: bool, heterogeneous: bool, gravity: b
         static = "profile"
     else:
         static = "uniform"
-    events = first.integrator.events == "auto" and first.integrator.method != "verlet" and can_open()
+    # event steps carry no damping: a damped scene takes plain steps (docs/drive.md)
+    events = (first.integrator.events == "auto" and first.integrator.method != "verlet"
+              and first.damping.model == "none" and can_open())
     return Features(
         method=first.integrator.method,
         precision=first.integrator.precision,
@@ -73,6 +78,7 @@ def _features(first: Scene, *, any_static: bool, heterogeneous: bool, gravity: b
         hertz=hertz,
         traces=bool(first.record.traces),
         event_window=EVENT_WINDOW if events else 0.0,
+        damping=first.damping.model,
     )
 
 
@@ -116,6 +122,10 @@ class State:
     traces: wp.array
     """Trace ring, shape (2, chains, samples per record, traced grains) [u and dt·v], or (2, 0, 0, 0);
     shared by both halves like ``status``; the record step reads it back once per record."""
+    dissipated: wp.array = None
+    """Energy dissipated by damping up to now per grain (its own viscous loss, or the dashpot of the
+    contact above it), shape (chains, grains) float64, or (0, 0) without damping; shared by both
+    halves (each thread updates only its own grain)."""
 
 
 @dataclass(frozen=True)
@@ -147,6 +157,8 @@ class Model:
     """½ m_0 v_imp² per chain (0 without an impact), float64."""
     _static: object = None
     """StaticArrays of a ChainSet model (reused by the Taylor start), else None."""
+    damping: wp.array = None
+    """γ per chain, shape (chains,), or (0,) without damping (damping.model in ``features``)."""
 
     @property
     def real(self):
@@ -174,14 +186,16 @@ class Model:
             shape = (2, c, self.trace_capacity, traced) if traced else (2, 0, 0, 0)
             status = wp.zeros(c, dtype=wp.int32, device=self.device)
             traces = wp.zeros(shape, dtype=self.real, device=self.device)
+            damped = self.features.damping != "none"
+            dissipated = wp.zeros((c, n) if damped else (0, 0), dtype=wp.float64, device=self.device)
         else:
-            status, traces = like.status, like.traces
+            status, traces, dissipated = like.status, like.traces, like.dissipated
         return State(
             x=wp.zeros((self.features.values, c, n), dtype=self.real, device=self.device),
             clock=wp.zeros(1, dtype=wp.int32, device=self.device),
             work=wp.zeros(c if driven else 0, dtype=wp.float64, device=self.device),
             power=wp.zeros(c if driven else 0, dtype=wp.float64, device=self.device),
-            status=status, traces=traces,
+            status=status, traces=traces, dissipated=dissipated,
         )
 
     def state_pair(self) -> tuple[State, State]:
@@ -220,8 +234,8 @@ def covers(wider: Features, needed: Features) -> bool:
     """Whether a kernel variant ``wider`` can run scenes that need ``needed``."""
     # event-aware steps may run chains that cannot open a contact (they then step as plain Gear would
     # wherever no contact comes near opening), not the other way round
-    return (wider.method, wider.precision, wider.surface, wider.bottom, wider.traces) == (
-        needed.method, needed.precision, needed.surface, needed.bottom, needed.traces) and (
+    return (wider.method, wider.precision, wider.surface, wider.bottom, wider.traces, wider.damping) == (
+        needed.method, needed.precision, needed.surface, needed.bottom, needed.traces, needed.damping) and (
         wider.event_window == needed.event_window or needed.event_window == 0.0) and (
         STATIC_LEVELS.index(wider.static) >= STATIC_LEVELS.index(needed.static)
         and wider.heterogeneous >= needed.heterogeneous and (needed.hertz or not wider.hertz))
@@ -291,6 +305,8 @@ def build_model(scenes: "list[Scene] | ChainSet", device: str | None = None, *,
         trace_slot=upload(trace_slot, wp.int32),
         validity_overlap=upload(np.array([s.chain.validity_overlap for s in scenes]), wp.float64),
         injected_energy=np.array([s.injected_energy for s in scenes]),
+        damping=upload(np.array([s.damping.gamma for s in scenes] if f.damping != "none" else [],
+                                dtype=np_real)),
     )
 
 
@@ -385,4 +401,5 @@ def _build_model_of(chains: ChainSet, device, features: Features | None) -> Mode
         validity_overlap=upload(per_unique(lambda d: 0.1 * d, chains.column("chain.diameter")), wp.float64),
         injected_energy=injected,
         _static=st,
+        damping=upload((chains.column("damping.gamma") if f.damping != "none" else np.zeros(0)).astype(np_real)),
     )

@@ -148,11 +148,19 @@ def chain_memory(scene: Scene, features: Features) -> tuple[int, int]:
     if features.static == "profile":
         device += (n + 1) * item
     device += 256                                       # per-chain scalars
+    if features.damping != "none":
+        device += n * 8                                 # dissipated energy per grain
+    response = 0
+    if scene.has_response:
+        r = scene.record
+        response = r.response_windows * ((2 * (r.harmonics + 1) + 1) * n + 1) * 8  # response sums
+    device += response
     records = scene.record_count
     samples = (records - 1) * capacity + 1 if traced else 0
     host = len(scene.record.fields) * records * n * 8   # snapshots (stored as float64 at most)
     host += 2 * samples * traced * 8 + 2 * 2 * capacity * traced * item  # traces and a buffer copy
     host += 2 * records * 8 + 64                        # energy, work, per-chain scalars
+    host += 2 * response                                # response windows and their reduction
     return device, host
 
 

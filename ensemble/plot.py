@@ -576,6 +576,8 @@ def plot_store(ds, out: str | Path, *, field: str = "v", at: dict[str, float] | 
     the traced grains' velocities, and the relative energy error against time."""
     if field not in ("u", "v"):
         raise PlotError(f"field {field!r}: u or v")
+    if "response" in ds.variables:
+        return plot_response_point(select_point(ds, at), Path(out))
     _require(ds, field, "energy", figure=f"a {field} picture")
     point = select_point(ds, at)
     plt = _pyplot()
@@ -618,9 +620,81 @@ def plot_store(ds, out: str | Path, *, field: str = "v", at: dict[str, float] | 
     return _finish(fig, Path(out))
 
 
+def drive_map(ds, out: Path) -> Path:
+    """Response map of a drive sweep (two sweep axes, e.g. τ × A): one heatmap per number of
+    ``analysis.response_map`` (standing-wave ratio on a log scale, labels as codes of analysis.LABELS)."""
+    _require(ds, "response", "window_ke", "driver_open", figure="drive_map")
+    numbers = an.response_map(ds)
+    dims = numbers["dims"]
+    if len(dims) != 2:
+        raise PlotError(f"a response map needs a store with two sweep axes; this one has {len(dims)}")
+    plt = _pyplot()
+    metrics = an.MAP_METRICS
+    cols = 4
+    rows = -(-len(metrics) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.0 * cols, 3.2 * rows), squeeze=False)
+    y, x = numbers["coords"][dims[0]], numbers["coords"][dims[1]]
+    for ax, metric in zip(axes.flat, metrics):
+        data = np.asarray(numbers[metric], dtype=float)
+        shown = np.log10(data) if metric == "swr" else data
+        image = ax.imshow(shown, origin="lower", aspect="auto", cmap="viridis" if metric != "label" else "Set2",
+                          vmin=0 if metric == "label" else None, vmax=len(an.LABELS) - 1 if metric == "label" else None)
+        ax.set_xticks(range(len(x)), [f"{v:g}" for v in x])
+        ax.set_yticks(range(len(y)), [f"{v:g}" for v in y])
+        ax.set_xlabel(dims[1])
+        ax.set_ylabel(dims[0])
+        ax.set_title("log10 standing-wave ratio |V1|" if metric == "swr" else metric)
+        for (i, j), value in np.ndenumerate(data):
+            text = an.LABELS[int(value)] if metric == "label" and np.isfinite(value) else f"{value:.3g}"
+            ax.text(j, i, text, ha="center", va="center", fontsize=7, color="w")
+        fig.colorbar(image, ax=ax)
+    for ax in list(axes.flat)[len(metrics):]:
+        ax.axis("off")
+    return _finish(fig, out)
+
+
+def plot_response_point(point, out: Path) -> Path:
+    """One point with response windows: |V_1(z)| and its phase per window, window_ke (window × grain) and
+    the depth–time picture of v from the snapshots."""
+    plt = _pyplot()
+    fig, axes = plt.subplots(2, 2, figsize=(12.0, 7.0), squeeze=False)
+    v1 = point.response.sel(harmonic=1).values
+    starts = point.window_start.values
+    grains = np.arange(v1.shape[-1])
+    for w in range(v1.shape[0]):
+        axes[0, 0].plot(grains, np.abs(v1[w]), lw=0.8, label=f"window from t = {starts[w]:g}")
+        axes[0, 1].plot(grains, np.angle(v1[w]), ".", ms=2)
+    axes[0, 0].set_yscale("log")
+    axes[0, 0].set_xlabel("grain (depth; surface = 0)")
+    axes[0, 0].set_ylabel("|V_1| [1e-5 m per time unit]")
+    axes[0, 0].set_title("|V_1(z)|, fundamental of the drive")
+    axes[0, 0].legend(fontsize=7)
+    axes[0, 1].set_xlabel("grain")
+    axes[0, 1].set_ylabel("arg V_1 [rad]")
+    axes[0, 1].set_title("phase of V_1 (t absolute)")
+    ke = point.window_ke.values
+    image = axes[1, 0].imshow(ke, origin="lower", aspect="auto", cmap="magma", interpolation="nearest")
+    fig.colorbar(image, ax=axes[1, 0], label="window-averaged ½ m v²")
+    axes[1, 0].set_xlabel("grain")
+    axes[1, 0].set_ylabel("window")
+    axes[1, 0].set_title("window_ke; driver open " + ", ".join(f"{f:.2f}" for f in point.driver_open.values))
+    if "v" in point.variables:
+        t, v = point.t.values, point.v.values
+        limit = float(np.nanmax(np.abs(v))) or 1.0
+        image = axes[1, 1].imshow(v, origin="lower", aspect="auto", cmap="RdBu_r", vmin=-limit, vmax=limit,
+                                  extent=(-0.5, v.shape[-1] - 0.5, t[0], t[-1]), interpolation="nearest")
+        fig.colorbar(image, ax=axes[1, 1], label="v [1e-5 m per time unit]")
+        axes[1, 1].set_xlabel("grain")
+        axes[1, 1].set_ylabel(f"t [{TIME_UNIT}]")
+        axes[1, 1].set_title("v(grain, t) at the snapshots, + into the chain")
+    else:
+        axes[1, 1].axis("off")
+    return _finish(fig, out)
+
+
 FIGURES: dict[str, Callable] = {
     "fig1": fig1, "fig1d": fig1d, "fig2": fig2, "fig3": fig3, "fig4": fig4, "fig5": fig5, "fig6": fig6,
-    "depth": depth, "fig7_8": fig7_8, "fig9": fig9, "fig10": fig10, "modes": modes,
+    "depth": depth, "fig7_8": fig7_8, "fig9": fig9, "fig10": fig10, "modes": modes, "drive_map": drive_map,
 }
 """Figure name → drawing function (dataset, output path)."""
 

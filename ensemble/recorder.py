@@ -17,6 +17,7 @@ import warp as wp
 from hertzian.kernels.records import record_kernel, track_extremes
 
 from .model import Model, State
+from .response import ResponseAccumulator
 
 
 class Recorder:
@@ -35,6 +36,9 @@ class Recorder:
         """Running max over checks of |E − E(0) [− W]| (device)."""
         self.largest_overlap = wp.full(c, -1.0e300, dtype=wp.float64, device=dev)
         """Running max over checks of the largest overlap (device)."""
+        damped = m.features.damping != "none"
+        self.dissipated_now = wp.zeros(c if damped else 0, dtype=wp.float64, device=dev)
+        """Energy dissipated by damping up to the last check, per chain (device; size 0 without damping)."""
 
         self.real_np = np.float64 if m.features.precision == "float64" else np.float32
         records, n = scene.record_count, m.grain_count
@@ -49,6 +53,8 @@ class Recorder:
         self.trace_t = (np.arange(sample_count) * scene.trace_stride * m.dt) if self.traced else None
         self.energy = np.zeros((c, records))
         self.work = np.zeros((c, records)) if m.features.surface == "driven" else None
+        self.dissipated = np.zeros((c, records)) if damped else None
+        self.response = ResponseAccumulator(m) if scene.has_response else None
 
         self.staging = [self._staging_buffer() for _ in range(2)]
         """Two sets of host copies, used alternately (double buffering)."""
@@ -66,6 +72,8 @@ class Recorder:
         buf = {"energy": host(c, wp.float64)}
         if self.work is not None:
             buf["work"] = host(c, wp.float64)
+        if self.dissipated is not None:
+            buf["dissipated"] = host(c, wp.float64)
         if self.fields or self.traced:
             buf["u"] = host((c, n), m.real)
             buf["v"] = host((c, n), m.real)
@@ -77,6 +85,8 @@ class Recorder:
         """Compile and load the reduction kernels (before a clock starts)."""
         wp.load_module(self.kernel.module, device=self.model.device)
         wp.load_module(track_extremes.module, device=self.model.device)
+        if self.response is not None:
+            self.response.load()
 
     def check(self, state: State, step: int) -> None:
         """Energy, work, largest overlap and status of every chain at ``step`` (device only, no sync)."""
@@ -84,13 +94,14 @@ class Recorder:
         wp.launch(self.kernel, dim=m.chain_count,
                   inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.drive,
                           state.work, state.power, step, m.dt, m.validity_overlap],
-                  outputs=[self.energy_now, self.work_now, self.max_overlap_now, state.status], device=m.device)
+                  outputs=[self.energy_now, self.work_now, self.max_overlap_now, state.status, m.damping,
+                           state.dissipated, self.dissipated_now], device=m.device)
         if step == 0:
             wp.copy(self.initial_energy, self.energy_now)
         wp.launch(track_extremes, dim=m.chain_count,
                   inputs=[self.energy_now, self.work_now, self.initial_energy,
                           int(m.features.surface == "driven"), self.max_overlap_now],
-                  outputs=[self.energy_deviation, self.largest_overlap], device=m.device)
+                  outputs=[self.energy_deviation, self.largest_overlap, self.dissipated_now], device=m.device)
 
     def record(self, state: State, r: int, step: int) -> None:
         """Check at ``step`` and keep record ``r`` (snapshots, energy, work, the traces since record r − 1).
@@ -105,6 +116,8 @@ class Recorder:
         wp.copy(buf["energy"], self.energy_now)
         if "work" in buf:
             wp.copy(buf["work"], self.work_now)
+        if "dissipated" in buf:
+            wp.copy(buf["dissipated"], self.dissipated_now)
         if "u" in buf:
             wp.copy(buf["u"], state.x[0])
             wp.copy(buf["v"], state.x[1])
@@ -131,6 +144,8 @@ class Recorder:
         self.energy[:, r] = buf["energy"].numpy()
         if self.work is not None:
             self.work[:, r] = buf["work"].numpy()
+        if self.dissipated is not None:
+            self.dissipated[:, r] = buf["dissipated"].numpy()
         if self.traced:
             if r == 0:
                 self.traces["u"][:, 0] = buf["u"].numpy()[:, self.traced]

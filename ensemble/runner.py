@@ -44,6 +44,7 @@ class RunResult:
     """Energy relative to the static state, shape (chains, R). Differs from SPEC §5's E by a constant per chain."""
     work: np.ndarray | None
     """Driver's work up to each record, shape (chains, R), driven scenes only."""
+
     status: np.ndarray
     """Per-chain status code (see hertzian.ensemble.status.Status), shape (chains,)."""
     max_overlap: np.ndarray
@@ -68,6 +69,10 @@ class RunResult:
     ``Runner.__init__``), ``advance`` (host time in the
     solver; on a CPU the kernels themselves), ``record`` (checks, host copies, unpacking), ``device``
     (CUDA: summed event time of the advances; CPU: = advance), ``wall`` (= wall_seconds)."""
+    dissipated: np.ndarray | None = None
+    """Energy dissipated by damping up to each record, shape (chains, R), damped scenes only."""
+    response: dict[str, np.ndarray] = field(default_factory=dict)
+    """Response windows (ensemble/response.py): 'response', 'window_ke', 'driver_open', 'window_start'."""
 
     @property
     def chain_count(self) -> int:
@@ -130,15 +135,20 @@ class Runner:
         self.current = self.solver.advance(self.current, other, n_steps, first_step=first_step)
 
     def advance_monitored(self, first_step: int, n_steps: int) -> None:
-        """``advance`` in pieces of ``monitor_every`` steps with a device-side check after each piece."""
+        """``advance`` in pieces of ``monitor_every`` steps with a device-side check after each piece,
+        stopping also at the response windows' sample steps (sampled on the device, no sync)."""
         every = self.monitor_every if self.monitor_every > 0 else n_steps
-        done = 0
-        while done < n_steps:
-            piece = min(every, n_steps - done)
-            self.advance(piece, first_step + done)
-            done += piece
-            if done < n_steps:
-                self.recorder.check(self.current, first_step + done)
+        response = self.recorder.response
+        samples = set(response.sample_steps(first_step, first_step + n_steps)) if response is not None else set()
+        checks = set(range(first_step + every, first_step + n_steps, every))
+        done = first_step
+        for stop in sorted(samples | checks | {first_step + n_steps}):
+            self.advance(stop - done, done)
+            done = stop
+            if stop in checks:
+                self.recorder.check(self.current, stop)
+            if stop in samples:
+                response.sample(self.current, stop)
 
     def run(self, progress=None) -> RunResult:
         """Integrate to the end; ``progress(done_records, total_records)`` is called after each record."""
@@ -153,6 +163,8 @@ class Runner:
         events = [] if m.device.is_cuda else None
         advance_seconds = record_seconds = 0.0
         start = time.perf_counter()
+        if rec.response is not None and rec.response.start_step == 0:
+            rec.response.sample(self.current, 0)
         for r, step in enumerate(record_steps):
             if r:
                 clock = time.perf_counter()
@@ -179,7 +191,8 @@ class Runner:
 
         status = self.current.status.numpy().copy()
         # max over records and the checks between them (the records alone would miss peaks in between)
-        energy_error = energy_errors(rec.energy, rec.work, m.injected_energy, deviation=rec.energy_deviation.numpy())
+        energy_error = energy_errors(rec.energy, rec.work, m.injected_energy, deviation=rec.energy_deviation.numpy(),
+                                     dissipated=rec.dissipated)
         drift = (status == Status.OK) & (energy_error > self.energy_tolerance) & (
             (m.injected_energy > 0) | (rec.work is not None))
         status[drift] = Status.ENERGY_DRIFT
@@ -190,17 +203,21 @@ class Runner:
             steps=record_steps[-1], fields=rec.fields, trace_t=rec.trace_t, traces=rec.traces,
             kernel=self.solver.describe() + (f" ({self.kernel_note})" if self.kernel_note else ""),
             solver=self.solver.config, kernel_note=self.kernel_note, timing=timing,
+            dissipated=rec.dissipated, response=rec.response.result() if rec.response is not None else {},
         )
 
 
 def energy_errors(energy: np.ndarray, work: np.ndarray | None, injected: np.ndarray, *,
-                  deviation: np.ndarray | None = None) -> np.ndarray:
+                  deviation: np.ndarray | None = None, dissipated: np.ndarray | None = None) -> np.ndarray:
     """SPEC §5: max_t |E(t) − E(0)| / E_inj; driven: |E − E(0) − W| / max|W|; absolute if nothing injected.
+    With damping the dissipated energy D is added: |E + D − E(0) [− W]|.
 
-    ``energy``/``work`` are the records (chains, R); ``deviation`` (chains,), if given, is the running
-    max of |E − E(0) [− W]| over finer device-side checks and is folded into the max.
+    ``energy``/``work``/``dissipated`` are the records (chains, R); ``deviation`` (chains,), if given, is the
+    running max of |E − E(0) [− W] [+ D]| over finer device-side checks and is folded into the max.
     """
     change = energy - energy[:, :1]
+    if dissipated is not None:
+        change = change + dissipated
     scale = np.asarray(injected, dtype=float).copy()
     if work is not None:
         change = change - work

@@ -26,6 +26,11 @@ EVENT_MODES = ("auto", "off")
 PRECISIONS = ("float64", "float32")
 CONTACT_RULES = ("harmonic", "own")
 FIELDS = ("u", "v")
+DAMPING_MODELS = ("none", "viscous", "contact")
+RESPONSE_MIN_SAMPLES_PER_PERIOD = 256
+"""Response windows sample v at least this many times per drive period (uniformly, a whole number
+of samples per period) where the period has that many steps; see :attr:`Scene.response_stride`."""
+MAX_HARMONICS = 64
 MAX_STEPS = 2**31 - 1
 """Most steps a run may take: the kernels count steps in an int32 clock."""
 VALIDITY_FRACTION = 0.1
@@ -131,6 +136,17 @@ class IntegratorSpec:
 
 
 @dataclass(frozen=True)
+class DampingSpec:
+    """Dissipation (absent from the kernels unless a scene uses it)."""
+
+    model: str = "none"
+    """none | viscous (force −γ m_i v_i on every integrated grain) | contact (dashpot −γ δ̇ on each
+    closed contact, walls and the driver's contact included)."""
+    gamma: float = 0.0
+    """γ: [1/time] for viscous, [mass/time] for contact."""
+
+
+@dataclass(frozen=True)
 class RecordSpec:
     """What a run keeps."""
 
@@ -144,6 +160,15 @@ class RecordSpec:
     """Trace interval [time]; default: every step. Must divide ``every``."""
     energy: bool = True
     """Record the total energy at every snapshot."""
+    response_start: float | None = None
+    """Time of the first response window [time] (driven scenes; None: no response windows).
+    Must be a whole number of steps."""
+    response_periods: int = 1
+    """Drive periods per response window."""
+    response_windows: int = 1
+    """Consecutive response windows."""
+    harmonics: int = 1
+    """Highest harmonic H of the drive frequency kept in ``response`` (k = 0 … H)."""
 
 
 @dataclass(frozen=True)
@@ -156,6 +181,7 @@ class Scene:
     excitation: ExcitationSpec = field(default_factory=ExcitationSpec)
     integrator: IntegratorSpec = field(default_factory=IntegratorSpec)
     record: RecordSpec = field(default_factory=RecordSpec)
+    damping: DampingSpec = field(default_factory=DampingSpec)
 
     def __post_init__(self):
         _validate(self)
@@ -225,6 +251,35 @@ class Scene:
         """Trace samples of a run (t = 0 included); 0 without traces."""
         return self.step_count // self.trace_stride + 1 if self.record.traces else 0
 
+    # ---- response windows (driven scenes) -------------------------------------------
+    @property
+    def has_response(self) -> bool:
+        """Whether the scene accumulates response windows (``record.response_start`` set)."""
+        return self.record.response_start is not None
+
+    @property
+    def period_steps(self) -> int:
+        """Steps per drive period, τ/dt (validated to be a whole number where responses are kept)."""
+        return max(1, round(self.excitation.drive_period / self.integrator.dt))
+
+    @property
+    def response_start_step(self) -> int:
+        """Step of the first response window's first sample."""
+        return round((self.record.response_start or 0.0) / self.integrator.dt)
+
+    @property
+    def response_stride(self) -> int:
+        """Steps between two response samples: the largest divisor s of the period's steps P with
+        P/s ≥ RESPONSE_MIN_SAMPLES_PER_PERIOD (s = 1 when the period has fewer steps). Whole periods
+        of uniform samples make the rectangle rule spectrally accurate for a periodic integrand."""
+        return response_stride_of([self.period_steps])
+
+    @property
+    def response_end_step(self) -> int:
+        """First step after the last response window."""
+        r = self.record
+        return self.response_start_step + r.response_windows * r.response_periods * self.period_steps
+
     @property
     def injected_energy(self) -> float:
         """Energy put in at t = 0 by an impact (½ m_0 v_imp²); 0 for other scenes."""
@@ -248,6 +303,23 @@ class Scene:
         return scene_from_dict(apply_overrides(self.to_dict(), overrides))
 
 
+def response_stride_of(period_steps) -> int:
+    """A sample stride (steps) that divides every period in ``period_steps`` (a launch shares one):
+    the largest divisor of their gcd leaving ≥ RESPONSE_MIN_SAMPLES_PER_PERIOD samples in the shortest."""
+    steps = [int(p) for p in period_steps]
+    g = 0
+    for p in steps:
+        g = math.gcd(g, p)
+    shortest = min(steps)
+    best = 1
+    for s in range(1, int(math.isqrt(g)) + 1):
+        if g % s == 0:
+            for d in (s, g // s):
+                if shortest // d >= RESPONSE_MIN_SAMPLES_PER_PERIOD and d > best:
+                    best = d
+    return best
+
+
 def grain_masses_at(scene: Scene, index: int) -> float:
     for imp in scene.impurities:
         if index in imp.grains and imp.mass is not None:
@@ -263,6 +335,7 @@ _SECTIONS = {
     "excitation": ExcitationSpec,
     "integrator": IntegratorSpec,
     "record": RecordSpec,
+    "damping": DampingSpec,
 }
 _TOP_KEYS = tuple(_SECTIONS) + ("impurities",)
 
@@ -529,6 +602,7 @@ def _validate(s: Scene) -> None:
                              f"must divide record.every and integrator.duration into whole steps (every = "
                              f"{r.every if r.every is not None else i.duration:g}, duration = {i.duration:g}, "
                              f"trace_every = {s.trace_stride} steps of dt = {i.dt:g})")
+    _validate_damping_and_response(s)
     for key, value, derived in (("chain.l0" if c.load is None else "chain.load", c.l0 if c.load is None else c.load,
                                  lambda: c.surface_force), ("excitation.impact", e.impact, lambda: s.injected_energy)):
         try:
@@ -537,3 +611,38 @@ def _validate(s: Scene) -> None:
             finite = False
         if not finite:
             raise SceneError(key, value, "too large: the load or energy it gives overflows float64")
+
+
+def _validate_damping_and_response(s: Scene) -> None:
+    d, r, i = s.damping, s.record, s.integrator
+    if d.model not in DAMPING_MODELS:
+        raise SceneError("damping.model", d.model, f"must be one of {', '.join(DAMPING_MODELS)}"
+                         + _did_you_mean(d.model, DAMPING_MODELS))
+    if d.gamma < 0:
+        raise SceneError("damping.gamma", d.gamma, "must be ≥ 0")
+    if d.model == "none" and d.gamma != 0:
+        raise SceneError("damping.gamma", d.gamma, "needs damping.model = \"viscous\" or \"contact\"")
+    if r.response_start is None:
+        return
+    if s.boundary.surface != "driven":
+        raise SceneError("record.response_start", r.response_start,
+                         "response windows need a drive (boundary.surface = \"driven\")")
+    if r.response_start < 0:
+        raise SceneError("record.response_start", r.response_start, "must be ≥ 0")
+    for key in ("response_periods", "response_windows"):
+        if getattr(r, key) < 1:
+            raise SceneError(f"record.{key}", getattr(r, key), "must be an integer ≥ 1")
+    if not 0 <= r.harmonics <= MAX_HARMONICS:
+        raise SceneError("record.harmonics", r.harmonics, f"must be an integer 0 … {MAX_HARMONICS}")
+    ratio = s.excitation.drive_period / i.dt
+    if abs(ratio - round(ratio)) > 1e-9 * ratio:
+        raise SceneError("excitation.drive_period", s.excitation.drive_period,
+                         f"response windows need a whole number of steps per period (τ/dt = {ratio:.6g})")
+    ratio = r.response_start / i.dt
+    if abs(ratio - round(ratio)) > 1e-9 * max(ratio, 1.0):
+        raise SceneError("record.response_start", r.response_start,
+                         f"must be a whole number of steps of integrator.dt = {i.dt:g}")
+    if s.response_end_step > s.step_count:
+        raise SceneError("record.response_windows", r.response_windows,
+                         f"the windows end at t = {s.response_end_step * i.dt:g}, after integrator.duration = "
+                         f"{i.duration:g}: shorten or start them earlier")

@@ -7,7 +7,9 @@ arithmetic on the equation of motion: u_{k+2} = A_k / ((k+1)(k+2)), where A_k is
 coefficient of the acceleration series, built from the overlap series of each contact by the
 power rule w = δ^p ⇒ w_k = Σ_{j=1..k} ((p+1) j − k) δ_j w_{k−j} / (k δ_0).
 A contact with no static overlap (δ_0 = 0) is not analytic at t = 0 (F ∝ t^(n−1)); its series
-is taken as zero.
+is taken as zero. Damping enters linearly: −γ v_k (viscous, v_k = (k+1) u_{k+1}) in the acceleration
+series, +γ δ̇_k (a dashpot, δ̇_k = (k+1) δ_{k+1}) in each loaded contact's force series; a start
+without it would cost Gear its order (an O(dt) error in the first step's velocity).
 """
 
 from __future__ import annotations
@@ -52,6 +54,7 @@ def taylor_coefficients(scene: Scene, order: int, static: StaticState | None = N
     a_c, delta0 = st.contact_constant, st.static_overlap
     loaded = (a_c > 0) & (delta0 > 0)
     inv_mass = 1.0 / st.mass
+    damping, gamma = scene.damping.model, scene.damping.gamma
     for k in range(0, order - 1):
         # overlap series of every padded contact up to order k
         d = np.zeros((k + 1, n_grains + 1))
@@ -63,7 +66,15 @@ def taylor_coefficients(scene: Scene, order: int, static: StaticState | None = N
         if k >= 1 and np.any(loaded):
             w = _power_series(d[:, loaded], n - 1.0)
             force_k[loaded] = n * a_c[loaded] * w[k]
+        if damping == "contact":
+            rate = np.zeros(n_grains + 1)  # δ̇_k = (k+1) δ_{k+1}
+            rate[1:n_grains] = u[k + 1, :-1] - u[k + 1, 1:]
+            rate[0] = -u[k + 1, 0]
+            rate[n_grains] = u[k + 1, -1]
+            force_k = force_k + np.where(loaded, gamma * (k + 1) * rate, 0.0)
         accel_k = (force_k[:-1] - force_k[1:]) * inv_mass
+        if damping == "viscous":
+            accel_k = accel_k - gamma * (k + 1) * u[k + 1]
         if driven:
             accel_k[0] = u[k + 2, 0] * (k + 1) * (k + 2)
         if fixed:
@@ -122,6 +133,8 @@ def taylor_coefficients_of(chains, order: int, static=None, *, whole: bool = Tru
     loaded = (a_c > 0) & (delta0 > 0)
     any_loaded = bool(np.any(loaded))
     inv_mass = 1.0 / st.mass[:, :n_grains]
+    damping = scene.damping.model
+    gamma = chains.column("damping.gamma") if damping != "none" else None
     exponents = np.unique(st.exponent).tolist()
     groups = [(slice(None), exponents[0])] if len(exponents) == 1 else [
         (st.exponent == n, n) for n in exponents]
@@ -153,7 +166,15 @@ def taylor_coefficients_of(chains, order: int, static=None, *, whole: bool = Tru
                         acc += ((p + 1.0) * j - k) * delta[j] * w[k - j]
                     w[k] = acc / (k * delta[0])
                     force_k[rows] = np.where(loaded[rows], n * a_c[rows] * w[k], 0.0)
+        if damping == "contact":
+            rate = np.zeros((count, n_grains + 1))  # δ̇_k = (k+1) δ_{k+1}
+            rate[:, 1:n_grains] = u[k + 1, :, :-1] - u[k + 1, :, 1:]
+            rate[:, 0] = -u[k + 1, :, 0]
+            rate[:, n_grains] = u[k + 1, :, -1]
+            force_k = force_k + np.where(loaded, gamma[:, None] * (k + 1) * rate, 0.0)
         accel_k = (force_k[:, :-1] - force_k[:, 1:]) * inv_mass
+        if damping == "viscous":
+            accel_k = accel_k - gamma[:, None] * (k + 1) * u[k + 1]
         if driven:
             accel_k[:, 0] = u[k + 2, :, 0] * (k + 1) * (k + 2)
         if fixed and not cut:

@@ -35,7 +35,8 @@ SPACINGS = ("values", "linspace", "logspace")
 RESERVED_NAMES = frozenset({
     "t", "record", "grain", "sample", "traced", "trace_t", "traced_grain", "u", "v", "energy", "work",
     "trace_u", "trace_v", "status", "energy_error", "max_overlap", "wall_seconds", "grain_steps_per_second",
-    "batch", "batches",
+    "batch", "batches", "dissipated", "response", "window_ke", "driver_open", "window_start", "window",
+    "harmonic",
 })
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 MAX_POINTS = 10**7

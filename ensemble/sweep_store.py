@@ -122,6 +122,26 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
             out.append(dict(name="work", dims=dims + ("record",), trailing=(records,),
                             dtype=np.dtype(np.float64), fill=np.nan,
                             attrs={**coords("t"), "long_name": "work done by the driver on the chain"}))
+    if scene.damping.model != "none" and scene.record.energy:
+        out.append(dict(name="dissipated", dims=dims + ("record",), trailing=(records,),
+                        dtype=np.dtype(np.float64), fill=np.nan,
+                        attrs={**coords("t"), "long_name": "energy dissipated by damping up to the record"}))
+    if scene.has_response:
+        windows, harmonics = scene.record.response_windows, scene.record.harmonics + 1
+        out += [
+            dict(name="response", dims=dims + ("window", "harmonic", "grain"), trailing=(windows, harmonics, n),
+                 dtype=np.dtype(np.complex128), fill=complex(np.nan, np.nan),
+                 attrs={**coords("window_start"), "long_name": "V_k = (c_k/T_w) ∫ v e^{-ikωt} dt over the "
+                        "window (c_0 = 1, c_k = 2), t absolute [length/time]"}),
+            dict(name="window_ke", dims=dims + ("window", "grain"), trailing=(windows, n),
+                 dtype=np.dtype(np.float64), fill=np.nan,
+                 attrs={**coords("window_start"), "long_name": "window-averaged kinetic energy ½ m v²"}),
+            dict(name="driver_open", dims=dims + ("window",), trailing=(windows,), dtype=np.dtype(np.float64),
+                 fill=np.nan, attrs={**coords("window_start"), "long_name": "fraction of the window during "
+                                     "which the driver–grain-1 contact is open"}),
+            dict(name="window_start", dims=dims + ("window",), trailing=(windows,), dtype=np.dtype(np.float64),
+                 fill=np.nan, attrs={"long_name": "start time of the window (depends on the point's period)"}),
+        ]
     tt = trace_times(scene)
     if tt is not None:
         for name in ("u", "v"):
@@ -264,6 +284,9 @@ def create_sweep_store(path: str | Path, sweep: Sweep, scene: "Scene | list[Scen
         _small(root, "t", record_times(scene), ("record",), {"units": "program time (1.0102e-3 s)"})
         _small(root, "grain", np.arange(scene.chain.grains, dtype=np.int32), ("grain",),
                {"long_name": "grain index from the surface"})
+        if scene.has_response:
+            _small(root, "harmonic", np.arange(scene.record.harmonics + 1, dtype=np.int32), ("harmonic",),
+                   {"long_name": "harmonic k of the drive frequency"})
         tt = trace_times(scene)
         if tt is not None:
             _small(root, "trace_t", tt, ("sample",))
@@ -378,6 +401,10 @@ def write_batch(path: str | Path, batch: Batch, result: RunResult, *, grain_step
         put("energy", result.energy)
         if result.work is not None:
             put("work", result.work)
+    if scene.record.energy and result.dissipated is not None:
+        put("dissipated", result.dissipated)
+    for name, data in result.response.items():
+        put(name, data)
     for name, data in result.traces.items():
         put(f"trace_{name}", data)
     chains = result.chain_count

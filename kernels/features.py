@@ -49,6 +49,9 @@ class Features:
     event_window: float = 0.0
     """Event-aware Gear steps (kernels/events.py): a contact within this time [time] of opening or
     closing is stepped without the kink; 0: off (no event code is generated)."""
+    damping: str = "none"
+    """none | viscous (−γ m v on every integrated grain) | contact (dashpot −γ δ̇ on closed contacts):
+    per-chain γ, the dissipated energy accumulated per grain; only the per-step kernel has it."""
 
     @property
     def values(self) -> int:

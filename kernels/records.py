@@ -22,6 +22,8 @@ def record_kernel(features: Features):
     DRIVEN = f.surface == "driven"
     BOTTOM_WALL = f.bottom == "wall"
     HETERO = f.heterogeneous
+    DAMPED = f.damping != "none"
+    DASHPOT = f.damping == "contact"
     contact_force, excess_force = contact_functions(f.precision, f.hertz)
     params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz)
 
@@ -50,6 +52,9 @@ def record_kernel(features: Features):
         work: wp.array(dtype=wp.float64),
         max_overlap: wp.array(dtype=wp.float64),
         status: wp.array(dtype=wp.int32),
+        damping: wp.array(dtype=real),
+        dissipated_grain: wp.array2d(dtype=wp.float64),
+        dissipated: wp.array(dtype=wp.float64),
     ):
         c = wp.tid()
         n_grains = x.shape[2]
@@ -100,13 +105,27 @@ def record_kernel(features: Features):
             a_c = p[1]
             n = p[2]
             force = wp.float64(excess_force(delta0, d, a_c, n))
+            if wp.static(DASHPOT):
+                # the dashpot of the driver's contact (as in the step kernel's work)
+                if delta0 + d > real(0):
+                    force += wp.float64(damping[c]) * (wp.float64(x[1, c, 0]) - wp.float64(x[1, c, 1])) / dt
             power = force * amplitude * omega * wp.cos(omega * wp.float64(step) * dt)
             # The step kernel integrates the excess force's power; the static force of contact 0–1
             # does work F0_1·u_0(t) exactly. Adding it to work and energy makes both SPEC's (the
             # energy up to a constant): E − W is unchanged.
             static_work = wp.float64(contact_force(delta0, a_c, n)) * wp.float64(x[0, c, 0])
-            work[c] = work_in[c] + dt * wp.float64(0.5) * (power_in[c] + power) + static_work
+            closing = dt * wp.float64(0.5) * (power_in[c] + power)
+            if wp.static(DASHPOT):
+                if step == 0:
+                    closing = wp.float64(0.0)  # W(0) = 0 (the dashpot's power at t = 0 is not zero)
+            work[c] = work_in[c] + closing + static_work
             energy[c] = energy[c] + static_work
+
+        if wp.static(DAMPED):
+            lost = wp.float64(0.0)
+            for i in range(n_grains):
+                lost += dissipated_grain[c, i]
+            dissipated[c] = lost
 
         if finite == 0:
             status[c] = wp.static(STATUS_NON_FINITE)
@@ -125,11 +144,14 @@ def track_extremes(
     overlap: wp.array(dtype=wp.float64),
     energy_deviation: wp.array(dtype=wp.float64),
     largest_overlap: wp.array(dtype=wp.float64),
+    dissipated: wp.array(dtype=wp.float64),
 ):
-    # running max of |E − E(0) [− W]| and of the largest overlap, between records too
+    # running max of |E − E(0) [− W] [+ D]| and of the largest overlap, between records too
     c = wp.tid()
     change = energy[c] - initial_energy[c]
     if driven != 0:
         change = change - work[c]
+    if dissipated.shape[0] > 0:
+        change = change + dissipated[c]
     energy_deviation[c] = wp.max(energy_deviation[c], wp.abs(change))
     largest_overlap[c] = wp.max(largest_overlap[c], overlap[c])

@@ -40,6 +40,29 @@ def step_kernel(features: Features):
         near_event, event_step = event_functions(f)
     else:
         near_event = event_step = None
+    DAMPED = f.damping != "none"
+    VISCOUS = f.damping == "viscous"
+    DASHPOT = f.damping == "contact"
+
+    @wp.func
+    def predicted_rate(x: wp.array3d(dtype=real), c: int, j: int) -> real:
+        # dt·v predicted at t + dt from the Nordsieck vector: Σ_q q·x_q (Verlet: x1 + 2·x2)
+        rate = x[1, c, j] + real(2) * x[2, c, j]
+        if wp.static(Q >= 4):
+            rate += real(3) * x[3, c, j]
+        if wp.static(Q >= 5):
+            rate += real(4) * x[4, c, j]
+        if wp.static(Q >= 6):
+            rate += real(5) * x[5, c, j]
+        return rate
+
+    @wp.func
+    def dashpot(delta0: real, d: real, rate: real, gamma: real, h: real) -> real:
+        # dashpot force γ·δ̇ of a contact (rate = dt·δ̇), only while it is closed (δ0 + d > 0)
+        out = real(0)
+        if delta0 + d > real(0):
+            out = gamma * rate / h
+        return out
 
     @wp.func
     def driver_values(amplitude: wp.float64, omega: wp.float64, t: wp.float64, dt: wp.float64) -> values_t:
@@ -99,6 +122,8 @@ def step_kernel(features: Features):
         trace_x: wp.array4d(dtype=real),
         work_out: wp.array(dtype=wp.float64),
         power_out: wp.array(dtype=wp.float64),
+        damping: wp.array(dtype=real),
+        dissipated: wp.array2d(dtype=wp.float64),
     ):
         c, i = wp.tid()
         n_grains = x_in.shape[2]
@@ -128,8 +153,19 @@ def step_kernel(features: Features):
                 t_old = wp.float64(step_new - 1) * dt
                 d_old = x_in[0, c, 0] - x_in[0, c, 1]
                 force_old = wp.float64(contact(static_overlap, contact_constant, exponent, c, 1, d_old))
+                if wp.static(DASHPOT):
+                    # the driver also pushes through the dashpot of its contact (work includes it)
+                    rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old)) - x_in[1, c, 1]
+                    p01 = params(static_overlap, contact_constant, exponent, c, 1)
+                    force_old += wp.float64(dashpot(p01[0], d_old, rate_old, damping[c], h))
                 power = force_old * amplitude * omega * wp.cos(omega * t_old)
-                work_out[c] = work_in[c] + dt * wp.float64(0.5) * (power_in[c] + power)
+                if wp.static(DASHPOT):
+                    if step_new == 1:
+                        work_out[c] = work_in[c]  # W(0) = 0: the dashpot's power at t = 0 is not zero
+                    else:
+                        work_out[c] = work_in[c] + dt * wp.float64(0.5) * (power_in[c] + power)
+                else:
+                    work_out[c] = work_in[c] + dt * wp.float64(0.5) * (power_in[c] + power)
                 power_out[c] = power
                 x1_drive = real(dt * amplitude * omega * wp.cos(omega * t_new))
                 x_out[0, c, 0] = real(u_drive)
@@ -215,7 +251,67 @@ def step_kernel(features: Features):
             inv_m = inverse_mass[c, i]
         else:
             inv_m = inverse_mass[c, 0]
+        if wp.static(DAMPED):
+            # damping forces at the predicted velocities; the dissipated power's trapezoid (t_n exact,
+            # t_n+1 predicted) is accumulated per grain: its own viscous loss, the dashpot of the contact
+            # below it, and the one above where no integrated grain is above (wall, driver)
+            gamma = damping[c]
+            own_rate = predicted_rate(x_in, c, i)
+            own_rate_old = x_in[1, c, i]
+            loss_old = real(0)
+            loss_new = real(0)
+            if wp.static(VISCOUS):
+                m_i = real(1) / inv_m
+                loss_old = gamma * m_i * own_rate_old * own_rate_old / (h * h)
+                loss_new = gamma * m_i * own_rate * own_rate / (h * h)
+            if wp.static(DASHPOT):
+                if i < n_grains - 1 or wp.static(BOTTOM_WALL):
+                    below_rate = real(0)
+                    below_rate_old = real(0)
+                    d_new = u_p
+                    d_old = x_in[0, c, i]
+                    if i < n_grains - 1:
+                        below_rate = predicted_rate(x_in, c, i + 1)
+                        below_rate_old = x_in[1, c, i + 1]
+                        d_new = u_p - predicted_position(x_in, c, i + 1)
+                        d_old = x_in[0, c, i] - x_in[0, c, i + 1]
+                    delta0_below = params(static_overlap, contact_constant, exponent, c, i + 1)[0]
+                    f_new = dashpot(delta0_below, d_new, own_rate - below_rate, gamma, h)
+                    down += f_new
+                    loss_new += f_new * (own_rate - below_rate) / h
+                    f_old = dashpot(delta0_below, d_old, own_rate_old - below_rate_old, gamma, h)
+                    loss_old += f_old * (own_rate_old - below_rate_old) / h
+                if i > 0 or wp.static(SURFACE_WALL):
+                    above_rate = real(0)
+                    above_rate_old = real(0)
+                    above_u = real(0)
+                    above_u_old = real(0)
+                    outer = i == 0  # the contact above belongs to no integrated grain above
+                    if i > 0:
+                        above_u = predicted_position(x_in, c, i - 1)
+                        above_u_old = x_in[0, c, i - 1]
+                        above_rate = predicted_rate(x_in, c, i - 1)
+                        above_rate_old = x_in[1, c, i - 1]
+                        if wp.static(DRIVEN):
+                            if i == 1:
+                                outer = True
+                                t_old_d = wp.float64(step_new - 1) * dt
+                                above_u = real(u_drive)
+                                above_u_old = real(amplitude * wp.sin(omega * t_old_d))
+                                above_rate = real(dt * amplitude * omega * wp.cos(omega * t_new))
+                                above_rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old_d))
+                    delta0_above = params(static_overlap, contact_constant, exponent, c, i)[0]
+                    f_new = dashpot(delta0_above, above_u - u_p, above_rate - own_rate, gamma, h)
+                    up += f_new
+                    if outer:
+                        loss_new += f_new * (above_rate - own_rate) / h
+                        f_old = dashpot(delta0_above, above_u_old - x_in[0, c, i], above_rate_old - own_rate_old,
+                                        gamma, h)
+                        loss_old += f_old * (above_rate_old - own_rate_old) / h
+            dissipated[c, i] = dissipated[c, i] + dt * wp.float64(0.5) * (wp.float64(loss_old) + wp.float64(loss_new))
         half_h2_acc = real(0.5) * h * h * (up - down) * inv_m
+        if wp.static(VISCOUS):
+            half_h2_acc -= real(0.5) * h * damping[c] * predicted_rate(x_in, c, i)  # h²/2 · (−γ v)
 
         new = correct(x_in, x_out, c, i, u_p, half_h2_acc)
         write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, new[0], new[1])

@@ -35,7 +35,9 @@ What is here, by paper section:
   :func:`linear_chain_modes`, :func:`hertz_stiffness` (oscillations at an impurity site, linear theory).
 * V — :func:`depth_law` (c ∝ z^β, the paper's β = 1/6), :func:`column_sound_speed` (closed form),
   :func:`count_bumps` (tail bumps, Fig. 6).
-* VI — :func:`window_average`, :func:`standing_wave_measure`.
+* VI — :func:`window_average`, :func:`standing_wave_measure`; response maps (docs/drive.md):
+  :func:`standing_wave_ratio`, :func:`node_drift`, :func:`strobe_label`, :func:`point_response_numbers`,
+  :func:`response_map`.
 * Nesterenko's long-wave soliton — :func:`nesterenko_speed`, :data:`NESTERENKO_SUPPORT`,
   :data:`NESTERENKO_FWHM`, :func:`full_width_half_maximum`.
 """
@@ -43,8 +45,10 @@ What is here, by paper section:
 from .columns import column_sound_speed, count_bumps, depth_law, speed_against_depth
 from .common import (LineFit, PowerLawFit, energy_drift, fit_line, fit_power_law, paper_displacement,
                      paper_label)
-from .drive import (PAPER_DRIVE_TIMES, PAPER_WINDOW, PERSISTENCE_LAGS, StandingWave, drive_times, driven_windows,
-                    kinetic_energy, profile_nodes, standing_wave_measure, window_average)
+from .drive import (LABELS, MAP_METRICS, PAPER_DRIVE_TIMES, PAPER_WINDOW, PERSISTENCE_LAGS, StandingWave,
+                    drive_times, driven_windows, kinetic_energy, node_drift, point_response_numbers, profile_nodes,
+                    response_map, standing_wave_measure, standing_wave_ratio, strobe_label, strobe_samples,
+                    window_average)
 from .echoes import (Backscatter, backscatter, contrast_table, echo_contrast, echo_table, echo_window,
                      first_lobe, hertz_stiffness, impurity_grains, impurity_points, linear_chain_modes, power_spectrum)
 from .pulses import (NESTERENKO_FWHM, NESTERENKO_SUPPORT, PAPER_TAIL_TIMES, TailFit, front_position,
@@ -62,5 +66,6 @@ __all__ = [
     "nesterenko_speed", "overlap_behind_head", "overlaps", "paper_displacement", "paper_label", "plateau_tilt",
     "power_spectrum", "profile_nodes", "pulse_head", "pulse_speed", "rear_level", "running_max", "shock_width",
     "shock_widths", "speed_against_depth", "speed_exponent", "speed_history", "speeds_table", "standing_wave_measure",
-    "tail_decay", "times_in_flight", "window_average",
+    "tail_decay", "times_in_flight", "window_average", "LABELS", "MAP_METRICS", "node_drift", "point_response_numbers",
+    "response_map", "standing_wave_ratio", "strobe_label", "strobe_samples",
 ]

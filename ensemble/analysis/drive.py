@@ -138,3 +138,132 @@ def driven_windows(ds) -> dict:
                 rows.append(standing_wave_measure(window_average(t, energy[i], lagged, PAPER_WINDOW)))
             persistence.append(rows)
     return {"taus": taus, "centres": centres, "ke": ke, "v": vel, "persistence": persistence}
+
+
+# ---- response maps (docs/drive.md): per-point numbers from response windows -------------------------
+
+MAP_METRICS = ("swr", "node_count", "node_drift", "bottom_ke_fraction", "work_growth", "late_power", "driver_open",
+               "label")
+"""Per-point numbers of :func:`response_map`, in the order of the table."""
+
+LABELS = ("periodic", "quasi-periodic", "chaotic", "unknown")
+"""Codes 0 … 3 of the stroboscopic label (:func:`strobe_label`)."""
+
+
+def standing_wave_ratio(amplitude, *, interior: slice = slice(1, -1)) -> float:
+    """max |V_1| / min |V_1| over the interior grains (the driven grain and a held bottom grain left out):
+    1 for a pure travelling wave, ∞ for a pure standing wave with an exact node."""
+    a = np.abs(np.asarray(amplitude))[interior]
+    low = float(a.min()) if a.size else math.nan
+    return float(a.max()) / low if low > 0 else math.inf
+
+
+def node_drift(amplitudes, *, smooth: int = 1, depth: float = 0.3) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes of |V_1| (:func:`profile_nodes`) in each window and the drift between successive windows:
+    (node counts per window, median |shift| of each node to the nearest node of the next window [grains])."""
+    nodes = [profile_nodes(np.abs(row)[1:-1], smooth=smooth, depth=depth) + 1 for row in np.asarray(amplitudes)]
+    counts = np.array([n.size for n in nodes])
+    drift = np.array([float(np.median(np.abs(a[:, None] - b[None, :]).min(axis=1))) if a.size and b.size
+                      else math.nan for a, b in zip(nodes[:-1], nodes[1:])])
+    return counts, drift
+
+
+def strobe_samples(trace_t, trace, period: float, *, since: float = 0.0) -> np.ndarray:
+    """Trace samples (sample, traced) at t = nτ (within 1e-9 of a whole number of periods), t ≥ since."""
+    t = np.asarray(trace_t, dtype=float)
+    phase = t / period
+    at = (np.abs(phase - np.rint(phase)) <= 1e-9 * np.maximum(phase, 1.0)) & (t >= since - 1e-12)
+    return np.asarray(trace)[at]
+
+
+def strobe_label(samples, *, periodic_tol: float = 1e-3, max_period: int = 8, peak_fraction: float = 0.9) -> int:
+    """Stroboscopic label of a drive's response (an index into :data:`LABELS`) from samples (n, traced)
+    of a few grains at t = nτ after the transient:
+
+    * periodic — the sequence repeats with some period p ≤ ``max_period``: max |x_{n+p} − x_n| ≤
+      ``periodic_tol`` × the samples' range (period-p orbits count as periodic);
+    * quasi-periodic — not periodic, but the power spectrum of the (mean-removed) sequence has
+      ``peak_fraction`` of its power in its 2·traced largest lines (a discrete spectrum);
+    * chaotic — a broadband spectrum;
+    * unknown — fewer than 16 samples.
+    """
+    x = np.asarray(samples, dtype=float)
+    if x.ndim == 1:
+        x = x[:, None]
+    if x.shape[0] < 16:
+        return 3
+    scale = float(np.ptp(x)) or 1.0
+    for p in range(1, max_period + 1):
+        if float(np.max(np.abs(x[p:] - x[:-p]))) <= periodic_tol * scale:
+            return 0
+    y = x - x.mean(axis=0)
+    power = (np.abs(np.fft.rfft(y * np.hanning(len(y))[:, None], axis=0)) ** 2).sum(axis=1)[1:]
+    total = float(power.sum())
+    if total == 0:
+        return 0
+    lines = 2 * x.shape[1]
+    # a line spreads over ~3 bins under the Hann window
+    top = np.sort(power)[::-1][:3 * lines].sum()
+    return 1 if top / total >= peak_fraction else 2
+
+
+def point_scene_value(point, key: str) -> float:
+    """A scene key's value at one point of a store: the sweep axis with that ``scene_key``, else the
+    store's base scene."""
+    import json
+
+    for name, coord in point.coords.items():
+        if coord.attrs.get("scene_key") == key and coord.size == 1:
+            return float(coord.values)
+    section, name = key.split(".")
+    return float(json.loads(point.attrs["scene"])[section][name])
+
+
+def point_response_numbers(point, *, bottom_fraction: float = 0.1) -> dict:
+    """The map's numbers for one point of a store with response windows (an xarray Dataset of one point):
+    standing-wave ratio of |V_1| in the last window, node count and drift between successive windows,
+    the bottom ``bottom_fraction`` of the column's share of the last window's kinetic energy, the growth
+    of W (mean driver power over the second half of the run divided by that over the first half; 1 =
+    steady, ≫ 1 = growing; < 0: W fell in the second half) and that late mean power, the driver-open fraction of the last window, and the stroboscopic label
+    (traced grains at t = nτ after the first window's start; needs ``record.traces`` with
+    ``trace_every`` dividing τ)."""
+    v1 = point.response.sel(harmonic=1).values          # (window, grain)
+    counts, drift = node_drift(v1)
+    ke = point.window_ke.values[-1]
+    n = ke.size
+    bottom = float(ke[n - max(1, int(round(bottom_fraction * n))):].sum() / ke.sum()) if ke.sum() > 0 else math.nan
+    t, work = point.t.values, point.work.values
+    half = len(t) // 2
+    growth = second = math.nan
+    if half >= 1 and len(t) - 1 > half:
+        first = (work[half] - work[0]) / (t[half] - t[0])
+        second = float((work[-1] - work[half]) / (t[-1] - t[half]))
+        growth = float(second / first) if first != 0 else math.nan
+    label = 3
+    if "trace_v" in point.variables:
+        period = point_scene_value(point, "excitation.drive_period")
+        if period is not None:
+            since = float(point.window_start.values[0])
+            samples = strobe_samples(point.trace_t.values,
+                                     np.concatenate([point.trace_u.values, point.trace_v.values], axis=-1),
+                                     period, since=since)
+            label = strobe_label(samples)
+    return {"swr": standing_wave_ratio(v1[-1]), "node_count": int(counts[-1]),
+            "node_drift": float(np.nanmax(drift)) if drift.size and np.any(np.isfinite(drift)) else math.nan,
+            "bottom_ke_fraction": bottom, "work_growth": growth, "late_power": second,
+            "driver_open": float(point.driver_open.values[-1]), "label": int(label)}
+
+
+def response_map(ds) -> dict:
+    """:func:`point_response_numbers` at every point of a sweep store with response windows:
+    {"dims": sweep dims, "coords": {dim: values}, metric: array over the dims}."""
+    dims = [str(d) for d in ds.status.dims]
+    shape = tuple(int(ds.sizes[d]) for d in dims)
+    out = {m: np.full(shape, math.nan) for m in MAP_METRICS}
+    for index in np.ndindex(*shape):
+        point = ds.isel(dict(zip(dims, index)))
+        if int(point.status) < 0:
+            continue
+        for key, value in point_response_numbers(point).items():
+            out[key][index] = value
+    return {"dims": dims, "coords": {d: ds[d].values for d in dims}, **out}

@@ -29,7 +29,8 @@ def plot(
                                           "`hertzian reproduce`.")],
     figure: Annotated[Optional[str], typer.Option(
         "--figure", help="A paper figure group instead of the store picture: fig1 | fig1d | fig2 | fig3 | fig4 | "
-        "fig5 | modes | fig6 | depth | fig7_8 | fig9 | fig10 (the store must hold that figure's sweep).")] = None,
+        "fig5 | modes | fig6 | depth | fig7_8 | fig9 | fig10 (the store must hold that figure's sweep); drive_map: the "
+        "response map of a drive sweep (docs/drive.md), its numbers also written as JSON next to the PNG.")] = None,
     field: Annotated[str, typer.Option("--field", help="u | v: the field of the depth–time picture.")] = "v",
     at: Annotated[Optional[list[str]], typer.Option(
         "--at", help="Which point of a sweep store: axis=value, nearest coordinate (repeatable; default: the "
@@ -63,6 +64,18 @@ def plot(
         fail(f"store = {str(store)!r}: not a readable Zarr store ({type(err).__name__})")
     what = f"--figure = {figure!r}" if figure else f"store = {str(store)!r}"
     try:
+        if figure == "drive_map":
+            import json
+
+            from .. import analysis as an
+
+            numbers = an.response_map(dataset)
+            rows = [{**{d: float(numbers["coords"][d][i]) for d, i in zip(numbers["dims"], index)},
+                     **{m: float(numbers[m][index]) for m in an.MAP_METRICS},
+                     "label_name": an.LABELS[int(numbers["label"][index])] if numbers["label"][index] == numbers[
+                         "label"][index] else None}
+                    for index in __import__("numpy").ndindex(*numbers["label"].shape)]
+            out.with_suffix(".json").write_text(json.dumps({"store": str(store), "points": rows}, indent=1))
         if figure:
             plot_figure(dataset, figure, out)
         else:

@@ -276,6 +276,12 @@ def choose_config(model: Model, kernel: str = "auto", *, run_steps: int | None =
     f = model.features
     if kernel == "step":
         return STEP
+    if f.damping != "none":
+        # damping (and the dissipated energy) exists only in the per-step kernel
+        if kernel != "auto":
+            raise ValueError(f"kernel = {kernel!r}: damping (damping.model = {f.damping!r}) runs only on the "
+                             "per-step solver; use --kernel step or auto")
+        return STEP
     if kernel == "sweep":
         if not model.device.is_cpu:
             raise ValueError("kernel = 'sweep': a CPU kernel; use --device cpu")

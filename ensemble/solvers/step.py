@@ -27,7 +27,8 @@ class StepSolver(Solver):
         inputs = [state_in.x, state_in.clock, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent,
                   m.drive, state_in.status, m.trace_slot, m.scenes[0].trace_stride, state_in.work, state_in.power,
                   m.dt]
-        outputs = [state_out.x, state_out.clock, state_out.traces, state_out.work, state_out.power]
+        outputs = [state_out.x, state_out.clock, state_out.traces, state_out.work, state_out.power,
+                   m.damping, state_in.dissipated]
         return inputs, outputs
 
     def launch(self, state_in: State, state_out: State, steps: int = 1) -> None:

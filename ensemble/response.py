@@ -1,0 +1,85 @@
+"""Response windows (docs/drive.md): the device sums of kernels/response.py and their host reduction.
+
+Window w of chain c covers ``response_periods`` drive periods from t = response_start + w·periods·τ_c.
+Samples fall every ``stride`` steps, a divisor of every chain's period in steps, so each period holds
+a whole number of uniform samples (≥ RESPONSE_MIN_SAMPLES_PER_PERIOD where the period has that many
+steps): the rectangle rule over whole periods integrates a periodic integrand exactly up to aliasing
+of harmonics ≥ the samples per period, i.e. spectrally. From the sums:
+
+* ``response`` V_k(z) = (c_k/M) Σ_j v(z, t_j) e^{−ikωt_j}, c_0 = 1, c_k = 2 (k ≥ 1), M samples per window;
+* ``window_ke`` = (1/M) Σ_j ½ m v²;
+* ``driver_open`` = the fraction of samples at which the driver–grain-1 contact is open (δ ≤ 0).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from hertzian.kernels.response import response_kernel
+
+from .chains import ChainSet
+from .model import Model, State
+from .scene import response_stride_of
+
+
+def chain_periods(model: Model) -> np.ndarray:
+    """Drive period of each chain [time], shape (chains,)."""
+    scenes = model.scenes
+    if isinstance(scenes, ChainSet):
+        return np.asarray(scenes.column("excitation.drive_period"), dtype=float)
+    return np.array([s.excitation.drive_period for s in scenes])
+
+
+class ResponseAccumulator:
+    """Device sums of one run's response windows, sampled every ``stride`` steps."""
+
+    def __init__(self, model: Model):
+        self.model = model
+        scene = model.scenes[0]
+        r = scene.record
+        c, n, dev = model.chain_count, model.grain_count, model.device
+        self.windows, self.harmonics, self.periods = r.response_windows, r.harmonics, r.response_periods
+        self.period_steps = np.rint(chain_periods(model) / model.dt).astype(np.int64)
+        self.stride = response_stride_of(np.unique(self.period_steps))
+        self.start_step = scene.response_start_step
+        self.window_steps = self.period_steps * self.periods
+        self.end_step = self.start_step + int(self.window_steps.max()) * self.windows
+        self.kernel = response_kernel(model.features)
+        self.window_steps_device = wp.array(self.window_steps, dtype=wp.int64, device=dev)
+        shape = (c, self.windows, self.harmonics + 1, n)
+        self.re = wp.zeros(shape, dtype=wp.float64, device=dev)
+        self.im = wp.zeros(shape, dtype=wp.float64, device=dev)
+        self.kinetic = wp.zeros((c, self.windows, n), dtype=wp.float64, device=dev)
+        self.open_count = wp.zeros((c, self.windows), dtype=wp.float64, device=dev)
+
+    def load(self) -> None:
+        wp.load_module(self.kernel.module, device=self.model.device)
+
+    def sample_steps(self, after: int, upto: int) -> list[int]:
+        """Sample steps in (after, upto] (and step 0 itself when ``after`` is −1)."""
+        first = max(self.start_step, after + 1)
+        first = self.start_step + -(-(first - self.start_step) // self.stride) * self.stride
+        last = min(upto, self.end_step - 1)
+        return list(range(first, last + 1, self.stride)) if first <= last else []
+
+    def sample(self, state: State, step: int) -> None:
+        """Add the state at ``step`` to its windows' sums (device only, no sync)."""
+        m = self.model
+        wp.launch(self.kernel, dim=(m.chain_count, m.grain_count),
+                  inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.drive,
+                          self.window_steps_device, self.start_step, step, self.windows, self.harmonics, m.dt],
+                  outputs=[self.re, self.im, self.kinetic, self.open_count], device=m.device)
+
+    def result(self) -> dict[str, np.ndarray]:
+        """``response`` (chains, window, harmonic, grain) complex, ``window_ke`` (chains, window, grain),
+        ``driver_open`` (chains, window), ``window_start`` (chains, window) [time]."""
+        samples = (self.window_steps // self.stride).astype(float)           # M per chain
+        weight = np.full(self.harmonics + 1, 2.0)
+        weight[0] = 1.0
+        response = (self.re.numpy() + 1j * self.im.numpy()) * (weight[None, None, :, None]
+                                                                / samples[:, None, None, None])
+        starts = (self.start_step + self.window_steps[:, None] * np.arange(self.windows)[None, :]) * self.model.dt
+        return {"response": response, "window_ke": self.kinetic.numpy() / samples[:, None, None],
+                "driver_open": self.open_count.numpy() / samples[:, None], "window_start": starts}
+
