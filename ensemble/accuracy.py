@@ -176,10 +176,11 @@ def study_kernel(scene: Scene, device: str | None) -> str:
     from hertzian.kernels.cpu import sweepable
 
     from .model import features_of
+    from .solvers.calibrate import stepping_features
 
     if not wp.get_device(device).is_cpu:
         return "auto"
-    return "sweep" if sweepable(features_of([scene])) else "step"
+    return "sweep" if sweepable(stepping_features(features_of([scene]))) else "step"
 
 
 def _run(scene: Scene, device: str | None, kernel: str = "auto"):

@@ -123,7 +123,7 @@ class Recorder:
             wp.copy(buf["v"], state.x[1])
         if "ring" in buf and r > 0:
             wp.copy(buf["ring"], state.traces)
-        event = wp.record_event() if self.model.device.is_cuda else None
+        event = wp.get_stream(self.model.device).record_event() if self.model.device.is_cuda else None
         self.pending[slot] = (r, event)
 
     def finish(self) -> None:

@@ -169,10 +169,10 @@ class Runner:
             if r:
                 clock = time.perf_counter()
                 if events is not None:
-                    events.append(wp.record_event(wp.Event(m.device, enable_timing=True)))
+                    events.append(wp.get_stream(m.device).record_event(wp.Event(m.device, enable_timing=True)))
                 self.advance_monitored(record_steps[r - 1], step - record_steps[r - 1])
                 if events is not None:
-                    events.append(wp.record_event(wp.Event(m.device, enable_timing=True)))
+                    events.append(wp.get_stream(m.device).record_event(wp.Event(m.device, enable_timing=True)))
                 advance_seconds += time.perf_counter() - clock
             clock = time.perf_counter()
             rec.record(self.current, r, step)

@@ -120,8 +120,12 @@ def test_sweep_drive_equals_per_step(case):
     assert np.all(np.max(np.abs(want.work), axis=1) > 0)
 
 
-@pytest.mark.parametrize("windowed", [False, True])
-@pytest.mark.parametrize("case", list(DRIVEN_CASES))
+TILE_DRIVE = [(case, windowed) for case in DRIVEN_CASES for windowed in (False, True)
+              if windowed or case.startswith("traces")]
+"""Whole-chain and windowed shapes for the traced case, the windowed shape for the other (compile time)."""
+
+
+@pytest.mark.parametrize("case,windowed", TILE_DRIVE)
 def test_tile_drive_equals_per_step(case, windowed):
     sections = DRIVEN_CASES[case]
     model = build_model(driven_scenes(**sections), "cpu")
@@ -149,3 +153,35 @@ def test_driven_window_needs_grains_0_and_1_in_one_lane():
     with pytest.raises(ValueError, match="grains 0 and 1"):
         plan_tile(model.features, model.grain_count, model.chain_count, grains_per_lane=4, lanes_per_chain=4,
                   steps_per_launch=3, windowed=True)
+
+
+def test_records_reach_the_host_arrays():
+    # records are staged (two alternating buffers) and unpacked at the end: the last two records must
+    # be the final state, and the trace rows of the last record the ring's last samples
+    model = build_model(traced_scenes(), "cpu")
+    runner = Runner(model, kernel="sweep", use_graph=False)
+    result = runner.run()
+    x = runner.current.x.numpy()
+    np.testing.assert_array_equal(result.u[:, -1], x[0])
+    np.testing.assert_array_equal(result.v[:, -1], x[1] / np.float64(model.dt))
+    np.testing.assert_array_equal(result.traces["u"][:, -1], x[0][:, TRACE_RECORD["traces"]])
+    assert np.all(result.energy[:, -2:] > 0)
+    # the record before the last is another state (the run moved in between)
+    assert np.max(np.abs(result.u[:, -2] - result.u[:, -1])) > 0
+
+
+def test_traces_without_first_step_read_the_clock():
+    # solver.advance without first_step (bench, calibration) reads the clock and still samples on trace steps
+    from ensemble.solvers import SweepSolver
+
+    model = build_model(traced_scenes(), "cpu")
+    reference = Runner(model, kernel="step", use_graph=False, monitor_every=0)
+    reference.advance(13)
+    reference.advance(40)
+    solver = SweepSolver(model)
+    first, second = model.state_pair()
+    a = solver.advance(first, second, 13)
+    a = solver.advance(a, second if a is first else first, 40)
+    np.testing.assert_array_equal(a.x.numpy(), reference.current.x.numpy())
+    np.testing.assert_array_equal(a.traces.numpy(), reference.current.traces.numpy())
+    assert np.max(np.abs(a.traces.numpy())) > 0

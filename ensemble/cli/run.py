@@ -80,7 +80,7 @@ def run(
     status = int(result.status[0])
     typer.echo(
         f"{loaded.chain.grains} grains, {result.steps} steps of {loaded.integrator.method} "
-        f"dt={loaded.integrator.dt:g} on {result.device} ({result.kernel} kernel): {result.wall_seconds:.2f} s, "
+        f"dt={loaded.integrator.dt:g} on {result.device} ({runner.solver.describe()} kernel): {result.wall_seconds:.2f} s, "
         f"{result.grain_steps_per_second:.3g} grain-steps/s, energy error {result.energy_error[0]:.2e}, "
         f"status {status}")
     typer.echo(f"wrote {out}")
