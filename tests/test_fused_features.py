@@ -172,7 +172,7 @@ def test_records_reach_the_host_arrays():
 
 def test_traces_without_first_step_read_the_clock():
     # solver.advance without first_step (bench, calibration) reads the clock and still samples on trace steps
-    from ensemble.solvers import SweepSolver
+    from hertzian.ensemble.solvers import SweepSolver
 
     model = build_model(traced_scenes(), "cpu")
     reference = Runner(model, kernel="step", use_graph=False, monitor_every=0)
