@@ -521,7 +521,13 @@ def _validate(s: Scene) -> None:
     if b.bottom not in BOTTOM_KINDS:
         raise SceneError("boundary.bottom", b.bottom, f"must be one of {', '.join(BOTTOM_KINDS)}"
                          + _did_you_mean(b.bottom, BOTTOM_KINDS))
-    f0 = c.surface_force
+    try:
+        f0 = c.surface_force
+    except OverflowError:
+        f0 = math.inf
+    if not math.isfinite(f0):
+        raise SceneError("chain.l0" if c.load is None else "chain.load", c.l0 if c.load is None else c.load,
+                         "too large: the load it gives overflows float64")
     if b.surface == "free" and f0 > 0:
         raise SceneError("boundary.surface", "free", "a free surface cannot carry a load: set chain.l0 = 0 "
                          "or use surface = \"load\" or \"wall\"")
