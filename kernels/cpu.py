@@ -74,25 +74,7 @@ def sweep_kernel(features: Features):
             # one δ0 and one a_c per chain: F(δ0) is the same for every contact, computed once
             return contact_force(delta00 + d, a_c0, n) - force00
 
-    @wp.func
-    def driver_values(amplitude: wp.float64, omega: wp.float64, t: wp.float64, dt: wp.float64) -> values_t:
-        # kernels/step.py's driver_values: x_j = dt^j/j! · d^j/dt^j (A sin ωt)
-        v = values_t()
-        s = wp.sin(omega * t)
-        co = wp.cos(omega * t)
-        scale = amplitude
-        for j in range(wp.static(Q)):
-            phase = j % 4
-            w = s
-            if phase == 1:
-                w = co
-            elif phase == 2:
-                w = -s
-            elif phase == 3:
-                w = -co
-            v[j] = real(scale * w)
-            scale = scale * omega * dt / wp.float64(j + 1)
-        return v
+    driver_values = nordsieck.driver_values
 
     @wp.kernel(module="unique", enable_backward=False)
     def sweep(

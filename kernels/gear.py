@@ -36,6 +36,9 @@ class Nordsieck(NamedTuple):
     correct: object
     """``correct(x_src, x_dst, c, i, u_pred, half_h2_acc) -> vec2(u, dt·v)``: corrects grain i into x_dst
     (``x_src`` may be ``x_dst``: the old values are read before any is written)."""
+    driver_values: object
+    """``driver_values(amplitude, omega, t, dt) -> values``: the driven grain's vector at t,
+    x_j = dt^j/j! · d^j/dt^j (A sin ωt) (all arguments float64)."""
 
 
 @functools.cache
@@ -127,4 +130,24 @@ def nordsieck_functions(method: str, precision: str) -> Nordsieck:
         store(x_dst, c, i, new)
         return vec2(new[0], new[1])
 
-    return Nordsieck(values_t, predict_position, corrected, load, store, predicted_position, correct)
+    @wp.func
+    def driver_values(amplitude: wp.float64, omega: wp.float64, t: wp.float64, dt: wp.float64) -> values_t:
+        # the driver's scaled Nordsieck vector at t: x_j = dt^j/j! · d^j/dt^j (A sin ωt)
+        v = values_t()
+        s = wp.sin(omega * t)
+        co = wp.cos(omega * t)
+        scale = amplitude
+        for j in range(wp.static(Q)):
+            phase = j % 4
+            w = s
+            if phase == 1:
+                w = co
+            elif phase == 2:
+                w = -s
+            elif phase == 3:
+                w = -co
+            v[j] = real(scale * w)
+            scale = scale * omega * dt / wp.float64(j + 1)
+        return v
+
+    return Nordsieck(values_t, predict_position, corrected, load, store, predicted_position, correct, driver_values)

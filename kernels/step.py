@@ -64,25 +64,7 @@ def step_kernel(features: Features):
             out = gamma * rate / h
         return out
 
-    @wp.func
-    def driver_values(amplitude: wp.float64, omega: wp.float64, t: wp.float64, dt: wp.float64) -> values_t:
-        # the driver's scaled Nordsieck vector at t: x_j = dt^j/j! · d^j/dt^j (A sin ωt)
-        v = values_t()
-        s = wp.sin(omega * t)
-        co = wp.cos(omega * t)
-        scale = amplitude
-        for j in range(wp.static(Q)):
-            phase = j % 4
-            w = s
-            if phase == 1:
-                w = co
-            elif phase == 2:
-                w = -s
-            elif phase == 3:
-                w = -co
-            v[j] = real(scale * w)
-            scale = scale * omega * dt / wp.float64(j + 1)
-        return v
+    driver_values = nordsieck.driver_values
 
     @wp.func
     def contact(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),

@@ -123,25 +123,7 @@ def tile_kernel(features: Features, shape: TileShape):
             v[q] = s[q, k]
         return v
 
-    @wp.func
-    def driver_values(amplitude: wp.float64, omega: wp.float64, t: wp.float64, dt: wp.float64) -> value_vec:
-        # kernels/step.py's driver_values: x_j = dt^j/j! · d^j/dt^j (A sin ωt)
-        v = value_vec()
-        s = wp.sin(omega * t)
-        co = wp.cos(omega * t)
-        scale = amplitude
-        for j in range(wp.static(Q)):
-            phase = j % 4
-            w = s
-            if phase == 1:
-                w = co
-            elif phase == 2:
-                w = -s
-            elif phase == 3:
-                w = -co
-            v[j] = real(scale * w)
-            scale = scale * omega * dt / wp.float64(j + 1)
-        return v
+    driver_values = nordsieck.driver_values
 
     @wp.func
     def driver_work(s: state_t, k0: int, work_power: wp.vec2d, delta0: contact_vec, a_c: contact_vec,
