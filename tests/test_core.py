@@ -13,6 +13,7 @@ from hertzian.kernels.features import EVENT_WINDOW, Features
 from hertzian.kernels.physics import contact_functions, contact_potential, excess_potential
 from hertzian.kernels.step import step_kernel
 
+from kernel_source import accessed_arrays, generated_source
 from conftest import make_scene
 
 
@@ -265,21 +266,6 @@ def test_energy_conservation_gear4_paper_impact():
         result = run_scene(scene, "cpu")
         assert result.energy_error[0] <= 1e-6, (l0, result.energy_error[0])
         assert result.energy_error[0] > 0  # a real measurement, not a stored zero
-
-
-def generated_source(kernel, device="cpu") -> str:
-    """The C++ Warp generated for a kernel's module (from the kernel cache)."""
-    from warp._src.context import ModuleBuilder
-
-    builder = ModuleBuilder(kernel.module, kernel.module.options, target=device)
-    return builder.codegen(device)
-
-
-def accessed_arrays(source: str) -> set[str]:
-    """Kernel parameters whose elements the generated code reads or writes."""
-    import re
-
-    return set(re.findall(r"wp::\w+\(var_(\w+),", source))
 
 
 def test_unused_features_generate_no_code():

@@ -15,7 +15,7 @@ from hertzian.ensemble.runner import Runner, run_scene
 from hertzian.ensemble.scene import RESPONSE_MIN_SAMPLES_PER_PERIOD, SceneError, response_stride_of, scene_from_dict
 from hertzian.ensemble.solvers import choose_config
 
-from test_core import accessed_arrays, generated_source  # noqa: F401  (helpers of the lean-kernel test)
+from kernel_source import accessed_arrays, generated_source  # noqa: F401  (helpers of the lean-kernel test)
 
 L0 = 1e-3
 A_SELF = 5657.0
@@ -178,7 +178,7 @@ def test_bad_response_and_damping_keys_are_refused(key, value, message):
 
 
 def test_cli_refuses_bad_response_key(tmp_path):
-    from test_refusals import assert_refused, invoke, toml_text
+    from cli_cases import assert_refused, invoke, toml_text
 
     scene = tmp_path / "s.toml"
     scene.write_text(toml_text({"chain": {"grains": 8, "l0": 1e-3}, "boundary": {"surface": "driven"},
@@ -242,7 +242,7 @@ def test_drive_sweep_points_equal_runs_alone_and_the_map_is_drawn(tmp_path):
 
     import xarray as xr
 
-    from test_refusals import invoke
+    from cli_cases import invoke
 
     sweep = tmp_path / "map.toml"
     sweep.write_text('''

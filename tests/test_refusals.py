@@ -7,7 +7,6 @@ values (wrong types, non-finite and extreme numbers, unknown keys, broken TOML).
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from pathlib import Path
@@ -16,63 +15,17 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
-from typer.testing import CliRunner
 
 from hertzian.ensemble.cli import app
 from hertzian.ensemble.runner import run_scene
 from hertzian.ensemble.scene import MAX_STEPS, SceneError, load_scene
 from hertzian.ensemble.sweep import MAX_POINTS, load_sweep, sweep_scenes
 
+from cli_cases import assert_refused, invoke, toml_text, toml_value  # noqa: F401
 from conftest import make_scene
 
 BASE = {"chain": {"grains": 8, "l0": 1e-4}, "excitation": {"impact": 1e-2},
         "integrator": {"duration": 0.01, "dt": 2.5e-4}, "record": {"every": 0.005}}
-
-
-def toml_value(value) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, float):
-        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf") if math.isinf(value) else repr(value)
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, str):
-        return json.dumps(value, ensure_ascii=False)  # JSON's escapes are TOML's
-    if isinstance(value, list):
-        return "[" + ", ".join(toml_value(v) for v in value) + "]"
-    if isinstance(value, dict):
-        return "{" + ", ".join(f"{k} = {toml_value(v)}" for k, v in value.items()) + "}"
-    raise TypeError(value)
-
-
-def toml_text(data: dict, *, prefix: str = "") -> str:
-    """A small TOML writer (tables, arrays of tables, inline values) for the generated files."""
-    lines, tables = [], []
-    for key, value in data.items():
-        if isinstance(value, dict):
-            tables.append((key, value))
-        elif isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
-            for item in value:
-                lines.append(f"\n[[{prefix}{key}]]\n" + toml_text(item))
-        else:
-            lines.insert(0, f"{key} = {toml_value(value)}")
-    for key, value in tables:
-        lines.append(f"\n[{prefix}{key}]\n" + toml_text(value, prefix=f"{prefix}{key}."))
-    return "\n".join(lines) + "\n"
-
-
-def invoke(*args):
-    return CliRunner().invoke(app, [str(a) for a in args])
-
-
-def assert_refused(result, out: Path, key: str | None = None) -> None:
-    text = (result.stdout + result.stderr).strip()
-    assert result.exit_code == 2, (result.exit_code, text, result.exception)
-    assert result.exception is None or isinstance(result.exception, SystemExit), result.exception
-    assert "Traceback" not in text
-    assert len(text.splitlines()) == 1, text
-    assert text.startswith("error: " + (key or "")), text
-    assert not out.exists()
 
 
 # ---- the specific refusals of issue 9 --------------------------------------------------------------
