@@ -18,7 +18,7 @@ import warp as wp
 from hertzian.kernels.features import EVENT_WINDOW, GEAR_VALUES, Features
 
 from .chains import ChainSet, per_unique
-from .scene import Scene, SceneError
+from .scene import VALIDITY_FRACTION, Scene, SceneError
 from .static import StaticState, static_state
 
 SHARED_KEYS = (
@@ -398,7 +398,8 @@ def _build_model_of(chains: ChainSet, device, features: Features | None) -> Mode
         exponent=upload(exponent.astype(np_real)),
         drive=upload(drive, wp.float64),
         trace_slot=upload(trace_slot, wp.int32),
-        validity_overlap=upload(per_unique(lambda d: 0.1 * d, chains.column("chain.diameter")), wp.float64),
+        validity_overlap=upload(per_unique(lambda d: VALIDITY_FRACTION * d, chains.column("chain.diameter")),
+                                wp.float64),
         injected_energy=injected,
         _static=st,
         damping=upload((chains.column("damping.gamma") if f.damping != "none" else np.zeros(0)).astype(np_real)),
