@@ -559,6 +559,19 @@ def lagrange_weights(nodes: np.ndarray, points: np.ndarray) -> tuple[np.ndarray,
     return W, dW
 
 
+def _class_interpolation(library: Library, kind: str):
+    """The class's library columns, their order in x = ln μ (the clean chain appended at x = 0), the fine
+    x grid (INTERPOLATION_POINTS per interval) and the local-cubic weights W and derivatives dW on it."""
+    grid = library.grid
+    columns = grid.light if kind == "light" else grid.heavy
+    xs = np.concatenate([grid.log_mass_ratio[columns], [0.0]])
+    order = np.argsort(xs)
+    xs = xs[order]
+    fine = np.linspace(xs[0], xs[-1], (xs.size - 1) * INTERPOLATION_POINTS + 1)
+    W, dW = lagrange_weights(xs, fine)
+    return columns, order, fine, W, dW
+
+
 def _library_quadratics(signal: np.ndarray, library: Library, kind: str) -> list[Quadratic | None]:
     """Per depth, the Gauss–Newton quadratic at the best point of the class's interpolated library.
 
@@ -567,12 +580,7 @@ def _library_quadratics(signal: np.ndarray, library: Library, kind: str) -> list
     interpolant's derivative there.
     """
     grid = library.grid
-    columns = grid.light if kind == "light" else grid.heavy
-    xs = np.concatenate([grid.log_mass_ratio[columns], [0.0]])
-    order = np.argsort(xs)
-    xs = xs[order]
-    fine = np.linspace(xs[0], xs[-1], (xs.size - 1) * INTERPOLATION_POINTS + 1)
-    W, dW = lagrange_weights(xs, fine)
+    columns, order, fine, W, dW = _class_interpolation(library, kind)
     out = []
     for k in range(len(grid.depths)):
         models = np.concatenate([library.traces[k, columns], library.clean[None]])[order]
@@ -598,12 +606,7 @@ def _first_echo_scores(signal: np.ndarray, t: np.ndarray, library: Library, kind
     """Per depth: how much the class's interpolated library reduces the RSS of the clean chain over the
     samples before 2 t_front(d + FIRST_ECHO_GRAINS) (its first echo and little else), and the best x there."""
     grid = library.grid
-    columns = grid.light if kind == "light" else grid.heavy
-    xs = np.concatenate([grid.log_mass_ratio[columns], [0.0]])
-    order = np.argsort(xs)
-    xs = xs[order]
-    fine = np.linspace(xs[0], xs[-1], (xs.size - 1) * INTERPOLATION_POINTS + 1)
-    W, _ = lagrange_weights(xs, fine)
+    columns, order, fine, W, _ = _class_interpolation(library, kind)
     n = library.fronts.size
     gain = np.full(len(grid.depths), -np.inf)
     best_x = np.zeros(len(grid.depths))
