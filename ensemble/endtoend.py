@@ -123,7 +123,7 @@ def bench_sweep(path: str | Path, device: str, *, kernel: str = "auto", override
                 totals["kernel"] += t["advance"]
                 totals["record"] += t["record"]
                 totals["device"] += t["device"]
-                hertzian.kernels.append(result.kernel)
+                kernels.append(result.kernel)
                 if pending is not None:
                     totals["store"] += pending.result()
                 pending = writer.submit(timed_write, job, result, batch_build)

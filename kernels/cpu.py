@@ -20,7 +20,7 @@ import functools
 
 import warp as wp
 
-from .features import STATUS_NON_FINITE, Features
+from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, Features
 from .events import event_functions
 from .gear import nordsieck_functions
 from .physics import contact_functions, contact_parameters
@@ -76,7 +76,7 @@ def sweep_kernel(features: Features):
 
     driver_values = nordsieck.driver_values
 
-    @wp.kernel(module="unique", enable_backward=False)
+    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def sweep(
         x_in: wp.array3d(dtype=real),
         clock_in: wp.array(dtype=wp.int32),

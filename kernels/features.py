@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 GEAR_VALUES = {"gear4": 4, "gear5": 5, "gear6": 6, "verlet": 3}
@@ -19,6 +20,12 @@ EVENT_WINDOW = 1e-2
 method's order as dt shrinks; about 1/20 of a contact time at v_imp = 1e-2 (program units)."""
 
 # Per-chain status codes, defined here only (kernels write them; hertzian.ensemble.status.Status names them).
+KERNEL_OPTIONS = {"fuse_fp": os.environ.get("HERTZIAN_FUSE_FP", "1") != "0"}
+"""Warp module options of every kernel factory. ``HERTZIAN_FUSE_FP=0`` forbids the compiler to contract
+``a·b + c`` into fused multiply-adds: CUDA then rounds every operation as written, the same in every kernel
+(the per-step and fused kernels agree bit for bit, as on the CPU), at some cost in speed. By default each
+kernel's contractions are the compiler's choice, so on CUDA kernels agree to rounding, not bitwise."""
+
 STATUS_OK = 0
 STATUS_NON_FINITE = 1
 """The state became NaN/inf (record kernel); the step kernels then freeze the chain."""

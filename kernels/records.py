@@ -9,7 +9,7 @@ import functools
 
 import warp as wp
 
-from .features import STATUS_NON_FINITE, STATUS_OK, STATUS_OVERLAP_BEYOND_VALIDITY, Features
+from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, STATUS_OK, STATUS_OVERLAP_BEYOND_VALIDITY, Features
 from .physics import contact_functions, contact_parameters, excess_potential
 
 
@@ -35,7 +35,7 @@ def record_kernel(features: Features):
         delta0 = wp.float64(p[0])
         return wp.vec2d(excess_potential(delta0, d, wp.float64(p[1]), wp.float64(p[2])), delta0 + d)
 
-    @wp.kernel(module="unique", enable_backward=False)
+    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def record(
         x: wp.array3d(dtype=real),
         inverse_mass: wp.array2d(dtype=real),

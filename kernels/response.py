@@ -12,7 +12,7 @@ import functools
 
 import warp as wp
 
-from .features import Features
+from .features import KERNEL_OPTIONS, Features
 from .physics import contact_parameters
 
 
@@ -24,7 +24,7 @@ def response_kernel(features: Features):
     HETERO = f.heterogeneous
     params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz)
 
-    @wp.kernel(module="unique", enable_backward=False)
+    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def accumulate(
         x: wp.array3d(dtype=real),
         inverse_mass: wp.array2d(dtype=real),

@@ -11,7 +11,7 @@ import functools
 
 import warp as wp
 
-from .features import STATUS_NON_FINITE, Features
+from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, Features
 from .events import event_functions
 from .gear import nordsieck_functions
 from .physics import contact_functions, contact_parameters
@@ -84,7 +84,7 @@ def step_kernel(features: Features):
                 trace_x[1, c, sample, slot] = x1
 
     # grid_stride=False: one thread per (chain, grain), no grid-stride loop (less index work per thread)
-    @wp.kernel(module="unique", enable_backward=False, grid_stride=False)
+    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False, grid_stride=False)
     def step(
         x_in: wp.array3d(dtype=real),
         clock_in: wp.array(dtype=wp.int32),

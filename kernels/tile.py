@@ -36,7 +36,7 @@ from typing import Any
 
 import warp as wp
 
-from .features import STATUS_NON_FINITE, Features
+from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, Features
 from .events import event_functions
 from .gear import nordsieck_functions
 from .physics import contact_forces, contact_functions, contact_parameters
@@ -248,7 +248,7 @@ def tile_kernel(features: Features, shape: TileShape):
                 out[1, k0] = real(dt * amplitude * omega * wp.cos(omega * t_new))
         return out
 
-    @wp.kernel(module="unique", enable_backward=False, grid_stride=False,
+    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False, grid_stride=False,
                cuda_max_registers=shape.max_registers or None)
     def fused(
         x_in: wp.array3d(dtype=real),

@@ -11,13 +11,15 @@ import functools
 
 import warp as wp
 
+from .features import KERNEL_OPTIONS
+
 
 @functools.cache
 def trace_sample_kernel(precision: str):
     """The sample kernel for one precision (cached)."""
     real = wp.float64 if precision == "float64" else wp.float32
 
-    @wp.kernel(module="unique", enable_backward=False)
+    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def sample_traces(
         x: wp.array3d(dtype=real),
         clock: wp.array(dtype=wp.int32),

@@ -96,6 +96,19 @@ def test_end_to_end_scene_json(tmp_path):
     assert 0 < record["device_busy"] <= 1
 
 
+def test_end_to_end_sweep_json(tmp_path):
+    sweep = tmp_path / "sweep.toml"
+    sweep.write_text('[scene.chain]\ngrains = 20\nl0 = 1e-4\n[scene.excitation]\nimpact = 1e-2\n'
+                     '[scene.integrator]\ndt = 5e-4\nduration = 0.2\n[scene.record]\nevery = 0.1\nfields = ["u"]\n'
+                     '[[axis]]\nname = "v_imp"\nkey = "excitation.impact"\nvalues = [1e-3, 1e-2, 2e-2]\n')
+    result = invoke("--device", "cpu", "--sweep", str(sweep), "--kernel", "sweep", "--json")
+    assert result.exit_code == 0, result.output
+    (record,) = json.loads(result.stdout)
+    assert record["kernel"] == "sweep" and record["grain_steps"] == 3 * 20 * 400
+    s = record["seconds"]
+    assert 0 < s["kernel"] and 0 < s["store"] and s["build"] + s["kernel"] + s["store"] <= s["total"]
+
+
 def test_end_to_end_bad_input(tmp_path):
     for args, key in ((["--scene", str(tmp_path / "none.toml")], "--scene"),
                       (["--scene", "a.toml", "--sweep", "b.toml"], "--sweep")):

@@ -80,6 +80,17 @@ def test_every_kernel_takes_the_same_event_steps(case):
     np.testing.assert_array_equal(fused(model, plan, steps), want)
 
 
+@pytest.mark.parametrize("case", [case for case in EVENT_CASES if "windows" not in case])
+def test_fused_event_steps_on_every_device(case, device):
+    """The tile kernel's event steps equal the per-step kernel's on this device (CUDA too)."""
+    sections, n_chains, plan_keywords = EVENT_CASES[case]
+    steps = 300
+    model = build_model(chains(n_chains, **sections), device)
+    want = per_step(model, steps)
+    plan = plan_tile(model.features, model.grain_count, model.chain_count, **plan_keywords)
+    np.testing.assert_array_equal(fused(model, plan, steps), want)
+
+
 def test_bad_event_modes_are_one_line_errors():
     from typer.testing import CliRunner
 

@@ -61,8 +61,8 @@ def test_sweep_traces_equal_per_step():
 
 
 @pytest.mark.parametrize("windowed", [False, True])
-def test_tile_traces_equal_per_step(windowed):
-    model = build_model(traced_scenes(), "cpu")
+def test_tile_traces_equal_per_step(windowed, device):
+    model = build_model(traced_scenes(), device)
     f = replace(model.features, traces=False)
     keywords = dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=5, windowed=True) if windowed else \
         dict(grains_per_lane=4)
@@ -126,9 +126,9 @@ TILE_DRIVE = [(case, windowed) for case in DRIVEN_CASES for windowed in (False, 
 
 
 @pytest.mark.parametrize("case,windowed", TILE_DRIVE)
-def test_tile_drive_equals_per_step(case, windowed):
+def test_tile_drive_equals_per_step(case, windowed, device):
     sections = DRIVEN_CASES[case]
-    model = build_model(driven_scenes(**sections), "cpu")
+    model = build_model(driven_scenes(**sections), device)
     f = replace(model.features, traces=False)
     keywords = dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=5, windowed=True) if windowed else \
         dict(grains_per_lane=4)

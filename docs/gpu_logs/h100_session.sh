@@ -1,0 +1,88 @@
+#!/usr/bin/env bash
+# The measurements of one GPU session, in groups that each fit a 10-minute call:
+#   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]      (GROUP: env tests kernels e2e drive repro detect)
+# Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
+# one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
+# slow command does not lose the others. On a machine without a package index the package runs from the
+# working tree: the folders are linked under one import name `hertzian` and put on PYTHONPATH.
+set -u
+LOGS="${LOGS:-/tmp/hzlogs}"
+mkdir -p "$LOGS"
+REPO="$(pwd)"
+if ! python3 -c "import hertzian.ensemble" 2>/dev/null; then
+  mkdir -p /tmp/hz/hertzian
+  for d in ensemble kernels sweeps; do ln -sfn "$REPO/$d" "/tmp/hz/hertzian/$d"; done
+  export PYTHONPATH="/tmp/hz:${PYTHONPATH:-}"
+fi
+export PYTHONUNBUFFERED=1
+HZ="python3 -m hertzian.ensemble.cli"
+WORK=/tmp/hzwork
+mkdir -p "$WORK"
+
+step() {  # step NAME SECONDS COMMAND...   (stdout → NAME.json when it starts with [ or {, else NAME.log)
+  local name="$1" limit="$2"; shift 2
+  local t0 t1 rc
+  t0=$(date +%s%N)
+  echo "== $name: $*" | tee -a "$LOGS/commands.txt"
+  timeout "$limit" bash -c "$*" >"$LOGS/$name.out" 2>"$LOGS/$name.err"
+  rc=$?
+  t1=$(date +%s%N)
+  local ms=$(( (t1 - t0) / 1000000 ))
+  printf "%s\t%s\t%d.%03d\t%s\n" "$name" "$rc" $((ms / 1000)) $((ms % 1000)) "$(date -u +%FT%TZ)" >>"$LOGS/summary.tsv"
+  echo "   rc=$rc wall=$((ms / 1000)).$((ms % 1000 / 100)) s; stderr tail:"; tail -n 4 "$LOGS/$name.err"
+  head -c 1 "$LOGS/$name.out" | grep -q '[[{]' && mv "$LOGS/$name.out" "$LOGS/$name.json"
+}
+
+# the logs come back as one archive; a watchdog packs what is there before the call's limit
+[ -n "${OUT:-}" ] && (sleep "${WATCHDOG:-550}"; tar czf "$OUT/partial.tgz" -C "$LOGS" .) &
+for group in "$@"; do
+case "$group" in
+env)
+  step env 60 "nvidia-smi; python3 -c 'import warp as wp; wp.init(); print(wp.__version__, wp.get_cuda_device())'; nproc; date -u"
+  ;;
+tests)
+  # the device-fixture tests on CUDA (fused drive/traces/events against the per-step kernel, determinism, ...)
+  step pytest_cuda 420 "python3 -m pytest -q -p no:cacheprovider -k cuda tests 2>&1"
+  ;;
+kernels)
+  step bench_kernels 300 "$HZ bench --device cuda --chains 16384,16384,1,1 --grains 1000,4096,1000,10240 --repeats 3 --json"
+  ;;
+e2e)
+  step e2e_gpu10k_cold 180 "$HZ bench --device cuda --cold --sweep sweeps/gpu_10k.toml --json"
+  step e2e_gpu10k 120 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step e2e_gpu10k_notraces 120 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --set 'record.traces=[]' --json"
+  for s in impact_1000 impact_1000_traces driven_1000; do
+    step "e2e_$s" 90 "$HZ bench --device cuda --scene docs/bench/$s.toml --json"
+  done
+  step million 180 "$HZ sweep sweeps/million.toml --out $WORK/million.zarr --overwrite --device cuda --quiet --json"
+  ;;
+drive)
+  step e2e_fig9_10_t500 200 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step drive_map 240 "$HZ sweep sweeps/drive_map_gpu.toml --out $WORK/drive_map.zarr --overwrite --device cuda --quiet --json && $HZ plot $WORK/drive_map.zarr --figure drive_map --out $LOGS/drive_map_gpu.png"
+  ;;
+fig910)
+  step fig9_10_tau10 300 "$HZ sweep sweeps/drive_fig9_10_gpu.toml --out $WORK/f910_tau10.zarr --overwrite --device cuda --quiet --json"
+  step fig9_10_tau1 300 "$HZ sweep sweeps/drive_fig9_10_gpu.toml --set excitation.drive_period=1.0 --set record.response_periods=10 --out $WORK/f910_tau1.zarr --overwrite --device cuda --quiet --json"
+  ;;
+nofma)
+  # with HERTZIAN_FUSE_FP=0 (no FMA contraction) the fused kernels should equal the per-step kernel bit for bit
+  step pytest_cuda_nofma 150 "HERTZIAN_FUSE_FP=0 python3 -m pytest -q -p no:cacheprovider tests/test_tile.py tests/test_fused_features.py -k 'cuda and (padded or (tile_traces and False) or (tile_drive and traces and False))' 2>&1"
+  ;;
+warm)
+  step e2e_gpu10k 170 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step e2e_gpu10k_notraces 70 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --set 'record.traces=[]' --json"
+  step e2e_fig9_10_t500 130 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  ;;
+repro)
+  step reproduce 560 "$HZ reproduce --device cuda --out-dir $WORK/repro"
+  cp "$WORK"/repro/*.json "$WORK"/repro/*.png "$LOGS"/ 2>/dev/null
+  ;;
+detect)
+  step detect_study_1000 500 "$HZ detect-study sweeps/detect_study_1000.toml --out $LOGS/study_1000_gpu.json --overwrite --device cuda"
+  ;;
+*) echo "unknown group $group"; exit 2 ;;
+esac
+done
+cat "$LOGS/summary.tsv"
+[ -n "${OUT:-}" ] && tar czf "$OUT/logs.tgz" -C "$LOGS" . && rm -f "$OUT/partial.tgz"
+exit 0
