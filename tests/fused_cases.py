@@ -11,9 +11,30 @@ import numpy as np
 
 from hertzian.ensemble.runner import Runner
 from hertzian.ensemble.scene import scene_from_dict
+from hertzian.kernels.features import KERNEL_OPTIONS
 
 MOVED = 1e-3
 """A grain has moved once its |u| or dt·|v| exceeds this fraction of the chain's largest."""
+
+
+CUDA_ROUNDING = 1e-12
+"""On CUDA with FMA contraction (the default), largest |difference| between two kernels over the largest
+|value|: each kernel's a·b + c contractions are the compiler's choice, so results differ in the last bits
+(1.6e-18 on values of 5e-5 after 300 steps measured on an H100, docs/benchmarks.md)."""
+
+
+def bitwise(device) -> bool:
+    """Kernels agree bit for bit on the CPU, and on CUDA when FMA contraction is off (HERTZIAN_FUSE_FP=0)."""
+    return str(device).startswith("cpu") or not KERNEL_OPTIONS["fuse_fp"]
+
+
+def assert_kernels_agree(got, want, device) -> None:
+    """Two kernels' results: bit for bit where ``bitwise(device)``, else equal to rounding (CUDA_ROUNDING)."""
+    got, want = np.asarray(got), np.asarray(want)
+    if bitwise(device):
+        np.testing.assert_array_equal(got, want)
+    else:
+        np.testing.assert_allclose(got, want, rtol=0, atol=CUDA_ROUNDING * np.max(np.abs(want)))
 
 
 def chains(n_chains: int, **sections) -> list:

@@ -53,6 +53,7 @@ def run(
 
     from ..model import build_model
     from ..runner import Runner
+    from ..solvers.calibrate import event_cost_note
     from ..store import write_result
 
     try:
@@ -62,6 +63,9 @@ def run(
 
     if runner.kernel_note:
         typer.echo(f"note: per-step kernel: {runner.kernel_note}", err=True)
+    events = event_cost_note(runner.model.features, runner.model.device.is_cpu)
+    if events:
+        typer.echo(f"note: {events}", err=True)
     progress = None
     if not quiet and sys.stderr.isatty():
         from rich.progress import BarColumn, Progress, TimeRemainingColumn

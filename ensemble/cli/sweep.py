@@ -209,10 +209,11 @@ def sweep(
 
 
 def _per_step_notes(plan, dev: str) -> None:
-    """One line on stderr for each launch group that ``auto`` leaves on the per-step kernel, and why."""
+    """One line on stderr for each launch group that ``auto`` leaves on the per-step kernel, and why; one
+    for each CUDA launch group that carries event-aware steps (their cost)."""
     import warp as wp
 
-    from ..solvers.calibrate import step_reason_of
+    from ..solvers.calibrate import event_cost_note, step_reason_of
 
     is_cpu = wp.get_device(dev).is_cpu
     for index, group in enumerate(plan.groups):
@@ -222,6 +223,9 @@ def _per_step_notes(plan, dev: str) -> None:
         reason = step_reason_of(group.features, is_cpu, plan.batch_grain_steps(batch))
         if reason:
             typer.echo(f"note: launch group {index}: per-step kernel: {reason}", err=True)
+        events = event_cost_note(group.features, is_cpu)
+        if events:
+            typer.echo(f"note: launch group {index}: {events}", err=True)
 
 
 def _check_kernel(kernel: str, plan, points, dev: str) -> None:

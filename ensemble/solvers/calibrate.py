@@ -73,6 +73,16 @@ def step_reason_of(features, is_cpu: bool, grain_steps: float) -> str | None:
     return None
 
 
+def event_cost_note(features, is_cpu: bool) -> str | None:
+    """One line when a CUDA run carries event-aware steps (a contact can open, ``integrator.events = "auto"``),
+    which measured 27× slower in the fused kernels on an H100 (docs/benchmarks.md); None otherwise."""
+    if is_cpu or features.event_window <= 0:
+        return None
+    return ('event-aware steps are compiled in (a contact can open; integrator.events = "auto"): on CUDA they '
+            'made the fused kernel up to 27x slower (docs/benchmarks.md); integrator.events = "off" takes plain '
+            'Gear steps')
+
+
 def step_reason(model: Model, run_steps: int | None = None) -> str | None:
     """Why ``auto`` picks the per-step kernel for ``model`` (one line), or None when it picks a fused one."""
     work = model.chain_count * model.grain_count * (run_steps if run_steps is not None else math.inf)
