@@ -186,3 +186,26 @@ def test_traces_without_first_step_read_the_clock():
     np.testing.assert_array_equal(a.x.numpy(), reference.current.x.numpy())
     np.testing.assert_array_equal(a.traces.numpy(), reference.current.traces.numpy())
     assert np.max(np.abs(a.traces.numpy())) > 0
+
+
+@pytest.mark.parametrize("kernel", ["sweep", "tile"])
+def test_response_windows_on_the_fused_kernels_equal_per_step(kernel, device):
+    """Response windows (V_k, window KE, driver-open fraction) of a driven chain whose surface contact opens:
+    the fused kernels (sampled between launches) give the per-step kernel's sums."""
+    if kernel == "sweep" and device != "cpu":
+        pytest.skip("the sweep kernel is a CPU kernel")
+    record = {"every": 0.5, "fields": ["v"], "response_start": 0.5, "response_periods": 1,
+              "response_windows": 3, "harmonics": 2}
+    model = build_model(driven_scenes(traces=False, record=record), device)
+    want = run(model, "step")
+    if kernel == "sweep":
+        config = "sweep"
+    else:
+        config = config_of(plan_tile(replace(model.features, traces=False), model.grain_count, model.chain_count,
+                                     grains_per_lane=4))
+    got = run(model, config)
+    assert got.kernel != "step"
+    assert np.all(np.abs(want.response["response"][..., 1, -1]) > 0)  # the drive's harmonic reached the bottom grain
+    assert np.all(want.response["driver_open"] > 0)  # the surface contact opened: event steps were taken
+    for name in ("response", "window_ke", "driver_open"):
+        assert_kernels_agree(got.response[name], want.response[name], device)
