@@ -202,42 +202,82 @@ def tile_kernel(features: Features, shape: TileShape):
                 for q in range(Q):
                     out[q, k] = new[q]
         if wp.static(EVENTS):
-            # grains touching a contact near an opening or closing: kernels/step.py's event test and step
+            # grains touching a contact near an opening or closing: kernels/step.py's event test and step.
+            # The test (cheap) runs over the unrolled grains and sets a bit per flagged grain; the event
+            # step is written once, in a loop over the set bits, its inputs gathered and its result
+            # scattered by selects over the G static positions (a register matrix indexed by a runtime
+            # index would live in local memory). Inlined once per grain instead, the event step made the
+            # CUDA code G times larger and every lane of a warp waited for each copy any lane needed.
+            # Every event step reads the neighbours' values at t_n (s, not out), as the per-step kernel.
+            driver_above = value_vec()  # the driver's vector at t_n: what grain 1 sees above it
+            if wp.static(DRIVEN):
+                if k0 >= 0:
+                    driver_above = driver_values(amplitude, omega, wp.float64(step_new - 1) * dt, dt)
+            event_bits = int(0)
             for k in range(G):
-                own = column(s, k)
-                above = left_values
+                above_u = left_values[0]
+                above_hv = left_values[1]
                 u_above = u_left
                 if k > 0:
-                    above = column(s, wp.max(k - 1, 0))
+                    above_u = s[0, wp.max(k - 1, 0)]
+                    above_hv = s[1, wp.max(k - 1, 0)]
                     u_above = up[wp.max(k - 1, 0)]
-                below = right_values
+                below_u = right_values[0]
+                below_hv = right_values[1]
                 u_below = u_right
                 if k < G - 1:
-                    below = column(s, wp.min(k + 1, G - 1))
+                    below_u = s[0, wp.min(k + 1, G - 1)]
+                    below_hv = s[1, wp.min(k + 1, G - 1)]
                     u_below = up[wp.min(k + 1, G - 1)]
                 if wp.static(DRIVEN):
                     if k0 >= 0 and k == k0 + 1:
-                        above = driver_values(amplitude, omega, wp.float64(step_new - 1) * dt, dt)
-                has_above = (contact_bits & (1 << k)) != 0
-                has_below = (contact_bits & (1 << (k + 1))) != 0
-                p_above = vec3(delta0[k], a_c[k], n)
-                p_below = vec3(delta0[k + 1], a_c[k + 1], n)
+                        above_u = driver_above[0]
+                        above_hv = driver_above[1]
                 flagged = False
-                if has_above:
-                    flagged = near_event(p_above[0] + (above[0] - own[0]), p_above[0] + (u_above - up[k]),
-                                         above[1] - own[1], h)
-                if has_below:
-                    flagged = flagged or near_event(p_below[0] + (own[0] - below[0]), p_below[0] + (up[k] - u_below),
-                                                    own[1] - below[1], h)
+                if (contact_bits & (1 << k)) != 0:
+                    flagged = near_event(delta0[k] + (above_u - s[0, k]), delta0[k] + (u_above - up[k]),
+                                         above_hv - s[1, k], h)
+                if (contact_bits & (1 << (k + 1))) != 0:
+                    flagged = flagged or near_event(delta0[k + 1] + (s[0, k] - below_u),
+                                                    delta0[k + 1] + (up[k] - u_below), s[1, k] - below_hv, h)
                 if flagged:
-                    new = event_step(own, above, below, has_above, has_below, p_above, p_below, inv_m[k], h)
-                    if wp.static(FIXED):
-                        moving = (move_bits & (1 << k)) != 0
-                        for q in range(Q):
-                            out[q, k] = wp.where(moving, new[q], s[q, k])
-                    else:
-                        for q in range(Q):
-                            out[q, k] = new[q]
+                    event_bits = event_bits | (1 << k)
+            while event_bits != 0:
+                grain_bit = event_bits & (-event_bits)  # the lowest flagged grain
+                event_bits = event_bits ^ grain_bit
+                own = value_vec()
+                above = value_vec()
+                below = value_vec()
+                p_above = vec3()
+                p_below = vec3()
+                inv_m_event = real(0)
+                for k in range(G):
+                    if grain_bit == (1 << k):
+                        own = column(s, k)
+                        above = left_values
+                        if k > 0:
+                            above = column(s, wp.max(k - 1, 0))
+                        below = right_values
+                        if k < G - 1:
+                            below = column(s, wp.min(k + 1, G - 1))
+                        if wp.static(DRIVEN):
+                            if k0 >= 0 and k == k0 + 1:
+                                above = driver_above
+                        p_above = vec3(delta0[k], a_c[k], n)
+                        p_below = vec3(delta0[k + 1], a_c[k + 1], n)
+                        inv_m_event = inv_m[k]
+                has_above = (contact_bits & grain_bit) != 0
+                has_below = (contact_bits & (grain_bit << 1)) != 0
+                new = event_step(own, above, below, has_above, has_below, p_above, p_below, inv_m_event, h)
+                for k in range(G):
+                    if grain_bit == (1 << k):
+                        if wp.static(FIXED):
+                            moving = (move_bits & (1 << k)) != 0
+                            for q in range(Q):
+                                out[q, k] = wp.where(moving, new[q], s[q, k])
+                        else:
+                            for q in range(Q):
+                                out[q, k] = new[q]
         if wp.static(DRIVEN):
             if k0 >= 0:
                 # the prescribed surface grain: the driver's u_0 and dt·v_0 at t_{n+1}, higher values 0
