@@ -15,7 +15,8 @@ from hertzian.ensemble.accuracy import work_precision
 from hertzian.ensemble.model import build_model, features_of
 from hertzian.kernels.features import Features
 from hertzian.kernels.step import step_kernel
-from hertzian.kernels.tile import plan_tile
+from hertzian.kernels.tile import TileShape, plan_tile, tile_kernel
+from kernel_source import call_count, function_body, generated_source
 from tests.test_cpu_kernel import sweep
 from tests.test_tile import chains, fused, per_step
 
@@ -89,6 +90,21 @@ def test_fused_event_steps_on_every_device(case, device):
     want = per_step(model, steps)
     plan = plan_tile(model.features, model.grain_count, model.chain_count, **plan_keywords)
     np.testing.assert_array_equal(fused(model, plan, steps), want)
+
+
+def test_tile_kernel_writes_the_event_step_once():
+    """The fused kernel tests every grain of a lane (unrolled: 2 calls of the contact test per grain) but
+    calls the event step once per lane-step, in a loop over the flagged grains, whatever G: inlined per
+    grain it made the CUDA code G times larger (kernels/tile.py). Generated C++ only, nothing compiled."""
+    for features in (Features(method="gear4", surface="wall", bottom="wall", static="none", event_window=0.5),
+                     Features(method="gear5", surface="driven", bottom="fixed", static="uniform",
+                              event_window=0.5)):
+        for grains_per_lane in (4, 16):
+            shape = TileShape(grains_per_lane, 4)
+            source = generated_source(tile_kernel(features, shape), block_dim=shape.block_dim)
+            advance = function_body(source, "advance")
+            assert call_count(advance, "near_event") == 2 * grains_per_lane, (features, grains_per_lane)
+            assert call_count(advance, "event_step") == 1, (features, grains_per_lane)
 
 
 def test_bad_event_modes_are_one_line_errors():
