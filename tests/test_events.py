@@ -16,6 +16,7 @@ from hertzian.ensemble.model import build_model, features_of
 from hertzian.kernels.features import Features
 from hertzian.kernels.step import step_kernel
 from hertzian.kernels.tile import TileShape, plan_tile, tile_kernel
+from fused_cases import assert_every_window_moved
 from kernel_source import call_count, function_body, generated_source
 from tests.test_cpu_kernel import sweep
 from tests.test_tile import chains, fused, per_step
@@ -89,6 +90,21 @@ def test_fused_event_steps_on_every_device(case, device):
     model = build_model(chains(n_chains, **sections), device)
     want = per_step(model, steps)
     plan = plan_tile(model.features, model.grain_count, model.chain_count, **plan_keywords)
+    np.testing.assert_array_equal(fused(model, plan, steps), want)
+
+
+def test_tile_event_steps_hold_a_fixed_bottom():
+    """l0 = 0, fixed bottom: the pulse reaches the held grain's only contact, which opens and closes, so
+    the tile kernel flags the held grain; its event step must leave it where it is (as the per-step kernel
+    does). Run until the last free grain has moved; every value equals the per-step kernel's."""
+    sections = dict(chain={"grains": 12, "l0": 0.0}, boundary={"bottom": "fixed"}, integrator={"dt": 5e-4})
+    model = build_model(chains(2, **sections), "cpu")
+    assert model.features.event_window > 0
+    steps = 1201
+    want = per_step(model, steps)
+    assert_every_window_moved(want, [(0, model.grain_count)], held_bottom=True)
+    np.testing.assert_array_equal(want[:, :, -1], model.initial_state().x.numpy()[:, :, -1])
+    plan = plan_tile(model.features, model.grain_count, model.chain_count, grains_per_lane=4)
     np.testing.assert_array_equal(fused(model, plan, steps), want)
 
 
