@@ -23,6 +23,12 @@ Long chains (more grains than a block holds) are cut into windows of ``interior`
 ``steps ≤ ghost`` steps a window's interior is exact; only the interior is written back. Windows read
 ``x_in`` and write ``x_out`` (never the same buffer), so no window sees another's partial update.
 
+Event-aware steps (kernels/events.py, ``Features.event_window > 0``): after the corrector every grain's
+contacts are tested (unrolled, cheap) into one bit per flagged grain; the event step (Runge–Kutta substeps)
+is then called once per set bit in a loop, its inputs gathered and its result scattered by selects over
+the G static register positions, so the code holds one event step per lane, not G. Every event step
+reads its neighbours at t_n, as in the per-step kernel.
+
 A driven surface (``surface = "driven"``): the lane holding grain 0 sets its predicted position to the
 driver's u_0(t_{n+1}), overwrites it with the driver's values after the corrector and accumulates the
 driver's work in registers, each in kernels/step.py's arithmetic (grain 1 must sit in grain 0's lane).
@@ -203,12 +209,10 @@ def tile_kernel(features: Features, shape: TileShape):
                     out[q, k] = new[q]
         if wp.static(EVENTS):
             # grains touching a contact near an opening or closing: kernels/step.py's event test and step.
-            # The test (cheap) runs over the unrolled grains and sets a bit per flagged grain; the event
-            # step is written once, in a loop over the set bits, its inputs gathered and its result
-            # scattered by selects over the G static positions (a register matrix indexed by a runtime
-            # index would live in local memory). Inlined once per grain instead, the event step made the
-            # CUDA code G times larger and every lane of a warp waited for each copy any lane needed.
-            # Every event step reads the neighbours' values at t_n (s, not out), as the per-step kernel.
+            # One event step in a loop over the flagged grains, not G inlined copies (code size, and every
+            # lane of a warp waited for each copy any lane needed); gathers and scatters select over the G
+            # static positions (a register matrix indexed at run time would live in local memory).
+            # Every event step reads its neighbours at t_n (s, not out), as the per-step kernel does.
             driver_above = value_vec()  # the driver's vector at t_n: what grain 1 sees above it
             if wp.static(DRIVEN):
                 if k0 >= 0:
