@@ -73,6 +73,9 @@ class TileShape:
     """float64 Hertz on CUDA: the sqrt's fast path without a branch per contact (one test per lane-step)."""
     max_registers: int = 0
     """CUDA register cap per thread (0: the compiler's choice); lower caps fit more blocks per SM."""
+    inline_event_step: bool = True
+    """Event-aware steps: the event step inlined at its one call site; False: an out-of-line function
+    (CUDA ``__noinline__``: less code, live registers saved around each call). Same bits either way."""
 
     @property
     def block_dim(self) -> int:
@@ -82,6 +85,17 @@ class TileShape:
     def window(self) -> int:
         """Grains one chain (or window) holds on-chip."""
         return self.lanes_per_chain * self.grains_per_lane
+
+
+def out_of_line(event_step, values_t, vec3, real):
+    """``event_step`` (kernels/events.py) behind a ``@wp.func`` the compiler keeps out of line."""
+
+    @wp.func(inline=False)
+    def event_step_call(own: values_t, above: values_t, below: values_t, has_above: bool, has_below: bool,
+                        p_above: vec3, p_below: vec3, inv_m: real, h: real) -> values_t:
+        return event_step(own, above, below, has_above, has_below, p_above, p_below, inv_m, h)
+
+    return event_step_call
 
 
 @functools.cache
@@ -118,6 +132,8 @@ def tile_kernel(features: Features, shape: TileShape):
     vec3 = wp.types.vector(3, real)
     if EVENTS:
         near_event, event_step = event_functions(f)
+        if not shape.inline_event_step:
+            event_step = out_of_line(event_step, nordsieck.values, vec3, real)
     else:
         near_event = event_step = None
     value_vec = nordsieck.values
@@ -472,13 +488,15 @@ class TilePlan:
             text += f" regs<={s.max_registers}"
         if not s.fast_sqrt:
             text += " sqrt=rn"
+        if not s.inline_event_step:
+            text += " event-step=call"
         return text + f" K={self.steps_per_launch}"
 
 
 def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_per_lane: int = 8,
               lanes_per_chain: int | None = None, chains_per_block: int = 1, steps_per_launch: int = 64,
               windowed: bool = False, branchless: bool = True, fast_sqrt: bool = True,
-              max_registers: int = 0) -> TilePlan:
+              max_registers: int = 0, inline_event_step: bool = True) -> TilePlan:
     """Lay out a fused launch for ``chain_count`` chains of ``grain_count`` grains.
 
     Whole chains: ``lanes_per_chain = ceil(grain_count / grains_per_lane)`` unless given (it must cover
@@ -499,7 +517,7 @@ def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_
             raise ValueError(f"a driven windowed plan needs grains 0 and 1 in one lane (ghost {windows.ghost} "
                              f"≢ {G - 1} mod {G})")
         shape = TileShape(G, lanes_per_chain, 1, windowed=True, masked=True, branchless=branchless,
-                          fast_sqrt=fast_sqrt, max_registers=max_registers)
+                          fast_sqrt=fast_sqrt, max_registers=max_registers, inline_event_step=inline_event_step)
         plan = TilePlan(shape, steps_per_launch, windows.interior, windows.ghost, windows.blocks_per_chain,
                         windows.blocks_per_chain * chain_count)
     else:
@@ -508,7 +526,7 @@ def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_
             raise ValueError(f"{lanes} lanes x {G} grains do not cover {n} grains")
         masked = lanes * G != n or free_end
         shape = TileShape(G, lanes, chains_per_block, windowed=False, masked=masked, branchless=branchless,
-                          fast_sqrt=fast_sqrt, max_registers=max_registers)
+                          fast_sqrt=fast_sqrt, max_registers=max_registers, inline_event_step=inline_event_step)
         plan = TilePlan(shape, steps_per_launch, n, 0, 1, -(-chain_count // chains_per_block))
     if plan.shape.block_dim > 1024:
         raise ValueError(f"block of {plan.shape.block_dim} threads: at most 1024")
