@@ -74,8 +74,8 @@ class TileShape:
     max_registers: int = 0
     """CUDA register cap per thread (0: the compiler's choice); lower caps fit more blocks per SM."""
     inline_event_step: bool = True
-    """Event-aware steps: the event step inlined at its one call site; False: an out-of-line function
-    (CUDA ``__noinline__``: less code, live registers saved around each call). Same bits either way."""
+    """Event-aware steps: the event step (called once per lane-step) inlined; False: an out-of-line
+    function (CUDA ``__noinline__``: less code, live registers saved around the call). Same bits."""
 
     @property
     def block_dim(self) -> int:
@@ -225,9 +225,9 @@ def tile_kernel(features: Features, shape: TileShape):
                     out[q, k] = new[q]
         if wp.static(EVENTS):
             # grains touching a contact near an opening or closing: kernels/step.py's event test and step.
-            # One event step in a loop over the flagged grains, not G inlined copies (code size, and every
-            # lane of a warp waited for each copy any lane needed); gathers and scatters select over the G
-            # static positions (a register matrix indexed at run time would live in local memory).
+            # One event step in a loop over the flagged grains, not one per grain (G inlined copies or calls:
+            # code size, and every lane of a warp waited for each one any lane needed); gathers and scatters
+            # select over the G static positions (a register matrix indexed at run time: local memory).
             # Every event step reads its neighbours at t_n (s, not out), as the per-step kernel does.
             driver_above = value_vec()  # the driver's vector at t_n: what grain 1 sees above it
             if wp.static(DRIVEN):
