@@ -23,6 +23,12 @@ Long chains (more grains than a block holds) are cut into windows of ``interior`
 ``steps ≤ ghost`` steps a window's interior is exact; only the interior is written back. Windows read
 ``x_in`` and write ``x_out`` (never the same buffer), so no window sees another's partial update.
 
+Event-aware steps (kernels/events.py, ``Features.event_window > 0``): after the corrector every grain's
+contacts are tested (unrolled, cheap) into one bit per flagged grain; the event step (Runge–Kutta substeps)
+is then called once per set bit in a loop, its inputs gathered and its result scattered by selects over
+the G static register positions, so the code holds one event step per lane, not G. Every event step
+reads its neighbours at t_n, as in the per-step kernel.
+
 A driven surface (``surface = "driven"``): the lane holding grain 0 sets its predicted position to the
 driver's u_0(t_{n+1}), overwrites it with the driver's values after the corrector and accumulates the
 driver's work in registers, each in kernels/step.py's arithmetic (grain 1 must sit in grain 0's lane).
@@ -67,6 +73,9 @@ class TileShape:
     """float64 Hertz on CUDA: the sqrt's fast path without a branch per contact (one test per lane-step)."""
     max_registers: int = 0
     """CUDA register cap per thread (0: the compiler's choice); lower caps fit more blocks per SM."""
+    inline_event_step: bool = True
+    """Event-aware steps: the event step (called once per lane-step) inlined; False: an out-of-line
+    function (CUDA ``__noinline__``: less code, live registers saved around the call). Same bits."""
 
     @property
     def block_dim(self) -> int:
@@ -76,6 +85,17 @@ class TileShape:
     def window(self) -> int:
         """Grains one chain (or window) holds on-chip."""
         return self.lanes_per_chain * self.grains_per_lane
+
+
+def out_of_line(event_step, values_t, vec3, real):
+    """``event_step`` (kernels/events.py) behind a ``@wp.func`` the compiler keeps out of line."""
+
+    @wp.func(inline=False)
+    def event_step_call(own: values_t, above: values_t, below: values_t, has_above: bool, has_below: bool,
+                        p_above: vec3, p_below: vec3, inv_m: real, h: real) -> values_t:
+        return event_step(own, above, below, has_above, has_below, p_above, p_below, inv_m, h)
+
+    return event_step_call
 
 
 @functools.cache
@@ -112,6 +132,8 @@ def tile_kernel(features: Features, shape: TileShape):
     vec3 = wp.types.vector(3, real)
     if EVENTS:
         near_event, event_step = event_functions(f)
+        if not shape.inline_event_step:
+            event_step = out_of_line(event_step, nordsieck.values, vec3, real)
     else:
         near_event = event_step = None
     value_vec = nordsieck.values
@@ -202,42 +224,80 @@ def tile_kernel(features: Features, shape: TileShape):
                 for q in range(Q):
                     out[q, k] = new[q]
         if wp.static(EVENTS):
-            # grains touching a contact near an opening or closing: kernels/step.py's event test and step
+            # grains touching a contact near an opening or closing: kernels/step.py's event test and step.
+            # One event step in a loop over the flagged grains, not one per grain (G inlined copies or calls:
+            # code size, and every lane of a warp waited for each one any lane needed); gathers and scatters
+            # select over the G static positions (a register matrix indexed at run time: local memory).
+            # Every event step reads its neighbours at t_n (s, not out), as the per-step kernel does.
+            driver_above = value_vec()  # the driver's vector at t_n: what grain 1 sees above it
+            if wp.static(DRIVEN):
+                if k0 >= 0:
+                    driver_above = driver_values(amplitude, omega, wp.float64(step_new - 1) * dt, dt)
+            event_bits = int(0)
             for k in range(G):
-                own = column(s, k)
-                above = left_values
+                above_u = left_values[0]
+                above_hv = left_values[1]
                 u_above = u_left
                 if k > 0:
-                    above = column(s, wp.max(k - 1, 0))
+                    above_u = s[0, wp.max(k - 1, 0)]
+                    above_hv = s[1, wp.max(k - 1, 0)]
                     u_above = up[wp.max(k - 1, 0)]
-                below = right_values
+                below_u = right_values[0]
+                below_hv = right_values[1]
                 u_below = u_right
                 if k < G - 1:
-                    below = column(s, wp.min(k + 1, G - 1))
+                    below_u = s[0, wp.min(k + 1, G - 1)]
+                    below_hv = s[1, wp.min(k + 1, G - 1)]
                     u_below = up[wp.min(k + 1, G - 1)]
                 if wp.static(DRIVEN):
                     if k0 >= 0 and k == k0 + 1:
-                        above = driver_values(amplitude, omega, wp.float64(step_new - 1) * dt, dt)
-                has_above = (contact_bits & (1 << k)) != 0
-                has_below = (contact_bits & (1 << (k + 1))) != 0
-                p_above = vec3(delta0[k], a_c[k], n)
-                p_below = vec3(delta0[k + 1], a_c[k + 1], n)
+                        above_u = driver_above[0]
+                        above_hv = driver_above[1]
                 flagged = False
-                if has_above:
-                    flagged = near_event(p_above[0] + (above[0] - own[0]), p_above[0] + (u_above - up[k]),
-                                         above[1] - own[1], h)
-                if has_below:
-                    flagged = flagged or near_event(p_below[0] + (own[0] - below[0]), p_below[0] + (up[k] - u_below),
-                                                    own[1] - below[1], h)
+                if (contact_bits & (1 << k)) != 0:
+                    flagged = near_event(delta0[k] + (above_u - s[0, k]), delta0[k] + (u_above - up[k]),
+                                         above_hv - s[1, k], h)
+                if (contact_bits & (1 << (k + 1))) != 0:
+                    flagged = flagged or near_event(delta0[k + 1] + (s[0, k] - below_u),
+                                                    delta0[k + 1] + (up[k] - u_below), s[1, k] - below_hv, h)
                 if flagged:
-                    new = event_step(own, above, below, has_above, has_below, p_above, p_below, inv_m[k], h)
-                    if wp.static(FIXED):
-                        moving = (move_bits & (1 << k)) != 0
-                        for q in range(Q):
-                            out[q, k] = wp.where(moving, new[q], s[q, k])
-                    else:
-                        for q in range(Q):
-                            out[q, k] = new[q]
+                    event_bits = event_bits | (1 << k)
+            while event_bits != 0:
+                grain_bit = event_bits & (-event_bits)  # the lowest flagged grain
+                event_bits = event_bits ^ grain_bit
+                own = value_vec()
+                above = value_vec()
+                below = value_vec()
+                p_above = vec3()
+                p_below = vec3()
+                inv_m_event = real(0)
+                for k in range(G):
+                    if grain_bit == (1 << k):
+                        own = column(s, k)
+                        above = left_values
+                        if k > 0:
+                            above = column(s, wp.max(k - 1, 0))
+                        below = right_values
+                        if k < G - 1:
+                            below = column(s, wp.min(k + 1, G - 1))
+                        if wp.static(DRIVEN):
+                            if k0 >= 0 and k == k0 + 1:
+                                above = driver_above
+                        p_above = vec3(delta0[k], a_c[k], n)
+                        p_below = vec3(delta0[k + 1], a_c[k + 1], n)
+                        inv_m_event = inv_m[k]
+                has_above = (contact_bits & grain_bit) != 0
+                has_below = (contact_bits & (grain_bit << 1)) != 0
+                new = event_step(own, above, below, has_above, has_below, p_above, p_below, inv_m_event, h)
+                for k in range(G):
+                    if grain_bit == (1 << k):
+                        if wp.static(FIXED):
+                            moving = (move_bits & (1 << k)) != 0
+                            for q in range(Q):
+                                out[q, k] = wp.where(moving, new[q], s[q, k])
+                        else:
+                            for q in range(Q):
+                                out[q, k] = new[q]
         if wp.static(DRIVEN):
             if k0 >= 0:
                 # the prescribed surface grain: the driver's u_0 and dt·v_0 at t_{n+1}, higher values 0
@@ -428,13 +488,15 @@ class TilePlan:
             text += f" regs<={s.max_registers}"
         if not s.fast_sqrt:
             text += " sqrt=rn"
+        if not s.inline_event_step:
+            text += " event-step=call"
         return text + f" K={self.steps_per_launch}"
 
 
 def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_per_lane: int = 8,
               lanes_per_chain: int | None = None, chains_per_block: int = 1, steps_per_launch: int = 64,
               windowed: bool = False, branchless: bool = True, fast_sqrt: bool = True,
-              max_registers: int = 0) -> TilePlan:
+              max_registers: int = 0, inline_event_step: bool = True) -> TilePlan:
     """Lay out a fused launch for ``chain_count`` chains of ``grain_count`` grains.
 
     Whole chains: ``lanes_per_chain = ceil(grain_count / grains_per_lane)`` unless given (it must cover
@@ -455,7 +517,7 @@ def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_
             raise ValueError(f"a driven windowed plan needs grains 0 and 1 in one lane (ghost {windows.ghost} "
                              f"≢ {G - 1} mod {G})")
         shape = TileShape(G, lanes_per_chain, 1, windowed=True, masked=True, branchless=branchless,
-                          fast_sqrt=fast_sqrt, max_registers=max_registers)
+                          fast_sqrt=fast_sqrt, max_registers=max_registers, inline_event_step=inline_event_step)
         plan = TilePlan(shape, steps_per_launch, windows.interior, windows.ghost, windows.blocks_per_chain,
                         windows.blocks_per_chain * chain_count)
     else:
@@ -464,7 +526,7 @@ def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_
             raise ValueError(f"{lanes} lanes x {G} grains do not cover {n} grains")
         masked = lanes * G != n or free_end
         shape = TileShape(G, lanes, chains_per_block, windowed=False, masked=masked, branchless=branchless,
-                          fast_sqrt=fast_sqrt, max_registers=max_registers)
+                          fast_sqrt=fast_sqrt, max_registers=max_registers, inline_event_step=inline_event_step)
         plan = TilePlan(shape, steps_per_launch, n, 0, 1, -(-chain_count // chains_per_block))
     if plan.shape.block_dim > 1024:
         raise ValueError(f"block of {plan.shape.block_dim} threads: at most 1024")

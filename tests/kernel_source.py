@@ -1,15 +1,20 @@
-"""Helpers of the lean-kernel tests (test_core.py, test_drive.py): the C++ Warp generates for a kernel and
-the arrays it touches. A plain module next to the tests (imported as ``kernel_source``).
+"""Helpers of the lean-kernel tests (test_core.py, test_drive.py, test_events.py): the C++ Warp generates for
+a kernel and the arrays it touches. A plain module next to the tests (imported as ``kernel_source``).
 """
 
 from __future__ import annotations
 
 
-def generated_source(kernel, device="cpu") -> str:
-    """The C++ Warp generated for a kernel's module (from the kernel cache)."""
+def generated_source(kernel, device="cpu", *, block_dim: int | None = None) -> str:
+    """The C++ Warp generated for a kernel's module (from the kernel cache).
+
+    ``block_dim``: the launch's threads per block, for tile kernels (their shared tiles are sized by it)."""
     from warp._src.context import ModuleBuilder
 
-    builder = ModuleBuilder(kernel.module, kernel.module.options, target=device)
+    options = dict(kernel.module.options)
+    if block_dim is not None:
+        options["block_dim"] = block_dim
+    builder = ModuleBuilder(kernel.module, options, target=device)
     return builder.codegen(device)
 
 
@@ -18,3 +23,22 @@ def accessed_arrays(source: str) -> set[str]:
     import re
 
     return set(re.findall(r"wp::\w+\(var_(\w+),", source))
+
+
+def function_body(source: str, name: str) -> str:
+    """The generated forward definition of the ``@wp.func`` called ``name`` (Warp's mangled
+    ``…__locals__<name>_<n>``), from its signature to its closing brace at column 0."""
+    import re
+
+    match = re.search(rf"^static [^\n]*__locals__{name}_\d+\($", source, re.MULTILINE)
+    if match is None:
+        raise LookupError(f"no generated function {name!r}")
+    end = source.index("\n}", match.end())
+    return source[match.start():end + 2]
+
+
+def call_count(source: str, name: str) -> int:
+    """Call sites of the ``@wp.func`` called ``name`` in a piece of generated source."""
+    import re
+
+    return len(re.findall(rf"= [\w]*__locals__{name}_\d+\(", source))

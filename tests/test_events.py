@@ -7,6 +7,8 @@ treatment switched off (the order it repairs), and bitwise equality of every ker
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -15,7 +17,9 @@ from hertzian.ensemble.accuracy import work_precision
 from hertzian.ensemble.model import build_model, features_of
 from hertzian.kernels.features import Features
 from hertzian.kernels.step import step_kernel
-from hertzian.kernels.tile import plan_tile
+from hertzian.kernels.tile import TileShape, plan_tile, tile_kernel
+from fused_cases import assert_every_window_moved
+from kernel_source import call_count, function_body, generated_source
 from tests.test_cpu_kernel import sweep
 from fused_cases import assert_kernels_agree
 from tests.test_tile import chains, fused, per_step
@@ -90,6 +94,51 @@ def test_fused_event_steps_on_every_device(case, device):
     want = per_step(model, steps)
     plan = plan_tile(model.features, model.grain_count, model.chain_count, **plan_keywords)
     assert_kernels_agree(fused(model, plan, steps), want, device)
+
+
+def test_tile_event_steps_hold_a_fixed_bottom():
+    """l0 = 0, fixed bottom: the pulse reaches the held grain's only contact, which opens and closes, so
+    the tile kernel flags the held grain; its event step must leave it where it is (as the per-step kernel
+    does). Run until the last free grain has moved; every value equals the per-step kernel's."""
+    sections = dict(chain={"grains": 12, "l0": 0.0}, boundary={"bottom": "fixed"}, integrator={"dt": 5e-4})
+    model = build_model(chains(2, **sections), "cpu")
+    assert model.features.event_window > 0
+    steps = 1201
+    want = per_step(model, steps)
+    assert_every_window_moved(want, [(0, model.grain_count)], held_bottom=True)
+    np.testing.assert_array_equal(want[:, :, -1], model.initial_state().x.numpy()[:, :, -1])
+    plan = plan_tile(model.features, model.grain_count, model.chain_count, grains_per_lane=4)
+    np.testing.assert_array_equal(fused(model, plan, steps), want)
+
+
+def test_tile_kernel_writes_the_event_step_once():
+    """The fused kernel tests every grain of a lane (unrolled: 2 calls of the contact test per grain) but
+    calls the event step once per lane-step, in a loop over the flagged grains, whatever G: inlined per
+    grain it made the CUDA code G times larger (kernels/tile.py). Generated C++ only, nothing compiled."""
+    for features in (Features(method="gear4", surface="wall", bottom="wall", static="none", event_window=0.5),
+                     Features(method="gear5", surface="driven", bottom="fixed", static="uniform",
+                              event_window=0.5)):
+        for grains_per_lane in (4, 16):
+            shape = TileShape(grains_per_lane, 4)
+            source = generated_source(tile_kernel(features, shape), block_dim=shape.block_dim)
+            advance = function_body(source, "advance")
+            assert call_count(advance, "near_event") == 2 * grains_per_lane, (features, grains_per_lane)
+            assert call_count(advance, "event_step") == 1, (features, grains_per_lane)
+    # out of line: the one call site calls a function the compiler must not inline
+    shape = TileShape(8, 4, inline_event_step=False)
+    source = generated_source(tile_kernel(features, shape), block_dim=shape.block_dim)
+    assert call_count(function_body(source, "advance"), "event_step_call") == 1
+    assert re.search(r"^static WP_NOINLINE [^\n]*__locals__event_step_call_\d+\(", source, re.MULTILINE)
+
+
+def test_out_of_line_event_step_takes_the_same_steps():
+    """TileShape.inline_event_step = False (a tuning knob for CUDA) computes the same bits."""
+    sections, n_chains, plan_keywords = EVENT_CASES["l0 = 0, gear4, free ends, 2 chains per block"]
+    steps = 300
+    model = build_model(chains(n_chains, **sections), "cpu")
+    plan = plan_tile(model.features, model.grain_count, model.chain_count, inline_event_step=False, **plan_keywords)
+    assert "event-step=call" in plan.describe()
+    np.testing.assert_array_equal(fused(model, plan, steps), per_step(model, steps))
 
 
 def test_bad_event_modes_are_one_line_errors():

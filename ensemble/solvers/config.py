@@ -62,6 +62,8 @@ class SolverConfig:
             text += f" regs<={s.max_registers}"
         if not s.fast_sqrt:
             text += " sqrt=rn"
+        if not s.inline_event_step:
+            text += " event-step=call"
         return f"{self.kind} ({text} K={self.steps_per_launch})"
 
     def to_dict(self) -> dict:
