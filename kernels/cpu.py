@@ -48,7 +48,7 @@ def sweep_kernel(features: Features):
     HETERO = f.heterogeneous
     HERTZ = f.hertz
     contact_force, excess_force = contact_functions(f.precision, f.hertz)
-    nordsieck = nordsieck_functions(f.method, f.precision)
+    nordsieck = nordsieck_functions(f.method, f.precision, f.compensation)
     predicted_position, correct = nordsieck.predicted_position, nordsieck.correct
     EVENTS = f.event_window > 0
     values_t = nordsieck.values

@@ -22,7 +22,8 @@ def step_kernel(features: Features):
     """The step kernel for one feature set (cached; a feature that is off generates no code)."""
     f = features
     real = wp.float64 if f.precision == "float64" else wp.float32
-    Q = f.values
+    Q = f.values                # rows of the state (kernels/gear.py)
+    ORDER = f.nordsieck_values  # of which the Nordsieck vector
     SURFACE_WALL = f.surface == "wall"
     DRIVEN = f.surface == "driven"
     BOTTOM_WALL = f.bottom == "wall"
@@ -31,7 +32,7 @@ def step_kernel(features: Features):
     TRACES = f.traces
     _, excess_force = contact_functions(f.precision, f.hertz)
     params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz)
-    nordsieck = nordsieck_functions(f.method, f.precision)
+    nordsieck = nordsieck_functions(f.method, f.precision, f.compensation)
     predicted_position, correct = nordsieck.predicted_position, nordsieck.correct
     EVENTS = f.event_window > 0
     values_t = nordsieck.values
@@ -48,11 +49,11 @@ def step_kernel(features: Features):
     def predicted_rate(x: wp.array3d(dtype=real), c: int, j: int) -> real:
         # dt·v predicted at t + dt from the Nordsieck vector: Σ_q q·x_q (Verlet: x1 + 2·x2)
         rate = x[1, c, j] + real(2) * x[2, c, j]
-        if wp.static(Q >= 4):
+        if wp.static(ORDER >= 4):
             rate += real(3) * x[3, c, j]
-        if wp.static(Q >= 5):
+        if wp.static(ORDER >= 5):
             rate += real(4) * x[4, c, j]
-        if wp.static(Q >= 6):
+        if wp.static(ORDER >= 6):
             rate += real(5) * x[5, c, j]
         return rate
 

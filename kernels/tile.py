@@ -102,7 +102,7 @@ def tile_kernel(features: Features, shape: TileShape):
     HERTZ = f.hertz
     contact_force, _ = contact_functions(f.precision, f.hertz)
     forces = contact_forces(f.precision, f.hertz, G + 1, branchless=shape.branchless, fast_sqrt=shape.fast_sqrt)
-    nordsieck = nordsieck_functions(f.method, f.precision)
+    nordsieck = nordsieck_functions(f.method, f.precision, f.compensation)
 
     state_t = wp.types.matrix(shape=(Q, G), dtype=real)
     grain_vec = wp.types.vector(length=G, dtype=real)
