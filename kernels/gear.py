@@ -50,6 +50,19 @@ class Nordsieck(NamedTuple):
     driver_values: object
     """``driver_values(amplitude, omega, t, dt) -> values``: the driven grain's vector at t,
     x_j = dt^j/j! · d^j/dt^j (A sin ωt) (all arguments float64)."""
+    position: type
+    """A predicted position as the forces use it: ``real``, or compensated ``vec2(hi, lo)``."""
+    predicted: object
+    """``predicted(v) -> position``: u at t + dt (compensated: hi = predict_position(v), and lo)."""
+    predicted_at: object
+    """``predicted_at(x, c, j) -> position``: predicted(load(x, c, j))."""
+    gap: object
+    """``gap(a, b) -> real``: u_a − u_b of two positions, the relative displacement of a contact
+    (compensated: (hi_a − hi_b) + (lo_a − lo_b), so that the overlap keeps its digits when u ≫ δ)."""
+    rounded: object
+    """``rounded(p) -> real``: the position rounded to ``real`` (= predict_position's value)."""
+    exact_position: object
+    """``exact_position(u) -> position``: a float64 position (the driver's) as a position."""
 
 
 def state_rows(method: str, precision: str, compensated: bool) -> int:
@@ -104,6 +117,10 @@ def nordsieck_functions(method: str, precision: str, compensated: bool = False) 
         if wp.static(Q >= 6):
             inc += v[5]
         return inc + v[wp.static(LO_U)]
+
+    @wp.func
+    def predicted_pair(v: values_t) -> vec2:
+        return two_sum(v[0], position_increment(v))
 
     @wp.func
     def predict_position(v: values_t) -> real:
@@ -254,4 +271,38 @@ def nordsieck_functions(method: str, precision: str, compensated: bool = False) 
             scale = scale * omega * dt / wp.float64(j + 1)
         return v
 
-    return Nordsieck(values_t, predict_position, corrected, load, store, predicted_position, correct, driver_values)
+    @wp.func
+    def gap_pair(a: vec2, b: vec2) -> real:
+        return (a[0] - b[0]) + (a[1] - b[1])
+
+    @wp.func
+    def gap_plain(a: real, b: real) -> real:
+        return a - b
+
+    @wp.func
+    def rounded_pair(p: vec2) -> real:
+        return p[0]
+
+    @wp.func
+    def rounded_plain(p: real) -> real:
+        return p
+
+    @wp.func
+    def exact_pair(u: wp.float64) -> vec2:
+        hi = real(u)
+        return vec2(hi, real(u - wp.float64(hi)))
+
+    @wp.func
+    def exact_plain(u: wp.float64) -> real:
+        return real(u)
+
+    @wp.func
+    def predicted_pair_at(x: wp.array3d(dtype=real), c: int, j: int) -> vec2:
+        return predicted_pair(load(x, c, j))
+
+    if COMP:
+        position_api = (vec2, predicted_pair, predicted_pair_at, gap_pair, rounded_pair, exact_pair)
+    else:
+        position_api = (real, predict_position, predicted_position, gap_plain, rounded_plain, exact_plain)
+    return Nordsieck(values_t, predict_position, corrected, load, store, predicted_position, correct, driver_values,
+                     *position_api)
