@@ -244,7 +244,8 @@ STATIC_LEVELS = ("none", "uniform", "profile")
 def covers(wider: Features, needed: Features) -> bool:
     """Whether a kernel variant ``wider`` can run scenes that need ``needed``."""
     # event-aware steps may run chains that cannot open a contact (they then step as plain Gear would
-    # wherever no contact comes near opening), not the other way round
+    # wherever no contact comes near opening), not the other way round; ``compensated`` is not compared:
+    # a forced plain float32 variant runs float32 scenes, less accurately (kept for comparison)
     return (wider.method, wider.precision, wider.surface, wider.bottom, wider.traces, wider.damping) == (
         needed.method, needed.precision, needed.surface, needed.bottom, needed.traces, needed.damping) and (
         wider.event_window == needed.event_window or needed.event_window == 0.0) and (
