@@ -168,11 +168,32 @@ def event_functions(features: Features):
         return new
 
     @wp.func
+    def offset(x: values_t, tau: real) -> real:
+        # compensated: a Nordsieck polynomial at t_n + tau·dt minus its hi part x0 (Horner, low parts added)
+        o = x[Q - 1]
+        for j in range(Q - 2, 0, -1):
+            o = o * tau + x[j]
+        return o * tau + (x[wp.static(LO_RATE)] * tau + x[wp.static(LO_U)])
+
+    @wp.func
+    def acceleration_of_offset(u0: real, du: real, above: values_t, below: values_t, tau: real, has_above: bool,
+                               has_below: bool, p_above: vec3, p_below: vec3, inv_m: real) -> real:
+        # acceleration() with the contacts' relative displacements formed as (hi − hi) + (offset − offset),
+        # so that they keep their digits when u ≫ δ (kernels/gear.py gap)
+        up = real(0)
+        down = real(0)
+        if has_above:
+            up = excess_force(p_above[0], (above[0] - u0) + (offset(above, tau) - du), p_above[1], p_above[2])
+        if has_below:
+            down = excess_force(p_below[0], (u0 - below[0]) + (du - offset(below, tau)), p_below[1], p_below[2])
+        return (up - down) * inv_m
+
+    @wp.func
     def event_step_compensated(own: values_t, above: values_t, below: values_t, has_above: bool, has_below: bool,
                                p_above: vec3, p_below: vec3, inv_m: real, h: real) -> values_t:
         # event_step in compensated float32: u = u0 + du and dt·v = hv0 + dhv, the substeps' small
         # increments accumulated in the offsets (a plain float32 u would drop their low bits), the
-        # offsets folded back into (hi, lo) by TwoSum at the end
+        # forces from offsets (acceleration_of_offset), the offsets folded back into (hi, lo) by TwoSum
         hh = h * h
         u0 = own[0]
         hv0 = own[1]
@@ -181,7 +202,8 @@ def event_functions(features: Features):
         if wp.static(GEAR4):
             ta = taylor(above, real(0))
             tb = taylor(below, real(0))
-            hha = hh * acceleration(u0 + du, ta[0], tb[0], has_above, has_below, p_above, p_below, inv_m)
+            hha = hh * acceleration_of_offset(u0, du, above, below, real(0), has_above, has_below, p_above, p_below,
+                                              inv_m)
             j = jerks(u0 + du, hv0 + dhv, hha, ta, tb, has_above, has_below, p_above, p_below, inv_m, hh)
             dhv = dhv - j[1] / real(24)
         s = real(1) / real(wp.static(M))
@@ -191,27 +213,25 @@ def event_functions(features: Features):
             tm = (mf + real(0.5)) * s
             t1 = (mf + real(1)) * s
             k1u = hv0 + dhv
-            k1v = hh * acceleration(u0 + du, taylor(above, t0)[0], taylor(below, t0)[0], has_above, has_below,
-                                    p_above, p_below, inv_m)
-            u2 = u0 + (du + real(0.5) * s * k1u)
+            k1v = hh * acceleration_of_offset(u0, du, above, below, t0, has_above, has_below, p_above, p_below,
+                                              inv_m)
             k2u = hv0 + (dhv + real(0.5) * s * k1v)
-            k2v = hh * acceleration(u2, taylor(above, tm)[0], taylor(below, tm)[0], has_above, has_below,
-                                    p_above, p_below, inv_m)
-            u3 = u0 + (du + real(0.5) * s * k2u)
+            k2v = hh * acceleration_of_offset(u0, du + real(0.5) * s * k1u, above, below, tm, has_above, has_below,
+                                              p_above, p_below, inv_m)
             k3u = hv0 + (dhv + real(0.5) * s * k2v)
-            k3v = hh * acceleration(u3, taylor(above, tm)[0], taylor(below, tm)[0], has_above, has_below,
-                                    p_above, p_below, inv_m)
-            u4 = u0 + (du + s * k3u)
+            k3v = hh * acceleration_of_offset(u0, du + real(0.5) * s * k2u, above, below, tm, has_above, has_below,
+                                              p_above, p_below, inv_m)
             k4u = hv0 + (dhv + s * k3v)
-            k4v = hh * acceleration(u4, taylor(above, t1)[0], taylor(below, t1)[0], has_above, has_below,
-                                    p_above, p_below, inv_m)
+            k4v = hh * acceleration_of_offset(u0, du + s * k3u, above, below, t1, has_above, has_below,
+                                              p_above, p_below, inv_m)
             du = du + s / real(6) * (k1u + real(2) * k2u + real(2) * k3u + k4u)
             dhv = dhv + s / real(6) * (k1v + real(2) * k2v + real(2) * k3v + k4v)
         u = u0 + du
         hv = hv0 + dhv
         ta = taylor(above, real(1))
         tb = taylor(below, real(1))
-        hha = hh * acceleration(u, ta[0], tb[0], has_above, has_below, p_above, p_below, inv_m)
+        hha = hh * acceleration_of_offset(u0, du, above, below, real(1), has_above, has_below, p_above, p_below,
+                                          inv_m)
         j = jerks(u, hv, hha, ta, tb, has_above, has_below, p_above, p_below, inv_m, hh)
         new = values_t()
         position = two_sum(u0, du)

@@ -141,29 +141,30 @@ def nordsieck_functions(method: str, precision: str, compensated: bool = False) 
         if wp.static(COMP and GEAR):
             # as below, with u and dt·v advanced by TwoSum (u_pred is recomputed unrounded)
             d1 = real(2) * v[2]  # p1 − x1
-            p2 = v[2]
+            d2 = real(0)         # p2 − x2
             p3 = real(0)
             p4 = real(0)
             p5 = real(0)
             if wp.static(Q >= 4):
                 x3 = v[3]
                 d1 += real(3) * x3
-                p2 += real(3) * x3
+                d2 = real(3) * x3
                 p3 = x3
             if wp.static(Q >= 5):
                 x4 = v[4]
                 d1 += real(4) * x4
-                p2 += real(6) * x4
+                d2 += real(6) * x4
                 p3 += real(4) * x4
                 p4 = x4
             if wp.static(Q >= 6):
                 x5 = v[5]
                 d1 += real(5) * x5
-                p2 += real(10) * x5
+                d2 += real(10) * x5
                 p3 += real(10) * x5
                 p4 += real(5) * x5
                 p5 = x5
-            corr = half_h2_acc - p2
+            # half_h2_acc − x2 is nearly exact (two close values); the small rest is subtracted after
+            corr = (half_h2_acc - v[2]) - d2
             u = two_sum(v[0], position_increment(v) + real(wp.static(C[0][0])) / real(wp.static(C[0][1])) * corr)
             rate = two_sum(v[1], v[wp.static(LO_RATE)]
                            + (d1 + real(wp.static(C[1][0])) / real(wp.static(C[1][1])) * corr))
