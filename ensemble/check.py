@@ -340,13 +340,15 @@ def memory_needed(scene: Scene, chains: int = 1) -> dict[str, int]:
     device); ``records``: snapshots, energy and work (on the host, float64 at most); ``traces``: trace
     samples (host); ``setup``: host arrays used to build the chain.
     """
-    from hertzian.kernels.features import GEAR_VALUES
+    from hertzian.kernels.gear import state_rows
 
     item = 8 if scene.integrator.precision == "float64" else 4
     n, traced = scene.chain.grains, len(scene.record.traces)
     records = scene.record_count
     ring = scene.steps_per_record // scene.trace_stride if traced else 0
-    state = chains * (2 * GEAR_VALUES[scene.integrator.method] * n + 3 * n + 2 + 2 * ring * traced) * item
+    # float32 state rows include the low parts of u and dt·v (compensated, kernels/gear.py)
+    rows = state_rows(scene.integrator.method, scene.integrator.precision, True)
+    state = chains * (2 * rows * n + 3 * n + 2 + 2 * ring * traced) * item
     return {
         "state": state,
         "records": chains * (len(scene.record.fields) * n + 2) * records * 8,

@@ -208,23 +208,34 @@ class Model:
         from .startup import initial_nordsieck
 
         state = self.state(like=like)
-        np_real = np.float64 if self.features.precision == "float64" else np.float32
+        order = self.features.nordsieck_values
         if isinstance(self.scenes, ChainSet):
             from .startup import initial_nordsieck_of
 
             # only the first grains move at t = 0 (startup.taylor_window): fill those, zeros elsewhere
-            window = initial_nordsieck_of(self.scenes, self.features.values, self.dt, self._static, whole=False)
-            x = np.zeros((self.features.values, self.chain_count, self.grain_count), dtype=np_real)
-            x[:, :, :window.shape[2]] = window.astype(np_real)
-            state.x.assign(x)
-            return state
+            window = initial_nordsieck_of(self.scenes, order, self.dt, self._static, whole=False)
+            x = np.zeros((order, self.chain_count, self.grain_count))
+            x[:, :, :window.shape[2]] = window
         else:
-            x = np.zeros((self.features.values, self.chain_count, self.grain_count))
+            x = np.zeros((order, self.chain_count, self.grain_count))
             for c, scene in enumerate(self.scenes):
                 # exact Taylor start: keeps each Gear method at its own order (see ensemble/startup.py)
-                x[:, c, :] = initial_nordsieck(scene, self.features.values, self.dt)
-        state.x.assign(x.astype(np_real))
+                x[:, c, :] = initial_nordsieck(scene, order, self.dt)
+        state.x.assign(state_layout(x, self.features))
         return state
+
+
+def state_layout(nordsieck: np.ndarray, features: Features) -> np.ndarray:
+    """Scaled Nordsieck vectors in float64, shape (Q, chains, grains), as the kernels of ``features`` keep them:
+    float64 as they are; float32 rounded, and (compensated, kernels/gear.py) rows Q and Q + 1 holding what
+    the rounding of u and dt·v left out, so that hi + lo carries u and dt·v to about twice float32's digits."""
+    if features.precision == "float64":
+        return np.ascontiguousarray(nordsieck, dtype=np.float64)
+    rounded = nordsieck.astype(np.float32)
+    if not features.compensation:
+        return rounded
+    low = (nordsieck[:2] - rounded[:2].astype(np.float64)).astype(np.float32)
+    return np.ascontiguousarray(np.concatenate([rounded, low]))
 
 
 STATIC_LEVELS = ("none", "uniform", "profile")
@@ -233,7 +244,8 @@ STATIC_LEVELS = ("none", "uniform", "profile")
 def covers(wider: Features, needed: Features) -> bool:
     """Whether a kernel variant ``wider`` can run scenes that need ``needed``."""
     # event-aware steps may run chains that cannot open a contact (they then step as plain Gear would
-    # wherever no contact comes near opening), not the other way round
+    # wherever no contact comes near opening), not the other way round; ``compensated`` is not compared:
+    # a forced plain float32 variant runs float32 scenes, less accurately (kept for comparison)
     return (wider.method, wider.precision, wider.surface, wider.bottom, wider.traces, wider.damping) == (
         needed.method, needed.precision, needed.surface, needed.bottom, needed.traces, needed.damping) and (
         wider.event_window == needed.event_window or needed.event_window == 0.0) and (

@@ -129,7 +129,7 @@ class IntegratorSpec:
     dt: float = 1.25e-5
     """Time step [time]."""
     precision: str = "float64"
-    """float64 | float32."""
+    """float64 | float32 (compensated: u and dt·v carried as float32 pairs hi + lo, kernels/gear.py)."""
     events: str = "auto"
     """auto: Gear steps near a contact opening/closing are event-aware (kernels/events.py) when some
     contact can open; off: plain Gear steps everywhere (the results before event-aware steps)."""

@@ -48,8 +48,9 @@ def sweep_kernel(features: Features):
     HETERO = f.heterogeneous
     HERTZ = f.hertz
     contact_force, excess_force = contact_functions(f.precision, f.hertz)
-    nordsieck = nordsieck_functions(f.method, f.precision)
+    nordsieck = nordsieck_functions(f.method, f.precision, f.compensation)
     predicted_position, correct = nordsieck.predicted_position, nordsieck.correct
+    predicted_at, gap, rounded = nordsieck.predicted_at, nordsieck.gap, nordsieck.rounded
     EVENTS = f.event_window > 0
     values_t = nordsieck.values
     params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz)
@@ -127,7 +128,8 @@ def sweep_kernel(features: Features):
             step_first = clock_in[0]
 
         for _step in range(steps):
-            u_here = predicted_position(x_out, c, 0)
+            # compensated float32: positions as (hi, lo) for the contacts (kernels/gear.py)
+            position_here = predicted_at(x_out, c, 0)
             if wp.static(DRIVEN):
                 # kernels/step.py's driven grain 0: prescribed u_0, and the driver's work (state at t_n)
                 step_new = step_first + _step + 1
@@ -141,7 +143,7 @@ def sweep_kernel(features: Features):
                 work = work + dt * wp.float64(0.5) * (power_prev + power)
                 power_prev = power
                 x1_drive = real(dt * amplitude * omega * wp.cos(omega * t_new))
-                u_here = real(u_drive)
+                position_here = nordsieck.exact_position(u_drive)
                 if wp.static(EVENTS):
                     driver_old = driver_values(amplitude, omega, t_old, dt)
             if wp.static(EVENTS):
@@ -149,18 +151,33 @@ def sweep_kernel(features: Features):
                 above_old = values_t()    # its Nordsieck vector at t_n (already overwritten in x_out)
             force_above = real(0)  # excess force of the contact above the current grain
             if wp.static(SURFACE_WALL):
-                force_above = contact(static_overlap, contact_constant, c, 0, -u_here, a_c0, delta00, force00, n)
+                if wp.static(f.compensation):
+                    # a wall is a grain at rest at 0 (as the fused kernel's padding grains)
+                    force_above = contact(static_overlap, contact_constant, c, 0,
+                                          gap(nordsieck.exact_position(wp.float64(0.0)), position_here),
+                                          a_c0, delta00, force00, n)
+                else:
+                    force_above = contact(static_overlap, contact_constant, c, 0, -rounded(position_here), a_c0,
+                                          delta00, force00, n)
             for i in range(n_grains):
+                u_here = rounded(position_here)
+                position_next = position_here
                 u_next = real(0)
                 force_below = real(0)
                 if i < last:
-                    u_next = predicted_position(x_out, c, i + 1)
-                    force_below = contact(static_overlap, contact_constant, c, i + 1, u_here - u_next,
+                    position_next = predicted_at(x_out, c, i + 1)
+                    u_next = rounded(position_next)
+                    force_below = contact(static_overlap, contact_constant, c, i + 1, gap(position_here, position_next),
                                           a_c0, delta00, force00, n)
                 else:
                     if wp.static(BOTTOM_WALL):
-                        force_below = contact(static_overlap, contact_constant, c, n_grains, u_here,
-                                              a_c0, delta00, force00, n)
+                        if wp.static(f.compensation):
+                            force_below = contact(static_overlap, contact_constant, c, n_grains,
+                                                  gap(position_here, nordsieck.exact_position(wp.float64(0.0))),
+                                                  a_c0, delta00, force00, n)
+                        else:
+                            force_below = contact(static_overlap, contact_constant, c, n_grains, u_here,
+                                                  a_c0, delta00, force00, n)
                 held = False
                 if wp.static(FIXED):
                     held = i == last
@@ -211,7 +228,7 @@ def sweep_kernel(features: Features):
                     if wp.static(DRIVEN):
                         if i == 0:
                             above_old = driver_old   # step.py: grain 1 sees the driver's vector at t_n
-                u_here = u_next
+                position_here = position_next
         if wp.static(DRIVEN):
             work_out[c] = work
             power_out[c] = power_prev

@@ -30,6 +30,7 @@ import functools
 import warp as wp
 
 from .features import GEAR_VALUES, Features
+from .gear import two_sum_function
 from .physics import contact_derivatives, contact_functions
 
 SUBSTEPS = 8
@@ -42,14 +43,19 @@ def event_functions(features: Features):
 
     ``near_event(delta_now, delta_pred, rate_h, h) -> bool``: the contact test; ``rate_h`` = dt·δ̇.
     ``event_step(own, above, below, has_above, has_below, p_above, p_below, inv_m, h) -> values``:
-    the new Nordsieck vector of a grain; ``above``/``below`` are the neighbours' Nordsieck vectors at
+    the new Nordsieck vector of a grain (compensated float32: with the low parts of u and dt·v, the
+    substeps accumulated as offsets from t_n's values); ``above``/``below`` are the neighbours' Nordsieck vectors at
     t_n (zeros for a wall), ``has_*`` False where the grain has no contact on that side, ``p_*`` the
     contacts' (δ0, a_c, n).
     """
     f = features
     real = wp.float64 if f.precision == "float64" else wp.float32
     Q = GEAR_VALUES[f.method]
-    values_t = wp.types.vector(Q, real)
+    COMP = f.compensation  # float32: u and dt·v carried as hi + lo (kernels/gear.py), rows Q and Q + 1
+    LO_U = Q
+    LO_RATE = Q + 1
+    values_t = wp.types.vector(f.values, real)
+    two_sum = two_sum_function(f.precision)
     vec3 = wp.types.vector(3, real)
     vec2 = wp.types.vector(2, real)
     WINDOW = float(f.event_window)
@@ -161,4 +167,90 @@ def event_functions(features: Features):
             new[4] = j[1] / real(24)
         return new
 
+    @wp.func
+    def offset(x: values_t, tau: real) -> real:
+        # compensated: a Nordsieck polynomial at t_n + tau·dt minus its hi part x0 (Horner, low parts added)
+        o = x[Q - 1]
+        for j in range(Q - 2, 0, -1):
+            o = o * tau + x[j]
+        return o * tau + (x[wp.static(LO_RATE)] * tau + x[wp.static(LO_U)])
+
+    @wp.func
+    def acceleration_of_offset(u0: real, du: real, above: values_t, below: values_t, tau: real, has_above: bool,
+                               has_below: bool, p_above: vec3, p_below: vec3, inv_m: real) -> real:
+        # acceleration() with the contacts' relative displacements formed as (hi − hi) + (offset − offset),
+        # so that they keep their digits when u ≫ δ (kernels/gear.py gap)
+        up = real(0)
+        down = real(0)
+        if has_above:
+            up = excess_force(p_above[0], (above[0] - u0) + (offset(above, tau) - du), p_above[1], p_above[2])
+        if has_below:
+            down = excess_force(p_below[0], (u0 - below[0]) + (du - offset(below, tau)), p_below[1], p_below[2])
+        return (up - down) * inv_m
+
+    @wp.func
+    def event_step_compensated(own: values_t, above: values_t, below: values_t, has_above: bool, has_below: bool,
+                               p_above: vec3, p_below: vec3, inv_m: real, h: real) -> values_t:
+        # event_step in compensated float32: u = u0 + du and dt·v = hv0 + dhv, the substeps' small
+        # increments accumulated in the offsets (a plain float32 u would drop their low bits), the
+        # forces from offsets (acceleration_of_offset), the offsets folded back into (hi, lo) by TwoSum
+        hh = h * h
+        u0 = own[0]
+        hv0 = own[1]
+        du = own[wp.static(LO_U)]
+        dhv = own[wp.static(LO_RATE)]
+        if wp.static(GEAR4):
+            ta = taylor(above, real(0))
+            tb = taylor(below, real(0))
+            hha = hh * acceleration_of_offset(u0, du, above, below, real(0), has_above, has_below, p_above, p_below,
+                                              inv_m)
+            j = jerks(u0 + du, hv0 + dhv, hha, ta, tb, has_above, has_below, p_above, p_below, inv_m, hh)
+            dhv = dhv - j[1] / real(24)
+        s = real(1) / real(wp.static(M))
+        for m in range(wp.static(M)):
+            mf = real(m)
+            t0 = mf * s
+            tm = (mf + real(0.5)) * s
+            t1 = (mf + real(1)) * s
+            k1u = hv0 + dhv
+            k1v = hh * acceleration_of_offset(u0, du, above, below, t0, has_above, has_below, p_above, p_below,
+                                              inv_m)
+            k2u = hv0 + (dhv + real(0.5) * s * k1v)
+            k2v = hh * acceleration_of_offset(u0, du + real(0.5) * s * k1u, above, below, tm, has_above, has_below,
+                                              p_above, p_below, inv_m)
+            k3u = hv0 + (dhv + real(0.5) * s * k2v)
+            k3v = hh * acceleration_of_offset(u0, du + real(0.5) * s * k2u, above, below, tm, has_above, has_below,
+                                              p_above, p_below, inv_m)
+            k4u = hv0 + (dhv + s * k3v)
+            k4v = hh * acceleration_of_offset(u0, du + s * k3u, above, below, t1, has_above, has_below,
+                                              p_above, p_below, inv_m)
+            du = du + s / real(6) * (k1u + real(2) * k2u + real(2) * k3u + k4u)
+            dhv = dhv + s / real(6) * (k1v + real(2) * k2v + real(2) * k3v + k4v)
+        u = u0 + du
+        hv = hv0 + dhv
+        ta = taylor(above, real(1))
+        tb = taylor(below, real(1))
+        hha = hh * acceleration_of_offset(u0, du, above, below, real(1), has_above, has_below, p_above, p_below,
+                                          inv_m)
+        j = jerks(u, hv, hha, ta, tb, has_above, has_below, p_above, p_below, inv_m, hh)
+        new = values_t()
+        position = two_sum(u0, du)
+        new[0] = position[0]
+        new[wp.static(LO_U)] = position[1]
+        rate_extra = real(0)
+        if wp.static(GEAR4):
+            rate_extra = j[1] / real(24)
+        rate = two_sum(hv0, dhv + rate_extra)
+        new[1] = rate[0]
+        new[wp.static(LO_RATE)] = rate[1]
+        new[2] = real(0.5) * hha
+        new[3] = j[0] / real(6)
+        if wp.static(GEAR4):
+            new[3] = j[0] / real(6) - j[1] / real(12)
+        if wp.static(Q >= 5):
+            new[4] = j[1] / real(24)
+        return new
+
+    if COMP:
+        return near_event, event_step_compensated
     return near_event, event_step

@@ -59,8 +59,22 @@ class Features:
     damping: str = "none"
     """none | viscous (−γ m v on every integrated grain) | contact (dashpot −γ δ̇ on closed contacts):
     per-chain γ, the dissipated energy accumulated per grain; only the per-step kernel has it."""
+    compensated: bool = True
+    """float32 only: u and dt·v carried as hi + lo float32 pairs, updated by TwoSum (kernels/gear.py), two
+    more state rows; False: the plain float32 update (kept for comparison). Ignored in float64."""
+
+    @property
+    def compensation(self) -> bool:
+        """True when the kernels carry the low parts of u and dt·v (float32 with ``compensated``)."""
+        return self.precision == "float32" and self.compensated
+
+    @property
+    def nordsieck_values(self) -> int:
+        """Length of the Nordsieck vector (3 for Verlet: u, dt·v, dt²/2·a)."""
+        return GEAR_VALUES[self.method]
 
     @property
     def values(self) -> int:
-        """Values per grain in the state (Nordsieck vector length; 3 for Verlet)."""
-        return GEAR_VALUES[self.method]
+        """Values per grain in the state: the Nordsieck vector, then (compensated float32) the low parts
+        of u and dt·v (rows Q and Q + 1)."""
+        return GEAR_VALUES[self.method] + (2 if self.compensation else 0)

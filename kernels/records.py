@@ -26,6 +26,23 @@ def record_kernel(features: Features):
     DASHPOT = f.damping == "contact"
     contact_force, excess_force = contact_functions(f.precision, f.hertz)
     params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz)
+    COMP = f.compensation
+    LO_U = f.nordsieck_values  # compensated float32: rows of the low parts of u and dt·v (kernels/gear.py)
+    LO_RATE = LO_U + 1
+
+    @wp.func
+    def position(x: wp.array3d(dtype=real), c: int, i: int) -> wp.float64:
+        # u of grain i in float64 (compensated: hi + lo)
+        if wp.static(COMP):
+            return wp.float64(x[0, c, i]) + wp.float64(x[wp.static(LO_U), c, i])
+        return wp.float64(x[0, c, i])
+
+    @wp.func
+    def rate(x: wp.array3d(dtype=real), c: int, i: int) -> wp.float64:
+        # dt·v of grain i in float64 (compensated: hi + lo)
+        if wp.static(COMP):
+            return wp.float64(x[1, c, i]) + wp.float64(x[wp.static(LO_RATE), c, i])
+        return wp.float64(x[1, c, i])
 
     @wp.func
     def contact_terms(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),
@@ -67,8 +84,8 @@ def record_kernel(features: Features):
         if wp.static(DRIVEN):
             first = 1  # the driven grain's motion is prescribed: not part of the chain's energy
         for i in range(n_grains):
-            u = wp.float64(x[0, c, i])
-            v = wp.float64(x[1, c, i]) / dt
+            u = position(x, c, i)
+            v = rate(x, c, i) / dt
             if not (wp.isfinite(u) and wp.isfinite(v)):
                 finite = 0
             if i >= first:
@@ -80,16 +97,16 @@ def record_kernel(features: Features):
                 kinetic += wp.float64(0.5) * v * v / inv_m
             if i > 0:
                 terms = contact_terms(static_overlap, contact_constant, exponent, c, i,
-                                      wp.float64(x[0, c, i - 1]) - u)
+                                      position(x, c, i - 1) - u)
                 potential += terms[0]
                 largest = wp.max(largest, terms[1])
         if wp.static(SURFACE_WALL):
-            terms = contact_terms(static_overlap, contact_constant, exponent, c, 0, -wp.float64(x[0, c, 0]))
+            terms = contact_terms(static_overlap, contact_constant, exponent, c, 0, -position(x, c, 0))
             potential += terms[0]
             largest = wp.max(largest, terms[1])
         if wp.static(BOTTOM_WALL):
             terms = contact_terms(static_overlap, contact_constant, exponent, c, n_grains,
-                                  wp.float64(x[0, c, n_grains - 1]))
+                                  position(x, c, n_grains - 1))
             potential += terms[0]
             largest = wp.max(largest, terms[1])
         energy[c] = kinetic + potential

@@ -22,7 +22,8 @@ def step_kernel(features: Features):
     """The step kernel for one feature set (cached; a feature that is off generates no code)."""
     f = features
     real = wp.float64 if f.precision == "float64" else wp.float32
-    Q = f.values
+    Q = f.values                # rows of the state (kernels/gear.py)
+    ORDER = f.nordsieck_values  # of which the Nordsieck vector
     SURFACE_WALL = f.surface == "wall"
     DRIVEN = f.surface == "driven"
     BOTTOM_WALL = f.bottom == "wall"
@@ -31,8 +32,9 @@ def step_kernel(features: Features):
     TRACES = f.traces
     _, excess_force = contact_functions(f.precision, f.hertz)
     params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz)
-    nordsieck = nordsieck_functions(f.method, f.precision)
+    nordsieck = nordsieck_functions(f.method, f.precision, f.compensation)
     predicted_position, correct = nordsieck.predicted_position, nordsieck.correct
+    predicted_at, gap, rounded = nordsieck.predicted_at, nordsieck.gap, nordsieck.rounded
     EVENTS = f.event_window > 0
     values_t = nordsieck.values
     vec3 = wp.types.vector(3, real)
@@ -48,11 +50,11 @@ def step_kernel(features: Features):
     def predicted_rate(x: wp.array3d(dtype=real), c: int, j: int) -> real:
         # dt·v predicted at t + dt from the Nordsieck vector: Σ_q q·x_q (Verlet: x1 + 2·x2)
         rate = x[1, c, j] + real(2) * x[2, c, j]
-        if wp.static(Q >= 4):
+        if wp.static(ORDER >= 4):
             rate += real(3) * x[3, c, j]
-        if wp.static(Q >= 5):
+        if wp.static(ORDER >= 5):
             rate += real(4) * x[4, c, j]
-        if wp.static(Q >= 6):
+        if wp.static(ORDER >= 6):
             rate += real(5) * x[5, c, j]
         return rate
 
@@ -157,7 +159,8 @@ def step_kernel(features: Features):
                 write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, real(u_drive), x1_drive)
                 return
 
-        u_p = predicted_position(x_in, c, i)
+        position_p = predicted_at(x_in, c, i)  # compensated float32: (hi, lo) for the contacts (kernels/gear.py)
+        u_p = rounded(position_p)
         if wp.static(EVENTS):
             # a grain touching a contact near an opening or closing takes an event step (kernels/events.py)
             own = nordsieck.load(x_in, c, i)
@@ -209,24 +212,33 @@ def step_kernel(features: Features):
         up = real(0)    # excess force of the contact above grain i (pushes it toward the bottom)
         down = real(0)  # excess force of the contact below grain i
         if i > 0:
-            u_above = real(0)
+            position_above = position_p
             if wp.static(DRIVEN):
                 if i == 1:
-                    u_above = real(u_drive)
+                    position_above = nordsieck.exact_position(u_drive)
                 else:
-                    u_above = predicted_position(x_in, c, i - 1)
+                    position_above = predicted_at(x_in, c, i - 1)
             else:
-                u_above = predicted_position(x_in, c, i - 1)
-            up = contact(static_overlap, contact_constant, exponent, c, i, u_above - u_p)
+                position_above = predicted_at(x_in, c, i - 1)
+            up = contact(static_overlap, contact_constant, exponent, c, i, gap(position_above, position_p))
         else:
             if wp.static(SURFACE_WALL):
-                up = contact(static_overlap, contact_constant, exponent, c, 0, -u_p)
+                if wp.static(f.compensation):
+                    # a wall is a grain at rest at 0 (as the fused kernel's padding grains)
+                    up = contact(static_overlap, contact_constant, exponent, c, 0,
+                                 gap(nordsieck.exact_position(wp.float64(0.0)), position_p))
+                else:
+                    up = contact(static_overlap, contact_constant, exponent, c, 0, -u_p)
         if i < n_grains - 1:
             down = contact(static_overlap, contact_constant, exponent, c, i + 1,
-                           u_p - predicted_position(x_in, c, i + 1))
+                           gap(position_p, predicted_at(x_in, c, i + 1)))
         else:
             if wp.static(BOTTOM_WALL):
-                down = contact(static_overlap, contact_constant, exponent, c, n_grains, u_p)
+                if wp.static(f.compensation):
+                    down = contact(static_overlap, contact_constant, exponent, c, n_grains,
+                                   gap(position_p, nordsieck.exact_position(wp.float64(0.0))))
+                else:
+                    down = contact(static_overlap, contact_constant, exponent, c, n_grains, u_p)
 
         inv_m = real(0)
         if wp.static(HETERO):

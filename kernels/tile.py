@@ -122,13 +122,16 @@ def tile_kernel(features: Features, shape: TileShape):
     HERTZ = f.hertz
     contact_force, _ = contact_functions(f.precision, f.hertz)
     forces = contact_forces(f.precision, f.hertz, G + 1, branchless=shape.branchless, fast_sqrt=shape.fast_sqrt)
-    nordsieck = nordsieck_functions(f.method, f.precision)
+    nordsieck = nordsieck_functions(f.method, f.precision, f.compensation)
 
     state_t = wp.types.matrix(shape=(Q, G), dtype=real)
     grain_vec = wp.types.vector(length=G, dtype=real)
     contact_vec = wp.types.vector(length=G + 1, dtype=real)
     EVENTS = f.event_window > 0
-    edge_t = wp.types.vector(length=2 + 2 * Q if EVENTS else 2, dtype=real)
+    COMP = f.compensation  # compensated float32: predicted positions also carry their low parts (kernels/gear.py)
+    EDGE_LO = 2 + 2 * Q if EVENTS else 2  # where the edge tile keeps the low parts of the edge positions
+    edge_t = wp.types.vector(length=EDGE_LO + (2 if COMP else 0), dtype=real)
+    vec2 = wp.types.vector(2, real)
     vec3 = wp.types.vector(3, real)
     if EVENTS:
         near_event, event_step = event_functions(f)
@@ -166,11 +169,22 @@ def tile_kernel(features: Features, shape: TileShape):
         # k0: grain 0's index in this lane, or -1 (undriven, or grain 0 elsewhere)
         # 1. predict
         up = grain_vec()
+        up_lo = grain_vec()  # compensated: the low parts (0 otherwise, unused)
         for k in range(G):
-            up[k] = nordsieck.predict_position(column(s, k))
+            if wp.static(COMP):
+                position = nordsieck.predicted(column(s, k))
+                up[k] = position[0]
+                up_lo[k] = position[1]
+            else:
+                up[k] = nordsieck.predict_position(column(s, k))
         if wp.static(DRIVEN):
             if k0 >= 0:
-                up[k0] = real(amplitude * wp.sin(omega * (wp.float64(step_new) * dt)))
+                if wp.static(COMP):
+                    driver_position = nordsieck.exact_position(amplitude * wp.sin(omega * (wp.float64(step_new) * dt)))
+                    up[k0] = driver_position[0]
+                    up_lo[k0] = driver_position[1]
+                else:
+                    up[k0] = real(amplitude * wp.sin(omega * (wp.float64(step_new) * dt)))
         # 2. exchange the lane's edge positions with its neighbours (virtual grains outside sit at 0)
         if wp.static(EVENTS):
             # events also need the neighbour lanes' edge grains' Nordsieck vectors
@@ -180,15 +194,26 @@ def tile_kernel(features: Features, shape: TileShape):
             for q in range(Q):
                 edge[2 + q] = s[q, 0]
                 edge[2 + Q + q] = s[q, G - 1]
+            if wp.static(COMP):
+                edge[wp.static(EDGE_LO)] = up_lo[0]
+                edge[wp.static(EDGE_LO + 1)] = up_lo[G - 1]
             wp.tile_assign(edges, wp.tile(edge, preserve_type=True))
+        elif wp.static(COMP):
+            wp.tile_assign(edges, wp.tile(edge_t(up[0], up[G - 1], up_lo[0], up_lo[G - 1]), preserve_type=True))
         else:
             wp.tile_assign(edges, wp.tile(edge_t(up[0], up[G - 1]), preserve_type=True))
         u_left = real(0)
         u_right = real(0)
+        u_left_lo = real(0)
+        u_right_lo = real(0)
         if has_left:
             u_left = wp.tile_extract(edges, lane - 1, 1)
+            if wp.static(COMP):
+                u_left_lo = wp.tile_extract(edges, lane - 1, wp.static(EDGE_LO + 1))
         if has_right:
             u_right = wp.tile_extract(edges, lane + 1, 0)
+            if wp.static(COMP):
+                u_right_lo = wp.tile_extract(edges, lane + 1, wp.static(EDGE_LO))
         if wp.static(EVENTS):
             left_values = value_vec()
             right_values = value_vec()
@@ -200,12 +225,21 @@ def tile_kernel(features: Features, shape: TileShape):
                     right_values[q] = wp.tile_extract(edges, lane + 1, 2 + q)
         # 3. every contact of the lane once (the two edge contacts also in the neighbour lane)
         delta = contact_vec()
-        delta[0] = delta0[0] + (u_left - up[0])
-        for k in range(G):
-            u_below = u_right
-            if k < G - 1:
-                u_below = up[wp.min(k + 1, G - 1)]
-            delta[k + 1] = delta0[k + 1] + (up[k] - u_below)
+        if wp.static(COMP):
+            # the contacts' relative displacements from (hi, lo) pairs (kernels/gear.py gap)
+            delta[0] = delta0[0] + nordsieck.gap(vec2(u_left, u_left_lo), vec2(up[0], up_lo[0]))
+            for k in range(G):
+                position_below = vec2(u_right, u_right_lo)
+                if k < G - 1:
+                    position_below = vec2(up[wp.min(k + 1, G - 1)], up_lo[wp.min(k + 1, G - 1)])
+                delta[k + 1] = delta0[k + 1] + nordsieck.gap(vec2(up[k], up_lo[k]), position_below)
+        else:
+            delta[0] = delta0[0] + (u_left - up[0])
+            for k in range(G):
+                u_below = u_right
+                if k < G - 1:
+                    u_below = up[wp.min(k + 1, G - 1)]
+                delta[k + 1] = delta0[k + 1] + (up[k] - u_below)
         force = forces(delta, a_c, force0, n)
         if wp.static(MASKED and FREE_END):
             for k in range(G + 1):

@@ -95,4 +95,14 @@ CASES = {
     "gear6, full lanes": (
         dict(chain={"grains": 16, "l0": 1e-4}, integrator={"method": "gear6", "dt": 5e-4}), 3,
         dict(grains_per_lane=8), 2501),
+    # compensated float32 (kernels/gear.py): the low parts of u and dt·v are state rows, compared too;
+    # gear4 takes event steps here (the struck grain leaves the wall)
+    "float32, walls, padded lanes, events": (
+        dict(chain={"grains": 37, "l0": 1e-4}, integrator={"dt": 5e-4, "precision": "float32"}), 2,
+        dict(grains_per_lane=4), 4501),
+    "float32, verlet, windows, fixed bottom, impurities, gravity": (
+        dict(chain={"grains": 50, "gravity": 1.0, "l0": 1e-4}, boundary={"bottom": "fixed"},
+             impurities=[{"grains": [10, 11, 30], "mass": 0.5, "a": 3000.0}],
+             integrator={"method": "verlet", "dt": 5e-4, "precision": "float32"}), 2,
+        dict(grains_per_lane=4, lanes_per_chain=8, steps_per_launch=6, windowed=True), 2501),
 }

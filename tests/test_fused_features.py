@@ -98,6 +98,7 @@ DRIVEN_CASES = {
     "traces, events auto, bottom wall": dict(traces=True),
     "no traces, events off, fixed bottom, gear5": dict(traces=False, boundary={"bottom": "fixed"},
                                                       integrator={"events": "off", "method": "gear5"}),
+    "float32 (compensated), events auto": dict(traces=False, integrator={"precision": "float32"}),
 }
 
 

@@ -23,7 +23,7 @@ DeviceOption = Annotated[Optional[str], typer.Option("--device", help="cpu | cud
 SetOption = Annotated[Optional[list[str]], typer.Option("--set", help="Override a scene key, e.g. --set chain.l0=1e-4 (repeatable).")]
 SceneArgument = Annotated[Optional[Path], typer.Argument(help="Scene TOML (SPEC §8). Default: the built-in "
                                                           "example.")]
-PrecisionOption = Annotated[Optional[str], typer.Option("--precision", help="float64 | float32 (overrides integrator.precision).")]
+PrecisionOption = Annotated[Optional[str], typer.Option("--precision", help="float64 | float32 (compensated float32, docs/stability.md §2b; overrides integrator.precision).")]
 KernelOption = Annotated[str, typer.Option("--kernel", help="auto | step | tile | window | sweep: which solver "
                                            "steps the chains (ensemble/solvers); results are the same.")]
 
