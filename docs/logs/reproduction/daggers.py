@@ -30,6 +30,7 @@ Items:
   numbers quoted in the preview paragraph; redraws docs/figures/fig9_reduced_cpu.png, fig10_reduced_cpu.png.
 * ``drive_tau1_energy`` — the 1000-grain τ = 1 column to t = 78 with the per-step and the fused sweep
   kernel (dt = 1.25e-4) and at dt = 1.25e-5: where its energy error comes from.
+* ``drive_ripple_scale`` — c·τ/2 for τ = 1 at the column's closed-form sound speed (no run).
 """
 
 from __future__ import annotations
@@ -318,9 +319,17 @@ def drive_tau1_energy(work: Path) -> dict:
     return out
 
 
+def drive_ripple_scale(work: Path) -> dict:
+    """Half the τ = 1 drive's wavelength, c·τ/2, at the closed-form column sound speed (g = 1, no run): the
+    scale to compare node spacings of the driven columns with."""
+    depths = [500.0, 750.0, 1000.0, 5000.0, 7500.0, 10000.0]
+    half = an.column_sound_speed(np.array(depths), gravity=1.0, a=5657.0) * 1.0 / 2
+    return {"tau": 1.0, "depth": depths, "c_tau_over_2_grains": half.tolist()}
+
+
 ITEMS = {"fig1d_local_slopes": fig1d_local_slopes, "nesterenko": nesterenko, "load_speeds": load_speeds,
          "fig3_raw_tails": fig3_raw_tails, "fig4": fig4, "fig7_8_dt": fig7_8_dt, "drive_1000": drive_1000,
-         "drive_tau1_energy": drive_tau1_energy}
+         "drive_tau1_energy": drive_tau1_energy, "drive_ripple_scale": drive_ripple_scale}
 
 
 def main() -> None:
