@@ -31,6 +31,8 @@ Items:
 * ``drive_tau1_energy`` — the 1000-grain τ = 1 column to t = 78 with the per-step and the fused sweep
   kernel (dt = 1.25e-4) and at dt = 1.25e-5: where its energy error comes from.
 * ``drive_ripple_scale`` — c·τ/2 for τ = 1 at the column's closed-form sound speed (no run).
+* ``drive_1000_energy_history`` — the energy balance of ``drive_1000``'s store over time (no run; run
+  ``drive_1000`` first with the same ``--work``).
 """
 
 from __future__ import annotations
@@ -327,9 +329,35 @@ def drive_ripple_scale(work: Path) -> dict:
     return {"tau": 1.0, "depth": depths, "c_tau_over_2_grains": half.tolist()}
 
 
+def drive_1000_energy_history(work: Path) -> dict:
+    """The energy balance of ``drive_1000``'s run (its store, ``--work``/fig9_10.zarr, no new run): where
+    |E − E0 − W| / max|W| changes by more than 1e-6 of max|W| from one sample to the next, and its largest
+    value before and after the largest such jump."""
+    with open_store(work / "fig9_10.zarr") as ds:
+        t, energy, work_ = ds.energy_t.values, ds.energy.values, ds.work.values
+        out: dict = {"samples": int(t.size), "t_last": float(t[-1])}
+        for i, tau in enumerate(ds.tau.values):
+            scale = float(np.max(np.abs(work_[i])))
+            balance = (energy[i] - energy[i, 0] - work_[i]) / scale
+            steps = np.abs(np.diff(balance))
+            k = int(np.argmax(steps))
+            out[f"tau={tau:g}"] = {
+                "max_abs_W": scale, "energy_error": float(np.max(np.abs(balance))),
+                "largest_jump": {"between_t": [float(t[k]), float(t[k + 1])], "relative": float(steps[k]),
+                                 "energy_change": float(energy[i, k + 1] - energy[i, k]),
+                                 "work_change": float(work_[i, k + 1] - work_[i, k])},
+                "energy_error_before_it": float(np.max(np.abs(balance[:k + 1]))),
+                "energy_error_after_it": float(np.max(np.abs(balance[k + 1:] - balance[k + 1]))),
+                "jumps_over_1e-6": [[float(t[j]), float(t[j + 1]), float(steps[j])] for j in np.flatnonzero(steps > 1e-6)],
+                "largest_abs_v_in_snapshots": float(np.max(np.abs(ds.v.values[i]))),
+            }
+    return out
+
+
 ITEMS = {"fig1d_local_slopes": fig1d_local_slopes, "nesterenko": nesterenko, "load_speeds": load_speeds,
          "fig3_raw_tails": fig3_raw_tails, "fig4": fig4, "fig7_8_dt": fig7_8_dt, "drive_1000": drive_1000,
-         "drive_tau1_energy": drive_tau1_energy, "drive_ripple_scale": drive_ripple_scale}
+         "drive_tau1_energy": drive_tau1_energy, "drive_ripple_scale": drive_ripple_scale,
+         "drive_1000_energy_history": drive_1000_energy_history}
 
 
 def main() -> None:
