@@ -85,8 +85,9 @@ def fig1d_local_slopes(work: Path) -> dict:
     log = json.loads((HERE / "measurements.json").read_text())
     m = log["groups"]["fig1d"]["measurements"]
     v = np.array(m["v_imp"])
-    out = {"source": "measurements.json groups.fig1d.measurements.speed (run of " + log["groups"]["fig1d"]["run"]["date"]
-           + ")", "v_imp_midpoints": np.sqrt(v[1:] * v[:-1]).tolist()}
+    run_date = log["groups"]["fig1d"]["run"]["date"]
+    out = {"source": f"measurements.json groups.fig1d.measurements.speed (run of {run_date})",
+           "v_imp_midpoints": np.sqrt(v[1:] * v[:-1]).tolist()}
     for l0, c in zip(m["l0"], m["speed"]):
         out[f"l0={l0:g}"] = (np.diff(np.log(c)) / np.diff(np.log(v))).tolist()
     return out
@@ -251,7 +252,8 @@ def fig7_8_dt(work: Path) -> dict:
                                   "peak_sign": b.peak_sign} for key, b in table.items()}
         out["echo at grain 0 (threshold 20 %)"] = echoes
         out["echo relative differences"] = {
-            key: {q: abs(echoes["dt=1.25e-4"][key][q] / echoes["dt=1.25e-5"][key][q] - 1) for q in ("arrival", "amplitude")}
+            key: {q: abs(echoes["dt=1.25e-4"][key][q] / echoes["dt=1.25e-5"][key][q] - 1)
+                  for q in ("arrival", "amplitude")}
             for key in echoes["dt=1.25e-4"]}
     return out
 
@@ -282,7 +284,8 @@ def drive_1000(work: Path) -> dict:
         persistence = {}
         for i, tau in enumerate(ds.tau.values):
             rows = main["standing_wave"][i][:-1]
-            persistence[f"tau={tau:g}"] = [{"t": r["t"], "mean_correlation_lags_1.5_to_10.5": float(np.mean(r["correlation"][1:])),
+            persistence[f"tau={tau:g}"] = [{"t": r["t"],
+                                            "mean_correlation_lags_1.5_to_10.5": float(np.mean(r["correlation"][1:])),
                                             "correlation": r["correlation"], "node_count": r["node_count"],
                                             "node_spacing": r["node_spacing"], "node_shift": r["node_shift"]}
                                            for r in rows]
@@ -292,7 +295,8 @@ def drive_1000(work: Path) -> dict:
 
             png = FIGURES / f"{figure}_reduced_cpu.png"
             plot_figure(ds, figure, png)
-            out.setdefault("figures", {})[figure] = f"hertzian plot {work / 'fig9_10.zarr'} --figure {figure} --out {png}"
+            out.setdefault("figures", {})[figure] = (f"hertzian plot {work / 'fig9_10.zarr'} --figure {figure} "
+                                                     f"--out {png}")
     return out
 
 
@@ -348,7 +352,8 @@ def drive_1000_energy_history(work: Path) -> dict:
                                  "work_change": float(work_[i, k + 1] - work_[i, k])},
                 "energy_error_before_it": float(np.max(np.abs(balance[:k + 1]))),
                 "energy_error_after_it": float(np.max(np.abs(balance[k + 1:] - balance[k + 1]))),
-                "jumps_over_1e-6": [[float(t[j]), float(t[j + 1]), float(steps[j])] for j in np.flatnonzero(steps > 1e-6)],
+                "jumps_over_1e-6": [[float(t[j]), float(t[j + 1]), float(steps[j])]
+                                    for j in np.flatnonzero(steps > 1e-6)],
                 "largest_abs_v_in_snapshots": float(np.max(np.abs(ds.v.values[i]))),
             }
     return out
