@@ -64,10 +64,21 @@ def _cmap_colors(plt, n: int):
     return [cmap(x) for x in np.linspace(0.0, 0.85, max(n, 1))]
 
 
+NOTE_FONTSIZE = 6.5
+"""Font size [pt] of a figure's footnote."""
+
+
 def _finish(fig, out: Path, *, note: str | None = None) -> Path:
+    bottom = 0.0
     if note:
-        fig.text(0.005, 0.003, note, fontsize=6.5, color="0.35", ha="left", va="bottom")
-    fig.tight_layout(rect=(0, 0.012 if note else 0, 1, 1))
+        import textwrap
+
+        width_pt, height_pt = fig.get_figwidth() * 72, fig.get_figheight() * 72
+        # wrapped to the figure's width (an average character is ~0.55 em wide), so no line is cut off
+        lines = textwrap.wrap(note, width=max(40, int(0.98 * width_pt / (0.55 * NOTE_FONTSIZE))))
+        fig.text(0.005, 0.003, "\n".join(lines), fontsize=NOTE_FONTSIZE, color="0.35", ha="left", va="bottom")
+        bottom = (len(lines) * 1.25 * NOTE_FONTSIZE + 4) / height_pt
+    fig.tight_layout(rect=(0, bottom, 1, 1))
     fig.savefig(out, dpi=DPI)
     import matplotlib.pyplot as plt
 
