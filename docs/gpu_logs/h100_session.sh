@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
-#   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]      (GROUP: env tests kernels e2e drive repro detect)
+#   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -63,6 +64,13 @@ drive)
 fig910)
   step fig9_10_tau10 300 "$HZ sweep sweeps/drive_fig9_10_gpu.toml --out $WORK/f910_tau10.zarr --overwrite --device cuda --quiet --json"
   step fig9_10_tau1 300 "$HZ sweep sweeps/drive_fig9_10_gpu.toml --set excitation.drive_period=1.0 --set record.response_periods=10 --out $WORK/f910_tau1.zarr --overwrite --device cuda --quiet --json"
+  ;;
+off)
+  # the same workloads with plain Gear steps (integrator.events = "off"), the fast path measured on 2026-11-23
+  step e2e_gpu10k_off 120 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --set integrator.events=off --json"
+  step e2e_gpu10k_notraces_off 90 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --set 'record.traces=[]' --set integrator.events=off --json"
+  step e2e_fig9_10_t500_off 150 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --set integrator.events=off --json"
+  step million_off 200 "$HZ sweep sweeps/million.toml --out $WORK/million.zarr --overwrite --device cuda --quiet --json --set integrator.events=off"
   ;;
 nofma)
   # with HERTZIAN_FUSE_FP=0 (no FMA contraction) the fused kernels should equal the per-step kernel bit for bit
