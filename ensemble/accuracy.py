@@ -237,6 +237,92 @@ def parse_steps(text: str) -> list[float]:
     return sorted(set(steps), reverse=True)
 
 
+TARGET_MEASURES = ("energy", "error")
+"""What ``--target`` bounds: the energy error (SPEC §5, the default) or the position error against the reference."""
+
+
+@dataclass(frozen=True)
+class TimeToTarget:
+    """The cheapest way a study found to meet one accuracy target with one method and precision.
+
+    ``dt`` is the largest step of the study meeting ``target`` on ``measure`` (steps are the study's own,
+    not interpolated); ``seconds`` is that run's wall seconds. ``dt`` and ``seconds`` are None when no step
+    of the study meets the target.
+    """
+
+    target: float
+    measure: str
+    """"energy": max_t |E(t) − E(0)| / E_inj; "error": max |u − u_ref| / max|u_ref|."""
+    method: str
+    precision: str
+    events: str
+    dt: float | None
+    """Largest studied step meeting the target [time], or None."""
+    seconds: float | None
+    """Wall seconds of the run at ``dt`` (kernel compilation excluded), or None."""
+    error: float | None
+    energy_error: float | None
+    reference_limited: bool = False
+    """Measure "error" only: the run's error is within a factor 10 of the reference's estimated error."""
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def parse_targets(texts: list[str]) -> list[float]:
+    """['1e-6,1e-8', '1e-7'] → [1e-6, 1e-7, 1e-8] (each a finite number > 0, no repeats), largest first."""
+    targets = []
+    for text in texts:
+        for word in (w.strip() for w in text.split(",")):
+            if not word:
+                continue
+            try:
+                value = float(word)
+            except ValueError:
+                raise SceneError("--target", word, "must be a number > 0, e.g. --target 1e-6,1e-8") from None
+            if not (value > 0 and math.isfinite(value)):
+                raise SceneError("--target", word, "must be a finite number > 0, e.g. --target 1e-6,1e-8")
+            targets.append(value)
+    if texts and not targets:
+        raise SceneError("--target", ",".join(texts), "give at least one number > 0, e.g. --target 1e-6,1e-8")
+    return sorted(set(targets), reverse=True)
+
+
+def _meets(record: AccuracyRecord, target: float, measure: str) -> bool:
+    value = record.energy_error if measure == "energy" else record.error
+    return record.status == 0 and math.isfinite(value) and value <= target
+
+
+def time_to_target(records: list[AccuracyRecord], targets: list[float], measure: str = "energy") -> list[TimeToTarget]:
+    """Per target and (method, precision, events) of a study's records, the largest step meeting the target.
+
+    A step meets the target when its run ended OK and its ``measure`` is finite and ≤ target; every step
+    of the study is tried (no interpolation, no assumption that smaller steps do better). Rows are ordered
+    by target (largest first), then by wall seconds (cheapest first); rows where no step meets the target
+    come last.
+    """
+    if measure not in TARGET_MEASURES:
+        raise SceneError("--measure", measure, f"allowed: {', '.join(TARGET_MEASURES)}")
+    groups: dict[tuple[str, str, str], list[AccuracyRecord]] = {}
+    for r in records:
+        groups.setdefault((r.method, r.precision, r.events), []).append(r)
+    rows = []
+    for target in sorted(set(targets), reverse=True):
+        found = []
+        for (method, precision, events), runs in groups.items():
+            meeting = [r for r in runs if _meets(r, target, measure)]
+            best = max(meeting, key=lambda r: r.dt) if meeting else None
+            found.append(TimeToTarget(
+                target=target, measure=measure, method=method, precision=precision, events=events,
+                dt=best.dt if best else None, seconds=best.seconds if best else None,
+                error=best.error if best else None, energy_error=best.energy_error if best else None,
+                reference_limited=bool(best and measure == "error" and best.reference_limited)))
+        found.sort(key=lambda t: (t.seconds is None, t.seconds if t.seconds is not None else 0.0,
+                                  METHODS.index(t.method) if t.method in METHODS else 0))
+        rows.extend(found)
+    return rows
+
+
 def work_precision(scene: Scene, methods: list[str], dts: list[float], precisions: list[str], *,
                    device: str | None = None, reference_factor: int = 4, records: int = 40,
                    kernel: str | None = None, progress=None,

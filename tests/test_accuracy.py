@@ -145,3 +145,101 @@ def test_cli_accuracy_bad_input(tmp_path, args, message):
     error_lines = [line for line in out.stderr.splitlines() if line.startswith("error:")]
     assert len(error_lines) == 1 and message in error_lines[0], out.stderr
     assert "Traceback" not in out.stderr and not (tmp_path / "p.png").exists()
+
+
+# --- time to accuracy: `hertzian accuracy --target` ------------------------------------------------------------
+
+TARGET_SCENE = ("[chain]\ngrains = 20\nl0 = 1e-4\n[excitation]\nimpact = 1e-2\n"
+                "[integrator]\nduration = 0.5\n")
+TARGETS = (1e-6, 1e-8, 1e-30)
+
+
+def largest_meeting(records, method, precision, target, key):
+    """The selection written out independently: the largest dt whose run ended OK with ``key`` ≤ target."""
+    best = None
+    for r in records:
+        if r["method"] == method and r["precision"] == precision and r["status"] == 0 and r[key] <= target:
+            if best is None or r["dt"] > best["dt"]:
+                best = r
+    return best
+
+
+def test_cli_accuracy_target_picks_the_largest_dt_meeting_it(tmp_path):
+    from cli_cases import invoke
+
+    scene = tmp_path / "s.toml"
+    scene.write_text(TARGET_SCENE)
+    out = invoke("accuracy", scene, "--methods", "gear4,verlet", "--dt", "4e-4,2e-4,1e-4", "--precision", "both",
+                 "--target", "1e-6,1e-8", "--target", "1e-30", "--json", "--quiet", "--device", "cpu")
+    assert out.exit_code == 0, out.output
+    data = json.loads(out.stdout)
+    records, targets = data["records"], data["targets"]
+    groups = {(r["method"], r["precision"]) for r in records}
+    assert len(records) == 12 and len(groups) == 4
+    assert len(targets) == len(TARGETS) * len(groups)
+    by = {(t["target"], t["method"], t["precision"]): t for t in targets}
+    chosen = []
+    for target in TARGETS:
+        for method, precision in groups:
+            row = by[target, method, precision]
+            assert row["measure"] == "energy"
+            best = largest_meeting(records, method, precision, target, "energy_error")
+            if best is None:
+                assert row["dt"] is None and row["seconds"] is None
+            else:
+                assert (row["dt"], row["seconds"], row["error"], row["energy_error"]) == (
+                    best["dt"], best["seconds"], best["error"], best["energy_error"])
+                chosen.append(row["dt"])
+        # ranked by the run's own seconds, rows that meet nothing last
+        rows = [t for t in targets if t["target"] == target]
+        seconds = [t["seconds"] for t in rows if t["seconds"] is not None]
+        assert seconds == sorted(seconds)
+        assert [t["seconds"] is None for t in rows] == sorted(t["seconds"] is None for t in rows)
+    # the case discriminates: at 1e-6 some group meets it only at a smaller dt, another at several dts
+    assert 4e-4 in chosen and min(chosen) < 4e-4
+    assert any(len([r for r in records if r["method"] == m and r["precision"] == p
+                    and r["energy_error"] <= 1e-6]) > 1 for m, p in groups)
+    # no run reaches 1e-30: "none" for every method and precision
+    assert all(by[1e-30, m, p]["dt"] is None for m, p in groups)
+
+    # the position error as the measure, on the same records
+    from hertzian.ensemble.accuracy import AccuracyRecord, time_to_target
+
+    runs = [AccuracyRecord(**{k: v for k, v in r.items() if not k.startswith("reference_") or
+                              k == "reference_limited"}) for r in records]
+    for row in time_to_target(runs, [1e-6, 1e-9], "error"):
+        best = largest_meeting(records, row.method, row.precision, row.target, "error")
+        assert row.dt == (best["dt"] if best else None) and row.measure == "error"
+
+
+def test_time_to_target_skips_failed_runs():
+    """A run that did not end OK (or is not finite) never meets a target, however small its numbers."""
+    from hertzian.ensemble.accuracy import AccuracyRecord, time_to_target
+
+    def record(dt, energy_error, status=0):
+        return AccuracyRecord(method="gear4", dt=dt, precision="float64", error=1e-9, energy_error=energy_error,
+                              seconds=1.0 / dt, grain_steps_per_second=1.0, steps=1, steps_per_contact_time=1.0,
+                              status=status, status_name="X", reference_limited=False)
+
+    runs = [record(4e-4, 0.0, status=1), record(2e-4, float("nan")), record(1e-4, 5e-7), record(5e-5, 1e-9)]
+    [row] = time_to_target(runs, [1e-6])
+    assert (row.dt, row.seconds) == (1e-4, 1e4)
+
+
+@pytest.mark.parametrize("args, key", [
+    (["--target", "0"], "--target = '0'"),
+    (["--target", "-1e-6"], "--target = '-1e-6'"),
+    (["--target", "1e-6,nan"], "--target = 'nan'"),
+    (["--target", "inf"], "--target = 'inf'"),
+    (["--target", "abc"], "--target = 'abc'"),
+    (["--target", ","], "--target = ','"),
+    (["--target", "1e-6", "--measure", "position"], "--measure = 'position': allowed: energy, error"),
+])
+def test_cli_accuracy_target_refusals(tmp_path, args, key):
+    from cli_cases import assert_refused, invoke
+
+    scene = tmp_path / "s.toml"
+    scene.write_text(TARGET_SCENE)
+    plot = tmp_path / "p.png"
+    result = invoke("accuracy", scene, *args, "--plot", plot, "--device", "cpu")
+    assert_refused(result, plot, key)

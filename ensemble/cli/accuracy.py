@@ -20,6 +20,27 @@ def _number(value: float) -> str:
     return f"{value:.3g}" if math.isfinite(value) else str(value)
 
 
+def _target_table(reached, measure: str, *, several_events: bool):
+    """The rich table of ``--target``: per target, method and precision, cheapest first."""
+    from rich.table import Table
+
+    name = "energy error" if measure == "energy" else "error"
+    table = Table(title=f"time to accuracy ({name} ≤ target): largest studied dt, cheapest first")
+    columns = ["target", "method", "precision"] + (["events"] if several_events else []) + [
+        "dt", "seconds", "error", "energy error"]
+    for col in columns:
+        table.add_column(col, justify="left" if col in ("method", "precision", "events") else "right")
+    for t in reached:
+        row = [f"{t.target:g}", t.method, t.precision] + ([t.events] if several_events else [])
+        if t.dt is None:
+            row += ["none", "", "", ""]
+        else:
+            row += [f"{t.dt:g}", f"{t.seconds:.3g}", _number(t.error) + (" *" if t.reference_limited else ""),
+                    _number(t.energy_error)]
+        table.add_row(*row)
+    return table
+
+
 @app.command()
 def accuracy(
     scene: SceneArgument = None,
@@ -39,7 +60,15 @@ def accuracy(
                                                   "before/after curves (default: the scene's).")] = None,
     kernel: Annotated[Optional[str], typer.Option("--kernel", help="Kernel for every run (auto | step | tile | "
                                                   "window | sweep); default: sweep on a CPU, auto on a GPU.")] = None,
-    as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list of records.")] = False,
+    target: Annotated[Optional[list[str]], typer.Option(
+        "--target", help="Accuracy target(s), repeatable or comma-separated, e.g. 1e-6,1e-8: per method and "
+        "precision, the largest --dt meeting each (on --measure; only the steps studied, not interpolated) and "
+        "the wall seconds of that run, cheapest first; 'none' when no step meets it.")] = None,
+    measure: Annotated[str, typer.Option("--measure", help="What --target bounds: energy (default; the energy "
+                                         "error max |E(t) − E(0)| / E_inj) | error (max |u − u_ref| / "
+                                         "max|u_ref|).")] = "energy",
+    as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list of records (with --target: an "
+                                          "object with 'records' and 'targets').")] = False,
     plot: Annotated[Optional[Path], typer.Option("--plot", help="Draw error and energy error against wall "
                                                  "seconds (log–log) into this PNG.")] = None,
     device: DeviceOption = None,
@@ -53,13 +82,21 @@ def accuracy(
     (gear6 has the highest order; its own error is estimated by Richardson extrapolation from
     runs at 1, 2 and 4 times the reference step and printed). Times in program units
     (1.0102e-3 s); seconds are wall seconds without compilation.
+
+    With --target (e.g. 1e-6,1e-8) it also gives, per method and precision, the largest --dt whose run
+    ended OK with its --measure (default: energy error) at or below each target, and that run's wall
+    seconds — time to accuracy, cheapest first; 'none' where no studied step meets the target.
     """
-    from ..accuracy import parse_list, parse_steps, plot_work_precision, work_precision
+    from ..accuracy import (TARGET_MEASURES, parse_list, parse_steps, parse_targets, plot_work_precision,
+                            time_to_target, work_precision)
 
     loaded = load_scene_or_fail(scene, set_, None)
     try:
         method_list = parse_list("--methods", methods, METHODS)
         steps = parse_steps(dt)
+        targets = parse_targets(target or [])
+        if measure not in TARGET_MEASURES:
+            raise SceneError("--measure", measure, f"allowed: {', '.join(TARGET_MEASURES)}")
         if precision is None:
             precisions = [loaded.integrator.precision]
         elif precision == "both":
@@ -108,14 +145,17 @@ def accuracy(
             f"{reference.seconds:.2f} s; snapshots every {every:g} over {loaded.integrator.duration:g}; "
             f"{grains} grains on {dev}, kernel {results[0].kernel if results else '?'}")
     limited = [r for r in results if r.reference_limited]
+    reached = time_to_target(results, targets, measure) if targets else []
     if plot is not None:
         plot_work_precision(results, plot, reference_error=reference.error_estimate, title=(
             f"{grains} grains, duration {loaded.integrator.duration:g}, v_imp {loaded.excitation.impact:g}, "
             f"l0 {loaded.chain.l0:g}, on {dev} (kernel {results[0].kernel}); reference gear6 float64 "
             f"dt = {reference.dt:g}, estimated error {_number(reference.error_estimate)}; labels: dt"))
     if as_json:
-        typer.echo(json.dumps([{**r.to_dict(), "reference_dt": reference.dt,
-                                "reference_error": reference.error_estimate} for r in results], indent=1))
+        rows = [{**r.to_dict(), "reference_dt": reference.dt, "reference_error": reference.error_estimate}
+                for r in results]
+        typer.echo(json.dumps({"records": rows, "targets": [t.to_dict() for t in reached]} if targets else rows,
+                              indent=1))
     else:
         from rich.console import Console
         from rich.table import Table
@@ -135,6 +175,8 @@ def accuracy(
         if limited:
             console.print("* within a factor 10 of the reference's own estimated error: not resolved; "
                           "use a larger --reference-factor")
+        if targets:
+            console.print(_target_table(reached, measure, several_events=len({r.events for r in results}) > 1))
     if limited and as_json and not quiet:
         typer.echo(f"warning: {len(limited)} record(s) are within a factor 10 of the reference's estimated error "
                    "(reference_limited); use a larger --reference-factor", err=True)
