@@ -219,22 +219,28 @@ def parse_list(key: str, text: str, allowed: tuple[str, ...]) -> list[str]:
     return list(dict.fromkeys(items))
 
 
+def _positive_numbers(texts: list[str], key: str, example: str) -> list[float]:
+    """Comma-separated finite numbers > 0 from ``texts`` (no repeats), largest first; SceneError on ``key``."""
+    values = []
+    for text in texts:
+        for word in (w.strip() for w in text.split(",")):
+            if not word:
+                continue
+            try:
+                value = float(word)
+            except ValueError:
+                raise SceneError(key, word, f"must be a number > 0, e.g. {example}") from None
+            if not (value > 0 and math.isfinite(value)):
+                raise SceneError(key, word, f"must be > 0 and finite, e.g. {example}")
+            values.append(value)
+    if texts and not values:
+        raise SceneError(key, ",".join(texts), f"give at least one number > 0, e.g. {example}")
+    return sorted(set(values), reverse=True)
+
+
 def parse_steps(text: str) -> list[float]:
     """'1e-4,5e-5' → [1e-4, 5e-5] (positive, finite, no repeats), largest first."""
-    steps = []
-    for word in (w.strip() for w in text.split(",")):
-        if not word:
-            continue
-        try:
-            value = float(word)
-        except ValueError:
-            raise SceneError("--dt", word, "must be a number, e.g. --dt 1e-4,5e-5") from None
-        if not (value > 0 and math.isfinite(value)):
-            raise SceneError("--dt", word, "must be > 0")
-        steps.append(value)
-    if not steps:
-        raise SceneError("--dt", text, "give at least one step, e.g. --dt 1e-4,5e-5")
-    return sorted(set(steps), reverse=True)
+    return _positive_numbers([text], "--dt", "--dt 1e-4,5e-5")
 
 
 TARGET_MEASURES = ("energy", "error")
@@ -271,21 +277,7 @@ class TimeToTarget:
 
 def parse_targets(texts: list[str]) -> list[float]:
     """['1e-6,1e-8', '1e-7'] → [1e-6, 1e-7, 1e-8] (each a finite number > 0, no repeats), largest first."""
-    targets = []
-    for text in texts:
-        for word in (w.strip() for w in text.split(",")):
-            if not word:
-                continue
-            try:
-                value = float(word)
-            except ValueError:
-                raise SceneError("--target", word, "must be a number > 0, e.g. --target 1e-6,1e-8") from None
-            if not (value > 0 and math.isfinite(value)):
-                raise SceneError("--target", word, "must be a finite number > 0, e.g. --target 1e-6,1e-8")
-            targets.append(value)
-    if texts and not targets:
-        raise SceneError("--target", ",".join(texts), "give at least one number > 0, e.g. --target 1e-6,1e-8")
-    return sorted(set(targets), reverse=True)
+    return _positive_numbers(texts, "--target", "--target 1e-6,1e-8")
 
 
 def _meets(record: AccuracyRecord, target: float, measure: str) -> bool:
