@@ -27,8 +27,9 @@ from .physics import contact_functions, contact_parameters
 
 
 def sweepable(features: Features) -> bool:
-    """True when the sweep kernel implements every feature of this set (traces: sampled between launches)."""
-    return not features.traces
+    """True when the sweep kernel implements every feature of this set (traces: sampled between launches;
+    damping: viscous only, the dashpot model runs on the per-step kernel)."""
+    return not features.traces and features.damping in ("none", "viscous")
 
 
 @functools.cache
@@ -36,7 +37,7 @@ def sweep_kernel(features: Features):
     """The chain-per-thread sweep kernel for one feature set (cached)."""
     f = features
     if not sweepable(f):
-        raise ValueError(f"the sweep kernel does not implement surface={f.surface!r} / traces={f.traces}")
+        raise ValueError(f"the sweep kernel does not implement traces={f.traces} / damping={f.damping!r}")
     real = wp.float64 if f.precision == "float64" else wp.float32
     Q = f.values
     SURFACE_WALL = f.surface == "wall"
@@ -58,6 +59,20 @@ def sweep_kernel(features: Features):
         near_event, event_step = event_functions(f)
     else:
         near_event = event_step = None
+    VISCOUS = f.damping == "viscous"
+    ORDER = f.nordsieck_values  # rows of the Nordsieck vector (kernels/gear.py)
+
+    @wp.func
+    def predicted_rate(x: wp.array3d(dtype=real), c: int, j: int) -> real:
+        # step.py's predicted_rate: dt·v predicted at t + dt from the Nordsieck vector
+        rate = x[1, c, j] + real(2) * x[2, c, j]
+        if wp.static(ORDER >= 4):
+            rate += real(3) * x[3, c, j]
+        if wp.static(ORDER >= 5):
+            rate += real(4) * x[4, c, j]
+        if wp.static(ORDER >= 6):
+            rate += real(5) * x[5, c, j]
+        return rate
 
     @wp.func
     def contact(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),
@@ -95,6 +110,8 @@ def sweep_kernel(features: Features):
         clock_out: wp.array(dtype=wp.int32),
         work_out: wp.array(dtype=wp.float64),
         power_out: wp.array(dtype=wp.float64),
+        damping: wp.array(dtype=real),
+        dissipated: wp.array2d(dtype=wp.float64),
     ):
         c = wp.tid()
         n_grains = x_in.shape[2]
@@ -195,6 +212,18 @@ def sweep_kernel(features: Features):
                     if wp.static(HETERO):
                         m_inv = inverse_mass[c, i]
                     half_h2_acc = real(0.5) * h * h * (force_above - force_below) * m_inv
+                    if wp.static(VISCOUS):
+                        # step.py's viscous force −γ m v at the predicted velocity and its loss power's
+                        # trapezoid (t_n exact, t_n+1 predicted); grain i's old values are still in x_out
+                        gamma = damping[c]
+                        own_rate = predicted_rate(x_out, c, i)
+                        own_rate_old = x_out[1, c, i]
+                        m_i = real(1) / m_inv
+                        loss_old = gamma * m_i * own_rate_old * own_rate_old / (h * h)
+                        loss_new = gamma * m_i * own_rate * own_rate / (h * h)
+                        dissipated[c, i] = dissipated[c, i] + dt * wp.float64(0.5) * (
+                            wp.float64(loss_old) + wp.float64(loss_new))
+                        half_h2_acc -= real(0.5) * h * damping[c] * predicted_rate(x_out, c, i)  # h²/2 · (−γ v)
                     if wp.static(EVENTS):
                         # kernels/step.py's event test and event step, on the same data
                         below = values_t()
@@ -238,11 +267,12 @@ def sweep_kernel(features: Features):
 
 def launch_sweep(kernel, *, x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status,
                  dt: float, steps: int, x_out, clock_out, device, drive, work_in, power_in, work_out, power_out,
-                 record_cmd: bool = False):
+                 damping, dissipated, record_cmd: bool = False):
     """Launch ``steps`` steps of the sweep kernel (one thread per chain); returns the Launch if recorded.
 
-    ``drive`` (chains, 2), ``work_*``/``power_*`` (chains,): the model's and states' arrays (size 0 undriven)."""
+    ``drive`` (chains, 2), ``work_*``/``power_*`` (chains,): the model's and states' arrays (size 0 undriven);
+    ``damping`` (chains,) γ and ``dissipated`` (chains, grains), updated in place (size 0 undamped)."""
     return wp.launch(kernel, dim=x_in.shape[1],
                      inputs=[x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status,
                              dt, steps, drive, work_in, power_in],
-                     outputs=[x_out, clock_out, work_out, power_out], device=device, record_cmd=record_cmd)
+                     outputs=[x_out, clock_out, work_out, power_out, damping, dissipated], device=device, record_cmd=record_cmd)
