@@ -59,8 +59,6 @@ def fused_lacks(features, is_cpu: bool) -> str | None:
     if f.damping != "none" and not is_cpu:
         return f"damping (damping.model = {f.damping!r}; only the per-step kernel carries it on CUDA)"
     if is_cpu:
-        if f.damping == "contact":
-            return "dashpot damping (damping.model = 'contact'; the sweep kernel carries viscous damping only)"
         return None if sweepable(f) else f"features {f}"
     return None if fusable(f) else f"features {f}"
 
@@ -290,14 +288,12 @@ def choose_config(model: Model, kernel: str = "auto", *, run_steps: int | None =
     f = model.features
     if kernel == "step":
         return STEP
-    damping_on_step = f.damping == "contact" or (f.damping != "none" and not model.device.is_cpu)
-    if damping_on_step:
-        # damping (and the dissipated energy) exists in the per-step kernel and, viscous only, in the CPU
-        # sweep kernel; the CUDA tile/window kernels have none
+    if f.damping != "none" and not model.device.is_cpu:
+        # damping (and the dissipated energy) exists in the per-step kernel and the CPU sweep kernel; the
+        # CUDA tile/window kernels have none
         if kernel != "auto":
-            where = "per-step solver" if f.damping == "contact" else "per-step solver on CUDA"
             raise ValueError(f"kernel = {kernel!r}: damping (damping.model = {f.damping!r}) runs only on the "
-                             f"{where}; use --kernel step or auto")
+                             "per-step solver on CUDA; use --kernel step or auto")
         return STEP
     if kernel == "sweep":
         if not model.device.is_cpu:
