@@ -157,6 +157,9 @@ def test_damping_generates_no_code_when_unused_and_runs_on_the_cpu_sweep():
     assert choose_config(model, "auto").kind == "sweep"
     assert choose_config(model, "sweep").kind == "sweep"
     assert step_reason(model) is None
+    for fused in ("tile", "window"):   # no damping there: refused, never run undamped
+        with pytest.raises(ValueError, match="damping"):
+            choose_config(model, fused)
     assert "damping" in fused_lacks(model.features, is_cpu=False)   # CUDA: the per-step kernel only
     from hertzian.kernels.cpu import sweep_kernel
     sweep_damped = generated_source(sweep_kernel(Features(surface="driven", bottom="fixed", static="uniform",

@@ -288,13 +288,18 @@ def choose_config(model: Model, kernel: str = "auto", *, run_steps: int | None =
     f = model.features
     if kernel == "step":
         return STEP
-    if f.damping != "none" and not model.device.is_cpu:
+    if f.damping != "none":
         # damping (and the dissipated energy) exists in the per-step kernel and the CPU sweep kernel; the
-        # CUDA tile/window kernels have none
-        if kernel != "auto":
-            raise ValueError(f"kernel = {kernel!r}: damping (damping.model = {f.damping!r}) runs only on the "
-                             "per-step solver on CUDA; use --kernel step or auto")
-        return STEP
+        # tile/window kernels have none
+        if model.device.is_cpu:
+            if kernel in ("tile", "window"):
+                raise ValueError(f"kernel = {kernel!r}: damping (damping.model = {f.damping!r}) runs only on the "
+                                 "per-step and sweep solvers; use --kernel step, sweep or auto")
+        else:
+            if kernel != "auto":
+                raise ValueError(f"kernel = {kernel!r}: damping (damping.model = {f.damping!r}) runs only on the "
+                                 "per-step solver; use --kernel step or auto")
+            return STEP
     if kernel == "sweep":
         if not model.device.is_cpu:
             raise ValueError("kernel = 'sweep': a CPU kernel; use --device cpu")
