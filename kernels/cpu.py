@@ -12,7 +12,10 @@ positions, which are already in registers, so overwriting grain ``i`` cannot dis
 
 The arithmetic is ``kernels/step.py``'s expression for expression (bitwise equal on the CPU;
 ``tests/test_cpu_kernel.py``), the driven surface grain and the driver's work included
-(``tests/test_fused_features.py``). Traces are sampled between launches (kernels/traces.py).
+(``tests/test_fused_features.py``), and damping (viscous and dashpot) with the dissipated energy
+(``tests/test_drive.py``): the dashpot of the contact above grain ``i`` needs grain ``i − 1``'s old
+and predicted values, which are carried from the previous grain since ``x_out`` already holds its new
+ones. Traces are sampled between launches (kernels/traces.py).
 """
 
 
@@ -36,7 +39,7 @@ def sweep_kernel(features: Features):
     """The chain-per-thread sweep kernel for one feature set (cached)."""
     f = features
     if not sweepable(f):
-        raise ValueError(f"the sweep kernel does not implement surface={f.surface!r} / traces={f.traces}")
+        raise ValueError(f"the sweep kernel does not implement traces={f.traces} / damping={f.damping!r}")
     real = wp.float64 if f.precision == "float64" else wp.float32
     Q = f.values
     SURFACE_WALL = f.surface == "wall"
@@ -58,6 +61,30 @@ def sweep_kernel(features: Features):
         near_event, event_step = event_functions(f)
     else:
         near_event = event_step = None
+    DAMPED = f.damping != "none"
+    VISCOUS = f.damping == "viscous"
+    DASHPOT = f.damping == "contact"
+    ORDER = f.nordsieck_values  # rows of the Nordsieck vector (kernels/gear.py)
+
+    @wp.func
+    def predicted_rate(x: wp.array3d(dtype=real), c: int, j: int) -> real:
+        # step.py's predicted_rate: dt·v predicted at t + dt from the Nordsieck vector
+        rate = x[1, c, j] + real(2) * x[2, c, j]
+        if wp.static(ORDER >= 4):
+            rate += real(3) * x[3, c, j]
+        if wp.static(ORDER >= 5):
+            rate += real(4) * x[4, c, j]
+        if wp.static(ORDER >= 6):
+            rate += real(5) * x[5, c, j]
+        return rate
+
+    @wp.func
+    def dashpot(delta0: real, d: real, rate: real, gamma: real, h: real) -> real:
+        # step.py's dashpot force γ·δ̇ of a contact (rate = dt·δ̇), only while it is closed (δ0 + d > 0)
+        out = real(0)
+        if delta0 + d > real(0):
+            out = gamma * rate / h
+        return out
 
     @wp.func
     def contact(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),
@@ -95,6 +122,8 @@ def sweep_kernel(features: Features):
         clock_out: wp.array(dtype=wp.int32),
         work_out: wp.array(dtype=wp.float64),
         power_out: wp.array(dtype=wp.float64),
+        damping: wp.array(dtype=real),
+        dissipated: wp.array2d(dtype=wp.float64),
     ):
         c = wp.tid()
         n_grains = x_in.shape[2]
@@ -139,8 +168,17 @@ def sweep_kernel(features: Features):
                 d_old = x_out[0, c, 0] - x_out[0, c, 1]
                 force_old = wp.float64(contact(static_overlap, contact_constant, c, 1, d_old, a_c0, delta00,
                                                force00, n))
+                if wp.static(DASHPOT):
+                    # the driver also pushes through the dashpot of its contact (work includes it)
+                    rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old)) - x_out[1, c, 1]
+                    p01 = params(static_overlap, contact_constant, exponent, c, 1)
+                    force_old += wp.float64(dashpot(p01[0], d_old, rate_old, damping[c], h))
                 power = force_old * amplitude * omega * wp.cos(omega * t_old)
-                work = work + dt * wp.float64(0.5) * (power_prev + power)
+                if wp.static(DASHPOT):
+                    if step_new != 1:  # W(0) = 0: the dashpot's power at t = 0 is not zero
+                        work = work + dt * wp.float64(0.5) * (power_prev + power)
+                else:
+                    work = work + dt * wp.float64(0.5) * (power_prev + power)
                 power_prev = power
                 x1_drive = real(dt * amplitude * omega * wp.cos(omega * t_new))
                 position_here = nordsieck.exact_position(u_drive)
@@ -150,6 +188,12 @@ def sweep_kernel(features: Features):
                 u_above = real(0)         # predicted position of the grain above (0: the wall)
                 above_old = values_t()    # its Nordsieck vector at t_n (already overwritten in x_out)
             force_above = real(0)  # excess force of the contact above the current grain
+            if wp.static(DASHPOT):
+                # the grain above at t_n and predicted (its x_out values are already overwritten)
+                above_u = real(0)
+                above_u_old = real(0)
+                above_rate = real(0)
+                above_rate_old = real(0)
             if wp.static(SURFACE_WALL):
                 if wp.static(f.compensation):
                     # a wall is a grain at rest at 0 (as the fused kernel's padding grains)
@@ -183,6 +227,11 @@ def sweep_kernel(features: Features):
                     held = i == last
                 if wp.static(EVENTS):
                     own_old = nordsieck.load(x_out, c, i)
+                if wp.static(DASHPOT):
+                    own_u = predicted_position(x_out, c, i)
+                    own_u_old = x_out[0, c, i]
+                    own_rate_dash = predicted_rate(x_out, c, i)
+                    own_rate_dash_old = x_out[1, c, i]
                 if wp.static(DRIVEN):
                     if i == 0:
                         held = True
@@ -194,7 +243,70 @@ def sweep_kernel(features: Features):
                     m_inv = inv_m
                     if wp.static(HETERO):
                         m_inv = inverse_mass[c, i]
-                    half_h2_acc = real(0.5) * h * h * (force_above - force_below) * m_inv
+                    up = force_above
+                    down = force_below
+                    if wp.static(DAMPED):
+                        # step.py's damping block: forces at the predicted velocities, the loss power's
+                        # trapezoid (t_n exact, t_n+1 predicted) per grain; grain i's old values are still in
+                        # x_out, grain i+1's too, grain i-1's are carried (above_*)
+                        gamma = damping[c]
+                        own_rate = predicted_rate(x_out, c, i)
+                        own_rate_old = x_out[1, c, i]
+                        loss_old = real(0)
+                        loss_new = real(0)
+                        if wp.static(VISCOUS):
+                            m_i = real(1) / m_inv
+                            loss_old = gamma * m_i * own_rate_old * own_rate_old / (h * h)
+                            loss_new = gamma * m_i * own_rate * own_rate / (h * h)
+                        if wp.static(DASHPOT):
+                            if i < last or wp.static(BOTTOM_WALL):
+                                below_rate = real(0)
+                                below_rate_old = real(0)
+                                d_new = u_here
+                                d_old_b = own_u_old
+                                if i < last:
+                                    below_rate = predicted_rate(x_out, c, i + 1)
+                                    below_rate_old = x_out[1, c, i + 1]
+                                    d_new = u_here - predicted_position(x_out, c, i + 1)
+                                    d_old_b = own_u_old - x_out[0, c, i + 1]
+                                delta0_below = params(static_overlap, contact_constant, exponent, c, i + 1)[0]
+                                f_new = dashpot(delta0_below, d_new, own_rate - below_rate, gamma, h)
+                                down += f_new
+                                loss_new += f_new * (own_rate - below_rate) / h
+                                f_old = dashpot(delta0_below, d_old_b, own_rate_old - below_rate_old, gamma, h)
+                                loss_old += f_old * (own_rate_old - below_rate_old) / h
+                            if i > 0 or wp.static(SURFACE_WALL):
+                                a_u = real(0)
+                                a_u_old = real(0)
+                                a_rate = real(0)
+                                a_rate_old = real(0)
+                                outer = i == 0  # the contact above belongs to no integrated grain above
+                                if i > 0:
+                                    a_u = above_u
+                                    a_u_old = above_u_old
+                                    a_rate = above_rate
+                                    a_rate_old = above_rate_old
+                                    if wp.static(DRIVEN):
+                                        if i == 1:
+                                            outer = True
+                                            t_old_d = wp.float64(step_new - 1) * dt
+                                            a_u = real(u_drive)
+                                            a_u_old = real(amplitude * wp.sin(omega * t_old_d))
+                                            a_rate = real(dt * amplitude * omega * wp.cos(omega * t_new))
+                                            a_rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old_d))
+                                delta0_above = params(static_overlap, contact_constant, exponent, c, i)[0]
+                                f_new_a = dashpot(delta0_above, a_u - u_here, a_rate - own_rate, gamma, h)
+                                up += f_new_a
+                                if outer:
+                                    loss_new += f_new_a * (a_rate - own_rate) / h
+                                    f_old_a = dashpot(delta0_above, a_u_old - own_u_old, a_rate_old - own_rate_old,
+                                                      gamma, h)
+                                    loss_old += f_old_a * (a_rate_old - own_rate_old) / h
+                        dissipated[c, i] = dissipated[c, i] + dt * wp.float64(0.5) * (
+                            wp.float64(loss_old) + wp.float64(loss_new))
+                    half_h2_acc = real(0.5) * h * h * (up - down) * m_inv
+                    if wp.static(VISCOUS):
+                        half_h2_acc -= real(0.5) * h * damping[c] * predicted_rate(x_out, c, i)  # h²/2 · (−γ v)
                     if wp.static(EVENTS):
                         # kernels/step.py's event test and event step, on the same data
                         below = values_t()
@@ -222,6 +334,11 @@ def sweep_kernel(features: Features):
                     else:
                         correct(x_out, x_out, c, i, u_here, half_h2_acc)
                 force_above = force_below
+                if wp.static(DASHPOT):
+                    above_u = own_u
+                    above_u_old = own_u_old
+                    above_rate = own_rate_dash
+                    above_rate_old = own_rate_dash_old
                 if wp.static(EVENTS):
                     u_above = u_here
                     above_old = own_old
@@ -238,11 +355,12 @@ def sweep_kernel(features: Features):
 
 def launch_sweep(kernel, *, x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status,
                  dt: float, steps: int, x_out, clock_out, device, drive, work_in, power_in, work_out, power_out,
-                 record_cmd: bool = False):
+                 damping, dissipated, record_cmd: bool = False):
     """Launch ``steps`` steps of the sweep kernel (one thread per chain); returns the Launch if recorded.
 
-    ``drive`` (chains, 2), ``work_*``/``power_*`` (chains,): the model's and states' arrays (size 0 undriven)."""
+    ``drive`` (chains, 2), ``work_*``/``power_*`` (chains,): the model's and states' arrays (size 0 undriven);
+    ``damping`` (chains,) γ and ``dissipated`` (chains, grains), updated in place (size 0 undamped)."""
     return wp.launch(kernel, dim=x_in.shape[1],
                      inputs=[x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status,
                              dt, steps, drive, work_in, power_in],
-                     outputs=[x_out, clock_out, work_out, power_out], device=device, record_cmd=record_cmd)
+                     outputs=[x_out, clock_out, work_out, power_out, damping, dissipated], device=device, record_cmd=record_cmd)

@@ -14,6 +14,7 @@ from hertzian.ensemble.response import ResponseAccumulator
 from hertzian.ensemble.runner import Runner, run_scene
 from hertzian.ensemble.scene import RESPONSE_MIN_SAMPLES_PER_PERIOD, SceneError, response_stride_of, scene_from_dict
 from hertzian.ensemble.solvers import choose_config
+from hertzian.ensemble.solvers.calibrate import fused_lacks, step_reason
 
 from kernel_source import accessed_arrays, generated_source  # noqa: F401  (helpers of the lean-kernel test)
 
@@ -139,7 +140,7 @@ def test_response_is_deterministic():
     assert 0 < a.response["driver_open"].max() < 1   # A > l0: the driver's contact opens part of the time
 
 
-def test_damping_generates_no_code_when_unused_and_falls_back_to_the_step_solver():
+def test_damping_generates_no_code_when_unused_and_runs_on_the_cpu_sweep():
     from hertzian.kernels.features import Features
     from hertzian.kernels.step import step_kernel
 
@@ -152,9 +153,68 @@ def test_damping_generates_no_code_when_unused_and_falls_back_to_the_step_solver
                               "integrator": {"duration": 0.01}, "damping": {"model": "viscous", "gamma": 1.0}})
     model = build_model([impact], "cpu")
     assert model.features.event_window == 0.0  # event steps carry no damping
-    assert choose_config(model, "auto").kind == "step"
-    with pytest.raises(ValueError, match="damping"):
-        choose_config(model, "sweep")
+    # on the CPU the sweep kernel carries damping (test_sweep_damping_equals_per_step)
+    assert choose_config(model, "auto").kind == "sweep"
+    assert choose_config(model, "sweep").kind == "sweep"
+    assert step_reason(model) is None
+    for fused in ("tile", "window"):   # no damping there: refused, never run undamped
+        with pytest.raises(ValueError, match="damping"):
+            choose_config(model, fused)
+    assert "damping" in fused_lacks(model.features, is_cpu=False)   # CUDA: the per-step kernel only
+    from hertzian.kernels.cpu import sweep_kernel
+    sweep_damped = generated_source(sweep_kernel(Features(surface="driven", bottom="fixed", static="uniform",
+                                                         damping="contact")))
+    sweep_plain = generated_source(sweep_kernel(Features(surface="driven", bottom="fixed", static="uniform")))
+    assert "dissipated" in accessed_arrays(sweep_damped) and "damping" in accessed_arrays(sweep_damped)
+    assert not {"dissipated", "damping"} & accessed_arrays(sweep_plain)
+
+
+@pytest.mark.parametrize("model, bottom", [("viscous", "fixed"), ("viscous", "wall"), ("contact", "fixed"),
+                                           ("contact", "wall")])
+def test_sweep_damping_equals_per_step(model, bottom):
+    """Damping in the CPU sweep kernel is the per-step kernel's, bit for bit: fields, energy, the driver's
+    work, the dissipated energy D and the response windows. A = 3e-3 > l0 opens the driver's contact;
+    motion must reach the bottom grain that moves, and D must grow."""
+    scene = driven(grains=16, amplitude=3e-3, period=0.25, duration=1.5, damping=(model, 2.0), bottom=bottom,
+                   record={"every": 0.25, "fields": ["u", "v"], "response_start": 0.5, "response_periods": 1,
+                           "response_windows": 2, "harmonics": 2})
+    chains = build_model([scene], "cpu")
+    want = Runner(chains, kernel="step", use_graph=False, monitor_every=7).run()
+    got = Runner(chains, kernel="sweep", use_graph=False, monitor_every=7).run()
+    assert want.kernel.startswith("step") and got.kernel == "sweep"
+    bottom_moving = -2 if bottom == "fixed" else -1
+    v = np.abs(want.fields["v"])
+    assert v[..., bottom_moving].max() > 1e-3 * v.max(), "motion never reached the bottom"
+    assert want.dissipated[0, -1] > 0 and np.all(np.diff(want.dissipated[0]) > 0)
+    assert 0 < want.response["driver_open"].max() < 1   # the driver's contact opens part of the time
+    for name in ("u", "v"):
+        np.testing.assert_array_equal(got.fields[name], want.fields[name])
+    for name in ("energy", "work", "dissipated"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
+    for name in ("response", "window_ke", "driver_open"):
+        np.testing.assert_array_equal(got.response[name], want.response[name])
+    np.testing.assert_array_equal(got.energy_error, want.energy_error)
+
+
+@pytest.mark.parametrize("model", ["viscous", "contact"])
+def test_sweep_damping_equals_per_step_between_walls(model):
+    """The surface wall's dashpot (the contact above grain 0, which no integrated grain owns) in the sweep
+    kernel: an impact between walls, sweep vs per-step bit for bit; the impact reaches the bottom wall."""
+    scene = scene_from_dict({"chain": {"grains": 12, "l0": 1e-4}, "excitation": {"impact": 1e-2},
+                             "boundary": {"surface": "wall", "bottom": "wall"},
+                             "integrator": {"duration": 2.0, "dt": 1e-3}, "damping": {"model": model, "gamma": 0.5},
+                             "record": {"every": 0.25, "fields": ["u", "v"]}})
+    chains = build_model([scene], "cpu")
+    want = Runner(chains, kernel="step", use_graph=False, monitor_every=7).run()
+    got = Runner(chains, kernel="sweep", use_graph=False, monitor_every=7).run()
+    assert got.kernel == "sweep"
+    v = np.abs(want.fields["v"])
+    assert v[..., -1].max() > 1e-3 * v.max(), "motion never reached the bottom"
+    assert want.dissipated[0, -1] > 0
+    for name in ("u", "v"):
+        np.testing.assert_array_equal(got.fields[name], want.fields[name])
+    for name in ("energy", "dissipated"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
 
 
 @pytest.mark.parametrize("key, value, message", [

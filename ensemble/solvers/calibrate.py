@@ -56,6 +56,8 @@ def stepping_features(features):
 def fused_lacks(features, is_cpu: bool) -> str | None:
     """The feature the device's fused kernel (CPU sweep, CUDA tile/window) lacks, or None."""
     f = stepping_features(features)
+    if f.damping != "none" and not is_cpu:
+        return f"damping (damping.model = {f.damping!r}; only the per-step kernel carries it on CUDA)"
     if is_cpu:
         return None if sweepable(f) else f"features {f}"
     return None if fusable(f) else f"features {f}"
@@ -287,11 +289,17 @@ def choose_config(model: Model, kernel: str = "auto", *, run_steps: int | None =
     if kernel == "step":
         return STEP
     if f.damping != "none":
-        # damping (and the dissipated energy) exists only in the per-step kernel
-        if kernel != "auto":
-            raise ValueError(f"kernel = {kernel!r}: damping (damping.model = {f.damping!r}) runs only on the "
-                             "per-step solver; use --kernel step or auto")
-        return STEP
+        # damping (and the dissipated energy) exists in the per-step kernel and the CPU sweep kernel; the
+        # tile/window kernels have none
+        if model.device.is_cpu:
+            if kernel in ("tile", "window"):
+                raise ValueError(f"kernel = {kernel!r}: damping (damping.model = {f.damping!r}) runs only on the "
+                                 "per-step and sweep solvers; use --kernel step, sweep or auto")
+        else:
+            if kernel != "auto":
+                raise ValueError(f"kernel = {kernel!r}: damping (damping.model = {f.damping!r}) runs only on the "
+                                 "per-step solver; use --kernel step or auto")
+            return STEP
     if kernel == "sweep":
         if not model.device.is_cpu:
             raise ValueError("kernel = 'sweep': a CPU kernel; use --device cpu")

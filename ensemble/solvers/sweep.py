@@ -24,4 +24,5 @@ class SweepSolver(Solver):
                      contact_constant=m.contact_constant, static_overlap=m.static_overlap, exponent=m.exponent,
                      status=state_in.status, dt=m.dt, steps=steps, x_out=state_out.x, clock_out=state_out.clock,
                      device=m.device, drive=m.drive, work_in=state_in.work, power_in=state_in.power,
-                     work_out=state_out.work, power_out=state_out.power)
+                     work_out=state_out.work, power_out=state_out.power, damping=m.damping,
+                     dissipated=state_in.dissipated)
