@@ -802,10 +802,16 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
     fit_a_result = None
     if fit_a and kind != "none":
         fit_start = time.perf_counter()
-        contact = fit_contact(s, forward, grid.block, depth, bounds[kind], a_ratio_range, device,
-                              noise=noise, step=step, batch_size=batch_size)
+        # a ≠ a_host can shift the echo's best depth with a = a_host by a grain: fit the neighbours too
+        fit_depths = [d for d in range(depth - FIT_A_DEPTHS, depth + FIT_A_DEPTHS + 1)
+                      if int(depths[0]) <= d <= int(depths[-1])]
+        fits = [(d, fit_contact(s, forward, grid.block, d, bounds[kind], a_ratio_range, device, noise=noise,
+                                step=step, batch_size=batch_size)) for d in fit_depths]
+        fits = [(d, c) for d, c in fits if c is not None]
+        fit_depth, contact = min(fits, key=lambda dc: dc[1].rss) if fits else (depth, None)
         rss_host_a = float((s - best_fit) @ (s - best_fit))
         if contact is not None and contact.rss < rss_host_a:
+            depth = fit_depth
             z = 1.959963984540054
             sx, sy = (math.sqrt(contact.covariance[i, i]) for i in (0, 1))
             lo, hi = bounds[kind]
@@ -816,10 +822,11 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
             fit_a_result = {"a_ratio": math.exp(contact.y),
                             "a_ratio_interval": [math.exp(max(contact.y - z * sy, a_lo)),
                                                  math.exp(min(contact.y + z * sy, a_hi))],
-                            "rss": contact.rss, "rss_a_host": rss_host_a, "noise_fit_a": contact.sigma}
+                            "rss": contact.rss, "rss_a_host": rss_host_a, "noise_fit_a": contact.sigma,
+                            "fit_a_depths": {str(d): c.rss for d, c in fits}}
         else:  # the joint fit did not improve on a = a_host
             fit_a_result = {"a_ratio": 1.0, "a_ratio_interval": None, "rss": rss_host_a, "rss_a_host": rss_host_a,
-                            "noise_fit_a": None}
+                            "noise_fit_a": None, "fit_a_depths": {str(d): c.rss for d, c in fits}}
         fit_a_result["fit_a_seconds"] = time.perf_counter() - fit_start
     seconds = {"library": library_seconds, "refinement": refine_seconds,
                "total": time.perf_counter() - started}
@@ -833,6 +840,8 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
     ), library
 
 
+FIT_A_DEPTHS = 1
+"""``--fit-a``: the joint fit runs at the depth found with a = a_host and this many depths either side."""
 A_STEPS = 9
 """``--fit-a``: grid points in ln(a/a_host) over its prior range (ends included)."""
 X_STEPS = 9
