@@ -282,6 +282,7 @@ def test_fit_a_recovers_the_contact_constant(cache, clean_velocity, depth, mass_
     fitted, _ = detect(signal, scene_from_dict(BASE), device="cpu", fit_a=True)
     assert "a_ratio" not in plain.to_dict()                       # without --fit-a the answer is unchanged
     assert fitted.kind == ("light" if mass_ratio < 1 else "heavy") and fitted.depth == depth, fitted.to_dict()
+    assert fitted.fit_a["a_ratio_interval"] is not None, fitted.fit_a     # None: no better than a = a_host
     lo, hi = fitted.fit_a["a_ratio_interval"]
     assert lo <= a_ratio <= hi and hi / lo < 1.5, fitted.fit_a
     mlo, mhi = fitted.mass_ratio_interval
