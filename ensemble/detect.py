@@ -3,7 +3,8 @@
 The measurement is the velocity ``v(t)`` of grain 0 after an impact at t = 0, sampled uniformly.
 The host chain without impurities (BASE) is known. The unknowns are the class (``none``, ``light``,
 ``heavy``), the depth ``d`` (index of the impurity grain; of the first grain of a block of ``block``
-grains) and the mass ratio ``μ = m_impurity / m_host`` (contact constant as the host's).
+grains) and the mass ratio ``μ = m_impurity / m_host`` (self-constant a as the host's; with ``fit_a``
+also ``a / a_host``, fitted at the depth found and its neighbours: :func:`fit_contact`).
 
 **Forward model.** BASE plus one impurity block at depth d with mass μ·m, impact at grain 0, grain 0's
 velocity traced at exactly the signal's sample times: the step is the largest ``dt' ≤ dt_BASE`` that

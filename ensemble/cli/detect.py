@@ -70,7 +70,8 @@ def detect(
     A library of candidate chains (BASE + one impurity block at every depth × log-spaced mass ratios)
     is simulated as one ensemble with surface traces at the signal's sample times and cached per BASE
     (``$HERTZIAN_DETECT_CACHE``, default ~/.cache/hertzian/detect); the best depths are refined by
-    Gauss–Newton in ln μ. Noise: i.i.d. Gaussian; posterior with equal class odds, uniform depth and
+    Gauss–Newton in ln μ; with --fit-a, ln μ and ln(a/a_host) are then fitted jointly at the depth found
+    and its neighbours (grid, then Gauss–Newton). Noise: i.i.d. Gaussian; posterior with equal class odds, uniform depth and
     uniform ln μ priors; intervals are central 95 %. Program units (time 1.0102e-3 s, length 1e-5 m).
     """
     from ..detect import detect as run_detection
