@@ -3,7 +3,8 @@
 The measurement is the velocity ``v(t)`` of grain 0 after an impact at t = 0, sampled uniformly.
 The host chain without impurities (BASE) is known. The unknowns are the class (``none``, ``light``,
 ``heavy``), the depth ``d`` (index of the impurity grain; of the first grain of a block of ``block``
-grains) and the mass ratio ``μ = m_impurity / m_host`` (contact constant as the host's).
+grains) and the mass ratio ``μ = m_impurity / m_host`` (self-constant a as the host's; with ``fit_a``
+also ``a / a_host``, fitted at the depth found and its neighbours: :func:`fit_contact`).
 
 **Forward model.** BASE plus one impurity block at depth d with mass μ·m, impact at grain 0, grain 0's
 velocity traced at exactly the signal's sample times: the step is the largest ``dt' ≤ dt_BASE`` that
@@ -198,10 +199,13 @@ def forward_scene(base: Scene, spacing: float, sample_count: int) -> Scene:
     })
 
 
-def impurity_scene(forward: Scene, depth: int, mass_ratio: float, block: int = 1) -> Scene:
-    """``forward`` with grains depth … depth + block − 1 of mass mass_ratio · m_host (contact constant as host)."""
+def impurity_scene(forward: Scene, depth: int, mass_ratio: float, block: int = 1, a_ratio: float = 1.0) -> Scene:
+    """``forward`` with grains depth … depth + block − 1 of mass mass_ratio · m_host and self-constant
+    a_ratio · a_host (their contacts follow the scene's impurity rule: the harmonic mean of the two
+    self-constants)."""
     grains = tuple(range(int(depth), int(depth) + int(block)))
-    return replace(forward, impurities=(ImpuritySpec(grains=grains, mass=float(mass_ratio) * forward.chain.mass),))
+    a = None if a_ratio == 1.0 else float(a_ratio) * forward.chain.a
+    return replace(forward, impurities=(ImpuritySpec(grains=grains, mass=float(mass_ratio) * forward.chain.mass, a=a),))
 
 
 def front_times(forward: Scene, device: str) -> np.ndarray:
@@ -304,17 +308,20 @@ def library_key(forward: Scene, grid: Grid) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:24]
 
 
-def run_candidates(forward: Scene, candidates: list[tuple[int, float]], block: int, device: str, *,
+def run_candidates(forward: Scene, candidates: list[tuple], block: int, device: str, *,
                    batch_size: int = 4096) -> tuple[np.ndarray, np.ndarray]:
-    """Surface traces of candidate (depth, mass ratio) chains (ensembles of ≤ batch_size chains).
+    """Surface traces of candidate (depth, mass ratio[, a ratio]) chains (ensembles of ≤ batch_size chains).
 
-    Returns (traces (C, S), ok (C,)); a depth < 0 or mass ratio 1 means the clean chain.
+    Returns (traces (C, S), ok (C,)); a depth < 0, or mass ratio 1 with a ratio 1, means the clean chain.
     """
     from .runner import run_ensemble
     from .status import Status
 
-    scenes = [forward if depth < 0 or mass_ratio == 1.0 else impurity_scene(forward, depth, mass_ratio, block)
-              for depth, mass_ratio in candidates]
+    scenes = []
+    for candidate in candidates:
+        depth, mass_ratio, a_ratio = (*candidate, 1.0)[:3]
+        clean = depth < 0 or (mass_ratio == 1.0 and a_ratio == 1.0)
+        scenes.append(forward if clean else impurity_scene(forward, depth, mass_ratio, block, a_ratio))
     traces, ok = [], []
     for start in range(0, len(scenes), batch_size):
         result = run_ensemble(scenes[start:start + batch_size], device)
@@ -463,6 +470,9 @@ class Detection:
     dt: float = 0.0
     """Step of the forward model [time]."""
     refined_depths: dict = field(default_factory=dict)
+    fit_a: dict | None = None
+    """With --fit-a: a_ratio = a_impurity / a_host and its 95 % interval, the RSS of the joint fit and of the
+    best fit with a = a_host, σ of the joint fit (None without --fit-a, or for class none)."""
 
     @property
     def misfit_ratio(self) -> float | None:
@@ -490,6 +500,7 @@ class Detection:
             "seconds": self.seconds,
             "library_from_cache": self.library_from_cache,
             "refined_depths": self.refined_depths,
+            **(self.fit_a if self.fit_a is not None else {}),
         }
 
 
@@ -629,12 +640,15 @@ def _first_echo_scores(signal: np.ndarray, t: np.ndarray, library: Library, kind
 def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None = None, device: str = "cpu",
            depth_range: tuple[int, int] | None = None, mass_ratio_range=(0.25, 4.0), mass_steps: int = 7,
            refine: int = 3, iterations: int = 2, step: float = 0.02, window: float | None = None,
-           use_cache: bool = True, batch_size: int = 4096) -> tuple[Detection, Library]:
+           use_cache: bool = True, batch_size: int = 4096, fit_a: bool = False,
+           a_ratio_range: tuple[float, float] = (0.25, 4.0)) -> tuple[Detection, Library]:
     """Class, depth and mass ratio of an impurity in BASE from a surface signal (see the module docstring).
 
     ``refine``: depths per class refined by Gauss–Newton (0: the library alone); ``iterations``: ensemble
     runs of refinement; ``step``: finite-difference step in ln μ; ``window``: the samples with t ≤ window
-    are analysed (default: until the pulse reflected by the bottom returns, 2 t_front(N − 1)).
+    are analysed (default: until the pulse reflected by the bottom returns, 2 t_front(N − 1)); ``fit_a``:
+    at the depth found, fit ln μ and ln(a/a_host) jointly (:func:`fit_contact`, a/a_host in ``a_ratio_range``)
+    and report a_ratio with its interval; the mass ratio and its interval then come from the joint fit.
     """
     started = time.perf_counter()
     if block < 1 or block >= base.chain.grains:
@@ -647,6 +661,11 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
         raise SceneError("--iterations", iterations, "must be an integer ≥ 1")
     if window is not None and not window > 0:
         raise SceneError("--window", window, "must be a time > 0")
+    if fit_a:
+        a_low, a_high = a_ratio_range
+        if not (0 < a_low < 1 < a_high and math.isfinite(a_high)):
+            raise SceneError("--a-range", f"{a_low},{a_high}", "must be two numbers a_min < 1 < a_max, both > 0 "
+                             "(prior range of a_impurity / a_host)")
     # the pulse fronts of the clean chain (cached under a key of BASE and the sample times)
     fronts = _cached_fronts(forward_scene(base, signal.spacing, signal.sample_count), device, use_cache)
     end = 2 * float(fronts[-1]) if window is None else float(window)
@@ -781,6 +800,35 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
 
         mass_interval = (math.exp(quantile(tail)), math.exp(quantile(1 - tail)))
         best_fit = run_candidates(forward, [(depth, mass_ratio)], grid.block, device)[0][0]
+    fit_a_result = None
+    if fit_a and kind != "none":
+        fit_start = time.perf_counter()
+        # a ≠ a_host can shift the echo's best depth with a = a_host by a grain: fit the neighbours too
+        fit_depths = [d for d in range(depth - FIT_A_DEPTHS, depth + FIT_A_DEPTHS + 1)
+                      if int(depths[0]) <= d <= int(depths[-1])]
+        fits = [(d, fit_contact(s, forward, grid.block, d, bounds[kind], a_ratio_range, device, noise=noise,
+                                step=step, batch_size=batch_size)) for d in fit_depths]
+        fits = [(d, c) for d, c in fits if c is not None]
+        fit_depth, contact = min(fits, key=lambda dc: dc[1].rss) if fits else (depth, None)
+        rss_host_a = float((s - best_fit) @ (s - best_fit))
+        if contact is not None and contact.rss < rss_host_a:
+            depth = fit_depth
+            z = 1.959963984540054
+            sx, sy = (math.sqrt(contact.covariance[i, i]) for i in (0, 1))
+            lo, hi = bounds[kind]
+            a_lo, a_hi = (math.log(r) for r in a_ratio_range)
+            mass_ratio = math.exp(contact.x)
+            mass_interval = (math.exp(max(contact.x - z * sx, lo)), math.exp(min(contact.x + z * sx, hi)))
+            best_fit = contact.trace
+            fit_a_result = {"a_ratio": math.exp(contact.y),
+                            "a_ratio_interval": [math.exp(max(contact.y - z * sy, a_lo)),
+                                                 math.exp(min(contact.y + z * sy, a_hi))],
+                            "rss": contact.rss, "rss_a_host": rss_host_a, "noise_fit_a": contact.sigma,
+                            "fit_a_depths": {str(d): c.rss for d, c in fits}}
+        else:  # the joint fit did not improve on a = a_host
+            fit_a_result = {"a_ratio": 1.0, "a_ratio_interval": None, "rss": rss_host_a, "rss_a_host": rss_host_a,
+                            "noise_fit_a": None, "fit_a_depths": {str(d): c.rss for d, c in fits}}
+        fit_a_result["fit_a_seconds"] = time.perf_counter() - fit_start
     seconds = {"library": library_seconds, "refinement": refine_seconds,
                "total": time.perf_counter() - started}
     return Detection(
@@ -789,8 +837,95 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
         noise_before_echo=window_sigma if noise is None else None,
         depths_searched=(int(depths[0]), int(depths[-1])), window=float(signal.t[-1]), block=grid.block, best_fit=best_fit,
         depth_posterior=posterior, seconds=seconds, library_from_cache=library.from_cache,
-        dt=forward.integrator.dt, refined_depths=refined,
+        dt=forward.integrator.dt, refined_depths=refined, fit_a=fit_a_result,
     ), library
+
+
+FIT_A_DEPTHS = 1
+"""``--fit-a``: the joint fit runs at the depth found with a = a_host and this many depths either side."""
+A_STEPS = 9
+"""``--fit-a``: grid points in ln(a/a_host) over its prior range (ends included)."""
+X_STEPS = 9
+"""``--fit-a``: grid points in ln μ over the class's prior range (ends included)."""
+JOINT_ITERATIONS = 3
+"""``--fit-a``: Gauss–Newton iterations in (ln μ, ln a/a_host) from the best grid point (5 chains each)."""
+
+
+@dataclass
+class ContactFit:
+    """The fit of ln μ and y = ln(a / a_host) at one depth (``--fit-a``)."""
+
+    x: float
+    """ln μ at the best simulated point."""
+    y: float
+    """ln(a / a_host) at the best simulated point."""
+    rss: float
+    """Residual sum of squares of the simulated chain there."""
+    covariance: np.ndarray
+    """σ² (JᵀJ)⁻¹ of (x, y) there, shape (2, 2) (Laplace approximation of the posterior)."""
+    sigma: float
+    """σ used for the covariance: --noise, or RSS/(S − 3) (3 fitted parameters: depth, μ, a)."""
+    trace: np.ndarray
+    profile: list
+    """(y, x, RSS): the grid's best x and its RSS at each grid value of y (the profile over a)."""
+
+
+def fit_contact(s: np.ndarray, forward: Scene, block: int, depth: int, x_bounds: tuple[float, float],
+                a_ratio_range: tuple[float, float], device: str, *, noise: float | None, step: float,
+                batch_size: int = 4096) -> ContactFit | None:
+    """Fit x = ln μ and y = ln(a/a_host) at ``depth``; μ and a trade off along a curved valley (the echo's
+    impedance), so Gauss–Newton from afar zig-zags or overshoots. First a grid: X_STEPS × A_STEPS points
+    over the class's range of x and the prior range of y, one ensemble; then JOINT_ITERATIONS Gauss–Newton
+    steps from its best point (centre and ±step in x and y, J by central differences), each step kept
+    inside the prior box.
+    Returns the point of least simulated RSS with the Gauss–Newton covariance there; None if nothing ran."""
+    y_lo, y_hi = math.log(a_ratio_range[0]), math.log(a_ratio_range[1])
+    box = np.array([[x_bounds[0] + step, x_bounds[1] - step], [y_lo + step, y_hi - step]])
+    ys = np.linspace(y_lo, y_hi, A_STEPS)
+    xs = np.linspace(x_bounds[0], x_bounds[1], X_STEPS)
+    best = None  # (rss, x, y, H, trace)
+
+    def keep(rss, x, y, H, trace):
+        nonlocal best
+        if best is None or rss < best[0]:
+            best = (rss, x, y, H, trace)
+
+    grid = [(float(x), float(y)) for y in ys for x in xs if x != 0.0 or y != 0.0]
+    traces, ok = run_candidates(forward, [(depth, math.exp(x), math.exp(y)) for x, y in grid], block, device,
+                                batch_size=batch_size)
+    rss_grid = np.where(ok, np.einsum("cs,cs->c", s[None] - traces, s[None] - traces), np.inf)
+    profile = []
+    for y in ys:
+        rows = [(rss_grid[c], x) for c, (x, yy) in enumerate(grid) if yy == float(y)]
+        rss, x = min(rows)
+        profile.append((float(y), float(x), float(rss)))
+    k = int(np.argmin(rss_grid))
+    if not np.isfinite(rss_grid[k]):
+        return None
+    p = np.clip(np.array(grid[k]), box[:, 0], box[:, 1])
+    offsets = [(0.0, 0.0), (-step, 0.0), (step, 0.0), (0.0, -step), (0.0, step)]
+    for _ in range(JOINT_ITERATIONS):
+        candidates = [(depth, math.exp(p[0] + dx), math.exp(p[1] + dy)) for dx, dy in offsets]
+        traces, ok = run_candidates(forward, candidates, block, device, batch_size=batch_size)
+        if not ok.all():
+            break
+        J = np.stack([(traces[2] - traces[1]) / (2 * step), (traces[4] - traces[3]) / (2 * step)], axis=1)
+        r = s - traces[0]
+        H = J.T @ J
+        keep(float(r @ r), float(p[0]), float(p[1]), H, traces[0])
+        try:
+            p = np.clip(p + np.linalg.solve(H, J.T @ r), box[:, 0], box[:, 1])
+        except np.linalg.LinAlgError:
+            break
+    if best is None:
+        return None
+    rss, x, y, H, trace = best
+    sigma = float(noise) if noise is not None else math.sqrt(rss / (s.size - 3))
+    try:
+        covariance = sigma**2 * np.linalg.inv(H)
+    except np.linalg.LinAlgError:
+        covariance = np.full((2, 2), np.inf)
+    return ContactFit(x=x, y=y, rss=rss, covariance=covariance, sigma=sigma, trace=trace, profile=profile)
 
 
 def _cached_fronts(forward: Scene, device: str, use_cache: bool) -> np.ndarray:

@@ -254,3 +254,69 @@ def test_study_summary_counts():
     assert table["mass_ratio_interval_coverage"] == pytest.approx(1 / 3)
     assert table["confusion"]["heavy"] == {"none": 1, "light": 1, "heavy": 0}
     assert table["confusion"]["none"]["none"] == 1 and table["confusion"]["light"]["light"] == 2
+
+
+# ---- --fit-a: the impurity's self-constant a as well as its mass -----------------------------------------
+
+FIT_A_TRUTH = (12, 0.5, 3.0)   # depth, mass ratio, a / a_host: off both grids (μ: 7 log steps; a: 9 over 0.25…4)
+FIT_A_CASES = [  # (depth, mass ratio, a / a_host, noise seed); as docs/logs/detection/fit_a_cpu.py
+    (*FIT_A_TRUTH, 11),
+    (25, 2.0, 0.4, 12),   # with a = a_host the best depth is 26: --fit-a also tries the neighbouring depths
+]
+
+
+def planted_with_a(clean_velocity, depth=FIT_A_TRUTH[0], mass_ratio=FIT_A_TRUTH[1], a_ratio=FIT_A_TRUTH[2], seed=11):
+    host_a = scene_from_dict(BASE).chain.a
+    velocity = truth_velocity({"grains": [depth], "mass": mass_ratio, "a": a_ratio * host_a})
+    return noisy_signal(velocity, clean_velocity, seed=seed)
+
+
+@pytest.mark.parametrize("depth,mass_ratio,a_ratio,seed", FIT_A_CASES)
+def test_fit_a_recovers_the_contact_constant(cache, clean_velocity, depth, mass_ratio, a_ratio, seed):
+    """A grain with its own mass and self-constant (contacts by the scene's harmonic rule), planted by an
+    independent run at half the step, 26 dB. With a fixed at a_host the best fit (a biased μ — for
+    μ = 0.5, a = 3: μ ≈ 0.8, the echo's impedance — or the wrong depth) leaves a residual well above the
+    noise; --fit-a finds depth, a and μ inside their intervals and leaves a residual at the noise level."""
+    signal, sigma = planted_with_a(clean_velocity, depth, mass_ratio, a_ratio, seed)
+    plain, _ = detect(signal, scene_from_dict(BASE), device="cpu")
+    fitted, _ = detect(signal, scene_from_dict(BASE), device="cpu", fit_a=True)
+    assert "a_ratio" not in plain.to_dict()                       # without --fit-a the answer is unchanged
+    assert fitted.kind == ("light" if mass_ratio < 1 else "heavy") and fitted.depth == depth, fitted.to_dict()
+    assert fitted.fit_a["a_ratio_interval"] is not None, fitted.fit_a     # None: no better than a = a_host
+    lo, hi = fitted.fit_a["a_ratio_interval"]
+    assert lo <= a_ratio <= hi and hi / lo < 1.5, fitted.fit_a
+    mlo, mhi = fitted.mass_ratio_interval
+    assert mlo <= mass_ratio <= mhi, fitted.to_dict()
+    if (depth, mass_ratio, a_ratio) == FIT_A_TRUTH:     # a fixed: biased μ, the truth outside its interval
+        assert not plain.mass_ratio_interval[0] <= mass_ratio <= plain.mass_ratio_interval[1], plain.to_dict()
+    n = fitted.best_fit.size
+    rss_plain = float(np.sum((signal.v[:n] - plain.best_fit) ** 2))
+    rss_fitted = float(np.sum((signal.v[:n] - fitted.best_fit) ** 2))
+    # one more parameter lowers χ² by ~1 when it is not needed; here by far more than 3² (measured ≈ 36)
+    assert (rss_plain - rss_fitted) / sigma**2 > 9.0, (rss_plain / sigma**2, rss_fitted / sigma**2)
+    assert rss_fitted / (n * sigma**2) < 1 + 3 * math.sqrt(2 / n)  # at the noise: χ²/n within 3 sd of 1
+    assert fitted.fit_a["rss"] == pytest.approx(rss_fitted, rel=1e-12)
+
+
+def test_cli_fit_a_json_and_bad_a_range(tmp_path, cache, clean_velocity):
+    """--fit-a --json adds a_ratio and its interval; a bad --a-range, or --a-range without --fit-a: one line, exit 2."""
+    import os
+
+    signal, _ = planted_with_a(clean_velocity)
+    path = tmp_path / "planted.csv"
+    write_signal_csv(path, signal)
+    base = tmp_path / "base.toml"
+    base.write_text(BASE_TOML)
+    env = {**os.environ, "HERTZIAN_DETECT_CACHE": str(cache)}
+    for args, message in [(["--fit-a", "--a-range", "2,4"], "--a-range = '2.0,4.0': must be two numbers a_min < 1 < a_max"),
+                          (["--fit-a", "--a-range", "0.5"], "--a-range = '0.5': must be written A,B"),
+                          (["--a-range", "0.5,2"], "--a-range = '0.5,2': only used with --fit-a")]:
+        out = hertzian("detect", str(path), "--scene", str(base), "--device", "cpu", *args, env=env)
+        assert out.returncode == 2, (args, out.stderr)
+        lines = [line for line in out.stderr.splitlines() if line.strip()]
+        assert len(lines) == 1 and message in lines[0] and "Traceback" not in out.stderr, (args, out.stderr)
+    out = hertzian("detect", str(path), "--scene", str(base), "--device", "cpu", "--fit-a", "--json", env=env)
+    assert out.returncode == 0, out.stderr
+    result = json.loads(out.stdout)
+    lo, hi = result["a_ratio_interval"]
+    assert lo <= FIT_A_TRUTH[2] <= hi and result["rss"] < result["rss_a_host"]

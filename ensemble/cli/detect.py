@@ -51,6 +51,11 @@ def detect(
     window: Annotated[Optional[float], typer.Option("--window", help="Analyse the samples with t ≤ this "
                                                     "[program time] (default: until the pulse reflected by the "
                                                     "bottom returns to the surface).")] = None,
+    fit_a: Annotated[bool, typer.Option("--fit-a", help="Also fit the impurity's self-constant a (as a/a_host; "
+                                        "contacts by the scene's impurity rule, the harmonic mean) at the depth "
+                                        "found; reports a_ratio with a 95 % interval.")] = False,
+    a_range: Annotated[Optional[str], typer.Option("--a-range", help="With --fit-a: prior range of a/a_host, "
+                                                   "a_min,a_max (a_min < 1 < a_max; default 0.25,4).")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the result as a JSON object.")] = False,
     plot: Annotated[Optional[Path], typer.Option("--plot", help="Draw signal, best fit, residual and the "
                                                  "posterior over depth into this PNG.")] = None,
@@ -65,7 +70,8 @@ def detect(
     A library of candidate chains (BASE + one impurity block at every depth × log-spaced mass ratios)
     is simulated as one ensemble with surface traces at the signal's sample times and cached per BASE
     (``$HERTZIAN_DETECT_CACHE``, default ~/.cache/hertzian/detect); the best depths are refined by
-    Gauss–Newton in ln μ. Noise: i.i.d. Gaussian; posterior with equal class odds, uniform depth and
+    Gauss–Newton in ln μ; with --fit-a, ln μ and ln(a/a_host) are then fitted jointly at the depth found
+    and its neighbours (grid, then Gauss–Newton). Noise: i.i.d. Gaussian; posterior with equal class odds, uniform depth and
     uniform ln μ priors; intervals are central 95 %. Program units (time 1.0102e-3 s, length 1e-5 m).
     """
     from ..detect import detect as run_detection
@@ -76,6 +82,9 @@ def detect(
     base = load_scene_or_fail(scene, set_, None)
     low, high = _pair("--mass-range", mass_range, ",", float)
     depth_range = _pair("--depths", depths, ":", int) if depths is not None else None
+    if a_range is not None and not fit_a:
+        fail(f"--a-range = {a_range!r}: only used with --fit-a")
+    a_low, a_high = _pair("--a-range", a_range, ",", float) if a_range is not None else (0.25, 4.0)
     if plot is not None and not plot.parent.exists():
         fail(f"--plot = {str(plot)!r}: parent directory does not exist")
     if batch_size < 1:
@@ -93,7 +102,8 @@ def detect(
     try:
         result, library = run_detection(measured, base, block=block, noise=noise, device=dev, depth_range=depth_range,
                                         mass_ratio_range=(low, high), mass_steps=mass_steps, refine=refine,
-                                        iterations=iterations, window=window, use_cache=not no_cache, batch_size=batch_size)
+                                        iterations=iterations, window=window, use_cache=not no_cache, batch_size=batch_size,
+                                        fit_a=fit_a, a_ratio_range=(a_low, a_high))
     except SceneError as err:
         fail(str(err))
     if plot is not None:
@@ -109,6 +119,12 @@ def detect(
             mlo, mhi = result.mass_ratio_interval
             typer.echo(f"depth        {result.depth}  (95 %: {lo} … {hi}; block of {result.block})")
             typer.echo(f"mass ratio   {result.mass_ratio:.4g}  (95 %: {mlo:.4g} … {mhi:.4g})")
+            if result.fit_a is not None:
+                fa = result.fit_a
+                interval = (f"95 %: {fa['a_ratio_interval'][0]:.4g} … {fa['a_ratio_interval'][1]:.4g}"
+                            if fa["a_ratio_interval"] else "no better than a = a_host")
+                typer.echo(f"a / a_host   {fa['a_ratio']:.4g}  ({interval}; RSS {fa['rss']:.4g}, with a = a_host "
+                           f"{fa['rss_a_host']:.4g})")
         typer.echo(f"noise σ      {result.noise:.4g}  ({result.noise_source})")
         a, b = result.depths_searched
         s = result.seconds
