@@ -26,7 +26,7 @@ import warp as wp
 from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, Features
 from .events import event_functions
 from .gear import nordsieck_functions
-from .physics import contact_functions, contact_parameters
+from .physics import contact_functions, contact_parameters, damping_functions
 
 
 def sweepable(features: Features) -> bool:
@@ -66,25 +66,7 @@ def sweep_kernel(features: Features):
     DASHPOT = f.damping == "contact"
     ORDER = f.nordsieck_values  # rows of the Nordsieck vector (kernels/gear.py)
 
-    @wp.func
-    def predicted_rate(x: wp.array3d(dtype=real), c: int, j: int) -> real:
-        # step.py's predicted_rate: dt·v predicted at t + dt from the Nordsieck vector
-        rate = x[1, c, j] + real(2) * x[2, c, j]
-        if wp.static(ORDER >= 4):
-            rate += real(3) * x[3, c, j]
-        if wp.static(ORDER >= 5):
-            rate += real(4) * x[4, c, j]
-        if wp.static(ORDER >= 6):
-            rate += real(5) * x[5, c, j]
-        return rate
-
-    @wp.func
-    def dashpot(delta0: real, d: real, rate: real, gamma: real, h: real) -> real:
-        # step.py's dashpot force γ·δ̇ of a contact (rate = dt·δ̇), only while it is closed (δ0 + d > 0)
-        out = real(0)
-        if delta0 + d > real(0):
-            out = gamma * rate / h
-        return out
+    predicted_rate, dashpot = damping_functions(f.precision, ORDER)
 
     @wp.func
     def contact(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),

@@ -114,6 +114,37 @@ def contact_forces(precision: str, hertz: bool, count: int, *, branchless: bool,
 
 
 @functools.cache
+def damping_functions(precision: str, order: int):
+    """``(predicted_rate, dashpot)`` ``@wp.func``s of the damped kernels (per-step and CPU sweep), cached.
+
+    ``predicted_rate(x, c, j)``: dt·v of grain j predicted at t + dt from its Nordsieck vector of ``order``
+    rows, Σ_q q·x_q (Verlet: x1 + 2·x2). ``dashpot(delta0, d, rate, gamma, h)``: the dashpot force γ·δ̇ of a
+    contact (rate = dt·δ̇), only while it is closed (δ0 + d > 0).
+    """
+    real = wp.float64 if precision == "float64" else wp.float32
+
+    @wp.func
+    def predicted_rate(x: wp.array3d(dtype=real), c: int, j: int) -> real:
+        rate = x[1, c, j] + real(2) * x[2, c, j]
+        if wp.static(order >= 4):
+            rate += real(3) * x[3, c, j]
+        if wp.static(order >= 5):
+            rate += real(4) * x[4, c, j]
+        if wp.static(order >= 6):
+            rate += real(5) * x[5, c, j]
+        return rate
+
+    @wp.func
+    def dashpot(delta0: real, d: real, rate: real, gamma: real, h: real) -> real:
+        out = real(0)
+        if delta0 + d > real(0):
+            out = gamma * rate / h
+        return out
+
+    return predicted_rate, dashpot
+
+
+@functools.cache
 def contact_parameters(precision: str, static: str, heterogeneous: bool, hertz: bool):
     """``params(static_overlap, contact_constant, exponent, c, k) -> (δ0, a_c, n)`` of padded contact k.
 

@@ -14,7 +14,7 @@ import warp as wp
 from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, Features
 from .events import event_functions
 from .gear import nordsieck_functions
-from .physics import contact_functions, contact_parameters
+from .physics import contact_functions, contact_parameters, damping_functions
 
 
 @functools.cache
@@ -46,25 +46,7 @@ def step_kernel(features: Features):
     VISCOUS = f.damping == "viscous"
     DASHPOT = f.damping == "contact"
 
-    @wp.func
-    def predicted_rate(x: wp.array3d(dtype=real), c: int, j: int) -> real:
-        # dt·v predicted at t + dt from the Nordsieck vector: Σ_q q·x_q (Verlet: x1 + 2·x2)
-        rate = x[1, c, j] + real(2) * x[2, c, j]
-        if wp.static(ORDER >= 4):
-            rate += real(3) * x[3, c, j]
-        if wp.static(ORDER >= 5):
-            rate += real(4) * x[4, c, j]
-        if wp.static(ORDER >= 6):
-            rate += real(5) * x[5, c, j]
-        return rate
-
-    @wp.func
-    def dashpot(delta0: real, d: real, rate: real, gamma: real, h: real) -> real:
-        # dashpot force γ·δ̇ of a contact (rate = dt·δ̇), only while it is closed (δ0 + d > 0)
-        out = real(0)
-        if delta0 + d > real(0):
-            out = gamma * rate / h
-        return out
+    predicted_rate, dashpot = damping_functions(f.precision, ORDER)
 
     driver_values = nordsieck.driver_values
 
