@@ -81,6 +81,22 @@ class TileShape:
     def block_dim(self) -> int:
         return self.lanes_per_chain * self.chains_per_block
 
+    def describe(self, windows: str = "") -> str:
+        """Short text, e.g. 'G=8 lanes=125 regs<=168'; ``windows`` (the plan's window layout) goes after the
+        chains per block."""
+        text = f"G={self.grains_per_lane} lanes={self.lanes_per_chain}"
+        if self.chains_per_block > 1:
+            text += f" chains/block={self.chains_per_block}"
+        if windows:
+            text += f" {windows}"
+        if self.max_registers:
+            text += f" regs<={self.max_registers}"
+        if not self.fast_sqrt:
+            text += " sqrt=rn"
+        if not self.inline_event_step:
+            text += " event-step=call"
+        return text
+
     @property
     def window(self) -> int:
         """Grains one chain (or window) holds on-chip."""
@@ -512,19 +528,8 @@ class TilePlan:
     block_count: int
 
     def describe(self) -> str:
-        s = self.shape
-        text = f"G={s.grains_per_lane} lanes={s.lanes_per_chain}"
-        if s.chains_per_block > 1:
-            text += f" chains/block={s.chains_per_block}"
-        if s.windowed:
-            text += f" windows={self.blocks_per_chain}x{self.interior}+2x{self.ghost}"
-        if s.max_registers:
-            text += f" regs<={s.max_registers}"
-        if not s.fast_sqrt:
-            text += " sqrt=rn"
-        if not s.inline_event_step:
-            text += " event-step=call"
-        return text + f" K={self.steps_per_launch}"
+        windows = f"windows={self.blocks_per_chain}x{self.interior}+2x{self.ghost}" if self.shape.windowed else ""
+        return self.shape.describe(windows) + f" K={self.steps_per_launch}"
 
 
 def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_per_lane: int = 8,

@@ -54,17 +54,7 @@ class SolverConfig:
         """Short text: 'step', 'sweep', or 'tile (G=8 lanes=4 K=64)' and the like."""
         if self.shape is None:
             return self.kind
-        s = self.shape
-        text = f"G={s.grains_per_lane} lanes={s.lanes_per_chain}"
-        if s.chains_per_block > 1:
-            text += f" chains/block={s.chains_per_block}"
-        if s.max_registers:
-            text += f" regs<={s.max_registers}"
-        if not s.fast_sqrt:
-            text += " sqrt=rn"
-        if not s.inline_event_step:
-            text += " event-step=call"
-        return f"{self.kind} ({text} K={self.steps_per_launch})"
+        return f"{self.kind} ({self.shape.describe()} K={self.steps_per_launch})"
 
     def to_dict(self) -> dict:
         """JSON-ready fields (store attributes, calibration cache)."""
