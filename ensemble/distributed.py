@@ -60,13 +60,14 @@ def _quiet_warp():
 
 def warm_kernels(features: Iterable[Features], device: str) -> None:
     """Build and load every kernel variant on ``device`` once, so workers find them in Warp's cache."""
-    from hertzian.kernels.records import record_kernel
+    from hertzian.kernels.records import record_kernels
     from hertzian.kernels.step import step_kernel
 
     wp = _quiet_warp()
     for f in set(features):
         wp.load_module(step_kernel(f).module, device=device)
-        wp.load_module(record_kernel(f).module, device=device)
+        for kernel in record_kernels(f):
+            wp.load_module(kernel.module, device=device)
 
 
 def run_job(job: BatchJob, device: str, progress: Callable[[int, int], None] | None = None, *,

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from hertzian.kernels.records import record_kernel, track_extremes
+from hertzian.kernels.records import PART_SUMS, record_kernels, record_part_count, track_extremes
 
 from .model import Model, State
 from .response import ResponseAccumulator
@@ -27,7 +27,9 @@ class Recorder:
         self.model = model
         m, scene = model, model.scenes[0]
         c, dev = m.chain_count, m.device
-        self.kernel = record_kernel(m.features)
+        self.parts_kernel, self.kernel = record_kernels(m.features)
+        self.parts = wp.zeros((c, record_part_count(m.grain_count), PART_SUMS), dtype=wp.float64, device=dev)
+        """Per chain and run of grains: the partial sums of kernels/records.py (device scratch)."""
         self.energy_now = wp.zeros(c, dtype=wp.float64, device=dev)
         self.work_now = wp.zeros(c, dtype=wp.float64, device=dev)
         self.max_overlap_now = wp.zeros(c, dtype=wp.float64, device=dev)
@@ -83,6 +85,7 @@ class Recorder:
 
     def load(self) -> None:
         """Compile and load the reduction kernels (before a clock starts)."""
+        wp.load_module(self.parts_kernel.module, device=self.model.device)
         wp.load_module(self.kernel.module, device=self.model.device)
         wp.load_module(track_extremes.module, device=self.model.device)
         if self.response is not None:
@@ -91,11 +94,14 @@ class Recorder:
     def check(self, state: State, step: int) -> None:
         """Energy, work, largest overlap and status of every chain at ``step`` (device only, no sync)."""
         m = self.model
+        wp.launch(self.parts_kernel, dim=self.parts.shape[:2],
+                  inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.dt,
+                          state.dissipated], outputs=[self.parts], device=m.device)
         wp.launch(self.kernel, dim=m.chain_count,
-                  inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.drive,
-                          state.work, state.power, step, m.dt, m.validity_overlap],
+                  inputs=[state.x, m.contact_constant, m.static_overlap, m.exponent, m.drive,
+                          state.work, state.power, step, m.dt, m.validity_overlap, self.parts],
                   outputs=[self.energy_now, self.work_now, self.max_overlap_now, state.status, m.damping,
-                           state.dissipated, self.dissipated_now], device=m.device)
+                           self.dissipated_now], device=m.device)
         if step == 0:
             wp.copy(self.initial_energy, self.energy_now)
         wp.launch(track_extremes, dim=m.chain_count,

@@ -1,7 +1,11 @@
 """Per-chain reductions at record times: energy, driver's work, largest overlap, status.
 
-One thread per chain sums its grains in a fixed order, so results are bitwise reproducible
-(no atomics). Sums are float64 whatever the state precision.
+Two launches, no atomics, so results are bitwise reproducible: ``record_parts`` gives each run of
+``RECORD_PART`` consecutive grains of a chain one thread, which sums them in order; ``record`` (one
+thread per chain) adds the parts in order and closes the chain's sums (walls, driver, status). A
+chain of up to RECORD_PART grains is one part: the same bits as one thread summing the whole chain.
+Parts keep a record of a long chain from being one thread's serial loop (on a GPU, a 10 000-grain
+chain's energy took one thread ~20 ms per record). Sums are float64 whatever the state precision.
 """
 
 
@@ -12,10 +16,21 @@ import warp as wp
 from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, STATUS_OK, STATUS_OVERLAP_BEYOND_VALIDITY, Features
 from .physics import contact_functions, contact_parameters, excess_potential
 
+RECORD_PART = 128
+"""Grains per thread of ``record_parts`` (fixed, so the sums' order does not depend on the device)."""
+PART_SUMS = 5
+"""Per part: kinetic energy, excess potential, largest overlap, finite (1.0 or 0.0), dissipated energy."""
+
+
+def record_part_count(grains: int) -> int:
+    """Parts of a chain of ``grains`` grains (the second dimension of the parts array)."""
+    return -(-grains // RECORD_PART)
+
 
 @functools.cache
-def record_kernel(features: Features):
-    """Energy (relative to the static state), work, max overlap and status for one feature set."""
+def record_kernels(features: Features):
+    """``(record_parts, record)`` for one feature set: energy (relative to the static state), work, max
+    overlap and status, as described in the module docstring."""
     f = features
     real = wp.float64 if f.precision == "float64" else wp.float32
     SURFACE_WALL = f.surface == "wall"
@@ -53,41 +68,34 @@ def record_kernel(features: Features):
         return wp.vec2d(excess_potential(delta0, d, wp.float64(p[1]), wp.float64(p[2])), delta0 + d)
 
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
-    def record(
+    def record_parts(
         x: wp.array3d(dtype=real),
         inverse_mass: wp.array2d(dtype=real),
         contact_constant: wp.array2d(dtype=real),
         static_overlap: wp.array2d(dtype=real),
         exponent: wp.array(dtype=real),
-        drive: wp.array2d(dtype=wp.float64),
-        work_in: wp.array(dtype=wp.float64),
-        power_in: wp.array(dtype=wp.float64),
-        step: int,
         dt: wp.float64,
-        validity_overlap: wp.array(dtype=wp.float64),
-        energy: wp.array(dtype=wp.float64),
-        work: wp.array(dtype=wp.float64),
-        max_overlap: wp.array(dtype=wp.float64),
-        status: wp.array(dtype=wp.int32),
-        damping: wp.array(dtype=real),
         dissipated_grain: wp.array2d(dtype=wp.float64),
-        dissipated: wp.array(dtype=wp.float64),
+        parts: wp.array3d(dtype=wp.float64),
     ):
-        c = wp.tid()
+        # grains [part·RECORD_PART, (part + 1)·RECORD_PART) of chain c, in order
+        c, part = wp.tid()
         n_grains = x.shape[2]
+        start = part * wp.static(RECORD_PART)
+        end = wp.min(start + wp.static(RECORD_PART), n_grains)
         kinetic = wp.float64(0.0)
         potential = wp.float64(0.0)
         # (dynamic variables: they change inside the loop)
         largest = wp.float64(-1.0e300)
-        finite = int(1)
+        finite = wp.float64(1.0)
         first = int(0)
         if wp.static(DRIVEN):
             first = 1  # the driven grain's motion is prescribed: not part of the chain's energy
-        for i in range(n_grains):
+        for i in range(start, end):
             u = position(x, c, i)
             v = rate(x, c, i) / dt
             if not (wp.isfinite(u) and wp.isfinite(v)):
-                finite = 0
+                finite = wp.float64(0.0)
             if i >= first:
                 inv_m = wp.float64(0.0)
                 if wp.static(HETERO):
@@ -100,6 +108,50 @@ def record_kernel(features: Features):
                                       position(x, c, i - 1) - u)
                 potential += terms[0]
                 largest = wp.max(largest, terms[1])
+        lost = wp.float64(0.0)
+        if wp.static(DAMPED):
+            for i in range(start, end):
+                lost += dissipated_grain[c, i]
+        parts[c, part, 0] = kinetic
+        parts[c, part, 1] = potential
+        parts[c, part, 2] = largest
+        parts[c, part, 3] = finite
+        parts[c, part, 4] = lost
+
+    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
+    def record(
+        x: wp.array3d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        static_overlap: wp.array2d(dtype=real),
+        exponent: wp.array(dtype=real),
+        drive: wp.array2d(dtype=wp.float64),
+        work_in: wp.array(dtype=wp.float64),
+        power_in: wp.array(dtype=wp.float64),
+        step: int,
+        dt: wp.float64,
+        validity_overlap: wp.array(dtype=wp.float64),
+        parts: wp.array3d(dtype=wp.float64),
+        energy: wp.array(dtype=wp.float64),
+        work: wp.array(dtype=wp.float64),
+        max_overlap: wp.array(dtype=wp.float64),
+        status: wp.array(dtype=wp.int32),
+        damping: wp.array(dtype=real),
+        dissipated: wp.array(dtype=wp.float64),
+    ):
+        # the parts of chain c in order, then the walls, the driver's work and the status
+        c = wp.tid()
+        n_grains = x.shape[2]
+        kinetic = wp.float64(0.0)
+        potential = wp.float64(0.0)
+        largest = wp.float64(-1.0e300)
+        finite = wp.float64(1.0)
+        lost = wp.float64(0.0)
+        for part in range(parts.shape[1]):
+            kinetic += parts[c, part, 0]
+            potential += parts[c, part, 1]
+            largest = wp.max(largest, parts[c, part, 2])
+            finite = wp.min(finite, parts[c, part, 3])
+            lost += parts[c, part, 4]
         if wp.static(SURFACE_WALL):
             terms = contact_terms(static_overlap, contact_constant, exponent, c, 0, -position(x, c, 0))
             potential += terms[0]
@@ -139,17 +191,14 @@ def record_kernel(features: Features):
             energy[c] = energy[c] + static_work
 
         if wp.static(DAMPED):
-            lost = wp.float64(0.0)
-            for i in range(n_grains):
-                lost += dissipated_grain[c, i]
             dissipated[c] = lost
 
-        if finite == 0:
+        if finite == wp.float64(0.0):
             status[c] = wp.static(STATUS_NON_FINITE)
         elif status[c] == wp.static(STATUS_OK) and largest > validity_overlap[c]:
             status[c] = wp.static(STATUS_OVERLAP_BEYOND_VALIDITY)
 
-    return record
+    return record_parts, record
 
 
 @wp.kernel(enable_backward=False)

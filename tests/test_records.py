@@ -1,0 +1,74 @@
+"""The record reductions (kernels/records.py) on chains longer than one part of RECORD_PART grains.
+
+Energy, largest overlap and the status flags are computed in parts of consecutive grains and then
+added per chain; here they are checked against the NumPy reference's energy (tests/reference.py,
+SPEC §5) and against overlaps computed with NumPy, on a chain of three parts whose impurities, largest
+overlap and non-finite grain sit in the later parts (a reduction that dropped or repeated a part fails).
+"""
+
+import numpy as np
+import warp as wp
+
+from hertzian.ensemble.model import build_model
+from hertzian.ensemble.recorder import Recorder
+from hertzian.ensemble.status import Status
+from hertzian.kernels.records import RECORD_PART, record_part_count
+
+from conftest import make_scene
+from reference import static_overlaps, total_energy
+
+GRAINS = 2 * RECORD_PART + 44
+SECTIONS = dict(chain={"grains": GRAINS, "l0": 1e-4},
+                impurities=[{"grains": [RECORD_PART + 3], "mass": 0.5}, {"grains": [GRAINS - 7], "mass": 3.0}],
+                excitation={"impact": 1e-2})
+
+
+def _set_state(model, state, u, v):
+    x = state.x.numpy()
+    x[:] = 0.0
+    x[0, 0] = u
+    x[1, 0] = v * model.dt
+    state.x.assign(x)
+
+
+def _check(model, recorder, state, u, v):
+    _set_state(model, state, u, v)
+    recorder.check(state, 1)
+    wp.synchronize_device(model.device)
+    return recorder.energy_now.numpy()[0], recorder.max_overlap_now.numpy()[0], int(state.status.numpy()[0])
+
+
+def test_record_sums_every_part_of_a_long_chain(device):
+    assert record_part_count(GRAINS) == 3
+    scene = make_scene(**SECTIONS)
+    model = build_model([scene], device)
+    recorder = Recorder(model)
+    state = model.state()
+    rng = np.random.default_rng(7)
+    delta_sw, delta_in, delta_bw = static_overlaps(scene.to_dict())
+    energies, references = [], []
+    for trial in range(3):
+        u = rng.normal(scale=2e-5, size=GRAINS)
+        v = rng.normal(scale=1e-2, size=GRAINS)
+        u[GRAINS - 30] += 3e-4 * (trial + 1)  # the largest overlap, in the last part
+        energy, largest, status = _check(model, recorder, state, u, v)
+        energies.append(energy)
+        references.append(total_energy(scene.to_dict(), u, v))
+        overlaps = np.concatenate([[delta_sw - u[0]], delta_in + u[:-1] - u[1:], [delta_bw + u[-1]]])
+        np.testing.assert_allclose(largest, overlaps.max(), rtol=1e-14)
+        assert np.argmax(overlaps) > 2 * RECORD_PART
+        assert status == Status.OK
+    # the recorded energy is SPEC's up to a constant per chain: compare differences between states
+    got, want = np.diff(energies), np.diff(references)
+    np.testing.assert_allclose(got, want, rtol=1e-11, atol=1e-13 * np.max(np.abs(references)))
+    assert np.min(np.abs(want)) > 1e-3 * np.max(np.abs(references))
+
+
+def test_record_flags_a_non_finite_grain_in_a_later_part(device):
+    model = build_model([make_scene(**SECTIONS)], device)
+    recorder = Recorder(model)
+    state = model.state()
+    u, v = np.zeros(GRAINS), np.zeros(GRAINS)
+    v[GRAINS - 3] = np.nan
+    _, _, status = _check(model, recorder, state, u, v)
+    assert status == Status.NON_FINITE
