@@ -73,9 +73,10 @@ class TileShape:
     """float64 Hertz on CUDA: the sqrt's fast path without a branch per contact (one test per lane-step)."""
     max_registers: int = 0
     """CUDA register cap per thread (0: the compiler's choice); lower caps fit more blocks per SM."""
-    inline_event_step: bool = True
-    """Event-aware steps: the event step (called once per lane-step) inlined; False: an out-of-line
-    function (CUDA ``__noinline__``: less code, live registers saved around the call). Same bits."""
+    inline_event_step: bool = False
+    """Event-aware steps: the event step (called once per lane-step) as an out-of-line function (CUDA
+    ``__noinline__``: less code, live registers saved around the call); True: inlined. Same bits. Out of line
+    was 1.3-1.5x faster on an H100 (gpu_10k's chains, G = 8 and 4; docs/benchmarks.md)."""
 
     @property
     def block_dim(self) -> int:
@@ -93,8 +94,8 @@ class TileShape:
             text += f" regs<={self.max_registers}"
         if not self.fast_sqrt:
             text += " sqrt=rn"
-        if not self.inline_event_step:
-            text += " event-step=call"
+        if self.inline_event_step:
+            text += " event-step=inline"
         return text
 
     @property
@@ -535,7 +536,7 @@ class TilePlan:
 def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_per_lane: int = 8,
               lanes_per_chain: int | None = None, chains_per_block: int = 1, steps_per_launch: int = 64,
               windowed: bool = False, branchless: bool = True, fast_sqrt: bool = True,
-              max_registers: int = 0, inline_event_step: bool = True) -> TilePlan:
+              max_registers: int = 0, inline_event_step: bool = False) -> TilePlan:
     """Lay out a fused launch for ``chain_count`` chains of ``grain_count`` grains.
 
     Whole chains: ``lanes_per_chain = ceil(grain_count / grains_per_lane)`` unless given (it must cover

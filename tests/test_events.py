@@ -119,25 +119,26 @@ def test_tile_kernel_writes_the_event_step_once():
                      Features(method="gear5", surface="driven", bottom="fixed", static="uniform",
                               event_window=0.5)):
         for grains_per_lane in (4, 16):
-            shape = TileShape(grains_per_lane, 4)
+            shape = TileShape(grains_per_lane, 4, inline_event_step=True)
             source = generated_source(tile_kernel(features, shape), block_dim=shape.block_dim)
             advance = function_body(source, "advance")
             assert call_count(advance, "near_event") == 2 * grains_per_lane, (features, grains_per_lane)
             assert call_count(advance, "event_step") == 1, (features, grains_per_lane)
-    # out of line: the one call site calls a function the compiler must not inline
-    shape = TileShape(8, 4, inline_event_step=False)
+    # out of line (the default): the one call site calls a function the compiler must not inline
+    shape = TileShape(8, 4)
     source = generated_source(tile_kernel(features, shape), block_dim=shape.block_dim)
     assert call_count(function_body(source, "advance"), "event_step_call") == 1
     assert re.search(r"^static WP_NOINLINE [^\n]*__locals__event_step_call_\d+\(", source, re.MULTILINE)
 
 
-def test_out_of_line_event_step_takes_the_same_steps():
-    """TileShape.inline_event_step = False (a tuning knob for CUDA) computes the same bits."""
+def test_inlined_event_step_takes_the_same_steps():
+    """TileShape.inline_event_step = True (a tuning knob for CUDA; out of line is the default) computes the
+    same bits."""
     sections, n_chains, plan_keywords = EVENT_CASES["l0 = 0, gear4, free ends, 2 chains per block"]
     steps = 300
     model = build_model(chains(n_chains, **sections), "cpu")
-    plan = plan_tile(model.features, model.grain_count, model.chain_count, inline_event_step=False, **plan_keywords)
-    assert "event-step=call" in plan.describe()
+    plan = plan_tile(model.features, model.grain_count, model.chain_count, inline_event_step=True, **plan_keywords)
+    assert "event-step=inline" in plan.describe()
     np.testing.assert_array_equal(fused(model, plan, steps), per_step(model, steps))
 
 

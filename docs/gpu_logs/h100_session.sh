@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -80,6 +80,17 @@ warm)
   step e2e_gpu10k 170 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
   step e2e_gpu10k_notraces 70 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --set 'record.traces=[]' --json"
   step e2e_fig9_10_t500 130 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  ;;
+events)
+  # the tile kernel's event-step variants on gpu_10k's chains (off / inline / out of line, G = 8 and 4)
+  step event_variants 480 "python3 docs/gpu_logs/event_variants.py --out $LOGS/event_variants_table.json"
+  ;;
+fixes)
+  # after the record reductions in parts and the out-of-line event step (second session of 2026-11-23)
+  step e2e_fig9_10_t500_off 120 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --set integrator.events=off --json"
+  step e2e_fig9_10_t500 150 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step e2e_gpu10k 150 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step e2e_gpu10k_notraces 90 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --set 'record.traces=[]' --json"
   ;;
 repro)
   step reproduce 560 "$HZ reproduce --device cuda --out-dir $WORK/repro"

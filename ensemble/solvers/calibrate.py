@@ -44,8 +44,8 @@ AUTO_MIN_GRAIN_STEPS_CPU = 2e8
 """Below this many grain-steps in a run, ``auto`` keeps the per-step kernel on a CPU (a compile costs seconds)."""
 AUTO_MIN_GRAIN_STEPS_GPU = 5e9
 """Likewise on a GPU, where a calibration costs tens of seconds the first time."""
-CALIBRATION_VERSION = 2
-"""Bumped when the cached fields change (2: a SolverConfig)."""
+CALIBRATION_VERSION = 3
+"""Bumped when the cached fields change (2: a SolverConfig; 3: the event step out of line by default)."""
 
 
 def stepping_features(features):
