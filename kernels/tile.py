@@ -37,7 +37,7 @@ Traces are sampled between launches (kernels/traces.py; the solver cuts advances
 
 
 import functools
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import warp as wp
@@ -570,7 +570,27 @@ def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_
         plan = TilePlan(shape, steps_per_launch, n, 0, 1, -(-chain_count // chains_per_block))
     if plan.shape.block_dim > 1024:
         raise ValueError(f"block of {plan.shape.block_dim} threads: at most 1024")
+    cap = launchable_register_cap(plan.shape.block_dim)
+    if cap and (max_registers == 0 or max_registers > cap):
+        plan = replace(plan, shape=replace(plan.shape, max_registers=cap))
     return plan
+
+
+REGISTER_FILE = 65536
+"""32-bit registers per block on every CUDA GPU since compute capability 5.x (sm_90 included)."""
+REGISTERS_PER_THREAD = 255
+"""The most registers a CUDA thread can be given."""
+
+
+def launchable_register_cap(block_dim: int) -> int:
+    """A register cap that lets a block of ``block_dim`` threads launch whatever the features cost, or 0 when
+    none is needed (even 255 registers per thread fit). Without it the compiler may give a heavy variant
+    (a drive, response windows, event steps) more registers than a large block can hold, and the launch
+    fails ("too many resources requested"); with it, the excess spills to local memory."""
+    threads = -(-block_dim // 32) * 32
+    if threads * REGISTERS_PER_THREAD <= REGISTER_FILE:
+        return 0
+    return REGISTER_FILE // threads // 8 * 8
 
 
 def launch_tile(plan: TilePlan, kernel, *, x_in, clock_in, inverse_mass, contact_constant, static_overlap,
