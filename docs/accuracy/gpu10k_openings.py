@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import datetime
 import json
+import os
 import platform
 import sys
 from pathlib import Path
@@ -95,13 +96,24 @@ def study(name: str, impact: float, l0: float) -> dict:
     }
 
 
+def cpu_name() -> str:
+    """The CPU's model name (Linux), else the machine type."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.machine()
+
+
 def main() -> None:
     init_warp()
     import warp as wp
 
     points = [study(name, *p) for name, p in POINTS.items()]
     print(json.dumps({
-        "device": f"cpu ({platform.processor() or platform.machine()}, 2 cores shared)",
+        "device": f"cpu ({cpu_name()}, {os.cpu_count()} cores, shared with other jobs)",
         "warp": wp.config.version,
         "date": datetime.date.today().isoformat(),
         "command": "python docs/accuracy/gpu10k_openings.py " + " ".join(sys.argv[1:]),
