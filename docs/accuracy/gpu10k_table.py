@@ -70,21 +70,21 @@ def point_table(name: str, records: list[dict]) -> list[str]:
     lines.append("cheapest studied plain step (events off) reaching each events-auto value, estimated H100 s "
                  "(auto → off):")
     for measure, key in (("error", "error"), ("energy", "energy_error")):
+        bounded = key == "error"  # only the position error is measured against the reference
         for dt in sorted(auto, reverse=True):
             a = auto[dt]
             target = a[key]
+            head = f"  {measure:>6} auto dt = {dt:<8g} {fmt(target, bounded and a['reference_limited'])}"
             meeting = [r for r in off.values() if r[key] <= target and r["status"] == 0]
             if meeting:
                 best = max(meeting, key=lambda r: r["dt"])
                 t_auto, t_off = h100_estimate(dt, "auto"), h100_estimate(best["dt"], "off")
                 verdict = "off cheaper" if t_off < t_auto else "auto cheaper"
-                lines.append(f"  {measure:>6} auto dt = {dt:<8g} {fmt(target, key == 'error' and a['reference_limited'])}"
-                             f" → off dt = {best['dt']:<8g} {fmt(best[key], key == 'error' and best['reference_limited'])}"
+                lines.append(f"{head} → off dt = {best['dt']:<8g} {fmt(best[key], bounded and best['reference_limited'])}"
                              f" {t_auto:7.2f} s → {t_off:6.2f} s  ({verdict}, ×{t_auto / t_off:.1f})")
             else:
                 finest = min(off)
-                lines.append(f"  {measure:>6} auto dt = {dt:<8g} {fmt(target, key == 'error' and a['reference_limited'])}"
-                             f" → none: off at the finest studied dt = {finest:g} gives {fmt(off[finest][key])}"
+                lines.append(f"{head} → none: off at the finest studied dt = {finest:g} gives {fmt(off[finest][key])}"
                              f" ({h100_estimate(dt, 'auto'):.2f} s with events)")
     return lines
 
