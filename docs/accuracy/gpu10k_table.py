@@ -80,7 +80,8 @@ def point_table(name: str, records: list[dict]) -> list[str]:
                 best = max(meeting, key=lambda r: r["dt"])
                 t_auto, t_off = h100_estimate(dt, "auto"), h100_estimate(best["dt"], "off")
                 verdict = "off cheaper" if t_off < t_auto else "auto cheaper"
-                lines.append(f"{head} → off dt = {best['dt']:<8g} {fmt(best[key], bounded and best['reference_limited'])}"
+                matched = fmt(best[key], bounded and best["reference_limited"])
+                lines.append(f"{head} → off dt = {best['dt']:<8g} {matched}"
                              f" {t_auto:7.2f} s → {t_off:6.2f} s  ({verdict}, ×{t_auto / t_off:.1f})")
             else:
                 finest = min(off)
