@@ -59,7 +59,7 @@ e2e)
   ;;
 drive)
   step e2e_fig9_10_t500 200 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
-  step drive_map 240 "$HZ sweep sweeps/drive_map_gpu.toml --out $WORK/drive_map.zarr --overwrite --device cuda --quiet --json && $HZ plot $WORK/drive_map.zarr --figure drive_map --out $LOGS/drive_map_gpu.png"
+  step drive_map ${MAP_LIMIT:-240} "$HZ sweep sweeps/drive_map_gpu.toml --out $WORK/drive_map.zarr --overwrite --device cuda --quiet --json && $HZ plot $WORK/drive_map.zarr --figure drive_map --out $LOGS/drive_map_gpu.png"
   ;;
 fig910)
   step fig9_10_tau10 300 "$HZ sweep sweeps/drive_fig9_10_gpu.toml --out $WORK/f910_tau10.zarr --overwrite --device cuda --quiet --json"
@@ -93,7 +93,7 @@ fixes)
   step e2e_gpu10k_notraces 90 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --set 'record.traces=[]' --json"
   ;;
 repro)
-  step reproduce 560 "$HZ reproduce --device cuda --out-dir $WORK/repro"
+  step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
   cp "$WORK"/repro/*.json "$WORK"/repro/*.png "$LOGS"/ 2>/dev/null
   ;;
 detect)

@@ -77,12 +77,12 @@ def step_reason_of(features, is_cpu: bool, grain_steps: float) -> str | None:
 
 def event_cost_note(features, is_cpu: bool) -> str | None:
     """One line when a CUDA run carries event-aware steps (a contact can open, ``integrator.events = "auto"``),
-    which measured 27× slower in the fused kernels on an H100 (docs/benchmarks.md); None otherwise."""
+    which measured ~20× slower in the fused kernels on an H100 (docs/benchmarks.md); None otherwise."""
     if is_cpu or features.event_window <= 0:
         return None
     return ('event-aware steps are compiled in (a contact can open; integrator.events = "auto"): on CUDA they '
-            'made the fused kernel up to 27x slower (docs/benchmarks.md); integrator.events = "off" takes plain '
-            'Gear steps')
+            'made the fused kernel ~20x slower (docs/benchmarks.md, docs/stability.md 6c); integrator.events = "off" '
+            'takes plain Gear steps')
 
 
 def step_reason(model: Model, run_steps: int | None = None) -> str | None:
