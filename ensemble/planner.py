@@ -268,8 +268,13 @@ def _group_features(points: SweepPoints, templates: list[int]) -> Features:
     for t in templates:
         chains = static_subgrid(points, t)
         # homogeneous chains without gravity carry one static force on every contact: the first
-        # contacts decide (as in build_model); otherwise every contact is scanned
-        window = None if chains.template.impurities or np.any(chains.column("chain.gravity") > 0) else 2
+        # contacts decide (as in build_model); otherwise every contact is scanned. Without event-aware
+        # steps (events off, verlet, damping) only "is there a static overlap" is asked of the contacts,
+        # and contact 1 (carrying F0 + g·m_0) answers it for every chain
+        i = chains.template.integrator
+        events_possible = i.events == "auto" and i.method != "verlet" and chains.template.damping.model == "none"
+        window = None if events_possible and (
+            chains.template.impurities or np.any(chains.column("chain.gravity") > 0)) else 2
         step = max(1, CHUNK_ELEMENTS // ((window or chains.template.chain.grains) + 1))
         for start in range(0, len(chains), step):
             part = chains.take(np.arange(start, min(start + step, len(chains))))

@@ -547,15 +547,25 @@ def expand(sweep: Sweep, *, validate: bool = True) -> SweepPoints:
 
 def static_subgrid(expanded: SweepPoints, template: int) -> ChainSet:
     """The distinct configurations of one template's points that decide its kernel variant: the product
-    of the parameter dimensions that hold a FEATURE_KEYS key (others at index 0), as a ChainSet."""
+    of the parameter dimensions that hold a FEATURE_KEYS key (others at index 0), as a ChainSet.
+
+    A dimension whose axes are all ``excitation.impact`` is taken at its largest |v_imp| only: the impact
+    speed enters the kernel variant only through ``contact_can_open``, whose answer can only turn true as
+    the injected energy ½·m_0·v_imp² grows, so the fastest impact of each static configuration decides it."""
     sweep = expanded.sweep
     shape = sweep.shape
-    dims = [d for d in expanded.parameter if any(_is_static_key(a.key) for a in sweep.dimensions[d].axes)]
+    impact_only = {d for d in expanded.parameter
+                   if all(a.key == "excitation.impact" for a in sweep.dimensions[d].axes)}
+    dims = [d for d in expanded.parameter if d not in impact_only
+            and any(_is_static_key(a.key) for a in sweep.dimensions[d].axes)]
     base = [0] * len(shape)
     if expanded.structural:
         combo = np.unravel_index(template, tuple(shape[d] for d in expanded.structural))
         for d, i in zip(expanded.structural, combo):
             base[d] = int(i)
+    for d in impact_only:
+        speeds = np.abs(np.asarray([a.values for a in sweep.dimensions[d].axes], dtype=np.float64))
+        base[d] = int(np.argmax(speeds.max(axis=0)))
     grids = np.meshgrid(*[np.arange(shape[d]) for d in dims], indexing="ij") if dims else []
     count = int(np.prod([shape[d] for d in dims])) if dims else 1
     index = [np.full(count, b, dtype=np.int64) for b in base]

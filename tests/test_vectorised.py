@@ -24,6 +24,77 @@ from hertzian.ensemble.sweep import Dimension, expand, load_sweep, sweep_from_di
 SWEEPS = sorted((Path(__file__).parent.parent / "sweeps").glob("*.toml"))
 
 INLINE = {
+    # the planner takes an impact-only dimension at its fastest impact (only that one opens a contact
+    # here: l0 = 1e-3 holds the contacts closed below v_imp ≈ 0.02), values not sorted; and a dimension
+    # zipping the impact with l0, which is scanned at every index
+    "impact_opens_only_at_the_fastest": """
+[scene.chain]
+grains = 12
+l0 = 1e-3
+[[scene.impurities]]
+grains = [5]
+mass = 0.5
+[scene.excitation]
+impact = 1e-2
+[scene.integrator]
+method = "gear4"
+dt = 1e-4
+duration = 0.01
+[[axis]]
+name = "v_imp"
+key = "excitation.impact"
+values = [1e-3, 0.1, 3e-3]
+[[axis]]
+name = "imp_mass"
+key = "impurities.0.mass"
+values = [0.5, 2.0]
+""",
+    "impact_never_opens": """
+[scene.chain]
+grains = 12
+l0 = 1e-3
+[[scene.impurities]]
+grains = [5]
+mass = 0.5
+[scene.excitation]
+impact = 1e-2
+[scene.integrator]
+method = "gear4"
+dt = 1e-4
+duration = 0.01
+[[axis]]
+name = "v_imp"
+key = "excitation.impact"
+values = [1e-3, 1e-2, 3e-3]
+[[axis]]
+name = "l0"
+key = "chain.l0"
+values = [1e-3, 3e-3]
+""",
+    "impact_zipped_with_l0": """
+[scene.chain]
+grains = 12
+l0 = 1e-3
+[[scene.impurities]]
+grains = [5]
+mass = 0.5
+[scene.excitation]
+impact = 1e-2
+[scene.integrator]
+method = "gear4"
+dt = 1e-4
+duration = 0.01
+[[axis]]
+name = "v_imp"
+key = "excitation.impact"
+values = [0.1, 1e-3]
+[[axis]]
+name = "l0"
+key = "chain.l0"
+values = [1e-2, 1e-6]
+[[zip]]
+axes = ["v_imp", "l0"]
+""",
     # per-chain keys the sweep files do not vary, a load instead of l0, gravity with a free... wall top
     "load_mass_diameter": """
 [scene.chain]
