@@ -106,8 +106,9 @@ def sweep_kernel(features: Features):
         power_out: wp.array(dtype=wp.float64),
         damping: wp.array(dtype=real),
         dissipated: wp.array2d(dtype=wp.float64),
+        first_chain: int,
     ):
-        c = wp.tid()
+        c = wp.tid() + first_chain
         n_grains = x_in.shape[2]
         if c == 0:
             clock_out[0] = clock_in[0] + steps
@@ -337,12 +338,17 @@ def sweep_kernel(features: Features):
 
 def launch_sweep(kernel, *, x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status,
                  dt: float, steps: int, x_out, clock_out, device, drive, work_in, power_in, work_out, power_out,
-                 damping, dissipated, record_cmd: bool = False):
-    """Launch ``steps`` steps of the sweep kernel (one thread per chain); returns the Launch if recorded.
+                 damping, dissipated, chains: tuple[int, int] | None = None):
+    """Launch ``steps`` steps of the sweep kernel for chains ``chains = (first, end)`` (default: all), one
+    kernel thread per chain.
 
+    Warp runs a CPU launch on one OS thread and releases Python's GIL while it runs, so launches over
+    disjoint chain ranges may run at once from several Python threads (ensemble/solvers/sweep.py): each
+    chain is integrated by one thread with the same arithmetic, so the split changes no bit.
     ``drive`` (chains, 2), ``work_*``/``power_*`` (chains,): the model's and states' arrays (size 0 undriven);
     ``damping`` (chains,) γ and ``dissipated`` (chains, grains), updated in place (size 0 undamped)."""
-    return wp.launch(kernel, dim=x_in.shape[1],
-                     inputs=[x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status,
-                             dt, steps, drive, work_in, power_in],
-                     outputs=[x_out, clock_out, work_out, power_out, damping, dissipated], device=device, record_cmd=record_cmd)
+    first, end = chains if chains is not None else (0, x_in.shape[1])
+    wp.launch(kernel, dim=end - first,
+              inputs=[x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status,
+                      dt, steps, drive, work_in, power_in],
+              outputs=[x_out, clock_out, work_out, power_out, damping, dissipated, first], device=device)

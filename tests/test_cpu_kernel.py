@@ -66,3 +66,40 @@ def test_kernel_choice():
     assert choose_config(traced, "auto", run_steps=10**8) == SWEEP       # traces are sampled between launches
     with pytest.raises(ValueError):
         choose_config(model, "fastest")
+
+
+@pytest.mark.parametrize("case", ["walls, padded lanes", "windows, fixed bottom, impurities, gravity",
+                                  "float32, walls, padded lanes, events"])
+def test_sweep_split_over_threads_changes_no_bit(case, monkeypatch):
+    """The CPU sweep launches contiguous chain ranges from several Python threads at once
+    (ensemble/solvers/sweep.py); each chain is still one kernel thread's, so any split gives the same bits."""
+    from hertzian.ensemble.solvers.sweep import chain_ranges
+
+    sections, _, _, steps = CASES[case]
+    model = build_model(chains(5, **sections), "cpu")
+    results = []
+    for threads in (1, 2, 3, 5):
+        solver = SweepSolver(model, SolverConfig("sweep", steps_per_launch=7), threads=threads)
+        assert len(solver.ranges) == min(threads, 5) and solver.ranges == chain_ranges(5, threads)
+        start, scratch = model.state_pair()
+        end = solver.advance(start, scratch, steps)
+        assert end.clock.numpy()[0] == steps
+        results.append(end.x.numpy())
+    assert np.max(np.abs(results[0])) > 0
+    for got in results[1:]:
+        np.testing.assert_array_equal(got, results[0])
+    np.testing.assert_array_equal(results[0], per_step(model, steps))
+
+
+def test_cpu_thread_count_comes_from_the_environment(monkeypatch):
+    from typer.testing import CliRunner
+
+    from hertzian.ensemble.cli import app
+    from hertzian.ensemble.solvers.sweep import cpu_threads
+
+    monkeypatch.setenv("HERTZIAN_CPU_THREADS", "3")
+    assert cpu_threads() == 3
+    monkeypatch.setenv("HERTZIAN_CPU_THREADS", "zero")
+    result = CliRunner().invoke(app, ["run", "--device", "cpu"])
+    assert result.exit_code == 2
+    assert result.stderr.strip().splitlines() == ["error: HERTZIAN_CPU_THREADS = 'zero': must be a whole number ≥ 1"]

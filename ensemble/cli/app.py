@@ -44,7 +44,13 @@ def resolve_device(device: str | None) -> str:
 
     from ..devices import init_warp
 
+    from ..solvers.sweep import cpu_threads
+
     init_warp()
+    try:
+        cpu_threads()  # the CPU sweep's thread count (an environment variable): refused before anything runs
+    except ValueError as err:
+        fail(str(err))
     if device is None:
         return "cuda" if wp.is_cuda_available() else "cpu"
     try:
