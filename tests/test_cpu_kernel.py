@@ -73,8 +73,10 @@ def test_kernel_choice():
 def test_sweep_split_over_threads_changes_no_bit(case, monkeypatch):
     """The CPU sweep launches contiguous chain ranges from several Python threads at once
     (ensemble/solvers/sweep.py); each chain is still one kernel thread's, so any split gives the same bits."""
+    from hertzian.ensemble.solvers import sweep as sweep_module
     from hertzian.ensemble.solvers.sweep import chain_ranges
 
+    monkeypatch.setattr(sweep_module, "MIN_GRAIN_STEPS_TO_SPLIT", 0)  # these launches are small: split anyway
     sections, _, _, steps = CASES[case]
     model = build_model(chains(5, **sections), "cpu")
     results = []

@@ -20,6 +20,9 @@ from .config import SWEEP, SolverConfig
 
 MIN_CHAINS_PER_THREAD = 1
 """Chains below which a range is not split further."""
+MIN_GRAIN_STEPS_TO_SPLIT = 1 << 20
+"""A launch of fewer grain-steps runs whole on the calling thread: handing ranges to the pool costs more
+than such a launch's kernel time (~1e8 grain-steps/s per core: 1e6 grain-steps ≈ 10 ms)."""
 
 
 def cpu_threads() -> int:
@@ -81,8 +84,8 @@ class SweepSolver(Solver):
                          work_out=state_out.work, power_out=state_out.power, damping=m.damping,
                          dissipated=state_in.dissipated, chains=chains)
 
-        if self.pool is None:
-            run(self.ranges[0])
+        if self.pool is None or m.chain_count * m.grain_count * steps < MIN_GRAIN_STEPS_TO_SPLIT:
+            run((0, m.chain_count))
             return
         others = [self.pool.submit(run, chains) for chains in self.ranges[1:]]
         run(self.ranges[0])          # this thread takes the first range
