@@ -357,3 +357,25 @@ values = [1e-4, 3e-3]
     assert {row["tau"] for row in numbers} == {0.25, 0.5}
     result = invoke("plot", out, "--at", "tau=0.5", "--at", "A=1e-4", "--out", tmp_path / "point.png")
     assert result.exit_code == 0, result.stdout + result.stderr
+
+
+def test_response_of_a_chain_is_the_same_alone_and_in_an_ensemble_of_other_periods():
+    """Each chain samples its windows at its own stride (Scene.response_stride): τ = 1 (1000 steps: stride 2)
+    and τ = 1.5 (1500 steps: stride 5) in one ensemble give each chain's sums bit for bit as run alone (a
+    stride shared by the ensemble, 2 here, gave the τ = 1.5 chain other samples than alone)."""
+    from hertzian.ensemble.runner import run_ensemble
+
+    base = scene_from_dict({
+        "chain": {"grains": 16, "l0": 1e-4}, "boundary": {"surface": "driven"},
+        "excitation": {"drive_amplitude": 2e-4, "drive_period": 1.0},
+        "integrator": {"dt": 1e-3, "duration": 3.6},
+        "record": {"every": 0.4, "fields": ["v"], "response_start": 0.4, "response_periods": 1,
+                   "response_windows": 2, "harmonics": 2}})
+    scenes = [base, base.with_overrides({"excitation.drive_period": 1.5})]
+    assert [s.response_stride for s in scenes] == [2, 5]
+    together = run_ensemble(scenes, "cpu").response
+    for c, scene in enumerate(scenes):
+        alone = run_ensemble([scene], "cpu").response
+        for key in ("response", "window_ke", "driver_open", "window_start"):
+            np.testing.assert_array_equal(together[key][c], alone[key][0], err_msg=key)
+    assert np.all(np.abs(together["response"][:, :, 1]) > 0)  # the drive's harmonic was sampled
