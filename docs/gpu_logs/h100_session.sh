@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -91,6 +91,14 @@ fixes)
   step e2e_fig9_10_t500 150 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
   step e2e_gpu10k 150 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
   step e2e_gpu10k_notraces 90 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --set 'record.traces=[]' --json"
+  ;;
+next)
+  # what the evening of 2026-11-23 changed without a GPU to measure it: the response windows (per-chain
+  # strides, phases per chain), the planner, the warm reproduction, the build of a million-point batch
+  step drive_map_next 200 "$HZ sweep sweeps/drive_map_gpu.toml --out $WORK/drive_map.zarr --overwrite --device cuda --quiet --json"
+  step reproduce_warm 400 "$HZ reproduce --device cuda --out-dir $WORK/repro >/dev/null 2>&1; $HZ reproduce --device cuda --out-dir $WORK/repro2"
+  step profile_build 120 "python3 docs/gpu_logs/profile_build.py --batches 3"
+  step million_next 120 "$HZ sweep sweeps/million.toml --out $WORK/million.zarr --overwrite --device cuda --quiet --json"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
