@@ -314,9 +314,13 @@ def run_candidates(forward: Scene, candidates: list[tuple], block: int, device: 
 
     Returns (traces (C, S), ok (C,)); a depth < 0, or mass ratio 1 with a ratio 1, means the clean chain.
     """
-    from .runner import run_ensemble
+    from .devices import init_warp
+    from .model import build_model
+    from .runner import Runner
+    from .solvers import choose_config
     from .status import Status
 
+    init_warp()
     scenes = []
     for candidate in candidates:
         depth, mass_ratio, a_ratio = (*candidate, 1.0)[:3]
@@ -324,7 +328,13 @@ def run_candidates(forward: Scene, candidates: list[tuple], block: int, device: 
         scenes.append(forward if clean else impurity_scene(forward, depth, mass_ratio, block, a_ratio))
     traces, ok = [], []
     for start in range(0, len(scenes), batch_size):
-        result = run_ensemble(scenes[start:start + batch_size], device)
+        model = build_model(scenes[start:start + batch_size], device)
+        # a detection runs many small ensembles of one host chain (the refinement: a few candidates per
+        # iteration); on a CPU the sweep kernel needs no compile per run (it is cached) and writes the
+        # surface trace inside one launch, so the short-run rule of ``auto`` (per-step kernel) is skipped
+        # there; on a GPU ``auto`` decides as for any run
+        kernel = choose_config(model, "auto", run_steps=None) if model.device.is_cpu else "auto"
+        result = Runner(model, kernel=kernel).run()
         traces.append(result.traces["v"][:, :, 0].astype(np.float64))
         ok.append(result.status == Status.OK)
     return np.concatenate(traces), np.concatenate(ok)

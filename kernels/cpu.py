@@ -15,7 +15,7 @@ The arithmetic is ``kernels/step.py``'s expression for expression (bitwise equal
 (``tests/test_fused_features.py``), and damping (viscous and dashpot) with the dissipated energy
 (``tests/test_drive.py``): the dashpot of the contact above grain ``i`` needs grain ``i − 1``'s old
 and predicted values, which are carried from the previous grain since ``x_out`` already holds its new
-ones. Traces are sampled between launches (kernels/traces.py).
+ones. Traces are written inside the launch after each step k·stride, as the per-step kernel writes them.
 """
 
 
@@ -30,8 +30,9 @@ from .physics import contact_functions, contact_parameters, damping_functions
 
 
 def sweepable(features: Features) -> bool:
-    """True when the sweep kernel implements every feature of this set (traces: sampled between launches)."""
-    return not features.traces
+    """True when the sweep kernel implements every feature of this set (every feature now: traces are
+    sampled inside the launch)."""
+    return True
 
 
 @functools.cache
@@ -65,6 +66,7 @@ def sweep_kernel(features: Features):
     VISCOUS = f.damping == "viscous"
     DASHPOT = f.damping == "contact"
     ORDER = f.nordsieck_values  # rows of the Nordsieck vector (kernels/gear.py)
+    TRACES = f.traces
 
     predicted_rate, dashpot = damping_functions(f.precision, ORDER)
 
@@ -86,6 +88,17 @@ def sweep_kernel(features: Features):
 
     driver_values = nordsieck.driver_values
 
+    @wp.func
+    def write_traces(trace_x: wp.array4d(dtype=real), traced_grain: wp.array(dtype=wp.int32), trace_stride: int,
+                     x: wp.array3d(dtype=real), c: int, step_new: int):
+        # kernels/step.py's trace sample: (u, dt·v) of each traced grain after a step k·stride, ring slot k % length
+        if step_new % trace_stride == 0:
+            sample = (step_new / trace_stride) % trace_x.shape[2]
+            for slot in range(traced_grain.shape[0]):
+                i = traced_grain[slot]
+                trace_x[0, c, sample, slot] = x[0, c, i]
+                trace_x[1, c, sample, slot] = x[1, c, i]
+
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def sweep(
         x_in: wp.array3d(dtype=real),
@@ -106,6 +119,9 @@ def sweep_kernel(features: Features):
         power_out: wp.array(dtype=wp.float64),
         damping: wp.array(dtype=real),
         dissipated: wp.array2d(dtype=wp.float64),
+        traced_grain: wp.array(dtype=wp.int32),
+        trace_stride: int,
+        trace_x: wp.array4d(dtype=real),
         first_chain: int,
     ):
         c = wp.tid() + first_chain
@@ -119,7 +135,11 @@ def sweep_kernel(features: Features):
             work_out[c] = work_in[c]
             power_out[c] = power_in[c]
         if status[c] == wp.static(STATUS_NON_FINITE):
-            return  # a blown-up chain is frozen
+            # a blown-up chain is frozen (its trace samples repeat the frozen state, as in kernels/step.py)
+            if wp.static(TRACES):
+                for _frozen in range(steps):
+                    write_traces(trace_x, traced_grain, trace_stride, x_out, c, clock_in[0] + _frozen + 1)
+            return
 
         n = real(0)
         if wp.static(not HERTZ):
@@ -329,6 +349,8 @@ def sweep_kernel(features: Features):
                         if i == 0:
                             above_old = driver_old   # step.py: grain 1 sees the driver's vector at t_n
                 position_here = position_next
+            if wp.static(TRACES):
+                write_traces(trace_x, traced_grain, trace_stride, x_out, c, clock_in[0] + _step + 1)
         if wp.static(DRIVEN):
             work_out[c] = work
             power_out[c] = power_prev
@@ -338,7 +360,8 @@ def sweep_kernel(features: Features):
 
 def launch_sweep(kernel, *, x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status,
                  dt: float, steps: int, x_out, clock_out, device, drive, work_in, power_in, work_out, power_out,
-                 damping, dissipated, chains: tuple[int, int] | None = None):
+                 damping, dissipated, traced_grain, trace_stride: int, trace_x,
+                 chains: tuple[int, int] | None = None):
     """Launch ``steps`` steps of the sweep kernel for chains ``chains = (first, end)`` (default: all), one
     kernel thread per chain.
 
@@ -346,9 +369,12 @@ def launch_sweep(kernel, *, x_in, clock_in, inverse_mass, contact_constant, stat
     disjoint chain ranges may run at once from several Python threads (ensemble/solvers/sweep.py): each
     chain is integrated by one thread with the same arithmetic, so the split changes no bit.
     ``drive`` (chains, 2), ``work_*``/``power_*`` (chains,): the model's and states' arrays (size 0 undriven);
-    ``damping`` (chains,) γ and ``dissipated`` (chains, grains), updated in place (size 0 undamped)."""
+    ``damping`` (chains,) γ and ``dissipated`` (chains, grains), updated in place (size 0 undamped);
+    ``traced_grain`` (traced,), ``trace_stride`` and the ring ``trace_x`` (2, chains, length, traced): traces
+    (unused, size 0, without them)."""
     first, end = chains if chains is not None else (0, x_in.shape[1])
     wp.launch(kernel, dim=end - first,
               inputs=[x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status,
                       dt, steps, drive, work_in, power_in],
-              outputs=[x_out, clock_out, work_out, power_out, damping, dissipated, first], device=device)
+              outputs=[x_out, clock_out, work_out, power_out, damping, dissipated, traced_grain, trace_stride,
+                       trace_x, first], device=device)

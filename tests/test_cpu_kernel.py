@@ -105,3 +105,27 @@ def test_cpu_thread_count_comes_from_the_environment(monkeypatch):
     result = CliRunner().invoke(app, ["run", "--device", "cpu"])
     assert result.exit_code == 2
     assert result.stderr.strip().splitlines() == ["error: HERTZIAN_CPU_THREADS = 'zero': must be a whole number ≥ 1"]
+
+
+def test_sweep_writes_trace_samples_inside_the_launch_as_the_per_step_kernel():
+    """The sweep kernel writes the trace ring itself (one launch per advance, several ranges of chains):
+    the ring after an advance is the per-step kernel's bit for bit, a frozen chain's samples included."""
+    from hertzian.ensemble.solvers.sweep import chain_ranges
+
+    scenes = chains(3, chain={"grains": 30, "l0": 1e-4}, integrator={"dt": 5e-4, "duration": 0.2},
+                    record={"every": 0.1, "traces": [0, 13, 29], "trace_every": 4e-3})
+    model = build_model(scenes, "cpu")
+    status = np.array([0, 1, 0], dtype=np.int32)  # chain 1 is frozen (non-finite status)
+    steps = 200
+    reference = Runner(model, kernel="step", use_graph=False)
+    reference.current.status.assign(status)
+    reference.advance(steps)
+    solver = SweepSolver(model, threads=2)
+    assert solver.samples_traces is False and len(solver.ranges) == 2
+    start, scratch = model.state_pair()
+    start.status.assign(status)
+    end = solver.advance(start, scratch, steps)
+    ring = end.traces.numpy()
+    np.testing.assert_array_equal(ring, reference.current.traces.numpy())
+    np.testing.assert_array_equal(end.x.numpy(), reference.current.x.numpy())
+    assert np.max(np.abs(ring[:, 0])) > 0 and np.max(np.abs(ring[:, 1])) > 0

@@ -26,6 +26,8 @@ class Solver:
     """Base of every solver kind: ping-pong launches, optional CUDA graphs, ``load``, ``describe``."""
 
     kind = "base"
+    traces_in_kernel = False
+    """Whether the kind's kernel writes trace samples itself (per-step; the CPU sweep)."""
 
     def __init__(self, model: Model, config: SolverConfig):
         self.model = model
@@ -34,8 +36,9 @@ class Solver:
         self.block_dim: int | None = None
         self.use_graph = model.device.is_cuda if config.use_graph is None else config.use_graph
         self.graphs = GraphCache(model.device)
-        self.samples_traces = model.features.traces and config.kind != "step"
-        """Fused kinds take traces outside the kernel: pieces end on trace steps, then ``sample_traces``."""
+        self.samples_traces = model.features.traces and config.kind != "step" and not self.traces_in_kernel
+        """Fused kinds whose kernel has no trace sampler (tile, window) take traces outside it: pieces end on
+        trace steps, then ``sample_traces``."""
         self.trace_stride = model.scenes[0].trace_stride if self.samples_traces else 0
         self.traced_grain = (wp.array(np.asarray(model.scenes[0].record.traces, dtype=np.int32), dtype=wp.int32,
                                       device=model.device) if self.samples_traces else None)

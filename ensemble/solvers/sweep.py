@@ -12,6 +12,9 @@ import functools
 import os
 from concurrent.futures import ThreadPoolExecutor
 
+import numpy as np
+import warp as wp
+
 from hertzian.kernels.cpu import launch_sweep, sweep_kernel
 
 from ..model import Model, State
@@ -61,14 +64,18 @@ def _pool(workers: int) -> ThreadPoolExecutor:
 
 
 class SweepSolver(Solver):
-    """One kernel thread per chain, the chains split over the CPU's cores; traces are sampled between
-    launches (base ``Solver.advance``)."""
+    """One kernel thread per chain, the chains split over the CPU's cores; trace samples are written inside
+    the launch (an advance is one launch per range of chains)."""
 
     kind = "sweep"
+    traces_in_kernel = True
 
     def __init__(self, model: Model, config: SolverConfig = SWEEP, *, threads: int | None = None):
         super().__init__(model, config)
         self.kernel = sweep_kernel(self.kernel_features)
+        traced = model.scenes[0].record.traces if model.features.traces else []
+        self.traced_grain = wp.array(np.asarray(traced, dtype=np.int32), dtype=wp.int32, device=model.device)
+        self.trace_stride = model.scenes[0].trace_stride if model.features.traces else 1
         self.ranges = chain_ranges(model.chain_count, threads or cpu_threads())
         """The chain ranges launched at once (one per thread)."""
         self.pool = _pool(len(self.ranges) - 1) if len(self.ranges) > 1 else None
@@ -82,7 +89,8 @@ class SweepSolver(Solver):
                          status=state_in.status, dt=m.dt, steps=steps, x_out=state_out.x, clock_out=state_out.clock,
                          device=m.device, drive=m.drive, work_in=state_in.work, power_in=state_in.power,
                          work_out=state_out.work, power_out=state_out.power, damping=m.damping,
-                         dissipated=state_in.dissipated, chains=chains)
+                         dissipated=state_in.dissipated, traced_grain=self.traced_grain,
+                         trace_stride=self.trace_stride, trace_x=state_in.traces, chains=chains)
 
         if self.pool is None or m.chain_count * m.grain_count * steps < MIN_GRAIN_STEPS_TO_SPLIT:
             run((0, m.chain_count))
