@@ -49,7 +49,8 @@ CALIBRATION_VERSION = 3
 
 
 def stepping_features(features):
-    """The features a fused kernel is compiled for: traces are sampled between launches (solvers/base.py)."""
+    """The features that decide whether a fused kernel can run a model: traces never do (the CPU sweep writes
+    them inside its launch, tile and window between launches: solvers/base.py)."""
     return replace(features, traces=False)
 
 
