@@ -593,6 +593,20 @@ def _class_interpolation(library: Library, kind: str):
     return columns, order, fine, W, dW
 
 
+def interpolated_rss(signal: np.ndarray, models: np.ndarray, clean: np.ndarray, W: np.ndarray) -> np.ndarray:
+    """|signal − W @ models|² per row of W, without forming the (rows × samples) interpolated traces.
+
+    With e = signal − clean and D = models − clean (each row of W sums to 1, so W @ models − clean =
+    W @ D): RSS = |e|² − 2 W (D e) + diag(W (D Dᵀ) Wᵀ). D Dᵀ is a small Gram matrix (nodes × nodes), so the
+    cost per depth is O(nodes² · samples) instead of O(rows · nodes · samples); subtracting the clean chain
+    first keeps the cancellation to the size of the echoes, not of the whole signal."""
+    e = signal - clean
+    D = models - clean[None]
+    gram = D @ D.T
+    rss = float(e @ e) - 2.0 * (W @ (D @ e)) + np.einsum("pi,ij,pj->p", W, gram, W)
+    return np.maximum(rss, 0.0)
+
+
 def _library_quadratics(signal: np.ndarray, library: Library, kind: str) -> list[Quadratic | None]:
     """Per depth, the Gauss–Newton quadratic at the best point of the class's interpolated library.
 
@@ -610,11 +624,10 @@ def _library_quadratics(signal: np.ndarray, library: Library, kind: str) -> list
         if not usable.any():
             out.append(None)
             continue
-        interpolated = W @ np.where(ok[:, None], models, 0.0)
-        residual = signal[None] - interpolated
-        rss = np.where(usable, np.einsum("ms,ms->m", residual, residual), np.inf)
+        nodes = np.where(ok[:, None], models, 0.0)
+        rss = np.where(usable, interpolated_rss(signal, nodes, library.clean, W), np.inf)
         j = int(np.argmin(rss))
-        out.append(quadratic_at(signal, fine[j], interpolated[j], dW[j] @ np.where(ok[:, None], models, 0.0)))
+        out.append(quadratic_at(signal, fine[j], W[j] @ nodes, dW[j] @ nodes))
     return out
 
 
@@ -638,8 +651,8 @@ def _first_echo_scores(signal: np.ndarray, t: np.ndarray, library: Library, kind
         models = np.concatenate([library.traces[k, columns, :end], library.clean[None, :end]])[order]
         ok = np.concatenate([library.ok[k, columns], [True]])[order]
         usable = (np.abs(W) > 0) @ (~ok) == 0
-        residual = signal[None, :end] - W @ np.where(ok[:, None], models, 0.0)
-        rss = np.where(usable, np.einsum("ms,ms->m", residual, residual), np.inf)
+        rss = np.where(usable, interpolated_rss(signal[:end], np.where(ok[:, None], models, 0.0),
+                                                library.clean[:end], W), np.inf)
         j = int(np.argmin(rss))
         clean = signal[:end] - library.clean[:end]
         gain[k] = float(clean @ clean) - rss[j]
