@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # CPU timing of `hertzian detect` on the 150-grain planted signal with the library cached, before (BEFORE:
 # a git revision, run from a copy of its package) and after (the working tree), interleaved three times.
-# Before: the refinement's candidate runs took the per-step kernel and the sweep sampled traces between
-# launches; after: the sweep kernel, trace samples written inside its launch. Run from the repository root:
+# Used twice: 62ba50e → 50c104c (the refinement's candidate runs moved from the per-step kernel to the
+# sweep kernel, trace samples written inside its launch) and 50c104c → later (the library RSS in Gram form).
+# Run from the repository root:
 #   bash docs/logs/detection/refine_launches.sh BEFORE
 set -eu
 BEFORE="$1"; REPO="$(pwd)"; D=docs/logs/detection
