@@ -75,6 +75,26 @@ def test_runner_records_and_traces_agree_across_kernels():
                                   step.u[:, np.isin(record_steps, sample_steps), 7])
 
 
+def test_plain_launches_equal_the_recorded_ones():
+    """StepSolver.launch (the three substep launches a CUDA graph captures) and the CPU's recorded commands
+    (StepSolver.launches) give the same bits, and a step from a ends in b with the clock one step on."""
+    from hertzian.ensemble.solvers import StepSolver
+
+    model = build_model(chains(2, chain={"grains": 15, "l0": 1e-4},
+                               integrator={"method": "yoshida4", "dt": 5e-4}), "cpu")
+    solver = StepSolver(model)
+    assert solver.substeps == 3
+    recorded = solver.advance(*model.state_pair(), 301).x.numpy()
+    a, b = model.state_pair()
+    for _ in range(301):
+        solver.launch(a, b)
+        assert b.clock.numpy()[0] == a.clock.numpy()[0] + 1
+        a, b = b, a
+    assert a.clock.numpy()[0] == 301
+    assert np.max(np.abs(recorded)) > 0
+    np.testing.assert_array_equal(a.x.numpy(), recorded)
+
+
 # ---- (b) energy: bounded, no drift -----------------------------------------------------------------------
 
 def energy_history(method: str) -> np.ndarray:
