@@ -25,7 +25,7 @@ grain's own mass at a wall or against a held grain) gives the **contact time** `
   theorem on ``M^(−1/2) K M^(−1/2)``; exact for two grains between walls, and ``√2·2π/T`` for a
   uniform chain). The limits come from the spectral radius ρ of each method's one-step
   amplification matrix on ``ü = −ω² u`` (:func:`amplification_matrix`): velocity Verlet ρ = 1 up to
-  ``ω dt = 2``; gear4 is damped (ρ < 1) up to ``√2``; gear5 and gear6 grow weakly at any step
+  ``ω dt = 2``; yoshida4 (three Verlet substeps) ρ = 1 up to ``ω dt = 1.5734``; gear4 is damped (ρ < 1) up to ``√2``; gear5 and gear6 grow weakly at any step
   (ρ slightly above 1, ~1e-6 per period at ω dt ≈ 0.1) and break down at 1.12 and 0.85, where the
   growth reaches 10 % per period. ``tests/test_check.py`` confirms each limit with the Warp kernels
   on a linear (n = 2) chain on either side of it.
@@ -33,7 +33,7 @@ grain's own mass at a wall or against a held grain) gives the **contact time** `
   it below 1e-6 in every extreme case of the stability suite (impact speeds 1e-6 … 10, l0 = 0 …
   1e-2, impurity mass and a ratios 1e-3 … 1e3, n = 2 … 3, g = 100) are
   :data:`ACCURATE_STEPS_PER_CONTACT_TIME` (docs/stability.md): 400 for gear4 and gear6, 300 for
-  gear5, 3200 for Verlet (second order). The suggested dt is ``T`` divided by that number, rounded
+  gear5, 3200 for Verlet (second order), 400 for yoshida4 (whose step costs three force evaluations). The suggested dt is ``T`` divided by that number, rounded
   down to 1, 1.25, 1.6, 2, 2.5, 3.2, 4, 5, 6.4 or 8 × a power of ten, and never above the stability
   limit (with a factor 2 of margin).
 
@@ -52,12 +52,18 @@ import numpy as np
 from .scene import VALIDITY_FRACTION, Scene
 from .static import static_state
 
-STABLE_OMEGA_DT = {"verlet": 2.0, "gear4": math.sqrt(2.0), "gear5": 1.12, "gear6": 0.85}
-"""Largest ω_max·dt for which each method is stable on a linear chain (see the module docstring)."""
+STABLE_OMEGA_DT = {"verlet": 2.0, "gear4": math.sqrt(2.0), "gear5": 1.12, "gear6": 0.85, "yoshida4": 1.5734}
+"""Largest ω_max·dt for which each method is stable on a linear chain (see the module docstring).
+yoshida4: the one-step matrix on ü = −ω²u is the product of its three velocity-Verlet substep matrices
+(w1, w0, w1)·dt (:func:`amplification_matrix`); it has determinant 1 on (u, v), so it is stable while
+|trace/2| ≤ 1. Bisection of |trace/2| = 1 gives ω dt = 1.573402 (first crossing; rounded down here,
+recomputed by tests/test_check.py)."""
 
-ACCURATE_STEPS_PER_CONTACT_TIME = {"gear4": 400.0, "gear5": 300.0, "gear6": 400.0, "verlet": 3200.0}
+ACCURATE_STEPS_PER_CONTACT_TIME = {"gear4": 400.0, "gear5": 300.0, "gear6": 400.0, "verlet": 3200.0,
+                                   "yoshida4": 400.0}
 """Steps per contact time T/dt that kept the energy error below 1e-6 in every extreme case measured
-(docs/stability.md: 13 cases × 11 step sizes on 30 grains, 2026-11-22)."""
+(docs/stability.md: 13 cases × 11 step sizes on 30 grains, 2026-11-22; yoshida4: the same 13 cases at
+T/dt = 50 … 3200, worst 5.6e-7 at 400 and 1.3e-6 at 300, docs/accuracy/yoshida4_thresholds.json, measured)."""
 
 STABILITY_MARGIN = 2.0
 """The suggested dt stays this factor below the stability limit."""
@@ -305,13 +311,23 @@ def amplification_matrix(method: str, omega_dt: float) -> np.ndarray:
     The same predictor–corrector (Allen & Tildesley coefficients) and velocity Verlet the kernels
     run; its spectral radius decides linear stability (STABLE_OMEGA_DT).
     """
-    from hertzian.kernels.features import GEAR_CORRECTOR
+    from hertzian.kernels.features import GEAR_CORRECTOR, SUBSTEP_WEIGHTS
 
     z2 = omega_dt * omega_dt
     if method == "verlet":
         position = np.array([1.0, 1.0, 1.0])
         acceleration = -z2 / 2.0 * position
         return np.stack([position, np.array([0.0, 1.0, 1.0]) + acceleration, acceleration])
+    if method in SUBSTEP_WEIGHTS:
+        # composed: the product of velocity-Verlet substeps of w·dt on the full-dt scaled vector,
+        # u' = u + w x1 + w² x2, x2' = −z²/2 u', x1' = x1 + w (x2 + x2') (kernels/gear.py)
+        matrix = np.eye(3)
+        for w in SUBSTEP_WEIGHTS[method]:
+            position = np.array([1.0, w, w * w])
+            acceleration = -z2 / 2.0 * position
+            substep = np.stack([position, np.array([0.0, 1.0, w]) + w * acceleration, acceleration])
+            matrix = substep @ matrix
+        return matrix
     corrector = np.array([p / q for p, q in GEAR_CORRECTOR[method]])
     q = corrector.size
     pascal = np.array([[math.comb(j, i) for j in range(q)] for i in range(q)], dtype=float)

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from hertzian.kernels.features import EVENT_WINDOW, GEAR_VALUES, Features
+from hertzian.kernels.features import EVENT_WINDOW, GEAR_CORRECTOR, GEAR_VALUES, Features
 
 from .chains import ChainSet, per_unique
 from .scene import VALIDITY_FRACTION, Scene, SceneError
@@ -65,8 +65,9 @@ def _features(first: Scene, *, any_static: bool, heterogeneous: bool, gravity: b
         static = "profile"
     else:
         static = "uniform"
-    # event steps carry no damping: a damped scene takes plain steps (docs/drive.md)
-    events = (first.integrator.events == "auto" and first.integrator.method != "verlet"
+    # event steps carry no damping: a damped scene takes plain steps (docs/drive.md); they are Gear steps
+    # (Verlet and its composition yoshida4 take none)
+    events = (first.integrator.events == "auto" and first.integrator.method in GEAR_CORRECTOR
               and first.damping.model == "none" and can_open())
     return Features(
         method=first.integrator.method,

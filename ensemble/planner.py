@@ -22,7 +22,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from hertzian.kernels.features import Features
+from hertzian.kernels.features import GEAR_CORRECTOR, Features
 
 from .model import SHARED_KEYS, STATIC_LEVELS, chain_set_features
 from .scene import Scene, SceneError
@@ -269,10 +269,11 @@ def _group_features(points: SweepPoints, templates: list[int]) -> Features:
         chains = static_subgrid(points, t)
         # homogeneous chains without gravity carry one static force on every contact: the first
         # contacts decide (as in build_model); otherwise every contact is scanned. Without event-aware
-        # steps (events off, verlet, damping) only "is there a static overlap" is asked of the contacts,
+        # steps (events off, verlet/yoshida4, damping) only "is there a static overlap" is asked of the contacts,
         # and contact 1 (carrying F0 + g·m_0) answers it for every chain
         i = chains.template.integrator
-        events_possible = i.events == "auto" and i.method != "verlet" and chains.template.damping.model == "none"
+        events_possible = (i.events == "auto" and i.method in GEAR_CORRECTOR
+                           and chains.template.damping.model == "none")
         window = None if events_possible and (
             chains.template.impurities or np.any(chains.column("chain.gravity") > 0)) else 2
         step = max(1, CHUNK_ELEMENTS // ((window or chains.template.chain.grains) + 1))

@@ -21,7 +21,9 @@ import numpy as np
 
 SURFACE_KINDS = ("wall", "load", "free", "driven")
 BOTTOM_KINDS = ("wall", "fixed", "free")
-METHODS = ("gear4", "gear5", "gear6", "verlet")
+METHODS = ("gear4", "gear5", "gear6", "verlet", "yoshida4")
+COMPOSED_METHODS = ("yoshida4",)
+"""Methods composed of velocity-Verlet substeps (kernels/features.py SUBSTEP_WEIGHTS): no drive, no damping."""
 EVENT_MODES = ("auto", "off")
 PRECISIONS = ("float64", "float32")
 CONTACT_RULES = ("harmonic", "own")
@@ -125,7 +127,8 @@ class IntegratorSpec:
     duration: float = math.nan
     """Simulated time [time]; required."""
     method: str = "gear4"
-    """gear4 | gear5 | gear6 | verlet."""
+    """gear4 | gear5 | gear6 (Gear predictor–corrector, orders 4–6) | verlet (velocity Verlet, order 2) |
+    yoshida4 (three velocity-Verlet substeps per step, symplectic, order 4; no drive or damping)."""
     dt: float = 1.25e-5
     """Time step [time]."""
     precision: str = "float64"
@@ -609,6 +612,14 @@ def _validate(s: Scene) -> None:
                              f"{r.every if r.every is not None else i.duration:g}, duration = {i.duration:g}, "
                              f"trace_every = {s.trace_stride} steps of dt = {i.dt:g})")
     _validate_damping_and_response(s)
+    if i.method in COMPOSED_METHODS:
+        allowed = ", ".join(m for m in METHODS if m not in COMPOSED_METHODS)
+        if b.surface == "driven":
+            raise SceneError("integrator.method", i.method, f"a driven surface (boundary.surface = \"driven\") is "
+                             f"not implemented for {i.method}: use one of {allowed}")
+        if s.damping.model != "none":
+            raise SceneError("integrator.method", i.method, f"damping (damping.model = \"{s.damping.model}\") is "
+                             f"not implemented for {i.method}: use one of {allowed}")
     for key, value, derived in (("chain.l0" if c.load is None else "chain.load", c.l0 if c.load is None else c.load,
                                  lambda: c.surface_force), ("excitation.impact", e.impact, lambda: s.injected_energy)):
         try:

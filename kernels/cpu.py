@@ -16,6 +16,10 @@ The arithmetic is ``kernels/step.py``'s expression for expression (bitwise equal
 (``tests/test_drive.py``): the dashpot of the contact above grain ``i`` needs grain ``i − 1``'s old
 and predicted values, which are carried from the previous grain since ``x_out`` already holds its new
 ones. Traces are written inside the launch after each step k·stride, as the per-step kernel writes them.
+
+A composed method (yoshida4) sweeps the chain once per velocity-Verlet substep, each sweep with its
+substep's weight w (kernels/step.py's substep launches, in the same order; the in-place neighbour logic
+is the same per substep).
 """
 
 
@@ -23,7 +27,7 @@ import functools
 
 import warp as wp
 
-from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, Features
+from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
 from .events import event_functions
 from .gear import nordsieck_functions
 from .physics import contact_functions, contact_parameters, damping_functions
@@ -69,6 +73,25 @@ def sweep_kernel(features: Features):
     TRACES = f.traces
 
     predicted_rate, dashpot = damping_functions(f.precision, ORDER)
+    COMPOSED = f.method in SUBSTEP_WEIGHTS
+    WEIGHTS = SUBSTEP_WEIGHTS.get(f.method, (1.0,))
+    SUBSTEPS = len(WEIGHTS)
+    assert not COMPOSED or (len(WEIGHTS) == 3 and WEIGHTS[0] == WEIGHTS[2] and WEIGHTS[1] == 1.0 - 2.0 * WEIGHTS[0])
+    if COMPOSED and (DRIVEN or DAMPED or EVENTS):
+        raise ValueError(f"method {f.method!r} does not implement a drive, damping or event steps ({f})")
+    substep_predicted_at, substep_correct = nordsieck.substep_predicted_at, nordsieck.substep_correct
+
+    @wp.func
+    def substep_weight(substep: int) -> real:
+        # w_k of a symmetric triple composition (w1, w0, w1): w1 the float64 constant rounded to ``real``, and
+        # w0 = 1 − 2·w1 in ``real`` (exact), so the substeps add up to exactly dt in float32 too (rounding
+        # w0 on its own would leave a clock error of 1.2e-7 per step in float32); 1 for the other methods
+        w = real(1)
+        if wp.static(COMPOSED):
+            w = real(wp.static(WEIGHTS[0]))
+            if substep == 1:
+                w = real(1) - real(2) * w
+        return w
 
     @wp.func
     def contact(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),
@@ -159,9 +182,16 @@ def sweep_kernel(features: Features):
             power_prev = power_in[c]
             step_first = clock_in[0]
 
-        for _step in range(steps):
+        passes = steps  # sweeps of the chain: one per step, or per substep of a composed method
+        if wp.static(COMPOSED):
+            passes = steps * wp.static(SUBSTEPS)
+        for _step in range(passes):  # (a composed method is never driven: _step counts steps where it is used)
+            w = substep_weight(_step % wp.static(SUBSTEPS))
             # compensated float32: positions as (hi, lo) for the contacts (kernels/gear.py)
-            position_here = predicted_at(x_out, c, 0)
+            if wp.static(COMPOSED):
+                position_here = substep_predicted_at(x_out, c, 0, w)
+            else:
+                position_here = predicted_at(x_out, c, 0)
             if wp.static(DRIVEN):
                 # kernels/step.py's driven grain 0: prescribed u_0, and the driver's work (state at t_n)
                 step_new = step_first + _step + 1
@@ -212,7 +242,10 @@ def sweep_kernel(features: Features):
                 u_next = real(0)
                 force_below = real(0)
                 if i < last:
-                    position_next = predicted_at(x_out, c, i + 1)
+                    if wp.static(COMPOSED):
+                        position_next = substep_predicted_at(x_out, c, i + 1, w)
+                    else:
+                        position_next = predicted_at(x_out, c, i + 1)
                     u_next = rounded(position_next)
                     force_below = contact(static_overlap, contact_constant, c, i + 1, gap(position_here, position_next),
                                           a_c0, delta00, force00, n)
@@ -334,6 +367,8 @@ def sweep_kernel(features: Features):
                                                                     p_above, p_below, m_inv, h))
                         else:
                             correct(x_out, x_out, c, i, u_here, half_h2_acc)
+                    elif wp.static(COMPOSED):
+                        substep_correct(x_out, x_out, c, i, u_here, half_h2_acc, w)
                     else:
                         correct(x_out, x_out, c, i, u_here, half_h2_acc)
                 force_above = force_below
@@ -350,7 +385,13 @@ def sweep_kernel(features: Features):
                             above_old = driver_old   # step.py: grain 1 sees the driver's vector at t_n
                 position_here = position_next
             if wp.static(TRACES):
-                write_traces(trace_x, traced_grain, trace_stride, x_out, c, clock_in[0] + _step + 1)
+                # after a whole step (a composed method: after its last substep)
+                if wp.static(COMPOSED):
+                    if _step % wp.static(SUBSTEPS) == wp.static(SUBSTEPS - 1):
+                        write_traces(trace_x, traced_grain, trace_stride, x_out, c,
+                                     clock_in[0] + _step / wp.static(SUBSTEPS) + 1)
+                else:
+                    write_traces(trace_x, traced_grain, trace_stride, x_out, c, clock_in[0] + _step + 1)
         if wp.static(DRIVEN):
             work_out[c] = work
             power_out[c] = power_prev

@@ -5,7 +5,20 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
-GEAR_VALUES = {"gear4": 4, "gear5": 5, "gear6": 6, "verlet": 3}
+GEAR_VALUES = {"gear4": 4, "gear5": 5, "gear6": 6, "verlet": 3, "yoshida4": 3}
+"""Values of the scaled Nordsieck vector per method (Verlet and its compositions keep u, dt·v, dt²/2·a)."""
+
+_CUBE_ROOT_2 = 2.0 ** (1.0 / 3.0)
+YOSHIDA4_OUTER = 1.0 / (2.0 - _CUBE_ROOT_2)
+"""w1 = 1/(2 − 2^(1/3)) ≈ 1.3512: the first and last substep of yoshida4, as a fraction of dt."""
+YOSHIDA4_INNER = 1.0 - 2.0 * YOSHIDA4_OUTER
+"""w0 = −2^(1/3)/(2 − 2^(1/3)) ≈ −1.7024: the middle (backward) substep of yoshida4, computed as 1 − 2·w1 so
+that the three substeps add up to exactly one step in float64 (w1 + w0 + w1 == 1.0)."""
+
+SUBSTEP_WEIGHTS = {"yoshida4": (YOSHIDA4_OUTER, YOSHIDA4_INNER, YOSHIDA4_OUTER)}
+"""Composed methods: one step is velocity-Verlet substeps of w_k·dt in this order (Yoshida 1990,
+Forest & Ruth 1990: the symmetric triple composition of a second-order method is fourth order).
+Methods not listed take one substep of their own kind per step."""
 
 # Allen & Tildesley corrector coefficients for a second-order ODE, as exact fractions
 # (numerator, denominator) so float64 kernels see correctly rounded constants.
@@ -62,6 +75,11 @@ class Features:
     compensated: bool = True
     """float32 only: u and dt·v carried as hi + lo float32 pairs, updated by TwoSum (kernels/gear.py), two
     more state rows; False: the plain float32 update (kept for comparison). Ignored in float64."""
+
+    @property
+    def substeps(self) -> int:
+        """Substeps per step: 3 for yoshida4 (SUBSTEP_WEIGHTS), else 1."""
+        return len(SUBSTEP_WEIGHTS.get(self.method, (1.0,)))
 
     @property
     def compensation(self) -> bool:

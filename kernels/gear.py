@@ -63,6 +63,12 @@ class Nordsieck(NamedTuple):
     """``rounded(p) -> real``: the position rounded to ``real`` (= predict_position's value)."""
     exact_position: object
     """``exact_position(u) -> position``: a float64 position (the driver's) as a position."""
+    substep_predicted_at: object
+    """Composed methods (yoshida4): ``substep_predicted_at(x, c, j, w) -> position``: u after a velocity-Verlet
+    substep of w·dt, u + w·x1 + w²·x2 (x1, x2 scaled with the full dt)."""
+    substep_correct: object
+    """Composed methods: ``substep_correct(x_src, x_dst, c, i, u_pred, half_h2_acc, w) -> vec2(u, dt·v)``:
+    the substep's corrector, dt·v += w·(x2 + x2_new), x2 = x2_new (``half_h2_acc`` = dt²/2·a(u_pred))."""
 
 
 def state_rows(method: str, precision: str, compensated: bool) -> int:
@@ -99,7 +105,7 @@ def nordsieck_functions(method: str, precision: str, compensated: bool = False) 
     LO_U = Q       # row of u's low part (compensated only)
     LO_RATE = Q + 1  # row of dt·v's low part
     values_t = wp.types.vector(ROWS, real)
-    GEAR = method != "verlet"
+    GEAR = method in GEAR_CORRECTOR
     C = GEAR_CORRECTOR.get(method, ((0, 1),) * 6)
     C = C + ((0, 1),) * (6 - len(C))
 
@@ -301,9 +307,61 @@ def nordsieck_functions(method: str, precision: str, compensated: bool = False) 
     def predicted_pair_at(x: wp.array3d(dtype=real), c: int, j: int) -> vec2:
         return predicted_pair(load(x, c, j))
 
+    # ---- a velocity-Verlet substep of w·dt on the full-dt scaled values (composed methods, yoshida4) --------
+    # u' = u + w·x1 + w²·x2, x2' = dt²/2·a(u'), x1' = x1 + w·(x2 + x2'): velocity Verlet with step w·dt
+    # written in x1 = dt·v, x2 = dt²/2·a. Verlet itself keeps its own arithmetic above (bit for bit).
+
+    @wp.func
+    def substep_increment(v: values_t, w: real) -> real:
+        # u' − u (compensated: with the low parts of u and dt·v), small terms after the large one
+        inc = w * (v[1] + v[wp.static(LO_RATE)]) + (w * w) * v[2]
+        return inc + v[wp.static(LO_U)]
+
+    @wp.func
+    def substep_pair(v: values_t, w: real) -> vec2:
+        return two_sum(v[0], substep_increment(v, w))
+
+    @wp.func
+    def substep_position(v: values_t, w: real) -> real:
+        if wp.static(COMP):
+            return v[0] + substep_increment(v, w)
+        return v[0] + w * v[1] + (w * w) * v[2]
+
+    @wp.func
+    def substep_pair_at(x: wp.array3d(dtype=real), c: int, j: int, w: real) -> vec2:
+        return substep_pair(load(x, c, j), w)
+
+    @wp.func
+    def substep_position_at(x: wp.array3d(dtype=real), c: int, j: int, w: real) -> real:
+        return substep_position(load(x, c, j), w)
+
+    @wp.func
+    def substep_corrected(v: values_t, u_pred: real, half_h2_acc: real, w: real) -> values_t:
+        new = values_t()
+        if wp.static(COMP):
+            u = two_sum(v[0], substep_increment(v, w))
+            rate = two_sum(v[1], v[wp.static(LO_RATE)] + w * (v[2] + half_h2_acc))
+            new[0] = u[0]
+            new[wp.static(LO_U)] = u[1]
+            new[1] = rate[0]
+            new[wp.static(LO_RATE)] = rate[1]
+        else:
+            new[0] = u_pred
+            new[1] = v[1] + w * (v[2] + half_h2_acc)
+        new[2] = half_h2_acc
+        return new
+
+    @wp.func
+    def substep_correct(x_src: wp.array3d(dtype=real), x_dst: wp.array3d(dtype=real), c: int, i: int,
+                        u_pred: real, half_h2_acc: real, w: real) -> vec2:
+        new = substep_corrected(load(x_src, c, i), u_pred, half_h2_acc, w)
+        store(x_dst, c, i, new)
+        return vec2(new[0], new[1])
+
     if COMP:
         position_api = (vec2, predicted_pair, predicted_pair_at, gap_pair, rounded_pair, exact_pair)
     else:
         position_api = (real, predict_position, predicted_position, gap_plain, rounded_plain, exact_plain)
+    substep_api = (substep_pair_at if COMP else substep_position_at, substep_correct)
     return Nordsieck(values_t, predict_position, corrected, load, store, predicted_position, correct, driver_values,
-                     *position_api)
+                     *position_api, *substep_api)

@@ -4,6 +4,10 @@ State per grain is a scaled Nordsieck vector in an array of shape (values, chain
 x0 = u, x1 = dt·v, x2 = dt²/2·a, x3 = dt³/6·ȧ, …  (Verlet keeps x0, x1, x2 the same way).
 A step reads ``x_in`` and writes ``x_out`` (never the same buffer): each thread predicts its own
 grain and both neighbours, evaluates the force at the predicted positions, and corrects.
+
+A composed method (yoshida4, ``SUBSTEP_WEIGHTS``) takes one velocity-Verlet substep of w·dt per launch:
+``substep`` (0, 1, 2) selects w; the clock advances and traces are written only by the last substep of a
+step, so records and checks between launches of whole steps see whole steps only.
 """
 
 
@@ -11,7 +15,7 @@ import functools
 
 import warp as wp
 
-from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, Features
+from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
 from .events import event_functions
 from .gear import nordsieck_functions
 from .physics import contact_functions, contact_parameters, damping_functions
@@ -49,6 +53,25 @@ def step_kernel(features: Features):
     predicted_rate, dashpot = damping_functions(f.precision, ORDER)
 
     driver_values = nordsieck.driver_values
+    COMPOSED = f.method in SUBSTEP_WEIGHTS
+    WEIGHTS = SUBSTEP_WEIGHTS.get(f.method, (1.0,))
+    LAST_SUBSTEP = len(WEIGHTS) - 1
+    assert not COMPOSED or (len(WEIGHTS) == 3 and WEIGHTS[0] == WEIGHTS[2] and WEIGHTS[1] == 1.0 - 2.0 * WEIGHTS[0])
+    if COMPOSED and (DRIVEN or DAMPED or EVENTS):
+        raise ValueError(f"method {f.method!r} does not implement a drive, damping or event steps ({f})")
+    substep_predicted_at, substep_correct = nordsieck.substep_predicted_at, nordsieck.substep_correct
+
+    @wp.func
+    def substep_weight(substep: int) -> real:
+        # w_k of a symmetric triple composition (w1, w0, w1): w1 the float64 constant rounded to ``real``, and
+        # w0 = 1 − 2·w1 in ``real`` (exact), so the substeps add up to exactly dt in float32 too (rounding
+        # w0 on its own would leave a clock error of 1.2e-7 per step in float32); 1 for the other methods
+        w = real(1)
+        if wp.static(COMPOSED):
+            w = real(wp.static(WEIGHTS[0]))
+            if substep == 1:
+                w = real(1) - real(2) * w
+        return w
 
     @wp.func
     def contact(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),
@@ -83,6 +106,7 @@ def step_kernel(features: Features):
         work_in: wp.array(dtype=wp.float64),
         power_in: wp.array(dtype=wp.float64),
         dt: wp.float64,
+        substep: int,
         x_out: wp.array3d(dtype=real),
         clock_out: wp.array(dtype=wp.int32),
         trace_x: wp.array4d(dtype=real),
@@ -94,9 +118,15 @@ def step_kernel(features: Features):
         c, i = wp.tid()
         n_grains = x_in.shape[2]
         step_new = clock_in[0] + 1
+        ends_step = True  # a composed method's step ends with its last substep
+        if wp.static(COMPOSED):
+            ends_step = substep == wp.static(LAST_SUBSTEP)
+            if not ends_step:
+                step_new = clock_in[0]
         if c == 0 and i == 0:
             clock_out[0] = step_new
         h = real(dt)
+        w = substep_weight(substep)
 
         frozen = status[c] == wp.static(STATUS_NON_FINITE)
         held = frozen
@@ -106,7 +136,8 @@ def step_kernel(features: Features):
             # a blown-up chain is frozen; a fixed bottom grain never moves
             for k in range(wp.static(Q)):
                 x_out[k, c, i] = x_in[k, c, i]
-            write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, x_in[0, c, i], x_in[1, c, i])
+            if ends_step:
+                write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, x_in[0, c, i], x_in[1, c, i])
             return
 
         if wp.static(DRIVEN):
@@ -141,7 +172,11 @@ def step_kernel(features: Features):
                 write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, real(u_drive), x1_drive)
                 return
 
-        position_p = predicted_at(x_in, c, i)  # compensated float32: (hi, lo) for the contacts (kernels/gear.py)
+        # compensated float32: positions as (hi, lo) for the contacts (kernels/gear.py)
+        if wp.static(COMPOSED):
+            position_p = substep_predicted_at(x_in, c, i, w)
+        else:
+            position_p = predicted_at(x_in, c, i)
         u_p = rounded(position_p)
         if wp.static(EVENTS):
             # a grain touching a contact near an opening or closing takes an event step (kernels/events.py)
@@ -201,7 +236,10 @@ def step_kernel(features: Features):
                 else:
                     position_above = predicted_at(x_in, c, i - 1)
             else:
-                position_above = predicted_at(x_in, c, i - 1)
+                if wp.static(COMPOSED):
+                    position_above = substep_predicted_at(x_in, c, i - 1, w)
+                else:
+                    position_above = predicted_at(x_in, c, i - 1)
             up = contact(static_overlap, contact_constant, exponent, c, i, gap(position_above, position_p))
         else:
             if wp.static(SURFACE_WALL):
@@ -212,8 +250,12 @@ def step_kernel(features: Features):
                 else:
                     up = contact(static_overlap, contact_constant, exponent, c, 0, -u_p)
         if i < n_grains - 1:
-            down = contact(static_overlap, contact_constant, exponent, c, i + 1,
-                           gap(position_p, predicted_at(x_in, c, i + 1)))
+            position_below = position_p
+            if wp.static(COMPOSED):
+                position_below = substep_predicted_at(x_in, c, i + 1, w)
+            else:
+                position_below = predicted_at(x_in, c, i + 1)
+            down = contact(static_overlap, contact_constant, exponent, c, i + 1, gap(position_p, position_below))
         else:
             if wp.static(BOTTOM_WALL):
                 if wp.static(f.compensation):
@@ -289,8 +331,13 @@ def step_kernel(features: Features):
         if wp.static(VISCOUS):
             half_h2_acc -= real(0.5) * h * damping[c] * predicted_rate(x_in, c, i)  # h²/2 · (−γ v)
 
-        new = correct(x_in, x_out, c, i, u_p, half_h2_acc)
-        write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, new[0], new[1])
+        if wp.static(COMPOSED):
+            new = substep_correct(x_in, x_out, c, i, u_p, half_h2_acc, w)
+            if ends_step:
+                write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, new[0], new[1])
+        else:
+            new = correct(x_in, x_out, c, i, u_p, half_h2_acc)
+            write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, new[0], new[1])
 
     return step
 

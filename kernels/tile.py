@@ -42,15 +42,16 @@ from typing import Any
 
 import warp as wp
 
-from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, Features
+from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
 from .events import event_functions
 from .gear import nordsieck_functions
 from .physics import contact_forces, contact_functions, contact_parameters
 
 
 def fusable(features: Features) -> bool:
-    """True when the fused kernels implement every feature of this set (traces: sampled between launches)."""
-    return not features.traces
+    """True when the fused kernels implement every feature of this set (traces: sampled between launches;
+    composed methods such as yoshida4 are not implemented here: the per-step kernel runs them on CUDA)."""
+    return not features.traces and features.method not in SUBSTEP_WEIGHTS
 
 
 @dataclass(frozen=True)

@@ -106,3 +106,21 @@ CASES = {
              integrator={"method": "verlet", "dt": 5e-4, "precision": "float32"}), 2,
         dict(grains_per_lane=4, lanes_per_chain=8, steps_per_launch=6, windowed=True), 2501),
 }
+
+COMPOSED_CASES = {
+    # yoshida4 (three velocity-Verlet substeps per step) on the kernels that implement it (per-step, CPU
+    # sweep); not in CASES because the CUDA tile/window kernels do not implement it. Steps: until the pulse
+    # has reached the bottom of every chain (asserted by the tests), odd.
+    "yoshida4, walls": (
+        dict(chain={"grains": 25, "l0": 1e-4}, integrator={"method": "yoshida4", "dt": 5e-4}), 2, 3001),
+    "yoshida4, fixed bottom, impurities, gravity": (
+        dict(chain={"grains": 30, "gravity": 1.0, "l0": 1e-4}, boundary={"bottom": "fixed"},
+             impurities=[{"grains": [10, 11, 20], "mass": 0.5, "a": 3000.0}],
+             integrator={"method": "yoshida4", "dt": 5e-4}), 2, 2501),
+    "yoshida4, free ends, exponent 2": (
+        dict(chain={"grains": 12, "exponent": 2.0}, boundary={"surface": "free", "bottom": "free"},
+             integrator={"method": "yoshida4", "dt": 5e-4}), 3, 2501),
+    "yoshida4, float32, walls, impurities": (
+        dict(chain={"grains": 25, "l0": 1e-4}, impurities=[{"grains": [7], "mass": 2.0}],
+             integrator={"method": "yoshida4", "dt": 5e-4, "precision": "float32"}), 2, 3001),
+}

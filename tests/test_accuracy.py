@@ -126,8 +126,10 @@ def test_cli_accuracy(tmp_path):
         assert {"method", "dt", "precision", "error", "energy_error", "seconds", "grain_steps_per_second",
                 "reference_error"} <= set(r)
     assert (tmp_path / "wp.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    table = hertzian("accuracy", str(scene), "--methods", "gear5", "--dt", "2e-4", "--device", "cpu", cwd=tmp_path)
-    assert table.returncode == 0 and "gear5" in table.stdout and "reference: gear6" in table.stdout
+    table = hertzian("accuracy", str(scene), "--methods", "gear5,yoshida4", "--dt", "2e-4", "--device", "cpu",
+                     cwd=tmp_path)
+    assert table.returncode == 0 and "reference: gear6" in table.stdout, table.stderr
+    assert "gear5" in table.stdout and "yoshida4" in table.stdout
 
 
 @pytest.mark.parametrize("args, message", [

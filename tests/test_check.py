@@ -23,7 +23,7 @@ from hertzian.ensemble.static import static_state
 from conftest import make_scene
 
 A = 5657.0
-METHODS = ["gear4", "gear5", "gear6", "verlet"]
+METHODS = ["gear4", "gear5", "gear6", "verlet", "yoshida4"]
 
 
 def linear_pair(method: str, omega_dt: float, steps: int):
@@ -65,8 +65,8 @@ def test_stability_limits(method):
     for z in np.linspace(0.05, 0.97, 24) * limit:
         assert growth_per_period(method, z) < 0.1, z
     assert growth_per_period(method, 1.03 * limit) > 0.1
-    if method in ("gear4", "verlet"):
-        # no growth at all below the limit (gear4 damps, Verlet conserves)
+    if method in ("gear4", "verlet", "yoshida4"):
+        # no growth at all below the limit (gear4 damps, Verlet and yoshida4 conserve)
         for z in np.linspace(0.05, 0.99, 24) * limit:
             rho = np.max(np.abs(np.linalg.eigvals(amplification_matrix(method, z))))
             assert rho <= 1 + 1e-12, (z, rho)

@@ -121,6 +121,13 @@ def test_other_methods_match_reference(method, name):
     check(build(name, method=method))
 
 
+@pytest.mark.parametrize("name", ["impurities, harmonic rule", "gravity + impurities + fixed bottom",
+                                  "unloaded chain: contacts open and close", "free ends"])
+def test_yoshida4_matches_reference(name):
+    """yoshida4's substeps in the kernels' scaled Nordsieck form against the reference's kick–drift–kick in (u, v)."""
+    check(build(name, method="yoshida4"))
+
+
 def test_reference_agreement_on_device(device):
     check(build("gravity + impurities + fixed bottom", method="gear5"), device)
 

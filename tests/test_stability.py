@@ -126,7 +126,7 @@ def extreme(case: str, method: str):
     return scene.with_overrides({"integrator.dt": 0.01 / math.ceil(0.01 / step - 1e-9)})
 
 
-@pytest.mark.parametrize("method", ["gear4", "verlet"])
+@pytest.mark.parametrize("method", ["gear4", "verlet", "yoshida4"])
 @pytest.mark.parametrize("case", list(EXTREMES))
 def test_extreme_case_at_the_suggested_step_conserves_energy(case, method):
     """At check's suggested dt (≈ its 'accurate' steps per contact time) every extreme keeps E to ≤ 1e-6,

@@ -32,6 +32,7 @@ import numpy as np
 import warp as wp
 
 from hertzian.kernels.cpu import sweepable
+from hertzian.kernels.features import SUBSTEP_WEIGHTS
 from hertzian.kernels.tile import fusable, plan_tile
 
 from ..model import Model, State
@@ -59,6 +60,8 @@ def fused_lacks(features, is_cpu: bool) -> str | None:
     f = stepping_features(features)
     if f.damping != "none" and not is_cpu:
         return f"damping (damping.model = {f.damping!r}; only the per-step kernel carries it on CUDA)"
+    if f.method in SUBSTEP_WEIGHTS and not is_cpu:
+        return f"method {f.method} (its substeps are in the per-step and CPU sweep kernels only)"
     if is_cpu:
         return None if sweepable(f) else f"features {f}"
     return None if fusable(f) else f"features {f}"
@@ -308,6 +311,9 @@ def choose_config(model: Model, kernel: str = "auto", *, run_steps: int | None =
             raise ValueError(f"kernel = 'sweep': not implemented for features {f}")
         return SWEEP
     if kernel in ("tile", "window"):
+        if f.method in SUBSTEP_WEIGHTS:
+            raise ValueError(f"kernel = {kernel!r}: not implemented for integrator.method = {f.method!r}; use "
+                             f"--kernel step{', sweep' if model.device.is_cpu else ''} or auto")
         if not fusable(stepping_features(f)):
             raise ValueError(f"kernel = {kernel!r}: not implemented for surface = {f.surface!r} (features {f})")
         configs = whole_chain_configs(model) if kernel == "tile" else window_configs(model)
