@@ -29,7 +29,7 @@ import warp as wp
 
 from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
 from .events import event_functions
-from .gear import nordsieck_functions
+from .gear import nordsieck_functions, refuse_composed_extras, substep_weight_function
 from .physics import contact_functions, contact_parameters, damping_functions
 
 
@@ -76,22 +76,9 @@ def sweep_kernel(features: Features):
     COMPOSED = f.method in SUBSTEP_WEIGHTS
     WEIGHTS = SUBSTEP_WEIGHTS.get(f.method, (1.0,))
     SUBSTEPS = len(WEIGHTS)
-    assert not COMPOSED or (len(WEIGHTS) == 3 and WEIGHTS[0] == WEIGHTS[2] and WEIGHTS[1] == 1.0 - 2.0 * WEIGHTS[0])
-    if COMPOSED and (DRIVEN or DAMPED or EVENTS):
-        raise ValueError(f"method {f.method!r} does not implement a drive, damping or event steps ({f})")
+    refuse_composed_extras(f)
     substep_predicted_at, substep_correct = nordsieck.substep_predicted_at, nordsieck.substep_correct
-
-    @wp.func
-    def substep_weight(substep: int) -> real:
-        # w_k of a symmetric triple composition (w1, w0, w1): w1 the float64 constant rounded to ``real``, and
-        # w0 = 1 − 2·w1 in ``real`` (exact), so the substeps add up to exactly dt in float32 too (rounding
-        # w0 on its own would leave a clock error of 1.2e-7 per step in float32); 1 for the other methods
-        w = real(1)
-        if wp.static(COMPOSED):
-            w = real(wp.static(WEIGHTS[0]))
-            if substep == 1:
-                w = real(1) - real(2) * w
-        return w
+    substep_weight = substep_weight_function(f.method, f.precision)
 
     @wp.func
     def contact(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),

@@ -26,7 +26,7 @@ from typing import NamedTuple
 
 import warp as wp
 
-from .features import GEAR_CORRECTOR, GEAR_VALUES
+from .features import GEAR_CORRECTOR, GEAR_VALUES, SUBSTEP_WEIGHTS
 
 
 class Nordsieck(NamedTuple):
@@ -365,3 +365,34 @@ def nordsieck_functions(method: str, precision: str, compensated: bool = False) 
     substep_api = (substep_pair_at if COMP else substep_position_at, substep_correct)
     return Nordsieck(values_t, predict_position, corrected, load, store, predicted_position, correct, driver_values,
                      *position_api, *substep_api)
+
+
+@functools.cache
+def substep_weight_function(method: str, precision: str):
+    """``substep_weight(substep) -> real``: the weight w_k of substep k of a composed method (1 for the others).
+
+    For the symmetric triple composition (w1, w0, w1) w1 is the float64 constant rounded to the state's
+    precision and w0 = 1 − 2·w1 is computed in that precision (exact), so the substeps add up to exactly dt
+    in float32 too (rounding w0 on its own would leave a clock error of 1.2e-7 per step in float32)."""
+    real = wp.float64 if precision == "float64" else wp.float32
+    composed = method in SUBSTEP_WEIGHTS
+    weights = SUBSTEP_WEIGHTS.get(method, (1.0,))
+    assert not composed or (len(weights) == 3 and weights[0] == weights[2] and weights[1] == 1.0 - 2.0 * weights[0])
+
+    @wp.func
+    def substep_weight(substep: int) -> real:
+        w = real(1)
+        if wp.static(composed):
+            w = real(wp.static(weights[0]))
+            if substep == 1:
+                w = real(1) - real(2) * w
+        return w
+
+    return substep_weight
+
+
+def refuse_composed_extras(features) -> None:
+    """A composed method (yoshida4) has no drive, damping or event steps in any kernel: ValueError if asked."""
+    f = features
+    if f.method in SUBSTEP_WEIGHTS and (f.surface == "driven" or f.damping != "none" or f.event_window > 0):
+        raise ValueError(f"method {f.method!r} does not implement a drive, damping or event steps ({f})")

@@ -23,11 +23,7 @@ from hertzian.ensemble.sweep import Dimension, expand, load_sweep, sweep_from_di
 
 SWEEPS = sorted((Path(__file__).parent.parent / "sweeps").glob("*.toml"))
 
-INLINE = {
-    # the planner takes an impact-only dimension at its fastest impact (only that one opens a contact
-    # here: l0 = 1e-3 holds the contacts closed below v_imp ≈ 0.02), values not sorted; and a dimension
-    # zipping the impact with l0, which is scanned at every index
-    "impact_opens_only_at_the_fastest": """
+IMPACT_HOST = """
 [scene.chain]
 grains = 12
 l0 = 1e-3
@@ -40,6 +36,14 @@ impact = 1e-2
 method = "gear4"
 dt = 1e-4
 duration = 0.01
+"""
+"""A 12-grain chain held closed by l0 = 1e-3 below v_imp ≈ 0.02, with a light impurity (the impact cases)."""
+
+INLINE = {
+    # the planner takes an impact-only dimension at its fastest impact (only that one opens a contact
+    # here: l0 = 1e-3 holds the contacts closed below v_imp ≈ 0.02), values not sorted; and a dimension
+    # zipping the impact with l0, which is scanned at every index
+    "impact_opens_only_at_the_fastest": IMPACT_HOST + """
 [[axis]]
 name = "v_imp"
 key = "excitation.impact"
@@ -49,19 +53,7 @@ name = "imp_mass"
 key = "impurities.0.mass"
 values = [0.5, 2.0]
 """,
-    "impact_never_opens": """
-[scene.chain]
-grains = 12
-l0 = 1e-3
-[[scene.impurities]]
-grains = [5]
-mass = 0.5
-[scene.excitation]
-impact = 1e-2
-[scene.integrator]
-method = "gear4"
-dt = 1e-4
-duration = 0.01
+    "impact_never_opens": IMPACT_HOST + """
 [[axis]]
 name = "v_imp"
 key = "excitation.impact"
@@ -71,19 +63,7 @@ name = "l0"
 key = "chain.l0"
 values = [1e-3, 3e-3]
 """,
-    "impact_zipped_with_l0": """
-[scene.chain]
-grains = 12
-l0 = 1e-3
-[[scene.impurities]]
-grains = [5]
-mass = 0.5
-[scene.excitation]
-impact = 1e-2
-[scene.integrator]
-method = "gear4"
-dt = 1e-4
-duration = 0.01
+    "impact_zipped_with_l0": IMPACT_HOST + """
 [[axis]]
 name = "v_imp"
 key = "excitation.impact"
