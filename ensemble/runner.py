@@ -128,11 +128,10 @@ class Runner:
         self.setup_seconds = time.perf_counter() - setup_start
         """Kernel choice (and any calibration), solver construction and kernel compile/load [s]."""
 
-    def advance(self, n_steps: int, first_step: int | None = None) -> None:
-        """Take ``n_steps`` steps from ``current``, which holds ``first_step`` (no host synchronisation when
-        ``first_step`` is given)."""
+    def advance(self, n_steps: int) -> None:
+        """Take ``n_steps`` steps from ``current`` (no host synchronisation)."""
         other = self.buffers[1] if self.current is self.buffers[0] else self.buffers[0]
-        self.current = self.solver.advance(self.current, other, n_steps, first_step=first_step)
+        self.current = self.solver.advance(self.current, other, n_steps)
 
     def advance_monitored(self, first_step: int, n_steps: int) -> None:
         """``advance`` in pieces of ``monitor_every`` steps with a device-side check after each piece,
@@ -143,7 +142,7 @@ class Runner:
         checks = set(range(first_step + every, first_step + n_steps, every))
         done = first_step
         for stop in sorted(samples | checks | {first_step + n_steps}):
-            self.advance(stop - done, done)
+            self.advance(stop - done)
             done = stop
             if stop in checks:
                 self.recorder.check(self.current, stop)

@@ -32,7 +32,8 @@ reads its neighbours at t_n, as in the per-step kernel.
 A driven surface (``surface = "driven"``): the lane holding grain 0 sets its predicted position to the
 driver's u_0(t_{n+1}), overwrites it with the driver's values after the corrector and accumulates the
 driver's work in registers, each in kernels/step.py's arithmetic (grain 1 must sit in grain 0's lane).
-Traces are sampled between launches (kernels/traces.py; the solver cuts advances at trace steps).
+Traces are written inside the launch after each step k·stride, from the lanes that keep the traced grains
+(a window's interior), as the per-step kernel writes them.
 """
 
 
@@ -49,9 +50,9 @@ from .physics import contact_forces, contact_functions, contact_parameters
 
 
 def fusable(features: Features) -> bool:
-    """True when the fused kernels implement every feature of this set (traces: sampled between launches;
+    """True when the fused kernels implement every feature of this set (traces: written inside the launch;
     composed methods such as yoshida4 are not implemented here: the per-step kernel runs them on CUDA)."""
-    return not features.traces and features.method not in SUBSTEP_WEIGHTS
+    return features.method not in SUBSTEP_WEIGHTS
 
 
 @dataclass(frozen=True)
@@ -121,7 +122,8 @@ def tile_kernel(features: Features, shape: TileShape):
     """The fused kernel for one feature set and compile-time launch shape (cached)."""
     f = features
     if not fusable(f):
-        raise ValueError(f"fused kernels do not implement surface={f.surface!r} / traces={f.traces}")
+        raise ValueError(f"fused kernels do not implement method={f.method!r}")
+    TRACES = f.traces
     real = wp.float64 if f.precision == "float64" else wp.float32
     Q = f.values
     G = shape.grains_per_lane
@@ -360,6 +362,26 @@ def tile_kernel(features: Features, shape: TileShape):
                 out[1, k0] = real(dt * amplitude * omega * wp.cos(omega * t_new))
         return out
 
+    @wp.func
+    def write_traces(s: state_t, x_in: wp.array3d(dtype=real), frozen: bool, live: bool, cc: int, base: int,
+                     keep_lo: int, keep_hi: int, trace_slot: wp.array(dtype=wp.int32), trace_stride: int,
+                     step_new: int, trace_x: wp.array4d(dtype=real)):
+        # kernels/step.py's trace sample after a step k·stride: (u, dt·v) of the traced grains this lane keeps
+        # (a frozen chain: its frozen state), ring slot k % length
+        if step_new % trace_stride == 0 and live:
+            sample = (step_new / trace_stride) % trace_x.shape[2]
+            for k in range(G):
+                g = base + k
+                if g >= keep_lo and g < keep_hi:
+                    slot = trace_slot[g]
+                    if slot >= 0:
+                        if frozen:
+                            trace_x[0, cc, sample, slot] = x_in[0, cc, g]
+                            trace_x[1, cc, sample, slot] = x_in[1, cc, g]
+                        else:
+                            trace_x[0, cc, sample, slot] = s[0, k]
+                            trace_x[1, cc, sample, slot] = s[1, k]
+
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False, grid_stride=False,
                cuda_max_registers=shape.max_registers or None)
     def fused(
@@ -382,6 +404,9 @@ def tile_kernel(features: Features, shape: TileShape):
         clock_out: wp.array(dtype=wp.int32),
         work_out: wp.array(dtype=wp.float64),
         power_out: wp.array(dtype=wp.float64),
+        trace_slot: wp.array(dtype=wp.int32),
+        trace_stride: int,
+        trace_x: wp.array4d(dtype=real),
     ):
         block, lane = wp.tid()
         chain_count = x_in.shape[1]
@@ -475,6 +500,7 @@ def tile_kernel(features: Features, shape: TileShape):
             work_power = wp.vec2d(work_in[cc], power_in[cc])
         edges_even = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
         edges_odd = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
+        frozen = status[cc] == wp.static(STATUS_NON_FINITE)
         for _pair in range(steps / 2):
             if wp.static(DRIVEN):
                 if k0 >= 0:
@@ -482,12 +508,18 @@ def tile_kernel(features: Features, shape: TileShape):
                                              step0 + 2 * _pair + 1, dt)
             s = advance(s, edges_even, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
                         contact_bits, move_bits, h, k0, amplitude, omega, step0 + 2 * _pair + 1, dt)
+            if wp.static(TRACES):
+                write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
+                             step0 + 2 * _pair + 1, trace_x)
             if wp.static(DRIVEN):
                 if k0 >= 0:
                     work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
                                              step0 + 2 * _pair + 2, dt)
             s = advance(s, edges_odd, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
                         contact_bits, move_bits, h, k0, amplitude, omega, step0 + 2 * _pair + 2, dt)
+            if wp.static(TRACES):
+                write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
+                             step0 + 2 * _pair + 2, trace_x)
         if steps % 2 == 1:
             if wp.static(DRIVEN):
                 if k0 >= 0:
@@ -495,9 +527,11 @@ def tile_kernel(features: Features, shape: TileShape):
                                              step0 + steps, dt)
             s = advance(s, edges_even, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
                         contact_bits, move_bits, h, k0, amplitude, omega, step0 + steps, dt)
+            if wp.static(TRACES):
+                write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
+                             step0 + steps, trace_x)
 
         # write back the interior; a frozen (non-finite) chain keeps its state
-        frozen = status[cc] == wp.static(STATUS_NON_FINITE)
         if wp.static(DRIVEN):
             if k0 >= 0 and keep_lo <= 0:
                 if frozen:
@@ -596,18 +630,25 @@ def launchable_register_cap(block_dim: int) -> int:
 
 def launch_tile(plan: TilePlan, kernel, *, x_in, clock_in, inverse_mass, contact_constant, static_overlap,
                 exponent, status, dt: float, steps: int, x_out, clock_out, device, drive, work_in, power_in,
-                work_out, power_out, record_cmd: bool = False):
+                work_out, power_out, trace_slot=None, trace_stride: int = 1, trace_x=None,
+                record_cmd: bool = False):
     """Launch ``steps`` fused steps (``steps ≤ plan.steps_per_launch`` when windowed); x_in and x_out differ.
 
-    ``drive`` (chains, 2), ``work_*``/``power_*`` (chains,): the model's and states' arrays (size 0 undriven)."""
+    ``drive`` (chains, 2), ``work_*``/``power_*`` (chains,): the model's and states' arrays (size 0 undriven);
+    ``trace_slot`` (grains,) each grain's column in the ring ``trace_x`` (2, chains, length, traced) or −1, and
+    ``trace_stride``: traces (None without them)."""
     if plan.shape.windowed and steps > plan.ghost:
         raise ValueError(f"steps = {steps}: a windowed launch takes at most {plan.ghost}")
     device = wp.get_device(device)
     if device.is_cpu and plan.shape.block_dim > 1:
         # Warp runs CPU blocks wider than one thread as cooperative fibers only when asked (1.19)
         wp.config.enable_cpu_blocks = True
+    if trace_slot is None:
+        trace_slot = wp.empty(0, dtype=wp.int32, device=device)
+        trace_x = wp.empty((2, 0, 0, 0), dtype=x_in.dtype, device=device)
     return wp.launch_tiled(
         kernel, dim=[plan.block_count],
         inputs=[x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status, dt, steps,
                 plan.interior, plan.ghost, plan.blocks_per_chain, drive, work_in, power_in],
-        outputs=[x_out, clock_out, work_out, power_out], block_dim=plan.shape.block_dim, device=device, record_cmd=record_cmd)
+        outputs=[x_out, clock_out, work_out, power_out, trace_slot, trace_stride, trace_x],
+        block_dim=plan.shape.block_dim, device=device, record_cmd=record_cmd)

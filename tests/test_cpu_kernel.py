@@ -121,7 +121,7 @@ def test_sweep_writes_trace_samples_inside_the_launch_as_the_per_step_kernel():
     reference.current.status.assign(status)
     reference.advance(steps)
     solver = SweepSolver(model, threads=2)
-    assert solver.samples_traces is False and len(solver.ranges) == 2
+    assert solver.kernel_features.traces and len(solver.ranges) == 2
     start, scratch = model.state_pair()
     start.status.assign(status)
     end = solver.advance(start, scratch, steps)

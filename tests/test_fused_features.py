@@ -172,8 +172,8 @@ def test_records_reach_the_host_arrays():
     assert np.max(np.abs(result.u[:, -2] - result.u[:, -1])) > 0
 
 
-def test_traces_without_first_step_read_the_clock():
-    # solver.advance without first_step (bench, calibration) reads the clock and still samples on trace steps
+def test_traces_of_advances_that_end_between_trace_steps():
+    # advances of 13 and 40 steps (not multiples of the stride 8): the kernel writes its samples by the clock
     from hertzian.ensemble.solvers import SweepSolver
 
     model = build_model(traced_scenes(), "cpu")
@@ -210,3 +210,31 @@ def test_response_windows_on_the_fused_kernels_equal_per_step(kernel, device):
     assert np.all(want.response["driver_open"] > 0)  # the surface contact opened: event steps were taken
     for name in ("response", "window_ke", "driver_open"):
         assert_kernels_agree(got.response[name], want.response[name], device)
+
+
+@pytest.mark.parametrize("windowed", [False, True])
+def test_tile_writes_trace_samples_inside_the_launch_frozen_chains_included(windowed):
+    """The tile/window kernels write the trace ring themselves (one launch per K steps, the traced grains
+    written by the lanes that keep them): after an advance the ring is the per-step kernel's bit for bit, a
+    frozen (non-finite) chain's samples included."""
+    from hertzian.ensemble.solvers import TileSolver
+
+    model = build_model(traced_scenes(), "cpu")
+    f = replace(model.features, traces=False)
+    keywords = dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=5, windowed=True) if windowed else \
+        dict(grains_per_lane=4)
+    solver = TileSolver(model, config_of(plan_tile(f, model.grain_count, model.chain_count, **keywords)))
+    assert solver.kernel_features.traces
+    status = np.array([1, 0], dtype=np.int32)
+    steps = 160
+    reference = Runner(model, kernel="step", use_graph=False)
+    reference.current.status.assign(status)
+    reference.advance(steps)
+    start, scratch = model.state_pair()
+    start.status.assign(status)
+    end = solver.advance(start, scratch, steps)
+    ring = end.traces.numpy()
+    np.testing.assert_array_equal(ring, reference.current.traces.numpy())
+    # both chains hold samples (the frozen one: its frozen state), and the running one's change in time
+    assert np.max(np.abs(ring[:, 0])) > 0 and np.max(np.abs(ring[:, 1])) > 0
+    assert np.ptp(ring[0, 1, :20, 0]) > 0

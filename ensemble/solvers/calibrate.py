@@ -50,8 +50,8 @@ CALIBRATION_VERSION = 3
 
 
 def stepping_features(features):
-    """The features that decide whether a fused kernel can run a model: traces never do (the CPU sweep writes
-    them inside its launch, tile and window between launches: solvers/base.py)."""
+    """The features that decide whether a fused kernel can run a model: traces never do (every kernel writes
+    its trace samples inside its launch)."""
     return replace(features, traces=False)
 
 

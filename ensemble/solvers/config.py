@@ -12,9 +12,8 @@ SOLVER_KINDS = ("step", "tile", "window", "sweep")
 ``window``: long chains cut into blocks with ghost zones, K ≤ ghost steps per launch (kernels/tile.py +
 kernels/ghost.py).
 ``sweep``: one CPU thread per chain, every step of an ``advance`` in one launch (kernels/cpu.py).
-The fused kinds (tile, window, sweep) take a drive in the kernel. The CPU sweep writes trace samples inside
-its launch; tile and window take them between launches (solvers/base.py cuts each advance at trace steps
-and copies the traced grains into the ring)."""
+The fused kinds (tile, window, sweep) take a drive in the kernel and write trace samples inside their
+launch, as the per-step kernel does."""
 
 GRAPH_STEPS = 512
 """Steps per captured CUDA graph of the per-step solver (a graph of many launches, replayed)."""

@@ -68,8 +68,6 @@ class SweepSolver(Solver):
     the launch (an advance is one launch per range of chains)."""
 
     kind = "sweep"
-    traces_in_kernel = True
-
     def __init__(self, model: Model, config: SolverConfig = SWEEP, *, threads: int | None = None):
         super().__init__(model, config)
         self.kernel = sweep_kernel(self.kernel_features)

@@ -29,14 +29,15 @@ def config_of(plan: TilePlan) -> SolverConfig:
 
 
 class TileSolver(Solver):
-    """K steps per launch with chains (or windows of them) held on-chip; no drive; traces are sampled between
-    launches (base ``Solver.advance``)."""
+    """K steps per launch with chains (or windows of them) held on-chip; trace samples are written inside the
+    launch."""
 
     def __init__(self, model: Model, config: SolverConfig):
         super().__init__(model, config)
         self.kind = config.kind
         self.plan = tile_plan(config, model.grain_count, model.chain_count)
         self.kernel = tile_kernel(self.kernel_features, config.shape)
+        self.trace_stride_in_kernel = model.scenes[0].trace_stride if model.features.traces else 1
         self.block_dim = config.shape.block_dim
 
     def launch(self, state_in: State, state_out: State, steps: int) -> None:
@@ -45,7 +46,8 @@ class TileSolver(Solver):
                     contact_constant=m.contact_constant, static_overlap=m.static_overlap, exponent=m.exponent,
                     status=state_in.status, dt=m.dt, steps=steps, x_out=state_out.x, clock_out=state_out.clock,
                     device=m.device, drive=m.drive, work_in=state_in.work, power_in=state_in.power,
-                    work_out=state_out.work, power_out=state_out.power)
+                    work_out=state_out.work, power_out=state_out.power, trace_slot=m.trace_slot,
+                    trace_stride=self.trace_stride_in_kernel, trace_x=state_in.traces)
 
     def describe(self) -> str:
         return f"{self.kind} ({self.plan.describe()})"
