@@ -93,8 +93,11 @@ fixes)
   step e2e_gpu10k_notraces 90 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --set 'record.traces=[]' --json"
   ;;
 next)
-  # what the evening of 2026-11-23 changed without a GPU to measure it: the response windows (per-chain
-  # strides, phases per chain), the planner, the warm reproduction, the build of a million-point batch
+  # what the evening of 2026-11-23 changed without a GPU to measure it: in-launch traces of the tile/window
+  # kernels (gpu_10k with traces, warm; the CUDA tests), the response windows (per-chain strides, phases per
+  # chain), the planner, the warm reproduction, the build of a million-point batch
+  step e2e_gpu10k_next 120 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json; $HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step pytest_cuda_next 420 "python3 -m pytest -q -p no:cacheprovider -k cuda tests 2>&1"
   step drive_map_next 200 "$HZ sweep sweeps/drive_map_gpu.toml --out $WORK/drive_map.zarr --overwrite --device cuda --quiet --json"
   step reproduce_warm 400 "$HZ reproduce --device cuda --out-dir $WORK/repro >/dev/null 2>&1; $HZ reproduce --device cuda --out-dir $WORK/repro2"
   step profile_build 120 "python3 docs/gpu_logs/profile_build.py --batches 3"
