@@ -86,7 +86,7 @@ class ResponseAccumulator:
                   inputs=[m.drive, self.window_steps_device, self.stride_device, self.start_step, step, self.windows,
                           self.harmonics, m.dt], outputs=[self.phases], device=m.device)
         wp.launch(self.kernel, dim=(m.chain_count, m.grain_count),
-                  inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.drive,
+                  inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent,
                           self.window_steps_device, self.stride_device, self.start_step, step, self.windows,
                           self.harmonics, m.dt, self.phases],
                   outputs=[self.re, self.im, self.kinetic, self.open_count], device=m.device)

@@ -70,7 +70,6 @@ def response_kernel(features: Features):
         contact_constant: wp.array2d(dtype=real),
         static_overlap: wp.array2d(dtype=real),
         exponent: wp.array(dtype=real),
-        drive: wp.array2d(dtype=wp.float64),
         window_steps: wp.array(dtype=wp.int64),
         stride: wp.array(dtype=wp.int64),
         start_step: wp.int64,

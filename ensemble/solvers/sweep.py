@@ -21,8 +21,6 @@ from ..model import Model, State
 from .base import Solver
 from .config import SWEEP, SolverConfig
 
-MIN_CHAINS_PER_THREAD = 1
-"""Chains below which a range is not split further."""
 MIN_GRAIN_STEPS_TO_SPLIT = 1 << 20
 """A launch of fewer grain-steps runs whole on the calling thread: handing ranges to the pool costs more
 than such a launch's kernel time (~1e8 grain-steps/s per core: 1e6 grain-steps ≈ 10 ms)."""
@@ -47,7 +45,7 @@ def cpu_threads() -> int:
 
 def chain_ranges(chain_count: int, threads: int) -> list[tuple[int, int]]:
     """``threads`` contiguous (first, end) ranges covering the chains, sizes differing by at most one."""
-    parts = max(1, min(threads, chain_count // MIN_CHAINS_PER_THREAD or 1))
+    parts = max(1, min(threads, chain_count))
     base, extra = divmod(chain_count, parts)
     ranges, first = [], 0
     for k in range(parts):
