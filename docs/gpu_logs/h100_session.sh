@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -102,6 +102,15 @@ next)
   step reproduce_warm 400 "$HZ reproduce --device cuda --out-dir $WORK/repro >/dev/null 2>&1; $HZ reproduce --device cuda --out-dir $WORK/repro2"
   step profile_build 120 "python3 docs/gpu_logs/profile_build.py --batches 3"
   step million_next 120 "$HZ sweep sweeps/million.toml --out $WORK/million.zarr --overwrite --device cuda --quiet --json"
+  ;;
+first)
+  # first call of the session of 2026-11-23 (night): what the evening changed, before new code
+  step e2e_gpu10k_a 150 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step e2e_gpu10k_b 60 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step million_first 90 "$HZ sweep sweeps/million.toml --out $WORK/million.zarr --overwrite --device cuda --quiet --json"
+  step drive_map_first 150 "$HZ sweep sweeps/drive_map_gpu.toml --out $WORK/drive_map.zarr --overwrite --device cuda --quiet --json"
+  step profile_build_first 60 "python3 docs/gpu_logs/profile_build.py --batches 3"
+  step detect_first ${DETECT_LIMIT:-200} "$HZ detect-study sweeps/detect_study_1000.toml --out $LOGS/study_1000_gpu.json --overwrite --device cuda"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
