@@ -35,7 +35,11 @@ step() {  # step NAME SECONDS COMMAND...   (stdout → NAME.json when it starts 
 }
 
 # the logs come back as one archive; a watchdog packs what is there before the call's limit
-[ -n "${OUT:-}" ] && (sleep "${WATCHDOG:-550}"; tar czf "$OUT/partial.tgz" -C "$LOGS" .) &
+WATCHDOG_PID=""
+if [ -n "${OUT:-}" ]; then
+  (sleep "${WATCHDOG:-550}"; tar czf "$OUT/partial.tgz" -C "$LOGS" .) >/dev/null 2>&1 &
+  WATCHDOG_PID=$!
+fi
 for group in "$@"; do
 case "$group" in
 env)
@@ -123,5 +127,6 @@ detect)
 esac
 done
 cat "$LOGS/summary.tsv"
+[ -n "$WATCHDOG_PID" ] && kill "$WATCHDOG_PID" 2>/dev/null
 [ -n "${OUT:-}" ] && tar czf "$OUT/logs.tgz" -C "$LOGS" . && rm -f "$OUT/partial.tgz"
 exit 0
