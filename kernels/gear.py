@@ -50,6 +50,8 @@ class Nordsieck(NamedTuple):
     driver_values: object
     """``driver_values(amplitude, omega, t, dt) -> values``: the driven grain's vector at t,
     x_j = dt^j/j! · d^j/dt^j (A sin ωt) (all arguments float64)."""
+    driver_values_at: object
+    """``driver_values_at(amplitude, omega, s, co, dt) -> values``: the same from s = sin ωt and co = cos ωt."""
     position: type
     """A predicted position as the forces use it: ``real``, or compensated ``vec2(hi, lo)``."""
     predicted: object
@@ -259,11 +261,10 @@ def nordsieck_functions(method: str, precision: str, compensated: bool = False) 
         return vec2(new[0], new[1])
 
     @wp.func
-    def driver_values(amplitude: wp.float64, omega: wp.float64, t: wp.float64, dt: wp.float64) -> values_t:
-        # the driver's scaled Nordsieck vector at t: x_j = dt^j/j! · d^j/dt^j (A sin ωt)
+    def driver_values_at(amplitude: wp.float64, omega: wp.float64, s: wp.float64, co: wp.float64,
+                         dt: wp.float64) -> values_t:
+        # the driver's scaled Nordsieck vector where sin ωt = s and cos ωt = co: x_j = dt^j/j! · d^j/dt^j (A sin ωt)
         v = values_t()
-        s = wp.sin(omega * t)
-        co = wp.cos(omega * t)
         scale = amplitude
         for j in range(wp.static(Q)):
             phase = j % 4
@@ -277,6 +278,11 @@ def nordsieck_functions(method: str, precision: str, compensated: bool = False) 
             v[j] = real(scale * w)
             scale = scale * omega * dt / wp.float64(j + 1)
         return v
+
+    @wp.func
+    def driver_values(amplitude: wp.float64, omega: wp.float64, t: wp.float64, dt: wp.float64) -> values_t:
+        # the driver's scaled Nordsieck vector at t
+        return driver_values_at(amplitude, omega, wp.sin(omega * t), wp.cos(omega * t), dt)
 
     @wp.func
     def gap_pair(a: vec2, b: vec2) -> real:
@@ -364,7 +370,7 @@ def nordsieck_functions(method: str, precision: str, compensated: bool = False) 
         position_api = (real, predict_position, predicted_position, gap_plain, rounded_plain, exact_plain)
     substep_api = (substep_pair_at if COMP else substep_position_at, substep_correct)
     return Nordsieck(values_t, predict_position, corrected, load, store, predicted_position, correct, driver_values,
-                     *position_api, *substep_api)
+                     driver_values_at, *position_api, *substep_api)
 
 
 @functools.cache

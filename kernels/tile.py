@@ -32,6 +32,9 @@ reads its neighbours at t_n, as in the per-step kernel.
 A driven surface (``surface = "driven"``): the lane holding grain 0 sets its predicted position to the
 driver's u_0(t_{n+1}), overwrites it with the driver's values after the corrector and accumulates the
 driver's work in registers, each in kernels/step.py's arithmetic (grain 1 must sit in grain 0's lane).
+The driver's sin ωt and cos ωt come from a shared table that all lanes of the block refill every
+``lanes_per_chain`` steps, one row each (with the per-step kernel's argument ω·(n·dt), so the same bits):
+without it the lane of grain 0 evaluated three of them every step while the block waited at the next barrier.
 Traces are written inside the launch after each step k·stride, from the lanes that keep the traced grains
 (a window's interior), as the per-step kernel writes them.
 """
@@ -168,25 +171,42 @@ def tile_kernel(features: Features, shape: TileShape):
             v[q] = s[q, k]
         return v
 
-    driver_values = nordsieck.driver_values
+    driver_values_at = nordsieck.driver_values_at
+    DRIVE_ROWS = B if DRIVEN else 1
+
+    @wp.func
+    def drive_phases(table: Any, fill: bool, offset: int, segment: int, lane_c: int, omega: wp.float64,
+                     step0: int, dt: wp.float64) -> wp.vec2d:
+        # (sin ωt, cos ωt) at step step0 + offset (offset ≥ 1) from a shared table of L steps per chain: every L
+        # steps each lane of a block that holds a driven grain (``fill``, the same for the whole block) evaluates
+        # one row, so no sine or cosine lies on a step's critical path. The argument is the per-step kernel's,
+        # ω·(n·dt), so every value has its bits.
+        row = (offset - 1) % L
+        if fill and row == 0:
+            t = wp.float64(step0 + offset + lane_c) * dt
+            wp.tile_assign(table, wp.tile(wp.vec2d(wp.sin(omega * t), wp.cos(omega * t)), preserve_type=True))
+        index = segment * L + row
+        return wp.vec2d(wp.tile_extract(table, index, 0), wp.tile_extract(table, index, 1))
 
     @wp.func
     def driver_work(s: state_t, k0: int, work_power: wp.vec2d, delta0: contact_vec, a_c: contact_vec,
-                    force0: contact_vec, n: real, amplitude: wp.float64, omega: wp.float64, step_new: int,
+                    force0: contact_vec, n: real, amplitude: wp.float64, omega: wp.float64, cos_old: wp.float64,
                     dt: wp.float64) -> wp.vec2d:
-        # kernels/step.py: driver's work, trapezoid of P = ΔF_01 · v_0 at t_n (grains 0 and 1 in this lane)
-        t_old = wp.float64(step_new - 1) * dt
+        # kernels/step.py: driver's work, trapezoid of P = ΔF_01 · v_0 at t_n (grains 0 and 1 in this lane);
+        # cos_old = cos(ω t_n)
         d_old = s[0, k0] - s[0, k0 + 1]
         force_old = wp.float64(contact_force(delta0[k0 + 1] + d_old, a_c[k0 + 1], n) - force0[k0 + 1])
-        power = force_old * amplitude * omega * wp.cos(omega * t_old)
+        power = force_old * amplitude * omega * cos_old
         return wp.vec2d(work_power[0] + dt * wp.float64(0.5) * (work_power[1] + power), power)
 
     @wp.func
     def advance(s: state_t, edges: Any, lane: int, has_left: bool, has_right: bool,
                 delta0: contact_vec, a_c: contact_vec, force0: contact_vec, n: real,
                 inv_m: grain_vec, hh: real, contact_bits: int, move_bits: int, h: real,
-                k0: int, amplitude: wp.float64, omega: wp.float64, step_new: int, dt: wp.float64) -> state_t:
-        # k0: grain 0's index in this lane, or -1 (undriven, or grain 0 elsewhere)
+                k0: int, amplitude: wp.float64, omega: wp.float64, phase_old: wp.vec2d, phase_new: wp.vec2d,
+                dt: wp.float64) -> state_t:
+        # k0: grain 0's index in this lane, or -1 (undriven, or grain 0 elsewhere); phase_old, phase_new:
+        # (sin ωt, cos ωt) of the driver at t_n and t_{n+1}
         # 1. predict
         up = grain_vec()
         up_lo = grain_vec()  # compensated: the low parts (0 otherwise, unused)
@@ -200,11 +220,11 @@ def tile_kernel(features: Features, shape: TileShape):
         if wp.static(DRIVEN):
             if k0 >= 0:
                 if wp.static(COMP):
-                    driver_position = nordsieck.exact_position(amplitude * wp.sin(omega * (wp.float64(step_new) * dt)))
+                    driver_position = nordsieck.exact_position(amplitude * phase_new[0])
                     up[k0] = driver_position[0]
                     up_lo[k0] = driver_position[1]
                 else:
-                    up[k0] = real(amplitude * wp.sin(omega * (wp.float64(step_new) * dt)))
+                    up[k0] = real(amplitude * phase_new[0])
         # 2. exchange the lane's edge positions with its neighbours (virtual grains outside sit at 0)
         if wp.static(EVENTS):
             # events also need the neighbour lanes' edge grains' Nordsieck vectors
@@ -286,7 +306,7 @@ def tile_kernel(features: Features, shape: TileShape):
             driver_above = value_vec()  # the driver's vector at t_n: what grain 1 sees above it
             if wp.static(DRIVEN):
                 if k0 >= 0:
-                    driver_above = driver_values(amplitude, omega, wp.float64(step_new - 1) * dt, dt)
+                    driver_above = driver_values_at(amplitude, omega, phase_old[0], phase_old[1], dt)
             event_bits = int(0)
             for k in range(G):
                 above_u = left_values[0]
@@ -355,11 +375,10 @@ def tile_kernel(features: Features, shape: TileShape):
         if wp.static(DRIVEN):
             if k0 >= 0:
                 # the prescribed surface grain: the driver's u_0 and dt·v_0 at t_{n+1}, higher values 0
-                t_new = wp.float64(step_new) * dt
                 for q in range(Q):
                     out[q, k0] = real(0)
-                out[0, k0] = real(amplitude * wp.sin(omega * t_new))
-                out[1, k0] = real(dt * amplitude * omega * wp.cos(omega * t_new))
+                out[0, k0] = real(amplitude * phase_new[0])
+                out[1, k0] = real(dt * amplitude * omega * phase_new[1])
         return out
 
     @wp.func
@@ -498,35 +517,49 @@ def tile_kernel(features: Features, shape: TileShape):
             amplitude = drive[cc, 0]
             omega = drive[cc, 1]
             work_power = wp.vec2d(work_in[cc], power_in[cc])
+        phase_old = wp.vec2d()  # the driver's (sin ωt, cos ωt) at the last step taken
+        phase_new = wp.vec2d()
+        drive_table = wp.tile_zeros(shape=DRIVE_ROWS, dtype=wp.vec2d, storage="shared")
+        fill_table = False
+        if wp.static(DRIVEN):
+            fill_table = first <= 0  # the window holds grain 0 (windowed: its interior, or its ghost zone)
+            if k0 >= 0:
+                t0 = wp.float64(step0) * dt
+                phase_old = wp.vec2d(wp.sin(omega * t0), wp.cos(omega * t0))
         edges_even = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
         edges_odd = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
         frozen = status[cc] == wp.static(STATUS_NON_FINITE)
         for _pair in range(steps / 2):
             if wp.static(DRIVEN):
+                phase_new = drive_phases(drive_table, fill_table, 2 * _pair + 1, segment, lane_c, omega, step0, dt)
                 if k0 >= 0:
                     work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
-                                             step0 + 2 * _pair + 1, dt)
+                                             phase_old[1], dt)
             s = advance(s, edges_even, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                        contact_bits, move_bits, h, k0, amplitude, omega, step0 + 2 * _pair + 1, dt)
+                        contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt)
+            phase_old = phase_new
             if wp.static(TRACES):
                 write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
                              step0 + 2 * _pair + 1, trace_x)
             if wp.static(DRIVEN):
+                phase_new = drive_phases(drive_table, fill_table, 2 * _pair + 2, segment, lane_c, omega, step0, dt)
                 if k0 >= 0:
                     work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
-                                             step0 + 2 * _pair + 2, dt)
+                                             phase_old[1], dt)
             s = advance(s, edges_odd, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                        contact_bits, move_bits, h, k0, amplitude, omega, step0 + 2 * _pair + 2, dt)
+                        contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt)
+            phase_old = phase_new
             if wp.static(TRACES):
                 write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
                              step0 + 2 * _pair + 2, trace_x)
         if steps % 2 == 1:
             if wp.static(DRIVEN):
+                phase_new = drive_phases(drive_table, fill_table, steps, segment, lane_c, omega, step0, dt)
                 if k0 >= 0:
                     work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
-                                             step0 + steps, dt)
+                                             phase_old[1], dt)
             s = advance(s, edges_even, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                        contact_bits, move_bits, h, k0, amplitude, omega, step0 + steps, dt)
+                        contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt)
             if wp.static(TRACES):
                 write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
                              step0 + steps, trace_x)

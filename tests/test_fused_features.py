@@ -123,17 +123,24 @@ def test_sweep_drive_equals_per_step(case):
 
 
 TILE_DRIVE = [(case, windowed) for case in DRIVEN_CASES for windowed in (False, True)
-              if windowed or case.startswith("traces")]
-"""Whole-chain and windowed shapes for the traced case, the windowed shape for the other (compile time)."""
+              if windowed or case.startswith("traces")] + [("traces, events auto, bottom wall", "G=2")]
+"""Whole-chain and windowed shapes for the traced case, the windowed shape for the other (compile time), and
+windows of 2 grains per lane (the calibration's one-warp shape at G = 2)."""
+SHAPE_KEYWORDS = {
+    False: dict(grains_per_lane=4),
+    True: dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=5, windowed=True),
+    "G=2": dict(grains_per_lane=2, lanes_per_chain=6, steps_per_launch=4, windowed=True),
+}
 
 
 @pytest.mark.parametrize("case,windowed", TILE_DRIVE)
 def test_tile_drive_equals_per_step(case, windowed, device):
+    # the lanes of a block that holds grain 0 refill a table of sines and cosines every lanes_per_chain steps:
+    # launches of more steps than that cross a refill
     sections = DRIVEN_CASES[case]
     model = build_model(driven_scenes(**sections), device)
     f = replace(model.features, traces=False)
-    keywords = dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=5, windowed=True) if windowed else \
-        dict(grains_per_lane=4)
+    keywords = SHAPE_KEYWORDS[windowed]
     plan = plan_tile(f, model.grain_count, model.chain_count, **keywords)
     want = run(model, "step")
     got = run(model, config_of(plan))

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -115,6 +115,13 @@ first)
   step drive_map_first 150 "$HZ sweep sweeps/drive_map_gpu.toml --out $WORK/drive_map.zarr --overwrite --device cuda --quiet --json"
   step profile_build_first 60 "python3 docs/gpu_logs/profile_build.py --batches 3"
   step detect_first ${DETECT_LIMIT:-200} "$HZ detect-study sweeps/detect_study_1000.toml --out $LOGS/study_1000_gpu.json --overwrite --device cuda"
+  ;;
+drive2)
+  # the drive's sines and cosines from a shared table, one-warp windows among the calibration's candidates
+  step pytest_cuda_drive 240 "python3 -m pytest -q -p no:cacheprovider tests/test_fused_features.py tests/test_tile.py -k cuda 2>&1"
+  step e2e_fig9_10_t500_cold 200 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step e2e_fig9_10_t500_warm 100 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step drive_map_drive2 150 "$HZ sweep sweeps/drive_map_gpu.toml --out $WORK/drive_map.zarr --overwrite --device cuda --quiet --json"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"

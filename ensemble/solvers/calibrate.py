@@ -45,8 +45,9 @@ AUTO_MIN_GRAIN_STEPS_CPU = 2e8
 """Below this many grain-steps in a run, ``auto`` keeps the per-step kernel on a CPU (a compile costs seconds)."""
 AUTO_MIN_GRAIN_STEPS_GPU = 5e9
 """Likewise on a GPU, where a calibration costs tens of seconds the first time."""
-CALIBRATION_VERSION = 3
-"""Bumped when the cached fields change (2: a SolverConfig; 3: the event step out of line by default)."""
+CALIBRATION_VERSION = 4
+"""Bumped when the cached fields change (2: a SolverConfig; 3: the event step out of line by default; 4: one-warp
+windows among the candidates)."""
 
 
 def stepping_features(features):
@@ -97,9 +98,10 @@ def step_reason(model: Model, run_steps: int | None = None) -> str | None:
 
 # ---- candidate launch shapes ----------------------------------------------------------------------
 
-REGISTERS = {4: 128, 8: 232, 16: 255}
+REGISTERS = {2: 96, 4: 128, 8: 232, 16: 255}
 """Registers per thread of the gear4 float64 fused kernel for G grains per lane, padded/windowed variants
-(ptxas for sm_90 reports 122, 216 and 255 for the plain variants; launches of 264 lanes at G = 8 and 528 at
+(ptxas for sm_90 reports 122, 216 and 255 for the plain variants at G = 4, 8, 16; G = 2 is an estimate, used
+only for one-warp windows, where any count fits; launches of 264 lanes at G = 8 and 528 at
 G = 4 were refused on the H100, so windowed variants use a little more)."""
 
 
@@ -132,10 +134,15 @@ def whole_chain_configs(model: Model) -> list[SolverConfig]:
     return plans
 
 
+ONE_WARP_WINDOWS = ((4, 32), (4, 16), (2, 16))
+"""(G, K) of the one-warp windows timed for few chains: 32 lanes, so a step waits for no other warp."""
+
+
 def window_configs(model: Model) -> list[SolverConfig]:
     """Windowed shapes worth timing: with many chains the fewest blocks per chain that fit an SM, or two per SM
-    (G = 4 or 8, K = 32 or 64); with few chains, enough blocks to fill the GPU, or half as many (G = 4, K = 16
-    or 32)."""
+    (G = 4 or 8, K = 32 or 64); with few chains, enough blocks to fill the GPU, or half as many, or two per SM
+    where those fill it (G = 4, K = 16 or 32), and windows of one warp (ONE_WARP_WINDOWS), whose step is the shortest: a few chains are
+    latency-bound, one step after another."""
     f, n, c = model.features, model.grain_count, model.chain_count
     sms = _sm_count(model)
     plans = []
@@ -153,7 +160,8 @@ def window_configs(model: Model) -> list[SolverConfig]:
             b_two = b_min                 # two blocks per SM: half an SM's registers per block
             while b_two < b_max and not _fits(-(-(-(-n // b_two) + 2 * K) // G), G, 32768):
                 b_two += 1
-            for b in sorted({b_min, b_two} if many else {b_mid, b_fill}):
+            few_blocks = {b_mid, b_fill} | ({b_two} if b_two * c >= sms else set())  # two blocks an SM, if they fill it
+            for b in sorted({b_min, b_two} if many else few_blocks):
                 interior = -(-n // b)
                 lanes = -(-(interior + 2 * K) // G)
                 try:
@@ -161,7 +169,15 @@ def window_configs(model: Model) -> list[SolverConfig]:
                                                      steps_per_launch=K, windowed=True)))
                 except ValueError:
                     pass
-    return plans
+    if not many:
+        for G, K in ONE_WARP_WINDOWS:
+            if 32 * G - 2 * K >= K and 32 * G < n:   # an interior of at least the ghost zone; a chain too long for one warp
+                try:
+                    plans.append(config_of(plan_tile(f, n, c, grains_per_lane=G, lanes_per_chain=32,
+                                                     steps_per_launch=K, windowed=True)))
+                except ValueError:
+                    pass
+    return list(dict.fromkeys(plans))
 
 
 def default_config(model: Model) -> SolverConfig:
