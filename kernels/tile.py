@@ -194,8 +194,19 @@ def tile_kernel(features: Features, shape: TileShape):
                     dt: wp.float64) -> wp.vec2d:
         # kernels/step.py: driver's work, trapezoid of P = ΔF_01 · v_0 at t_n (grains 0 and 1 in this lane);
         # cos_old = cos(ω t_n)
-        d_old = s[0, k0] - s[0, k0 + 1]
-        force_old = wp.float64(contact_force(delta0[k0 + 1] + d_old, a_c[k0 + 1], n) - force0[k0 + 1])
+        # grains k0, k0 + 1 and their contact picked by selects over the static positions: an index known only at
+        # run time would put the lane's whole register matrix in local memory, for every lane, every step
+        d_old = real(0)
+        below0 = real(0)
+        below_ac = real(0)
+        below_f0 = real(0)
+        for k in range(G - 1):
+            if k == k0:
+                d_old = s[0, k] - s[0, k + 1]
+                below0 = delta0[k + 1]
+                below_ac = a_c[k + 1]
+                below_f0 = force0[k + 1]
+        force_old = wp.float64(contact_force(below0 + d_old, below_ac, n) - below_f0)
         power = force_old * amplitude * omega * cos_old
         return wp.vec2d(work_power[0] + dt * wp.float64(0.5) * (work_power[1] + power), power)
 
@@ -219,12 +230,14 @@ def tile_kernel(features: Features, shape: TileShape):
                 up[k] = nordsieck.predict_position(column(s, k))
         if wp.static(DRIVEN):
             if k0 >= 0:
-                if wp.static(COMP):
-                    driver_position = nordsieck.exact_position(amplitude * phase_new[0])
-                    up[k0] = driver_position[0]
-                    up_lo[k0] = driver_position[1]
-                else:
-                    up[k0] = real(amplitude * phase_new[0])
+                for k in range(G):  # selects over the static positions (see driver_work)
+                    if k == k0:
+                        if wp.static(COMP):
+                            driver_position = nordsieck.exact_position(amplitude * phase_new[0])
+                            up[k] = driver_position[0]
+                            up_lo[k] = driver_position[1]
+                        else:
+                            up[k] = real(amplitude * phase_new[0])
         # 2. exchange the lane's edge positions with its neighbours (virtual grains outside sit at 0)
         if wp.static(EVENTS):
             # events also need the neighbour lanes' edge grains' Nordsieck vectors
@@ -375,10 +388,12 @@ def tile_kernel(features: Features, shape: TileShape):
         if wp.static(DRIVEN):
             if k0 >= 0:
                 # the prescribed surface grain: the driver's u_0 and dt·v_0 at t_{n+1}, higher values 0
-                for q in range(Q):
-                    out[q, k0] = real(0)
-                out[0, k0] = real(amplitude * phase_new[0])
-                out[1, k0] = real(dt * amplitude * omega * phase_new[1])
+                for k in range(G):
+                    if k == k0:
+                        for q in range(Q):
+                            out[q, k] = real(0)
+                        out[0, k] = real(amplitude * phase_new[0])
+                        out[1, k] = real(dt * amplitude * omega * phase_new[1])
         return out
 
     @wp.func

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -127,6 +127,14 @@ probe)
   # the window kernel alone on 10 000-grain columns, one feature changed at a time (docs/gpu_logs/window_probe.py)
   step window_probe_2 300 "python3 docs/gpu_logs/window_probe.py --chains 2 --out $LOGS/window_probe_2.json"
   step window_probe_64 150 "python3 docs/gpu_logs/window_probe.py --chains 64 --variants 0,4 --out $LOGS/window_probe_64.json"
+  ;;
+drive3)
+  # the drive without run-time register indices (selects over the static positions)
+  step window_probe3_2 120 "python3 docs/gpu_logs/window_probe.py --chains 2 --variants 0,4 --out $LOGS/window_probe3_2.json"
+  step window_probe3_64 120 "python3 docs/gpu_logs/window_probe.py --chains 64 --variants 0 --out $LOGS/window_probe3_64.json"
+  step e2e_fig9_10_t500_cold3 200 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step e2e_fig9_10_t500_warm3 100 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step drive_map3 150 "$HZ sweep sweeps/drive_map_gpu.toml --out $WORK/drive_map.zarr --overwrite --device cuda --quiet --json"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
