@@ -200,9 +200,9 @@ def tile_kernel(features: Features, shape: TileShape):
         below0 = real(0)
         below_ac = real(0)
         below_f0 = real(0)
-        for k in range(G - 1):
+        for k in range(G):  # range(G), not range(G - 1): Warp unrolls only a bound it reads as a constant
             if k == k0:
-                d_old = s[0, k] - s[0, k + 1]
+                d_old = s[0, k] - s[0, wp.min(k + 1, G - 1)]
                 below0 = delta0[k + 1]
                 below_ac = a_c[k + 1]
                 below_f0 = force0[k + 1]

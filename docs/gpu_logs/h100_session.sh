@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -135,6 +135,14 @@ drive3)
   step e2e_fig9_10_t500_cold3 200 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
   step e2e_fig9_10_t500_warm3 100 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
   step drive_map3 150 "$HZ sweep sweeps/drive_map_gpu.toml --out $WORK/drive_map.zarr --overwrite --device cuda --quiet --json"
+  ;;
+drive4)
+  # no dynamic loop in driver_work (range(G - 1) was not unrolled: the lane's matrices lived in local memory)
+  step window_probe4_2 120 "python3 docs/gpu_logs/window_probe.py --chains 2 --variants 0,3 --out $LOGS/window_probe4_2.json"
+  step window_probe4_64 120 "python3 docs/gpu_logs/window_probe.py --chains 64 --variants 0,3 --out $LOGS/window_probe4_64.json"
+  step e2e_fig9_10_t500_cold4 200 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step e2e_fig9_10_t500_warm4 100 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step drive_map4 150 "$HZ sweep sweeps/drive_map_gpu.toml --out $WORK/drive_map.zarr --overwrite --device cuda --quiet --json"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
