@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -143,6 +143,20 @@ drive4)
   step e2e_fig9_10_t500_cold4 200 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
   step e2e_fig9_10_t500_warm4 100 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
   step drive_map4 150 "$HZ sweep sweeps/drive_map_gpu.toml --out $WORK/drive_map.zarr --overwrite --device cuda --quiet --json"
+  ;;
+frontier)
+  # time to energy error <= 1e-8 with 16 384 chains (issue 15): each method at its largest studied dt meeting it
+  # on the CPU study docs/accuracy/frontier_methods_cpu.json (1000 grains, t = 20)
+  F="$HZ bench --device cuda --sweep sweeps/frontier_16384.toml --json"
+  step frontier_gear4_off_2e-4 150 "$F --set integrator.method=gear4 --set integrator.dt=2e-4 --set integrator.events=off"
+  step frontier_gear6_off_2e-4 150 "$F --set integrator.method=gear6 --set integrator.dt=2e-4 --set integrator.events=off"
+  step frontier_gear6_auto_8e-4 200 "$F --set integrator.method=gear6 --set integrator.dt=8e-4 --set integrator.events=auto"
+  step frontier_gear4_auto_4e-4 200 "$F --set integrator.method=gear4 --set integrator.dt=4e-4 --set integrator.events=auto"
+  ;;
+scenes)
+  for s in impact_1000 impact_1000_traces driven_1000; do
+    step "e2e_$s" 60 "$HZ bench --device cuda --scene docs/bench/$s.toml --json"
+  done
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
