@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -157,6 +157,19 @@ scenes)
   for s in impact_1000 impact_1000_traces driven_1000; do
     step "e2e_$s" 60 "$HZ bench --device cuda --scene docs/bench/$s.toml --json"
   done
+  ;;
+settle)
+  # Figs. 9-10 at full size to t = 5000 (both tau, A = 2, 0.2, 0.02) and at dt/2 over the response windows
+  # (t <= 1000), reduced by docs/logs/fig9_10_settle.py; pictures of the A = 2 points
+  S="$HZ sweep sweeps/drive_fig9_10_gpu.toml --device cuda --quiet --json --overwrite"
+  T1="--set excitation.drive_period=1.0 --set record.response_periods=10"
+  H="--set integrator.dt=6.25e-5 --set integrator.duration=1000 --set record.every=50"
+  step settle_tau10 200 "$S --out $WORK/tau10.zarr"
+  step settle_tau1 200 "$S $T1 --out $WORK/tau1.zarr"
+  step settle_tau10_half 150 "$S $H --out $WORK/tau10_half.zarr"
+  step settle_tau1_half 150 "$S $T1 $H --out $WORK/tau1_half.zarr"
+  step settle_reduce 120 "python3 docs/logs/fig9_10_settle.py $WORK/tau10.zarr $WORK/tau1.zarr --half $WORK/tau10_half.zarr $WORK/tau1_half.zarr"
+  step settle_plots 120 "$HZ plot $WORK/tau10.zarr --at A=2 --field v --out $LOGS/tau10_A2.png; $HZ plot $WORK/tau1.zarr --at A=2 --field v --out $LOGS/tau1_A2.png"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
