@@ -213,10 +213,13 @@ class Model:
         if isinstance(self.scenes, ChainSet):
             from .startup import initial_nordsieck_of
 
-            # only the first grains move at t = 0 (startup.taylor_window): fill those, zeros elsewhere
+            # only the first grains move at t = 0 (startup.taylor_window): upload those into the zeroed
+            # buffer (a copy of the window, not of every grain)
             window = initial_nordsieck_of(self.scenes, order, self.dt, self._static, whole=False)
-            x = np.zeros((order, self.chain_count, self.grain_count))
-            x[:, :, :window.shape[2]] = window
+            width = window.shape[2]
+            target = state.x if width == self.grain_count else state.x[:, :, :width]
+            target.assign(state_layout(window, self.features))
+            return state
         else:
             x = np.zeros((order, self.chain_count, self.grain_count))
             for c, scene in enumerate(self.scenes):
@@ -310,10 +313,10 @@ def build_model(scenes: "list[Scene] | ChainSet", device: str | None = None, *,
         chain_count=c_count,
         grain_count=n,
         dt=scenes[0].integrator.dt,
-        inverse_mass=upload(inverse_mass.astype(np_real)),
-        contact_constant=upload(contact_constant.astype(np_real)),
-        static_overlap=upload(static_overlap.astype(np_real)),
-        exponent=upload(exponent.astype(np_real)),
+        inverse_mass=upload(inverse_mass.astype(np_real, copy=False)),
+        contact_constant=upload(contact_constant.astype(np_real, copy=False)),
+        static_overlap=upload(static_overlap.astype(np_real, copy=False)),
+        exponent=upload(exponent.astype(np_real, copy=False)),
         drive=upload(drive, wp.float64),
         trace_slot=upload(trace_slot, wp.int32),
         validity_overlap=upload(np.array([s.chain.validity_overlap for s in scenes]), wp.float64),
@@ -405,15 +408,15 @@ def _build_model_of(chains: ChainSet, device, features: Features | None) -> Mode
         chain_count=c_count,
         grain_count=n,
         dt=scene.integrator.dt,
-        inverse_mass=upload(inverse_mass.astype(np_real)),
-        contact_constant=upload(contact_constant.astype(np_real)),
-        static_overlap=upload(static_overlap.astype(np_real)),
-        exponent=upload(exponent.astype(np_real)),
+        inverse_mass=upload(inverse_mass.astype(np_real, copy=False)),
+        contact_constant=upload(contact_constant.astype(np_real, copy=False)),
+        static_overlap=upload(static_overlap.astype(np_real, copy=False)),
+        exponent=upload(exponent.astype(np_real, copy=False)),
         drive=upload(drive, wp.float64),
         trace_slot=upload(trace_slot, wp.int32),
         validity_overlap=upload(per_unique(lambda d: VALIDITY_FRACTION * d, chains.column("chain.diameter")),
                                 wp.float64),
         injected_energy=injected,
         _static=st,
-        damping=upload((chains.column("damping.gamma") if f.damping != "none" else np.zeros(0)).astype(np_real)),
+        damping=upload((chains.column("damping.gamma") if f.damping != "none" else np.zeros(0)).astype(np_real, copy=False)),
     )
