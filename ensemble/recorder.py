@@ -194,7 +194,7 @@ class Recorder:
         if "u" in self.fields:
             self.fields["u"][:, r] = buf["u"].numpy()
         if "v" in self.fields:
-            self.fields["v"][:, r] = buf["v"].numpy() / dt
+            np.divide(buf["v"].numpy(), dt, out=self.fields["v"][:, r])  # in place: no temporary of every grain
         self.energy[:, r] = buf["energy"].numpy()
         if self.work is not None:
             self.work[:, r] = buf["work"].numpy()
