@@ -161,8 +161,8 @@ class Model:
     """StaticArrays of a ChainSet model (reused by the Taylor start), else None."""
     damping: wp.array = None
     """γ per chain, shape (chains,), or (0,) without damping (damping.model in ``features``)."""
-    _start: np.ndarray | None = None
-    """A ChainSet model's initial state, its leading grains in the kernels' layout (prepare_model)."""
+    _start: tuple | None = None
+    """(features, initial state's leading grains in those features' layout) of a ChainSet model (prepare_model)."""
 
     @property
     def real(self):
@@ -218,7 +218,8 @@ class Model:
 
             # only the first grains move at t = 0 (startup.taylor_window): upload those into the zeroed
             # buffer (a copy of the window, not of every grain)
-            start = self._start
+            # prepared for these features (a model copied with other features computes its own)
+            start = self._start[1] if self._start is not None and self._start[0] == self.features else None
             if start is None:
                 start = state_layout(initial_nordsieck_of(self.scenes, order, self.dt, self._static, whole=False),
                                      self.features)
@@ -469,5 +470,5 @@ def _build_model_of(chains: ChainSet, device, features: Features | None, prepare
         injected_energy=prepared.injected_energy,
         _static=prepared.static,
         damping=upload(a["damping"]),
-        _start=prepared.start,
+        _start=(f, prepared.start),
     )
