@@ -81,6 +81,8 @@ def prepare_job(job: BatchJob):
     background thread can compute the next batch's while the current one runs."""
     from .model import prepare_model
 
+    if not isinstance(job.chains, ChainSet):
+        return None  # a batch spanning templates runs as one scene per point: nothing to prepare
     return prepare_model(job.chains, features=job.features)
 
 
@@ -184,7 +186,7 @@ def run_serial(jobs: list[BatchJob], device: str, *, on_record: Callable[[BatchJ
                 clock = time.perf_counter()
                 prepared = ahead.result()
                 timing["prepare_wait"] += time.perf_counter() - clock
-                timing["prepare"] += prepared.seconds
+                timing["prepare"] += prepared.seconds if prepared is not None else 0.0
                 ahead = builder.submit(prepare_job, jobs[index + 1]) if index + 1 < len(jobs) else None
             progress = (lambda done, total, job=job: on_record(job, done, total)) if on_record else None
             result, build = integrate_job(job, device, progress, prepared=prepared)

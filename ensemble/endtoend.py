@@ -127,7 +127,7 @@ def bench_sweep(path: str | Path, device: str, *, kernel: str = "auto", override
                     clock = time.perf_counter()
                     prepared = ahead.result()
                     totals["prepare_wait"] += time.perf_counter() - clock
-                    totals["prepare"] += prepared.seconds
+                    totals["prepare"] += prepared.seconds if prepared is not None else 0.0
                     ahead = builder.submit(prepare_job, jobs[index + 1]) if index + 1 < len(jobs) else None
                 result, batch_build = integrate_job(job, device, prepared=prepared)
                 t = result.timing

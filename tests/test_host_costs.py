@@ -76,6 +76,24 @@ def test_overlapped_preparation_writes_the_same_store(tmp_path):
     assert differing_arrays(overlapped, serial) == []
 
 
+def test_overlapped_preparation_of_batches_spanning_templates(tmp_path):
+    # the impurity's contact rule changes no kernel: one launch group whose batches join two templates
+    # (run as one scene per point, nothing prepared)
+    sweep = dict(SWEEP, axis=SWEEP["axis"][:2] + [{"name": "rule", "key": "impurities.0.contact",
+                                                  "values": ["harmonic", "own"]}])
+    stores = []
+    for overlap in (False, True):
+        definition = sweep_from_dict(sweep)
+        points = expand(definition)
+        plan = plan_sweep(definition, points, "cpu", batch_size=4)
+        jobs = jobs_for(tmp_path / f"{overlap}.zarr", plan, points, plan.batches)
+        assert any(isinstance(j.chains, list) for j in jobs)
+        create_sweep_store(tmp_path / f"{overlap}.zarr", definition, points.templates[0], plan, device="cpu")
+        run_serial(jobs, "cpu", overlap=overlap)
+        stores.append(tmp_path / f"{overlap}.zarr")
+    assert differing_arrays(*stores) == []
+
+
 def test_prepared_model_is_refused_for_other_chains():
     template = scene_from_dict(BASE)
     a = ChainSet.of(template, {"excitation.impact": [1e-3, 1e-2]}, 2)
