@@ -100,6 +100,21 @@ class ChainSet(Sequence):
                         count=len(indices))
 
 
+def row_codes(columns: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """(index of the first row of each distinct row, distinct-row number of every row) of equal-length
+    float64 columns, rows compared bit for bit (0.0 and -0.0 differ; one 1-D unique per column, not a
+    sort of rows)."""
+    columns = [np.ascontiguousarray(c, dtype=np.float64).view(np.int64) for c in columns]
+    count = len(columns[0])
+    code = np.zeros(count, dtype=np.int64)
+    for column in columns:
+        values, inverse = np.unique(column, return_inverse=True)
+        # renumber after each column so the combined code stays below the row count (no overflow)
+        code = np.unique(code * len(values) + inverse.reshape(-1), return_inverse=True)[1].reshape(-1)
+    _, first, inverse = np.unique(code, return_index=True, return_inverse=True)
+    return first, inverse.reshape(-1)
+
+
 def per_unique(function, *columns: np.ndarray) -> np.ndarray:
     """``function(*row)`` (Python floats in, a float out) for every row of ``columns``, evaluated once
     per distinct row: scalar formulas keep exactly the arithmetic (and bits) of the per-scene code."""

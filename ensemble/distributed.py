@@ -76,16 +76,37 @@ def run_job(job: BatchJob, device: str, progress: Callable[[int, int], None] | N
     return write_job(job, *integrate_job(job, device, progress), worker=worker)
 
 
-def integrate_job(job: BatchJob, device: str, progress: Callable[[int, int], None] | None = None):
-    """Build and run one batch on ``device``; returns (RunResult, build seconds). Writes nothing."""
+def prepare_job(job: BatchJob):
+    """The host half of a batch's build (``hertzian.ensemble.model.prepare_model``): numpy only, so a
+    background thread can compute the next batch's while the current one runs."""
+    from .model import prepare_model
+
+    if not isinstance(job.chains, ChainSet):
+        return None  # a batch spanning templates runs as one scene per point: nothing to prepare
+    return prepare_model(job.chains, features=job.features)
+
+
+def integrate_job(job: BatchJob, device: str, progress: Callable[[int, int], None] | None = None, *,
+                  prepared=None):
+    """Build and run one batch on ``device``; returns (RunResult, build seconds). Writes nothing.
+
+    ``prepared``: :func:`prepare_job` of this job, computed earlier (the build seconds are then what
+    remained: uploads, state buffers, solver and recorder)."""
     from .model import build_model
     from .runner import Runner
 
     _quiet_warp()
     start = time.perf_counter()
-    runner = Runner(build_model(job.chains, device, features=job.features), kernel=job.kernel)
+    runner = Runner(build_model(job.chains, device, features=job.features, prepared=prepared), kernel=job.kernel)
     build = time.perf_counter() - start
     return runner.run(progress), build
+
+
+def overlap_default(device: str) -> bool:
+    """Whether a serial sweep prepares batch b + 1 on the host while batch b runs: on CUDA (the host is
+    otherwise idle while the GPU integrates), not on a CPU (whose kernels use every core)."""
+    wp = _quiet_warp()
+    return wp.get_device(device).is_cuda
 
 
 def write_job(job: BatchJob, result, build: float, *, worker: str = "") -> dict[str, Any]:
@@ -133,13 +154,25 @@ def run_job_on_worker(job: BatchJob, requested_device: str | None) -> dict[str, 
 
 
 def run_serial(jobs: list[BatchJob], device: str, *, on_record: Callable[[BatchJob, int, int], None] | None = None,
-               on_done: Callable[[BatchJob, dict], None] | None = None) -> None:
+               on_done: Callable[[BatchJob, dict], None] | None = None, overlap: bool | None = None,
+               timing: dict | None = None) -> None:
     """Run jobs one after the other in this process; each batch's store write runs in a background thread
-    while the next batch integrates (writes stay in batch order; ``on_done`` follows each write)."""
+    while the next batch integrates (writes stay in batch order; ``on_done`` follows each write).
+
+    ``overlap`` (default :func:`overlap_default`): a second background thread prepares batch b + 1's
+    host arrays (:func:`prepare_job`) while batch b runs; same results, bit for bit. ``timing``, if
+    given, gets ``prepare`` (host seconds of those preparations, overlapped) and ``prepare_wait`` (the
+    part the main thread waited for)."""
     from concurrent.futures import ThreadPoolExecutor
 
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="hertzian-store") as writer:
+    overlap = overlap_default(device) if overlap is None else overlap
+    timing = {} if timing is None else timing
+    timing.setdefault("prepare", 0.0)
+    timing.setdefault("prepare_wait", 0.0)
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="hertzian-store") as writer, \
+            ThreadPoolExecutor(max_workers=1, thread_name_prefix="hertzian-build") as builder:
         pending = None
+        ahead = builder.submit(prepare_job, jobs[0]) if overlap and jobs else None
 
         def settle():
             job, future = pending
@@ -147,9 +180,16 @@ def run_serial(jobs: list[BatchJob], device: str, *, on_record: Callable[[BatchJ
             if on_done:
                 on_done(job, record)
 
-        for job in jobs:
+        for index, job in enumerate(jobs):
+            prepared = None
+            if ahead is not None:
+                clock = time.perf_counter()
+                prepared = ahead.result()
+                timing["prepare_wait"] += time.perf_counter() - clock
+                timing["prepare"] += prepared.seconds if prepared is not None else 0.0
+                ahead = builder.submit(prepare_job, jobs[index + 1]) if index + 1 < len(jobs) else None
             progress = (lambda done, total, job=job: on_record(job, done, total)) if on_record else None
-            result, build = integrate_job(job, device, progress)
+            result, build = integrate_job(job, device, progress, prepared=prepared)
             if pending is not None:
                 settle()
             pending = (job, writer.submit(write_job, job, result, build))

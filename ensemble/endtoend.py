@@ -8,6 +8,9 @@ split the wall time into
 * ``kernel``  — host time inside the solvers' ``advance`` (on a CPU: the kernels themselves);
 * ``record``  — device checks, host copies and unpacking of records;
 * ``store``   — Zarr writes (a sweep's run in a background thread, overlapped with the next batch);
+* ``prepare_overlapped`` — (sweep on CUDA) host seconds spent preparing batch b + 1's arrays in a
+  background thread while batch b ran (not part of ``total``'s critical path; the part the main
+  thread still waited for is in ``build``);
 
 and report ``device_busy`` = device seconds / end-to-end seconds (CUDA: summed event times of the
 advances; CPU: the kernel seconds). ``--cold`` runs with empty Warp and calibration caches (a fresh
@@ -80,7 +83,7 @@ def bench_scene(path: str | Path, device: str, *, kernel: str = "auto", override
 def bench_sweep(path: str | Path, device: str, *, kernel: str = "auto", overrides: dict[str, Any] | None = None,
                 log=None) -> dict:
     """Time ``hertzian sweep`` (serial, this process) end to end: plan, store, batches, background writes."""
-    from .distributed import integrate_job, jobs_for, warm_kernels, write_job
+    from .distributed import integrate_job, jobs_for, overlap_default, prepare_job, warm_kernels, write_job
     from .planner import plan_sweep
     from .solvers.calibrate import step_reason_of
     from .sweep import expand, load_sweep
@@ -105,18 +108,28 @@ def bench_sweep(path: str | Path, device: str, *, kernel: str = "auto", override
         clock = time.perf_counter()
         warm_kernels([g.features for g in plan.groups], device)
         compile_seconds = time.perf_counter() - clock
-        totals = {"compile": 0.0, "kernel": 0.0, "record": 0.0, "device": 0.0, "build": 0.0, "store": 0.0}
+        totals = {"compile": 0.0, "kernel": 0.0, "record": 0.0, "device": 0.0, "build": 0.0, "store": 0.0,
+                  "prepare": 0.0, "prepare_wait": 0.0}
         kernels = []
+        overlap = overlap_default(device)
 
         def timed_write(job, result, build_seconds):
             clock = time.perf_counter()
             write_job(job, result, build_seconds)
             return time.perf_counter() - clock
 
-        with ThreadPoolExecutor(max_workers=1) as writer:
+        with ThreadPoolExecutor(max_workers=1) as writer, ThreadPoolExecutor(max_workers=1) as builder:
             pending = None
-            for job in jobs:
-                result, batch_build = integrate_job(job, device)
+            ahead = builder.submit(prepare_job, jobs[0]) if overlap and jobs else None
+            for index, job in enumerate(jobs):
+                prepared = None
+                if ahead is not None:
+                    clock = time.perf_counter()
+                    prepared = ahead.result()
+                    totals["prepare_wait"] += time.perf_counter() - clock
+                    totals["prepare"] += prepared.seconds if prepared is not None else 0.0
+                    ahead = builder.submit(prepare_job, jobs[index + 1]) if index + 1 < len(jobs) else None
+                result, batch_build = integrate_job(job, device, prepared=prepared)
                 t = result.timing
                 totals["build"] += batch_build - t["setup_in_init"]
                 totals["compile"] += t["setup"]
@@ -131,8 +144,9 @@ def bench_sweep(path: str | Path, device: str, *, kernel: str = "auto", override
                 totals["store"] += pending.result()
         finalize(out)
     total = time.perf_counter() - start
-    seconds = {"total": total, "build": build + totals["build"], "compile": compile_seconds + totals["compile"],
-               "kernel": totals["kernel"], "record": totals["record"], "store": totals["store"]}
+    seconds = {"total": total, "build": build + totals["build"] + totals["prepare_wait"],
+               "compile": compile_seconds + totals["compile"], "kernel": totals["kernel"], "record": totals["record"],
+               "store": totals["store"], "prepare_overlapped": totals["prepare"]}
     grain_steps = float(sum(j.grain_steps for j in jobs))
     first = points.templates[0]
     if log:

@@ -10,6 +10,7 @@ ping-pongs between (they share one ``status`` and one trace ring).
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -160,6 +161,8 @@ class Model:
     """StaticArrays of a ChainSet model (reused by the Taylor start), else None."""
     damping: wp.array = None
     """γ per chain, shape (chains,), or (0,) without damping (damping.model in ``features``)."""
+    _start: tuple | None = None
+    """(features, initial state's leading grains in those features' layout) of a ChainSet model (prepare_model)."""
 
     @property
     def real(self):
@@ -213,10 +216,16 @@ class Model:
         if isinstance(self.scenes, ChainSet):
             from .startup import initial_nordsieck_of
 
-            # only the first grains move at t = 0 (startup.taylor_window): fill those, zeros elsewhere
-            window = initial_nordsieck_of(self.scenes, order, self.dt, self._static, whole=False)
-            x = np.zeros((order, self.chain_count, self.grain_count))
-            x[:, :, :window.shape[2]] = window
+            # only the first grains move at t = 0 (startup.taylor_window): upload those into the zeroed
+            # buffer (a copy of the window, not of every grain)
+            # prepared for these features (a model copied with other features computes its own)
+            start = self._start[1] if self._start is not None and self._start[0] == self.features else None
+            if start is None:
+                start = state_layout(initial_nordsieck_of(self.scenes, order, self.dt, self._static, whole=False),
+                                     self.features)
+            width = start.shape[2]
+            (state.x if width == self.grain_count else state.x[:, :, :width]).assign(start)
+            return state
         else:
             x = np.zeros((order, self.chain_count, self.grain_count))
             for c, scene in enumerate(self.scenes):
@@ -255,17 +264,18 @@ def covers(wider: Features, needed: Features) -> bool:
 
 
 def build_model(scenes: "list[Scene] | ChainSet", device: str | None = None, *,
-                features: Features | None = None) -> Model:
+                features: Features | None = None, prepared: "HostModel | None" = None) -> Model:
     """Upload an ensemble of compatible scenes to ``device`` (default: CUDA if present, else CPU).
 
     ``scenes``: a list of scenes, or a :class:`~hertzian.ensemble.chains.ChainSet` (a template scene and
     per-chain parameter arrays; built with numpy, no scene per chain, same bits as the list of its
     scenes). ``features`` forces a wider kernel variant than the scenes need (e.g. to run one member
-    of an ensemble alone with the ensemble's kernel).
+    of an ensemble alone with the ensemble's kernel). ``prepared``: :func:`prepare_model` of the same
+    ChainSet and ``features``, computed earlier (e.g. in a background thread): only the uploads remain.
     """
     device = wp.get_device(device)
     if isinstance(scenes, ChainSet):
-        return _build_model_of(scenes, device, features)
+        return _build_model_of(scenes, device, features, prepared)
     if not scenes:
         raise SceneError("scenes", [], "an ensemble needs at least one scene")
     statics = [static_state(s) for s in scenes]
@@ -310,10 +320,10 @@ def build_model(scenes: "list[Scene] | ChainSet", device: str | None = None, *,
         chain_count=c_count,
         grain_count=n,
         dt=scenes[0].integrator.dt,
-        inverse_mass=upload(inverse_mass.astype(np_real)),
-        contact_constant=upload(contact_constant.astype(np_real)),
-        static_overlap=upload(static_overlap.astype(np_real)),
-        exponent=upload(exponent.astype(np_real)),
+        inverse_mass=upload(inverse_mass.astype(np_real, copy=False)),
+        contact_constant=upload(contact_constant.astype(np_real, copy=False)),
+        static_overlap=upload(static_overlap.astype(np_real, copy=False)),
+        exponent=upload(exponent.astype(np_real, copy=False)),
         drive=upload(drive, wp.float64),
         trace_slot=upload(trace_slot, wp.int32),
         validity_overlap=upload(np.array([s.chain.validity_overlap for s in scenes]), wp.float64),
@@ -345,12 +355,31 @@ def chain_set_can_open(chains: ChainSet, static) -> bool:
     return bool(np.any(present & ((static.static_overlap <= 0) | (bound <= injected[:, None]))))
 
 
-def _build_model_of(chains: ChainSet, device, features: Features | None) -> Model:
-    """build_model for a ChainSet: every per-chain array from numpy over the set (bitwise equal to the
-    per-scene path, checked by tests/test_vectorised.py)."""
-    from .startup import taylor_window
+@dataclass(frozen=True, eq=False)
+class HostModel:
+    """Everything :func:`build_model` computes on the host for a ChainSet, before any upload: the kernel
+    variant, the static arrays, the per-chain arrays in the kernels' precision and the initial state's
+    first grains (:func:`prepare_model`; a sweep computes the next batch's while the current one runs)."""
+
+    chains: ChainSet
+    features: Features
+    static: object
+    """StaticArrays of the chains."""
+    arrays: dict
+    """Name → numpy array to upload (``inverse_mass``, ``contact_constant``, …)."""
+    injected_energy: np.ndarray
+    start: np.ndarray
+    """The initial state's leading grains in the kernels' layout, shape (values, chains, window)."""
+    seconds: float = 0.0
+    """Host seconds it took."""
+
+
+def prepare_model(chains: ChainSet, *, features: Features | None = None) -> HostModel:
+    """The host half of ``build_model(chains, …)``: numpy only, no device (safe in a background thread)."""
+    from .startup import initial_nordsieck_of, taylor_window
     from .static import static_arrays
 
+    clock = time.perf_counter()
     if len(chains) == 0:
         raise SceneError("scenes", [], "an ensemble needs at least one scene")
     scene = chains.template
@@ -369,11 +398,7 @@ def _build_model_of(chains: ChainSet, device, features: Features | None) -> Mode
     if window is not None and (f.static == "profile" or f.heterogeneous):
         st = static_arrays(chains)  # a wider variant was asked for: it reads every contact
     np_real = np.float64 if f.precision == "float64" else np.float32
-    real = wp.float64 if f.precision == "float64" else wp.float32
-    c_count, n = len(chains), scene.chain.grains
-
-    def upload(array, dtype=real):
-        return wp.array(np.ascontiguousarray(array), dtype=dtype, device=device)
+    n = scene.chain.grains
 
     if f.heterogeneous:
         inverse_mass = 1.0 / st.mass
@@ -398,22 +423,52 @@ def _build_model_of(chains: ChainSet, device, features: Features | None) -> Mode
         trace_slot[grain] = slot
     impact = chains.column("excitation.impact")
     injected = per_unique(lambda m0, v: 0.5 * m0 * v**2, st.mass[:, 0], impact)
+    arrays = {
+        "inverse_mass": inverse_mass.astype(np_real, copy=False),
+        "contact_constant": contact_constant.astype(np_real, copy=False),
+        "static_overlap": static_overlap.astype(np_real, copy=False),
+        "exponent": exponent.astype(np_real, copy=False),
+        "drive": drive,
+        "trace_slot": trace_slot,
+        "validity_overlap": per_unique(lambda d: VALIDITY_FRACTION * d, chains.column("chain.diameter")),
+        "damping": (chains.column("damping.gamma") if f.damping != "none" else np.zeros(0)).astype(np_real,
+                                                                                                   copy=False),
+    }
+    # only the first grains move at t = 0 (startup.taylor_window); the others start at zero
+    start = state_layout(initial_nordsieck_of(chains, f.nordsieck_values, scene.integrator.dt, st, whole=False), f)
+    return HostModel(chains=chains, features=f, static=st, arrays=arrays, injected_energy=injected, start=start,
+                     seconds=time.perf_counter() - clock)
+
+
+def _build_model_of(chains: ChainSet, device, features: Features | None, prepared: HostModel | None = None) -> Model:
+    """build_model for a ChainSet: every per-chain array from numpy over the set (bitwise equal to the
+    per-scene path, checked by tests/test_vectorised.py), then uploaded."""
+    if prepared is None:
+        prepared = prepare_model(chains, features=features)
+    elif prepared.chains is not chains or (features is not None and prepared.features != features):
+        raise ValueError("prepare_model was given other chains or features than build_model")
+    f, a = prepared.features, prepared.arrays
+    real = wp.float64 if f.precision == "float64" else wp.float32
+
+    def upload(array, dtype=real):
+        return wp.array(np.ascontiguousarray(array), dtype=dtype, device=device)
+
     return Model(
         scenes=chains,
         features=f,
         device=device,
-        chain_count=c_count,
-        grain_count=n,
-        dt=scene.integrator.dt,
-        inverse_mass=upload(inverse_mass.astype(np_real)),
-        contact_constant=upload(contact_constant.astype(np_real)),
-        static_overlap=upload(static_overlap.astype(np_real)),
-        exponent=upload(exponent.astype(np_real)),
-        drive=upload(drive, wp.float64),
-        trace_slot=upload(trace_slot, wp.int32),
-        validity_overlap=upload(per_unique(lambda d: VALIDITY_FRACTION * d, chains.column("chain.diameter")),
-                                wp.float64),
-        injected_energy=injected,
-        _static=st,
-        damping=upload((chains.column("damping.gamma") if f.damping != "none" else np.zeros(0)).astype(np_real)),
+        chain_count=len(chains),
+        grain_count=chains.template.chain.grains,
+        dt=chains.template.integrator.dt,
+        inverse_mass=upload(a["inverse_mass"]),
+        contact_constant=upload(a["contact_constant"]),
+        static_overlap=upload(a["static_overlap"]),
+        exponent=upload(a["exponent"]),
+        drive=upload(a["drive"], wp.float64),
+        trace_slot=upload(a["trace_slot"], wp.int32),
+        validity_overlap=upload(a["validity_overlap"], wp.float64),
+        injected_energy=prepared.injected_energy,
+        _static=prepared.static,
+        damping=upload(a["damping"]),
+        _start=(f, prepared.start),
     )

@@ -20,6 +20,41 @@ from .model import Model, State
 from .response import ResponseAccumulator
 
 
+class StagingPool:
+    """Host staging buffers kept between runs, so a sweep's batches reuse them instead of allocating
+    (page-locked on CUDA, where allocating and freeing them costs milliseconds per megabyte).
+
+    Buffers are keyed by device and layout; only the most recent layout is kept (a sweep's batches
+    share one), so the pool holds at most the two buffers of one run beyond the runs in flight.
+    """
+
+    def __init__(self):
+        import threading
+
+        self._lock = threading.Lock()
+        self._key = None
+        self._free: list[dict[str, wp.array]] = []
+
+    def take(self, key, make) -> dict[str, wp.array]:
+        """A free buffer of layout ``key``, or ``make()``'s."""
+        with self._lock:
+            if key == self._key and self._free:
+                return self._free.pop()
+        return make()
+
+    def give(self, key, buffers: list[dict[str, wp.array]]) -> None:
+        """Return buffers of layout ``key`` for the next run (drops those of an older layout)."""
+        with self._lock:
+            if key != self._key:
+                self._key, self._free = key, []
+            self._free.extend(buffers)
+            del self._free[2:]
+
+
+STAGING = StagingPool()
+"""The process's staging buffers (hertzian.ensemble.runner returns a run's after its last record)."""
+
+
 class Recorder:
     """The device reductions and host arrays of one run of ``model``."""
 
@@ -58,10 +93,23 @@ class Recorder:
         self.dissipated = np.zeros((c, records)) if damped else None
         self.response = ResponseAccumulator(m) if scene.has_response else None
 
-        self.staging = [self._staging_buffer() for _ in range(2)]
+        self.staging_key = self._staging_key()
+        self.staging = [STAGING.take(self.staging_key, self._staging_buffer) for _ in range(2)]
         """Two sets of host copies, used alternately (double buffering)."""
         self.pending: list[tuple[int, object] | None] = [None, None]
         """Per staging buffer: (record index, CUDA event after its copies) not yet unpacked, or None."""
+
+    def _staging_key(self) -> tuple:
+        m = self.model
+        return (str(m.device), m.chain_count, m.grain_count, m.features.precision, self.work is not None,
+                self.dissipated is not None, bool(self.fields or self.traced), len(self.traced), self.capacity)
+
+    def release(self) -> None:
+        """Hand the staging buffers back to the pool (after :meth:`finish`; the recorder keeps no copy)."""
+        if any(p is not None for p in self.pending):
+            raise RuntimeError("release() before finish(): records still queued in the staging buffers")
+        STAGING.give(self.staging_key, self.staging)
+        self.staging = []
 
     def _staging_buffer(self) -> dict[str, wp.array]:
         m = self.model
@@ -146,7 +194,7 @@ class Recorder:
         if "u" in self.fields:
             self.fields["u"][:, r] = buf["u"].numpy()
         if "v" in self.fields:
-            self.fields["v"][:, r] = buf["v"].numpy() / dt
+            np.divide(buf["v"].numpy(), dt, out=self.fields["v"][:, r])  # in place: no temporary of every grain
         self.energy[:, r] = buf["energy"].numpy()
         if self.work is not None:
             self.work[:, r] = buf["work"].numpy()

@@ -181,6 +181,7 @@ class Runner:
         clock = time.perf_counter()
         rec.finish()
         wp.synchronize_device(m.device)
+        rec.release()
         record_seconds += time.perf_counter() - clock
         wall = time.perf_counter() - start
         device_seconds = advance_seconds if events is None else sum(

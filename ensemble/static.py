@@ -11,11 +11,16 @@ and its static overlap is ``δ0 = (carried / (n a_c))^(1/(n−1))``.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 import numpy as np
 
 from .scene import Scene
+
+STATIC_KEYS = ("chain.mass", "chain.a", "chain.exponent", "chain.l0", "chain.load", "chain.gravity")
+"""Per-chain keys the static state reads (with ``impurities.K.mass|a``)."""
+IMPURITY_STATIC = re.compile(r"^impurities\.(\d+)\.(mass|a)$")
 
 
 @dataclass(frozen=True)
@@ -134,13 +139,50 @@ def _power_by_exponent(base: np.ndarray, exponent: np.ndarray, power) -> np.ndar
     return out
 
 
+def _static_columns(chains) -> list[str]:
+    """The varying per-chain keys that the static state depends on (not the impact, drive, damping or
+    diameter, which vary in a sweep without changing it)."""
+    return [k for k in chains.values if k in STATIC_KEYS or IMPURITY_STATIC.match(k)]
+
+
+def distinct_static_rows(chains) -> tuple[np.ndarray, np.ndarray] | None:
+    """(first index of each distinct static configuration, configuration of every chain), or None when
+    every chain is its own configuration (nothing to share)."""
+    from .chains import row_codes
+
+    keys = _static_columns(chains)
+    if not keys:
+        first, inverse = np.zeros(1, dtype=np.int64), np.zeros(len(chains), dtype=np.int64)
+    else:
+        first, inverse = row_codes([chains.values[k] for k in keys])
+    if len(first) == len(chains):
+        return None
+    return first, inverse
+
+
 def static_arrays(chains, *, grains: int | None = None) -> StaticArrays:
     """:func:`static_state` of every chain of a ChainSet, vectorised over chains (same bits).
 
     ``grains`` < N computes only the first ``grains`` grains and contacts 0 … ``grains`` (the last one
     an inner contact, its constant from grains ``grains``−1 and ``grains``): the arrays are then the
     leading columns of the full ones, bit for bit (a prefix of the cumulative mass is the same sum).
+
+    Chains that differ only in keys the static state does not read (an impact speed, say) share one
+    computation: each distinct configuration is solved once and its rows copied (every operation is
+    row by row, so the bits are those of solving every chain).
     """
+    shared = distinct_static_rows(chains) if len(chains) > 1 else None
+    if shared is None:
+        return _static_arrays(chains, grains)
+    first, inverse = shared
+    one = _static_arrays(chains.take(first), grains)
+    return StaticArrays(mass=one.mass[inverse], self_constant=one.self_constant[inverse],
+                        contact_constant=one.contact_constant[inverse], carried_force=one.carried_force[inverse],
+                        static_overlap=one.static_overlap[inverse], exponent=one.exponent[inverse],
+                        surface_force=one.surface_force[inverse])
+
+
+def _static_arrays(chains, grains: int | None) -> StaticArrays:
     from .chains import per_unique
 
     scene = chains.template

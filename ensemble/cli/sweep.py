@@ -300,7 +300,7 @@ def _run(definition, points, plan, out: Path, dev: str, *, resuming: bool, overw
         start = time.perf_counter()
         try:
             if client is None:
-                run_serial(jobs, dev, on_record=progress.record, on_done=progress.batch_done)
+                run_serial(jobs, dev, on_record=progress.record, on_done=progress.batch_done, timing=timing)
             else:
                 run_distributed(jobs, client, requested_device, on_done=progress.batch_done)
         except KeyboardInterrupt:

@@ -1,0 +1,122 @@
+"""Host-side cuts of a sweep's batches (issue 17): each gives the same bits as the path it replaces.
+
+* the static state solved once per distinct static configuration equals every chain's own
+  ``static_state`` (the per-scene reference);
+* a serial sweep that prepares batch b + 1's host arrays in a background thread while batch b runs
+  writes the same store as one that does not (and both equal the per-scene runs, tests/test_sweep.py);
+* reused host staging buffers give the same records as fresh ones.
+"""
+
+import numpy as np
+import pytest
+
+from hertzian.ensemble.chains import ChainSet
+from hertzian.ensemble.distributed import jobs_for, run_serial
+from hertzian.ensemble.model import build_model, prepare_model
+from hertzian.ensemble.planner import plan_sweep
+from hertzian.ensemble.recorder import STAGING
+from hertzian.ensemble.runner import Runner
+from hertzian.ensemble.scene import scene_from_dict
+from hertzian.ensemble.static import distinct_static_rows, static_arrays, static_state
+from hertzian.ensemble.sweep import expand, sweep_from_dict
+from hertzian.ensemble.sweep_store import create_sweep_store, differing_arrays
+
+BASE = {
+    "chain": {"grains": 12, "l0": 1e-4},
+    "impurities": [{"grains": [5], "mass": 2.0}],
+    "excitation": {"impact": 1e-2},
+    "integrator": {"method": "gear4", "dt": 2e-4, "duration": 0.02},
+    "record": {"every": 0.01, "fields": ["u", "v"], "traces": [0, 11], "trace_every": 0.002},
+}
+
+
+def test_shared_static_rows_equal_each_chains_own_static_state():
+    template = scene_from_dict(BASE)
+    # 3 impact speeds (not read by the static state) × 2 impurity masses × 2 precompressions: 4 configurations
+    impact = np.repeat([1e-3, 1e-2, 5e-2], 4)
+    mass = np.tile([0.5, 2.0], 6)
+    l0 = np.tile([0.0, 0.0, 1e-4, 1e-4], 3)
+    chains = ChainSet.of(template, {"excitation.impact": impact, "impurities.0.mass": mass, "chain.l0": l0}, 12)
+    first, inverse = distinct_static_rows(chains)
+    assert len(first) == 4 and inverse.shape == (12,)  # the shared path is the one taken
+    st = static_arrays(chains)
+    for c in range(len(chains)):
+        ref = static_state(chains[c])
+        for name in ("mass", "self_constant", "contact_constant", "carried_force", "static_overlap"):
+            assert getattr(st, name)[c].tobytes() == getattr(ref, name).tobytes(), (c, name)
+        assert st.exponent[c] == ref.exponent and st.surface_force[c] == ref.surface_force
+
+
+SWEEP = {
+    "scene": {**BASE, "chain": {"grains": 12, "gravity": 0.5}},
+    "axis": [
+        {"name": "v_imp", "key": "excitation.impact", "values": [1e-3, 1e-2, 3e-2]},
+        {"name": "l0", "key": "chain.l0", "values": [1e-5, 1e-4]},
+        {"name": "m_imp", "key": "impurities.0.mass", "values": [0.5, 2.0]},
+    ],
+}
+
+
+def _store(tmp_path, name, overlap, timing=None):
+    sweep = sweep_from_dict(SWEEP)
+    points = expand(sweep)
+    plan = plan_sweep(sweep, points, "cpu", batch_size=2)
+    out = tmp_path / name
+    create_sweep_store(out, sweep, points.templates[0], plan, device="cpu")
+    run_serial(jobs_for(out, plan, points, plan.batches), "cpu", overlap=overlap, timing=timing)
+    return out, len(plan.batches)
+
+
+def test_overlapped_preparation_writes_the_same_store(tmp_path):
+    serial, batches = _store(tmp_path, "serial.zarr", overlap=False)
+    timing = {}
+    overlapped, _ = _store(tmp_path, "overlapped.zarr", overlap=True, timing=timing)
+    assert batches >= 3  # a preparation ran while an earlier batch ran
+    assert timing["prepare"] > 0
+    assert differing_arrays(overlapped, serial) == []
+
+
+def test_overlapped_preparation_of_batches_spanning_templates(tmp_path):
+    # the impurity's contact rule changes no kernel: one launch group whose batches join two templates
+    # (run as one scene per point, nothing prepared)
+    sweep = dict(SWEEP, axis=SWEEP["axis"][:2] + [{"name": "rule", "key": "impurities.0.contact",
+                                                  "values": ["harmonic", "own"]}])
+    stores = []
+    for overlap in (False, True):
+        definition = sweep_from_dict(sweep)
+        points = expand(definition)
+        plan = plan_sweep(definition, points, "cpu", batch_size=4)
+        jobs = jobs_for(tmp_path / f"{overlap}.zarr", plan, points, plan.batches)
+        assert any(isinstance(j.chains, list) for j in jobs)
+        create_sweep_store(tmp_path / f"{overlap}.zarr", definition, points.templates[0], plan, device="cpu")
+        run_serial(jobs, "cpu", overlap=overlap)
+        stores.append(tmp_path / f"{overlap}.zarr")
+    assert differing_arrays(*stores) == []
+
+
+def test_prepared_model_is_refused_for_other_chains():
+    template = scene_from_dict(BASE)
+    a = ChainSet.of(template, {"excitation.impact": [1e-3, 1e-2]}, 2)
+    b = ChainSet.of(template, {"excitation.impact": [1e-3, 2e-2]}, 2)
+    with pytest.raises(ValueError):
+        build_model(b, "cpu", prepared=prepare_model(a))
+
+
+def test_reused_staging_buffers_give_the_same_records():
+    template = scene_from_dict(BASE)
+    chains = ChainSet.of(template, {"excitation.impact": [1e-3, 1e-2, 3e-2]}, 3)
+    first = Runner(build_model(chains, "cpu"), kernel="step")
+    kept = [id(buf) for buf in first.recorder.staging]
+    one = first.run()
+    second = Runner(build_model(chains, "cpu"), kernel="step")
+    assert [id(buf) for buf in second.recorder.staging] == kept[::-1]  # the pool handed them back
+    two = second.run()
+    for name in ("u", "v"):
+        np.testing.assert_array_equal(one.fields[name], two.fields[name])
+        np.testing.assert_array_equal(one.traces[name], two.traces[name])
+    np.testing.assert_array_equal(one.energy, two.energy)
+    # a different layout does not take them
+    other = Runner(build_model(ChainSet.of(template, {"excitation.impact": [1e-3, 1e-2]}, 2), "cpu"), kernel="step")
+    assert not {id(buf) for buf in other.recorder.staging} & set(kept)
+    other.run()
+    assert STAGING._key == other.recorder.staging_key
