@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -170,6 +170,20 @@ settle)
   step settle_tau1_half 150 "$S $T1 $H --out $WORK/tau1_half.zarr"
   step settle_reduce 120 "python3 docs/logs/fig9_10_settle.py $WORK/tau10.zarr $WORK/tau1.zarr --half $WORK/tau10_half.zarr $WORK/tau1_half.zarr"
   step settle_plots 120 "$HZ plot $WORK/tau10.zarr --at A=2 --field v --out $LOGS/tau10_A2.png; $HZ plot $WORK/tau1.zarr --at A=2 --field v --out $LOGS/tau1_A2.png"
+  ;;
+final)
+  # the last call of the night: the kernels on CUDA (bitwise), gpu_10k with and without traces, million with
+  # the overlapped batch build, the reproduction cold and warm (plain Gear steps where the option exists)
+  step pytest_cuda_final 200 "python3 -m pytest -q -p no:cacheprovider tests/test_fused_features.py tests/test_tile.py -k cuda 2>&1"
+  step e2e_gpu10k_final_cold 120 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step e2e_gpu10k_final 60 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step e2e_gpu10k_notraces_final 60 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --set 'record.traces=[]' --json"
+  step million_final 90 "$HZ sweep sweeps/million.toml --out $WORK/million.zarr --overwrite --device cuda --quiet --json"
+  EV=""; $HZ reproduce --help 2>/dev/null | grep -q -- "--events" && EV="--events off"
+  step reproduce_final_cold ${REPRO_LIMIT:-200} "$HZ reproduce --device cuda $EV --out-dir $WORK/repro"
+  cp "$WORK"/repro/log.json "$LOGS"/reproduce_cold_log.json 2>/dev/null
+  step reproduce_final_warm ${REPRO_WARM_LIMIT:-120} "$HZ reproduce --device cuda $EV --out-dir $WORK/repro2"
+  cp "$WORK"/repro2/log.json "$LOGS"/reproduce_warm_log.json 2>/dev/null
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
