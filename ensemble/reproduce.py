@@ -145,7 +145,8 @@ def run_sweep_group(path: Path, overrides: dict[str, Any], out: Path, device: st
     scene = points.scene(0)
     return {
         "points": points.point_count, "grains": scene.chain.grains, "steps": scene.step_count, "dt": scene.integrator.dt,
-        "method": scene.integrator.method, "device": prov["device"], "wall_seconds": session,
+        "method": scene.integrator.method, "events": scene.integrator.events, "device": prov["device"],
+        "wall_seconds": session,
         "grain_steps": grain_steps, "grain_steps_per_second": grain_steps / max(session, 1e-12),
         "energy_error_max": prov["energy_error_max"],
         "status_counts": {str(int(c)): int(k) for c, k in zip(codes, counts)},
@@ -155,12 +156,12 @@ def run_sweep_group(path: Path, overrides: dict[str, Any], out: Path, device: st
 # ---- Figs. 9-10: windows of the driven column --------------------------------------------------
 
 
-def drive_scenes(path: Path, grains: int, duration: float, dt: float):
+def drive_scenes(path: Path, grains: int, duration: float, dt: float, events: str | None = None):
     """The driven columns (τ = 10 and τ = 1) of sweeps/paper_fig9_10.toml at the given size."""
     from .sweep import load_sweep, sweep_scenes
 
     sweep = load_sweep(path, {"chain.grains": grains, "integrator.duration": duration, "integrator.dt": dt,
-                              "record.every": duration})
+                              "record.every": duration, **({"integrator.events": events} if events else {})})
     return sweep, sweep_scenes(sweep)
 
 
@@ -302,7 +303,7 @@ def standing_wave_numbers(ke_window: np.ndarray, paper_times: np.ndarray, block:
 
 
 def run_drive_group(path: Path, out_dir: Path, device: str, *, quick: bool, grains: int | None = None,
-                    say: Callable[[str], None] = print) -> list[dict[str, Any]]:
+                    events: str | None = None, say: Callable[[str], None] = print) -> list[dict[str, Any]]:
     """Figs. 9–10: the windowed run (store ``fig9_10.zarr``) and, at full size, the dt check
     (``fig9_10_dt_check.zarr``: dt = 1.25e-5 to the first window, compared window by window)."""
     grains = grains or (GROUPS["fig9_10"].quick["chain.grains"] if quick else 10000)
@@ -314,7 +315,7 @@ def run_drive_group(path: Path, out_dir: Path, device: str, *, quick: bool, grai
     lag = np.tile(LAGS, len(paper_times))
     centres = paper_times[block] + lag
     duration = float(centres[-1] + WINDOW)
-    sweep, scenes = drive_scenes(path, grains, duration, DRIVE_DT)
+    sweep, scenes = drive_scenes(path, grains, duration, DRIVE_DT, events)
     result = run_driven(scenes, device, centres, coarse_every=0.5 if quick else COARSE_EVERY)
     store = out_dir / "fig9_10.zarr"
     write_driven(store, sweep, scenes, centres, result, block, lag)
@@ -332,7 +333,7 @@ def run_drive_group(path: Path, out_dir: Path, device: str, *, quick: bool, grai
     if quick:
         return runs
     first = centres[centres <= paper_times[0]]
-    _, fine_scenes = drive_scenes(path, grains, float(first[-1] + WINDOW), DRIVE_CHECK_DT)
+    _, fine_scenes = drive_scenes(path, grains, float(first[-1] + WINDOW), DRIVE_CHECK_DT, events)
     fine = run_driven(fine_scenes, device, first, coarse_every=float(first[-1] + WINDOW))
     write_driven(out_dir / "fig9_10_dt_check.zarr", sweep, fine_scenes, first, fine, block[:len(first)],
                  lag[:len(first)])
@@ -763,10 +764,11 @@ def finite(value):
 
 
 def reproduce(out_dir: Path, *, groups: list[str] | None = None, quick: bool = False, device: str = "cpu",
-              sweeps_dir: Path | None = None, drive_grains: int | None = None,
+              sweeps_dir: Path | None = None, drive_grains: int | None = None, events: str | None = None,
               say: Callable[[str], None] = print) -> dict[str, Any]:
     """Run ``groups`` (default: all of GROUPS), write their stores and PNGs into ``out_dir`` and the log
     ``out_dir/log.json``; returns the log. A figure that cannot be drawn is logged with its error.
+    ``events``: "auto" or "off" sets integrator.events for every group (default None: each sweep file's).
     ``drive_grains``: the driven column's length for Figs. 9–10 (default 10 000, or 300 with ``quick``;
     the paper's times are scaled by the travel time ∝ N^(5/6))."""
     import warp as wp
@@ -780,10 +782,11 @@ def reproduce(out_dir: Path, *, groups: list[str] | None = None, quick: bool = F
     log: dict[str, Any] = {
         "command": "hertzian reproduce" + (" --quick" if quick else "") + "".join(
             f" --figure {g}" for g in (groups or [])) + (f" --drive-grains {drive_grains}" if drive_grains else "")
-        + f" --device {device}",
+        + (f" --events {events}" if events else "") + f" --device {device}",
         "date": datetime.now(timezone.utc).isoformat(timespec="seconds"), "device": device,
         "device_name": wp.get_device(device).name, "cpu_count": _cpu_count(), "platform": platform.platform(),
-        "warp_version": wp.config.version, "quick": quick, "runs": [],
+        "warp_version": wp.config.version, "quick": quick, "events": events or "as each sweep file says",
+        "runs": [],
     }
     begin = time.perf_counter()
     failures = 0
@@ -791,10 +794,11 @@ def reproduce(out_dir: Path, *, groups: list[str] | None = None, quick: bool = F
         group = GROUPS[name]
         path = sweeps_dir / group.sweep
         if name == "fig9_10":
-            runs = run_drive_group(path, out_dir, device, quick=quick, grains=drive_grains, say=say)
+            runs = run_drive_group(path, out_dir, device, quick=quick, grains=drive_grains, events=events, say=say)
         else:
             store = out_dir / f"{name}.zarr"
-            entry = run_sweep_group(path, group.quick if quick else {}, store, device)
+            overrides = {**(group.quick if quick else {}), **({"integrator.events": events} if events else {})}
+            entry = run_sweep_group(path, overrides, store, device)
             runs = [{"name": name, "sweep": group.sweep, "store": store.name, **entry}]
             say(f"{name}: {entry['points']} points x {entry['grains']} grains, {entry['wall_seconds']:.1f} s, "
                 f"{entry['grain_steps_per_second']:.3g} grain-steps/s, energy error {entry['energy_error_max']:.2e}")

@@ -306,3 +306,27 @@ def test_fused_kernel_keeps_its_state_in_registers(driven, tmp_path):
     except Exception as err:  # a Warp without NVRTC
         pytest.skip(f"no CUDA compiler: {err}")
     assert not _entry_uses_local_memory((tmp_path / "fused.ptx").read_text(errors="replace"))
+
+
+def test_auto_takes_a_calibrated_fused_kernel_for_short_gpu_runs(tmp_path, monkeypatch):
+    # a short run stays on the per-step kernel on a GPU unless this shape was calibrated before on the device
+    # (the cache then holds the choice and Warp's cache the kernel); decided without a GPU on a stand-in model
+    import json
+    from types import SimpleNamespace
+
+    from hertzian.ensemble.solvers import calibrate
+
+    monkeypatch.setenv("HERTZIAN_CACHE", str(tmp_path / "calibration.json"))
+    real = build_model(chains(2, chain={"grains": 40}), "cpu")
+    gpu = SimpleNamespace(name="cuda:0", is_cpu=False, is_cuda=True, sm_count=132)
+    model = SimpleNamespace(features=real.features, device=gpu, grain_count=real.grain_count,
+                            chain_count=real.chain_count)
+    reason = calibrate.step_reason(model, run_steps=100)
+    assert reason is not None and "short run" in reason
+    (tmp_path / "calibration.json").write_text(json.dumps({calibrate._cache_key(model): {"kind": "tile"}}))
+    assert calibrate.is_calibrated(model)
+    assert calibrate.step_reason(model, run_steps=100) is None
+    # features no fused kernel has keep the per-step kernel, calibrated or not
+    damped = SimpleNamespace(**{**vars(model), "features": replace(real.features, damping="viscous")})
+    (tmp_path / "calibration.json").write_text(json.dumps({calibrate._cache_key(damped): {"kind": "tile"}}))
+    assert "damping" in calibrate.step_reason(damped, run_steps=100)

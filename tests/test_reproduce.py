@@ -41,8 +41,23 @@ def test_quick_group_writes_store_png_and_log(tmp_path):
         assert float(ds.energy_error.max()) == pytest.approx(run["energy_error_max"], rel=0, abs=0)
 
 
+def test_events_option_sets_every_group(tmp_path):
+    # --events off: plain Gear steps in every group (the GPU's fast choice), recorded in the log and the store
+    out = tmp_path / "off"
+    result = cli.invoke(app, ["reproduce", "--quick", "--figure", "fig6", "--events", "off", "--out-dir", str(out),
+                              "--device", "cpu"])
+    assert result.exit_code == 0, result.output
+    log = json.loads((out / "log.json").read_text())
+    assert log["events"] == "off" and "--events off" in log["command"]
+    (run,) = log["runs"]
+    assert run["events"] == "off"
+    with xr.open_zarr(out / "fig6.zarr") as ds:
+        assert json.loads(ds.attrs["sweep"])["scene"]["integrator"]["events"] == "off"
+
+
 @pytest.mark.parametrize("args,message", [
     (["--figure", "fig42"], "--figure = 'fig42': allowed:"),
+    (["--events", "sometimes"], "--events = 'sometimes': auto or off"),
     (["--sweeps", "nowhere"], "--sweeps = 'nowhere': no paper_fig1.toml there"),
     (["--out-dir", "missing/deeper"], "--out-dir = 'missing/deeper': parent directory does not exist"),
 ])

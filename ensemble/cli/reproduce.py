@@ -25,6 +25,9 @@ def reproduce(
     drive_grains: Annotated[Optional[int], typer.Option("--drive-grains", help="Length of the driven column of "
                                                         "Figs. 9-10 (default 10000; 300 with --quick); the paper's "
                                                         "times scale with the travel time, N^(5/6).")] = None,
+    events: Annotated[Optional[str], typer.Option("--events", help="auto | off: integrator.events for every group "
+                                                  "(default: as each sweep file says; off = plain Gear steps, the "
+                                                  "fast choice on a GPU, docs/reproduction.md).")] = None,
     device: DeviceOption = None,
 ):
     """Run Sen, Manciu & Wright (1998)'s figure groups: per group a Zarr store, its figures as PNGs, and in
@@ -51,9 +54,11 @@ def reproduce(
         fail(f"--out-dir = {str(out_dir)!r}: parent directory does not exist")
     if drive_grains is not None and drive_grains < 10:
         fail(f"--drive-grains = {drive_grains}: at least 10 grains")
+    if events is not None and events not in ("auto", "off"):
+        fail(f"--events = {events!r}: auto or off")
     dev = resolve_device(device)
     log = run_all(out_dir, groups=[g for g in GROUPS if g in groups] or None, quick=quick, device=dev,
-                  sweeps_dir=sweeps_dir, drive_grains=drive_grains, say=typer.echo)
+                  sweeps_dir=sweeps_dir, drive_grains=drive_grains, events=events, say=typer.echo)
     typer.echo(f"wrote {out_dir}/log.json ({len(log['runs'])} runs, {log['total_seconds']:.0f} s)")
     if log["figure_failures"]:
         typer.echo(f"error: {log['figure_failures']} figure(s) could not be drawn (see log.json)", err=True)

@@ -75,8 +75,12 @@ def step_reason_of(features, is_cpu: bool, grain_steps: float) -> str | None:
         return f"the {'sweep' if is_cpu else 'tile/window'} kernel lacks {lacks}"
     limit = AUTO_MIN_GRAIN_STEPS_CPU if is_cpu else AUTO_MIN_GRAIN_STEPS_GPU
     if grain_steps < limit:
-        return (f"a short run ({grain_steps:.3g} grain-steps < {limit:.0e}) does not repay a fused kernel's "
-                f"compile; --kernel {'sweep' if is_cpu else 'tile/window'} forces one")
+        if is_cpu:
+            return (f"a short run ({grain_steps:.3g} grain-steps < {limit:.0e}) does not repay a fused kernel's "
+                    "compile; --kernel sweep forces one")
+        return (f"a short run ({grain_steps:.3g} grain-steps < {limit:.0e}) does not repay a fused kernel's first "
+                "calibration and compile (a shape calibrated before on this device is taken); --kernel tile/window "
+                "forces one")
     return None
 
 
@@ -91,9 +95,20 @@ def event_cost_note(features, is_cpu: bool) -> str | None:
 
 
 def step_reason(model: Model, run_steps: int | None = None) -> str | None:
-    """Why ``auto`` picks the per-step kernel for ``model`` (one line), or None when it picks a fused one."""
+    """Why ``auto`` picks the per-step kernel for ``model`` (one line), or None when it picks a fused one.
+    On a GPU a short run takes the fused kernel when this model's shape is already calibrated on this device
+    (:func:`is_calibrated`): the calibration is then read from the cache and the kernel from Warp's."""
     work = model.chain_count * model.grain_count * (run_steps if run_steps is not None else math.inf)
-    return step_reason_of(model.features, model.device.is_cpu, work)
+    reason = step_reason_of(model.features, model.device.is_cpu, work)
+    if reason and not model.device.is_cpu and fused_lacks(model.features, False) is None and is_calibrated(model):
+        return None
+    return reason
+
+
+def is_calibrated(model: Model) -> bool:
+    """Whether the calibration cache holds a choice for this model's (device, features, grains, chain-count
+    bucket)."""
+    return _cache_key(model) in _read_cache()
 
 
 # ---- candidate launch shapes ----------------------------------------------------------------------
