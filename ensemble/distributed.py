@@ -153,6 +153,19 @@ def run_job_on_worker(job: BatchJob, requested_device: str | None) -> dict[str, 
     return run_job(job, worker_device(requested_device, worker.name), worker=str(worker.name))
 
 
+def take_prepared(ahead, builder, jobs, index: int, timing: dict):
+    """The host arrays prepared ahead for ``jobs[index]`` (None when batches are not overlapped) and the future
+    now preparing the next job; ``timing`` gains the preparation's seconds ("prepare") and the wait for it
+    ("prepare_wait")."""
+    if ahead is None:
+        return None, None
+    clock = time.perf_counter()
+    prepared = ahead.result()
+    timing["prepare_wait"] += time.perf_counter() - clock
+    timing["prepare"] += prepared.seconds if prepared is not None else 0.0
+    return prepared, (builder.submit(prepare_job, jobs[index + 1]) if index + 1 < len(jobs) else None)
+
+
 def run_serial(jobs: list[BatchJob], device: str, *, on_record: Callable[[BatchJob, int, int], None] | None = None,
                on_done: Callable[[BatchJob, dict], None] | None = None, overlap: bool | None = None,
                timing: dict | None = None) -> None:
@@ -181,13 +194,7 @@ def run_serial(jobs: list[BatchJob], device: str, *, on_record: Callable[[BatchJ
                 on_done(job, record)
 
         for index, job in enumerate(jobs):
-            prepared = None
-            if ahead is not None:
-                clock = time.perf_counter()
-                prepared = ahead.result()
-                timing["prepare_wait"] += time.perf_counter() - clock
-                timing["prepare"] += prepared.seconds if prepared is not None else 0.0
-                ahead = builder.submit(prepare_job, jobs[index + 1]) if index + 1 < len(jobs) else None
+            prepared, ahead = take_prepared(ahead, builder, jobs, index, timing)
             progress = (lambda done, total, job=job: on_record(job, done, total)) if on_record else None
             result, build = integrate_job(job, device, progress, prepared=prepared)
             if pending is not None:

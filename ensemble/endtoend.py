@@ -83,7 +83,8 @@ def bench_scene(path: str | Path, device: str, *, kernel: str = "auto", override
 def bench_sweep(path: str | Path, device: str, *, kernel: str = "auto", overrides: dict[str, Any] | None = None,
                 log=None) -> dict:
     """Time ``hertzian sweep`` (serial, this process) end to end: plan, store, batches, background writes."""
-    from .distributed import integrate_job, jobs_for, overlap_default, prepare_job, warm_kernels, write_job
+    from .distributed import (integrate_job, jobs_for, overlap_default, prepare_job, take_prepared, warm_kernels,
+                              write_job)
     from .planner import plan_sweep
     from .solvers.calibrate import step_reason_of
     from .sweep import expand, load_sweep
@@ -122,13 +123,7 @@ def bench_sweep(path: str | Path, device: str, *, kernel: str = "auto", override
             pending = None
             ahead = builder.submit(prepare_job, jobs[0]) if overlap and jobs else None
             for index, job in enumerate(jobs):
-                prepared = None
-                if ahead is not None:
-                    clock = time.perf_counter()
-                    prepared = ahead.result()
-                    totals["prepare_wait"] += time.perf_counter() - clock
-                    totals["prepare"] += prepared.seconds if prepared is not None else 0.0
-                    ahead = builder.submit(prepare_job, jobs[index + 1]) if index + 1 < len(jobs) else None
+                prepared, ahead = take_prepared(ahead, builder, jobs, index, totals)
                 result, batch_build = integrate_job(job, device, prepared=prepared)
                 t = result.timing
                 totals["build"] += batch_build - t["setup_in_init"]
