@@ -165,21 +165,12 @@ def drive_scenes(path: Path, grains: int, duration: float, dt: float, events: st
     return sweep, sweep_scenes(sweep)
 
 
-def run_driven(scenes, device: str, centres: np.ndarray, *, coarse_every: float) -> dict[str, Any]:
-    """Integrate the driven columns, sampling velocities inside the windows centred at ``centres``."""
-    import warp as wp
-
-    from .model import build_model
-    from .runner import Runner, energy_errors
-
-    model = build_model(list(scenes), device)
-    runner = Runner(model)
-    recorder = runner.recorder
-    dt = model.dt
-    chains, grains = model.chain_count, model.grain_count
+def read_marks(centres: np.ndarray, dt: float, coarse_every: float) -> tuple[dict[int, set], list[int]]:
+    """The steps at which ``run_driven`` reads the state, each with what it reads there: ("sample", w) every
+    SAMPLE_EVERY inside window w (WINDOW wide, centred at ``centres[w]``), ("centre", w) at its centre, and
+    ("coarse", k) every ``coarse_every`` from t = 0 to the last window's end; and the coarse steps."""
     steps_per_sample = max(1, round(SAMPLE_EVERY / dt))
     half = round(0.5 * WINDOW / dt)
-    # every step at which something is read: window samples, window centres, coarse snapshots
     marks: dict[int, set] = {}
     for w, centre in enumerate(centres):
         middle = round(centre / dt)
@@ -190,48 +181,77 @@ def run_driven(scenes, device: str, centres: np.ndarray, *, coarse_every: float)
     coarse_steps = list(range(0, end + 1, max(1, round(coarse_every / dt))))
     for c, s in enumerate(coarse_steps):
         marks.setdefault(s, set()).add(("coarse", c))
+    return marks, coarse_steps
 
-    ke_sum = np.zeros((chains, len(centres), grains))
-    v_sum = np.zeros((chains, len(centres), grains))
+
+def run_driven(scenes, device: str, centres: np.ndarray, *, coarse_every: float) -> dict[str, Any]:
+    """Integrate the driven columns, sampling velocities inside the windows centred at ``centres``.
+
+    Everything read along the way stays on the device until the end (kernels/windows.py): per window the
+    sums of ½ m v² and v over its samples, the velocities at the window centres and at the coarse
+    snapshots, and energy and work at every step where something is read. The host only launches, so the
+    GPU never waits for it."""
+    import warp as wp
+
+    from hertzian.kernels.windows import keep_chain_values, window_kernels
+
+    from .model import build_model
+    from .runner import Runner, energy_errors
+
+    model = build_model(list(scenes), device)
+    runner = Runner(model)
+    recorder = runner.recorder
+    dt = model.dt
+    chains, grains = model.chain_count, model.grain_count
+    marks, coarse_steps = read_marks(centres, dt, coarse_every)
+    order = sorted(marks)
+
+    dev = model.device
+    add_sample, snapshot64, snapshot32 = window_kernels(model.features.precision)
+    ke_sum = wp.zeros((chains, len(centres), grains), dtype=wp.float64, device=dev)
+    v_sum = wp.zeros((chains, len(centres), grains), dtype=wp.float64, device=dev)
+    v_centre = wp.zeros((chains, len(centres), grains), dtype=wp.float64, device=dev)
+    v_coarse = wp.zeros((chains, len(coarse_steps), grains), dtype=wp.float32, device=dev)
+    energy = wp.zeros((len(order), chains), dtype=wp.float64, device=dev)
+    work = wp.zeros((len(order), chains), dtype=wp.float64, device=dev)
     samples = np.zeros(len(centres), dtype=int)
-    v_centre = np.zeros((chains, len(centres), grains))
-    v_coarse = np.zeros((chains, len(coarse_steps), grains), dtype=np.float32)
-    energy, work, times = [], [], []
-    mass = np.ones(grains)
+    hetero = int(model.features.heterogeneous)
+    wp_dt = wp.float64(dt)
+    for kernel in (add_sample, snapshot64, snapshot32, keep_chain_values):
+        wp.load_module(kernel.module, device=dev)
 
     recorder.load()
-    wp.synchronize_device(model.device)
+    wp.synchronize_device(dev)
     start = time.perf_counter()
     step = 0
-    for mark in sorted(marks):
+    for row, mark in enumerate(order):
         if mark > step:
             runner.advance(mark - step)
             step = mark
+        x = runner.current.x
         recorder.check(runner.current, step)
-        velocity = runner.current.x[1].numpy() / dt
-        energy.append(recorder.energy_now.numpy().copy())
-        work.append(recorder.work_now.numpy().copy())
-        times.append(step * dt)
-        for kind, index in marks[mark]:
+        wp.launch(keep_chain_values, dim=chains, inputs=[recorder.energy_now, row], outputs=[energy], device=dev)
+        wp.launch(keep_chain_values, dim=chains, inputs=[recorder.work_now, row], outputs=[work], device=dev)
+        for kind, index in sorted(marks[mark]):
             if kind == "sample":
-                ke_sum[:, index] += an.kinetic_energy(velocity, mass)
-                v_sum[:, index] += velocity
+                wp.launch(add_sample, dim=(chains, grains), inputs=[x, model.inverse_mass, hetero, wp_dt, index],
+                          outputs=[ke_sum, v_sum], device=dev)
                 samples[index] += 1
             elif kind == "centre":
-                v_centre[:, index] = velocity
+                wp.launch(snapshot64, dim=(chains, grains), inputs=[x, wp_dt, index], outputs=[v_centre], device=dev)
             else:
-                v_coarse[:, index] = velocity
-    wp.synchronize_device(model.device)
+                wp.launch(snapshot32, dim=(chains, grains), inputs=[x, wp_dt, index], outputs=[v_coarse], device=dev)
+    wp.synchronize_device(dev)
     wall = time.perf_counter() - start
     samples = np.maximum(samples, 1)
-    energy_arr, work_arr = np.array(energy).T, np.array(work).T
+    energy_arr, work_arr = energy.numpy().T, work.numpy().T
     return {
-        "ke_window": ke_sum / samples[None, :, None],
-        "v_window": v_sum / samples[None, :, None],
-        "v_centre": v_centre,
-        "v_coarse": v_coarse,
+        "ke_window": ke_sum.numpy() / samples[None, :, None],
+        "v_window": v_sum.numpy() / samples[None, :, None],
+        "v_centre": v_centre.numpy(),
+        "v_coarse": v_coarse.numpy(),
         "coarse_t": np.array(coarse_steps) * dt,
-        "energy_t": np.array(times),
+        "energy_t": np.array(order) * dt,
         "energy": energy_arr,
         "work": work_arr,
         "energy_error": energy_errors(energy_arr, work_arr, model.injected_energy),

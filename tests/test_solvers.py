@@ -73,3 +73,26 @@ def test_config_is_validated():
     model = build_model(chains(1, chain={"grains": 30}), "cpu")
     window = configs(model)["window"]
     assert SolverConfig.from_dict(window.to_dict()) == window
+
+
+def test_a_long_fused_advance_replays_graphs_of_a_fixed_length():
+    """On CUDA the tile/window solvers capture FUSED_GRAPH_LAUNCHES launches per graph and replay it: a long
+    advance (10⁵ launches) is not one graph of every launch, which costs seconds to capture and instantiate."""
+    from types import SimpleNamespace
+
+    from hertzian.ensemble.solvers.base import Solver
+    from hertzian.ensemble.solvers.config import FUSED_GRAPH_LAUNCHES
+
+    lengths = []
+    graphs = SimpleNamespace(run=lambda launches, a, b, n: lengths.append(n) or b)
+    fused = SimpleNamespace(use_graph=True, config=SimpleNamespace(graph_steps=None), steps_per_launch=32, launches=None,
+                            graphs=graphs)
+    a, b = object(), object()
+    Solver._advance(fused, a, b, 32 * 100_000 + 5)
+    piece = 32 * FUSED_GRAPH_LAUNCHES
+    assert lengths == [piece] * ((32 * 100_000 + 5) // piece) + [(32 * 100_000 + 5) % piece]
+    lengths.clear()
+    per_step = SimpleNamespace(use_graph=True, config=SimpleNamespace(graph_steps=512), steps_per_launch=1, launches=None,
+                               graphs=graphs)
+    Solver._advance(per_step, a, b, 2000)
+    assert lengths == [512, 512, 512, 464]

@@ -14,7 +14,7 @@ import warp as wp
 from hertzian.kernels.features import Features
 
 from ..model import Model, State
-from .config import SolverConfig
+from .config import FUSED_GRAPH_LAUNCHES, SolverConfig
 from .graphs import GraphCache
 
 
@@ -68,7 +68,7 @@ class Solver:
         """Launches, or captured graphs of them on CUDA."""
         if not self.use_graph:
             return self.launches(state_in, state_out, n_steps)
-        piece = self.config.graph_steps or n_steps
+        piece = self.config.graph_steps or FUSED_GRAPH_LAUNCHES * self.steps_per_launch
         a, b = state_in, state_out
         while n_steps > 0:
             steps = min(n_steps, piece)

@@ -17,6 +17,11 @@ launch, as the per-step kernel does."""
 
 GRAPH_STEPS = 512
 """Steps per captured CUDA graph of the per-step solver (a graph of many launches, replayed)."""
+FUSED_GRAPH_LAUNCHES = 64
+"""Launches per captured CUDA graph of the tile and window solvers when ``graph_steps`` is None. A long
+``advance`` replays that graph (and one for the remainder) instead of capturing all of its launches in
+one graph: capturing and instantiating a graph of 10⁵ launches costs seconds, and every distinct
+``advance`` length would pay it again."""
 WHOLE = 1 << 30
 """``steps_per_launch`` of the sweep solver: the whole ``advance`` in one launch."""
 
@@ -38,7 +43,7 @@ class SolverConfig:
     use_graph: bool | None = None
     """Capture launches in CUDA graphs and replay them; None: on CUDA devices (never on the CPU)."""
     graph_steps: int | None = None
-    """Steps per captured graph (the per-step solver: GRAPH_STEPS); None: one graph per ``advance`` length."""
+    """Steps per captured graph (the per-step solver: GRAPH_STEPS); None: FUSED_GRAPH_LAUNCHES launches."""
 
     def __post_init__(self):
         if self.kind not in SOLVER_KINDS:
