@@ -120,8 +120,11 @@ def default_sweeps_dir() -> Path:
 # ---- a sweep group ---------------------------------------------------------------------------
 
 
-def run_sweep_group(path: Path, overrides: dict[str, Any], out: Path, device: str) -> dict[str, Any]:
-    """Run one sweep file into a store at ``out`` (as ``hertzian sweep`` does, serially); returns its log entry."""
+def run_sweep_group(path: Path, overrides: dict[str, Any], out: Path, device: str, kernel: str = "auto"
+                    ) -> dict[str, Any]:
+    """Run one sweep file into a store at ``out`` (as ``hertzian sweep --kernel KERNEL`` does, serially); returns
+    its log entry, with ``seconds``: setup (plan, store, kernel loads), integrate (the batches, calibration
+    included), finalize."""
     import zarr
 
     from .distributed import jobs_for, run_serial, warm_kernels
@@ -129,17 +132,19 @@ def run_sweep_group(path: Path, overrides: dict[str, Any], out: Path, device: st
     from .sweep import expand, load_sweep
     from .sweep_store import create_sweep_store, finalize
 
+    clock = time.perf_counter()
     definition = load_sweep(path, overrides)
     points = expand(definition)
     plan = plan_sweep(definition, points, device)
     create_sweep_store(out, definition, points.templates[0], plan, device=device, overwrite=True)
-    jobs = jobs_for(out.resolve(), plan, points, plan.batches)
+    jobs = jobs_for(out.resolve(), plan, points, plan.batches, kernel=kernel)
     warm_kernels([g.features for g in plan.groups], device)
     start = time.perf_counter()
     run_serial(jobs, device)
     session = time.perf_counter() - start
     grain_steps = sum(j.grain_steps for j in jobs)
     prov = finalize(out, session_seconds=session, session_grain_steps=grain_steps)
+    seconds = {"setup": start - clock, "integrate": session, "finalize": time.perf_counter() - start - session}
     status = np.asarray(zarr.open_array(store=str(out), path="status", mode="r")[...]).ravel()
     codes, counts = np.unique(status, return_counts=True)
     scene = points.scene(0)
@@ -150,6 +155,7 @@ def run_sweep_group(path: Path, overrides: dict[str, Any], out: Path, device: st
         "grain_steps": grain_steps, "grain_steps_per_second": grain_steps / max(session, 1e-12),
         "energy_error_max": prov["energy_error_max"],
         "status_counts": {str(int(c)): int(k) for c, k in zip(codes, counts)},
+        "kernel_choice": kernel, "kernel": prov.get("kernel", ""), "seconds": seconds,
     }
 
 
@@ -335,10 +341,14 @@ def run_drive_group(path: Path, out_dir: Path, device: str, *, quick: bool, grai
     lag = np.tile(LAGS, len(paper_times))
     centres = paper_times[block] + lag
     duration = float(centres[-1] + WINDOW)
+    clock = time.perf_counter()
     sweep, scenes = drive_scenes(path, grains, duration, DRIVE_DT, events)
     result = run_driven(scenes, device, centres, coarse_every=0.5 if quick else COARSE_EVERY)
     store = out_dir / "fig9_10.zarr"
+    write = time.perf_counter()
     write_driven(store, sweep, scenes, centres, result, block, lag)
+    seconds = {"integrate": result["wall_seconds"], "setup": write - clock - result["wall_seconds"],
+               "store": time.perf_counter() - write}
     runs = [{
         "name": "fig9_10", "store": store.name, "points": len(scenes), "grains": grains, "dt": DRIVE_DT,
         "duration": duration, "steps": result["steps"], "taus": [s.excitation.drive_period for s in scenes],
@@ -347,16 +357,20 @@ def run_drive_group(path: Path, out_dir: Path, device: str, *, quick: bool, grai
         "energy_error": result["energy_error"].tolist(),
         "energy_error_max": float(np.max(result["energy_error"])),
         "status": result["status"].tolist(),
-        "standing_wave": standing_wave_numbers(result["ke_window"], paper_times, block),
+        "standing_wave": standing_wave_numbers(result["ke_window"], paper_times, block), "seconds": seconds,
     }]
     say(f"fig9_10: {result['wall_seconds']:.1f} s, energy error {np.max(result['energy_error']):.2e}")
     if quick:
         return runs
     first = centres[centres <= paper_times[0]]
+    clock = time.perf_counter()
     _, fine_scenes = drive_scenes(path, grains, float(first[-1] + WINDOW), DRIVE_CHECK_DT, events)
     fine = run_driven(fine_scenes, device, first, coarse_every=float(first[-1] + WINDOW))
+    write = time.perf_counter()
     write_driven(out_dir / "fig9_10_dt_check.zarr", sweep, fine_scenes, first, fine, block[:len(first)],
                  lag[:len(first)])
+    fine_seconds = {"integrate": fine["wall_seconds"], "setup": write - clock - fine["wall_seconds"],
+                    "store": time.perf_counter() - write}
     coarse_ke = result["ke_window"][:, :len(first)]
     difference = np.linalg.norm(fine["ke_window"] - coarse_ke, axis=-1) / np.linalg.norm(fine["ke_window"], axis=-1)
     runs.append({
@@ -365,7 +379,7 @@ def run_drive_group(path: Path, out_dir: Path, device: str, *, quick: bool, grai
         "device": fine["device"], "kernel": fine["kernel"], "wall_seconds": fine["wall_seconds"],
         "grain_steps_per_second": fine["grain_steps_per_second"], "energy_error": fine["energy_error"].tolist(),
         "energy_error_max": float(np.max(fine["energy_error"])), "window_t": first.tolist(),
-        "relative_l2_difference_of_window_ke(dt=1.25e-4 vs 1.25e-5)": difference.tolist(),
+        "relative_l2_difference_of_window_ke(dt=1.25e-4 vs 1.25e-5)": difference.tolist(), "seconds": fine_seconds,
     })
     say(f"fig9_10 dt check: {fine['wall_seconds']:.1f} s, relative KE-profile difference {difference.tolist()}")
     return runs
@@ -785,24 +799,27 @@ def finite(value):
 
 def reproduce(out_dir: Path, *, groups: list[str] | None = None, quick: bool = False, device: str = "cpu",
               sweeps_dir: Path | None = None, drive_grains: int | None = None, events: str | None = None,
-              say: Callable[[str], None] = print) -> dict[str, Any]:
+              kernel: str | None = None, say: Callable[[str], None] = print) -> dict[str, Any]:
     """Run ``groups`` (default: all of GROUPS), write their stores and PNGs into ``out_dir`` and the log
     ``out_dir/log.json``; returns the log. A figure that cannot be drawn is logged with its error.
     ``events``: "auto" or "off" sets integrator.events for every group (default None: each sweep file's).
     ``drive_grains``: the driven column's length for Figs. 9–10 (default 10 000, or 300 with ``quick``;
-    the paper's times are scaled by the travel time ∝ N^(5/6))."""
+    the paper's times are scaled by the travel time ∝ N^(5/6)). ``kernel``: the solver choice of the sweep
+    groups (default: "fused" on a GPU, whose short groups would otherwise take the per-step kernel; "auto" on a
+    CPU). Each run's ``seconds`` splits its wall time (setup, integrate, finalize or store, figures, measure)."""
     import warp as wp
     import xarray as xr
 
     from .plot import plot_figure
 
     sweeps_dir = sweeps_dir or default_sweeps_dir()
+    kernel = kernel or ("auto" if wp.get_device(device).is_cpu else "fused")
     out_dir.mkdir(parents=True, exist_ok=True)
     names = groups or list(GROUPS)
     log: dict[str, Any] = {
         "command": "hertzian reproduce" + (" --quick" if quick else "") + "".join(
             f" --figure {g}" for g in (groups or [])) + (f" --drive-grains {drive_grains}" if drive_grains else "")
-        + (f" --events {events}" if events else "") + f" --device {device}",
+        + (f" --events {events}" if events else "") + f" --kernel {kernel} --device {device}",
         "date": datetime.now(timezone.utc).isoformat(timespec="seconds"), "device": device,
         "device_name": wp.get_device(device).name, "cpu_count": _cpu_count(), "platform": platform.platform(),
         "warp_version": wp.config.version, "quick": quick, "events": events or "as each sweep file says",
@@ -818,11 +835,13 @@ def reproduce(out_dir: Path, *, groups: list[str] | None = None, quick: bool = F
         else:
             store = out_dir / f"{name}.zarr"
             overrides = {**(group.quick if quick else {}), **({"integrator.events": events} if events else {})}
-            entry = run_sweep_group(path, overrides, store, device)
+            entry = run_sweep_group(path, overrides, store, device, kernel)
             runs = [{"name": name, "sweep": group.sweep, "store": store.name, **entry}]
             say(f"{name}: {entry['points']} points x {entry['grains']} grains, {entry['wall_seconds']:.1f} s, "
                 f"{entry['grain_steps_per_second']:.3g} grain-steps/s, energy error {entry['energy_error_max']:.2e}")
         figures = {}
+        seconds = runs[0].setdefault("seconds", {})
+        clock = time.perf_counter()
         with xr.open_zarr(out_dir / runs[0]["store"]) as dataset:
             for figure in group.figures:
                 png = out_dir / (f"{name}.png" if len(group.figures) == 1 else f"{figure}.png")
@@ -833,8 +852,11 @@ def reproduce(out_dir: Path, *, groups: list[str] | None = None, quick: bool = F
                     failures += 1
                     figures[figure] = f"failed: {type(err).__name__}: {err}"
                     say(f"{name}: figure {figure} failed: {err}")
+            seconds["figures"] = time.perf_counter() - clock
             if name != "fig9_10":
+                clock = time.perf_counter()
                 runs[0]["measurements"] = measure(name, dataset)
+                seconds["measure"] = time.perf_counter() - clock
         runs[0]["figures"] = figures
         log["runs"].extend(runs)
     log["total_seconds"] = time.perf_counter() - begin

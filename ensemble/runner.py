@@ -21,7 +21,7 @@ from .model import Model, State, build_model
 from .recorder import Recorder
 from .scene import Scene
 from .solvers import SolverConfig, choose_config, make_solver
-from .solvers.calibrate import step_reason
+from .solvers.calibrate import fused_lacks, step_reason
 from .status import Status
 
 MONITOR_MIN_STEPS = 512
@@ -119,7 +119,8 @@ class Runner:
         """Why the per-step kernel runs (one line), or None."""
         if config.kind == "step":
             self.kernel_note = (step_reason(model, model.scenes[0].step_count) if kernel == "auto"
-                                else "per-step kernel requested")
+                                else f"the fused kernels lack {fused_lacks(model.features, model.device.is_cpu)}"
+                                if kernel == "fused" else "per-step kernel requested")
         if use_graph is not None:
             config = replace(config, use_graph=use_graph)
         self.solver = make_solver(model, config)

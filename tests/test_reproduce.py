@@ -41,6 +41,25 @@ def test_quick_group_writes_store_png_and_log(tmp_path):
         assert float(ds.energy_error.max()) == pytest.approx(run["energy_error_max"], rel=0, abs=0)
 
 
+def test_kernel_option_and_the_split_of_each_runs_seconds(tmp_path):
+    # --kernel fused: the short group takes the CPU sweep kernel, which auto leaves for the per-step one
+    logs = {}
+    for kernel in ("auto", "fused"):
+        out = tmp_path / kernel
+        result = cli.invoke(app, ["reproduce", "--quick", "--figure", "fig6", "--kernel", kernel, "--out-dir", str(out),
+                                  "--device", "cpu"])
+        assert result.exit_code == 0, result.output
+        logs[kernel] = json.loads((out / "log.json").read_text())
+        assert f"--kernel {kernel}" in logs[kernel]["command"]
+    (auto,), (fused,) = logs["auto"]["runs"], logs["fused"]["runs"]
+    assert auto["kernel"].startswith("step (a short run") and fused["kernel"] == "sweep"
+    assert fused["energy_error_max"] == pytest.approx(auto["energy_error_max"], rel=1e-6)
+    for run in (auto, fused):
+        assert set(run["seconds"]) == {"setup", "integrate", "finalize", "figures", "measure"}
+        assert run["seconds"]["integrate"] == run["wall_seconds"]
+        assert all(v >= 0 for v in run["seconds"].values())
+
+
 def test_events_option_sets_every_group(tmp_path):
     # --events off: plain Gear steps in every group (the GPU's fast choice), recorded in the log and the store
     out = tmp_path / "off"
@@ -60,6 +79,8 @@ def test_events_option_sets_every_group(tmp_path):
     (["--events", "sometimes"], "--events = 'sometimes': auto or off"),
     (["--sweeps", "nowhere"], "--sweeps = 'nowhere': no paper_fig1.toml there"),
     (["--out-dir", "missing/deeper"], "--out-dir = 'missing/deeper': parent directory does not exist"),
+    (["--kernel", "fastest"], "--kernel = 'fastest': one of auto, fused, step, tile, window, sweep"),
+    (["--kernel", "tile", "--device", "cpu"], "--kernel = 'tile': CUDA kernels; on --device cpu use"),
 ])
 def test_reproduce_bad_input_is_one_line_exit_2(tmp_path, monkeypatch, args, message):
     monkeypatch.chdir(tmp_path)

@@ -96,3 +96,15 @@ def test_a_long_fused_advance_replays_graphs_of_a_fixed_length():
                                graphs=graphs)
     Solver._advance(per_step, a, b, 2000)
     assert lengths == [512, 512, 512, 464]
+
+
+def test_fused_choice_is_auto_without_the_short_run_rule():
+    from hertzian.ensemble.solvers import choose_config
+
+    model = build_model(chains(2, chain={"grains": 30, "l0": 1e-4}, integrator={"dt": 5e-4}), "cpu")
+    assert choose_config(model, "auto", run_steps=100) == STEP       # too short to repay a compile
+    assert choose_config(model, "fused", run_steps=100) == SWEEP
+    assert choose_config(model, "auto", run_steps=10**9) == SWEEP
+    damped = build_model(chains(2, chain={"grains": 30, "l0": 1e-4}, integrator={"dt": 5e-4},
+                                damping={"model": "viscous", "gamma": 0.1}), "cpu")
+    assert choose_config(damped, "fused", run_steps=100).kind in ("sweep", "step")

@@ -24,8 +24,9 @@ SetOption = Annotated[Optional[list[str]], typer.Option("--set", help="Override 
 SceneArgument = Annotated[Optional[Path], typer.Argument(help="Scene TOML (SPEC §8). Default: the built-in "
                                                           "example.")]
 PrecisionOption = Annotated[Optional[str], typer.Option("--precision", help="float64 | float32 (compensated float32, docs/stability.md §2b; overrides integrator.precision).")]
-KernelOption = Annotated[str, typer.Option("--kernel", help="auto | step | tile | window | sweep: which solver "
-                                           "steps the chains (ensemble/solvers); results are the same.")]
+KernelOption = Annotated[str, typer.Option("--kernel", help="auto | fused | step | tile | window | sweep: which "
+                                           "solver steps the chains (ensemble/solvers; fused = auto, short runs "
+                                           "included); results are the same.")]
 
 
 def fail(message: str) -> None:

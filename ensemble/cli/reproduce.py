@@ -28,6 +28,10 @@ def reproduce(
     events: Annotated[Optional[str], typer.Option("--events", help="auto | off: integrator.events for every group "
                                                   "(default: as each sweep file says; off = plain Gear steps, the "
                                                   "fast choice on a GPU, docs/reproduction.md).")] = None,
+    kernel: Annotated[Optional[str], typer.Option("--kernel", help="auto | fused | step | tile | window | sweep for "
+                                                  "every figure group's sweep (default: fused on a GPU, so the short "
+                                                  "groups run on the calibrated fused kernels, cached after the "
+                                                  "first run; auto on a CPU).")] = None,
     device: DeviceOption = None,
 ):
     """Run Sen, Manciu & Wright (1998)'s figure groups: per group a Zarr store, its figures as PNGs, and in
@@ -56,9 +60,17 @@ def reproduce(
         fail(f"--drive-grains = {drive_grains}: at least 10 grains")
     if events is not None and events not in ("auto", "off"):
         fail(f"--events = {events!r}: auto or off")
+    from ..solvers import KERNELS
+
+    if kernel is not None and kernel not in KERNELS:
+        fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)}")
     dev = resolve_device(device)
+    if kernel == "sweep" and dev != "cpu":
+        fail(f"--kernel = 'sweep': a CPU kernel; --device = {dev!r}")
+    if kernel in ("tile", "window") and dev == "cpu":
+        fail(f"--kernel = {kernel!r}: CUDA kernels; on --device cpu use auto, fused, step or sweep")
     log = run_all(out_dir, groups=[g for g in GROUPS if g in groups] or None, quick=quick, device=dev,
-                  sweeps_dir=sweeps_dir, drive_grains=drive_grains, events=events, say=typer.echo)
+                  sweeps_dir=sweeps_dir, drive_grains=drive_grains, events=events, kernel=kernel, say=typer.echo)
     typer.echo(f"wrote {out_dir}/log.json ({len(log['runs'])} runs, {log['total_seconds']:.0f} s)")
     if log["figure_failures"]:
         typer.echo(f"error: {log['figure_failures']} figure(s) could not be drawn (see log.json)", err=True)

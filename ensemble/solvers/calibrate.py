@@ -13,6 +13,9 @@ themselves are in this package's ``step``, ``tile`` and ``sweep`` modules. Kinds
   short to repay a compile; else ``sweep`` on a CPU, and on a GPU the fastest of a few ``tile``/``window``
   shapes, timed once per (device, features, grains, chains) and remembered in
   ``$HERTZIAN_CACHE`` (default ``~/.cache/hertzian/calibration.json``).
+* ``fused`` — ``auto`` without the short-run rule: the fused kernel whenever the features allow it, a short
+  run included (on a GPU its first run calibrates and compiles, later ones read both from the caches). For
+  work made of many short runs of a few shapes, run again and again (``hertzian reproduce`` on a GPU).
 
 Every fused kernel reproduces the per-step kernel's arithmetic (tests/test_tile.py,
 tests/test_cpu_kernel.py), so the choice changes speed, not results.
@@ -39,7 +42,7 @@ from ..model import Model, State
 from .config import STEP, SWEEP, SolverConfig
 from .tile import TileSolver, config_of
 
-KERNELS = ("auto", "step", "tile", "window", "sweep")
+KERNELS = ("auto", "fused", "step", "tile", "window", "sweep")
 
 AUTO_MIN_GRAIN_STEPS_CPU = 2e8
 """Below this many grain-steps in a run, ``auto`` keeps the per-step kernel on a CPU (a compile costs seconds)."""
@@ -331,7 +334,7 @@ def choose_config(model: Model, kernel: str = "auto", *, run_steps: int | None =
                 raise ValueError(f"kernel = {kernel!r}: damping (damping.model = {f.damping!r}) runs only on the "
                                  "per-step and sweep solvers; use --kernel step, sweep or auto")
         else:
-            if kernel != "auto":
+            if kernel not in ("auto", "fused"):
                 raise ValueError(f"kernel = {kernel!r}: damping (damping.model = {f.damping!r}) runs only on the "
                                  "per-step solver; use --kernel step or auto")
             return STEP
@@ -353,6 +356,12 @@ def choose_config(model: Model, kernel: str = "auto", *, run_steps: int | None =
         if model.device.is_cuda and calibrate_now and len(configs) > 1:
             return calibrate(model, configs=configs, states=states, log=log)[0]
         return configs[0]
+    if kernel == "fused":
+        if fused_lacks(f, model.device.is_cpu):
+            return STEP
+        if model.device.is_cpu:
+            return SWEEP
+        return calibrated_config(model, states=states, log=log) if calibrate_now else default_config(model)
     # auto
     if step_reason(model, run_steps):
         return STEP
