@@ -799,18 +799,19 @@ def finite(value):
 
 def reproduce(out_dir: Path, *, groups: list[str] | None = None, quick: bool = False, device: str = "cpu",
               sweeps_dir: Path | None = None, drive_grains: int | None = None, events: str | None = None,
-              kernel: str | None = None, say: Callable[[str], None] = print) -> dict[str, Any]:
+              kernel: str | None = None, background: bool | None = None,
+              say: Callable[[str], None] = print) -> dict[str, Any]:
     """Run ``groups`` (default: all of GROUPS), write their stores and PNGs into ``out_dir`` and the log
     ``out_dir/log.json``; returns the log. A figure that cannot be drawn is logged with its error.
     ``events``: "auto" or "off" sets integrator.events for every group (default None: each sweep file's).
     ``drive_grains``: the driven column's length for Figs. 9–10 (default 10 000, or 300 with ``quick``;
     the paper's times are scaled by the travel time ∝ N^(5/6)). ``kernel``: the solver choice of the sweep
     groups (default: "fused" on a GPU, whose short groups would otherwise take the per-step kernel; "auto" on a
-    CPU). Each run's ``seconds`` splits its wall time (setup, integrate, finalize or store, figures, measure)."""
+    CPU). Each run's ``seconds`` splits its wall time (setup, integrate, finalize or store, figures, measure).
+    ``background`` (default: on a GPU): figures and measurements of a group are made in worker processes
+    while the next groups integrate (same PNGs and numbers); the log's ``figure_wait_seconds`` is the time
+    the end waited for them."""
     import warp as wp
-    import xarray as xr
-
-    from .plot import plot_figure
 
     sweeps_dir = sweeps_dir or default_sweeps_dir()
     kernel = kernel or ("auto" if wp.get_device(device).is_cpu else "fused")
@@ -827,7 +828,14 @@ def reproduce(out_dir: Path, *, groups: list[str] | None = None, quick: bool = F
     }
     begin = time.perf_counter()
     failures = 0
-    for name in names:
+    background = (not wp.get_device(device).is_cpu) if background is None else background
+    pool = _figure_pool(len(names)) if background else None
+    pending = []
+    log["figures_in_background"] = pool is not None
+    # with figures in the background the driven column (the longest run) goes first: its figures and the short
+    # groups overlap, and the log keeps the groups' order
+    order = sorted(names, key=lambda n: n != "fig9_10") if pool is not None else names
+    for name in order:
         group = GROUPS[name]
         path = sweeps_dir / group.sweep
         if name == "fig9_10":
@@ -839,30 +847,70 @@ def reproduce(out_dir: Path, *, groups: list[str] | None = None, quick: bool = F
             runs = [{"name": name, "sweep": group.sweep, "store": store.name, **entry}]
             say(f"{name}: {entry['points']} points x {entry['grains']} grains, {entry['wall_seconds']:.1f} s, "
                 f"{entry['grain_steps_per_second']:.3g} grain-steps/s, energy error {entry['energy_error_max']:.2e}")
-        figures = {}
-        seconds = runs[0].setdefault("seconds", {})
-        clock = time.perf_counter()
-        with xr.open_zarr(out_dir / runs[0]["store"]) as dataset:
-            for figure in group.figures:
-                png = out_dir / (f"{name}.png" if len(group.figures) == 1 else f"{figure}.png")
-                try:
-                    plot_figure(dataset, figure, png)
-                    figures[figure] = png.name
-                except Exception as err:  # noqa: BLE001  (logged; the other groups still run)
-                    failures += 1
-                    figures[figure] = f"failed: {type(err).__name__}: {err}"
-                    say(f"{name}: figure {figure} failed: {err}")
-            seconds["figures"] = time.perf_counter() - clock
-            if name != "fig9_10":
-                clock = time.perf_counter()
-                runs[0]["measurements"] = measure(name, dataset)
-                seconds["measure"] = time.perf_counter() - clock
-        runs[0]["figures"] = figures
+        if pool is not None:
+            pending.append((runs, pool.submit(draw_and_measure, str(out_dir), name, runs[0]["store"])))
+        else:
+            failures += _merge_drawn(runs, draw_and_measure(str(out_dir), name, runs[0]["store"]), say)
         log["runs"].extend(runs)
+    if pool is not None:
+        clock = time.perf_counter()
+        for runs, future in pending:
+            failures += _merge_drawn(runs, future.result(), say)
+        pool.shutdown()
+        log["figure_wait_seconds"] = time.perf_counter() - clock
+    log["runs"].sort(key=lambda run: names.index(group_of(run["name"].removesuffix("_dt_check"))))
     log["total_seconds"] = time.perf_counter() - begin
     log["figure_failures"] = failures
     (out_dir / "log.json").write_text(json.dumps(finite(log), indent=1))
     return log
+
+
+def draw_and_measure(out_dir: str, name: str, store: str) -> dict[str, Any]:
+    """Group ``name``'s figures (PNGs in ``out_dir``) and measurements from its store; a figure that cannot be
+    drawn is reported, not raised. Runs in the reproducing process or in a worker process."""
+    import xarray as xr
+
+    from .plot import plot_figure
+
+    group = GROUPS[name]
+    out = Path(out_dir)
+    drawn: dict[str, Any] = {"figures": {}, "failures": [], "seconds": {}}
+    clock = time.perf_counter()
+    with xr.open_zarr(out / store) as dataset:
+        for figure in group.figures:
+            png = out / (f"{name}.png" if len(group.figures) == 1 else f"{figure}.png")
+            try:
+                plot_figure(dataset, figure, png)
+                drawn["figures"][figure] = png.name
+            except Exception as err:  # noqa: BLE001  (logged; the other groups still run)
+                drawn["figures"][figure] = f"failed: {type(err).__name__}: {err}"
+                drawn["failures"].append(f"{name}: figure {figure} failed: {err}")
+        drawn["seconds"]["figures"] = time.perf_counter() - clock
+        if name != "fig9_10":
+            clock = time.perf_counter()
+            drawn["measurements"] = measure(name, dataset)
+            drawn["seconds"]["measure"] = time.perf_counter() - clock
+    return drawn
+
+
+def _merge_drawn(runs: list[dict[str, Any]], drawn: dict[str, Any], say: Callable[[str], None]) -> int:
+    """Put ``draw_and_measure``'s result into the group's first run entry; returns the failed figure count."""
+    for line in drawn["failures"]:
+        say(line)
+    runs[0]["figures"] = drawn["figures"]
+    runs[0].setdefault("seconds", {}).update(drawn["seconds"])
+    if "measurements" in drawn:
+        runs[0]["measurements"] = drawn["measurements"]
+    return len(drawn["failures"])
+
+
+def _figure_pool(groups: int):
+    """Worker processes (spawned: the parent holds a CUDA context) for figures and measurements."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    workers = max(1, min(groups, 4, _cpu_count() - 1))
+    return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
 
 
 def _cpu_count() -> int:

@@ -153,3 +153,29 @@ def test_driven_windows_summed_on_the_device_equal_a_host_loop():
     # the drive has reached the bottom by the last window (the last grain sits on the floor): not zeros
     assert (np.abs(result["v_centre"][:, -1, -3:-1]) > 0).all()
     assert result["ke_window"][:, -1, -2].min() > 1e-6 * result["ke_window"][:, -1].max()
+
+
+def test_figures_drawn_in_worker_processes_equal_those_drawn_inline(tmp_path):
+    """On a GPU the figures and measurements of a group are made in worker processes while the next group
+    integrates: the log's numbers and the PNGs are the same as when they are made in line."""
+    from hertzian.ensemble.reproduce import finite, reproduce
+
+    logs = {}
+    for background in (False, True):
+        out = tmp_path / str(background)
+        logs[background] = reproduce(out, groups=["fig6", "depth", "fig9_10"], quick=True, device="cpu",
+                                     background=background, say=lambda line: None)
+        assert [run["name"] for run in logs[background]["runs"]] == ["fig6", "depth", "fig9_10"]
+        assert logs[background]["figures_in_background"] is background
+        assert logs[background]["figure_failures"] == 0
+    for inline, pooled in zip(logs[False]["runs"], logs[True]["runs"]):
+        assert pooled["name"] == inline["name"] and pooled["figures"] == inline["figures"]
+        if pooled["name"] == "fig9_10":     # run first when in the background; no measurements
+            assert pooled["standing_wave"] and finite(pooled["standing_wave"]) == finite(inline["standing_wave"])
+            assert pooled["figures"] == inline["figures"] == {"fig9": "fig9.png", "fig10": "fig10.png"}
+            continue
+        assert pooled["measurements"] == inline["measurements"] and pooled["measurements"]
+        assert set(pooled["seconds"]) == {"setup", "integrate", "finalize", "figures", "measure"}
+        for png in pooled["figures"].values():
+            assert (tmp_path / "True" / png).stat().st_size > 10_000
+    assert logs[True]["figure_wait_seconds"] >= 0
