@@ -806,15 +806,16 @@ def reproduce(out_dir: Path, *, groups: list[str] | None = None, quick: bool = F
     ``events``: "auto" or "off" sets integrator.events for every group (default None: each sweep file's).
     ``drive_grains``: the driven column's length for Figs. 9–10 (default 10 000, or 300 with ``quick``;
     the paper's times are scaled by the travel time ∝ N^(5/6)). ``kernel``: the solver choice of the sweep
-    groups (default: "fused" on a GPU, whose short groups would otherwise take the per-step kernel; "auto" on a
-    CPU). Each run's ``seconds`` splits its wall time (setup, integrate, finalize or store, figures, measure).
+    groups (default: "fused" on a GPU with ``events="off"``, whose short groups would otherwise take the
+    per-step kernel; else "auto": event-aware steps made the fused kernels ~20× slower on an H100).
+    Each run's ``seconds`` splits its wall time (setup, integrate, finalize or store, figures, measure).
     ``background`` (default: on a GPU): figures and measurements of a group are made in worker processes
     while the next groups integrate (same PNGs and numbers); the log's ``figure_wait_seconds`` is the time
     the end waited for them."""
     import warp as wp
 
     sweeps_dir = sweeps_dir or default_sweeps_dir()
-    kernel = kernel or ("auto" if wp.get_device(device).is_cpu else "fused")
+    kernel = kernel or ("fused" if events == "off" and not wp.get_device(device).is_cpu else "auto")
     out_dir.mkdir(parents=True, exist_ok=True)
     names = groups or list(GROUPS)
     log: dict[str, Any] = {

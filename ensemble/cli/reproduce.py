@@ -29,9 +29,9 @@ def reproduce(
                                                   "(default: as each sweep file says; off = plain Gear steps, the "
                                                   "fast choice on a GPU, docs/reproduction.md).")] = None,
     kernel: Annotated[Optional[str], typer.Option("--kernel", help="auto | fused | step | tile | window | sweep for "
-                                                  "every figure group's sweep (default: fused on a GPU, so the short "
-                                                  "groups run on the calibrated fused kernels, cached after the "
-                                                  "first run; auto on a CPU).")] = None,
+                                                  "every figure group's sweep (default: fused on a GPU with --events "
+                                                  "off, so the short groups run on the calibrated fused kernels, "
+                                                  "cached after the first run; else auto).")] = None,
     device: DeviceOption = None,
 ):
     """Run Sen, Manciu & Wright (1998)'s figure groups: per group a Zarr store, its figures as PNGs, and in
