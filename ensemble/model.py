@@ -37,8 +37,7 @@ SHARED_KEYS = (
     ("record.traces", lambda s: s.record.traces),
     ("record.fields", lambda s: s.record.fields),
     ("damping.model", lambda s: s.damping.model),
-    ("response windows", lambda s: (s.record.response_start, s.record.response_periods,
-                                    s.record.response_windows, s.record.harmonics)),
+    ("response windows", lambda s: (s.record.response_start, s.record.response_windows, s.record.harmonics)),
 )
 
 

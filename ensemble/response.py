@@ -1,6 +1,6 @@
 """Response windows (docs/drive.md): the device sums of kernels/response.py and their host reduction.
 
-Window w of chain c covers ``response_periods`` drive periods from t = response_start + w·periods·τ_c.
+Window w of chain c covers its own ``response_periods`` P_c drive periods from t = response_start + w·P_c·τ_c.
 Chain c samples every ``stride[c]`` steps (its own ``Scene.response_stride``: a divisor of its period
 in steps), so each period holds a whole number of uniform samples (≥ RESPONSE_MIN_SAMPLES_PER_PERIOD
 where the period has that many steps): the rectangle rule over whole periods integrates a periodic
@@ -33,6 +33,15 @@ def chain_periods(model: Model) -> np.ndarray:
     return np.array([s.excitation.drive_period for s in scenes])
 
 
+def chain_window_periods(model: Model) -> np.ndarray:
+    """Drive periods per response window of each chain (``record.response_periods``), shape (chains,): chains
+    of one launch may differ (τ = 10 with windows of one period beside τ = 1 with windows of ten)."""
+    scenes = model.scenes
+    if isinstance(scenes, ChainSet):
+        return np.rint(scenes.column("record.response_periods")).astype(np.int64)
+    return np.array([s.record.response_periods for s in scenes], dtype=np.int64)
+
+
 class ResponseAccumulator:
     """Device sums of one run's response windows, sampled every ``stride`` steps."""
 
@@ -41,7 +50,9 @@ class ResponseAccumulator:
         scene = model.scenes[0]
         r = scene.record
         c, n, dev = model.chain_count, model.grain_count, model.device
-        self.windows, self.harmonics, self.periods = r.response_windows, r.harmonics, r.response_periods
+        self.windows, self.harmonics = r.response_windows, r.harmonics
+        self.periods = chain_window_periods(model)
+        """Drive periods per window, per chain."""
         self.period_steps = np.rint(chain_periods(model) / model.dt).astype(np.int64)
         self.stride = np.array([response_stride_of([p]) for p in self.period_steps], dtype=np.int64)
         """Steps between a chain's samples (each chain's own), shape (chains,)."""

@@ -379,3 +379,60 @@ def test_response_of_a_chain_is_the_same_alone_and_in_an_ensemble_of_other_perio
         for key in ("response", "window_ke", "driver_open", "window_start"):
             np.testing.assert_array_equal(together[key][c], alone[key][0], err_msg=key)
     assert np.all(np.abs(together["response"][:, :, 1]) > 0)  # the drive's harmonic was sampled
+
+
+def test_windows_of_other_lengths_share_one_launch_and_equal_each_chain_alone(tmp_path):
+    """Figs. 9–10 run τ = 10 with windows of one period and τ = 1 with windows of ten: record.response_periods
+    may differ between the chains of one launch (a [[zip]] with the period). Each point's store equals that
+    chain run alone, bit for bit, and its windows start where its own period count puts them."""
+    import xarray as xr
+
+    from cli_cases import invoke
+
+    sweep = tmp_path / "both.toml"
+    sweep.write_text('''
+[scene.chain]
+grains = 12
+l0 = 1e-3
+[scene.boundary]
+surface = "driven"
+bottom = "fixed"
+[scene.excitation]
+drive_amplitude = 3e-3
+drive_period = 0.5
+[scene.integrator]
+dt = 1e-3
+duration = 2.0
+[scene.record]
+every = 0.5
+fields = ["v"]
+response_start = 0.25
+response_periods = 1
+response_windows = 3
+harmonics = 2
+[[axis]]
+name = "tau"
+key = "excitation.drive_period"
+values = [0.5, 0.125]
+[[axis]]
+name = "periods"
+key = "record.response_periods"
+values = [1, 4]
+[[zip]]
+axes = ["tau", "periods"]
+''')
+    out = tmp_path / "both.zarr"
+    result = invoke("sweep", sweep, "--out", out, "--device", "cpu", "--dry-run")
+    assert "launch groups: 1" in result.stdout, result.stdout
+    result = invoke("sweep", sweep, "--out", out, "--device", "cpu")
+    assert result.exit_code == 0, result.stdout + result.stderr
+    ds = xr.open_zarr(out)
+    for tau, periods in ((0.5, 1), (0.125, 4)):
+        point = ds.sel(tau=tau)
+        np.testing.assert_allclose(point.window_start.values, [0.25, 0.75, 1.25], rtol=0, atol=1e-12)
+        alone = run_scene(driven(grains=12, amplitude=3e-3, period=tau, duration=2.0, damping=None,
+                                 record={"every": 0.5, "fields": ["v"], "response_start": 0.25,
+                                         "response_periods": periods, "response_windows": 3, "harmonics": 2}), "cpu")
+        np.testing.assert_array_equal(point.response.values, alone.response["response"][0])
+        np.testing.assert_array_equal(point.window_ke.values, alone.response["window_ke"][0])
+        assert np.abs(point.response.values[:, 1]).max() > 0
