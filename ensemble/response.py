@@ -90,15 +90,16 @@ class ResponseAccumulator:
             return []
         return np.unique(np.concatenate(steps)).tolist()
 
-    def sample(self, state: State, step: int) -> None:
-        """Add the state at ``step`` to its windows' sums (device only, no sync)."""
+    def sample(self, state: State) -> None:
+        """Add ``state`` to the sums of the windows that hold its step (read from its clock on the device: no
+        sync, and capturable in a CUDA graph)."""
         m = self.model
         wp.launch(response_phases, dim=m.chain_count,
-                  inputs=[m.drive, self.window_steps_device, self.stride_device, self.start_step, step, self.windows,
-                          self.harmonics, m.dt], outputs=[self.phases], device=m.device)
+                  inputs=[m.drive, self.window_steps_device, self.stride_device, self.start_step, state.clock,
+                          self.windows, self.harmonics, m.dt], outputs=[self.phases], device=m.device)
         wp.launch(self.kernel, dim=(m.chain_count, m.grain_count),
                   inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent,
-                          self.window_steps_device, self.stride_device, self.start_step, step, self.windows,
+                          self.window_steps_device, self.stride_device, self.start_step, state.clock, self.windows,
                           self.harmonics, m.dt, self.phases],
                   outputs=[self.re, self.im, self.kinetic, self.open_count], device=m.device)
 

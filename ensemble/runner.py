@@ -24,6 +24,8 @@ from .solvers import SolverConfig, choose_config, make_solver
 from .solvers.calibrate import fused_lacks, step_reason
 from .status import Status
 
+SAMPLED_PIECES_PER_GRAPH = 64
+"""Advance-and-sample pieces of the response windows per captured CUDA graph (Runner._advance_sampled)."""
 MONITOR_MIN_STEPS = 512
 MONITOR_STEPS_PER_GRAIN = 16
 """Between records, energy, overlap and finiteness are also checked on the device every
@@ -141,14 +143,51 @@ class Runner:
         response = self.recorder.response
         samples = set(response.sample_steps(first_step, first_step + n_steps)) if response is not None else set()
         checks = set(range(first_step + every, first_step + n_steps, every))
-        done = first_step
+        done = first_step              # steps taken, or queued in the pending run of samples
+        run_gap, run_count = 0, 0      # the pending run: sample-only stops, equally spaced
+
+        def flush() -> None:
+            nonlocal run_count
+            if run_count:
+                self._advance_sampled(run_gap, run_count)
+                run_count = 0
+
         for stop in sorted(samples | checks | {first_step + n_steps}):
-            self.advance(stop - done)
+            gap = stop - done
             done = stop
+            if stop in samples and stop not in checks:
+                if run_count and (gap != run_gap or run_count == SAMPLED_PIECES_PER_GRAPH):
+                    flush()
+                run_gap, run_count = gap, run_count + 1
+                continue
+            flush()
+            self.advance(gap)
             if stop in checks:
                 self.recorder.check(self.current, stop)
             if stop in samples:
-                response.sample(self.current, stop)
+                response.sample(self.current)
+        flush()
+
+    def _advance_sampled(self, gap: int, count: int) -> None:
+        """``count`` times: take ``gap`` steps, then add the state to the response windows. On CUDA the whole
+        sequence is one captured graph, replayed wherever it recurs (the response kernels read the step from
+        the state's clock), so sampling every few steps costs no host round trip per sample."""
+        response = self.recorder.response
+        solver = self.solver
+
+        def pieces(state_in: State, state_out: State, _n_steps: int) -> State:
+            current, other = state_in, state_out
+            for _ in range(count):
+                end = solver.launches(current, other, gap)
+                current, other = end, (other if end is current else current)
+                response.sample(current)
+            return current
+
+        other = self.buffers[1] if self.current is self.buffers[0] else self.buffers[0]
+        if solver.use_graph:
+            self.current = solver.graphs.run(pieces, self.current, other, gap * count, tag=("sampled", gap, count))
+        else:
+            self.current = pieces(self.current, other, gap * count)
 
     def run(self, progress=None) -> RunResult:
         """Integrate to the end; ``progress(done_records, total_records)`` is called after each record."""
@@ -164,7 +203,7 @@ class Runner:
         advance_seconds = record_seconds = 0.0
         start = time.perf_counter()
         if rec.response is not None and rec.response.start_step == 0:
-            rec.response.sample(self.current, 0)
+            rec.response.sample(self.current)
         for r, step in enumerate(record_steps):
             if r:
                 clock = time.perf_counter()

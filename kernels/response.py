@@ -1,7 +1,8 @@
 """Response windows of a driven chain, accumulated on the device (no host stops).
 
 Launched at the steps where some chain samples, after the solver has advanced to that step, with
-whatever solver ran: it reads only the state. Chain c samples every ``stride[c]`` steps from the
+whatever solver ran: it reads only the state, the step included (the state's clock, so a CUDA graph of
+many advance-and-sample pieces replays without the host). Chain c samples every ``stride[c]`` steps from the
 windows' start (its own ``Scene.response_stride``, so a chain's sums do not depend on the other chains
 of its ensemble). ``phases`` (one thread per chain) evaluates cos(kωt) and sin(kωt), k = 0 … H, once per
 sampling chain and step; ``accumulate`` (chain, grain) adds, for the window w that holds the step, per
@@ -38,7 +39,7 @@ def response_phases(
     window_steps: wp.array(dtype=wp.int64),
     stride: wp.array(dtype=wp.int64),
     start_step: wp.int64,
-    step: wp.int64,
+    clock: wp.array(dtype=wp.int32),
     windows: int,
     harmonics: int,
     dt: wp.float64,
@@ -46,6 +47,7 @@ def response_phases(
 ):
     # cos(kωt) and sin(kωt) of chain c at this step, k = 0 … H (only where the chain samples)
     c = wp.tid()
+    step = wp.int64(clock[0])
     if sample_window(step - start_step, stride[c], window_steps[c], windows) < 0:
         return
     omega_t = drive[c, 1] * (wp.float64(step) * dt)
@@ -73,7 +75,7 @@ def response_kernel(features: Features):
         window_steps: wp.array(dtype=wp.int64),
         stride: wp.array(dtype=wp.int64),
         start_step: wp.int64,
-        step: wp.int64,
+        clock: wp.array(dtype=wp.int32),
         windows: int,
         harmonics: int,
         dt: wp.float64,
@@ -84,6 +86,7 @@ def response_kernel(features: Features):
         open_count: wp.array2d(dtype=wp.float64),
     ):
         c, i = wp.tid()
+        step = wp.int64(clock[0])
         w = sample_window(step - start_step, stride[c], window_steps[c], windows)
         if w < 0:
             return

@@ -91,7 +91,8 @@ def test_rectangle_rule_over_whole_periods_is_exact_for_harmonics():
         x = np.zeros((model.features.values, 1, 4))
         x[1] = v * dt * np.array([1.0, 2.0, 0.0, -1.0])
         state.x.assign(x)
-        acc.sample(state, step)
+        state.clock.assign(np.array([step], dtype=np.int32))   # the step the kernels read
+        acc.sample(state)
     response = acc.result()["response"][0, 0]
     expected = np.zeros(10, complex)
     expected[0], expected[1], expected[3], expected[9] = b0, b1 * np.exp(1j * phi), -1j * b3, b9
@@ -436,3 +437,33 @@ axes = ["tau", "periods"]
         np.testing.assert_array_equal(point.response.values, alone.response["response"][0])
         np.testing.assert_array_equal(point.window_ke.values, alone.response["window_ke"][0])
         assert np.abs(point.response.values[:, 1]).max() > 0
+
+
+@pytest.mark.parametrize("pieces", [5, 64])
+def test_response_sampled_in_runs_equals_one_sample_at_a_time(monkeypatch, pieces):
+    """Runner._advance_sampled takes runs of equally spaced samples in one piece (one CUDA graph on a GPU);
+    with device checks interleaved (monitor_every = 37 steps) every sum, energy and trace equals runs of one
+    sample each, the order the samples were taken in before."""
+    from hertzian.ensemble import runner as runner_module
+    from hertzian.ensemble.model import build_model
+
+    scene = driven(grains=12, amplitude=3e-3, period=0.25, duration=1.6, damping=None,
+                   record={"every": 0.4, "fields": ["v"], "traces": [3], "trace_every": 0.01, "response_start": 0.1,
+                           "response_periods": 1, "response_windows": 4, "harmonics": 2})
+    results, calls = {}, {}
+    for per_graph in (1, pieces):
+        monkeypatch.setattr(runner_module, "SAMPLED_PIECES_PER_GRAPH", per_graph)
+        runner = runner_module.Runner(build_model([scene], "cpu"), monitor_every=37)
+        taken = []
+        original = runner._advance_sampled
+        monkeypatch.setattr(runner, "_advance_sampled", lambda gap, count: taken.append(count) or original(gap, count))
+        results[per_graph], calls[per_graph] = runner.run(), taken
+    assert max(calls[1]) == 1 and max(calls[pieces]) > 1          # runs were formed
+    assert sum(calls[1]) == sum(calls[pieces])                      # and no sample was lost
+    one, runs = results[1], results[pieces]
+    for key in ("response", "window_ke", "driver_open"):
+        np.testing.assert_array_equal(runs.response[key], one.response[key], err_msg=key)
+    np.testing.assert_array_equal(runs.energy, one.energy)
+    np.testing.assert_array_equal(runs.traces["v"], one.traces["v"])
+    np.testing.assert_array_equal(runs.fields["v"], one.fields["v"])
+    assert np.abs(runs.response["response"][0, :, 1]).max() > 0

@@ -16,16 +16,18 @@ from ..model import State
 
 
 class GraphCache:
-    """Captured graphs of one solver on one device, keyed by (n_steps, address of state_in.x, address of state_out.x)."""
+    """Captured graphs of one solver on one device, keyed by (n_steps, address of state_in.x, address of state_out.x,
+    tag)."""
 
     def __init__(self, device):
         self.device = device
         self.graphs: dict[tuple[int, int, int], tuple[object, bool]] = {}
 
     def run(self, launches: Callable[[State, State, int], State], state_in: State, state_out: State,
-            n_steps: int) -> State:
-        """Replay (capturing on first use) ``launches(state_in, state_out, n_steps)``; returns the result's half."""
-        key = (n_steps, state_in.x.ptr, state_out.x.ptr)
+            n_steps: int, tag: tuple = ()) -> State:
+        """Replay (capturing on first use) ``launches(state_in, state_out, n_steps)``; returns the result's half.
+        ``tag`` tells apart graphs of other launch sequences of the same step count (steps with samples)."""
+        key = (n_steps, state_in.x.ptr, state_out.x.ptr, *tag)
         if key not in self.graphs:
             with wp.ScopedCapture(device=self.device) as capture:
                 end = launches(state_in, state_out, n_steps)
