@@ -440,10 +440,10 @@ axes = ["tau", "periods"]
 
 
 @pytest.mark.parametrize("pieces", [5, 64])
-def test_response_sampled_in_runs_equals_one_sample_at_a_time(monkeypatch, pieces):
+def test_response_sampled_in_runs_equals_one_sample_at_a_time(monkeypatch, pieces, device):
     """Runner._advance_sampled takes runs of equally spaced samples in one piece (one CUDA graph on a GPU);
     with device checks interleaved (monitor_every = 37 steps) every sum, energy and trace equals runs of one
-    sample each, the order the samples were taken in before."""
+    sample each, the order the samples were taken in before (on CUDA: replayed graphs against single pieces)."""
     from hertzian.ensemble import runner as runner_module
     from hertzian.ensemble.model import build_model
 
@@ -453,7 +453,7 @@ def test_response_sampled_in_runs_equals_one_sample_at_a_time(monkeypatch, piece
     results, calls = {}, {}
     for per_graph in (1, pieces):
         monkeypatch.setattr(runner_module, "SAMPLED_PIECES_PER_GRAPH", per_graph)
-        runner = runner_module.Runner(build_model([scene], "cpu"), monitor_every=37)
+        runner = runner_module.Runner(build_model([scene], device), monitor_every=37)
         taken = []
         original = runner._advance_sampled
         monkeypatch.setattr(runner, "_advance_sampled", lambda gap, count: taken.append(count) or original(gap, count))

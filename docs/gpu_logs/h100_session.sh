@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -184,6 +184,19 @@ final)
   cp "$WORK"/repro/log.json "$LOGS"/reproduce_cold_log.json 2>/dev/null
   step reproduce_final_warm ${REPRO_WARM_LIMIT:-120} "$HZ reproduce --device cuda $EV --out-dir $WORK/repro2"
   cp "$WORK"/repro2/log.json "$LOGS"/reproduce_warm_log.json 2>/dev/null
+  ;;
+nov24)
+  # what 2026-11-24 (a session without a GPU) changed, measured in one call: the CUDA tests of the new paths
+  # (device window sums, graphs of sampled runs), the reproduction cold and warm (--events off: fused kernels for
+  # the short groups, windows summed on the device, figures in worker processes), the driven column end to end,
+  # Figs. 9-10 to t = 5000 for tau = 1 (response samples every ~25 steps, now in replayed graphs)
+  step pytest_cuda_nov24 200 "python3 -m pytest -q -p no:cacheprovider tests/test_drive.py tests/test_reproduce.py tests/test_solvers.py -k 'cuda or sampled_in_runs or host_loop' 2>&1"
+  step reproduce_nov24_cold ${REPRO_LIMIT:-200} "$HZ reproduce --device cuda --events off --out-dir $WORK/repro"
+  cp "$WORK"/repro/log.json "$LOGS"/reproduce_nov24_cold_log.json 2>/dev/null
+  step reproduce_nov24_warm ${REPRO_WARM_LIMIT:-100} "$HZ reproduce --device cuda --events off --out-dir $WORK/repro2"
+  cp "$WORK"/repro2/log.json "$LOGS"/reproduce_nov24_warm_log.json 2>/dev/null
+  step e2e_fig9_10_t500_nov24 90 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step settle_tau1_nov24 120 "$HZ sweep sweeps/drive_fig9_10_gpu.toml --device cuda --quiet --json --overwrite --set excitation.drive_period=1.0 --set record.response_periods=10 --out $WORK/tau1.zarr"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
