@@ -18,6 +18,12 @@ v_imp``) reaches grain d in the BASE chain's own clean run. After that time the 
 dominated by the bottom reflection, whose timing depends so strongly on the impurity that the
 likelihood becomes rugged in μ. Depths whose echo cannot start inside the window are not searched.
 
+**Fine scan.** If the refined best fit still leaves σ above FINE_SCAN_MISFIT times the noise (σ before the
+earliest echo, or ``noise``), its minimum may be a needle narrower than the library's and Gauss–Newton's steps
+(a light grain next to the impact, whose collision sequence changes with μ): ln μ is then scanned every
+FINE_SCAN_SPACING over the class's range at that depth (one ensemble run) and refined by Gauss–Newton from the
+best point; the lower RSS is kept (``Detection.fine_scan`` says what ran).
+
 **Noise model.** i.i.d. Gaussian noise of standard deviation σ: ``--noise σ``, or estimated twice. First
 as the rms of ``v − v_clean`` over the samples before the earliest possible echo, ``t < 2 t_front(d_min)``
 (``d_min`` the shallowest depth searched; an echo cannot return faster than the pulse that causes it
@@ -317,7 +323,6 @@ def run_candidates(forward: Scene, candidates: list[tuple], block: int, device: 
     from .devices import init_warp
     from .model import build_model
     from .runner import Runner
-    from .solvers import choose_config
     from .status import Status
 
     init_warp()
@@ -330,11 +335,10 @@ def run_candidates(forward: Scene, candidates: list[tuple], block: int, device: 
     for start in range(0, len(scenes), batch_size):
         model = build_model(scenes[start:start + batch_size], device)
         # a detection runs many small ensembles of one host chain (the refinement: a few candidates per
-        # iteration); on a CPU the sweep kernel needs no compile per run (it is cached) and writes the
-        # surface trace inside one launch, so the short-run rule of ``auto`` (per-step kernel) is skipped
-        # there; on a GPU ``auto`` decides as for any run
-        kernel = choose_config(model, "auto", run_steps=None) if model.device.is_cpu else "auto"
-        result = Runner(model, kernel=kernel).run()
+        # iteration), each too short for ``auto`` to leave the per-step kernel: ``fused`` takes the CPU sweep
+        # kernel (compiled once, cached) or on a GPU the calibrated tile/window kernel (calibrated and compiled
+        # on first use, cached after), each writing the surface trace inside its launches
+        result = Runner(model, kernel="fused").run()
         traces.append(result.traces["v"][:, :, 0].astype(np.float64))
         ok.append(result.status == Status.OK)
     return np.concatenate(traces), np.concatenate(ok)
@@ -480,6 +484,9 @@ class Detection:
     dt: float = 0.0
     """Step of the forward model [time]."""
     refined_depths: dict = field(default_factory=dict)
+    fine_scan: dict | None = None
+    """When the refined best fit left σ > FINE_SCAN_MISFIT × the noise (a needle-shaped minimum in μ): the scan of
+    ln μ at its depth (depth, class, points, spacing, RSS before and after; None if no scan ran)."""
     fit_a: dict | None = None
     """With --fit-a: a_ratio = a_impurity / a_host and its 95 % interval, the RSS of the joint fit and of the
     best fit with a = a_host, σ of the joint fit (None without --fit-a, or for class none)."""
@@ -510,6 +517,7 @@ class Detection:
             "seconds": self.seconds,
             "library_from_cache": self.library_from_cache,
             "refined_depths": self.refined_depths,
+            "fine_scan": self.fine_scan,
             **(self.fit_a if self.fit_a is not None else {}),
         }
 
@@ -769,6 +777,23 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
     refine_seconds = time.perf_counter() - refine_start
 
     rss_clean = float((s - library.clean) @ (s - library.clean))
+    fine = None
+    reference = noise if noise is not None else window_sigma
+    fitted = [(q.rss0, kind, k) for kind in quads for k, q in enumerate(quads[kind]) if q is not None]
+    if refine > 0 and reference is not None and fitted:
+        rss_best, kind_best, k_best_fit = min(fitted)
+        misfit = math.sqrt(rss_best / max(signal.sample_count - 2, 1)) / reference
+        if rss_best < rss_clean and misfit > FINE_SCAN_MISFIT:
+            scan_start = time.perf_counter()
+            q_scan, points = fine_scan(s, forward, grid.block, int(depths[k_best_fit]), bounds[kind_best], device,
+                                       batch_size=batch_size)
+            improved = q_scan is not None and q_scan.rss0 < rss_best
+            if improved:
+                quads[kind_best][k_best_fit] = q_scan
+            fine = {"depth": int(depths[k_best_fit]), "class": kind_best, "points": points,
+                    "spacing": FINE_SCAN_SPACING, "misfit_before": misfit, "rss_before": rss_best,
+                    "rss_after": q_scan.rss0 if improved else rss_best, "improved": improved,
+                    "seconds": time.perf_counter() - scan_start}
     if noise is None:
         # second estimate, from every sample: the best candidate's residual (2 fitted parameters)
         best_rss = min([rss_clean] + [q.rss0 for kind in quads for q in quads[kind] if q is not None])
@@ -853,15 +878,54 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
                             "noise_fit_a": None, "fit_a_depths": {str(d): c.rss for d, c in fits}}
         fit_a_result["fit_a_seconds"] = time.perf_counter() - fit_start
     seconds = {"library": library_seconds, "refinement": refine_seconds,
-               "total": time.perf_counter() - started}
+               **({"fine_scan": fine["seconds"]} if fine else {}), "total": time.perf_counter() - started}
     return Detection(
         kind=kind, class_probability=probability, log_evidence=log_z, depth=depth, depth_interval=depth_interval,
         mass_ratio=mass_ratio, mass_ratio_interval=mass_interval, noise=sigma, noise_source=noise_source,
         noise_before_echo=window_sigma if noise is None else None,
         depths_searched=(int(depths[0]), int(depths[-1])), window=float(signal.t[-1]), block=grid.block, best_fit=best_fit,
         depth_posterior=posterior, seconds=seconds, library_from_cache=library.from_cache,
-        dt=forward.integrator.dt, refined_depths=refined, fit_a=fit_a_result,
+        dt=forward.integrator.dt, refined_depths=refined, fine_scan=fine, fit_a=fit_a_result,
     ), library
+
+
+FINE_SCAN_MISFIT = 3.0
+"""A fine scan of ln μ runs at the best depth when the refined best fit leaves σ above this multiple of the
+noise (the σ before the earliest echo, or --noise): the misfit of a needle-shaped minimum that the library
+(ratios ~20 % apart) and Gauss–Newton steps of 2 % step over (docs/detection.md, failure 2)."""
+FINE_SCAN_SPACING = 0.004
+"""Spacing of that scan in ln μ (0.4 %): finer than the ±1.5 % width of the needle measured on a shallow light
+grain, so one scan point falls inside it."""
+FINE_SCAN_ITERATIONS = 2
+"""Gauss–Newton iterations from the best scan point (finite differences of half the spacing)."""
+
+
+def fine_scan(s: np.ndarray, forward: Scene, block: int, depth: int, x_bounds: tuple[float, float], device: str, *,
+              batch_size: int = 4096) -> tuple[Quadratic | None, int]:
+    """ln μ scanned every FINE_SCAN_SPACING over the class's range ``x_bounds`` at ``depth`` (one ensemble run),
+    then Gauss–Newton from the best point; returns (the quadratic of lowest RSS, scan points)."""
+    lo, hi = x_bounds
+    xs = np.arange(lo + FINE_SCAN_SPACING, hi - 0.5 * FINE_SCAN_SPACING, FINE_SCAN_SPACING)
+    traces, ok = run_candidates(forward, [(depth, math.exp(x)) for x in xs], block, device, batch_size=batch_size)
+    residual = s[None, :] - traces
+    rss = np.where(ok, np.einsum("cs,cs->c", residual, residual), np.inf)
+    i = int(np.argmin(rss))
+    if not np.isfinite(rss[i]):
+        return None, len(xs)
+    i = min(max(i, 1), len(xs) - 2)
+    best = quadratic_at(s, xs[i], traces[i], (traces[i + 1] - traces[i - 1]) / (2 * FINE_SCAN_SPACING))
+    h = 0.5 * FINE_SCAN_SPACING
+    x = min(max(best.optimum, lo + h), hi - h)
+    for _ in range(FINE_SCAN_ITERATIONS):
+        (minus, centre, plus), fine_ok = run_candidates(forward, [(depth, math.exp(x + dx)) for dx in (-h, 0.0, h)],
+                                                        block, device)
+        if not fine_ok.all():
+            break
+        q = quadratic_at(s, x, centre, (plus - minus) / (2 * h))
+        if q.rss0 < best.rss0:
+            best = q
+        x = min(max(q.optimum, lo + h), hi - h)
+    return best, len(xs)
 
 
 FIT_A_DEPTHS = 1
