@@ -391,7 +391,9 @@ def write_batch(path: str | Path, batch: Batch, result: RunResult, *, grain_step
     shape = batch.shape
 
     def put(name: str, data: np.ndarray) -> None:
-        arr = zarr.open_array(store=str(path), path=name, mode="r+")
+        # write_empty_chunks: skip comparing every inner chunk with the fill value before writing it (a batch's
+        # chunks are written whatever they hold; 0.5 s of 1.6 s for a 220 MB shard here, docs/logs/store/)
+        arr = zarr.open_array(store=str(path), path=name, mode="r+").with_config({"write_empty_chunks": True})
         arr[region] = np.asarray(data, dtype=arr.dtype).reshape(shape + data.shape[1:])
 
     for name, data in result.fields.items():
