@@ -10,6 +10,6 @@ run() {
     python3 -c "import json,sys; r=json.load(sys.stdin)[0]; print('$1', json.dumps(r['seconds']))"
 }
 for round in 1 2; do
-  git stash -q && git checkout -q "$before" -- ensemble/sweep_store.py && run before && git checkout -q HEAD -- ensemble/sweep_store.py && git stash pop -q
-  run after
+  git checkout -q "$before" -- ensemble/sweep_store.py && run before
+  git checkout -q HEAD -- ensemble/sweep_store.py && run after
 done
