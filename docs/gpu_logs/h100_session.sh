@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -197,6 +197,22 @@ nov24)
   cp "$WORK"/repro2/log.json "$LOGS"/reproduce_nov24_warm_log.json 2>/dev/null
   step e2e_fig9_10_t500_nov24 90 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
   step settle_tau1_nov24 120 "$HZ sweep sweeps/drive_fig9_10_gpu.toml --device cuda --quiet --json --overwrite --set excitation.drive_period=1.0 --set record.response_periods=10 --out $WORK/tau1.zarr"
+  ;;
+nov26a)
+  # 2026-11-26 (an H200 was lent): issue 17's warm gpu_10k outside the GPU, the million sweep, issue 12's
+  # Figs. 9-10 with both tau in one run (6 columns to t = 5000) and the 64-column response map
+  step e2e_gpu10k_cold 150 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step e2e_gpu10k_warm 60 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step sweep_gpu10k_warm 60 "$HZ sweep sweeps/gpu_10k.toml --out $WORK/gpu10k.zarr --overwrite --device cuda --quiet --json"
+  step million_nov26 120 "$HZ sweep sweeps/million.toml --out $WORK/million.zarr --overwrite --device cuda --quiet --json"
+  step fig9_10_both 150 "$HZ sweep sweeps/drive_fig9_10_both_gpu.toml --out $WORK/both.zarr --overwrite --device cuda --quiet --json"
+  step drive_map_nov26 150 "$HZ sweep sweeps/drive_map_gpu.toml --out $WORK/drive_map.zarr --overwrite --device cuda --quiet --json"
+  ;;
+nov26b)
+  # the warm reproduction with its figures, and the detection study's target cases (1000 grains, 26 dB)
+  step reproduce_nov26_warm ${REPRO_WARM_LIMIT:-120} "$HZ reproduce --device cuda --events off --out-dir $WORK/repro3"
+  mkdir -p "$LOGS"/repro_nov26 && cp "$WORK"/repro3/log.json "$WORK"/repro3/*.png "$WORK"/repro3/*.json "$LOGS"/repro_nov26/ 2>/dev/null
+  step detect_target ${DETECT_LIMIT:-400} "$HZ detect-study sweeps/detect_study_1000_target.toml --out $LOGS/study_1000_target_gpu.json --overwrite --device cuda"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
