@@ -46,10 +46,12 @@ def load_study(path: str | Path) -> dict:
 
 
 def _truth_velocities(forward, cases, block: int, device: str) -> np.ndarray:
-    """Grain 0's velocity of each (depth, μ) case (depth None: clean) at half the forward step."""
+    """Grain 0's velocity of each (depth, μ) case (depth None: clean) at half the forward step, with event-aware
+    steps wherever a contact can open (``integrator.events = "auto"``) whatever BASE says: the planted signals
+    stay the more accurate, independent model when the detector's candidates take plain steps."""
     from .runner import run_ensemble
 
-    fine = forward.with_overrides({"integrator.dt": forward.integrator.dt / 2})
+    fine = forward.with_overrides({"integrator.dt": forward.integrator.dt / 2, "integrator.events": "auto"})
     scenes = [fine if depth is None else impurity_scene(fine, depth, mu, block) for depth, mu in cases]
     result = run_ensemble(scenes, device)
     if np.any(result.status != 0):

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -213,6 +213,37 @@ nov26b)
   step reproduce_nov26_warm ${REPRO_WARM_LIMIT:-120} "$HZ reproduce --device cuda --events off --out-dir $WORK/repro3"
   mkdir -p "$LOGS"/repro_nov26 && cp "$WORK"/repro3/log.json "$WORK"/repro3/*.png "$WORK"/repro3/*.json "$LOGS"/repro_nov26/ 2>/dev/null
   step detect_target ${DETECT_LIMIT:-400} "$HZ detect-study sweeps/detect_study_1000_target.toml --out $LOGS/study_1000_target_gpu.json --overwrite --device cuda"
+  ;;
+nov26c)
+  # 2026-11-26 on an H100: issue 17 and the driven column on the card the targets name, one cached detection
+  # profiled (issue 14), the weak-damping control of Figs. 9-10 (issue 12)
+  step e2e_gpu10k_cold_h100 150 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step e2e_gpu10k_warm_h100 60 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step sweep_gpu10k_warm_h100 60 "$HZ sweep sweeps/gpu_10k.toml --out $WORK/gpu10k.zarr --overwrite --device cuda --quiet --json"
+  step million_h100 120 "$HZ sweep sweeps/million.toml --out $WORK/million.zarr --overwrite --device cuda --quiet --json"
+  step e2e_fig9_10_t500_h100 90 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step e2e_fig9_10_t500_h100_warm 60 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step detect_profile 200 "python3 docs/logs/detection/profile_detect.py --device cuda"
+  step damped_control ${DAMPED_LIMIT:-150} "$HZ sweep sweeps/drive_fig9_10_damped_gpu.toml --out $WORK/damped.zarr --overwrite --device cuda --quiet --json"
+  step damped_reduce 60 "python3 docs/logs/fig9_10_settle.py $WORK/damped.zarr"
+  ;;
+nov26d)
+  # two GPUs of one host: the 10^4-point grid (duration 2) on one GPU, then one Dask worker per GPU
+  S2="$HZ sweep sweeps/gpu_10k.toml --set integrator.duration=2.0 --device cuda --quiet --json --overwrite"
+  step two_gpu_warmup 150 "$S2 --out $WORK/one0.zarr"
+  step two_gpu_one 60 "$S2 --out $WORK/one.zarr"
+  step two_gpu_two 150 "$S2 --workers 2 --out $WORK/two.zarr"
+  step two_gpu_two_again 90 "$S2 --workers 2 --out $WORK/two2.zarr"
+  step two_gpu_compare 60 "python3 -c \"import zarr, numpy as np; a = zarr.open_group('$WORK/one.zarr', mode='r'); b = zarr.open_group('$WORK/two.zarr', mode='r'); names = [k for k in a.array_keys() if k not in ('wall_seconds', 'grain_steps_per_second', 'batch_done')]; bad = [k for k in names if not np.array_equal(np.asarray(a[k][...]), np.asarray(b[k][...]), equal_nan=True)]; print('compared', len(names), 'arrays; differ:', bad)\""
+  ;;
+nov26e)
+  # the detection target study with plain Gear steps for the detector's runs (planted signals still event-aware
+  # at dt/2), Figs. 9-10 both tau in one run on the H100, the damped control at dt/2 to t = 500 (chaos check)
+  step detect_target_off ${DETECT_LIMIT:-300} "$HZ detect-study sweeps/detect_study_1000_target_off.toml --out $LOGS/study_1000_target_off_gpu.json --overwrite --device cuda"
+  step fig9_10_both_h100 150 "$HZ sweep sweeps/drive_fig9_10_both_gpu.toml --out $WORK/both.zarr --overwrite --device cuda --quiet --json"
+  step damped_control_full 150 "$HZ sweep sweeps/drive_fig9_10_damped_gpu.toml --out $WORK/damped.zarr --overwrite --device cuda --quiet --json"
+  step damped_control_half 150 "$HZ sweep sweeps/drive_fig9_10_damped_gpu.toml --set integrator.dt=6.25e-5 --set integrator.duration=500 --set record.response_windows=50 --out $WORK/damped_half.zarr --overwrite --device cuda --quiet --json"
+  step damped_reduce_half 60 "python3 docs/logs/fig9_10_settle.py $WORK/damped.zarr --half $WORK/damped_half.zarr"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
