@@ -50,11 +50,15 @@ Units: program units (time 1.0102e-3 s, length 1e-5 m), as the scenes.
 from __future__ import annotations
 
 import csv
+import functools
 import hashlib
 import json
 import math
 import os
+import shutil
+import tempfile
 import time
+import warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -69,8 +73,9 @@ NOISE_MIN_SAMPLES = 8
 """Fewest samples before the earliest possible echo from which σ is estimated."""
 CREDIBLE = 0.95
 """Probability inside the reported intervals."""
-LIBRARY_VERSION = 1
-"""Bumped when the cached library's content or layout changes."""
+LIBRARY_VERSION = 2
+"""Bumped when the cached library's content or layout changes (2: a directory of ``.npy`` files holding the
+echoes and their Gram matrices; version 1's ``.npz`` files are not read)."""
 
 
 # ---- the signal ------------------------------------------------------------------------
@@ -283,20 +288,31 @@ def make_grid(depths, mass_ratio_range=(0.25, 4.0), mass_steps: int = 7, block: 
 
 @dataclass
 class Library:
-    """Surface traces of every candidate chain, and what the clean chain tells about the host."""
+    """Surface traces of every candidate chain as echoes (trace − clean chain), their signal-independent Gram
+    matrices, and what the clean chain tells about the host."""
 
     key: str
     grid: Grid
     forward: Scene
     """The forward scene (BASE tracing grain 0 at the signal's times)."""
     clean: np.ndarray
-    """Clean chain's surface velocity, shape (S,)."""
-    traces: np.ndarray
-    """Candidates' surface velocity, shape (D, M, S) (depths × log mass ratios × samples)."""
+    """Clean chain's surface velocity [length/time], shape (S,)."""
+    echoes: np.ndarray
+    """Candidates' surface velocity minus the clean chain's [length/time], shape (D, M, S) (depths × log mass
+    ratios × samples). A candidate that did not run OK counts as velocity 0 (echo −clean); the interpolation
+    never puts weight on it."""
     ok: np.ndarray
     """Whether each candidate ran without a status flag, shape (D, M), bool."""
     fronts: np.ndarray
     """Pulse front arrival at each grain of the clean chain [time], shape (N,)."""
+    gram: np.ndarray
+    """Per depth, the echoes' inner products over all samples, echoes[k] · echoes[k]ᵀ [(length/time)²], shape
+    (D, M, M)."""
+    first_echo_ends: np.ndarray
+    """Per depth, how many samples its first-echo window holds (those with t < 2 t_front(d + FIRST_ECHO_GRAINS)),
+    shape (D,), int."""
+    first_echo_gram: np.ndarray
+    """As ``gram``, over each depth's first-echo window, shape (D, M, M)."""
     build_seconds: float
     """Wall seconds it took to simulate (0 when it came from the cache)."""
     from_cache: bool = False
@@ -344,29 +360,108 @@ def run_candidates(forward: Scene, candidates: list[tuple], block: int, device: 
     return np.concatenate(traces), np.concatenate(ok)
 
 
+def first_echo_ends(t: np.ndarray, fronts: np.ndarray, depths: np.ndarray) -> np.ndarray:
+    """Per depth d, how many samples of times ``t`` precede 2 t_front(d + FIRST_ECHO_GRAINS) (the return of
+    the echo from FIRST_ECHO_GRAINS below d), shape (D,), int."""
+    deeper = np.minimum(np.asarray(depths, dtype=int) + FIRST_ECHO_GRAINS, fronts.size - 1)
+    return np.searchsorted(t, 2 * fronts[deeper]).astype(np.int64)
+
+
+def assemble_library(key: str, grid: Grid, forward: Scene, clean: np.ndarray, traces: np.ndarray, ok: np.ndarray,
+                     fronts: np.ndarray) -> Library:
+    """A library from the clean chain's surface trace (S,), the candidates' (D, M, S) and whether each ran OK
+    (D, M): the echoes (a candidate that did not run OK as velocity 0) and their Gram matrices over all samples
+    and over each depth's first-echo window (samples at the forward scene's trace times)."""
+    clean = np.asarray(clean, dtype=np.float64)
+    ok = np.asarray(ok, dtype=bool)
+    fronts = np.asarray(fronts, dtype=np.float64)
+    echoes = np.where(ok[..., None], traces, 0.0)
+    echoes -= clean
+    gram = np.matmul(echoes, echoes.transpose(0, 2, 1))
+    t = np.arange(clean.size) * forward.record.trace_every
+    ends = first_echo_ends(t, fronts, grid.depths)
+    first_echo_gram = np.empty_like(gram)
+    for k, end in enumerate(ends):
+        head = echoes[k, :, :end]
+        first_echo_gram[k] = head @ head.T
+    return Library(key=key, grid=grid, forward=forward, clean=clean, echoes=echoes, ok=ok, fronts=fronts, gram=gram,
+                   first_echo_ends=ends, first_echo_gram=first_echo_gram, build_seconds=0.0)
+
+
+CACHED_ARRAYS = ("clean", "echoes", "ok", "fronts", "gram", "first_echo_ends", "first_echo_gram")
+"""The library's arrays, each saved as ``<name>.npy`` in the library's cache directory."""
+
+
+def save_library(path: Path, library: Library) -> None:
+    """Write the library's arrays into the new directory ``path``: into a fresh temporary directory beside it,
+    renamed to ``path`` once complete, so that ``path`` never holds part of a library. If another process has
+    saved the same library there meanwhile, its copy is kept."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f"{path.name}.tmp-", dir=path.parent))
+    try:
+        for name in CACHED_ARRAYS:
+            np.save(tmp / f"{name}.npy", np.asarray(getattr(library, name)))
+        os.rename(tmp, path)
+    except OSError:
+        if not path.is_dir():
+            raise
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def load_library(path: Path, key: str, grid: Grid, forward: Scene) -> Library | None:
+    """The library saved in the directory ``path``, its arrays memory-mapped read-only (nothing is read until
+    used). None, with a warning, when a file is missing or unreadable, or shapes, types or first-echo windows
+    do not match the grid and forward scene."""
+    try:
+        arrays = {name: np.load(path / f"{name}.npy", mmap_mode="r") for name in CACHED_ARRAYS}
+    except (OSError, ValueError) as err:
+        problem = f"{err.__class__.__name__}: {err}"
+    else:
+        depths, masses, samples = len(grid.depths), len(grid.log_mass_ratio), forward.trace_sample_count
+        expected = {"clean": ((samples,), np.float64), "echoes": ((depths, masses, samples), np.float64),
+                    "ok": ((depths, masses), np.bool_), "fronts": ((forward.chain.grains,), np.float64),
+                    "gram": ((depths, masses, masses), np.float64), "first_echo_ends": ((depths,), np.int64),
+                    "first_echo_gram": ((depths, masses, masses), np.float64)}
+        wrong = [f"{name} {arrays[name].shape} {arrays[name].dtype}" for name, (shape, dtype) in expected.items()
+                 if arrays[name].shape != shape or arrays[name].dtype != dtype]
+        if wrong:
+            problem = "unexpected shape or type: " + ", ".join(wrong)
+        else:
+            t = np.arange(samples) * forward.record.trace_every
+            if np.array_equal(arrays["first_echo_ends"], first_echo_ends(t, np.asarray(arrays["fronts"]), grid.depths)):
+                return Library(key=key, grid=grid, forward=forward, build_seconds=0.0, from_cache=True,
+                               **{name: np.asarray(array) for name, array in arrays.items()})
+            problem = "its first-echo windows differ from FIRST_ECHO_GRAINS's"
+    warnings.warn(f"detection library cache {path} is not usable ({problem}); rebuilding it", stacklevel=3)
+    return None
+
+
 def build_library(forward: Scene, grid: Grid, device: str, *, fronts: np.ndarray | None = None,
                   use_cache: bool = True, batch_size: int = 4096) -> Library:
-    """The library for a forward scene and grid, from the cache when it is there (else simulated and saved)."""
+    """The library for a forward scene and grid, from the cache when it is there (else simulated and saved).
+
+    The cache is the directory ``<cache_dir>/<key>/`` of one ``.npy`` file per array (:func:`save_library`),
+    memory-mapped on load (:func:`load_library`); one that cannot be used is removed and rebuilt, with a warning.
+    """
     key = library_key(forward, grid)
-    path = cache_dir() / f"{key}.npz"
-    if use_cache and path.is_file():
-        with np.load(path) as data:
-            return Library(key=key, grid=grid, forward=forward, clean=data["clean"], traces=data["traces"],
-                           ok=data["ok"], fronts=data["fronts"], build_seconds=0.0, from_cache=True)
+    path = cache_dir() / key
+    if use_cache and path.is_dir():
+        library = load_library(path, key, grid, forward)
+        if library is not None:
+            return library
+        shutil.rmtree(path, ignore_errors=True)
     start = time.perf_counter()
     if fronts is None:
         fronts = front_times(forward, device)
     candidates = [(-1, 1.0)] + [(int(d), math.exp(x)) for d in grid.depths for x in grid.log_mass_ratio]
     traces, ok = run_candidates(forward, candidates, grid.block, device, batch_size=batch_size)
     shape = (len(grid.depths), len(grid.log_mass_ratio))
-    library = Library(key=key, grid=grid, forward=forward, clean=traces[0],
-                      traces=traces[1:].reshape(shape + (-1,)), ok=ok[1:].reshape(shape), fronts=fronts,
-                      build_seconds=time.perf_counter() - start)
+    library = assemble_library(key, grid, forward, traces[0], traces[1:].reshape(shape + (-1,)), ok[1:].reshape(shape),
+                               fronts)
+    library.build_seconds = time.perf_counter() - start
     if use_cache:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(".tmp.npz")
-        np.savez(tmp, clean=library.clean, traces=library.traces, ok=library.ok, fronts=library.fronts)
-        tmp.replace(path)
+        save_library(path, library)
     return library
 
 
@@ -588,6 +683,18 @@ def lagrange_weights(nodes: np.ndarray, points: np.ndarray) -> tuple[np.ndarray,
     return W, dW
 
 
+@functools.lru_cache(maxsize=16)
+def _fine_interpolation(nodes: tuple[float, ...], points: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The fine x grid over increasing ``nodes`` (``points`` per interval) and the local-cubic weights W and
+    derivatives dW on it, read-only (kept: a detection asks four times for the same nodes, a study every time)."""
+    xs = np.array(nodes)
+    fine = np.linspace(xs[0], xs[-1], (xs.size - 1) * points + 1)
+    W, dW = lagrange_weights(xs, fine)
+    for array in (fine, W, dW):
+        array.flags.writeable = False
+    return fine, W, dW
+
+
 def _class_interpolation(library: Library, kind: str):
     """The class's library columns, their order in x = ln μ (the clean chain appended at x = 0), the fine
     x grid (INTERPOLATION_POINTS per interval) and the local-cubic weights W and derivatives dW on it."""
@@ -595,77 +702,119 @@ def _class_interpolation(library: Library, kind: str):
     columns = grid.light if kind == "light" else grid.heavy
     xs = np.concatenate([grid.log_mass_ratio[columns], [0.0]])
     order = np.argsort(xs)
-    xs = xs[order]
-    fine = np.linspace(xs[0], xs[-1], (xs.size - 1) * INTERPOLATION_POINTS + 1)
-    W, dW = lagrange_weights(xs, fine)
+    fine, W, dW = _fine_interpolation(tuple(xs[order].tolist()), INTERPOLATION_POINTS)
     return columns, order, fine, W, dW
+
+
+def rss_from_projections(residual_norm2: float | np.ndarray, projections: np.ndarray, gram: np.ndarray,
+                         W: np.ndarray) -> np.ndarray:
+    """|e − W @ D|² per row of W, from e's projections on the rows of D and their Gram matrix alone.
+
+    RSS = |e|² − 2 W (D e) + diag(W (D Dᵀ) Wᵀ). ``residual_norm2``: |e|² (a number, or one per leading index);
+    ``projections``: D e, shape (..., n); ``gram``: D Dᵀ, shape (..., n, n); W: shape (P, n). Returns shape (..., P),
+    clipped at 0 (rounding can leave a perfect fit slightly negative)."""
+    quadratic = np.einsum("pi,...ip->...p", W, gram @ W.T)
+    rss = np.asarray(residual_norm2)[..., None] - 2.0 * (projections @ W.T) + quadratic
+    return np.maximum(rss, 0.0)
 
 
 def interpolated_rss(signal: np.ndarray, models: np.ndarray, clean: np.ndarray, W: np.ndarray) -> np.ndarray:
     """|signal − W @ models|² per row of W, without forming the (rows × samples) interpolated traces.
 
     With e = signal − clean and D = models − clean (each row of W sums to 1, so W @ models − clean =
-    W @ D): RSS = |e|² − 2 W (D e) + diag(W (D Dᵀ) Wᵀ). D Dᵀ is a small Gram matrix (nodes × nodes), so the
-    cost per depth is O(nodes² · samples) instead of O(rows · nodes · samples); subtracting the clean chain
-    first keeps the cancellation to the size of the echoes, not of the whole signal."""
+    W @ D): RSS = |e|² − 2 W (D e) + diag(W (D Dᵀ) Wᵀ) (:func:`rss_from_projections`). D Dᵀ is a small Gram
+    matrix (nodes × nodes), so the cost is O(nodes² · samples) instead of O(rows · nodes · samples);
+    subtracting the clean chain first keeps the cancellation to the size of the echoes, not of the whole
+    signal."""
     e = signal - clean
     D = models - clean[None]
-    gram = D @ D.T
-    rss = float(e @ e) - 2.0 * (W @ (D @ e)) + np.einsum("pi,ij,pj->p", W, gram, W)
-    return np.maximum(rss, 0.0)
+    return rss_from_projections(float(e @ e), D @ e, D @ D.T, W)
 
 
-def _library_quadratics(signal: np.ndarray, library: Library, kind: str) -> list[Quadratic | None]:
+def _class_rss(residual_norm2: float | np.ndarray, projections: np.ndarray, gram: np.ndarray, library: Library,
+               kind: str):
+    """Per depth, the RSS of the class's interpolated library against the signal, at every fine x.
+
+    ``projections``: the echoes' projections on the clean chain's residual e = signal − clean, shape (D, M);
+    ``gram``: the echoes' Gram matrices over the same samples, shape (D, M, M); ``residual_norm2``: |e|² over
+    them (a number, or shape (D,)). Returns the fine x grid (P,), the weights W and derivatives dW (P, n), the
+    class's nodes' projections (D, n) and Gram matrices (D, n, n) in x order (the clean chain a node of echo 0),
+    and the RSS (D, P), inf at points whose interpolation weighs a candidate that did not run OK."""
+    columns, order, fine, W, dW = _class_interpolation(library, kind)
+    depths, n = projections.shape[0], columns.size + 1
+    node_projections = np.zeros((depths, n))
+    node_projections[:, :-1] = projections[:, columns]
+    node_gram = np.zeros((depths, n, n))
+    node_gram[:, :-1, :-1] = gram[:, columns[:, None], columns]
+    ok = np.ones((depths, n), dtype=bool)
+    ok[:, :-1] = library.ok[:, columns]
+    node_projections, node_gram, ok = node_projections[:, order], node_gram[:, order][:, :, order], ok[:, order]
+    unusable = ((np.abs(W) > 0)[None] & ~ok[:, None, :]).any(axis=-1)
+    rss = np.where(unusable, np.inf, rss_from_projections(residual_norm2, node_projections, node_gram, W))
+    return fine, W, dW, node_projections, node_gram, rss
+
+
+def _echo_projections(residual: np.ndarray, library: Library) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
+    """The library's echoes projected on the clean chain's residual e = signal − clean [(length/time)²]: over all
+    samples, shape (D, M), and over each depth's first-echo window, (|e|² there, shape (D,); the projections,
+    shape (D, M)). One pass over the echoes, depth by depth (the window and the rest of one depth's echoes while
+    they are in cache: faster than a product with a masked copy of e per depth)."""
+    projections = np.empty(library.ok.shape)
+    first_norm2 = np.empty(library.ok.shape[0])
+    first_projections = np.empty(library.ok.shape)
+    for k, end in enumerate(library.first_echo_ends.tolist()):
+        echoes, head = library.echoes[k], residual[:end]
+        first_norm2[k] = head @ head
+        first_projections[k] = echoes[:, :end] @ head
+        projections[k] = first_projections[k] + echoes[:, end:] @ residual[end:]
+    return projections, (first_norm2, first_projections)
+
+
+def _candidate_rss(residual_norm2: float, projections: np.ndarray, library: Library) -> np.ndarray:
+    """RSS of every library candidate against the signal, |e − echo|², shape (D, M); inf where it did not run OK."""
+    rss = residual_norm2 - 2.0 * projections + np.einsum("dmm->dm", library.gram)
+    return np.where(library.ok, np.maximum(rss, 0.0), np.inf)
+
+
+def _library_quadratics(residual_norm2: float, projections: np.ndarray, library: Library, kind: str
+                        ) -> list[Quadratic | None]:
     """Per depth, the Gauss–Newton quadratic at the best point of the class's interpolated library.
 
     The traces are interpolated in x = ln μ (local cubic through the library's ratios and the clean
     chain at x = 0) at INTERPOLATION_POINTS points per interval; x0 is the point of least RSS, J the
-    interpolant's derivative there.
+    interpolant's derivative there. All from the residual e = signal − clean (|e|², and the echoes'
+    projections on it, shape (D, M)) and the library's Gram matrices: with w, w' the weights and derivatives
+    at x0 and G, b the class's nodes' Gram matrix and projections, J·r = w'·(b − G w), J·J = w'·G w'.
     """
-    grid = library.grid
-    columns, order, fine, W, dW = _class_interpolation(library, kind)
-    out = []
-    for k in range(len(grid.depths)):
-        models = np.concatenate([library.traces[k, columns], library.clean[None]])[order]
-        ok = np.concatenate([library.ok[k, columns], [True]])[order]
-        usable = (np.abs(W) > 0) @ (~ok) == 0
-        if not usable.any():
-            out.append(None)
-            continue
-        nodes = np.where(ok[:, None], models, 0.0)
-        rss = np.where(usable, interpolated_rss(signal, nodes, library.clean, W), np.inf)
-        j = int(np.argmin(rss))
-        out.append(quadratic_at(signal, fine[j], W[j] @ nodes, dW[j] @ nodes))
-    return out
+    fine, W, dW, b, G, rss = _class_rss(residual_norm2, projections, library.gram, library, kind)
+    rows = np.arange(rss.shape[0])
+    j = np.argmin(rss, axis=1)
+    w, dw = W[j], dW[j]
+    g = np.einsum("di,di->d", dw, b - np.einsum("dij,dj->di", G, w))
+    H = np.einsum("di,dij,dj->d", dw, G, dw)
+    return [Quadratic(x0=x0, rss0=rss0, g=gk, H=Hk) if usable else None
+            for x0, rss0, gk, Hk, usable in zip(fine[j].tolist(), rss[rows, j].tolist(), g.tolist(), H.tolist(),
+                                                 np.isfinite(rss).any(axis=1).tolist())]
 
 
 FIRST_ECHO_GRAINS = 10
-"""The first-echo score of depth d uses the samples before the echo from depth d + this could start."""
+"""The first-echo score of depth d uses the samples before the echo from depth d + this could start. The
+library caches Gram matrices over these windows (``Library.first_echo_gram``): a cached library built with
+another value is rebuilt."""
 
 
-def _first_echo_scores(signal: np.ndarray, t: np.ndarray, library: Library, kind: str
+def _first_echo_scores(first_echo: tuple[np.ndarray, np.ndarray], library: Library, kind: str
                        ) -> tuple[np.ndarray, np.ndarray]:
     """Per depth: how much the class's interpolated library reduces the RSS of the clean chain over the
-    samples before 2 t_front(d + FIRST_ECHO_GRAINS) (its first echo and little else), and the best x there."""
-    grid = library.grid
-    columns, order, fine, W, _ = _class_interpolation(library, kind)
-    n = library.fronts.size
-    gain = np.full(len(grid.depths), -np.inf)
-    best_x = np.zeros(len(grid.depths))
-    for k, depth in enumerate(grid.depths):
-        end = int(np.searchsorted(t, 2 * library.fronts[min(n - 1, int(depth) + FIRST_ECHO_GRAINS)]))
-        if end < 2:
-            continue
-        models = np.concatenate([library.traces[k, columns, :end], library.clean[None, :end]])[order]
-        ok = np.concatenate([library.ok[k, columns], [True]])[order]
-        usable = (np.abs(W) > 0) @ (~ok) == 0
-        rss = np.where(usable, interpolated_rss(signal[:end], np.where(ok[:, None], models, 0.0),
-                                                library.clean[:end], W), np.inf)
-        j = int(np.argmin(rss))
-        clean = signal[:end] - library.clean[:end]
-        gain[k] = float(clean @ clean) - rss[j]
-        best_x[k] = fine[j]
-    return gain, best_x
+    samples before 2 t_front(d + FIRST_ECHO_GRAINS) (its first echo and little else), and the best x there
+    (-inf and 0 for a window of fewer than 2 samples). ``first_echo``: |e|² and the echoes' projections over
+    each depth's window (:func:`_echo_projections`)."""
+    norm2, projections = first_echo
+    fine, _, _, _, _, rss = _class_rss(norm2, projections, library.first_echo_gram, library, kind)
+    j = np.argmin(rss, axis=1)
+    windowed = library.first_echo_ends >= 2
+    gain = np.where(windowed, norm2 - rss[np.arange(rss.shape[0]), j], -np.inf)
+    return gain, np.where(windowed, fine[j], 0.0)
 
 
 def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None = None, device: str = "cpu",
@@ -712,6 +861,9 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
     grid = library.grid
     depths = grid.depths
     s = signal.v
+    residual = s - library.clean
+    rss_clean = float(residual @ residual)
+    projections, first_echo = _echo_projections(residual, library)
     floor = 1e-12 * float(np.max(np.abs(library.clean)))
     if noise is None:
         # first estimate (picks the depths to refine): before the earliest possible echo, else the
@@ -720,9 +872,7 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
         if window_sigma is not None:
             sigma = window_sigma
         else:
-            residual = s[None, None] - library.traces
-            best = min(float(np.min(np.where(library.ok, np.einsum("dms,dms->dm", residual, residual), np.inf))),
-                       float((s - library.clean) @ (s - library.clean)))
+            best = min(float(np.min(_candidate_rss(rss_clean, projections, library))), rss_clean)
             sigma = math.sqrt(best / (signal.sample_count - 2))
         sigma = max(sigma, floor)
     else:
@@ -730,7 +880,7 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
 
     refine_start = time.perf_counter()
     bounds = _class_bounds(grid)
-    quads = {kind: _library_quadratics(s, library, kind) for kind in ("light", "heavy")}
+    quads = {kind: _library_quadratics(rss_clean, projections, library, kind) for kind in ("light", "heavy")}
     log_prior_depth = -math.log(len(depths))
 
     def depth_logz(kind: str) -> np.ndarray:
@@ -747,7 +897,7 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
             lo, hi = bounds[kind]
             logz = depth_logz(kind)
             starts = [(int(k), quads[kind][k].optimum) for k in np.argsort(-logz)[:refine] if np.isfinite(logz[k])]
-            gain, first_x = _first_echo_scores(s, signal.t, library, kind)
+            gain, first_x = _first_echo_scores(first_echo, library, kind)
             starts += [(int(k), first_x[k]) for k in np.argsort(-gain)[:refine] if np.isfinite(gain[k])]
             for k, x in starts:
                 x0 = min(max(x, lo + step), hi - step)
@@ -776,7 +926,6 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
             refined[kind].append(int(depths[k]))
     refine_seconds = time.perf_counter() - refine_start
 
-    rss_clean = float((s - library.clean) @ (s - library.clean))
     fine = None
     reference = noise if noise is not None else window_sigma
     fitted = [(q.rss0, kind, k) for kind in quads for k, q in enumerate(quads[kind]) if q is not None]

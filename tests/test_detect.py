@@ -117,9 +117,9 @@ def test_second_signal_reuses_the_library(tmp_path, monkeypatch, clean_velocity)
     monkeypatch.setenv("HERTZIAN_DETECT_CACHE", str(tmp_path))
     velocity = truth_velocity({"grains": [15], "mass": 0.6})
     signal, _ = noisy_signal(velocity, clean_velocity, seed=7)
-    first, _ = detect(signal, scene_from_dict(BASE), device="cpu", refine=1, iterations=1)
+    first, first_library = detect(signal, scene_from_dict(BASE), device="cpu", refine=1, iterations=1)
     assert not first.library_from_cache and first.seconds["library"] > 0
-    assert len(list(tmp_path.glob("*.npz"))) == 1
+    assert [path.name for path in tmp_path.iterdir() if path.is_dir()] == [first_library.key]  # no temporary left
     second, _ = detect(signal, scene_from_dict(BASE), device="cpu", refine=1, iterations=1)
     assert second.library_from_cache and second.seconds["library"] == 0
     assert second.seconds["total"] < first.seconds["total"]
@@ -372,3 +372,173 @@ def test_fine_scan_finds_the_needle_of_a_shallow_light_grain(cache, monkeypatch)
     without, _ = detect(signal, scene_from_dict(base), device="cpu", depth_range=(3, 6))
     assert without.fine_scan is None and not without.mass_ratio_interval[0] <= 0.3 <= without.mass_ratio_interval[1]
     assert without.mass_ratio > 0.33
+
+
+# ---- the library's scores, vectorised over depths, and its cache ------------------------------------------
+
+def small_library(seed=4):
+    """A synthetic library on the 40-grain BASE, no simulation: depths 3 … 27 × 3 ratios a side, 551 samples.
+    Each candidate's trace is the clean one plus an echo smooth in x = ln μ (and noise 1e-6); the pulse front is
+    linear in the grain, with no front at grains ≥ 34 (windows of all samples) and a first-echo window of one
+    sample at depth 3. Three candidates did not run (NaN traces): a middle and an end ratio of the light class and,
+    at depth 15 (where the heavy class's first echo fits best there), the end ratio of the heavy class. Returns
+    (forward, grid, clean, traces, ok, fronts, signal v): the signal is an echo from depth 12 at μ = 0.6 (off the
+    grid) with noise σ = 2e-5."""
+    from hertzian.ensemble.detect import make_grid
+
+    rng = np.random.default_rng(seed)
+    samples = 551
+    forward = forward_scene(scene_from_dict(BASE), SPACING, samples)
+    t = np.arange(samples) * SPACING
+    grid = make_grid(np.arange(3, 28), mass_steps=3)
+    fronts = 0.06 * np.maximum(np.arange(GRAINS) - 13, 0) + 0.0025
+    fronts[34:] = np.inf
+    clean = 1e-2 * np.exp(-0.5 * t) * np.sin(4 * t)
+
+    def echo(depth, x):
+        delay = 0.12 * depth + 0.4
+        return 1e-3 * (x + 0.3 * x**2) * np.exp(-((t - delay) / 0.3) ** 2) * np.cos(9 * (t - delay))
+
+    traces = np.array([[clean + echo(d, x) for x in grid.log_mass_ratio] for d in grid.depths])
+    traces += 1e-6 * rng.normal(size=traces.shape)
+    ok = np.ones(traces.shape[:2], dtype=bool)
+    for k, m in [(2, 1), (5, 0), (12, len(grid.log_mass_ratio) - 1)]:
+        ok[k, m] = False
+        traces[k, m] = np.nan
+    signal = clean + echo(12, math.log(0.6)) + 2e-5 * rng.normal(size=samples)
+    return forward, grid, clean, traces, ok, fronts, signal
+
+
+def reference_library_scores(signal, t, clean, traces, ok, fronts, grid):
+    """The library's scores computed depth by depth from the traces, as detect did before they were vectorised
+    (kept here as the reference): per class, the quadratic of each depth (x0, rss0, g, H; None if no point is
+    usable) and the first-echo gain and best x; and the RSS of every candidate (inf where it did not run)."""
+    from hertzian.ensemble.detect import FIRST_ECHO_GRAINS, INTERPOLATION_POINTS, lagrange_weights, quadratic_at
+
+    def rss_of(s, models, c, W):
+        e, D = s - c, models - c[None]
+        return np.maximum(float(e @ e) - 2.0 * (W @ (D @ e)) + np.einsum("pi,ij,pj->p", W, D @ D.T, W), 0.0)
+
+    scores = {}
+    for kind in ("light", "heavy"):
+        columns = grid.light if kind == "light" else grid.heavy
+        xs = np.concatenate([grid.log_mass_ratio[columns], [0.0]])
+        order = np.argsort(xs)
+        xs = xs[order]
+        fine = np.linspace(xs[0], xs[-1], (xs.size - 1) * INTERPOLATION_POINTS + 1)
+        W, dW = lagrange_weights(xs, fine)
+        quads, gain, best_x = [], np.full(len(grid.depths), -np.inf), np.zeros(len(grid.depths))
+        for k, depth in enumerate(grid.depths):
+            node_ok = np.concatenate([ok[k, columns], [True]])[order]
+            usable = (np.abs(W) > 0) @ (~node_ok) == 0
+            nodes = np.where(node_ok[:, None], np.concatenate([traces[k, columns], clean[None]])[order], 0.0)
+            if usable.any():
+                rss = np.where(usable, rss_of(signal, nodes, clean, W), np.inf)
+                j = int(np.argmin(rss))
+                q = quadratic_at(signal, fine[j], W[j] @ nodes, dW[j] @ nodes)
+                quads.append((q.x0, q.rss0, q.g, q.H))
+            else:
+                quads.append(None)
+            end = int(np.searchsorted(t, 2 * fronts[min(fronts.size - 1, int(depth) + FIRST_ECHO_GRAINS)]))
+            if end >= 2:
+                rss = np.where(usable, rss_of(signal[:end], nodes[:, :end], clean[:end], W), np.inf)
+                j = int(np.argmin(rss))
+                head = signal[:end] - clean[:end]
+                gain[k], best_x[k] = float(head @ head) - rss[j], fine[j]
+        scores[kind] = quads, gain, best_x
+    residual = signal[None, None] - traces
+    return scores, np.where(ok, np.einsum("dms,dms->dm", residual, residual), np.inf)
+
+
+def test_vectorised_library_scores_equal_the_per_depth_formulas():
+    """The scores detect takes from the library — per class and depth the Gauss–Newton quadratic at the best
+    interpolated point and the first-echo gain, and every candidate's RSS — computed for all depths at once from
+    the echoes' projections on the signal and the library's Gram matrices, against the per-depth formulas on the
+    traces (reference_library_scores). Same interpolated point (x0, best x: equal); rss0, H, the gain and the
+    candidates' RSS to rtol 1e-10; g (J·r, which can be near 0) to 1e-10 of its Cauchy–Schwarz bound √(H rss0)."""
+    import hertzian.ensemble.detect as detect_module
+
+    forward, grid, clean, traces, ok, fronts, signal = small_library()
+    library = detect_module.assemble_library("test", grid, forward, clean, traces, ok, fronts)
+    t = np.arange(signal.size) * SPACING
+    expected, expected_candidates = reference_library_scores(signal, t, clean, traces, ok, fronts, grid)
+    residual = signal - clean
+    rss_clean = float(residual @ residual)
+    projections, first_echo = detect_module._echo_projections(residual, library)
+    assert (library.first_echo_ends < 2).any() and (library.first_echo_ends == signal.size).any()
+    for kind in ("light", "heavy"):
+        quads, gain, best_x = expected[kind]
+        found = detect_module._library_quadratics(rss_clean, projections, library, kind)
+        assert [q is None for q in found] == [q is None for q in quads]
+        x0, rss0, g, H = (np.array([q[i] for q in quads if q is not None]) for i in range(4))
+        got = np.array([(q.x0, q.rss0, q.g, q.H) for q in found if q is not None]).T
+        np.testing.assert_array_equal(got[0], x0)
+        np.testing.assert_allclose(got[1], rss0, rtol=1e-10, atol=0)
+        np.testing.assert_allclose(got[3], H, rtol=1e-10, atol=0)
+        assert np.all(np.abs(got[2] - g) <= 1e-10 * np.sqrt(H * rss0)), np.max(np.abs(got[2] - g) / np.sqrt(H * rss0))
+        found_gain, found_x = detect_module._first_echo_scores(first_echo, library, kind)
+        np.testing.assert_array_equal(found_x, best_x)
+        np.testing.assert_array_equal(np.isfinite(found_gain), np.isfinite(gain))
+        np.testing.assert_allclose(found_gain[np.isfinite(gain)], gain[np.isfinite(gain)], rtol=1e-10, atol=0)
+        if kind == "light":  # the data make sense: the echo's depth and ratio fit best, to the noise
+            best = int(np.argmin(rss0))
+            assert grid.depths[best] == 12 and abs(x0[best] - math.log(0.6)) < 0.03
+            assert rss0[best] < 1.1 * signal.size * 2e-5**2 < 0.1 * np.median(rss0)
+    candidates = detect_module._candidate_rss(rss_clean, projections, library)
+    np.testing.assert_array_equal(np.isfinite(candidates), ok)
+    np.testing.assert_allclose(candidates[ok], expected_candidates[ok], rtol=1e-10, atol=0)
+
+
+def test_library_cache_round_trips_and_refuses_a_damaged_copy(tmp_path, monkeypatch):
+    """build_library saves the library as one .npy per array in a directory (nothing temporary left behind); the next
+    call maps the same arrays back without simulating. A damaged copy (a truncated or missing file, an array of the
+    wrong shape, first-echo windows that differ from FIRST_ECHO_GRAINS's) is not used: a warning, then the library
+    is simulated again and saved whole."""
+    import hertzian.ensemble.detect as detect_module
+
+    monkeypatch.setenv("HERTZIAN_DETECT_CACHE", str(tmp_path))
+    forward, grid, clean, traces, ok, fronts, _ = small_library()
+    runs = []
+
+    def simulated(forward, candidates, block, device, batch_size=4096):
+        runs.append(len(candidates))
+        return np.concatenate([clean[None], traces.reshape(-1, clean.size)]), np.concatenate([[True], ok.ravel()])
+
+    monkeypatch.setattr(detect_module, "run_candidates", simulated)
+    built = detect_module.build_library(forward, grid, "cpu", fronts=fronts)
+    assert runs == [1 + ok.size] and not built.from_cache
+    path = tmp_path / built.key
+    assert list(tmp_path.iterdir()) == [path]
+    assert sorted(p.name for p in path.iterdir()) == sorted(f"{name}.npy" for name in detect_module.CACHED_ARRAYS)
+
+    def loads_unchanged():
+        loaded = detect_module.build_library(forward, grid, "cpu", fronts=fronts)
+        assert loaded.from_cache and loaded.build_seconds == 0.0
+        for name in detect_module.CACHED_ARRAYS:
+            a, b = getattr(loaded, name), getattr(built, name)
+            assert a.dtype == b.dtype and np.array_equal(a, b), name
+            assert not a.flags.writeable, name  # memory-mapped read-only
+        assert np.isnan(traces[~ok]).all() and np.isfinite(loaded.echoes).all()
+
+    loaded_before = len(runs)
+    loads_unchanged()
+    assert len(runs) == loaded_before
+
+    def truncate(name):
+        data = (path / name).read_bytes()
+        (path / name).write_bytes(data[: len(data) - 8])
+
+    damages = {
+        "truncated echoes": lambda: truncate("echoes.npy"),
+        "missing gram": lambda: (path / "gram.npy").unlink(),
+        "ok of the wrong shape": lambda: np.save(path / "ok.npy", ok[:-1]),
+        "other first-echo windows": lambda: np.save(path / "first_echo_ends.npy", built.first_echo_ends + 1),
+    }
+    for what, damage in damages.items():
+        damage()
+        runs_before = len(runs)
+        with pytest.warns(UserWarning, match="is not usable"):
+            rebuilt = detect_module.build_library(forward, grid, "cpu", fronts=fronts)
+        assert len(runs) == runs_before + 1 and not rebuilt.from_cache, what
+        loads_unchanged()
+        assert list(tmp_path.iterdir()) == [path], what
