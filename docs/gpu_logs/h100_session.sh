@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -244,6 +244,16 @@ nov26e)
   step damped_control_full 150 "$HZ sweep sweeps/drive_fig9_10_damped_gpu.toml --out $WORK/damped.zarr --overwrite --device cuda --quiet --json"
   step damped_control_half 150 "$HZ sweep sweeps/drive_fig9_10_damped_gpu.toml --set integrator.dt=6.25e-5 --set integrator.duration=500 --set record.response_windows=50 --out $WORK/damped_half.zarr --overwrite --device cuda --quiet --json"
   step damped_reduce_half 60 "python3 docs/logs/fig9_10_settle.py $WORK/damped.zarr --half $WORK/damped_half.zarr"
+  ;;
+nov26f)
+  # after the detector's memory-mapped library and vectorised scoring, and the store's Blosc LZ4: one cached
+  # detection profiled (plain steps for the detector, then event-aware), gpu_10k warm
+  step detect_profile_off 200 "python3 docs/logs/detection/profile_detect.py --device cuda --study sweeps/detect_study_1000_target_off.toml"
+  step e2e_gpu10k_cold_f 150 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step e2e_gpu10k_warm_f 60 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step sweep_gpu10k_warm_f 60 "$HZ sweep sweeps/gpu_10k.toml --out $WORK/gpu10k.zarr --overwrite --device cuda --quiet --json"
+  step e2e_gpu10k_warm_f2 60 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step detect_profile_auto ${DETECT_LIMIT:-200} "python3 docs/logs/detection/profile_detect.py --device cuda"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
