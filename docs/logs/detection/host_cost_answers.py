@@ -10,9 +10,7 @@ relative difference of the mass ratio, its interval, the log evidences and the b
 """
 
 import argparse
-import importlib.util
 import os
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -27,17 +25,7 @@ from hertzian.ensemble.runner import run_scene  # noqa: E402
 from hertzian.ensemble.scene import scene_from_dict  # noqa: E402
 from test_detect import BASE, CASES, SNR_DB, SPACING, noisy_signal, planted_with_a, truth_velocity  # noqa: E402
 
-
-def load_old(rev: str):
-    source = subprocess.run(["git", "-C", str(ROOT), "show", f"{rev}:ensemble/detect.py"], check=True,
-                            capture_output=True, text=True).stdout
-    path = Path(tempfile.mkdtemp()) / "detect_old.py"
-    path.write_text(source)
-    spec = importlib.util.spec_from_file_location("hertzian.ensemble.detect_old", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+from host_cost_bench import load_old  # noqa: E402  (this folder is on sys.path when run as a script)
 
 
 def cases():
