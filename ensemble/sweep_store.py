@@ -37,7 +37,6 @@ import shutil
 import tempfile
 import time
 import warnings
-from concurrent.futures import ThreadPoolExecutor
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -380,10 +379,6 @@ def remove_partial_files(path: str | Path) -> int:
 
 # ---- filling -----------------------------------------------------------------------------
 
-WRITE_THREADS = 8
-"""Variables of one batch written at the same time (each is its own shard of the batch's block)."""
-
-
 def write_batch(path: str | Path, batch: Batch, result: RunResult, *, grain_steps: int,
                 worker: str = "", build_seconds: float = 0.0) -> dict[str, Any]:
     """Write one batch's results into its block, then its completion record; return the record.
@@ -395,34 +390,33 @@ def write_batch(path: str | Path, batch: Batch, result: RunResult, *, grain_step
     region = batch.slices
     shape = batch.shape
 
-    writes: list[tuple[str, np.ndarray]] = [*result.fields.items()]
-    scene = result.scenes[0]
-    if scene.record.energy:
-        writes.append(("energy", result.energy))
-        if result.work is not None:
-            writes.append(("work", result.work))
-    if scene.record.energy and result.dissipated is not None:
-        writes.append(("dissipated", result.dissipated))
-    writes += list(result.response.items())
-    writes += [(f"trace_{name}", data) for name, data in result.traces.items()]
-    chains = result.chain_count
-    wall = float(result.wall_seconds)
-    rate = grain_steps / max(wall, 1e-12)
-    writes += [("status", result.status.astype(np.int32)), ("energy_error", result.energy_error),
-               ("max_overlap", result.max_overlap), ("wall_seconds", np.full(chains, wall / chains)),
-               ("grain_steps_per_second", np.full(chains, rate))]
-
-    def put(item: tuple[str, np.ndarray]) -> None:
-        name, data = item
+    def put(name: str, data: np.ndarray) -> None:
         # write_empty_chunks: skip comparing every inner chunk with the fill value before writing it (a batch's
         # chunks are written whatever they hold; 0.5 s of 1.6 s for a 220 MB shard here, docs/logs/store/)
         arr = zarr.open_array(store=str(path), path=name, mode="r+").with_config({"write_empty_chunks": True})
         arr[region] = np.asarray(data, dtype=arr.dtype).reshape(shape + data.shape[1:])
 
-    # every variable is its own shard of this batch's block: the writes go out together (compression runs in
-    # Zarr's threads), so the batch takes about as long as its largest variable, not the sum
-    with ThreadPoolExecutor(max_workers=min(WRITE_THREADS, len(writes)), thread_name_prefix="hertzian-put") as pool:
-        list(pool.map(put, writes))
+    for name, data in result.fields.items():
+        put(name, data)
+    scene = result.scenes[0]
+    if scene.record.energy:
+        put("energy", result.energy)
+        if result.work is not None:
+            put("work", result.work)
+    if scene.record.energy and result.dissipated is not None:
+        put("dissipated", result.dissipated)
+    for name, data in result.response.items():
+        put(name, data)
+    for name, data in result.traces.items():
+        put(f"trace_{name}", data)
+    chains = result.chain_count
+    wall = float(result.wall_seconds)
+    rate = grain_steps / max(wall, 1e-12)
+    put("status", result.status.astype(np.int32))
+    put("energy_error", result.energy_error)
+    put("max_overlap", result.max_overlap)
+    put("wall_seconds", np.full(chains, wall / chains))
+    put("grain_steps_per_second", np.full(chains, rate))
     finished = datetime.now(timezone.utc)
     record = {
         "points": chains, "wall_seconds": wall, "grain_steps": int(grain_steps), "grain_steps_per_second": rate,

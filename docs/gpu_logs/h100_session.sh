@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f nov26g)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -254,14 +254,6 @@ nov26f)
   step sweep_gpu10k_warm_f 60 "$HZ sweep sweeps/gpu_10k.toml --out $WORK/gpu10k.zarr --overwrite --device cuda --quiet --json"
   step e2e_gpu10k_warm_f2 60 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
   step detect_profile_auto ${DETECT_LIMIT:-200} "python3 docs/logs/detection/profile_detect.py --device cuda"
-  ;;
-nov26g)
-  # a batch's variables written at the same time, the store created while the kernels load: gpu_10k warm
-  step e2e_gpu10k_cold_g 150 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
-  step e2e_gpu10k_warm_g1 60 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
-  step e2e_gpu10k_warm_g2 60 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
-  step sweep_gpu10k_warm_g 60 "$HZ sweep sweeps/gpu_10k.toml --out $WORK/gpu10k.zarr --overwrite --device cuda --quiet --json"
-  step e2e_gpu10k_warm_g3 60 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"

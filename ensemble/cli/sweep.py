@@ -6,7 +6,6 @@ See docs/sweeps.md for the file format, resuming and running on several GPUs or 
 from __future__ import annotations
 
 import contextlib
-from concurrent.futures import ThreadPoolExecutor
 import json
 import sys
 import time
@@ -280,12 +279,10 @@ def _run(definition, points, plan, out: Path, dev: str, *, resuming: bool, overw
             if earlier - {dev.split(":")[0]}:
                 typer.echo(f"note: earlier batches ran on {', '.join(sorted(earlier))}, these run on {dev}: "
                            "results agree to rounding, not bit for bit, across device kinds", err=True)
-            creating = None
         else:
-            # the store is created in a background thread while the kernels load (nothing is written into it
-            # before the first batch has run); create_store is the time waited for it afterwards
-            creating = stack.enter_context(ThreadPoolExecutor(max_workers=1)).submit(
-                create_sweep_store, out, definition, points.templates[0], plan, device=label, overwrite=overwrite)
+            clock = time.perf_counter()
+            create_sweep_store(out, definition, points.templates[0], plan, device=label, overwrite=overwrite)
+            timing["create_store"] = time.perf_counter() - clock
             done = set()
         clock = time.perf_counter()
         pending = [b for b in plan.batches if b.index not in done]
@@ -298,10 +295,6 @@ def _run(definition, points, plan, out: Path, dev: str, *, resuming: bool, overw
         if client is not None:
             warm_workers(client, features, requested_device)
         timing["warm_kernels"] = time.perf_counter() - clock
-        if creating is not None:
-            clock = time.perf_counter()
-            creating.result()
-            timing["create_store"] = time.perf_counter() - clock
         progress = _Progress(not quiet and sys.stderr.isatty(), total_batches=len(plan.batches),
                              done_batches=len(done), grain_steps=sum(j.grain_steps for j in jobs))
         start = time.perf_counter()
