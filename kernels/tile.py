@@ -37,6 +37,12 @@ The driver's sin ωt and cos ωt come from a shared table that all lanes of the 
 without it the lane of grain 0 evaluated three of them every step while the block waited at the next barrier.
 Traces are written inside the launch after each step k·stride, from the lanes that keep the traced grains
 (a window's interior), as the per-step kernel writes them.
+
+Viscous damping (``damping = "viscous"``: force −γ m v on every integrated grain) adds kernels/step.py's
+−h²/2·γ·(dt·v predicted) to each corrector and accumulates each grain's dissipated energy (the trapezoid of
+γ m v² at t_n and at the predicted t_{n+1}) in registers, from the stored value, in the per-step kernel's
+arithmetic; the interior's sums are written back once per launch. The contact dashpot needs the neighbour
+lanes' velocities and is not implemented here.
 """
 
 
@@ -54,8 +60,9 @@ from .physics import contact_forces, contact_functions, contact_parameters
 
 def fusable(features: Features) -> bool:
     """True when the fused kernels implement every feature of this set (traces: written inside the launch;
-    composed methods such as yoshida4 are not implemented here: the per-step kernel runs them on CUDA)."""
-    return features.method not in SUBSTEP_WEIGHTS
+    composed methods such as yoshida4, and the contact dashpot, are not implemented here: the per-step kernel
+    runs them on CUDA)."""
+    return features.method not in SUBSTEP_WEIGHTS and features.damping in ("none", "viscous")
 
 
 @dataclass(frozen=True)
@@ -124,6 +131,8 @@ def out_of_line(event_step, values_t, vec3, real):
 def tile_kernel(features: Features, shape: TileShape):
     """The fused kernel for one feature set and compile-time launch shape (cached)."""
     f = features
+    if f.damping not in ("none", "viscous"):
+        raise ValueError(f"fused kernels do not implement damping={f.damping!r} (the per-step and CPU sweep kernels do)")
     if not fusable(f):
         raise ValueError(f"fused kernels do not implement method={f.method!r}")
     TRACES = f.traces
@@ -146,6 +155,8 @@ def tile_kernel(features: Features, shape: TileShape):
     contact_force, _ = contact_functions(f.precision, f.hertz)
     forces = contact_forces(f.precision, f.hertz, G + 1, branchless=shape.branchless, fast_sqrt=shape.fast_sqrt)
     nordsieck = nordsieck_functions(f.method, f.precision, f.compensation)
+    DAMPED = f.damping == "viscous"
+    ORDER = f.nordsieck_values  # rows of the Nordsieck vector (kernels/gear.py), as kernels/step.py counts them
 
     state_t = wp.types.matrix(shape=(Q, G), dtype=real)
     grain_vec = wp.types.vector(length=G, dtype=real)
@@ -163,6 +174,19 @@ def tile_kernel(features: Features, shape: TileShape):
     else:
         near_event = event_step = None
     value_vec = nordsieck.values
+    loss_vec = wp.types.vector(length=G, dtype=wp.float64)
+
+    @wp.func
+    def predicted_rate(v: value_vec) -> real:
+        # kernels/physics.py damping_functions' predicted_rate on a register column: dt·v at t_n+1, Σ_q q·x_q
+        rate = v[1] + real(2) * v[2]
+        if wp.static(ORDER >= 4):
+            rate += real(3) * v[3]
+        if wp.static(ORDER >= 5):
+            rate += real(4) * v[4]
+        if wp.static(ORDER >= 6):
+            rate += real(5) * v[5]
+        return rate
 
     @wp.func
     def column(s: state_t, k: int) -> value_vec:
@@ -173,6 +197,22 @@ def tile_kernel(features: Features, shape: TileShape):
 
     driver_values_at = nordsieck.driver_values_at
     DRIVE_ROWS = B if DRIVEN else 1
+
+    @wp.func
+    def dissipation(s: state_t, lost: loss_vec, inv_m: grain_vec, move_bits: int, k0: int, gamma: real, h: real,
+                    dt: wp.float64) -> loss_vec:
+        # kernels/step.py's viscous loss of one step for every integrated grain of the lane (not a held bottom
+        # grain, not the driver, not padding): the trapezoid of γ m (dt·v)²/h² at t_n and at the predicted t_n+1
+        out = lost
+        for k in range(G):
+            if (move_bits & (1 << k)) != 0 and k != k0:
+                own_rate = predicted_rate(column(s, k))
+                own_rate_old = s[1, k]
+                m_i = real(1) / inv_m[k]
+                loss_old = gamma * m_i * own_rate_old * own_rate_old / (h * h)
+                loss_new = gamma * m_i * own_rate * own_rate / (h * h)
+                out[k] = out[k] + dt * wp.float64(0.5) * (wp.float64(loss_old) + wp.float64(loss_new))
+        return out
 
     @wp.func
     def drive_phases(table: Any, fill: bool, offset: int, segment: int, lane_c: int, omega: wp.float64,
@@ -215,7 +255,7 @@ def tile_kernel(features: Features, shape: TileShape):
                 delta0: contact_vec, a_c: contact_vec, force0: contact_vec, n: real,
                 inv_m: grain_vec, hh: real, contact_bits: int, move_bits: int, h: real,
                 k0: int, amplitude: wp.float64, omega: wp.float64, phase_old: wp.vec2d, phase_new: wp.vec2d,
-                dt: wp.float64) -> state_t:
+                dt: wp.float64, gamma: real) -> state_t:
         # k0: grain 0's index in this lane, or -1 (undriven, or grain 0 elsewhere); phase_old, phase_new:
         # (sin ωt, cos ωt) of the driver at t_n and t_{n+1}
         # 1. predict
@@ -302,6 +342,8 @@ def tile_kernel(features: Features, shape: TileShape):
         out = s
         for k in range(G):
             half_h2_acc = hh * (force[k] - force[k + 1]) * inv_m[k]
+            if wp.static(DAMPED):
+                half_h2_acc -= real(0.5) * h * gamma * predicted_rate(column(s, k))  # h²/2 · (−γ v)
             new = nordsieck.corrected(column(s, k), up[k], half_h2_acc)
             if wp.static(FIXED):
                 moving = (move_bits & (1 << k)) != 0
@@ -441,6 +483,8 @@ def tile_kernel(features: Features, shape: TileShape):
         trace_slot: wp.array(dtype=wp.int32),
         trace_stride: int,
         trace_x: wp.array4d(dtype=real),
+        damping: wp.array(dtype=real),
+        dissipated: wp.array2d(dtype=wp.float64),
     ):
         block, lane = wp.tid()
         chain_count = x_in.shape[1]
@@ -544,14 +588,24 @@ def tile_kernel(features: Features, shape: TileShape):
         edges_even = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
         edges_odd = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
         frozen = status[cc] == wp.static(STATUS_NON_FINITE)
+        gamma = real(0)
+        lost = loss_vec()  # the interior grains' dissipated energy so far (damped)
+        if wp.static(DAMPED):
+            gamma = damping[cc]
+            for k in range(G):
+                g = base + k
+                if live and g >= keep_lo and g < keep_hi:
+                    lost[k] = dissipated[cc, g]
         for _pair in range(steps / 2):
             if wp.static(DRIVEN):
                 phase_new = drive_phases(drive_table, fill_table, 2 * _pair + 1, segment, lane_c, omega, step0, dt)
                 if k0 >= 0:
                     work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
                                              phase_old[1], dt)
+            if wp.static(DAMPED):
+                lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             s = advance(s, edges_even, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                        contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt)
+                        contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
             phase_old = phase_new
             if wp.static(TRACES):
                 write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
@@ -561,8 +615,10 @@ def tile_kernel(features: Features, shape: TileShape):
                 if k0 >= 0:
                     work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
                                              phase_old[1], dt)
+            if wp.static(DAMPED):
+                lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             s = advance(s, edges_odd, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                        contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt)
+                        contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
             phase_old = phase_new
             if wp.static(TRACES):
                 write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
@@ -573,8 +629,10 @@ def tile_kernel(features: Features, shape: TileShape):
                 if k0 >= 0:
                     work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
                                              phase_old[1], dt)
+            if wp.static(DAMPED):
+                lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             s = advance(s, edges_even, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                        contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt)
+                        contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
             if wp.static(TRACES):
                 write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
                              step0 + steps, trace_x)
@@ -594,6 +652,9 @@ def tile_kernel(features: Features, shape: TileShape):
                         x_out[q, cc, g] = x_in[q, cc, g]
                     else:
                         x_out[q, cc, g] = s[q, k]
+                if wp.static(DAMPED):
+                    if not frozen:
+                        dissipated[cc, g] = lost[k]
 
     return fused
 
@@ -678,13 +739,14 @@ def launchable_register_cap(block_dim: int) -> int:
 
 def launch_tile(plan: TilePlan, kernel, *, x_in, clock_in, inverse_mass, contact_constant, static_overlap,
                 exponent, status, dt: float, steps: int, x_out, clock_out, device, drive, work_in, power_in,
-                work_out, power_out, trace_slot=None, trace_stride: int = 1, trace_x=None,
-                record_cmd: bool = False):
+                work_out, power_out, trace_slot=None, trace_stride: int = 1, trace_x=None, damping=None,
+                dissipated=None, record_cmd: bool = False):
     """Launch ``steps`` fused steps (``steps ≤ plan.steps_per_launch`` when windowed); x_in and x_out differ.
 
     ``drive`` (chains, 2), ``work_*``/``power_*`` (chains,): the model's and states' arrays (size 0 undriven);
     ``trace_slot`` (grains,) each grain's column in the ring ``trace_x`` (2, chains, length, traced) or −1, and
-    ``trace_stride``: traces (None without them)."""
+    ``trace_stride``: traces (None without them). ``damping`` (chains,) γ and ``dissipated`` (chains, grains),
+    updated in place: viscous damping (None undamped)."""
     if plan.shape.windowed and steps > plan.ghost:
         raise ValueError(f"steps = {steps}: a windowed launch takes at most {plan.ghost}")
     device = wp.get_device(device)
@@ -694,9 +756,12 @@ def launch_tile(plan: TilePlan, kernel, *, x_in, clock_in, inverse_mass, contact
     if trace_slot is None:
         trace_slot = wp.empty(0, dtype=wp.int32, device=device)
         trace_x = wp.empty((2, 0, 0, 0), dtype=x_in.dtype, device=device)
+    if damping is None:
+        damping = wp.empty(0, dtype=x_in.dtype, device=device)
+        dissipated = wp.empty((0, 0), dtype=wp.float64, device=device)
     return wp.launch_tiled(
         kernel, dim=[plan.block_count],
         inputs=[x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status, dt, steps,
                 plan.interior, plan.ghost, plan.blocks_per_chain, drive, work_in, power_in],
-        outputs=[x_out, clock_out, work_out, power_out, trace_slot, trace_stride, trace_x],
+        outputs=[x_out, clock_out, work_out, power_out, trace_slot, trace_stride, trace_x, damping, dissipated],
         block_dim=plan.shape.block_dim, device=device, record_cmd=record_cmd)

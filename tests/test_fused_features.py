@@ -327,6 +327,75 @@ def test_auto_takes_a_calibrated_fused_kernel_for_short_gpu_runs(tmp_path, monke
     assert calibrate.is_calibrated(model)
     assert calibrate.step_reason(model, run_steps=100) is None
     # features no fused kernel has keep the per-step kernel, calibrated or not
-    damped = SimpleNamespace(**{**vars(model), "features": replace(real.features, damping="viscous")})
+    damped = SimpleNamespace(**{**vars(model), "features": replace(real.features, damping="contact")})
     (tmp_path / "calibration.json").write_text(json.dumps({calibrate._cache_key(damped): {"kind": "tile"}}))
     assert "damping" in calibrate.step_reason(damped, run_steps=100)
+
+
+DAMPED_CASES = {
+    # driven, the driver's contact opening and closing, bottom grain held: 2 chains of different γ
+    "driven, fixed bottom": dict(boundary={"bottom": "fixed"}, integrator={"events": "off"}),
+    "driven, bottom wall, gear5": dict(integrator={"events": "off", "method": "gear5"}),
+    "driven, fixed bottom, float32 (compensated)": dict(boundary={"bottom": "fixed"},
+                                                        integrator={"events": "off", "precision": "float32"}),
+}
+
+
+@pytest.mark.parametrize("case", list(DAMPED_CASES))
+@pytest.mark.parametrize("windowed", [False, True])
+def test_viscous_damping_on_the_fused_kernels_equals_per_step(case, windowed, device):
+    """Viscous damping in the tile and window kernels is the per-step kernel's: fields, energy, the driver's
+    work and the dissipated energy D per grain, bit for bit on the CPU (to rounding on CUDA). The windowed
+    plan cuts the 24-grain chains into windows of 8 interior grains, so D crosses window edges; a frozen chain
+    keeps its D."""
+    sections = {k: dict(v) for k, v in DAMPED_CASES[case].items()}
+    sections["damping"] = {"model": "viscous", "gamma": 0.8}
+    scenes = driven_scenes(traces=False, **sections)
+    scenes[1] = scenes[1].with_overrides({"damping.gamma": 3.0})
+    model = build_model(scenes, device)
+    want = run(model, "step")
+    keywords = dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=4, windowed=True) if windowed else \
+        dict(grains_per_lane=4)
+    config = config_of(plan_tile(model.features, model.grain_count, model.chain_count, **keywords))
+    got = run(model, config)
+    assert got.kernel.startswith("window" if windowed else "tile"), got.kernel
+    moving = -2 if sections.get("boundary", {}).get("bottom") == "fixed" else -1  # the last grain that moves
+    v = np.abs(want.fields["v"])
+    assert np.all(v[:, :, moving].max(axis=1) > MOVED * v.max(axis=(1, 2))), "motion never reached the bottom"
+    assert np.all(want.dissipated[:, -1] > 0) and np.all(np.diff(want.dissipated, axis=1) >= 0)
+    assert want.dissipated[1, -1] > want.dissipated[0, -1]          # the larger γ dissipates more here
+    for name in ("u", "v"):
+        assert_kernels_agree(got.fields[name], want.fields[name], device)
+    for name in ("energy", "work", "dissipated"):
+        assert_kernels_agree(getattr(got, name), getattr(want, name), device)
+    assert_kernels_agree(got.energy_error, want.energy_error, device)
+
+
+def test_undamped_fused_kernels_hold_no_damping_code():
+    """Leave out what a scene does not need: without damping the tile kernel's generated code reads neither γ
+    nor the dissipated energy; with viscous damping it reads and writes both."""
+    from kernel_source import accessed_arrays, generated_source
+    from hertzian.kernels.tile import tile_kernel
+
+    scenes = driven_scenes(traces=False, integrator={"events": "off"})
+    plain = build_model(scenes, "cpu").features
+    damped = replace(plain, damping="viscous")
+    shape = plan_tile(plain, 24, 2, grains_per_lane=4).shape
+    plain_arrays = accessed_arrays(generated_source(tile_kernel(plain, shape), block_dim=shape.block_dim))
+    damped_arrays = accessed_arrays(generated_source(tile_kernel(damped, shape), block_dim=shape.block_dim))
+    assert not {"damping", "dissipated"} & plain_arrays
+    assert {"damping", "dissipated"} <= damped_arrays
+
+
+def test_fused_kernels_refuse_the_contact_dashpot():
+    """The contact dashpot needs the neighbour lanes' velocities: the tile kernel refuses it (one line), and a
+    forced tile kernel on such a scene is refused before anything runs."""
+    from hertzian.kernels.tile import tile_kernel
+
+    model = build_model(driven_scenes(traces=False, damping={"model": "contact", "gamma": 0.5},
+                                      integrator={"events": "off"}), "cpu")
+    with pytest.raises(ValueError, match="damping"):
+        tile_kernel(model.features, plan_tile(model.features, model.grain_count, model.chain_count,
+                                              grains_per_lane=4).shape)
+    with pytest.raises(ValueError, match="damping"):
+        choose_config(model, "tile", calibrate_now=False)

@@ -62,8 +62,8 @@ def stepping_features(features):
 def fused_lacks(features, is_cpu: bool) -> str | None:
     """The feature the device's fused kernel (CPU sweep, CUDA tile/window) lacks, or None."""
     f = stepping_features(features)
-    if f.damping != "none" and not is_cpu:
-        return f"damping (damping.model = {f.damping!r}; only the per-step kernel carries it on CUDA)"
+    if f.damping not in ("none", "viscous") and not is_cpu:
+        return f"damping (damping.model = {f.damping!r}; only the per-step kernel carries the dashpot on CUDA)"
     if f.method in SUBSTEP_WEIGHTS and not is_cpu:
         return f"method {f.method} (its substeps are in the per-step and CPU sweep kernels only)"
     if is_cpu:
@@ -326,9 +326,9 @@ def choose_config(model: Model, kernel: str = "auto", *, run_steps: int | None =
     f = model.features
     if kernel == "step":
         return STEP
-    if f.damping != "none":
-        # damping (and the dissipated energy) exists in the per-step kernel and the CPU sweep kernel; the
-        # tile/window kernels have none
+    if f.damping not in ("none", "viscous"):
+        # the contact dashpot (and its dissipated energy) exists in the per-step kernel and the CPU sweep kernel;
+        # the tile/window kernels carry viscous damping only
         if model.device.is_cpu:
             if kernel in ("tile", "window"):
                 raise ValueError(f"kernel = {kernel!r}: damping (damping.model = {f.damping!r}) runs only on the "

@@ -39,6 +39,7 @@ class TileSolver(Solver):
         self.kernel = tile_kernel(self.kernel_features, config.shape)
         self.trace_stride_in_kernel = model.scenes[0].trace_stride if model.features.traces else 1
         self.block_dim = config.shape.block_dim
+        self.damped = model.features.damping != "none"
 
     def launch(self, state_in: State, state_out: State, steps: int) -> None:
         m = self.model
@@ -47,7 +48,8 @@ class TileSolver(Solver):
                     status=state_in.status, dt=m.dt, steps=steps, x_out=state_out.x, clock_out=state_out.clock,
                     device=m.device, drive=m.drive, work_in=state_in.work, power_in=state_in.power,
                     work_out=state_out.work, power_out=state_out.power, trace_slot=m.trace_slot,
-                    trace_stride=self.trace_stride_in_kernel, trace_x=state_in.traces)
+                    trace_stride=self.trace_stride_in_kernel, trace_x=state_in.traces,
+                    damping=m.damping if self.damped else None, dissipated=state_in.dissipated if self.damped else None)
 
     def describe(self) -> str:
         return f"{self.kind} ({self.plan.describe()})"
