@@ -542,3 +542,19 @@ def test_library_cache_round_trips_and_refuses_a_damaged_copy(tmp_path, monkeypa
         assert len(runs) == runs_before + 1 and not rebuilt.from_cache, what
         loads_unchanged()
         assert list(tmp_path.iterdir()) == [path], what
+
+
+def test_gpu_note_names_the_event_steps_of_the_candidate_runs(monkeypatch):
+    """On a GPU, a BASE whose contacts can open and which keeps event-aware steps gets one note naming
+    integrator.events = "off"; plain steps or a CPU get none. (The CUDA check is made on a CPU-built model.)"""
+    from hertzian.ensemble.cli import detect as cli_detect
+    from hertzian.ensemble import model as model_module
+
+    real_build = model_module.build_model
+    monkeypatch.setattr(model_module, "build_model", lambda scenes, dev: real_build(scenes, "cpu"))
+    base = scene_from_dict(BASE)
+    assert cli_detect.candidate_events_note(base, "cpu") is None
+    note = cli_detect.candidate_events_note(base, "cuda")
+    assert note is not None and 'integrator.events = "off"' in note
+    plain = base.with_overrides({"integrator.events": "off"})
+    assert cli_detect.candidate_events_note(plain, "cuda") is None
