@@ -558,3 +558,17 @@ def test_gpu_note_names_the_event_steps_of_the_candidate_runs(monkeypatch):
     assert note is not None and 'integrator.events = "off"' in note
     plain = base.with_overrides({"integrator.events": "off"})
     assert cli_detect.candidate_events_note(plain, "cuda") is None
+
+
+def test_cli_detect_study_takes_its_options_and_refuses_a_bad_study(tmp_path):
+    """`hertzian detect-study STUDY --out F`: its options are its own (a helper defined between the command's
+    decorator and its function once took the command's place), and a study file without hosts is refused with
+    one line, exit 2, nothing written."""
+    from cli_cases import assert_refused, invoke
+
+    help_text = invoke("detect-study", "--help")
+    assert help_text.exit_code == 0 and "--out" in help_text.stdout and "STUDY" in help_text.stdout.upper()
+    study = tmp_path / "study.toml"
+    study.write_text('[scene]\nchain = { grains = 20, l0 = 1e-4 }\nexcitation = { impact = 1e-2 }\n\n[study]\n')
+    out = tmp_path / "out.json"
+    assert_refused(invoke("detect-study", str(study), "--out", str(out), "--device", "cpu"), out)

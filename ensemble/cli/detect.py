@@ -143,7 +143,6 @@ def detect(
         typer.echo(f"wrote {plot}", err=True)
 
 
-@app.command("detect-study")
 def candidate_events_note(base, dev: str) -> str | None:
     """One line when the candidate chains would run with event-aware steps on a GPU (BASE's
     ``integrator.events = "auto"`` where a contact can open): on an H100 a cached 1000-grain detection took 1.45 s
@@ -157,6 +156,7 @@ def candidate_events_note(base, dev: str) -> str | None:
     return None if cost is None else f"candidate runs: {cost} in BASE"
 
 
+@app.command("detect-study")
 def detect_study(
     study: Annotated[Path, typer.Argument(help="Study TOML (e.g. sweeps/detect_study.toml).")],
     out: Annotated[Path, typer.Option("--out", help="JSON file to write (records and summary).")] =
