@@ -1,7 +1,8 @@
 """Accuracy study of ``hertzian detect``: plant impurities, add noise, detect, tabulate.
 
 A study file (TOML, e.g. ``sweeps/detect_study.toml``) holds a BASE scene (``[scene]``, any scene keys),
-the sampling (``[study] spacing``), and host variants (``[[hosts]]``: gravity, block length, step, and
+the sampling (``[study] spacing``; ``window_past_bottom``, default 1: the analysis window's end as a multiple of
+the bottom reflection's return), and host variants (``[[hosts]]``: gravity, block length, step, and
 which SNRs, mass ratios, depth fractions and clean trials to run on it). For each host:
 
 1. the truths — BASE + one block of mass ratio μ at depth round(f·N) (clipped to N − block) for every
@@ -31,6 +32,8 @@ from .detect import _cached_fronts, detect, forward_scene, impurity_scene, signa
 from .scene import SceneError, apply_overrides, read_toml, scene_from_dict
 
 HOST_KEYS = {"name", "gravity", "block", "dt", "snr_db", "mass_ratios", "depth_fractions", "clean_trials"}
+STUDY_KEYS = {"spacing", "seed", "mass_steps", "refine", "iterations", "probe_duration", "mass_range",
+              "window_past_bottom"}
 
 
 def load_study(path: str | Path) -> dict:
@@ -38,6 +41,13 @@ def load_study(path: str | Path) -> dict:
     for key in ("scene", "study", "hosts"):
         if key not in data:
             raise SceneError(f"{path}: {key}", None, "is required ([scene], [study], [[hosts]])")
+    unknown = set(data["study"]) - STUDY_KEYS
+    if unknown:
+        raise SceneError("study", sorted(unknown), f"unknown keys; allowed: {', '.join(sorted(STUDY_KEYS))}")
+    past = data["study"].get("window_past_bottom", 1.0)
+    if isinstance(past, bool) or not isinstance(past, (int, float)) or not 1.0 <= past <= 2.0:
+        raise SceneError("study.window_past_bottom", past, "must be a number in [1, 2] (the analysis window's end as a "
+                                                           "multiple of the bottom reflection's return)")
     for k, host in enumerate(data["hosts"]):
         unknown = set(host) - HOST_KEYS
         if unknown:
@@ -66,6 +76,9 @@ def run_study(path: str | Path, device: str, *, progress=None) -> dict:
     spacing = float(options.get("spacing", 0.01))
     seed = int(options.get("seed", 1))
     detect_options = {k: options[k] for k in ("mass_steps", "refine", "iterations") if k in options}
+    # the analysis window: detect's default (until the bottom reflection returns, 2 t_front(N − 1)), or this
+    # multiple of it (deep impurities' echoes return with the bottom reflection; docs/detection.md, failure 1)
+    past_bottom = float(options.get("window_past_bottom", 1.0))
     if "mass_range" in options:
         detect_options["mass_ratio_range"] = tuple(options["mass_range"])
     records, hosts_meta = [], []
@@ -82,7 +95,7 @@ def run_study(path: str | Path, device: str, *, progress=None) -> dict:
         probe = forward_scene(base, spacing, int(round(options.get("probe_duration", 60.0) / spacing)) + 1)
         fronts = _cached_fronts(probe, device, True)
         window = 2 * float(fronts[-1])
-        samples = int(math.ceil(1.1 * window / spacing)) + 1
+        samples = int(math.ceil(max(1.1, past_bottom) * window / spacing)) + 1
         forward = forward_scene(base, spacing, samples)
         depths = sorted({min(max(1, int(round(f * n))), n - block) for f in host["depth_fractions"]})
         cases = [(d, float(mu)) for d in depths for mu in host["mass_ratios"]]
@@ -103,7 +116,8 @@ def run_study(path: str | Path, device: str, *, progress=None) -> dict:
             for depth, mu, velocity, peak in trials:
                 sigma = peak / 10 ** (float(snr) / 20)
                 signal = signal_from_arrays(t, velocity + rng.normal(scale=sigma, size=samples), source="study")
-                result, _ = detect(signal, base, block=block, device=device, **detect_options)
+                result, _ = detect(signal, base, block=block, device=device,
+                                   window=None if past_bottom == 1.0 else past_bottom * window, **detect_options)
                 truth_class = "none" if depth is None else ("light" if mu < 1 else "heavy")
                 interval = result.mass_ratio_interval
                 records.append({

@@ -572,3 +572,16 @@ def test_cli_detect_study_takes_its_options_and_refuses_a_bad_study(tmp_path):
     study.write_text('[scene]\nchain = { grains = 20, l0 = 1e-4 }\nexcitation = { impact = 1e-2 }\n\n[study]\n')
     out = tmp_path / "out.json"
     assert_refused(invoke("detect-study", str(study), "--out", str(out), "--device", "cpu"), out)
+
+
+@pytest.mark.parametrize("study, key", [("window_past_bottom = 3.0", "study.window_past_bottom"),
+                                        ("windw = 1.1", "study")])
+def test_cli_detect_study_refuses_bad_study_keys(tmp_path, study, key):
+    """[study] keys are checked: an unknown key or a window past the bottom outside [1, 2] is one line, exit 2."""
+    from cli_cases import assert_refused, invoke
+
+    path = tmp_path / "study.toml"
+    path.write_text('[scene]\nchain = { grains = 20, l0 = 1e-4 }\nexcitation = { impact = 1e-2 }\n\n'
+                    f'[study]\n{study}\n\n[[hosts]]\nsnr_db = [26]\nmass_ratios = [0.5]\ndepth_fractions = [0.5]\n')
+    out = tmp_path / "out.json"
+    assert_refused(invoke("detect-study", str(path), "--out", str(out), "--device", "cpu"), out, key)
