@@ -71,7 +71,8 @@ class Features:
     closing is stepped without the kink; 0: off (no event code is generated)."""
     damping: str = "none"
     """none | viscous (−γ m v on every integrated grain) | contact (dashpot −γ δ̇ on closed contacts):
-    per-chain γ, the dissipated energy accumulated per grain; only the per-step kernel has it."""
+    per-chain γ, the dissipated energy accumulated per grain (every kernel; the fused ones not the dashpot in
+    compensated float32)."""
     compensated: bool = True
     """float32 only: u and dt·v carried as hi + lo float32 pairs, updated by TwoSum (kernels/gear.py), two
     more state rows; False: the plain float32 update (kept for comparison). Ignored in float64."""

@@ -55,14 +55,16 @@ import warp as wp
 from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
 from .events import event_functions
 from .gear import nordsieck_functions
-from .physics import contact_forces, contact_functions, contact_parameters
+from .physics import contact_forces, contact_functions, contact_parameters, damping_functions
 
 
 def fusable(features: Features) -> bool:
     """True when the fused kernels implement every feature of this set (traces: written inside the launch;
-    composed methods such as yoshida4, and the contact dashpot, are not implemented here: the per-step kernel
-    runs them on CUDA)."""
-    return features.method not in SUBSTEP_WEIGHTS and features.damping in ("none", "viscous")
+    composed methods such as yoshida4, and the contact dashpot in compensated float32, are not implemented here:
+    the per-step kernel runs them on CUDA)."""
+    if features.damping == "contact" and features.compensation:
+        return False
+    return features.method not in SUBSTEP_WEIGHTS
 
 
 @dataclass(frozen=True)
@@ -131,8 +133,9 @@ def out_of_line(event_step, values_t, vec3, real):
 def tile_kernel(features: Features, shape: TileShape):
     """The fused kernel for one feature set and compile-time launch shape (cached)."""
     f = features
-    if f.damping not in ("none", "viscous"):
-        raise ValueError(f"fused kernels do not implement damping={f.damping!r} (the per-step and CPU sweep kernels do)")
+    if f.damping == "contact" and f.compensation:
+        raise ValueError("fused kernels do not implement damping='contact' in compensated float32 (the per-step and CPU "
+                         "sweep kernels do)")
     if not fusable(f):
         raise ValueError(f"fused kernels do not implement method={f.method!r}")
     TRACES = f.traces
@@ -156,6 +159,8 @@ def tile_kernel(features: Features, shape: TileShape):
     forces = contact_forces(f.precision, f.hertz, G + 1, branchless=shape.branchless, fast_sqrt=shape.fast_sqrt)
     nordsieck = nordsieck_functions(f.method, f.precision, f.compensation)
     DAMPED = f.damping == "viscous"
+    DASHPOT = f.damping == "contact"
+    DISSIPATES = DAMPED or DASHPOT  # the dissipated energy is accumulated per grain
     ORDER = f.nordsieck_values  # rows of the Nordsieck vector (kernels/gear.py), as kernels/step.py counts them
 
     state_t = wp.types.matrix(shape=(Q, G), dtype=real)
@@ -164,7 +169,9 @@ def tile_kernel(features: Features, shape: TileShape):
     EVENTS = f.event_window > 0
     COMP = f.compensation  # compensated float32: predicted positions also carry their low parts (kernels/gear.py)
     EDGE_LO = 2 + 2 * Q if EVENTS else 2  # where the edge tile keeps the low parts of the edge positions
-    edge_t = wp.types.vector(length=EDGE_LO + (2 if COMP else 0), dtype=real)
+    # the contact dashpot also needs the neighbour lanes' edge grains' predicted rates and the first grain's (u, dt·v)
+    # at t_n: [u_first, u_last, rate_first, rate_last, u_first(t_n), dt·v_first(t_n)] (no events, no compensation)
+    edge_t = wp.types.vector(length=6 if DASHPOT else EDGE_LO + (2 if COMP else 0), dtype=real)
     vec2 = wp.types.vector(2, real)
     vec3 = wp.types.vector(3, real)
     if EVENTS:
@@ -197,6 +204,7 @@ def tile_kernel(features: Features, shape: TileShape):
 
     driver_values_at = nordsieck.driver_values_at
     DRIVE_ROWS = B if DRIVEN else 1
+    dashpot = damping_functions(f.precision, ORDER)[1]
 
     @wp.func
     def dissipation(s: state_t, lost: loss_vec, inv_m: grain_vec, move_bits: int, k0: int, gamma: real, h: real,
@@ -231,7 +239,7 @@ def tile_kernel(features: Features, shape: TileShape):
     @wp.func
     def driver_work(s: state_t, k0: int, work_power: wp.vec2d, delta0: contact_vec, a_c: contact_vec,
                     force0: contact_vec, n: real, amplitude: wp.float64, omega: wp.float64, cos_old: wp.float64,
-                    dt: wp.float64) -> wp.vec2d:
+                    dt: wp.float64, gamma: real, first: bool) -> wp.vec2d:
         # kernels/step.py: driver's work, trapezoid of P = ΔF_01 · v_0 at t_n (grains 0 and 1 in this lane);
         # cos_old = cos(ω t_n)
         # grains k0, k0 + 1 and their contact picked by selects over the static positions: an index known only at
@@ -247,8 +255,129 @@ def tile_kernel(features: Features, shape: TileShape):
                 below_ac = a_c[k + 1]
                 below_f0 = force0[k + 1]
         force_old = wp.float64(contact_force(below0 + d_old, below_ac, n) - below_f0)
+        if wp.static(DASHPOT):
+            # the driver also pushes through the dashpot of its contact (kernels/step.py: the work includes it)
+            below_rate_old = real(0)
+            for k in range(G):
+                if k == k0:
+                    below_rate_old = s[1, wp.min(k + 1, G - 1)]
+            rate_old = real(dt * amplitude * omega * cos_old) - below_rate_old
+            force_old += wp.float64(dashpot(below0, d_old, rate_old, gamma, real(dt)))
         power = force_old * amplitude * omega * cos_old
+        if wp.static(DASHPOT):
+            if first:
+                return wp.vec2d(work_power[0], power)  # W(0) = 0: the dashpot's power at t = 0 is not zero
         return wp.vec2d(work_power[0] + dt * wp.float64(0.5) * (work_power[1] + power), power)
+
+    @wp.func
+    def lane_rates(s: state_t, k0: int, amplitude: wp.float64, omega: wp.float64, phase_new: wp.vec2d,
+                   dt: wp.float64) -> grain_vec:
+        # dt·v of the lane's grains predicted at t_n+1 (the contact dashpot); the driver's is its own at t_n+1
+        rates = grain_vec()
+        for k in range(G):
+            rates[k] = predicted_rate(column(s, k))
+        if wp.static(DRIVEN):
+            if k0 >= 0:
+                for k in range(G):
+                    if k == k0:
+                        rates[k] = real(dt * amplitude * omega * phase_new[1])
+        return rates
+
+    @wp.func
+    def dashpot_forces(up: grain_vec, rates: grain_vec, u_left: real, rate_left: real, u_right: real,
+                       rate_right: real, delta0: contact_vec, contact_bits: int, gamma: real, h: real) -> contact_vec:
+        # kernels/step.py's dashpot γ·δ̇ of each of the lane's G + 1 contacts at the predicted t_n+1 (a contact the
+        # chain lacks, at a free end, has none): upper minus lower grain, as both of its grains compute it there
+        out = contact_vec()
+        for j in range(G + 1):
+            upper_u = u_left
+            upper_rate = rate_left
+            if j > 0:
+                upper_u = up[wp.max(j - 1, 0)]
+                upper_rate = rates[wp.max(j - 1, 0)]
+            lower_u = u_right
+            lower_rate = rate_right
+            if j < G:
+                lower_u = up[wp.min(j, G - 1)]
+                lower_rate = rates[wp.min(j, G - 1)]
+            exists = True
+            if wp.static(MASKED and FREE_END):
+                exists = (contact_bits & (1 << j)) != 0
+            if exists:
+                out[j] = dashpot(delta0[j], upper_u - lower_u, upper_rate - lower_rate, gamma, h)
+        return out
+
+    @wp.func
+    def dashpot_losses(s: state_t, lost: loss_vec, edges: Any, lane: int, base: int, has_left: bool,
+                       has_right: bool, delta0: contact_vec, contact_bits: int, move_bits: int, k0: int,
+                       amplitude: wp.float64, omega: wp.float64, phase_old: wp.vec2d, phase_new: wp.vec2d,
+                       gamma: real, h: real, dt: wp.float64) -> loss_vec:
+        # kernels/step.py's dissipated energy of one step (contact dashpot) from the state at t_n and this step's
+        # edge tile (read before the next step's barrier): per integrated grain the trapezoid of the power of the
+        # dashpot below it, and of the one above it where no integrated grain is above (wall, driver)
+        up = grain_vec()
+        for k in range(G):
+            up[k] = nordsieck.predict_position(column(s, k))
+        if wp.static(DRIVEN):
+            if k0 >= 0:
+                for k in range(G):
+                    if k == k0:
+                        up[k] = real(amplitude * phase_new[0])
+        rates = lane_rates(s, k0, amplitude, omega, phase_new, dt)
+        u_left = real(0)
+        rate_left = real(0)
+        u_right = real(0)
+        rate_right = real(0)
+        u_right_old = real(0)
+        rate_right_old = real(0)
+        if has_left:
+            u_left = wp.tile_extract(edges, lane - 1, 1)
+            rate_left = wp.tile_extract(edges, lane - 1, 3)
+        if has_right:
+            u_right = wp.tile_extract(edges, lane + 1, 0)
+            rate_right = wp.tile_extract(edges, lane + 1, 2)
+            u_right_old = wp.tile_extract(edges, lane + 1, 4)
+            rate_right_old = wp.tile_extract(edges, lane + 1, 5)
+        damp = dashpot_forces(up, rates, u_left, rate_left, u_right, rate_right, delta0, contact_bits, gamma, h)
+        out = lost
+        for k in range(G):
+            if (move_bits & (1 << k)) != 0 and k != k0:
+                own_rate = rates[k]
+                own_rate_old = s[1, k]
+                loss_old = real(0)
+                loss_new = real(0)
+                below = True
+                if wp.static(MASKED and FREE_END):
+                    below = (contact_bits & (1 << (k + 1))) != 0
+                if below:
+                    below_rate = rate_right
+                    below_rate_old = rate_right_old
+                    below_u_old = u_right_old
+                    if k < G - 1:
+                        below_rate = rates[wp.min(k + 1, G - 1)]
+                        below_rate_old = s[1, wp.min(k + 1, G - 1)]
+                        below_u_old = s[0, wp.min(k + 1, G - 1)]
+                    loss_new += damp[k + 1] * (own_rate - below_rate) / h
+                    f_old = dashpot(delta0[k + 1], s[0, k] - below_u_old, own_rate_old - below_rate_old, gamma, h)
+                    loss_old += f_old * (own_rate_old - below_rate_old) / h
+                outer = False
+                above_rate = real(0)
+                above_rate_old = real(0)
+                above_u_old = real(0)
+                if wp.static(SURFACE_WALL):
+                    outer = base + k == 0
+                if wp.static(DRIVEN):
+                    if k0 >= 0 and k == k0 + 1:
+                        outer = True
+                        above_rate = real(dt * amplitude * omega * phase_new[1])
+                        above_u_old = real(amplitude * phase_old[0])
+                        above_rate_old = real(dt * amplitude * omega * phase_old[1])
+                if outer:
+                    loss_new += damp[k] * (above_rate - own_rate) / h
+                    f_old = dashpot(delta0[k], above_u_old - s[0, k], above_rate_old - own_rate_old, gamma, h)
+                    loss_old += f_old * (above_rate_old - own_rate_old) / h
+                out[k] = out[k] + dt * wp.float64(0.5) * (wp.float64(loss_old) + wp.float64(loss_new))
+        return out
 
     @wp.func
     def advance(s: state_t, edges: Any, lane: int, has_left: bool, has_right: bool,
@@ -293,6 +422,10 @@ def tile_kernel(features: Features, shape: TileShape):
             wp.tile_assign(edges, wp.tile(edge, preserve_type=True))
         elif wp.static(COMP):
             wp.tile_assign(edges, wp.tile(edge_t(up[0], up[G - 1], up_lo[0], up_lo[G - 1]), preserve_type=True))
+        elif wp.static(DASHPOT):
+            rates = lane_rates(s, k0, amplitude, omega, phase_new, dt)
+            wp.tile_assign(edges, wp.tile(edge_t(up[0], up[G - 1], rates[0], rates[G - 1], s[0, 0], s[1, 0]),
+                                          preserve_type=True))
         else:
             wp.tile_assign(edges, wp.tile(edge_t(up[0], up[G - 1]), preserve_type=True))
         u_left = real(0)
@@ -338,6 +471,18 @@ def tile_kernel(features: Features, shape: TileShape):
             for k in range(G + 1):
                 if (contact_bits & (1 << k)) == 0:
                     force[k] = real(0)
+        if wp.static(DASHPOT):
+            # each contact's dashpot at the predicted t_n+1 (kernels/step.py: added to its Hertz force)
+            rate_left = real(0)
+            rate_right = real(0)
+            if has_left:
+                rate_left = wp.tile_extract(edges, lane - 1, 3)
+            if has_right:
+                rate_right = wp.tile_extract(edges, lane + 1, 2)
+            damp = dashpot_forces(up, lane_rates(s, k0, amplitude, omega, phase_new, dt), u_left, rate_left, u_right,
+                                  rate_right, delta0, contact_bits, gamma, h)
+            for k in range(G + 1):
+                force[k] = force[k] + damp[k]
         # 4. corrector. Padding grains have 1/m = 0: at rest they stay exactly 0. A fixed bottom grain is held.
         out = s
         for k in range(G):
@@ -590,7 +735,7 @@ def tile_kernel(features: Features, shape: TileShape):
         frozen = status[cc] == wp.static(STATUS_NON_FINITE)
         gamma = real(0)
         lost = loss_vec()  # the interior grains' dissipated energy so far (damped)
-        if wp.static(DAMPED):
+        if wp.static(DISSIPATES):
             gamma = damping[cc]
             for k in range(G):
                 g = base + k
@@ -601,11 +746,16 @@ def tile_kernel(features: Features, shape: TileShape):
                 phase_new = drive_phases(drive_table, fill_table, 2 * _pair + 1, segment, lane_c, omega, step0, dt)
                 if k0 >= 0:
                     work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
-                                             phase_old[1], dt)
+                                             phase_old[1], dt, gamma, step0 + 2 * _pair + 1 == 1)
             if wp.static(DAMPED):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
+            if wp.static(DASHPOT):
+                s_prev = s
             s = advance(s, edges_even, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
                         contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
+            if wp.static(DASHPOT):
+                lost = dashpot_losses(s_prev, lost, edges_even, lane, base, has_left, has_right, delta0, contact_bits,
+                                      move_bits, k0, amplitude, omega, phase_old, phase_new, gamma, h, dt)
             phase_old = phase_new
             if wp.static(TRACES):
                 write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
@@ -614,11 +764,16 @@ def tile_kernel(features: Features, shape: TileShape):
                 phase_new = drive_phases(drive_table, fill_table, 2 * _pair + 2, segment, lane_c, omega, step0, dt)
                 if k0 >= 0:
                     work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
-                                             phase_old[1], dt)
+                                             phase_old[1], dt, gamma, step0 + 2 * _pair + 2 == 1)
             if wp.static(DAMPED):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
+            if wp.static(DASHPOT):
+                s_prev = s
             s = advance(s, edges_odd, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
                         contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
+            if wp.static(DASHPOT):
+                lost = dashpot_losses(s_prev, lost, edges_odd, lane, base, has_left, has_right, delta0, contact_bits,
+                                      move_bits, k0, amplitude, omega, phase_old, phase_new, gamma, h, dt)
             phase_old = phase_new
             if wp.static(TRACES):
                 write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
@@ -628,11 +783,16 @@ def tile_kernel(features: Features, shape: TileShape):
                 phase_new = drive_phases(drive_table, fill_table, steps, segment, lane_c, omega, step0, dt)
                 if k0 >= 0:
                     work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
-                                             phase_old[1], dt)
+                                             phase_old[1], dt, gamma, step0 + steps == 1)
             if wp.static(DAMPED):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
+            if wp.static(DASHPOT):
+                s_prev = s
             s = advance(s, edges_even, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
                         contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
+            if wp.static(DASHPOT):
+                lost = dashpot_losses(s_prev, lost, edges_even, lane, base, has_left, has_right, delta0, contact_bits,
+                                      move_bits, k0, amplitude, omega, phase_old, phase_new, gamma, h, dt)
             if wp.static(TRACES):
                 write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
                              step0 + steps, trace_x)
@@ -652,7 +812,7 @@ def tile_kernel(features: Features, shape: TileShape):
                         x_out[q, cc, g] = x_in[q, cc, g]
                     else:
                         x_out[q, cc, g] = s[q, k]
-                if wp.static(DAMPED):
+                if wp.static(DISSIPATES):
                     if not frozen:
                         dissipated[cc, g] = lost[k]
 

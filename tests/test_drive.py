@@ -158,14 +158,18 @@ def test_damping_generates_no_code_when_unused_and_runs_on_the_cpu_sweep():
     assert choose_config(model, "auto").kind == "sweep"
     assert choose_config(model, "sweep").kind == "sweep"
     assert step_reason(model) is None
-    # viscous damping is in the fused kernels too (test_fused_features.py; 8 grains fit no window)
-    assert choose_config(model, "tile", calibrate_now=False).kind == "tile"
-    assert fused_lacks(model.features, is_cpu=False) is None
+    # both damping models are in the fused kernels too (test_fused_features.py; 8 grains fit no window)
     dashpot = build_model([impact.with_overrides({"damping.model": "contact"})], "cpu")
-    for fused in ("tile", "window"):   # no dashpot there: refused, never run undamped
+    for damped in (model, dashpot):
+        assert choose_config(damped, "tile", calibrate_now=False).kind == "tile"
+        assert fused_lacks(damped.features, is_cpu=False) is None
+    # but not the dashpot in compensated float32: refused there, never run undamped
+    dashpot32 = build_model([impact.with_overrides({"damping.model": "contact", "integrator.precision": "float32"})],
+                            "cpu")
+    for fused in ("tile", "window"):
         with pytest.raises(ValueError, match="damping"):
-            choose_config(dashpot, fused)
-    assert "damping" in fused_lacks(dashpot.features, is_cpu=False)   # CUDA: the per-step kernel only
+            choose_config(dashpot32, fused)
+    assert "damping" in fused_lacks(dashpot32.features, is_cpu=False)   # CUDA: the per-step kernel only
     from hertzian.kernels.cpu import sweep_kernel
     sweep_damped = generated_source(sweep_kernel(Features(surface="driven", bottom="fixed", static="uniform",
                                                          damping="contact")))

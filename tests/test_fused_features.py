@@ -327,29 +327,39 @@ def test_auto_takes_a_calibrated_fused_kernel_for_short_gpu_runs(tmp_path, monke
     assert calibrate.is_calibrated(model)
     assert calibrate.step_reason(model, run_steps=100) is None
     # features no fused kernel has keep the per-step kernel, calibrated or not
-    damped = SimpleNamespace(**{**vars(model), "features": replace(real.features, damping="contact")})
+    damped = SimpleNamespace(**{**vars(model), "features": replace(real.features, damping="contact",
+                                                                   precision="float32")})
     (tmp_path / "calibration.json").write_text(json.dumps({calibrate._cache_key(damped): {"kind": "tile"}}))
     assert "damping" in calibrate.step_reason(damped, run_steps=100)
 
 
 DAMPED_CASES = {
-    # driven, the driver's contact opening and closing, bottom grain held: 2 chains of different γ
-    "driven, fixed bottom": dict(boundary={"bottom": "fixed"}, integrator={"events": "off"}),
-    "driven, bottom wall, gear5": dict(integrator={"events": "off", "method": "gear5"}),
-    "driven, fixed bottom, float32 (compensated)": dict(boundary={"bottom": "fixed"},
-                                                        integrator={"events": "off", "precision": "float32"}),
+    # driven, the driver's contact opening and closing: 2 chains of different γ
+    "viscous, driven, fixed bottom": dict(damping={"model": "viscous"}, boundary={"bottom": "fixed"},
+                                          integrator={"events": "off"}),
+    "viscous, driven, bottom wall, gear5": dict(damping={"model": "viscous"}, integrator={"events": "off",
+                                                                                          "method": "gear5"}),
+    "viscous, driven, fixed bottom, float32 (compensated)": dict(
+        damping={"model": "viscous"}, boundary={"bottom": "fixed"}, integrator={"events": "off", "precision": "float32"}),
+    "dashpot, driven, fixed bottom": dict(damping={"model": "contact"}, boundary={"bottom": "fixed"},
+                                          integrator={"events": "off"}),
+    "dashpot, driven, bottom wall, gear5": dict(damping={"model": "contact"}, integrator={"events": "off",
+                                                                                          "method": "gear5"}),
+    "dashpot, driven, free bottom (l0 = 0), gear6": dict(damping={"model": "contact"}, chain={"l0": 0.0},
+                                                         boundary={"bottom": "free"},
+                                                         integrator={"events": "off", "method": "gear6"}),
 }
 
 
 @pytest.mark.parametrize("case", list(DAMPED_CASES))
 @pytest.mark.parametrize("windowed", [False, True])
-def test_viscous_damping_on_the_fused_kernels_equals_per_step(case, windowed, device):
-    """Viscous damping in the tile and window kernels is the per-step kernel's: fields, energy, the driver's
-    work and the dissipated energy D per grain, bit for bit on the CPU (to rounding on CUDA). The windowed
-    plan cuts the 24-grain chains into windows of 8 interior grains, so D crosses window edges; a frozen chain
-    keeps its D."""
+def test_damping_on_the_fused_kernels_equals_per_step(case, windowed, device):
+    """Damping (viscous, and the contact dashpot with the driver's contact and the walls) in the tile and window
+    kernels is the per-step kernel's: fields, energy, the driver's work and the dissipated energy D per grain,
+    bit for bit on the CPU (to rounding on CUDA). The windowed plan cuts the 24-grain chains into windows of 8
+    interior grains, so D and the dashpots cross window and lane edges."""
     sections = {k: dict(v) for k, v in DAMPED_CASES[case].items()}
-    sections["damping"] = {"model": "viscous", "gamma": 0.8}
+    sections["damping"]["gamma"] = 0.8
     scenes = driven_scenes(traces=False, **sections)
     scenes[1] = scenes[1].with_overrides({"damping.gamma": 3.0})
     model = build_model(scenes, device)
@@ -371,6 +381,29 @@ def test_viscous_damping_on_the_fused_kernels_equals_per_step(case, windowed, de
     assert_kernels_agree(got.energy_error, want.energy_error, device)
 
 
+def test_dashpot_between_walls_on_the_fused_kernels_equals_per_step():
+    """The surface wall's dashpot (the contact above grain 0, which no integrated grain owns) in the tile and
+    window kernels: an impact between walls, per-step kernel bit for bit; the impact reaches the bottom wall."""
+    from hertzian.ensemble.scene import scene_from_dict
+
+    scene = scene_from_dict({"chain": {"grains": 24, "l0": 1e-4}, "excitation": {"impact": 1e-2},
+                             "boundary": {"surface": "wall", "bottom": "wall"},
+                             "integrator": {"duration": 2.0, "dt": 1e-3, "events": "off"},
+                             "damping": {"model": "contact", "gamma": 0.5}, "record": {"every": 0.25, "fields": ["u", "v"]}})
+    model = build_model([scene, scene.with_overrides({"excitation.impact": 2e-2})], "cpu")
+    want = run(model, "step")
+    v = np.abs(want.fields["v"])
+    assert np.all(v[..., -1].max(axis=1) > MOVED * v.max(axis=(1, 2))), "motion never reached the bottom"
+    assert np.all(want.dissipated[:, -1] > 0)
+    for keywords in (dict(grains_per_lane=4), dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=4,
+                                                   windowed=True)):
+        got = run(model, config_of(plan_tile(model.features, model.grain_count, model.chain_count, **keywords)))
+        for name in ("u", "v"):
+            np.testing.assert_array_equal(got.fields[name], want.fields[name])
+        for name in ("energy", "dissipated"):
+            np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
+
+
 def test_undamped_fused_kernels_hold_no_damping_code():
     """Leave out what a scene does not need: without damping the tile kernel's generated code reads neither γ
     nor the dissipated energy; with viscous damping it reads and writes both."""
@@ -387,13 +420,14 @@ def test_undamped_fused_kernels_hold_no_damping_code():
     assert {"damping", "dissipated"} <= damped_arrays
 
 
-def test_fused_kernels_refuse_the_contact_dashpot():
-    """The contact dashpot needs the neighbour lanes' velocities: the tile kernel refuses it (one line), and a
-    forced tile kernel on such a scene is refused before anything runs."""
+def test_fused_kernels_refuse_the_dashpot_in_compensated_float32():
+    """The contact dashpot in compensated float32 is left to the per-step and CPU sweep kernels: the tile kernel
+    refuses it (one line), and a forced tile kernel on such a scene is refused before anything runs."""
     from hertzian.kernels.tile import tile_kernel
 
     model = build_model(driven_scenes(traces=False, damping={"model": "contact", "gamma": 0.5},
-                                      integrator={"events": "off"}), "cpu")
+                                      integrator={"events": "off", "precision": "float32"}), "cpu")
+    assert model.features.compensation
     with pytest.raises(ValueError, match="damping"):
         tile_kernel(model.features, plan_tile(model.features, model.grain_count, model.chain_count,
                                               grains_per_lane=4).shape)

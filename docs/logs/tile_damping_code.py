@@ -5,7 +5,7 @@ GPU: Warp's CUDA code generation, NVRTC to PTX for sm_90, ``ptxas -v`` (register
 
 Kernels: the driven 10 000-grain column of Figs. 9-10 (gravity, bottom fixed, events off, gear4 float64) on its
 calibrated window shape (G = 4, 32 lanes) and gpu_10k's chains (walls, 500 grains, tile G = 4, 125 lanes),
-each undamped and with viscous damping. Static counts only: they say that the code builds and how large it is,
+each undamped, with viscous damping and with the contact dashpot. Static counts only: they say that the code builds and how large it is,
 not how fast it runs.
 """
 
@@ -38,7 +38,7 @@ print(f"# {datetime.now(timezone.utc).isoformat(timespec='seconds')}, Warp {wp._
 print("# case | damping | registers | stack frame B | spill stores B | spill loads B | PTX lines")
 out_dir = tempfile.mkdtemp(prefix="tile-damping-code-")
 for name, (features, shape) in CASES.items():
-    for damping in ("none", "viscous"):
+    for damping in ("none", "viscous", "contact"):
         kernel = tile_kernel(replace(features, damping=damping), shape)
         options = dict(kernel.module.options, block_dim=shape.block_dim)
         source = ModuleBuilder(kernel.module, options, target="cuda").codegen("cuda")

@@ -62,8 +62,9 @@ def stepping_features(features):
 def fused_lacks(features, is_cpu: bool) -> str | None:
     """The feature the device's fused kernel (CPU sweep, CUDA tile/window) lacks, or None."""
     f = stepping_features(features)
-    if f.damping not in ("none", "viscous") and not is_cpu:
-        return f"damping (damping.model = {f.damping!r}; only the per-step kernel carries the dashpot on CUDA)"
+    if f.damping == "contact" and f.compensation and not is_cpu:
+        return ("damping (damping.model = 'contact' in compensated float32; only the per-step kernel carries it on "
+                "CUDA)")
     if f.method in SUBSTEP_WEIGHTS and not is_cpu:
         return f"method {f.method} (its substeps are in the per-step and CPU sweep kernels only)"
     if is_cpu:
@@ -326,17 +327,16 @@ def choose_config(model: Model, kernel: str = "auto", *, run_steps: int | None =
     f = model.features
     if kernel == "step":
         return STEP
-    if f.damping not in ("none", "viscous"):
-        # the contact dashpot (and its dissipated energy) exists in the per-step kernel and the CPU sweep kernel;
-        # the tile/window kernels carry viscous damping only
+    if f.damping == "contact" and f.compensation:
+        # the contact dashpot in compensated float32 exists in the per-step kernel and the CPU sweep kernel only
         if model.device.is_cpu:
             if kernel in ("tile", "window"):
-                raise ValueError(f"kernel = {kernel!r}: damping (damping.model = {f.damping!r}) runs only on the "
-                                 "per-step and sweep solvers; use --kernel step, sweep or auto")
+                raise ValueError(f"kernel = {kernel!r}: damping (damping.model = 'contact' in compensated float32) runs "
+                                 "only on the per-step and sweep solvers; use --kernel step, sweep or auto")
         else:
             if kernel not in ("auto", "fused"):
-                raise ValueError(f"kernel = {kernel!r}: damping (damping.model = {f.damping!r}) runs only on the "
-                                 "per-step solver; use --kernel step or auto")
+                raise ValueError(f"kernel = {kernel!r}: damping (damping.model = 'contact' in compensated float32) runs "
+                                 "only on the per-step solver; use --kernel step or auto")
             return STEP
     if kernel == "sweep":
         if not model.device.is_cpu:
