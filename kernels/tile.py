@@ -38,11 +38,13 @@ without it the lane of grain 0 evaluated three of them every step while the bloc
 Traces are written inside the launch after each step k·stride, from the lanes that keep the traced grains
 (a window's interior), as the per-step kernel writes them.
 
-Viscous damping (``damping = "viscous"``: force −γ m v on every integrated grain) adds kernels/step.py's
-−h²/2·γ·(dt·v predicted) to each corrector and accumulates each grain's dissipated energy (the trapezoid of
-γ m v² at t_n and at the predicted t_{n+1}) in registers, from the stored value, in the per-step kernel's
-arithmetic; the interior's sums are written back once per launch. The contact dashpot needs the neighbour
-lanes' velocities and is not implemented here.
+Damping, in the per-step kernel's arithmetic. Viscous (``damping = "viscous"``: force −γ m v on every integrated
+grain) adds kernels/step.py's −h²/2·γ·(dt·v predicted) to each corrector. The contact dashpot (``"contact"``) adds
+each contact's γ·δ̇ at the predicted t_{n+1} to its Hertz force; its lanes also exchange their edge grains' predicted
+rates and the first grain's (u, dt·v) at t_n, and the driver's work includes its contact's dashpot. Each grain's
+dissipated energy (the trapezoid of the loss power at t_n and at the predicted t_{n+1}) is accumulated in registers
+from the stored value and written back for the interior once per launch. Not here: the dashpot in compensated
+float32.
 """
 
 
@@ -158,9 +160,9 @@ def tile_kernel(features: Features, shape: TileShape):
     contact_force, _ = contact_functions(f.precision, f.hertz)
     forces = contact_forces(f.precision, f.hertz, G + 1, branchless=shape.branchless, fast_sqrt=shape.fast_sqrt)
     nordsieck = nordsieck_functions(f.method, f.precision, f.compensation)
-    DAMPED = f.damping == "viscous"
+    VISCOUS = f.damping == "viscous"
     DASHPOT = f.damping == "contact"
-    DISSIPATES = DAMPED or DASHPOT  # the dissipated energy is accumulated per grain
+    DISSIPATES = VISCOUS or DASHPOT  # the dissipated energy is accumulated per grain
     ORDER = f.nordsieck_values  # rows of the Nordsieck vector (kernels/gear.py), as kernels/step.py counts them
 
     state_t = wp.types.matrix(shape=(Q, G), dtype=real)
@@ -472,7 +474,9 @@ def tile_kernel(features: Features, shape: TileShape):
                 if (contact_bits & (1 << k)) == 0:
                     force[k] = real(0)
         if wp.static(DASHPOT):
-            # each contact's dashpot at the predicted t_n+1 (kernels/step.py: added to its Hertz force)
+            # each contact's dashpot at the predicted t_n+1 (kernels/step.py: added to its Hertz force). The lane's
+            # rates are recomputed rather than kept from the edge tile above: keeping them across the barrier cost
+            # registers (sm_90, ptxas: 251 -> 255 on gpu_10k's tile kernel; docs/logs/tile_damping_code.py)
             rate_left = real(0)
             rate_right = real(0)
             if has_left:
@@ -487,7 +491,7 @@ def tile_kernel(features: Features, shape: TileShape):
         out = s
         for k in range(G):
             half_h2_acc = hh * (force[k] - force[k + 1]) * inv_m[k]
-            if wp.static(DAMPED):
+            if wp.static(VISCOUS):
                 half_h2_acc -= real(0.5) * h * gamma * predicted_rate(column(s, k))  # h²/2 · (−γ v)
             new = nordsieck.corrected(column(s, k), up[k], half_h2_acc)
             if wp.static(FIXED):
@@ -747,7 +751,7 @@ def tile_kernel(features: Features, shape: TileShape):
                 if k0 >= 0:
                     work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
                                              phase_old[1], dt, gamma, step0 + 2 * _pair + 1 == 1)
-            if wp.static(DAMPED):
+            if wp.static(VISCOUS):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
                 s_prev = s
@@ -765,7 +769,7 @@ def tile_kernel(features: Features, shape: TileShape):
                 if k0 >= 0:
                     work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
                                              phase_old[1], dt, gamma, step0 + 2 * _pair + 2 == 1)
-            if wp.static(DAMPED):
+            if wp.static(VISCOUS):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
                 s_prev = s
@@ -784,7 +788,7 @@ def tile_kernel(features: Features, shape: TileShape):
                 if k0 >= 0:
                     work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
                                              phase_old[1], dt, gamma, step0 + steps == 1)
-            if wp.static(DAMPED):
+            if wp.static(VISCOUS):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
                 s_prev = s
