@@ -100,6 +100,34 @@ class ChainSet(Sequence):
                         count=len(indices))
 
 
+
+class ChainStack(Sequence):
+    """ChainSets one after another, run as one ensemble: chains whose scenes differ in more than per-chain
+    scalars (a detection library: an impurity at each depth) but need the same kernel. ``stack[i]`` is chain
+    ``i``'s scene; ``template`` is the first set's (what every set shares: grains, integrator, record)."""
+
+    def __init__(self, parts: Sequence[ChainSet]):
+        if not parts:
+            raise ValueError("a ChainStack needs at least one ChainSet")
+        self.parts = tuple(parts)
+        self.offsets = np.cumsum([0] + [len(p) for p in self.parts])
+
+    @property
+    def template(self) -> Scene:
+        return self.parts[0].template
+
+    def __len__(self) -> int:
+        return int(self.offsets[-1])
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self)))]
+        if not -len(self) <= index < len(self):
+            raise IndexError(index)
+        index %= len(self)
+        part = int(np.searchsorted(self.offsets, index, side="right")) - 1
+        return self.parts[part][index - int(self.offsets[part])]
+
 def row_codes(columns: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """(index of the first row of each distinct row, distinct-row number of every row) of equal-length
     float64 columns, rows compared bit for bit (0.0 and -0.0 differ; one 1-D unique per column, not a

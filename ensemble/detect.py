@@ -330,34 +330,100 @@ def library_key(forward: Scene, grid: Grid) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:24]
 
 
+LIBRARY_BATCH = {"cpu": 4096, "cuda": 16384}
+"""Default chains per ensemble run of :func:`run_candidates`: a GPU needs many chains to be busy (a 1000-grain
+library of ≈ 13 300 candidates is then one run, its traces ≈ 1.2 GB), the CPU sweep kernel does not."""
+
+
+def default_batch_size(device: str) -> int:
+    return LIBRARY_BATCH["cuda" if str(device).startswith("cuda") else "cpu"]
+
+
+def _prepare_candidates(forward: Scene, candidates: list[tuple], block: int):
+    """The host half of one ensemble of candidates: (HostModel of a ChainStack, order) where ``order[i]`` is the
+    candidate run as chain i, or (None, None) when the candidates need the per-scene path.
+
+    Candidates of one depth and contact constant differ only in the impurity's mass, a per-chain scalar: each
+    such group is one ChainSet (template: BASE with that impurity block, mass per chain), prepared with numpy
+    over the group, the groups stacked (``hertzian.ensemble.model.stack_prepared``): no scene per candidate,
+    the same arrays as building every candidate's scene (``tests/test_detect.py`` checks the traces bit for
+    bit). The clean chain joins the first group as mass ratio 1 (the kernel is the impurity chains' anyway).
+    """
+    from .chains import ChainSet
+    from .model import prepare_model, stack_prepared
+
+    groups: dict[tuple[int, float], list[tuple[int, float]]] = {}
+    clean = []
+    for index, candidate in enumerate(candidates):
+        depth, mass_ratio, a_ratio = (*candidate, 1.0)[:3]
+        if depth < 0 or (mass_ratio == 1.0 and a_ratio == 1.0):
+            clean.append(index)
+        else:
+            groups.setdefault((int(depth), float(a_ratio)), []).append((index, float(mass_ratio)))
+    if not groups:
+        return None, None
+    keys = list(groups)
+    groups[keys[0]] = [(index, 1.0) for index in clean] + groups[keys[0]]
+    parts, order = [], []
+    for depth, a_ratio in keys:
+        members = groups[(depth, a_ratio)]
+        template = impurity_scene(forward, depth, 1.0, block, a_ratio)
+        masses = [mass_ratio * forward.chain.mass for _, mass_ratio in members]  # impurity_scene's arithmetic
+        parts.append(prepare_model(ChainSet.of(template, {"impurities.0.mass": masses}, len(members))))
+        order += [index for index, _ in members]
+    if len({part.features for part in parts}) > 1:
+        return None, None  # the groups need different kernels: one scene per candidate, one kernel for all
+    return stack_prepared(parts), np.asarray(order)
+
+
 def run_candidates(forward: Scene, candidates: list[tuple], block: int, device: str, *,
-                   batch_size: int = 4096) -> tuple[np.ndarray, np.ndarray]:
-    """Surface traces of candidate (depth, mass ratio[, a ratio]) chains (ensembles of ≤ batch_size chains).
+                   batch_size: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Surface traces of candidate (depth, mass ratio[, a ratio]) chains (ensembles of ≤ batch_size chains,
+    default :data:`LIBRARY_BATCH` of the device).
 
     Returns (traces (C, S), ok (C,)); a depth < 0, or mass ratio 1 with a ratio 1, means the clean chain.
+    The next batch is prepared on the host (numpy, :func:`_prepare_candidates`) while the current one runs.
     """
+    from concurrent.futures import ThreadPoolExecutor
+
     from .devices import init_warp
     from .model import build_model
     from .runner import Runner
     from .status import Status
 
     init_warp()
-    scenes = []
-    for candidate in candidates:
-        depth, mass_ratio, a_ratio = (*candidate, 1.0)[:3]
-        clean = depth < 0 or (mass_ratio == 1.0 and a_ratio == 1.0)
-        scenes.append(forward if clean else impurity_scene(forward, depth, mass_ratio, block, a_ratio))
-    traces, ok = [], []
-    for start in range(0, len(scenes), batch_size):
-        model = build_model(scenes[start:start + batch_size], device)
-        # a detection runs many small ensembles of one host chain (the refinement: a few candidates per
-        # iteration), each too short for ``auto`` to leave the per-step kernel: ``fused`` takes the CPU sweep
-        # kernel (compiled once, cached) or on a GPU the calibrated tile/window kernel (calibrated and compiled
-        # on first use, cached after), each writing the surface trace inside its launches
-        result = Runner(model, kernel="fused").run()
-        traces.append(result.traces["v"][:, :, 0].astype(np.float64))
-        ok.append(result.status == Status.OK)
-    return np.concatenate(traces), np.concatenate(ok)
+    if batch_size is None:
+        batch_size = default_batch_size(device)
+    count = len(candidates)
+    traces = np.empty((count, forward.trace_sample_count))
+    ok = np.empty(count, dtype=bool)
+    starts = list(range(0, count, batch_size))
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        pending = pool.submit(_prepare_candidates, forward, candidates[:batch_size], block)
+        for n, start in enumerate(starts):
+            batch = candidates[start:start + batch_size]
+            prepared, order = pending.result()
+            if n + 1 < len(starts):
+                pending = pool.submit(_prepare_candidates, forward, candidates[starts[n + 1]:starts[n + 1] + batch_size],
+                                      block)
+            if prepared is None:
+                scenes = []
+                for candidate in batch:
+                    depth, mass_ratio, a_ratio = (*candidate, 1.0)[:3]
+                    is_clean = depth < 0 or (mass_ratio == 1.0 and a_ratio == 1.0)
+                    scenes.append(forward if is_clean else impurity_scene(forward, depth, mass_ratio, block, a_ratio))
+                model, order = build_model(scenes, device), np.arange(len(batch))
+            else:
+                model = build_model(prepared.chains, device, prepared=prepared)
+            # a detection runs many small ensembles of one host chain (the refinement: a few candidates per
+            # iteration), each too short for ``auto`` to leave the per-step kernel: ``fused`` takes the CPU sweep
+            # kernel (compiled once, cached) or on a GPU the calibrated tile/window kernel (calibrated and compiled
+            # on first use, cached after), each writing the surface trace inside its launches
+            result = Runner(model, kernel="fused").run()
+            traces[start + order] = result.traces["v"][:, :, 0]
+            ok[start + order] = result.status == Status.OK
+            del result, model
+    return traces, ok
 
 
 def first_echo_ends(t: np.ndarray, fronts: np.ndarray, depths: np.ndarray) -> np.ndarray:
@@ -368,14 +434,16 @@ def first_echo_ends(t: np.ndarray, fronts: np.ndarray, depths: np.ndarray) -> np
 
 
 def assemble_library(key: str, grid: Grid, forward: Scene, clean: np.ndarray, traces: np.ndarray, ok: np.ndarray,
-                     fronts: np.ndarray) -> Library:
+                     fronts: np.ndarray, *, in_place: bool = False) -> Library:
     """A library from the clean chain's surface trace (S,), the candidates' (D, M, S) and whether each ran OK
     (D, M): the echoes (a candidate that did not run OK as velocity 0) and their Gram matrices over all samples
-    and over each depth's first-echo window (samples at the forward scene's trace times)."""
-    clean = np.asarray(clean, dtype=np.float64)
+    and over each depth's first-echo window (samples at the forward scene's trace times). ``in_place``: the
+    echoes overwrite ``traces`` (float64; a library's traces are ≈ 1 GB at 1000 grains) instead of a copy."""
+    clean = np.array(clean, dtype=np.float64)  # a copy: ``traces`` may be a view of the same run's array
     ok = np.asarray(ok, dtype=bool)
     fronts = np.asarray(fronts, dtype=np.float64)
-    echoes = np.where(ok[..., None], traces, 0.0)
+    echoes = np.asarray(traces, dtype=np.float64) if in_place else np.array(traces, dtype=np.float64)
+    echoes[~ok] = 0.0
     echoes -= clean
     gram = np.matmul(echoes, echoes.transpose(0, 2, 1))
     t = np.arange(clean.size) * forward.record.trace_every
@@ -438,7 +506,7 @@ def load_library(path: Path, key: str, grid: Grid, forward: Scene) -> Library | 
 
 
 def build_library(forward: Scene, grid: Grid, device: str, *, fronts: np.ndarray | None = None,
-                  use_cache: bool = True, batch_size: int = 4096) -> Library:
+                  use_cache: bool = True, batch_size: int | None = None) -> Library:
     """The library for a forward scene and grid, from the cache when it is there (else simulated and saved).
 
     The cache is the directory ``<cache_dir>/<key>/`` of one ``.npy`` file per array (:func:`save_library`),
@@ -458,7 +526,7 @@ def build_library(forward: Scene, grid: Grid, device: str, *, fronts: np.ndarray
     traces, ok = run_candidates(forward, candidates, grid.block, device, batch_size=batch_size)
     shape = (len(grid.depths), len(grid.log_mass_ratio))
     library = assemble_library(key, grid, forward, traces[0], traces[1:].reshape(shape + (-1,)), ok[1:].reshape(shape),
-                               fronts)
+                               fronts, in_place=True)
     library.build_seconds = time.perf_counter() - start
     if use_cache:
         save_library(path, library)
@@ -820,7 +888,7 @@ def _first_echo_scores(first_echo: tuple[np.ndarray, np.ndarray], library: Libra
 def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None = None, device: str = "cpu",
            depth_range: tuple[int, int] | None = None, mass_ratio_range=(0.25, 4.0), mass_steps: int = 7,
            refine: int = 3, iterations: int = 2, step: float = 0.02, window: float | None = None,
-           use_cache: bool = True, batch_size: int = 4096, fit_a: bool = False,
+           use_cache: bool = True, batch_size: int | None = None, fit_a: bool = False,
            a_ratio_range: tuple[float, float] = (0.25, 4.0)) -> tuple[Detection, Library]:
     """Class, depth and mass ratio of an impurity in BASE from a surface signal (see the module docstring).
 
@@ -1051,7 +1119,7 @@ FINE_SCAN_ITERATIONS = 2
 
 
 def fine_scan(s: np.ndarray, forward: Scene, block: int, depth: int, x_bounds: tuple[float, float], device: str, *,
-              batch_size: int = 4096) -> tuple[Quadratic | None, int]:
+              batch_size: int | None = None) -> tuple[Quadratic | None, int]:
     """ln μ scanned every FINE_SCAN_SPACING over the class's range ``x_bounds`` at ``depth`` (one ensemble run),
     then Gauss–Newton from the best point; returns (the quadratic of lowest RSS, scan points)."""
     lo, hi = x_bounds
@@ -1109,7 +1177,7 @@ class ContactFit:
 
 def fit_contact(s: np.ndarray, forward: Scene, block: int, depth: int, x_bounds: tuple[float, float],
                 a_ratio_range: tuple[float, float], device: str, *, noise: float | None, step: float,
-                batch_size: int = 4096) -> ContactFit | None:
+                batch_size: int | None = None) -> ContactFit | None:
     """Fit x = ln μ and y = ln(a/a_host) at ``depth``; μ and a trade off along a curved valley (the echo's
     impedance), so Gauss–Newton from afar zig-zags or overshoots. First a grid: X_STEPS × A_STEPS points
     over the class's range of x and the prior range of y, one ensemble; then JOINT_ITERATIONS Gauss–Newton

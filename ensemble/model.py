@@ -18,7 +18,7 @@ import warp as wp
 
 from hertzian.kernels.features import EVENT_WINDOW, GEAR_CORRECTOR, GEAR_VALUES, Features
 
-from .chains import ChainSet, per_unique
+from .chains import ChainSet, ChainStack, per_unique
 from .scene import VALIDITY_FRACTION, Scene, SceneError
 from .static import StaticState, static_state
 
@@ -133,8 +133,8 @@ class State:
 class Model:
     """An ensemble of chains ready to integrate on one device. Arrays a feature doesn't use have size 0."""
 
-    scenes: "tuple[Scene, ...] | ChainSet"
-    """The chains' scenes: a tuple, or a ChainSet (template + per-chain arrays) indexed like one."""
+    scenes: "tuple[Scene, ...] | ChainSet | ChainStack"
+    """The chains' scenes: a tuple, or a ChainSet (template + per-chain arrays) or ChainStack indexed like one."""
     features: Features
     device: wp.context.Device
     chain_count: int
@@ -212,13 +212,13 @@ class Model:
 
         state = self.state(like=like)
         order = self.features.nordsieck_values
-        if isinstance(self.scenes, ChainSet):
+        # prepared for these features (a model copied with other features computes its own)
+        start = self._start[1] if self._start is not None and self._start[0] == self.features else None
+        if start is not None or isinstance(self.scenes, ChainSet):
             from .startup import initial_nordsieck_of
 
             # only the first grains move at t = 0 (startup.taylor_window): upload those into the zeroed
             # buffer (a copy of the window, not of every grain)
-            # prepared for these features (a model copied with other features computes its own)
-            start = self._start[1] if self._start is not None and self._start[0] == self.features else None
             if start is None:
                 start = state_layout(initial_nordsieck_of(self.scenes, order, self.dt, self._static, whole=False),
                                      self.features)
@@ -273,7 +273,7 @@ def build_model(scenes: "list[Scene] | ChainSet", device: str | None = None, *,
     ChainSet and ``features``, computed earlier (e.g. in a background thread): only the uploads remain.
     """
     device = wp.get_device(device)
-    if isinstance(scenes, ChainSet):
+    if isinstance(scenes, (ChainSet, ChainStack)):
         return _build_model_of(scenes, device, features, prepared)
     if not scenes:
         raise SceneError("scenes", [], "an ensemble needs at least one scene")
@@ -439,10 +439,51 @@ def prepare_model(chains: ChainSet, *, features: Features | None = None) -> Host
                      seconds=time.perf_counter() - clock)
 
 
+def stack_prepared(parts: list[HostModel]) -> HostModel:
+    """One HostModel of several ChainSets' (:func:`prepare_model` of each, run with one kernel): their
+    per-chain arrays and initial states concatenated, chains a :class:`ChainStack`. Every part must have
+    the same features (give each ``prepare_model`` the same ``features``) and the same record layout;
+    per-grain arrays of a part that needs none (shape (chains, 1)) are not widened, so the parts must agree
+    in shape too. Each chain's arrays are its own part's, so a chain runs as it would in its own set."""
+    if not parts:
+        raise ValueError("stack_prepared needs at least one HostModel")
+    first = parts[0]
+    for part in parts[1:]:
+        if part.features != first.features:
+            raise ValueError(f"stacked chain sets need one kernel: {part.features} differs from {first.features}")
+        template, other = first.chains.template, part.chains.template
+        if (other.chain.grains, other.integrator, other.record, other.boundary) != (
+                template.chain.grains, template.integrator, template.record, template.boundary):
+            raise ValueError("stacked chain sets must share grains, integrator, record and boundaries")
+    arrays = {}
+    for name, array in first.arrays.items():
+        if name == "trace_slot":  # per grain, shared
+            arrays[name] = array
+            continue
+        pieces = [part.arrays[name] for part in parts]
+        if array.size == 0 or array.ndim == 0:
+            arrays[name] = array
+            continue
+        if any(p.shape[1:] != array.shape[1:] for p in pieces):
+            raise ValueError(f"stacked chain sets disagree in the shape of {name}")
+        arrays[name] = np.concatenate(pieces, axis=0)
+    width = max(part.start.shape[2] for part in parts)
+    start = np.zeros((first.start.shape[0], sum(len(p.chains) for p in parts), width), dtype=first.start.dtype)
+    row = 0
+    for part in parts:
+        start[:, row:row + len(part.chains), :part.start.shape[2]] = part.start
+        row += len(part.chains)
+    return HostModel(chains=ChainStack([p.chains for p in parts]), features=first.features, static=None,
+                     arrays=arrays, injected_energy=np.concatenate([p.injected_energy for p in parts]),
+                     start=start, seconds=sum(p.seconds for p in parts))
+
+
 def _build_model_of(chains: ChainSet, device, features: Features | None, prepared: HostModel | None = None) -> Model:
     """build_model for a ChainSet: every per-chain array from numpy over the set (bitwise equal to the
     per-scene path, checked by tests/test_vectorised.py), then uploaded."""
     if prepared is None:
+        if isinstance(chains, ChainStack):
+            raise ValueError("a ChainStack model is built from stack_prepared(...) of its sets' prepare_model")
         prepared = prepare_model(chains, features=features)
     elif prepared.chains is not chains or (features is not None and prepared.features != features):
         raise ValueError("prepare_model was given other chains or features than build_model")

@@ -127,9 +127,14 @@ class Recorder:
         if self.fields or self.traced:
             buf["u"] = host((c, n), m.real)
             buf["v"] = host((c, n), m.real)
-        if self.traced:
-            buf["ring"] = host((2, c, self.capacity, len(self.traced)), m.real)
+        # the trace ring's copy ("ring", the largest) is allocated at its first use, a record r > 0: a run with
+        # one record after t = 0 (a detection library: every chain's whole trace) needs it in one buffer only
         return buf
+
+    def _ring_buffer(self) -> wp.array:
+        m = self.model
+        return wp.empty((2, m.chain_count, self.capacity, len(self.traced)), dtype=m.real, device="cpu",
+                        pinned=m.device.is_cuda)
 
     def load(self) -> None:
         """Compile and load the reduction kernels (before a clock starts)."""
@@ -175,7 +180,9 @@ class Recorder:
         if "u" in buf:
             wp.copy(buf["u"], state.x[0])
             wp.copy(buf["v"], state.x[1])
-        if "ring" in buf and r > 0:
+        if self.traced and r > 0:
+            if "ring" not in buf:
+                buf["ring"] = self._ring_buffer()
             wp.copy(buf["ring"], state.traces)
         event = wp.get_stream(self.model.device).record_event() if self.model.device.is_cuda else None
         self.pending[slot] = (r, event)
@@ -208,7 +215,14 @@ class Recorder:
                 # sample k (taken at step k·stride) sits in ring slot k % capacity
                 rows = slice(int(self.record_steps[r - 1]) // self.stride + 1,
                              int(self.record_steps[r]) // self.stride + 1)
-                ring = buf["ring"].numpy()[:, :, np.arange(rows.start, rows.stop) % self.capacity]
+                ring = buf["ring"].numpy()
+                first, count = rows.start % self.capacity, rows.stop - rows.start
+                if first + count <= self.capacity:
+                    # the samples sit in consecutive slots: copy from views (no gathered temporary; a detection
+                    # library's one record holds every chain's whole trace)
+                    ring = ring[:, :, first:first + count]
+                else:
+                    ring = ring[:, :, np.arange(rows.start, rows.stop) % self.capacity]
                 self.traces["u"][:, rows] = ring[0]
-                self.traces["v"][:, rows] = ring[1] / dt
+                np.divide(ring[1], dt, out=self.traces["v"][:, rows])
         self.pending[slot] = None

@@ -585,3 +585,27 @@ def test_cli_detect_study_refuses_bad_study_keys(tmp_path, study, key):
                     f'[study]\n{study}\n\n[[hosts]]\nsnr_db = [26]\nmass_ratios = [0.5]\ndepth_fractions = [0.5]\n')
     out = tmp_path / "out.json"
     assert_refused(invoke("detect-study", str(path), "--out", str(out), "--device", "cpu"), out, key)
+
+
+@pytest.mark.parametrize("gravity, block", [(0.0, 1), (1.0, 3)])
+def test_library_runs_equal_one_scene_per_candidate(gravity, block):
+    """run_candidates builds its ensembles without a scene per candidate (one ChainSet per depth and contact
+    constant, mass per chain, the sets stacked; the clean chain in the first set) and prepares the next batch
+    while one runs: every candidate's trace and status must be those of the ensemble built from one
+    impurity_scene per candidate, bit for bit, in the caller's order, across batches (here of 4 chains)."""
+    from hertzian.ensemble.detect import impurity_scene, run_candidates
+    from hertzian.ensemble.model import build_model
+    from hertzian.ensemble.runner import Runner
+    from hertzian.ensemble.scene import apply_overrides
+
+    forward = forward_scene(scene_from_dict(apply_overrides(BASE, {"chain.gravity": gravity})), SPACING, 301)
+    candidates = [(20, 3.0), (-1, 1.0), (3, 0.5), (10, 1.0, 2.0), (3, 2.0), (10, 0.7), (25, 0.3), (2, 1.4),
+                  (10, 0.9, 2.0)]
+    traces, ok = run_candidates(forward, candidates, block, "cpu", batch_size=4)
+    scenes = [forward if depth < 0 else impurity_scene(forward, depth, mu, block, (*rest, 1.0)[0])
+              for depth, mu, *rest in candidates]
+    reference = Runner(build_model(scenes, "cpu"), kernel="fused").run()
+    assert ok.all() and (reference.status == 0).all()
+    expected = reference.traces["v"][:, :, 0]
+    assert np.max(np.abs(expected - expected[1])) > 1e-4  # the impurities' echoes reached the surface
+    np.testing.assert_array_equal(traces, expected)

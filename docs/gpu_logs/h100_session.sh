@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -269,6 +269,13 @@ nov26g)
   step pytest_cuda_damping 200 "python3 -m pytest -q -p no:cacheprovider tests/test_fused_features.py -k 'cuda and (damping or dashpot)' 2>&1"
   step damped_control_fused 150 "$HZ sweep sweeps/drive_fig9_10_damped_gpu.toml --out $WORK/damped.zarr --overwrite --device cuda --quiet --json"
   step detect_first_profile 330 "python3 docs/logs/detection/profile_first.py --device cuda --study sweeps/detect_study_1000_target_off.toml"
+  ;;
+nov26h)
+  # first detections after the library's ensembles were built without a scene per candidate (one batch on a GPU,
+  # traces unpacked from views): the study's 7 ratios a side, then 4; the target study with 4 ratios a side
+  step detect_first_m7 240 "python3 docs/logs/detection/profile_first.py --device cuda --study sweeps/detect_study_1000_target_off.toml"
+  step detect_first_m4 200 "python3 docs/logs/detection/profile_first.py --device cuda --study sweeps/detect_study_1000_target_off.toml --mass-steps 4"
+  step detect_study_m4 ${DETECT_LIMIT:-300} "$HZ detect-study sweeps/detect_study_1000_target_m4.toml --out $LOGS/study_1000_target_m4_gpu.json --overwrite --device cuda"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"

@@ -60,7 +60,8 @@ def detect(
     plot: Annotated[Optional[Path], typer.Option("--plot", help="Draw signal, best fit, residual and the "
                                                  "posterior over depth into this PNG.")] = None,
     no_cache: Annotated[bool, typer.Option("--no-cache", help="Neither read nor write the library cache.")] = False,
-    batch_size: Annotated[int, typer.Option("--batch-size", help="Chains per ensemble run of the library.")] = 4096,
+    batch_size: Annotated[Optional[int], typer.Option("--batch-size", help="Chains per ensemble run of the library "
+                                                      "(default 4096 on the CPU, 16384 on a GPU).")] = None,
     device: DeviceOption = None,
     set_: SetOption = None,
 ):
@@ -87,7 +88,7 @@ def detect(
     a_low, a_high = _pair("--a-range", a_range, ",", float) if a_range is not None else (0.25, 4.0)
     if plot is not None and not plot.parent.exists():
         fail(f"--plot = {str(plot)!r}: parent directory does not exist")
-    if batch_size < 1:
+    if batch_size is not None and batch_size < 1:
         fail(f"--batch-size = {batch_size}: must be an integer ≥ 1")
     if iterations < 1:
         fail(f"--iterations = {iterations}: must be an integer ≥ 1")

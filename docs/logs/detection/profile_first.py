@@ -32,6 +32,7 @@ def main() -> None:
     parser.add_argument("--device", default="cuda")
     parser.add_argument("--study", default="sweeps/detect_study_1000_target_off.toml")
     parser.add_argument("--depth", type=float, default=0.5, help="planted depth as a fraction of the chain")
+    parser.add_argument("--mass-steps", type=int, default=None, help="library ratios a side (default: the study's)")
     parser.add_argument("--repeat", action="store_true", help="a second first detection on a warm machine")
     args = parser.parse_args()
     study = load_study(args.study)
@@ -48,6 +49,9 @@ def main() -> None:
     t = np.arange(samples) * spacing
     signal = signal_from_arrays(t, planted + np.random.default_rng(1).normal(scale=peak / 10 ** 1.3, size=samples))
     kwargs = {k: options[k] for k in ("mass_steps", "refine", "iterations") if k in options}
+    if args.mass_steps is not None:
+        kwargs["mass_steps"] = args.mass_steps
+    print(f"detect options {kwargs}", flush=True)
     profile = None
     caches = [tempfile.mkdtemp(prefix="hz-detect-") for _ in range(3)]
     calls = [("cold (compiles)", caches[0]), ("first, warm kernels (profiled)", caches[1])]
