@@ -225,12 +225,17 @@ def front_times(forward: Scene, device: str) -> np.ndarray:
     One clean run tracing about 50 grains; the front is where v first exceeds FRONT_THRESHOLD · v_imp;
     grains in between are interpolated linearly.
     """
-    from .runner import run_scene
+    from .devices import init_warp
+    from .model import build_model
+    from .runner import Runner
 
     n = forward.chain.grains
     stride = max(1, n // 50)
     traced = sorted(set(range(0, n, stride)) | {n - 1})
-    result = run_scene(replace(forward, record=replace(forward.record, traces=tuple(traced))), device)
+    init_warp()
+    # the fused kernels, as the library's runs (``auto`` would take the per-step kernel for one chain's short run)
+    model = build_model([replace(forward, record=replace(forward.record, traces=tuple(traced)))], device)
+    result = Runner(model, kernel="fused", trace_values=("v",)).run()
     v = result.traces["v"][0]
     t = result.trace_t
     threshold = FRONT_THRESHOLD * forward.excitation.impact
@@ -395,7 +400,7 @@ def run_candidates(forward: Scene, candidates: list[tuple], block: int, device: 
     if batch_size is None:
         batch_size = default_batch_size(device)
     count = len(candidates)
-    traces = np.empty((count, forward.trace_sample_count))
+    traces = np.empty((count, forward.trace_sample_count)) if count > batch_size else None
     ok = np.empty(count, dtype=bool)
     starts = list(range(0, count, batch_size))
     with ThreadPoolExecutor(max_workers=1) as pool:
@@ -419,8 +424,14 @@ def run_candidates(forward: Scene, candidates: list[tuple], block: int, device: 
             # iteration), each too short for ``auto`` to leave the per-step kernel: ``fused`` takes the CPU sweep
             # kernel (compiled once, cached) or on a GPU the calibrated tile/window kernel (calibrated and compiled
             # on first use, cached after), each writing the surface trace inside its launches
-            result = Runner(model, kernel="fused").run()
-            traces[start + order] = result.traces["v"][:, :, 0]
+            result = Runner(model, kernel="fused", trace_values=("v",)).run()
+            v = result.traces["v"][:, :, 0]
+            if traces is None and np.array_equal(order, np.arange(count)):
+                traces = v if v.dtype == np.float64 else v.astype(np.float64)  # one batch in order: no copy
+            else:
+                if traces is None:
+                    traces = np.empty((count, forward.trace_sample_count))
+                traces[start + order] = v
             ok[start + order] = result.status == Status.OK
             del result, model
     return traces, ok

@@ -20,6 +20,10 @@ from .model import Model, State
 from .response import ResponseAccumulator
 
 
+PINNED_RING_BYTES = 256 << 20
+"""Largest host copy of the trace ring kept page-locked (reused by the pool); larger ones are pageable."""
+
+
 class StagingPool:
     """Host staging buffers kept between runs, so a sweep's batches reuse them instead of allocating
     (page-locked on CUDA, where allocating and freeing them costs milliseconds per megabyte).
@@ -58,8 +62,12 @@ STAGING = StagingPool()
 class Recorder:
     """The device reductions and host arrays of one run of ``model``."""
 
-    def __init__(self, model: Model):
+    def __init__(self, model: Model, *, trace_values: tuple[str, ...] = ("u", "v")):
+        if not trace_values or not set(trace_values) <= {"u", "v"}:
+            raise ValueError(f"trace_values = {trace_values!r}: one or both of 'u', 'v'")
         self.model = model
+        self.trace_values = tuple(name for name in ("u", "v") if name in trace_values)
+        """What the traces keep: displacement u, velocity v or both (a detection library keeps v only)."""
         m, scene = model, model.scenes[0]
         c, dev = m.chain_count, m.device
         self.parts_kernel, self.kernel = record_kernels(m.features)
@@ -86,7 +94,7 @@ class Recorder:
         self.stride = scene.trace_stride
         sample_count = scene.trace_sample_count
         self.traces = ({name: np.zeros((c, sample_count, len(self.traced)), dtype=self.real_np)
-                        for name in ("u", "v")} if self.traced else {})
+                        for name in self.trace_values} if self.traced else {})
         self.trace_t = (np.arange(sample_count) * scene.trace_stride * m.dt) if self.traced else None
         self.energy = np.zeros((c, records))
         self.work = np.zeros((c, records)) if m.features.surface == "driven" else None
@@ -102,7 +110,8 @@ class Recorder:
     def _staging_key(self) -> tuple:
         m = self.model
         return (str(m.device), m.chain_count, m.grain_count, m.features.precision, self.work is not None,
-                self.dissipated is not None, bool(self.fields or self.traced), len(self.traced), self.capacity)
+                self.dissipated is not None, bool(self.fields or self.traced), len(self.traced), self.capacity,
+                self.trace_values)
 
     def release(self) -> None:
         """Hand the staging buffers back to the pool (after :meth:`finish`; the recorder keeps no copy)."""
@@ -132,9 +141,19 @@ class Recorder:
         return buf
 
     def _ring_buffer(self) -> wp.array:
+        # page-locked where the pool can reuse it; a ring of more than PINNED_RING_BYTES (a detection library's
+        # whole traces) in pageable memory: page-locking a gigabyte costs more than its copy
         m = self.model
-        return wp.empty((2, m.chain_count, self.capacity, len(self.traced)), dtype=m.real, device="cpu",
-                        pinned=m.device.is_cuda)
+        shape = (len(self.trace_values), m.chain_count, self.capacity, len(self.traced))
+        nbytes = int(np.prod(shape)) * np.dtype(self.real_np).itemsize
+        return wp.empty(shape, dtype=m.real, device="cpu", pinned=m.device.is_cuda and nbytes <= PINNED_RING_BYTES)
+
+    def _ring_source(self, state: State) -> wp.array:
+        """The device ring's halves the traces keep (u is [0], dt·v is [1])."""
+        if len(self.trace_values) == 2:
+            return state.traces
+        index = ("u", "v").index(self.trace_values[0])
+        return state.traces[index:index + 1]
 
     def load(self) -> None:
         """Compile and load the reduction kernels (before a clock starts)."""
@@ -183,7 +202,7 @@ class Recorder:
         if self.traced and r > 0:
             if "ring" not in buf:
                 buf["ring"] = self._ring_buffer()
-            wp.copy(buf["ring"], state.traces)
+            wp.copy(buf["ring"], self._ring_source(state))
         event = wp.get_stream(self.model.device).record_event() if self.model.device.is_cuda else None
         self.pending[slot] = (r, event)
 
@@ -209,8 +228,10 @@ class Recorder:
             self.dissipated[:, r] = buf["dissipated"].numpy()
         if self.traced:
             if r == 0:
-                self.traces["u"][:, 0] = buf["u"].numpy()[:, self.traced]
-                self.traces["v"][:, 0] = buf["v"].numpy()[:, self.traced] / dt
+                if "u" in self.traces:
+                    self.traces["u"][:, 0] = buf["u"].numpy()[:, self.traced]
+                if "v" in self.traces:
+                    self.traces["v"][:, 0] = buf["v"].numpy()[:, self.traced] / dt
             else:
                 # sample k (taken at step k·stride) sits in ring slot k % capacity
                 rows = slice(int(self.record_steps[r - 1]) // self.stride + 1,
@@ -223,6 +244,9 @@ class Recorder:
                     ring = ring[:, :, first:first + count]
                 else:
                     ring = ring[:, :, np.arange(rows.start, rows.stop) % self.capacity]
-                self.traces["u"][:, rows] = ring[0]
-                np.divide(ring[1], dt, out=self.traces["v"][:, rows])
+                for half, name in zip(ring, self.trace_values):
+                    if name == "u":
+                        self.traces["u"][:, rows] = half
+                    else:
+                        np.divide(half, dt, out=self.traces["v"][:, rows])
         self.pending[slot] = None
