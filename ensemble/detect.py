@@ -370,15 +370,55 @@ def _prepare_candidates(forward: Scene, candidates: list[tuple], block: int):
     keys = list(groups)
     groups[keys[0]] = [(index, 1.0) for index in clean] + groups[keys[0]]
     parts, order = [], []
+    movable: dict[int, tuple] = {}  # group size → a prepared group whose impurity can move to another depth
     for depth, a_ratio in keys:
         members = groups[(depth, a_ratio)]
         template = impurity_scene(forward, depth, 1.0, block, a_ratio)
         masses = [mass_ratio * forward.chain.mass for _, mass_ratio in members]  # impurity_scene's arithmetic
-        parts.append(prepare_model(ChainSet.of(template, {"impurities.0.mass": masses}, len(members))))
+        chains = ChainSet.of(template, {"impurities.0.mass": masses}, len(members))
+        moved = movable.get(len(members))
+        part = _moved_impurity(moved, chains, depth, block) if moved is not None else None
+        if part is None:
+            part = prepare_model(chains)
+            if moved is None and _impurity_can_move(forward, depth, a_ratio):
+                movable[len(members)] = (part, depth)
+        parts.append(part)
         order += [index for index, _ in members]
     if len({part.features for part in parts}) > 1:
         return None, None  # the groups need different kernels: one scene per candidate, one kernel for all
     return stack_prepared(parts), np.asarray(order)
+
+
+def _impurity_can_move(forward: Scene, depth: int, a_ratio: float) -> bool:
+    """Whether a block of the host's contact constant at ``depth`` changes nothing but its grains' masses in the
+    prepared arrays: no gravity (the static forces, hence overlaps, are then the same on every contact whatever the
+    masses) and below the grains that move at t = 0 (startup.taylor_window: the Taylor start reads only their
+    masses), so that moving it to another such depth moves only its 1/m entries."""
+    from hertzian.kernels.features import GEAR_VALUES
+
+    from .startup import taylor_window
+
+    window = taylor_window(forward.chain.grains, max(GEAR_VALUES.values()))  # every method's, at most
+    return a_ratio == 1.0 and forward.chain.gravity == 0.0 and depth > window
+
+
+def _moved_impurity(moved, chains, depth: int, block: int):
+    """The HostModel of ``chains`` (one group: an impurity block at ``depth``, mass per chain) from ``moved``'s, the
+    prepared group (HostModel, its depth), with the block moved — or None when the impurity cannot move there
+    (:func:`_impurity_can_move`) or the masses differ in number. Every array but 1/m is the prepared group's; 1/m is
+    1/m_host outside the block (the prepared group's own value) and 1.0 / mass in it, numpy's division as in
+    prepare_model: the same bits as preparing the group (``tests/test_detect.py`` compares the traces)."""
+    import dataclasses
+
+    part, _ = moved
+    if (len(chains) != len(part.chains) or not _impurity_can_move(chains.template, depth, 1.0)
+            or chains.template.impurities[0].a is not None):
+        return None
+    inverse = part.arrays["inverse_mass"]
+    new_inverse = np.repeat(inverse[:, :1], inverse.shape[1], axis=1)  # grain 0 is the host's (above the window)
+    mass = chains.values["impurities.0.mass"]
+    new_inverse[:, depth:depth + block] = (1.0 / mass)[:, None].astype(inverse.dtype)
+    return dataclasses.replace(part, chains=chains, arrays={**part.arrays, "inverse_mass": new_inverse}, seconds=0.0)
 
 
 def run_candidates(forward: Scene, candidates: list[tuple], block: int, device: str, *,

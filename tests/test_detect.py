@@ -587,12 +587,14 @@ def test_cli_detect_study_refuses_bad_study_keys(tmp_path, study, key):
     assert_refused(invoke("detect-study", str(path), "--out", str(out), "--device", "cpu"), out, key)
 
 
-@pytest.mark.parametrize("gravity, block", [(0.0, 1), (1.0, 3)])
+@pytest.mark.parametrize("gravity, block", [(0.0, 1), (0.0, 3), (1.0, 3)])
 def test_library_runs_equal_one_scene_per_candidate(gravity, block):
     """run_candidates builds its ensembles without a scene per candidate (one ChainSet per depth and contact
     constant, mass per chain, the sets stacked; the clean chain in the first set) and prepares the next batch
     while one runs: every candidate's trace and status must be those of the ensemble built from one
-    impurity_scene per candidate, bit for bit, in the caller's order, across batches (here of 4 chains)."""
+    impurity_scene per candidate, bit for bit, in the caller's order, across batches (here of 4 chains). Without
+    gravity a group below the grains that move at t = 0 reuses another such group's arrays with its impurity moved
+    (depths 10 → 25 here); depth 2 is above them, and gravity or a ≠ a_host forbids the move."""
     from hertzian.ensemble.detect import impurity_scene, run_candidates
     from hertzian.ensemble.model import build_model
     from hertzian.ensemble.runner import Runner
