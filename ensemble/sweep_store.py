@@ -379,6 +379,16 @@ def remove_partial_files(path: str | Path) -> int:
 
 # ---- filling -----------------------------------------------------------------------------
 
+STORE_WRITE_THREADS = 4
+"""Arrays of one batch written at once (at most the CPU count; 1 writes them in turn)."""
+
+
+def store_write_threads() -> int:
+    import os
+
+    return max(1, min(STORE_WRITE_THREADS, os.cpu_count() or 1))
+
+
 def write_batch(path: str | Path, batch: Batch, result: RunResult, *, grain_steps: int,
                 worker: str = "", build_seconds: float = 0.0) -> dict[str, Any]:
     """Write one batch's results into its block, then its completion record; return the record.
@@ -396,27 +406,34 @@ def write_batch(path: str | Path, batch: Batch, result: RunResult, *, grain_step
         arr = zarr.open_array(store=str(path), path=name, mode="r+").with_config({"write_empty_chunks": True})
         arr[region] = np.asarray(data, dtype=arr.dtype).reshape(shape + data.shape[1:])
 
-    for name, data in result.fields.items():
-        put(name, data)
     scene = result.scenes[0]
-    if scene.record.energy:
-        put("energy", result.energy)
-        if result.work is not None:
-            put("work", result.work)
-    if scene.record.energy and result.dissipated is not None:
-        put("dissipated", result.dissipated)
-    for name, data in result.response.items():
-        put(name, data)
-    for name, data in result.traces.items():
-        put(f"trace_{name}", data)
     chains = result.chain_count
     wall = float(result.wall_seconds)
     rate = grain_steps / max(wall, 1e-12)
-    put("status", result.status.astype(np.int32))
-    put("energy_error", result.energy_error)
-    put("max_overlap", result.max_overlap)
-    put("wall_seconds", np.full(chains, wall / chains))
-    put("grain_steps_per_second", np.full(chains, rate))
+    arrays = dict(result.fields)
+    if scene.record.energy:
+        arrays["energy"] = result.energy
+        if result.work is not None:
+            arrays["work"] = result.work
+    if scene.record.energy and result.dissipated is not None:
+        arrays["dissipated"] = result.dissipated
+    arrays.update(result.response)
+    arrays.update({f"trace_{name}": data for name, data in result.traces.items()})
+    arrays.update({"status": result.status.astype(np.int32), "energy_error": result.energy_error,
+                   "max_overlap": result.max_overlap, "wall_seconds": np.full(chains, wall / chains),
+                   "grain_steps_per_second": np.full(chains, rate)})
+    threads = store_write_threads()
+    if threads > 1 and len(arrays) > 1:
+        # each array's encoding (zstd, in C, without the GIL) and file writes beside the others': the snapshots
+        # u and v are most of a batch's bytes, so two threads already halve the longest part
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(max_workers=min(threads, len(arrays))) as pool:
+            for future in [pool.submit(put, name, data) for name, data in arrays.items()]:
+                future.result()
+    else:
+        for name, data in arrays.items():
+            put(name, data)
     finished = datetime.now(timezone.utc)
     record = {
         "points": chains, "wall_seconds": wall, "grain_steps": int(grain_steps), "grain_steps_per_second": rate,
