@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -276,6 +276,20 @@ nov26h)
   step detect_first_m7 240 "python3 docs/logs/detection/profile_first.py --device cuda --study sweeps/detect_study_1000_target_off.toml"
   step detect_first_m4 200 "python3 docs/logs/detection/profile_first.py --device cuda --study sweeps/detect_study_1000_target_off.toml --mass-steps 4"
   step detect_study_m4 ${DETECT_LIMIT:-300} "$HZ detect-study sweeps/detect_study_1000_target_m4.toml --out $LOGS/study_1000_target_m4_gpu.json --overwrite --device cuda"
+  ;;
+nov26i)
+  # a first detection after the library's host costs were cut (fronts on the fused kernels, v-only traces into
+  # pageable memory, groups with the impurity moved), then warm gpu_10k end to end with the batch's arrays written
+  # from 4 threads, and in turn (STORE_WRITE_THREADS = 1) on the same machine
+  SERIAL="python3 -c 'import sys, hertzian.ensemble.sweep_store as s; s.STORE_WRITE_THREADS = 1; from hertzian.ensemble.cli import main; sys.argv[0] = \"hertzian\"; main()'"
+  step detect_first_m7b 200 "python3 docs/logs/detection/profile_first.py --device cuda --study sweeps/detect_study_1000_target_off.toml"
+  step e2e_gpu10k_cold_i 120 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step e2e_gpu10k_warm_i 60 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step e2e_gpu10k_warm_i_serial 60 "$SERIAL bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step e2e_gpu10k_warm_i2 60 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step e2e_gpu10k_warm_i_serial2 60 "$SERIAL bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step sweep_gpu10k_warm_i 60 "$HZ sweep sweeps/gpu_10k.toml --out $WORK/gpu10k.zarr --overwrite --device cuda --quiet --json"
+  step sweep_gpu10k_warm_i_serial 60 "$SERIAL sweep sweeps/gpu_10k.toml --out $WORK/gpu10k_s.zarr --overwrite --device cuda --quiet --json"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
