@@ -101,14 +101,16 @@ def bench_sweep(path: str | Path, device: str, *, kernel: str = "auto", override
             group.features, wp.get_device(device).is_cpu, plan.batch_grain_steps(batch))
         if reason:
             notes.append(f"launch group {index}: per-step kernel: {reason}")
-    with tempfile.TemporaryDirectory(prefix="hertzian-bench-") as tmp:
+    with tempfile.TemporaryDirectory(prefix="hertzian-bench-") as tmp, ThreadPoolExecutor(max_workers=1) as loader:
         out = Path(tmp) / "sweep.zarr"
+        # as `hertzian sweep`: the kernels load in a thread while the store is created
+        warming = loader.submit(warm_kernels, [g.features for g in plan.groups], device)
         create_sweep_store(out, definition, points.templates[0], plan, device=device)
         jobs = jobs_for(out, plan, points, plan.batches, kernel=kernel)
         build = time.perf_counter() - start
         clock = time.perf_counter()
-        warm_kernels([g.features for g in plan.groups], device)
-        compile_seconds = time.perf_counter() - clock
+        warming.result()
+        compile_seconds = time.perf_counter() - clock  # the part of loading the store's creation did not hide
         totals = {"compile": 0.0, "kernel": 0.0, "record": 0.0, "device": 0.0, "build": 0.0, "store": 0.0,
                   "prepare": 0.0, "prepare_wait": 0.0}
         kernels = []

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -290,6 +290,23 @@ nov26i)
   step e2e_gpu10k_warm_i_serial2 60 "$SERIAL bench --device cuda --sweep sweeps/gpu_10k.toml --json"
   step sweep_gpu10k_warm_i 60 "$HZ sweep sweeps/gpu_10k.toml --out $WORK/gpu10k.zarr --overwrite --device cuda --quiet --json"
   step sweep_gpu10k_warm_i_serial 60 "$SERIAL sweep sweeps/gpu_10k.toml --out $WORK/gpu10k_s.zarr --overwrite --device cuda --quiet --json"
+  ;;
+nov26j)
+  # warm gpu_10k with the kernels loading while the store is created; the pipeline's tail (the last batch's write)
+  # against the batch size: 2 batches (the planner's), 3 (4194 + 4194 + 1612 points) and 4 (2500 each)
+  CAP="python3 -c 'import sys, hertzian.ensemble.planner as p; p.MAX_GRAIN_THREADS = int(sys.argv.pop(1)); from hertzian.ensemble.cli import main; sys.argv[0] = \"hertzian\"; main()'"
+  B10K="bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  S10K="sweep sweeps/gpu_10k.toml --out $WORK/gpu10k.zarr --overwrite --device cuda --quiet --json"
+  step e2e_gpu10k_cold_j 120 "$HZ $B10K"
+  step e2e_gpu10k_warm_j 60 "$HZ $B10K"
+  step e2e_gpu10k_warm_j2 60 "$HZ $B10K"
+  step e2e_gpu10k_cap3_j 60 "$CAP 2097152 $B10K"
+  step e2e_gpu10k_cap3_j2 60 "$CAP 2097152 $B10K"
+  step e2e_gpu10k_cap4_j 60 "$CAP 1250000 $B10K"
+  step e2e_gpu10k_cap4_j2 60 "$CAP 1250000 $B10K"
+  step sweep_gpu10k_warm_j 60 "$HZ $S10K"
+  step sweep_gpu10k_b3334_j 60 "$HZ $S10K --batch-size 3334"
+  step sweep_gpu10k_b2500_j 60 "$HZ $S10K --batch-size 2500"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"

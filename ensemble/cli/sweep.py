@@ -262,6 +262,8 @@ def _run(definition, points, plan, out: Path, dev: str, *, resuming: bool, overw
     import numpy as np
     import zarr
 
+    from concurrent.futures import ThreadPoolExecutor
+
     from ..distributed import jobs_for, run_distributed, run_serial, warm_kernels, warm_workers
     from ..planner import format_bytes
     from ..sweep_store import (batch_records, completed_batches, create_sweep_store, finalize, remove_partial_files,
@@ -270,8 +272,12 @@ def _run(definition, points, plan, out: Path, dev: str, *, resuming: bool, overw
     distributed = workers is not None or scheduler is not None
     label = (f"{workers} local Dask workers" if workers is not None else
              f"Dask cluster {scheduler}" if scheduler is not None else dev)
+    features = [g.features for g in plan.groups]
     with contextlib.ExitStack() as stack:
         client = _connect(workers, scheduler, stack) if distributed else None
+        # the kernels load (from Warp's cache, or compile) in a thread while the store is created: loading a module
+        # and writing the store's metadata wait on different things (the driver, the file system)
+        warming = stack.enter_context(ThreadPoolExecutor(max_workers=1)).submit(warm_kernels, features, dev)
         if resuming:
             remove_partial_files(out)
             done = completed_batches(out)
@@ -290,8 +296,7 @@ def _run(definition, points, plan, out: Path, dev: str, *, resuming: bool, overw
         jobs = jobs_for(out.resolve(), plan, points, pending, kernel=kernel)
         timing["jobs"] = time.perf_counter() - clock
         clock = time.perf_counter()
-        features = [g.features for g in plan.groups]
-        warm_kernels(features, dev)
+        warming.result()
         if client is not None:
             warm_workers(client, features, requested_device)
         timing["warm_kernels"] = time.perf_counter() - clock
