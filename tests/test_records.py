@@ -74,14 +74,12 @@ def test_record_flags_a_non_finite_grain_in_a_later_part(device):
     assert status == Status.NON_FINITE
 
 
-def test_traces_of_one_value_equal_those_of_both(device, monkeypatch):
+def test_traces_of_one_value_equal_those_of_both(device):
     """``trace_values=("v",)`` (a detection library) copies and unpacks only the velocity half of the trace ring:
     the velocity traces equal those of a run keeping both, bit for bit, with several records (ring slots reused,
-    wrapping) and with one record after t = 0 (the whole trace in one ring, here forced into pageable memory);
-    a bad value is refused."""
+    wrapping) and with one record after t = 0 (the whole trace in one ring); a bad value is refused."""
     import pytest
 
-    import hertzian.ensemble.recorder as recorder_module
     from hertzian.ensemble.runner import Runner
 
     for every in (0.014, 0.05):
@@ -89,8 +87,6 @@ def test_traces_of_one_value_equal_those_of_both(device, monkeypatch):
                            integrator={"method": "gear4", "dt": 1e-3, "duration": 0.07 if every < 0.05 else 0.05},
                            record={"every": every, "traces": [0, 7, 29], "trace_every": 0.002})
         both = Runner(build_model([scene, scene], device)).run()
-        if every == 0.05:
-            monkeypatch.setattr(recorder_module, "PINNED_RING_BYTES", 0)
         only_v = Runner(build_model([scene, scene], device), trace_values=("v",)).run()
         assert set(only_v.traces) == {"v"}
         assert np.max(np.abs(both.traces["v"][:, -1, 0])) > 1e-4  # the surface grain moved

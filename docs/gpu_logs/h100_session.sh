@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -307,6 +307,20 @@ nov26j)
   step sweep_gpu10k_warm_j 60 "$HZ $S10K"
   step sweep_gpu10k_b3334_j 60 "$HZ $S10K --batch-size 3334"
   step sweep_gpu10k_b2500_j 60 "$HZ $S10K --batch-size 2500"
+  ;;
+nov26k)
+  # result arrays at zstd level 1; a first detection with the library's trace copy page-locked again and the host
+  # arrays mapped while the device finishes; the changed paths' CUDA tests
+  B10K="bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  S10K="sweep sweeps/gpu_10k.toml --out $WORK/gpu10k.zarr --overwrite --device cuda --quiet --json"
+  step e2e_gpu10k_cold_k 120 "$HZ $B10K"
+  step e2e_gpu10k_warm_k 60 "$HZ $B10K"
+  step e2e_gpu10k_warm_k2 60 "$HZ $B10K"
+  step e2e_gpu10k_warm_k3 60 "$HZ $B10K"
+  step sweep_gpu10k_warm_k 60 "$HZ $S10K"
+  step sweep_gpu10k_warm_k2 60 "$HZ $S10K"
+  step detect_first_m7c 200 "python3 docs/logs/detection/profile_first.py --device cuda --study sweeps/detect_study_1000_target_off.toml"
+  step pytest_cuda_k 200 "python3 -m pytest -q -p no:cacheprovider tests/test_records.py tests/test_sweep.py tests/test_vectorised.py -k cuda 2>&1"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
