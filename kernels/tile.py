@@ -159,6 +159,8 @@ def tile_kernel(features: Features, shape: TileShape):
     HERTZ = f.hertz
     contact_force, _ = contact_functions(f.precision, f.hertz)
     forces = contact_forces(f.precision, f.hertz, G + 1, branchless=shape.branchless, fast_sqrt=shape.fast_sqrt)
+    one_force = contact_forces(f.precision, f.hertz, 1, branchless=shape.branchless, fast_sqrt=shape.fast_sqrt)
+    one_vec = wp.types.vector(length=1, dtype=real)
     nordsieck = nordsieck_functions(f.method, f.precision, f.compensation)
     VISCOUS = f.damping == "viscous"
     DASHPOT = f.damping == "contact"
@@ -256,7 +258,8 @@ def tile_kernel(features: Features, shape: TileShape):
                 below0 = delta0[k + 1]
                 below_ac = a_c[k + 1]
                 below_f0 = force0[k + 1]
-        force_old = wp.float64(contact_force(below0 + d_old, below_ac, n) - below_f0)
+        # the lane's contact law (branchless where the lane's is: the same bits as contact_force)
+        force_old = wp.float64(one_force(one_vec(below0 + d_old), one_vec(below_ac), one_vec(below_f0), n)[0])
         if wp.static(DASHPOT):
             # the driver also pushes through the dashpot of its contact (kernels/step.py: the work includes it)
             below_rate_old = real(0)
@@ -270,6 +273,17 @@ def tile_kernel(features: Features, shape: TileShape):
             if first:
                 return wp.vec2d(work_power[0], power)  # W(0) = 0: the dashpot's power at t = 0 is not zero
         return wp.vec2d(work_power[0] + dt * wp.float64(0.5) * (work_power[1] + power), power)
+
+    @wp.func
+    def driver_step(s: state_t, k0: int, work_power: wp.vec2d, delta0: contact_vec, a_c: contact_vec,
+                    force0: contact_vec, n: real, amplitude: wp.float64, omega: wp.float64, cos_old: wp.float64,
+                    dt: wp.float64, gamma: real, first: bool) -> wp.vec2d:
+        # driver_work in every lane, kept only in the driver's (k0 ≥ 0): without a branch around it, its chain of
+        # selects, square root and products can be interleaved with the step's own instructions instead of
+        # running alone while the block waits at the step's barrier
+        updated = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega, cos_old, dt, gamma, first)
+        keep = k0 >= 0
+        return wp.vec2d(wp.where(keep, updated[0], work_power[0]), wp.where(keep, updated[1], work_power[1]))
 
     @wp.func
     def lane_rates(s: state_t, k0: int, amplitude: wp.float64, omega: wp.float64, phase_new: wp.vec2d,
@@ -748,9 +762,8 @@ def tile_kernel(features: Features, shape: TileShape):
         for _pair in range(steps / 2):
             if wp.static(DRIVEN):
                 phase_new = drive_phases(drive_table, fill_table, 2 * _pair + 1, segment, lane_c, omega, step0, dt)
-                if k0 >= 0:
-                    work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
-                                             phase_old[1], dt, gamma, step0 + 2 * _pair + 1 == 1)
+                work_power = driver_step(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
+                                         phase_old[1], dt, gamma, step0 + 2 * _pair + 1 == 1)
             if wp.static(VISCOUS):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
@@ -766,9 +779,8 @@ def tile_kernel(features: Features, shape: TileShape):
                              step0 + 2 * _pair + 1, trace_x)
             if wp.static(DRIVEN):
                 phase_new = drive_phases(drive_table, fill_table, 2 * _pair + 2, segment, lane_c, omega, step0, dt)
-                if k0 >= 0:
-                    work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
-                                             phase_old[1], dt, gamma, step0 + 2 * _pair + 2 == 1)
+                work_power = driver_step(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
+                                         phase_old[1], dt, gamma, step0 + 2 * _pair + 2 == 1)
             if wp.static(VISCOUS):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
@@ -785,9 +797,8 @@ def tile_kernel(features: Features, shape: TileShape):
         if steps % 2 == 1:
             if wp.static(DRIVEN):
                 phase_new = drive_phases(drive_table, fill_table, steps, segment, lane_c, omega, step0, dt)
-                if k0 >= 0:
-                    work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
-                                             phase_old[1], dt, gamma, step0 + steps == 1)
+                work_power = driver_step(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
+                                         phase_old[1], dt, gamma, step0 + steps == 1)
             if wp.static(VISCOUS):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -321,6 +321,16 @@ nov26k)
   step sweep_gpu10k_warm_k2 60 "$HZ $S10K"
   step detect_first_m7c 200 "python3 docs/logs/detection/profile_first.py --device cuda --study sweeps/detect_study_1000_target_off.toml"
   step pytest_cuda_k 200 "python3 -m pytest -q -p no:cacheprovider tests/test_records.py tests/test_sweep.py tests/test_vectorised.py -k cuda 2>&1"
+  ;;
+nov26l)
+  # the driver's work without a branch around it (driver_step): window kernel alone, driven against struck, and the
+  # driven Figs. 9-10 columns end to end; the CUDA tests of the fused drive; how fast the host reads a copied GB
+  step pytest_cuda_drive 240 "python3 -m pytest -q -p no:cacheprovider tests/test_fused_features.py tests/test_drive.py -k cuda 2>&1"
+  step window_probe_l_2 150 "python3 docs/gpu_logs/window_probe.py --chains 2 --variants 0,3 --out $LOGS/window_probe_l_2.json"
+  step window_probe_l_64 150 "python3 docs/gpu_logs/window_probe.py --chains 64 --variants 0,3 --out $LOGS/window_probe_l_64.json"
+  step e2e_fig9_10_t500_cold_l 200 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step e2e_fig9_10_t500_warm_l 100 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step host_copy_probe 60 "python3 docs/logs/detection/host_copy_probe.py --gib 1"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
