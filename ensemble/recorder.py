@@ -238,17 +238,20 @@ class Recorder:
                 # sample k (taken at step k·stride) sits in ring slot k % capacity
                 rows = slice(int(self.record_steps[r - 1]) // self.stride + 1,
                              int(self.record_steps[r]) // self.stride + 1)
+                # the samples sit in consecutive slots from rows.start % capacity, wrapping at most once (a gap
+                # holds at most ``capacity`` samples): copied from the ring as one or two views, never gathered
+                # (a gathered temporary of a detection library's whole traces cost ≈ 2 s per GB on the H100 host)
                 ring = buf["ring"].numpy()
                 first, count = rows.start % self.capacity, rows.stop - rows.start
-                if first + count <= self.capacity:
-                    # the samples sit in consecutive slots: copy from views (no gathered temporary; a detection
-                    # library's one record holds every chain's whole trace)
-                    ring = ring[:, :, first:first + count]
-                else:
-                    ring = ring[:, :, np.arange(rows.start, rows.stop) % self.capacity]
-                for half, name in zip(ring, self.trace_values):
-                    if name == "u":
-                        self.traces["u"][:, rows] = half
-                    else:
-                        np.divide(half, dt, out=self.traces["v"][:, rows])
+                head = min(count, self.capacity - first)
+                pieces = [(rows.start, ring[:, :, first:first + head])]
+                if head < count:
+                    pieces.append((rows.start + head, ring[:, :, :count - head]))
+                for start, piece in pieces:
+                    dest = slice(start, start + piece.shape[2])
+                    for half, name in zip(piece, self.trace_values):
+                        if name == "u":
+                            self.traces["u"][:, dest] = half
+                        else:
+                            np.divide(half, dt, out=self.traces["v"][:, dest])
         self.pending[slot] = None

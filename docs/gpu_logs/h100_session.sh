@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -331,6 +331,20 @@ nov26l)
   step e2e_fig9_10_t500_cold_l 200 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
   step e2e_fig9_10_t500_warm_l 100 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
   step host_copy_probe 60 "python3 docs/logs/detection/host_copy_probe.py --gib 1"
+  ;;
+nov26m)
+  # the trace ring unpacked as one or two views where it wraps (it was gathered): a first detection, warm gpu_10k
+  # end to end and as `sweep`, and the recorder's CUDA tests
+  B10K="bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  S10K="sweep sweeps/gpu_10k.toml --out $WORK/gpu10k.zarr --overwrite --device cuda --quiet --json"
+  step detect_first_m7d 200 "python3 docs/logs/detection/profile_first.py --device cuda --study sweeps/detect_study_1000_target_off.toml"
+  step e2e_gpu10k_cold_m 120 "$HZ $B10K"
+  step e2e_gpu10k_warm_m 60 "$HZ $B10K"
+  step e2e_gpu10k_warm_m2 60 "$HZ $B10K"
+  step e2e_gpu10k_warm_m3 60 "$HZ $B10K"
+  step sweep_gpu10k_warm_m 60 "$HZ $S10K"
+  step sweep_gpu10k_warm_m2 60 "$HZ $S10K"
+  step pytest_cuda_m 200 "python3 -m pytest -q -p no:cacheprovider tests/test_records.py tests/test_detect.py -k cuda 2>&1"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
