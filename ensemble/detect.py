@@ -321,6 +321,15 @@ class Library:
     build_seconds: float
     """Wall seconds it took to simulate (0 when it came from the cache)."""
     from_cache: bool = False
+    saving: object = None
+    """The cache's save still running in a thread (a Future; ``build_library(..., save_in_background=True)``),
+    else None: call ``finish_saving()`` before another process may read the cache."""
+
+    def finish_saving(self) -> None:
+        """Wait for a save started in the background (re-raising its error)."""
+        if self.saving is not None:
+            saving, self.saving = self.saving, None
+            saving.result()
 
 
 def cache_dir() -> Path:
@@ -557,7 +566,7 @@ def load_library(path: Path, key: str, grid: Grid, forward: Scene) -> Library | 
 
 
 def build_library(forward: Scene, grid: Grid, device: str, *, fronts: np.ndarray | None = None,
-                  use_cache: bool = True, batch_size: int | None = None) -> Library:
+                  use_cache: bool = True, batch_size: int | None = None, save_in_background: bool = False) -> Library:
     """The library for a forward scene and grid, from the cache when it is there (else simulated and saved).
 
     The cache is the directory ``<cache_dir>/<key>/`` of one ``.npy`` file per array (:func:`save_library`),
@@ -580,7 +589,15 @@ def build_library(forward: Scene, grid: Grid, device: str, *, fronts: np.ndarray
                                fronts, in_place=True)
     library.build_seconds = time.perf_counter() - start
     if use_cache:
-        save_library(path, library)
+        if save_in_background:
+            # the caller scores and refines meanwhile (``detect`` waits for it before it returns)
+            from concurrent.futures import ThreadPoolExecutor
+
+            pool = ThreadPoolExecutor(max_workers=1)
+            library.saving = pool.submit(save_library, path, library)
+            pool.shutdown(wait=False)
+        else:
+            save_library(path, library)
     return library
 
 
@@ -975,7 +992,7 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
     depths = default_depths(fronts, float(signal.t[-1]), base.chain.grains, block, depth_range)
     forward = forward_scene(base, signal.spacing, signal.sample_count)
     library = build_library(forward, make_grid(depths, mass_ratio_range, mass_steps, block), device, fronts=fronts,
-                            use_cache=use_cache, batch_size=batch_size)
+                            use_cache=use_cache, batch_size=batch_size, save_in_background=True)
     library_seconds = library.build_seconds
     grid = library.grid
     depths = grid.depths
@@ -1145,6 +1162,7 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
             fit_a_result = {"a_ratio": 1.0, "a_ratio_interval": None, "rss": rss_host_a, "rss_a_host": rss_host_a,
                             "noise_fit_a": None, "fit_a_depths": {str(d): c.rss for d, c in fits}}
         fit_a_result["fit_a_seconds"] = time.perf_counter() - fit_start
+    library.finish_saving()  # the cache is complete when detect returns (a second signal may read it)
     seconds = {"library": library_seconds, "refinement": refine_seconds,
                **({"fine_scan": fine["seconds"]} if fine else {}), "total": time.perf_counter() - started}
     return Detection(
