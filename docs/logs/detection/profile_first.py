@@ -11,20 +11,10 @@ and its `seconds` split, then the profile's top entries by cumulative and by own
 """
 
 import argparse
-import cProfile
-import io
-import json
-import math
 import os
-import pstats
 import tempfile
-import time
 
-import numpy as np
-
-from hertzian.ensemble.detect import _cached_fronts, detect, forward_scene, signal_from_arrays
-from hertzian.ensemble.detect_study import _truth_velocities, load_study
-from hertzian.ensemble.scene import apply_overrides, scene_from_dict
+from profile_detect import planted_signal, print_profile, timed_detect  # this folder's profiler of a cached detection
 
 
 def main() -> None:
@@ -35,20 +25,7 @@ def main() -> None:
     parser.add_argument("--mass-steps", type=int, default=None, help="library ratios a side (default: the study's)")
     parser.add_argument("--repeat", action="store_true", help="a second first detection on a warm machine")
     args = parser.parse_args()
-    study = load_study(args.study)
-    options, host = study["study"], study["hosts"][0]
-    spacing = float(options.get("spacing", 0.01))
-    base = scene_from_dict(apply_overrides(study["scene"], {"chain.gravity": float(host.get("gravity", 0.0))}))
-    probe = forward_scene(base, spacing, int(round(options.get("probe_duration", 60.0) / spacing)) + 1)
-    window = 2 * float(_cached_fronts(probe, args.device, False)[-1])
-    samples = int(math.ceil(1.1 * window / spacing)) + 1
-    forward = forward_scene(base, spacing, samples)
-    depth = int(round(args.depth * base.chain.grains))
-    clean, planted = _truth_velocities(forward, [(None, 1.0), (depth, 0.5)], 1, args.device)
-    peak = float(np.max(np.abs(planted - clean)))
-    t = np.arange(samples) * spacing
-    signal = signal_from_arrays(t, planted + np.random.default_rng(1).normal(scale=peak / 10 ** 1.3, size=samples))
-    kwargs = {k: options[k] for k in ("mass_steps", "refine", "iterations") if k in options}
+    signal, base, kwargs = planted_signal(args.study, args.device, depth_fraction=args.depth, fronts_cache=False)
     if args.mass_steps is not None:
         kwargs["mass_steps"] = args.mass_steps
     print(f"detect options {kwargs}", flush=True)
@@ -58,19 +35,8 @@ def main() -> None:
     calls += [("first, warm kernels again", caches[2]), ("cached", caches[2])] if args.repeat else [("cached", caches[1])]
     for label, cache in calls:
         os.environ["HERTZIAN_DETECT_CACHE"] = cache
-        t0 = time.perf_counter()
-        if "profiled" in label:
-            profile = cProfile.Profile()
-            profile.enable()
-        result, _ = detect(signal, base, device=args.device, **kwargs)
-        if "profiled" in label:
-            profile.disable()
-        print(f"{label}: {time.perf_counter() - t0:.3f} s -> {result.kind} depth {result.depth} "
-              f"mu {result.mass_ratio:.4g} seconds {json.dumps(result.seconds)}", flush=True)
-    for key in ("cumulative", "tottime"):
-        out = io.StringIO()
-        pstats.Stats(profile, stream=out).sort_stats(key).print_stats(40)
-        print(out.getvalue())
+        profile = timed_detect(label, signal, base, args.device, kwargs, profiled="profiled" in label) or profile
+    print_profile(profile, 40)
 
 
 if __name__ == "__main__":
