@@ -275,17 +275,6 @@ def tile_kernel(features: Features, shape: TileShape):
         return wp.vec2d(work_power[0] + dt * wp.float64(0.5) * (work_power[1] + power), power)
 
     @wp.func
-    def driver_step(s: state_t, k0: int, work_power: wp.vec2d, delta0: contact_vec, a_c: contact_vec,
-                    force0: contact_vec, n: real, amplitude: wp.float64, omega: wp.float64, cos_old: wp.float64,
-                    dt: wp.float64, gamma: real, first: bool) -> wp.vec2d:
-        # driver_work in every lane, kept only in the driver's (k0 ≥ 0): without a branch around it, its chain of
-        # selects, square root and products can be interleaved with the step's own instructions instead of
-        # running alone while the block waits at the step's barrier
-        updated = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega, cos_old, dt, gamma, first)
-        keep = k0 >= 0
-        return wp.vec2d(wp.where(keep, updated[0], work_power[0]), wp.where(keep, updated[1], work_power[1]))
-
-    @wp.func
     def lane_rates(s: state_t, k0: int, amplitude: wp.float64, omega: wp.float64, phase_new: wp.vec2d,
                    dt: wp.float64) -> grain_vec:
         # dt·v of the lane's grains predicted at t_n+1 (the contact dashpot); the driver's is its own at t_n+1
@@ -762,8 +751,9 @@ def tile_kernel(features: Features, shape: TileShape):
         for _pair in range(steps / 2):
             if wp.static(DRIVEN):
                 phase_new = drive_phases(drive_table, fill_table, 2 * _pair + 1, segment, lane_c, omega, step0, dt)
-                work_power = driver_step(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
-                                         phase_old[1], dt, gamma, step0 + 2 * _pair + 1 == 1)
+                if k0 >= 0:
+                    work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
+                                             phase_old[1], dt, gamma, step0 + 2 * _pair + 1 == 1)
             if wp.static(VISCOUS):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
@@ -779,8 +769,9 @@ def tile_kernel(features: Features, shape: TileShape):
                              step0 + 2 * _pair + 1, trace_x)
             if wp.static(DRIVEN):
                 phase_new = drive_phases(drive_table, fill_table, 2 * _pair + 2, segment, lane_c, omega, step0, dt)
-                work_power = driver_step(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
-                                         phase_old[1], dt, gamma, step0 + 2 * _pair + 2 == 1)
+                if k0 >= 0:
+                    work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
+                                             phase_old[1], dt, gamma, step0 + 2 * _pair + 2 == 1)
             if wp.static(VISCOUS):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
@@ -797,8 +788,9 @@ def tile_kernel(features: Features, shape: TileShape):
         if steps % 2 == 1:
             if wp.static(DRIVEN):
                 phase_new = drive_phases(drive_table, fill_table, steps, segment, lane_c, omega, step0, dt)
-                work_power = driver_step(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
-                                         phase_old[1], dt, gamma, step0 + steps == 1)
+                if k0 >= 0:
+                    work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
+                                             phase_old[1], dt, gamma, step0 + steps == 1)
             if wp.static(VISCOUS):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):

@@ -53,6 +53,8 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=4096)
     parser.add_argument("--chains", default="2,64")
     parser.add_argument("--variants", default="", help="indices into VARIANTS, comma-separated (default: all)")
+    parser.add_argument("--configs", default="", help="only shapes whose description contains one of these "
+                        "comma-separated texts (e.g. 'lanes=32 K=32')")
     parser.add_argument("--out", default="window_probe.json")
     args = parser.parse_args()
     wp.init()
@@ -62,7 +64,10 @@ def main() -> None:
         for name, variant in [list(VARIANTS.items())[i] for i in picked]:
             s = scene(variant)
             model = build_model([s] * chains, args.device)
+            wanted = [text.strip() for text in args.configs.split(",") if text.strip()]
             for config in window_configs(model):
+                if wanted and not any(text in config.describe() for text in wanted):
+                    continue
                 t0 = time.perf_counter()
                 try:
                     seconds = time_solver(TileSolver(model, config), steps=args.steps)
