@@ -379,7 +379,7 @@ def _prepare_candidates(forward: Scene, candidates: list[tuple], block: int):
     keys = list(groups)
     groups[keys[0]] = [(index, 1.0) for index in clean] + groups[keys[0]]
     parts, order = [], []
-    movable: dict[int, tuple] = {}  # group size → a prepared group whose impurity can move to another depth
+    movable: dict = {}  # group size → a prepared group (HostModel) whose impurity can move to another depth
     for depth, a_ratio in keys:
         members = groups[(depth, a_ratio)]
         template = impurity_scene(forward, depth, 1.0, block, a_ratio)
@@ -390,7 +390,7 @@ def _prepare_candidates(forward: Scene, candidates: list[tuple], block: int):
         if part is None:
             part = prepare_model(chains)
             if moved is None and _impurity_can_move(forward, depth, a_ratio):
-                movable[len(members)] = (part, depth)
+                movable[len(members)] = part
         parts.append(part)
         order += [index for index, _ in members]
     if len({part.features for part in parts}) > 1:
@@ -412,14 +412,14 @@ def _impurity_can_move(forward: Scene, depth: int, a_ratio: float) -> bool:
 
 
 def _moved_impurity(moved, chains, depth: int, block: int):
-    """The HostModel of ``chains`` (one group: an impurity block at ``depth``, mass per chain) from ``moved``'s, the
-    prepared group (HostModel, its depth), with the block moved — or None when the impurity cannot move there
+    """The HostModel of ``chains`` (one group: an impurity block at ``depth``, mass per chain) from ``moved``, a
+    prepared group's HostModel, with the block moved — or None when the impurity cannot move there
     (:func:`_impurity_can_move`) or the masses differ in number. Every array but 1/m is the prepared group's; 1/m is
     1/m_host outside the block (the prepared group's own value) and 1.0 / mass in it, numpy's division as in
     prepare_model: the same bits as preparing the group (``tests/test_detect.py`` compares the traces)."""
     import dataclasses
 
-    part, _ = moved
+    part = moved
     if (len(chains) != len(part.chains) or not _impurity_can_move(chains.template, depth, 1.0)
             or chains.template.impurities[0].a is not None):
         return None

@@ -386,16 +386,6 @@ def remove_partial_files(path: str | Path) -> int:
 
 # ---- filling -----------------------------------------------------------------------------
 
-STORE_WRITE_THREADS = 4
-"""Arrays of one batch written at once (at most the CPU count; 1 writes them in turn)."""
-
-
-def store_write_threads() -> int:
-    import os
-
-    return max(1, min(STORE_WRITE_THREADS, os.cpu_count() or 1))
-
-
 def write_batch(path: str | Path, batch: Batch, result: RunResult, *, grain_steps: int,
                 worker: str = "", build_seconds: float = 0.0) -> dict[str, Any]:
     """Write one batch's results into its block, then its completion record; return the record.
@@ -429,18 +419,8 @@ def write_batch(path: str | Path, batch: Batch, result: RunResult, *, grain_step
     arrays.update({"status": result.status.astype(np.int32), "energy_error": result.energy_error,
                    "max_overlap": result.max_overlap, "wall_seconds": np.full(chains, wall / chains),
                    "grain_steps_per_second": np.full(chains, rate)})
-    threads = store_write_threads()
-    if threads > 1 and len(arrays) > 1:
-        # each array's encoding (zstd, in C, without the GIL) and file writes beside the others': the snapshots
-        # u and v are most of a batch's bytes, so two threads already halve the longest part
-        from concurrent.futures import ThreadPoolExecutor
-
-        with ThreadPoolExecutor(max_workers=min(threads, len(arrays))) as pool:
-            for future in [pool.submit(put, name, data) for name, data in arrays.items()]:
-                future.result()
-    else:
-        for name, data in arrays.items():
-            put(name, data)
+    for name, data in arrays.items():
+        put(name, data)
     finished = datetime.now(timezone.utc)
     record = {
         "points": chains, "wall_seconds": wall, "grain_steps": int(grain_steps), "grain_steps_per_second": rate,

@@ -4,8 +4,6 @@ with batches, every point equal to the same chain run alone with its launch grou
 import json
 import math
 
-import os
-
 import numpy as np
 import pytest
 import xarray as xr
@@ -253,19 +251,6 @@ def test_batch_size_changes_the_chunks_not_the_results(tmp_path):
     assert differing_arrays(one, all_) == []
     assert zarr.open_array(str(one), path="status").chunks == (1, 1)
     assert zarr.open_array(str(all_), path="status").chunks == (3, 2)
-
-
-def test_arrays_written_at_once_equal_arrays_written_in_turn(tmp_path, monkeypatch):
-    """write_batch writes a batch's arrays from several threads (sweep_store.STORE_WRITE_THREADS): the store equals
-    one written an array at a time, every variable and the completion records (but for wall times)."""
-    import hertzian.ensemble.sweep_store as sweep_store
-
-    assert sweep_store.store_write_threads() > 1 or (os.cpu_count() or 1) == 1
-    threaded = run_store(tmp_path, SWEEP, name="threaded.zarr")
-    monkeypatch.setattr(sweep_store, "STORE_WRITE_THREADS", 1)
-    in_turn = run_store(tmp_path, SWEEP, name="in_turn.zarr")
-    assert differing_arrays(threaded, in_turn) == []
-    assert [r["points"] for r in batch_records(threaded)] == [r["points"] for r in batch_records(in_turn)]
 
 
 def test_differing_arrays_sees_one_changed_value(tmp_path):

@@ -280,7 +280,8 @@ nov26h)
 nov26i)
   # a first detection after the library's host costs were cut (fronts on the fused kernels, v-only traces into
   # pageable memory, groups with the impurity moved), then warm gpu_10k end to end with the batch's arrays written
-  # from 4 threads, and in turn (STORE_WRITE_THREADS = 1) on the same machine
+  # from 4 threads, and in turn (STORE_WRITE_THREADS = 1) on the same machine (the threaded write was reverted after
+  # this: sweep_store no longer has STORE_WRITE_THREADS, and SERIAL's setting of it is then a no-op)
   SERIAL="python3 -c 'import sys, hertzian.ensemble.sweep_store as s; s.STORE_WRITE_THREADS = 1; from hertzian.ensemble.cli import main; sys.argv[0] = \"hertzian\"; main()'"
   step detect_first_m7b 200 "python3 docs/logs/detection/profile_first.py --device cuda --study sweeps/detect_study_1000_target_off.toml"
   step e2e_gpu10k_cold_i 120 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
