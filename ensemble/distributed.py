@@ -87,17 +87,19 @@ def prepare_job(job: BatchJob):
 
 
 def integrate_job(job: BatchJob, device: str, progress: Callable[[int, int], None] | None = None, *,
-                  prepared=None):
-    """Build and run one batch on ``device``; returns (RunResult, build seconds). Writes nothing.
+                  prepared=None, on_unpacked=None):
+    """Build and run one batch on ``device``; returns (RunResult, build seconds). Writes nothing itself.
 
     ``prepared``: :func:`prepare_job` of this job, computed earlier (the build seconds are then what
-    remained: uploads, state buffers, solver and recorder)."""
+    remained: uploads, state buffers, solver and recorder). ``on_unpacked``: the recorder's hook (a
+    ``RowWriter.submit``, which writes records while the batch runs)."""
     from .model import build_model
     from .runner import Runner
 
     _quiet_warp()
     start = time.perf_counter()
-    runner = Runner(build_model(job.chains, device, features=job.features, prepared=prepared), kernel=job.kernel)
+    runner = Runner(build_model(job.chains, device, features=job.features, prepared=prepared), kernel=job.kernel,
+                    on_unpacked=on_unpacked)
     build = time.perf_counter() - start
     return runner.run(progress), build
 
@@ -109,12 +111,13 @@ def overlap_default(device: str) -> bool:
     return wp.get_device(device).is_cuda
 
 
-def write_job(job: BatchJob, result, build: float, *, worker: str = "") -> dict[str, Any]:
-    """Write a finished batch into the store (its completion flag last); returns its completion record."""
+def write_job(job: BatchJob, result, build: float, *, worker: str = "", rows=None) -> dict[str, Any]:
+    """Write a finished batch into the store (its completion flag last); returns its completion record.
+    ``rows``: the batch's RowWriter (what it wrote while the batch ran is not written again)."""
     from .sweep_store import write_batch
 
     return write_batch(job.store, job.batch, result, grain_steps=job.grain_steps, worker=worker,
-                       build_seconds=build)
+                       build_seconds=build, rows=rows)
 
 
 def worker_device(requested: str | None, worker_name: Any = None) -> str:
@@ -168,20 +171,35 @@ def take_prepared(ahead, builder, jobs, index: int, timing: dict):
 
 def run_serial(jobs: list[BatchJob], device: str, *, on_record: Callable[[BatchJob, int, int], None] | None = None,
                on_done: Callable[[BatchJob, dict], None] | None = None, overlap: bool | None = None,
+               rows_while_running: bool | None = None, on_result: Callable | None = None,
                timing: dict | None = None) -> None:
     """Run jobs one after the other in this process; each batch's store write runs in a background thread
     while the next batch integrates (writes stay in batch order; ``on_done`` follows each write).
 
     ``overlap`` (default :func:`overlap_default`): a second background thread prepares batch b + 1's
-    host arrays (:func:`prepare_job`) while batch b runs; same results, bit for bit. ``timing``, if
-    given, gets ``prepare`` (host seconds of those preparations, overlapped) and ``prepare_wait`` (the
-    part the main thread waited for)."""
+    host arrays (:func:`prepare_job`) while batch b runs; same results, bit for bit.
+    ``rows_while_running`` (default: as ``overlap``): the store thread also writes each batch's records (and
+    trace samples) as they reach the host (sweep_store.RowWriter), so the batch's own end leaves only its last
+    records to write; the same store, bit for bit. ``on_result(job, result, build_seconds)`` is called on this
+    thread after each batch's integration. ``timing``, if given, gets ``prepare`` (host seconds of those
+    preparations, overlapped), ``prepare_wait`` (the part the main thread waited for) and ``store`` (seconds
+    of the store thread's writes)."""
     from concurrent.futures import ThreadPoolExecutor
 
+    from .sweep_store import RowWriter
+
     overlap = overlap_default(device) if overlap is None else overlap
+    rows_while_running = overlap if rows_while_running is None else rows_while_running
     timing = {} if timing is None else timing
-    timing.setdefault("prepare", 0.0)
-    timing.setdefault("prepare_wait", 0.0)
+    for key in ("prepare", "prepare_wait", "store"):
+        timing.setdefault(key, 0.0)
+
+    def timed_write(job, result, build, rows):
+        clock = time.perf_counter()
+        record = write_job(job, result, build, rows=rows)
+        timing["store"] += time.perf_counter() - clock + (rows.seconds if rows is not None else 0.0)
+        return record
+
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="hertzian-store") as writer, \
             ThreadPoolExecutor(max_workers=1, thread_name_prefix="hertzian-build") as builder:
         pending = None
@@ -196,10 +214,14 @@ def run_serial(jobs: list[BatchJob], device: str, *, on_record: Callable[[BatchJ
         for index, job in enumerate(jobs):
             prepared, ahead = take_prepared(ahead, builder, jobs, index, timing)
             progress = (lambda done, total, job=job: on_record(job, done, total)) if on_record else None
-            result, build = integrate_job(job, device, progress, prepared=prepared)
+            rows = RowWriter(job.store, job.batch, writer) if rows_while_running else None
+            result, build = integrate_job(job, device, progress, prepared=prepared,
+                                          on_unpacked=rows.submit if rows is not None else None)
+            if on_result is not None:
+                on_result(job, result, build)
             if pending is not None:
                 settle()
-            pending = (job, writer.submit(write_job, job, result, build))
+            pending = (job, writer.submit(timed_write, job, result, build, rows))
         if pending is not None:
             settle()
 

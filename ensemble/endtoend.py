@@ -83,8 +83,7 @@ def bench_scene(path: str | Path, device: str, *, kernel: str = "auto", override
 def bench_sweep(path: str | Path, device: str, *, kernel: str = "auto", overrides: dict[str, Any] | None = None,
                 log=None) -> dict:
     """Time ``hertzian sweep`` (serial, this process) end to end: plan, store, batches, background writes."""
-    from .distributed import (integrate_job, jobs_for, overlap_default, prepare_job, take_prepared, warm_kernels,
-                              write_job)
+    from .distributed import jobs_for, run_serial, warm_kernels
     from .planner import plan_sweep
     from .solvers.calibrate import step_reason_of
     from .sweep import expand, load_sweep
@@ -114,31 +113,18 @@ def bench_sweep(path: str | Path, device: str, *, kernel: str = "auto", override
         totals = {"compile": 0.0, "kernel": 0.0, "record": 0.0, "device": 0.0, "build": 0.0, "store": 0.0,
                   "prepare": 0.0, "prepare_wait": 0.0}
         kernels = []
-        overlap = overlap_default(device)
 
-        def timed_write(job, result, build_seconds):
-            clock = time.perf_counter()
-            write_job(job, result, build_seconds)
-            return time.perf_counter() - clock
+        def add(job, result, batch_build):
+            t = result.timing
+            totals["build"] += batch_build - t["setup_in_init"]
+            totals["compile"] += t["setup"]
+            totals["kernel"] += t["advance"]
+            totals["record"] += t["record"]
+            totals["device"] += t["device"]
+            kernels.append(result.kernel)
 
-        with ThreadPoolExecutor(max_workers=1) as writer, ThreadPoolExecutor(max_workers=1) as builder:
-            pending = None
-            ahead = builder.submit(prepare_job, jobs[0]) if overlap and jobs else None
-            for index, job in enumerate(jobs):
-                prepared, ahead = take_prepared(ahead, builder, jobs, index, totals)
-                result, batch_build = integrate_job(job, device, prepared=prepared)
-                t = result.timing
-                totals["build"] += batch_build - t["setup_in_init"]
-                totals["compile"] += t["setup"]
-                totals["kernel"] += t["advance"]
-                totals["record"] += t["record"]
-                totals["device"] += t["device"]
-                kernels.append(result.kernel)
-                if pending is not None:
-                    totals["store"] += pending.result()
-                pending = writer.submit(timed_write, job, result, batch_build)
-            if pending is not None:
-                totals["store"] += pending.result()
+        # exactly `hertzian sweep`'s pipeline (serial): the next batch prepared and the store written in threads
+        run_serial(jobs, device, on_result=add, timing=totals)
         finalize(out)
     total = time.perf_counter() - start
     seconds = {"total": total, "build": build + totals["build"] + totals["prepare_wait"],

@@ -11,6 +11,8 @@ by ``finish()``, so a record never waits for the device.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 import warp as wp
 
@@ -51,6 +53,14 @@ class StagingPool:
             del self._free[2:]
 
 
+def _map_pages(arrays: list[np.ndarray]) -> None:
+    for array in arrays:
+        array.fill(0)  # numpy releases the GIL while it fills
+
+
+_MAPPER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="hertzian-map")
+"""Maps the pages of new host result arrays in the background (Recorder)."""
+
 STAGING = StagingPool()
 """The process's staging buffers (hertzian.ensemble.runner returns a run's after its last record)."""
 
@@ -58,10 +68,14 @@ STAGING = StagingPool()
 class Recorder:
     """The device reductions and host arrays of one run of ``model``."""
 
-    def __init__(self, model: Model, *, trace_values: tuple[str, ...] = ("u", "v")):
+    def __init__(self, model: Model, *, trace_values: tuple[str, ...] = ("u", "v"), on_unpacked=None,
+                 map_in_background: bool | None = None):
         if not trace_values or not set(trace_values) <= {"u", "v"}:
             raise ValueError(f"trace_values = {trace_values!r}: one or both of 'u', 'v'")
         self.model = model
+        self.on_unpacked = on_unpacked
+        """Called as ``on_unpacked(recorder, r)`` once record r is in the host arrays (records come in order;
+        a sweep writes them into its store while the run goes on: hertzian.ensemble.sweep_store.RowWriter)."""
         self.trace_values = tuple(name for name in ("u", "v") if name in trace_values)
         """What the traces keep: displacement u, velocity v or both (a detection library keeps v only)."""
         m, scene = model, model.scenes[0]
@@ -97,6 +111,13 @@ class Recorder:
         self.dissipated = np.zeros((c, records)) if damped else None
         self.response = ResponseAccumulator(m) if scene.has_response else None
 
+        self._mapping = None
+        if (m.device.is_cuda if map_in_background is None else map_in_background) and (self.fields or self.traces):
+            # the host arrays' pages are mapped (written once) by a background thread while the first records run
+            # (or, for a detection library's one record after t = 0, while the whole run does): mapping fresh zeroed
+            # pages on first write cost up to ≈ 1 s per GB on the H100 host, and the first unpack writes into every
+            # page (a record is one row of every chain), so it stalled the device between records
+            self._mapping = _MAPPER.submit(_map_pages, [*self.fields.values(), *self.traces.values()])
         self.staging_key = self._staging_key()
         self.staging = [STAGING.take(self.staging_key, self._staging_buffer) for _ in range(2)]
         """Two sets of host copies, used alternately (double buffering)."""
@@ -204,16 +225,13 @@ class Recorder:
 
     def finish(self) -> None:
         """Unpack every queued record into the host arrays (waits for their copies)."""
-        if self.model.device.is_cuda and self.pending[0] is not None and self.pending[0][0] == 0:
-            # nothing unpacked yet (a run of one record after t = 0, such as a detection library's): while the
-            # device finishes, write the still untouched host arrays once, so that their pages are mapped before
-            # the unpacking (mapping fresh zeroed pages on first write cost ≈ 1 s per GB on the H100 host)
-            for array in (*self.fields.values(), *self.traces.values()):
-                array.fill(0)
         for slot in sorted((s for s in range(2) if self.pending[s] is not None), key=lambda s: self.pending[s][0]):
             self._unpack(slot)
 
     def _unpack(self, slot: int) -> None:
+        if self._mapping is not None:
+            self._mapping.result()
+            self._mapping = None
         r, event = self.pending[slot]
         if event is not None:
             wp.synchronize_event(event)
@@ -255,3 +273,5 @@ class Recorder:
                         else:
                             np.divide(half, dt, out=self.traces["v"][:, dest])
         self.pending[slot] = None
+        if self.on_unpacked is not None:
+            self.on_unpacked(self, r)

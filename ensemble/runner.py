@@ -102,12 +102,13 @@ class Runner:
 
     ``kernel``: a SolverConfig, or a kind for ``hertzian.ensemble.solvers.choose_config`` ('auto', 'step', 'tile',
     'window', 'sweep'). ``use_graph`` overrides the config's CUDA-graph choice. ``trace_values``: what the result's
-    traces keep, ``("u", "v")`` or one of them.
+    traces keep, ``("u", "v")`` or one of them. ``on_unpacked(recorder, r)``: called once record r is on the host
+    (see Recorder).
     """
 
     def __init__(self, model: Model, *, use_graph: bool | None = None, energy_tolerance: float = 1e-2,
                  kernel: str | SolverConfig = "auto", monitor_every: int | None = None,
-                 trace_values: tuple[str, ...] = ("u", "v")):
+                 trace_values: tuple[str, ...] = ("u", "v"), on_unpacked=None):
         setup_start = time.perf_counter()
         self.model = model
         self.monitor_every = (max(MONITOR_MIN_STEPS, MONITOR_STEPS_PER_GRAIN * model.grain_count)
@@ -129,7 +130,7 @@ class Runner:
             config = replace(config, use_graph=use_graph)
         self.solver = make_solver(model, config)
         self.solver.load()
-        self.recorder = Recorder(model, trace_values=trace_values)
+        self.recorder = Recorder(model, trace_values=trace_values, on_unpacked=on_unpacked)
         self.setup_seconds = time.perf_counter() - setup_start
         """Kernel choice (and any calibration), solver construction and kernel compile/load [s]."""
 

@@ -93,6 +93,16 @@ def status_codes() -> dict[str, str]:
 
 # ---- variables ---------------------------------------------------------------------------
 
+def trace_rows_per_record(scene: Scene) -> int | None:
+    """Trace samples between two records when every record interval holds the same whole number of them
+    (the traces' shards are then cut there, so they can be written record by record), else None."""
+    steps = np.diff(scene.record_steps)
+    stride = scene.trace_stride
+    if len(steps) < 2 or np.any(steps[:-1] != steps[0]) or steps[0] % stride:
+        return None
+    return int(steps[0] // stride)
+
+
 def _store_real(plan: Plan) -> np.dtype:
     precisions = {dict(zip([k for k, _ in SHARED_KEYS], g.key))["integrator.precision"] for g in plan.groups}
     return np.dtype(np.float64 if "float64" in precisions else np.float32)
@@ -113,7 +123,7 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
     out = []
     for name in scene.record.fields:
         out.append(dict(name=name, dims=dims + ("record", "grain"), trailing=(records, n), dtype=real,
-                        fill=np.nan, attrs={**FIELD_ATTRS[name], **coords("t")}))
+                        fill=np.nan, attrs={**FIELD_ATTRS[name], **coords("t")}, rows_per_shard=1))
     if scene.record.energy:
         out.append(dict(name="energy", dims=dims + ("record",), trailing=(records,), dtype=np.dtype(np.float64),
                         fill=np.nan, attrs={**coords("t"), "long_name": "total energy relative to the static "
@@ -147,7 +157,7 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
         for name in ("u", "v"):
             out.append(dict(name=f"trace_{name}", dims=dims + ("sample", "traced"),
                             trailing=(len(tt), len(scene.record.traces)), dtype=real, fill=np.nan,
-                            attrs=coords("trace_t", "traced_grain")))
+                            attrs=coords("trace_t", "traced_grain"), rows_per_shard=trace_rows_per_record(scene)))
     out += [
         dict(name="status", dims=dims, trailing=(), dtype=np.dtype(np.int32), fill=NOT_RUN,
              attrs={**coords(), "flag_values": [int(k) for k in status_codes()], "flag_meanings": status_codes()}),
@@ -189,13 +199,24 @@ def _sub_block(block: tuple[int, ...], points: int) -> tuple[int, ...]:
     return tuple(sub)
 
 
-def chunk_layout(block: tuple[int, ...], trailing: tuple[int, ...], itemsize: int):
+def chunk_layout(block: tuple[int, ...], trailing: tuple[int, ...], itemsize: int, rows_per_shard: int | None = None):
     """(chunks, shards or None) of a variable: one shard (or chunk) per batch block along the sweep
-    dims; inner chunks of about INNER_CHUNK_BYTES (a few points), so reading one point stays cheap."""
+    dims; inner chunks of about INNER_CHUNK_BYTES (a few points), so reading one point stays cheap.
+
+    ``rows_per_shard``: cut the shards along the first trailing dim (records, trace samples) every that many rows,
+    so a batch's early records can be written while it still runs (:class:`RowWriter`); the inner chunks then hold
+    a divisor of it (whole rows) and more points."""
     block = tuple(block)
     if not trailing:
         return block, None
-    inner, shard = _trailing_chunks(tuple(trailing), itemsize)
+    trailing = tuple(trailing)
+    if rows_per_shard is not None and 0 < rows_per_shard < trailing[0]:
+        row = int(np.prod(trailing[1:])) * itemsize
+        fit = max(1, min(rows_per_shard, INNER_CHUNK_BYTES // max(row, 1)))
+        first = max(k for k in range(1, fit + 1) if rows_per_shard % k == 0)
+        inner, shard = (first,) + trailing[1:], (rows_per_shard,) + trailing[1:]
+    else:
+        inner, shard = _trailing_chunks(trailing, itemsize)
     point_bytes = int(np.prod(inner)) * itemsize
     chunks = _sub_block(block, INNER_CHUNK_BYTES // max(point_bytes, 1)) + inner
     shards = block + shard
@@ -208,8 +229,8 @@ level 3, 121 MB at level 1), and level 1 encodes them 1.8x faster (docs/logs/sto
 last batch's write is the sweep's tail, which nothing overlaps."""
 
 
-def _create(group, name: str, shape, dtype, dims, block, trailing, fill, attrs):
-    chunks, shards = chunk_layout(tuple(block), tuple(trailing), np.dtype(dtype).itemsize)
+def _create(group, name: str, shape, dtype, dims, block, trailing, fill, attrs, rows_per_shard=None):
+    chunks, shards = chunk_layout(tuple(block), tuple(trailing), np.dtype(dtype).itemsize, rows_per_shard)
     return group.create_array(name, shape=tuple(shape), dtype=dtype, chunks=chunks, shards=shards,
                               dimension_names=list(dims), fill_value=fill, attributes=attrs,
                               compressors=zarr.codecs.ZstdCodec(level=RESULT_ZSTD_LEVEL))
@@ -300,7 +321,7 @@ def create_sweep_store(path: str | Path, sweep: Sweep, scene: "Scene | list[Scen
             _small(root, "traced_grain", np.asarray(scene.record.traces, dtype=np.int32), ("traced",))
         for var in variables(sweep, scene, plan):
             _create(root, var["name"], shape + var["trailing"], var["dtype"], var["dims"], plan.block,
-                    var["trailing"], var["fill"], var["attrs"])
+                    var["trailing"], var["fill"], var["attrs"], var.get("rows_per_shard"))
         group_attrs = {"long_name": "launch group of the point (index into the launch_groups attribute)"}
         companions = " ".join(a.name for d in sweep.dimensions for a in d.axes[1:])
         if companions:
@@ -386,22 +407,93 @@ def remove_partial_files(path: str | Path) -> int:
 
 # ---- filling -----------------------------------------------------------------------------
 
+def _open_for_writing(path: Path, name: str):
+    # write_empty_chunks: skip comparing every inner chunk with the fill value before writing it (a batch's
+    # chunks are written whatever they hold; 0.5 s of 1.6 s for a 220 MB shard here, docs/logs/store/)
+    return zarr.open_array(store=str(path), path=name, mode="r+").with_config({"write_empty_chunks": True})
+
+
+class RowWriter:
+    """Writes a running batch's records (and its trace samples up to them) into the store as the recorder
+    unpacks them, in whole shards along the record (sample) dim, so that at the batch's end only its last
+    records are left to write (:func:`write_batch` with ``rows=`` writes the rest).
+
+    ``submit`` is the recorder's ``on_unpacked`` hook (main thread); the writes run in ``executor`` (one
+    thread: they stay in order, before the batch's final write submitted to the same executor). A variable
+    whose shards hold all its rows (a store made before records had shards of their own) is left to the
+    final write."""
+
+    def __init__(self, path: str | Path, batch: Batch, executor):
+        self.path, self.batch, self.executor = Path(path), batch, executor
+        self.written: dict[str, int] = {}
+        """Rows (records, trace samples) of each variable written so far (writer thread)."""
+        self.seconds = 0.0
+        """Seconds spent in these writes (writer thread)."""
+        self._arrays: dict[str, tuple[Any, int | None]] = {}
+        self._futures: list = []
+
+    def submit(self, recorder, r: int) -> None:
+        """Queue the rows that record ``r``'s unpacking completed (records 0…r; trace samples to its step)."""
+        available = {name: (data, r + 1) for name, data in recorder.fields.items()}
+        if recorder.traced:
+            samples = int(recorder.record_steps[r]) // recorder.stride + 1
+            available.update({f"trace_{name}": (data, samples) for name, data in recorder.traces.items()})
+        self._futures.append(self.executor.submit(self._write, available))
+
+    def _rows_per_shard(self, name: str):
+        if name not in self._arrays:
+            arr = _open_for_writing(self.path, name)
+            dim = len(self.batch.shape)
+            outer = arr.shards or arr.chunks
+            rows = outer[dim] if outer[dim] < arr.shape[dim] else None
+            self._arrays[name] = (arr, rows)
+        return self._arrays[name]
+
+    def _write(self, available: dict[str, tuple[np.ndarray, int]]) -> None:
+        start = time.perf_counter()
+        for name, (data, count) in available.items():
+            arr, rows = self._rows_per_shard(name)
+            done = self.written.get(name, 0)
+            upto = count // rows * rows if rows else 0
+            if upto > done:
+                piece = np.asarray(data[:, done:upto], dtype=arr.dtype)
+                arr[self.batch.slices + (slice(done, upto),)] = piece.reshape(self.batch.shape + piece.shape[1:])
+                self.written[name] = upto
+        self.seconds += time.perf_counter() - start
+
+    def settle(self) -> None:
+        """Wait for the queued writes; raise the first one's error."""
+        for future in self._futures:
+            future.result()
+        self._futures = []
+
+
 def write_batch(path: str | Path, batch: Batch, result: RunResult, *, grain_steps: int,
-                worker: str = "", build_seconds: float = 0.0) -> dict[str, Any]:
+                worker: str = "", build_seconds: float = 0.0, rows: RowWriter | None = None) -> dict[str, Any]:
     """Write one batch's results into its block, then its completion record; return the record.
 
-    ``build_seconds``: host time spent building the batch's model and initial state (recorded).
+    ``build_seconds``: host time spent building the batch's model and initial state (recorded). ``rows``: the
+    batch's :class:`RowWriter`, whose rows are already written (only the rest is).
     """
     write_start = time.perf_counter()
     path = Path(path)
     region = batch.slices
     shape = batch.shape
+    if rows is not None:
+        rows.settle()
+    written = rows.written if rows is not None else {}
 
     def put(name: str, data: np.ndarray) -> None:
-        # write_empty_chunks: skip comparing every inner chunk with the fill value before writing it (a batch's
-        # chunks are written whatever they hold; 0.5 s of 1.6 s for a 220 MB shard here, docs/logs/store/)
-        arr = zarr.open_array(store=str(path), path=name, mode="r+").with_config({"write_empty_chunks": True})
-        arr[region] = np.asarray(data, dtype=arr.dtype).reshape(shape + data.shape[1:])
+        arr = _open_for_writing(path, name)
+        done = written.get(name, 0)
+        if done:
+            if done >= data.shape[1]:
+                return
+            region_left = region + (slice(done, None),)
+            data = data[:, done:]
+        else:
+            region_left = region
+        arr[region_left] = np.asarray(data, dtype=arr.dtype).reshape(shape + data.shape[1:])
 
     scene = result.scenes[0]
     chains = result.chain_count
@@ -426,7 +518,7 @@ def write_batch(path: str | Path, batch: Batch, result: RunResult, *, grain_step
         "points": chains, "wall_seconds": wall, "grain_steps": int(grain_steps), "grain_steps_per_second": rate,
         "energy_error_max": float(np.max(result.energy_error)) if chains else 0.0,
         "finished": finished.timestamp(), "build_seconds": float(build_seconds),
-        "write_seconds": time.perf_counter() - write_start,
+        "write_seconds": time.perf_counter() - write_start + (rows.seconds if rows is not None else 0.0),
     }
     where = {"device": result.device, "host": platform.node(), "worker": worker,
              "kernel": str(getattr(result, "kernel", ""))}

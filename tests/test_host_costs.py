@@ -4,7 +4,9 @@
   ``static_state`` (the per-scene reference);
 * a serial sweep that prepares batch b + 1's host arrays in a background thread while batch b runs
   writes the same store as one that does not (and both equal the per-scene runs, tests/test_sweep.py);
-* reused host staging buffers give the same records as fresh ones.
+* reused host staging buffers give the same records as fresh ones;
+* records written into the store while their batch still runs (sweep_store.RowWriter) give the same store as
+  a batch written at its end.
 """
 
 import numpy as np
@@ -57,13 +59,13 @@ SWEEP = {
 }
 
 
-def _store(tmp_path, name, overlap, timing=None):
-    sweep = sweep_from_dict(SWEEP)
+def _store(tmp_path, name, overlap, timing=None, sweep=SWEEP, **options):
+    sweep = sweep_from_dict(sweep)
     points = expand(sweep)
     plan = plan_sweep(sweep, points, "cpu", batch_size=2)
     out = tmp_path / name
     create_sweep_store(out, sweep, points.templates[0], plan, device="cpu")
-    run_serial(jobs_for(out, plan, points, plan.batches), "cpu", overlap=overlap, timing=timing)
+    run_serial(jobs_for(out, plan, points, plan.batches), "cpu", overlap=overlap, timing=timing, **options)
     return out, len(plan.batches)
 
 
@@ -74,6 +76,36 @@ def test_overlapped_preparation_writes_the_same_store(tmp_path):
     assert batches >= 3  # a preparation ran while an earlier batch ran
     assert timing["prepare"] > 0
     assert differing_arrays(overlapped, serial) == []
+
+
+def test_records_written_while_the_batch_runs_give_the_same_store(tmp_path, monkeypatch):
+    import zarr
+
+    from hertzian.ensemble import sweep_store
+
+    # 5 records, 5 trace samples between two: the traces' shards hold 5 samples, u's and v's one record
+    sweep = dict(SWEEP, scene={**SWEEP["scene"], "integrator": {**BASE["integrator"], "duration": 0.04}})
+    at_end = []
+    final_write = sweep_store.write_batch
+
+    def spy(path, batch, result, **kw):
+        rows = kw.get("rows")
+        at_end.append(dict(rows.written) if rows is not None else None)
+        return final_write(path, batch, result, **kw)
+
+    monkeypatch.setattr(sweep_store, "write_batch", spy)
+    at_once, batches = _store(tmp_path, "at_once.zarr", overlap=False, sweep=sweep, rows_while_running=False)
+    assert at_end == [None] * batches
+    at_end.clear()
+    timing = {}
+    running, _ = _store(tmp_path, "running.zarr", overlap=False, sweep=sweep, rows_while_running=True, timing=timing)
+    group = zarr.open_group(str(running), mode="r")
+    outer = {name: group[name].shards or group[name].chunks for name in ("u", "trace_v")}
+    assert outer["u"][3] == 1 and outer["trace_v"][3] == 5 and group["u"].shape[3] == 5
+    # every record and the trace samples 0…19 went through the RowWriter; the final write had sample 20 left
+    assert at_end == [{"u": 5, "v": 5, "trace_u": 20, "trace_v": 20}] * batches
+    assert timing["store"] > 0
+    assert differing_arrays(running, at_once) == []
 
 
 def test_overlapped_preparation_of_batches_spanning_templates(tmp_path):

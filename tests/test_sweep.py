@@ -291,10 +291,18 @@ def test_chunks_are_the_batch_blocks(tmp_path):
     plan = plan_sweep(sweep, sweep_scenes(sweep), "cpu", batch_size=2)
     assert plan.block == (1, 2)
     group = zarr.open_group(str(out), mode="r")
+    scene = sweep_scenes(sweep)[0]
+    # snapshots: a shard per batch and record; traces: per batch and record interval (written as the batch runs)
+    rows = {"u": 1, "v": 1, "trace_u": scene.record_steps[1] // scene.trace_stride}
+    rows["trace_v"] = rows["trace_u"]
     for name in ("u", "v", "energy", "trace_u", "trace_v", "status", "energy_error", "wall_seconds"):
         arr = group[name]
         outer = arr.shards or arr.chunks  # one shard (or chunk) per batch along the sweep dims
-        assert outer[:2] == plan.block and all(o >= s for o, s in zip(outer[2:], arr.shape[2:])), name
+        assert outer[:2] == plan.block, name
+        if name in rows:
+            assert outer[2] == rows[name] < arr.shape[2] and outer[3:] == arr.shape[3:], name
+        else:
+            assert all(o >= s for o, s in zip(outer[2:], arr.shape[2:])), name
         if arr.shards:
             assert all(s % c == 0 for s, c in zip(arr.shards, arr.chunks)), name
     records = batch_records(out)
@@ -315,6 +323,16 @@ def test_chunks_are_the_batch_blocks(tmp_path):
 ])
 def test_chunk_layout(block, trailing, chunks, shards):
     assert chunk_layout(block, trailing, 8) == (chunks, shards)
+
+
+@pytest.mark.parametrize("block,trailing,rows,chunks,shards", [
+    ((50, 100), (11, 500), 1, (2, 100, 1, 500), (50, 100, 1, 500)),  # a shard per record, ~1 MiB inner chunks
+    ((50, 100), (501, 2), 50, (10, 100, 50, 2), (50, 100, 50, 2)),  # trace samples: a shard per record interval
+    ((2, 3), (4, 5), 4, (2, 3, 4, 5), None),  # a shard holding every row: the plain layout
+    ((4,), (6, 200000), 3, (1, 1, 200000), (4, 3, 200000)),  # rows over 1 MiB: one point and row per inner chunk
+])
+def test_chunk_layout_with_rows_per_shard(block, trailing, rows, chunks, shards):
+    assert chunk_layout(block, trailing, 8, rows) == (chunks, shards)
 
 
 def test_summarize_a_sweep_and_an_unfinished_one(tmp_path):

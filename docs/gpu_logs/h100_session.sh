@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -355,6 +355,16 @@ nov26o)
   # the driver's work back in the driver's lane only (the every-lane form cost 13 % on 64 columns), with the lane's
   # branchless contact law: the driven window kernel alone on its calibrated shapes for 2 and 64 columns
   step window_probe_o 100 "python3 docs/gpu_logs/window_probe.py --chains 2,64 --variants 0 --configs 'G=4 lanes=32 K=32,lanes=244 K=32' --out $LOGS/window_probe_o.json"
+  ;;
+nov26p)
+  # where warm gpu_10k's time outside the GPU goes: a timeline by thread of the bench and of the CLI sweep, with the
+  # GPU's busy intervals from CUDA events on the same clock; the driver-work form of nov26o (not run then)
+  B10K="bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step e2e_gpu10k_cold_p 120 "$HZ $B10K"
+  step timeline_bench_p1 60 "python3 docs/logs/sweep_timeline.py sweeps/gpu_10k.toml --device cuda --json $LOGS/timeline_bench_p1.json"
+  step timeline_bench_p2 60 "python3 docs/logs/sweep_timeline.py sweeps/gpu_10k.toml --device cuda --json $LOGS/timeline_bench_p2.json"
+  step timeline_cli_p1 60 "python3 docs/logs/sweep_timeline.py sweeps/gpu_10k.toml --device cuda --cli --json $LOGS/timeline_cli_p1.json"
+  step window_probe_p 100 "python3 docs/gpu_logs/window_probe.py --chains 2,64 --variants 0 --configs 'G=4 lanes=32 K=32,lanes=244 K=32' --out $LOGS/window_probe_p.json"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
