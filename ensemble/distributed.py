@@ -58,16 +58,61 @@ def _quiet_warp():
     return wp
 
 
-def warm_kernels(features: Iterable[Features], device: str) -> None:
-    """Build and load every kernel variant on ``device`` once, so workers find them in Warp's cache."""
+def warm_kernels(features: Iterable[Features], device: str, *, runs: Iterable[tuple] | None = None) -> None:
+    """Build and load every kernel variant on ``device`` once, so workers find them in Warp's cache.
+
+    ``runs``: (features, grains, chains, steps) of the batches this process will run (a serial sweep); then the
+    stepping kernel warmed is the one each will use — on a GPU the fused kernel of the shape the calibration cache
+    holds for it (none when not yet calibrated: the run calibrates), the per-step kernel only where ``auto`` takes
+    it — instead of the per-step kernel of every feature set."""
     from hertzian.kernels.records import record_kernels
     from hertzian.kernels.step import step_kernel
 
     wp = _quiet_warp()
+    dev = wp.get_device(device)
     for f in set(features):
-        wp.load_module(step_kernel(f).module, device=device)
         for kernel in record_kernels(f):
             wp.load_module(kernel.module, device=device)
+    if runs is None:
+        for f in set(features):
+            wp.load_module(step_kernel(f).module, device=device)
+        return
+    from types import SimpleNamespace
+
+    from hertzian.kernels.tile import tile_kernel
+
+    from .solvers.calibrate import _cache_key, _read_cache, step_reason_of
+    from .solvers.config import SolverConfig
+
+    cache = _read_cache()  # (only GPUs calibrate: empty for a CPU)
+    for f, grains, chains, steps in set(runs):
+        shape_of = SimpleNamespace(device=dev, features=f, grain_count=grains, chain_count=chains)
+        entry = cache.get(_cache_key(shape_of))
+        if entry is not None:
+            try:
+                config = SolverConfig.from_dict(entry)
+            except (KeyError, TypeError, ValueError):
+                continue
+            if config.kind in ("tile", "window"):  # compiled for its launch's block size, as TileSolver.load does
+                block_dim = config.shape.block_dim
+                if dev.is_cpu and block_dim > 1:
+                    wp.config.enable_cpu_blocks = True
+                wp.load_module(tile_kernel(f, config.shape).module, device=device, block_dim=block_dim)
+        elif step_reason_of(f, dev.is_cpu, float(grains) * chains * steps):
+            wp.load_module(step_kernel(f).module, device=device)
+
+
+def runs_of(plan, points, batches) -> list[tuple]:
+    """(features, grains, chains, steps) of each distinct launch group and batch size among ``batches``
+    (:func:`warm_kernels`' ``runs``)."""
+    out, seen = [], set()
+    for batch in batches:
+        if (batch.group, batch.size) in seen:
+            continue
+        seen.add((batch.group, batch.size))
+        scene = points.scene(int(batch.points[0])) if hasattr(points, "scene") else points[int(batch.points[0])]
+        out.append((plan.groups[batch.group].features, scene.chain.grains, batch.size, scene.step_count))
+    return out
 
 
 def run_job(job: BatchJob, device: str, progress: Callable[[int, int], None] | None = None, *,
@@ -172,7 +217,7 @@ def take_prepared(ahead, builder, jobs, index: int, timing: dict):
 def run_serial(jobs: list[BatchJob], device: str, *, on_record: Callable[[BatchJob, int, int], None] | None = None,
                on_done: Callable[[BatchJob, dict], None] | None = None, overlap: bool | None = None,
                rows_while_running: bool | None = None, on_result: Callable | None = None,
-               timing: dict | None = None) -> None:
+               create_store: Callable[[], Any] | None = None, timing: dict | None = None) -> None:
     """Run jobs one after the other in this process; each batch's store write runs in a background thread
     while the next batch integrates (writes stay in batch order; ``on_done`` follows each write).
 
@@ -181,9 +226,11 @@ def run_serial(jobs: list[BatchJob], device: str, *, on_record: Callable[[BatchJ
     ``rows_while_running`` (default: as ``overlap``): the store thread also writes each batch's records (and
     trace samples) as they reach the host (sweep_store.RowWriter), so the batch's own end leaves only its last
     records to write; the same store, bit for bit. ``on_result(job, result, build_seconds)`` is called on this
-    thread after each batch's integration. ``timing``, if given, gets ``prepare`` (host seconds of those
-    preparations, overlapped), ``prepare_wait`` (the part the main thread waited for) and ``store`` (seconds
-    of the store thread's writes)."""
+    thread after each batch's integration. ``create_store``: a call that creates the store, run by the store
+    thread once the first batch's first records are queued on the device (so it overlaps the integration; every
+    write comes after it). ``timing``, if given, gets ``prepare`` (host seconds of those preparations,
+    overlapped), ``prepare_wait`` (the part the main thread waited for), ``store`` (seconds of the store
+    thread's writes) and, with ``create_store``, ``create_store`` (its seconds, overlapped)."""
     from concurrent.futures import ThreadPoolExecutor
 
     from .sweep_store import RowWriter
@@ -200,30 +247,58 @@ def run_serial(jobs: list[BatchJob], device: str, *, on_record: Callable[[BatchJ
         timing["store"] += time.perf_counter() - clock + (rows.seconds if rows is not None else 0.0)
         return record
 
+    def timed_create():
+        clock = time.perf_counter()
+        create_store()
+        timing["create_store"] = time.perf_counter() - clock
+
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="hertzian-store") as writer, \
             ThreadPoolExecutor(max_workers=1, thread_name_prefix="hertzian-build") as builder:
         pending = None
+        creating = [None] if create_store is not None else []
         ahead = builder.submit(prepare_job, jobs[0]) if overlap and jobs else None
+
+        def created() -> None:
+            """Queue the store's creation (once), ahead of any write."""
+            if creating and creating[0] is None:
+                creating[0] = writer.submit(timed_create)
 
         def settle():
             job, future = pending
+            if creating:
+                creating[0].result()  # a failed creation raises its own error, not the writes' after it
             record = future.result()
             if on_done:
                 on_done(job, record)
 
         for index, job in enumerate(jobs):
             prepared, ahead = take_prepared(ahead, builder, jobs, index, timing)
-            progress = (lambda done, total, job=job: on_record(job, done, total)) if on_record else None
+
+            def progress(done, total, job=job):
+                if done >= 2:  # record 1 is queued behind the first launches: the device is busy
+                    created()
+                if on_record:
+                    on_record(job, done, total)
+
             rows = RowWriter(job.store, job.batch, writer) if rows_while_running else None
-            result, build = integrate_job(job, device, progress, prepared=prepared,
-                                          on_unpacked=rows.submit if rows is not None else None)
+
+            def on_unpacked(recorder, r, rows=rows):
+                created()
+                rows.submit(recorder, r)
+
+            result, build = integrate_job(job, device, progress if (on_record or creating) else None,
+                                          prepared=prepared, on_unpacked=on_unpacked if rows is not None else None)
             if on_result is not None:
                 on_result(job, result, build)
+            created()
             if pending is not None:
                 settle()
             pending = (job, writer.submit(timed_write, job, result, build, rows))
+        created()
         if pending is not None:
             settle()
+        if creating:
+            creating[0].result()
 
 
 def local_cluster(workers: int):

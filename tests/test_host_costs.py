@@ -108,6 +108,80 @@ def test_records_written_while_the_batch_runs_give_the_same_store(tmp_path, monk
     assert differing_arrays(running, at_once) == []
 
 
+def test_store_created_by_the_store_thread_while_the_first_batch_runs(tmp_path):
+    reference, batches = _store(tmp_path, "reference.zarr", overlap=False, rows_while_running=False)
+    sweep = sweep_from_dict(SWEEP)
+    points = expand(sweep)
+    plan = plan_sweep(sweep, points, "cpu", batch_size=2)
+    out = tmp_path / "created_later.zarr"
+    created = []
+
+    def create():
+        created.append(out.exists())
+        create_sweep_store(out, sweep, points.templates[0], plan, device="cpu")
+
+    timing = {}
+    run_serial(jobs_for(out, plan, points, plan.batches), "cpu", overlap=True, create_store=create, timing=timing)
+    assert created == [False] and timing["create_store"] > 0 and batches >= 3
+    assert differing_arrays(out, reference) == []
+
+    def fails():
+        raise OSError("no space left on device")
+
+    with pytest.raises(OSError, match="no space left"):  # its own error, not that of the writes queued after it
+        run_serial(jobs_for(tmp_path / "never.zarr", plan, points, plan.batches), "cpu", overlap=True,
+                   create_store=fails)
+
+
+def test_a_serial_sweep_warms_the_stepping_kernel_its_batches_use(monkeypatch):
+    """``warm_kernels(runs=…)``: the record kernels always; the fused kernel of the shape the calibration cache
+    holds for a batch; the per-step kernel only where ``auto`` takes it (a short run, nothing calibrated); without
+    ``runs`` (Dask workers) the per-step kernel of every feature set, as before."""
+    from types import SimpleNamespace
+
+    import warp as wp
+
+    from hertzian.ensemble import distributed
+    from hertzian.ensemble.solvers import calibrate
+    from hertzian.ensemble.solvers.calibrate import _cache_key, whole_chain_configs
+    from hertzian.kernels.records import record_kernels
+    from hertzian.kernels.step import step_kernel
+    from hertzian.kernels.tile import tile_kernel
+
+    sweep = sweep_from_dict(SWEEP)
+    points = expand(sweep)
+    plan = plan_sweep(sweep, points, "cpu", batch_size=4)
+    runs = distributed.runs_of(plan, points, plan.batches)
+    f = plan.groups[0].features
+    assert {(r[0], r[1], r[3]) for r in runs} == {(f, 12, 100)} and sorted({r[2] for r in runs}) == [4]
+    loaded = []
+    block_dims = {}
+
+    def load_module(module, device=None, block_dim=None):
+        loaded.append(module)
+        block_dims[module] = block_dim
+
+    monkeypatch.setattr(wp, "load_module", load_module)
+    records = {k.module for k in record_kernels(f)}
+    monkeypatch.setattr(calibrate, "_read_cache", lambda: {})
+    distributed.warm_kernels([f], "cpu", runs=runs)  # 4 × 12 × 100 grain-steps: short, the per-step kernel
+    assert set(loaded) == records | {step_kernel(f).module}
+    loaded.clear()
+    distributed.warm_kernels([f], "cpu", runs=[(f, 12, 4, 10**9)])  # long: the run's own kernel, none warmed
+    assert set(loaded) == records
+    model = build_model([scene_from_dict(SWEEP["scene"])] * 4, "cpu")
+    config = whole_chain_configs(model)[0]
+    shape_of = SimpleNamespace(device=wp.get_device("cpu"), features=f, grain_count=12, chain_count=4)
+    monkeypatch.setattr(calibrate, "_read_cache", lambda: {_cache_key(shape_of): config.to_dict()})
+    loaded.clear()
+    distributed.warm_kernels([f], "cpu", runs=runs)
+    assert set(loaded) == records | {tile_kernel(f, config.shape).module}
+    assert block_dims[tile_kernel(f, config.shape).module] == config.shape.block_dim  # compiled for its launch
+    loaded.clear()
+    distributed.warm_kernels([f], "cpu")
+    assert set(loaded) == records | {step_kernel(f).module}
+
+
 def test_overlapped_preparation_of_batches_spanning_templates(tmp_path):
     # the impurity's contact rule changes no kernel: one launch group whose batches join two templates
     # (run as one scene per point, nothing prepared)

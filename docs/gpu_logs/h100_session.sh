@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -365,6 +365,25 @@ nov26p)
   step timeline_bench_p2 60 "python3 docs/logs/sweep_timeline.py sweeps/gpu_10k.toml --device cuda --json $LOGS/timeline_bench_p2.json"
   step timeline_cli_p1 60 "python3 docs/logs/sweep_timeline.py sweeps/gpu_10k.toml --device cuda --cli --json $LOGS/timeline_cli_p1.json"
   step window_probe_p 100 "python3 docs/gpu_logs/window_probe.py --chains 2,64 --variants 0 --configs 'G=4 lanes=32 K=32,lanes=244 K=32' --out $LOGS/window_probe_p.json"
+  ;;
+nov26q)
+  # gpu_10k after: records written while their batch runs (shards per record), the store created by the store
+  # thread during the first batch, host pages mapped in a background thread, the stepping kernel the batches use
+  # warmed instead of the per-step kernel; bench --sweep (the issue's measure), timelines, the CLI sweep; the
+  # million-point sweep (no regression), the changed paths' CUDA tests, a first detection (pages mapped earlier)
+  B10K="bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  S10K="sweep sweeps/gpu_10k.toml --out $WORK/gpu10k.zarr --overwrite --device cuda --quiet --json"
+  step e2e_gpu10k_cold_q 120 "$HZ $B10K"
+  step e2e_gpu10k_warm_q 60 "$HZ $B10K"
+  step e2e_gpu10k_warm_q2 60 "$HZ $B10K"
+  step e2e_gpu10k_warm_q3 60 "$HZ $B10K"
+  step timeline_bench_q1 60 "python3 docs/logs/sweep_timeline.py sweeps/gpu_10k.toml --device cuda --json $LOGS/timeline_bench_q1.json"
+  step timeline_cli_q1 60 "python3 docs/logs/sweep_timeline.py sweeps/gpu_10k.toml --device cuda --cli --json $LOGS/timeline_cli_q1.json"
+  step sweep_gpu10k_warm_q 60 "$HZ $S10K"
+  step sweep_gpu10k_warm_q2 60 "$HZ $S10K"
+  step million_q 120 "$HZ sweep sweeps/million.toml --out $WORK/million.zarr --overwrite --device cuda --quiet --json"
+  step pytest_cuda_q 200 "python3 -m pytest -q -p no:cacheprovider tests/test_records.py tests/test_host_costs.py tests/test_sweep.py tests/test_detect.py -k cuda 2>&1"
+  step detect_first_q 200 "python3 docs/logs/detection/profile_first.py --device cuda --study sweeps/detect_study_1000_target_off.toml"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"

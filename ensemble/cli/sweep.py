@@ -264,7 +264,7 @@ def _run(definition, points, plan, out: Path, dev: str, *, resuming: bool, overw
 
     from concurrent.futures import ThreadPoolExecutor
 
-    from ..distributed import jobs_for, run_distributed, run_serial, warm_kernels, warm_workers
+    from ..distributed import jobs_for, run_distributed, run_serial, runs_of, warm_kernels, warm_workers
     from ..planner import format_bytes
     from ..sweep_store import (batch_records, completed_batches, create_sweep_store, finalize, remove_partial_files,
                               status_codes, store_bytes)
@@ -275,9 +275,12 @@ def _run(definition, points, plan, out: Path, dev: str, *, resuming: bool, overw
     features = [g.features for g in plan.groups]
     with contextlib.ExitStack() as stack:
         client = _connect(workers, scheduler, stack) if distributed else None
-        # the kernels load (from Warp's cache, or compile) in a thread while the store is created: loading a module
-        # and writing the store's metadata wait on different things (the driver, the file system)
-        warming = stack.enter_context(ThreadPoolExecutor(max_workers=1)).submit(warm_kernels, features, dev)
+        # the kernels load (from Warp's cache, or compile) in a thread
+        # (a serial run warms the stepping kernels its batches will use; Dask workers find every variant in the cache)
+        runs = None if client is not None else runs_of(plan, points, [b for b in plan.batches if b.index not in
+                                                                       (completed_batches(out) if resuming else ())])
+        warming = stack.enter_context(ThreadPoolExecutor(max_workers=1)).submit(warm_kernels, features, dev, runs=runs)
+        create = None
         if resuming:
             remove_partial_files(out)
             done = completed_batches(out)
@@ -286,9 +289,15 @@ def _run(definition, points, plan, out: Path, dev: str, *, resuming: bool, overw
                 typer.echo(f"note: earlier batches ran on {', '.join(sorted(earlier))}, these run on {dev}: "
                            "results agree to rounding, not bit for bit, across device kinds", err=True)
         else:
-            clock = time.perf_counter()
-            create_sweep_store(out, definition, points.templates[0], plan, device=label, overwrite=overwrite)
-            timing["create_store"] = time.perf_counter() - clock
+            def create():
+                create_sweep_store(out, definition, points.templates[0], plan, device=label, overwrite=overwrite)
+
+            if client is not None:  # workers write into it: it exists before they start
+                clock = time.perf_counter()
+                create()
+                timing["create_store"] = time.perf_counter() - clock
+                create = None
+            # else: run_serial's store thread creates it while the first batch's first records run
             done = set()
         clock = time.perf_counter()
         pending = [b for b in plan.batches if b.index not in done]
@@ -305,7 +314,8 @@ def _run(definition, points, plan, out: Path, dev: str, *, resuming: bool, overw
         start = time.perf_counter()
         try:
             if client is None:
-                run_serial(jobs, dev, on_record=progress.record, on_done=progress.batch_done, timing=timing)
+                run_serial(jobs, dev, on_record=progress.record, on_done=progress.batch_done, create_store=create,
+                           timing=timing)
             else:
                 run_distributed(jobs, client, requested_device, on_done=progress.batch_done)
         except KeyboardInterrupt:
@@ -344,7 +354,8 @@ def _run(definition, points, plan, out: Path, dev: str, *, resuming: bool, overw
             "store_bytes": store_bytes(out),
             "seconds": timing,
             # host time of this command outside the integration (interpreter start-up and imports excluded)
-            "seconds_outside_kernel": sum(timing.get(k, 0.0) for k in ("load", "expand", "plan", "create_store",
-                                                                        "jobs", "warm_kernels", "finalize"))
+            "seconds_outside_kernel": sum(timing.get(k, 0.0) for k in ("load", "expand", "plan", "jobs",
+                                                                        "warm_kernels", "finalize"))
+                                      + (timing.get("create_store", 0.0) if distributed else 0.0)
                                       + timing["batches"] - timing["kernel"],
         }, indent=1))
