@@ -493,6 +493,26 @@ def first_echo_ends(t: np.ndarray, fronts: np.ndarray, depths: np.ndarray) -> np
     return np.searchsorted(t, 2 * fronts[deeper]).astype(np.int64)
 
 
+DEPTH_THREADS = 8
+"""Threads that assemble a library and project a signal on it, a share of the depths each (numpy releases the GIL
+in these products and subtractions; a library of 1000 grains is ≈ 1 GB of echoes)."""
+
+
+def _over_depths(work, depth_count: int) -> None:
+    """``work(range of depths)`` over all depths, in up to DEPTH_THREADS threads (contiguous shares, so each thread
+    writes its own rows)."""
+    threads = max(1, min(DEPTH_THREADS, os.cpu_count() or 1, depth_count // 16))
+    if threads == 1:
+        work(range(depth_count))
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    edges = np.linspace(0, depth_count, threads + 1).astype(int)
+    with ThreadPoolExecutor(max_workers=threads) as pool:
+        for future in [pool.submit(work, range(a, b)) for a, b in zip(edges[:-1], edges[1:])]:
+            future.result()
+
+
 def assemble_library(key: str, grid: Grid, forward: Scene, clean: np.ndarray, traces: np.ndarray, ok: np.ndarray,
                      fronts: np.ndarray, *, in_place: bool = False) -> Library:
     """A library from the clean chain's surface trace (S,), the candidates' (D, M, S) and whether each ran OK
@@ -503,15 +523,22 @@ def assemble_library(key: str, grid: Grid, forward: Scene, clean: np.ndarray, tr
     ok = np.asarray(ok, dtype=bool)
     fronts = np.asarray(fronts, dtype=np.float64)
     echoes = np.asarray(traces, dtype=np.float64) if in_place else np.array(traces, dtype=np.float64)
-    echoes[~ok] = 0.0
-    echoes -= clean
-    gram = np.matmul(echoes, echoes.transpose(0, 2, 1))
     t = np.arange(clean.size) * forward.record.trace_every
     ends = first_echo_ends(t, fronts, grid.depths)
+    depth_count, ratios = ok.shape
+    gram = np.empty((depth_count, ratios, ratios))
     first_echo_gram = np.empty_like(gram)
-    for k, end in enumerate(ends):
-        head = echoes[k, :, :end]
-        first_echo_gram[k] = head @ head.T
+
+    def assemble(depths: range) -> None:
+        for k in depths:
+            e = echoes[k]
+            e[~ok[k]] = 0.0
+            e -= clean
+            gram[k] = e @ e.T
+            head = e[:, :ends[k]]
+            first_echo_gram[k] = head @ head.T
+
+    _over_depths(assemble, depth_count)
     return Library(key=key, grid=grid, forward=forward, clean=clean, echoes=echoes, ok=ok, fronts=fronts, gram=gram,
                    first_echo_ends=ends, first_echo_gram=first_echo_gram, build_seconds=0.0)
 
@@ -898,11 +925,17 @@ def _echo_projections(residual: np.ndarray, library: Library) -> tuple[np.ndarra
     projections = np.empty(library.ok.shape)
     first_norm2 = np.empty(library.ok.shape[0])
     first_projections = np.empty(library.ok.shape)
-    for k, end in enumerate(library.first_echo_ends.tolist()):
-        echoes, head = library.echoes[k], residual[:end]
-        first_norm2[k] = head @ head
-        first_projections[k] = echoes[:, :end] @ head
-        projections[k] = first_projections[k] + echoes[:, end:] @ residual[end:]
+    ends = library.first_echo_ends.tolist()
+
+    def project(depths: range) -> None:
+        for k in depths:
+            end = ends[k]
+            echoes, head = library.echoes[k], residual[:end]
+            first_norm2[k] = head @ head
+            first_projections[k] = echoes[:, :end] @ head
+            projections[k] = first_projections[k] + echoes[:, end:] @ residual[end:]
+
+    _over_depths(project, len(ends))
     return projections, (first_norm2, first_projections)
 
 

@@ -111,18 +111,27 @@ class Recorder:
         self.dissipated = np.zeros((c, records)) if damped else None
         self.response = ResponseAccumulator(m) if scene.has_response else None
 
-        self._mapping = None
+        self.staging_key = self._staging_key()
+        self.staging = [STAGING.take(self.staging_key, self._staging_buffer) for _ in range(2)]
+        """Two sets of host copies, used alternately (double buffering)."""
+        self.pending: list[tuple[int, object] | None] = [None, None]
+        """Per staging buffer: (record index, CUDA event after its copies) not yet unpacked, or None."""
+        self._rings: dict[int, object] = {}
+        if self.traced and m.device.is_cuda:
+            # the page-locked copies of the trace ring that these staging buffers lack (slot 1 takes record 1, slot 0
+            # record 2) are allocated by the background thread while the launches run: in a run of one record after
+            # t = 0 (a detection library) the host reaches record 1 only once nearly all launches are queued, and
+            # allocating there (≈ 0.4 s per GB on the H100 host) came after the device had finished
+            for slot in (1, 0)[:1 if records < 3 else 2]:
+                if "ring" not in self.staging[slot]:
+                    self._rings[slot] = _MAPPER.submit(self._ring_buffer)
+        self._mapping = None  # (after the rings: record 1 waits for its ring, the first unpack for this)
         if (m.device.is_cuda if map_in_background is None else map_in_background) and (self.fields or self.traces):
             # the host arrays' pages are mapped (written once) by a background thread while the first records run
             # (or, for a detection library's one record after t = 0, while the whole run does): mapping fresh zeroed
             # pages on first write cost up to ≈ 1 s per GB on the H100 host, and the first unpack writes into every
             # page (a record is one row of every chain), so it stalled the device between records
             self._mapping = _MAPPER.submit(_map_pages, [*self.fields.values(), *self.traces.values()])
-        self.staging_key = self._staging_key()
-        self.staging = [STAGING.take(self.staging_key, self._staging_buffer) for _ in range(2)]
-        """Two sets of host copies, used alternately (double buffering)."""
-        self.pending: list[tuple[int, object] | None] = [None, None]
-        """Per staging buffer: (record index, CUDA event after its copies) not yet unpacked, or None."""
 
     def _staging_key(self) -> tuple:
         m = self.model
@@ -153,13 +162,14 @@ class Recorder:
         if self.fields or self.traced:
             buf["u"] = host((c, n), m.real)
             buf["v"] = host((c, n), m.real)
-        # the trace ring's copy ("ring", the largest) is allocated at its first use, a record r > 0: a run with
-        # one record after t = 0 (a detection library: every chain's whole trace) needs it in one buffer only
+        # the trace ring's copy ("ring", the largest) is allocated for its first use, a record r > 0 (on CUDA in the
+        # background from __init__): a run with one record after t = 0 (a detection library: every chain's whole
+        # trace) needs it in one buffer only
         return buf
 
     def _ring_buffer(self) -> wp.array:
-        # page-locked on CUDA: allocated at the first record after t = 0, when the launches before it are queued,
-        # so the allocation (≈ 0.4 s per GB on the H100 host) overlaps them; a pageable copy of a detection
+        # page-locked on CUDA, where the background thread allocates it while the launches run (≈ 0.4 s per GB on the
+        # H100 host); a pageable copy of a detection
         # library's 1.2 GB of traces took ≈ 1.9 s there, a page-locked one ≈ 0.1 s
         m = self.model
         shape = (len(self.trace_values), m.chain_count, self.capacity, len(self.traced))
@@ -218,7 +228,7 @@ class Recorder:
             wp.copy(buf["v"], state.x[1])
         if self.traced and r > 0:
             if "ring" not in buf:
-                buf["ring"] = self._ring_buffer()
+                buf["ring"] = self._rings.pop(slot).result() if slot in self._rings else self._ring_buffer()
             wp.copy(buf["ring"], self._ring_source(state))
         event = wp.get_stream(self.model.device).record_event() if self.model.device.is_cuda else None
         self.pending[slot] = (r, event)

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -384,6 +384,19 @@ nov26q)
   step million_q 120 "$HZ sweep sweeps/million.toml --out $WORK/million.zarr --overwrite --device cuda --quiet --json"
   step pytest_cuda_q 200 "python3 -m pytest -q -p no:cacheprovider tests/test_records.py tests/test_host_costs.py tests/test_sweep.py tests/test_detect.py -k cuda 2>&1"
   step detect_first_q 200 "python3 docs/logs/detection/profile_first.py --device cuda --study sweeps/detect_study_1000_target_off.toml"
+  ;;
+nov26r)
+  # a first detection with the trace ring's page-locked copy allocated in the background and the library assembled
+  # and projected in threads (BASE dt 1e-3, then 2e-3: half the library's grain-steps); the accuracy of the target
+  # cases (26 dB) and of the noise axis at dt 2e-3; the recorder's and detector's CUDA tests
+  step pytest_cuda_r 200 "python3 -m pytest -q -p no:cacheprovider tests/test_records.py tests/test_detect.py tests/test_host_costs.py -k cuda 2>&1"
+  step detect_first_r 200 "python3 docs/logs/detection/profile_first.py --device cuda --study sweeps/detect_study_1000_target_off.toml"
+  step detect_first_dt2_r 200 "python3 docs/logs/detection/profile_first.py --device cuda --study sweeps/detect_study_1000_target_dt2.toml --repeat"
+  step detect_study_target_dt2 200 "$HZ detect-study sweeps/detect_study_1000_target_dt2.toml --out $LOGS/study_1000_target_dt2_gpu.json --overwrite --device cuda"
+  ;;
+nov26s)
+  # the noise axis (SNR 40 … 6 dB, depths 5 … 95 %) at BASE dt 2e-3
+  step detect_study_snr_dt2 400 "$HZ detect-study sweeps/detect_study_1000_snr_dt2.toml --out $LOGS/study_1000_snr_dt2_gpu.json --overwrite --device cuda"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"

@@ -1,10 +1,12 @@
 """How far the detector's forward model (BASE step, plain Gear steps) is from the planted signals of detect-study (half
 the step, event-aware steps) on the 1000-grain host: the rms and largest difference of grain 0's velocity over the
-window, against the noise σ at 40 and 26 dB. CPU, about 15 s:
+window, against the noise σ at 40 and 26 dB. CPU, about 15 s per step:
 
     python docs/logs/detection/model_error_1000_cpu.py > docs/logs/detection/model_error_1000_cpu.txt
+    python docs/logs/detection/model_error_1000_cpu.py --dt 2e-3 > docs/logs/detection/model_error_1000_dt2e-3_cpu.txt
 """
 
+import argparse
 import time
 
 import numpy as np
@@ -12,8 +14,12 @@ import numpy as np
 from hertzian.ensemble.detect import forward_scene, run_candidates
 from hertzian.ensemble.detect_study import _truth_velocities
 from hertzian.ensemble.scene import scene_from_dict
+parser = argparse.ArgumentParser()
+parser.add_argument("--dt", type=float, default=1e-3, help="BASE's step (the planted truth runs at half of it)")
+dt = parser.parse_args().dt
 base = scene_from_dict({"chain": {"grains": 1000, "l0": 1e-4}, "excitation": {"impact": 1e-2},
-                        "integrator": {"method": "gear4", "dt": 1e-3, "duration": 1.0, "events": "off"}})
+                        "integrator": {"method": "gear4", "dt": dt, "duration": 1.0, "events": "off"}})
+print(f"BASE dt {dt:g} (truth at {dt / 2:g}, event-aware steps)")
 S = 11661
 fwd = forward_scene(base, 0.01, S)
 t0 = time.perf_counter()
