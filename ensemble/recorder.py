@@ -16,7 +16,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import warp as wp
 
-from hertzian.kernels.records import PART_SUMS, record_kernels, record_part_count, track_extremes
+from hertzian.kernels.records import PART_SUMS, record_kernels, record_part_count, traced_start_kernel, track_extremes
 
 from .model import Model, State
 from .response import ResponseAccumulator
@@ -106,6 +106,10 @@ class Recorder:
         self.traces = ({name: np.zeros((c, sample_count, len(self.traced)), dtype=self.real_np)
                         for name in self.trace_values} if self.traced else {})
         self.trace_t = (np.arange(sample_count) * scene.trace_stride * m.dt) if self.traced else None
+        if self.traced and not self.fields:
+            self.traced_index = wp.array(np.asarray(self.traced, dtype=np.int32), dtype=wp.int32, device=dev)
+            self.traced_start = wp.empty((2, c, len(self.traced)), dtype=m.real, device=dev)
+            """The traced grains' u and dt·v at t = 0 (device; copied instead of the whole state)."""
         self.energy = np.zeros((c, records))
         self.work = np.zeros((c, records)) if m.features.surface == "driven" else None
         self.dissipated = np.zeros((c, records)) if damped else None
@@ -136,7 +140,7 @@ class Recorder:
     def _staging_key(self) -> tuple:
         m = self.model
         return (str(m.device), m.chain_count, m.grain_count, m.features.precision, self.work is not None,
-                self.dissipated is not None, bool(self.fields or self.traced), len(self.traced), self.capacity,
+                self.dissipated is not None, bool(self.fields), len(self.traced), self.capacity,
                 self.trace_values)
 
     def release(self) -> None:
@@ -159,9 +163,11 @@ class Recorder:
             buf["work"] = host(c, wp.float64)
         if self.dissipated is not None:
             buf["dissipated"] = host(c, wp.float64)
-        if self.fields or self.traced:
+        if self.fields:
             buf["u"] = host((c, n), m.real)
             buf["v"] = host((c, n), m.real)
+        elif self.traced:  # the traced grains at t = 0 (record 0), gathered on the device
+            buf["start"] = host((2, c, len(self.traced)), m.real)
         # the trace ring's copy ("ring", the largest) is allocated for its first use, a record r > 0 (on CUDA in the
         # background from __init__): a run with one record after t = 0 (a detection library: every chain's whole
         # trace) needs it in one buffer only
@@ -187,6 +193,8 @@ class Recorder:
         wp.load_module(self.parts_kernel.module, device=self.model.device)
         wp.load_module(self.kernel.module, device=self.model.device)
         wp.load_module(track_extremes.module, device=self.model.device)
+        if self.traced and not self.fields:
+            wp.load_module(traced_start_kernel(self.model.features.precision).module, device=self.model.device)
         if self.response is not None:
             self.response.load()
 
@@ -226,6 +234,10 @@ class Recorder:
         if "u" in buf:
             wp.copy(buf["u"], state.x[0])
             wp.copy(buf["v"], state.x[1])
+        if r == 0 and "start" in buf:
+            wp.launch(traced_start_kernel(self.model.features.precision), dim=self.traced_start.shape,
+                      inputs=[state.x, self.traced_index], outputs=[self.traced_start], device=self.model.device)
+            wp.copy(buf["start"], self.traced_start)
         if self.traced and r > 0:
             if "ring" not in buf:
                 buf["ring"] = self._rings.pop(slot).result() if slot in self._rings else self._ring_buffer()
@@ -258,10 +270,12 @@ class Recorder:
             self.dissipated[:, r] = buf["dissipated"].numpy()
         if self.traced:
             if r == 0:
+                u0, v0 = (buf["u"].numpy()[:, self.traced], buf["v"].numpy()[:, self.traced]) if "u" in buf else \
+                    buf["start"].numpy()
                 if "u" in self.traces:
-                    self.traces["u"][:, 0] = buf["u"].numpy()[:, self.traced]
+                    self.traces["u"][:, 0] = u0
                 if "v" in self.traces:
-                    self.traces["v"][:, 0] = buf["v"].numpy()[:, self.traced] / dt
+                    self.traces["v"][:, 0] = v0 / dt
             else:
                 # sample k (taken at step k·stride) sits in ring slot k % capacity
                 rows = slice(int(self.record_steps[r - 1]) // self.stride + 1,

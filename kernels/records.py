@@ -221,3 +221,17 @@ def track_extremes(
         change = change + dissipated[c]
     energy_deviation[c] = wp.max(energy_deviation[c], wp.abs(change))
     largest_overlap[c] = wp.max(largest_overlap[c], overlap[c])
+
+
+@functools.cache
+def traced_start_kernel(precision: str):
+    """Gathers the traced grains' u and dt·v (rows 0 and 1 of the state) into ``out`` (2, chains, traced): a run
+    that keeps traces but no snapshots copies these at t = 0 instead of every grain."""
+    real = wp.float64 if precision == "float64" else wp.float32
+
+    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
+    def traced_start(x: wp.array3d(dtype=real), traced: wp.array(dtype=wp.int32), out: wp.array3d(dtype=real)):
+        row, c, j = wp.tid()
+        out[row, c, j] = x[row, c, traced[j]]
+
+    return traced_start

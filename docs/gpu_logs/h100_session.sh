@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -397,6 +397,13 @@ nov26r)
 nov26s)
   # the noise axis (SNR 40 … 6 dB, depths 5 … 95 %) at BASE dt 2e-3
   step detect_study_snr_dt2 400 "$HZ detect-study sweeps/detect_study_1000_snr_dt2.toml --out $LOGS/study_1000_snr_dt2_gpu.json --overwrite --device cuda"
+  ;;
+nov26t)
+  # a run that keeps traces but no snapshots copies the traced grains at t = 0 (not the whole state): the recorder's
+  # CUDA tests; a first detection at BASE dt 2e-3 timed twice, and its timeline by thread with the GPU's busy time
+  step pytest_cuda_t 200 "python3 -m pytest -q -p no:cacheprovider tests/test_records.py tests/test_detect.py -k cuda 2>&1"
+  step detect_first_dt2_t 200 "python3 docs/logs/detection/profile_first.py --device cuda --study sweeps/detect_study_1000_target_dt2.toml --repeat"
+  step timeline_detect_dt2_t 200 "python3 docs/logs/sweep_timeline.py sweeps/detect_study_1000_target_dt2.toml --device cuda --detect --json $LOGS/timeline_detect_dt2_t.json"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"

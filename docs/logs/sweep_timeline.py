@@ -1,4 +1,5 @@
-"""Where a sweep's wall time goes: a timeline of `hertzian bench --sweep FILE` (or `hertzian sweep`) by thread.
+"""Where a sweep's (or a detection's) wall time goes: a timeline of `hertzian bench --sweep FILE` (or `hertzian sweep`,
+or a first detection) by thread.
 
 Wraps the sweep's phases (load, expand, plan, store creation, kernel loading, batch preparation, model upload,
 solver and recorder set-up, each record, the store writes, finalize) and Warp's module loads and device
@@ -9,6 +10,9 @@ end in ms from the first phase, with the thread, then the GPU-idle gaps.
     python3 docs/logs/sweep_timeline.py sweeps/gpu_10k.toml --device cuda [--cli]
 
 ``--cli`` times ``hertzian sweep FILE --out TMP --overwrite --quiet`` through the CLI instead of the bench.
+``--detect`` takes FILE as a detection study (sweeps/detect_study_*.toml): it plants a light grain at half depth
+(26 dB, as docs/logs/detection/profile_first.py), runs `detect` once untimed (compiles, in a library cache of its
+own), then times a first detection on a new host chain (an empty cache) with the kernels compiled.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ import argparse
 import functools
 import importlib
 import json
+import os
 import sys
 import tempfile
 import threading
@@ -67,8 +72,15 @@ def instrument() -> None:
             _wrap(runner_module, name, name)
     _wrap(Runner, "__init__", "Runner.__init__")
     _wrap(Runner, "run", "Runner.run")
-    for name in ("load", "record", "finish", "release", "check"):
+    for name in ("load", "record", "finish", "release", "check", "_unpack"):
         _wrap(Recorder, name, f"Recorder.{name}")
+    from hertzian.ensemble import detect as detect_module
+
+    for name in ("run_candidates", "_prepare_candidates", "assemble_library", "save_library", "_echo_projections",
+                 "front_times", "fine_scan", "build_library"):
+        _wrap(detect_module, name, name)
+    _wrap(detect_module.Library, "finish_saving", "Library.finish_saving")
+    _wrap(wp, "synchronize_event", "wp.synchronize_event")
     _wrap(wp, "load_module", "wp.load_module")
     _wrap(wp, "synchronize_device", "wp.synchronize_device")
     _wrap(wp, "synchronize", "wp.synchronize")
@@ -93,6 +105,7 @@ def main() -> None:
     parser.add_argument("sweep")
     parser.add_argument("--device", default="cuda")
     parser.add_argument("--cli", action="store_true")
+    parser.add_argument("--detect", action="store_true", help="FILE is a detection study: time a first detection")
     parser.add_argument("--json", type=Path, default=None)
     args = parser.parse_args()
 
@@ -105,6 +118,20 @@ def main() -> None:
 
     instrument()
     imported = time.perf_counter() - t_import
+    if args.detect:
+        import tempfile as tmp_module
+
+        sys.path.insert(0, str(Path(__file__).resolve().parent / "detection"))
+        from profile_detect import planted_signal
+
+        from hertzian.ensemble.detect import detect
+
+        signal, base, kwargs = planted_signal(args.sweep, args.device, depth_fraction=0.5, fronts_cache=False)
+        os.environ["HERTZIAN_DETECT_CACHE"] = tmp_module.mkdtemp(prefix="hz-detect-")
+        detect(signal, base, device=args.device, **kwargs)  # compiles and calibrates: not timed
+        os.environ["HERTZIAN_DETECT_CACHE"] = tmp_module.mkdtemp(prefix="hz-detect-")
+        INTERVALS.clear()
+        GPU.clear()
     reference = None
     if wp.get_device(args.device).is_cuda:
         wp.synchronize_device(args.device)
@@ -112,7 +139,11 @@ def main() -> None:
         wp.synchronize_device(args.device)
     origin = time.perf_counter()
     summary = None
-    if args.cli:
+    if args.detect:
+        found, _ = detect(signal, base, device=args.device, **kwargs)
+        print(f"first detection: {found.kind} depth {found.depth} mass ratio {found.mass_ratio:.4g}; "
+              f"seconds {found.seconds}")
+    elif args.cli:
         from hertzian.ensemble.cli import main as cli_main
 
         with tempfile.TemporaryDirectory() as tmp:
