@@ -493,26 +493,6 @@ def first_echo_ends(t: np.ndarray, fronts: np.ndarray, depths: np.ndarray) -> np
     return np.searchsorted(t, 2 * fronts[deeper]).astype(np.int64)
 
 
-DEPTH_THREADS = 8
-"""Threads that assemble a library and project a signal on it, a share of the depths each (numpy releases the GIL
-in these products and subtractions; a library of 1000 grains is ≈ 1 GB of echoes)."""
-
-
-def _over_depths(work, depth_count: int) -> None:
-    """``work(range of depths)`` over all depths, in up to DEPTH_THREADS threads (contiguous shares, so each thread
-    writes its own rows)."""
-    threads = max(1, min(DEPTH_THREADS, os.cpu_count() or 1, depth_count // 16))
-    if threads == 1:
-        work(range(depth_count))
-        return
-    from concurrent.futures import ThreadPoolExecutor
-
-    edges = np.linspace(0, depth_count, threads + 1).astype(int)
-    with ThreadPoolExecutor(max_workers=threads) as pool:
-        for future in [pool.submit(work, range(a, b)) for a, b in zip(edges[:-1], edges[1:])]:
-            future.result()
-
-
 def assemble_library(key: str, grid: Grid, forward: Scene, clean: np.ndarray, traces: np.ndarray, ok: np.ndarray,
                      fronts: np.ndarray, *, in_place: bool = False) -> Library:
     """A library from the clean chain's surface trace (S,), the candidates' (D, M, S) and whether each ran OK
@@ -523,22 +503,15 @@ def assemble_library(key: str, grid: Grid, forward: Scene, clean: np.ndarray, tr
     ok = np.asarray(ok, dtype=bool)
     fronts = np.asarray(fronts, dtype=np.float64)
     echoes = np.asarray(traces, dtype=np.float64) if in_place else np.array(traces, dtype=np.float64)
+    echoes[~ok] = 0.0
+    echoes -= clean
+    gram = np.matmul(echoes, echoes.transpose(0, 2, 1))
     t = np.arange(clean.size) * forward.record.trace_every
     ends = first_echo_ends(t, fronts, grid.depths)
-    depth_count, ratios = ok.shape
-    gram = np.empty((depth_count, ratios, ratios))
     first_echo_gram = np.empty_like(gram)
-
-    def assemble(depths: range) -> None:
-        for k in depths:
-            e = echoes[k]
-            e[~ok[k]] = 0.0
-            e -= clean
-            gram[k] = e @ e.T
-            head = e[:, :ends[k]]
-            first_echo_gram[k] = head @ head.T
-
-    _over_depths(assemble, depth_count)
+    for k, end in enumerate(ends):
+        head = echoes[k, :, :end]
+        first_echo_gram[k] = head @ head.T
     return Library(key=key, grid=grid, forward=forward, clean=clean, echoes=echoes, ok=ok, fronts=fronts, gram=gram,
                    first_echo_ends=ends, first_echo_gram=first_echo_gram, build_seconds=0.0)
 
@@ -592,6 +565,71 @@ def load_library(path: Path, key: str, grid: Grid, forward: Scene) -> Library | 
     return None
 
 
+def _library_on_device(key: str, grid: Grid, forward: Scene, fronts: np.ndarray, candidates: list[tuple],
+                       device: str, batch_size: int | None) -> Library | None:
+    """The library simulated as one ensemble whose traces stay on the device, where its echoes and Gram matrices are
+    assembled (kernels/library.py: the same echoes, bit for bit, as :func:`assemble_library` from host traces; Gram
+    matrices equal to rounding); only the echoes (into page-locked memory allocated while the run executes) and the
+    small arrays come back. None where that path does not apply (more candidates than one batch, candidates that
+    cannot be stacked, more than one record interval): the caller takes the host path."""
+    import warp as wp
+
+    from hertzian.kernels.library import library_kernels
+
+    from .devices import init_warp
+    from .model import build_model
+    from .runner import Runner
+    from .status import Status
+
+    init_warp()
+    if len(candidates) > (batch_size or default_batch_size(device)) or forward.record_count != 2:
+        return None
+    prepared, order = _prepare_candidates(forward, candidates, grid.block)
+    if prepared is None:
+        return None
+    model = build_model(prepared.chains, device, prepared=prepared)
+    depths, ratios, samples = len(grid.depths), len(grid.log_mass_ratio), forward.trace_sample_count
+    host = {}
+
+    def allocate() -> None:  # while the run executes: page-locked allocation costs ≈ 0.4 s per GB on the H100 host
+        pinned = model.device.is_cuda
+        host["echoes"] = wp.empty((depths * ratios, samples), dtype=wp.float64, device="cpu", pinned=pinned)
+
+    runner = Runner(model, kernel="fused", trace_values=("v",), traces_on_device=True, on_queued=allocate)
+    result = runner.run()
+    ok = np.empty(len(candidates), dtype=bool)
+    ok[order] = result.status == Status.OK
+    library_echoes, library_grams = library_kernels(model.features.precision)
+    dev = model.device
+    clean = wp.empty(samples, dtype=wp.float64, device=dev)
+    echoes = wp.empty((depths * ratios, samples), dtype=wp.float64, device=dev)
+    wp.launch(library_echoes, dim=(len(candidates), samples),
+              inputs=[runner.current.traces, runner.recorder.traced_start,
+                      wp.array(np.asarray(order, dtype=np.int32), dtype=wp.int32, device=dev),
+                      int(np.flatnonzero(np.asarray(order) == 0)[0]),
+                      wp.array(ok.astype(np.int32), dtype=wp.int32, device=dev), model.trace_capacity,
+                      runner.recorder.real_np(model.dt)],
+              outputs=[clean, echoes], device=dev)
+    t = np.arange(samples) * forward.record.trace_every
+    ends = first_echo_ends(t, fronts, grid.depths)
+    gram = wp.empty((depths, ratios, ratios), dtype=wp.float64, device=dev)
+    first_echo_gram = wp.empty_like(gram)
+    wp.launch(library_grams, dim=gram.shape,
+              inputs=[echoes.reshape((depths, ratios, samples)),
+                      wp.array(ends.astype(np.int32), dtype=wp.int32, device=dev)],
+              outputs=[gram, first_echo_gram], device=dev)
+    wp.copy(host["echoes"], echoes)
+    return Library(key=key, grid=grid, forward=forward, clean=clean.numpy(),
+                   echoes=host["echoes"].numpy().reshape(depths, ratios, samples), ok=ok[1:].reshape(depths, ratios),
+                   fronts=np.asarray(fronts, dtype=np.float64), gram=gram.numpy(), first_echo_ends=ends,
+                   first_echo_gram=first_echo_gram.numpy(), build_seconds=0.0)
+
+
+ASSEMBLE_ON_DEVICE: bool | None = None
+"""Whether :func:`build_library` assembles the library on the device (:func:`_library_on_device`); None: on CUDA
+devices (on a CPU the host path is as fast; tests set True to check the two paths agree)."""
+
+
 def build_library(forward: Scene, grid: Grid, device: str, *, fronts: np.ndarray | None = None,
                   use_cache: bool = True, batch_size: int | None = None, save_in_background: bool = False) -> Library:
     """The library for a forward scene and grid, from the cache when it is there (else simulated and saved).
@@ -610,10 +648,15 @@ def build_library(forward: Scene, grid: Grid, device: str, *, fronts: np.ndarray
     if fronts is None:
         fronts = front_times(forward, device)
     candidates = [(-1, 1.0)] + [(int(d), math.exp(x)) for d in grid.depths for x in grid.log_mass_ratio]
-    traces, ok = run_candidates(forward, candidates, grid.block, device, batch_size=batch_size)
-    shape = (len(grid.depths), len(grid.log_mass_ratio))
-    library = assemble_library(key, grid, forward, traces[0], traces[1:].reshape(shape + (-1,)), ok[1:].reshape(shape),
-                               fronts, in_place=True)
+    import warp as wp
+
+    on_device = wp.get_device(device).is_cuda if ASSEMBLE_ON_DEVICE is None else ASSEMBLE_ON_DEVICE
+    library = _library_on_device(key, grid, forward, fronts, candidates, device, batch_size) if on_device else None
+    if library is None:
+        traces, ok = run_candidates(forward, candidates, grid.block, device, batch_size=batch_size)
+        shape = (len(grid.depths), len(grid.log_mass_ratio))
+        library = assemble_library(key, grid, forward, traces[0], traces[1:].reshape(shape + (-1,)),
+                                   ok[1:].reshape(shape), fronts, in_place=True)
     library.build_seconds = time.perf_counter() - start
     if use_cache:
         if save_in_background:
@@ -925,17 +968,11 @@ def _echo_projections(residual: np.ndarray, library: Library) -> tuple[np.ndarra
     projections = np.empty(library.ok.shape)
     first_norm2 = np.empty(library.ok.shape[0])
     first_projections = np.empty(library.ok.shape)
-    ends = library.first_echo_ends.tolist()
-
-    def project(depths: range) -> None:
-        for k in depths:
-            end = ends[k]
-            echoes, head = library.echoes[k], residual[:end]
-            first_norm2[k] = head @ head
-            first_projections[k] = echoes[:, :end] @ head
-            projections[k] = first_projections[k] + echoes[:, end:] @ residual[end:]
-
-    _over_depths(project, len(ends))
+    for k, end in enumerate(library.first_echo_ends.tolist()):
+        echoes, head = library.echoes[k], residual[:end]
+        first_norm2[k] = head @ head
+        first_projections[k] = echoes[:, :end] @ head
+        projections[k] = first_projections[k] + echoes[:, end:] @ residual[end:]
     return projections, (first_norm2, first_projections)
 
 

@@ -69,7 +69,7 @@ class Recorder:
     """The device reductions and host arrays of one run of ``model``."""
 
     def __init__(self, model: Model, *, trace_values: tuple[str, ...] = ("u", "v"), on_unpacked=None,
-                 map_in_background: bool | None = None):
+                 map_in_background: bool | None = None, traces_on_device: bool = False):
         if not trace_values or not set(trace_values) <= {"u", "v"}:
             raise ValueError(f"trace_values = {trace_values!r}: one or both of 'u', 'v'")
         self.model = model
@@ -103,8 +103,11 @@ class Recorder:
         self.record_steps = scene.record_steps
         self.stride = scene.trace_stride
         sample_count = scene.trace_sample_count
+        self.traces_on_device = traces_on_device and bool(self.traced)
+        """The traces stay in the device's ring (with ``traced_start``, their t = 0 values): nothing is copied,
+        ``traces`` is empty (a detection library assembles its echoes on the device: kernels/library.py)."""
         self.traces = ({name: np.zeros((c, sample_count, len(self.traced)), dtype=self.real_np)
-                        for name in self.trace_values} if self.traced else {})
+                        for name in self.trace_values} if self.traced and not self.traces_on_device else {})
         self.trace_t = (np.arange(sample_count) * scene.trace_stride * m.dt) if self.traced else None
         if self.traced and not self.fields:
             self.traced_index = wp.array(np.asarray(self.traced, dtype=np.int32), dtype=wp.int32, device=dev)
@@ -120,16 +123,7 @@ class Recorder:
         """Two sets of host copies, used alternately (double buffering)."""
         self.pending: list[tuple[int, object] | None] = [None, None]
         """Per staging buffer: (record index, CUDA event after its copies) not yet unpacked, or None."""
-        self._rings: dict[int, object] = {}
-        if self.traced and m.device.is_cuda:
-            # the page-locked copies of the trace ring that these staging buffers lack (slot 1 takes record 1, slot 0
-            # record 2) are allocated by the background thread while the launches run: in a run of one record after
-            # t = 0 (a detection library) the host reaches record 1 only once nearly all launches are queued, and
-            # allocating there (≈ 0.4 s per GB on the H100 host) came after the device had finished
-            for slot in (1, 0)[:1 if records < 3 else 2]:
-                if "ring" not in self.staging[slot]:
-                    self._rings[slot] = _MAPPER.submit(self._ring_buffer)
-        self._mapping = None  # (after the rings: record 1 waits for its ring, the first unpack for this)
+        self._mapping = None
         if (m.device.is_cuda if map_in_background is None else map_in_background) and (self.fields or self.traces):
             # the host arrays' pages are mapped (written once) by a background thread while the first records run
             # (or, for a detection library's one record after t = 0, while the whole run does): mapping fresh zeroed
@@ -168,14 +162,14 @@ class Recorder:
             buf["v"] = host((c, n), m.real)
         elif self.traced:  # the traced grains at t = 0 (record 0), gathered on the device
             buf["start"] = host((2, c, len(self.traced)), m.real)
-        # the trace ring's copy ("ring", the largest) is allocated for its first use, a record r > 0 (on CUDA in the
-        # background from __init__): a run with one record after t = 0 (a detection library: every chain's whole
-        # trace) needs it in one buffer only
+        # the trace ring's copy ("ring", the largest) is allocated at its first use, a record r > 0: a run with
+        # one record after t = 0 (a detection library: every chain's whole trace) needs it in one buffer only
         return buf
 
     def _ring_buffer(self) -> wp.array:
-        # page-locked on CUDA, where the background thread allocates it while the launches run (≈ 0.4 s per GB on the
-        # H100 host); a pageable copy of a detection
+        # page-locked on CUDA: allocated at the first record after t = 0, when the launches before it are queued,
+        # so the allocation (≈ 0.4 s per GB on the H100 host) overlaps them (allocated in a background thread from
+        # the start instead, it held up the first launches by as long: CUDA calls wait for it); a pageable copy of a detection
         # library's 1.2 GB of traces took ≈ 1.9 s there, a page-locked one ≈ 0.1 s
         m = self.model
         shape = (len(self.trace_values), m.chain_count, self.capacity, len(self.traced))
@@ -238,9 +232,9 @@ class Recorder:
             wp.launch(traced_start_kernel(self.model.features.precision), dim=self.traced_start.shape,
                       inputs=[state.x, self.traced_index], outputs=[self.traced_start], device=self.model.device)
             wp.copy(buf["start"], self.traced_start)
-        if self.traced and r > 0:
+        if self.traced and r > 0 and not self.traces_on_device:
             if "ring" not in buf:
-                buf["ring"] = self._rings.pop(slot).result() if slot in self._rings else self._ring_buffer()
+                buf["ring"] = self._ring_buffer()
             wp.copy(buf["ring"], self._ring_source(state))
         event = wp.get_stream(self.model.device).record_event() if self.model.device.is_cuda else None
         self.pending[slot] = (r, event)
@@ -268,7 +262,7 @@ class Recorder:
             self.work[:, r] = buf["work"].numpy()
         if self.dissipated is not None:
             self.dissipated[:, r] = buf["dissipated"].numpy()
-        if self.traced:
+        if self.traced and not self.traces_on_device:
             if r == 0:
                 u0, v0 = (buf["u"].numpy()[:, self.traced], buf["v"].numpy()[:, self.traced]) if "u" in buf else \
                     buf["start"].numpy()

@@ -103,12 +103,14 @@ class Runner:
     ``kernel``: a SolverConfig, or a kind for ``hertzian.ensemble.solvers.choose_config`` ('auto', 'step', 'tile',
     'window', 'sweep'). ``use_graph`` overrides the config's CUDA-graph choice. ``trace_values``: what the result's
     traces keep, ``("u", "v")`` or one of them. ``on_unpacked(recorder, r)``: called once record r is on the host
-    (see Recorder).
+    (see Recorder). ``traces_on_device``: the traces stay in the state's ring on the device (``current.traces``,
+    with ``recorder.traced_start``), none in the result. ``on_queued()``: see the attribute.
     """
 
     def __init__(self, model: Model, *, use_graph: bool | None = None, energy_tolerance: float = 1e-2,
                  kernel: str | SolverConfig = "auto", monitor_every: int | None = None,
-                 trace_values: tuple[str, ...] = ("u", "v"), on_unpacked=None):
+                 trace_values: tuple[str, ...] = ("u", "v"), on_unpacked=None, traces_on_device: bool = False,
+                 on_queued=None):
         setup_start = time.perf_counter()
         self.model = model
         self.monitor_every = (max(MONITOR_MIN_STEPS, MONITOR_STEPS_PER_GRAIN * model.grain_count)
@@ -130,7 +132,11 @@ class Runner:
             config = replace(config, use_graph=use_graph)
         self.solver = make_solver(model, config)
         self.solver.load()
-        self.recorder = Recorder(model, trace_values=trace_values, on_unpacked=on_unpacked)
+        self.recorder = Recorder(model, trace_values=trace_values, on_unpacked=on_unpacked,
+                                 traces_on_device=traces_on_device)
+        self.on_queued = on_queued
+        """Called with no argument once every launch and record of ``run`` is queued, before it waits for the device
+        (a caller's host work, such as allocating page-locked memory for what it will copy, overlaps the run)."""
         self.setup_seconds = time.perf_counter() - setup_start
         """Kernel choice (and any calibration), solver construction and kernel compile/load [s]."""
 
@@ -221,6 +227,8 @@ class Runner:
             if progress is not None:
                 progress(r + 1, len(record_steps))
             record_seconds += time.perf_counter() - clock
+        if self.on_queued is not None:
+            self.on_queued()
         clock = time.perf_counter()
         rec.finish()
         wp.synchronize_device(m.device)

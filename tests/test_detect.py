@@ -611,3 +611,37 @@ def test_library_runs_equal_one_scene_per_candidate(gravity, block):
     expected = reference.traces["v"][:, :, 0]
     assert np.max(np.abs(expected - expected[1])) > 1e-4  # the impurities' echoes reached the surface
     np.testing.assert_array_equal(traces, expected)
+
+
+def test_library_assembled_on_the_device_equals_the_host_path(monkeypatch):
+    """On CUDA the library's traces stay on the device, where kernels/library.py forms the echoes and their Gram
+    matrices; only the echoes come back. Forced here on the CPU device, that path must give the host path's clean
+    trace, echoes and OK flags bit for bit (a candidate marked as failed included: its echo is −clean) and its Gram
+    matrices to rounding."""
+    from hertzian.ensemble import detect as detect_module
+    from hertzian.ensemble import runner as runner_module
+    from hertzian.ensemble.detect import build_library, front_times, make_grid
+
+    forward = forward_scene(scene_from_dict(BASE), SPACING, 301)
+    fronts = front_times(forward, "cpu")
+    grid = make_grid(np.arange(3, 30, 4), mass_steps=2)
+    run = runner_module.Runner.run
+
+    def one_chain_fails(self, *args, **kwargs):
+        result = run(self, *args, **kwargs)
+        result.status[5] = 1  # the candidate in chain 5 did not run OK
+        return result
+
+    monkeypatch.setattr(runner_module.Runner, "run", one_chain_fails)
+    libraries = []
+    for on_device in (False, True):
+        monkeypatch.setattr(detect_module, "ASSEMBLE_ON_DEVICE", on_device)
+        libraries.append(build_library(forward, grid, "cpu", fronts=fronts, use_cache=False))
+    host, device = libraries
+    assert (~host.ok).sum() == 1 and np.max(np.abs(host.echoes)) > 1e-4  # one failed; the echoes reached the surface
+    for name in ("clean", "echoes", "ok", "first_echo_ends"):
+        np.testing.assert_array_equal(getattr(device, name), getattr(host, name), err_msg=name)
+    for name in ("gram", "first_echo_gram"):
+        np.testing.assert_allclose(getattr(device, name), getattr(host, name), rtol=1e-12, atol=0, err_msg=name)
+        assert np.array_equal(getattr(device, name), getattr(device, name).transpose(0, 2, 1))
+    assert np.max(host.first_echo_gram) > 0 and np.any(host.first_echo_gram != host.gram)

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -404,6 +404,16 @@ nov26t)
   step pytest_cuda_t 200 "python3 -m pytest -q -p no:cacheprovider tests/test_records.py tests/test_detect.py -k cuda 2>&1"
   step detect_first_dt2_t 200 "python3 docs/logs/detection/profile_first.py --device cuda --study sweeps/detect_study_1000_target_dt2.toml --repeat"
   step timeline_detect_dt2_t 200 "python3 docs/logs/sweep_timeline.py sweeps/detect_study_1000_target_dt2.toml --device cuda --detect --json $LOGS/timeline_detect_dt2_t.json"
+  ;;
+nov26u)
+  # the detection library assembled on the device (echoes and Gram matrices from the trace ring; only the echoes
+  # come back, into page-locked memory allocated while the run executes), the trace ring's copy allocated at record 1
+  # again: CUDA tests; first detections at BASE dt 2e-3 (twice) and 1e-3; the timeline at 2e-3; the target cases again
+  step pytest_cuda_u 200 "python3 -m pytest -q -p no:cacheprovider tests/test_records.py tests/test_detect.py -k cuda 2>&1"
+  step detect_first_dt2_u 200 "python3 docs/logs/detection/profile_first.py --device cuda --study sweeps/detect_study_1000_target_dt2.toml --repeat"
+  step timeline_detect_dt2_u 200 "python3 docs/logs/sweep_timeline.py sweeps/detect_study_1000_target_dt2.toml --device cuda --detect --json $LOGS/timeline_detect_dt2_u.json"
+  step detect_first_u 200 "python3 docs/logs/detection/profile_first.py --device cuda --study sweeps/detect_study_1000_target_off.toml"
+  step detect_study_target_dt2_u 200 "$HZ detect-study sweeps/detect_study_1000_target_dt2.toml --out $LOGS/study_1000_target_dt2_gpu_u.json --overwrite --device cuda"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
