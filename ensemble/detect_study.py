@@ -31,7 +31,8 @@ import numpy as np
 from .detect import _cached_fronts, detect, forward_scene, impurity_scene, signal_from_arrays
 from .scene import SceneError, apply_overrides, read_toml, scene_from_dict
 
-HOST_KEYS = {"name", "gravity", "block", "dt", "snr_db", "mass_ratios", "depth_fractions", "clean_trials"}
+HOST_KEYS = {"name", "gravity", "block", "dt", "snr_db", "mass_ratios", "depth_fractions", "clean_trials",
+             "noise_trials"}
 STUDY_KEYS = {"spacing", "seed", "mass_steps", "refine", "iterations", "probe_duration", "mass_range",
               "window_past_bottom"}
 
@@ -52,6 +53,9 @@ def load_study(path: str | Path) -> dict:
         unknown = set(host) - HOST_KEYS
         if unknown:
             raise SceneError(f"hosts[{k}]", sorted(unknown), f"unknown keys; allowed: {', '.join(sorted(HOST_KEYS))}")
+        repeats = host.get("noise_trials", 1)
+        if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1:
+            raise SceneError(f"hosts[{k}].noise_trials", repeats, "must be an integer ≥ 1 (noise draws per planted case)")
     return data
 
 
@@ -106,7 +110,9 @@ def run_study(path: str | Path, device: str, *, progress=None) -> dict:
         in_window = np.arange(samples) * spacing <= window * (1 + 1e-12)
         peaks = [float(np.max(np.abs(v - clean)[in_window])) for v in truths[1:]]
         t = np.arange(samples) * spacing
-        trials = [(d, mu, truths[1 + k], peaks[k]) for k, (d, mu) in enumerate(cases)]
+        # each planted case with ``noise_trials`` independent noise draws
+        trials = ([(d, mu, truths[1 + k], peaks[k]) for k, (d, mu) in enumerate(cases)]
+                  * int(host.get("noise_trials", 1)))
         trials += [(None, 1.0, clean, float(np.median(peaks)))] * int(host.get("clean_trials", 0))
         name = host.get("name", f"g{overrides['chain.gravity']:g}-block{block}")
         hosts_meta.append({"name": name, "grains": n, "gravity": overrides["chain.gravity"], "block": block,
@@ -151,9 +157,13 @@ def summarize(records: list[dict]) -> dict:
             covered = [r for r in impure if r["mass_ratio_covered"] is not None]
             confusion = {tc: {pc: sum(1 for r in rows if r["true_class"] == tc and r["class"] == pc)
                               for pc in ("none", "light", "heavy")} for tc in ("none", "light", "heavy")}
+            correct = sum(r["class_correct"] for r in rows)
+            within = sum(r["class_correct"] and abs(r["depth_error"]) <= 1 for r in located)
             per_snr[str(snr)] = {
                 "detections": len(rows),
-                "class_accuracy": sum(r["class_correct"] for r in rows) / len(rows),
+                "class_accuracy": correct / len(rows),
+                "class_accuracy_lower95": binomial_lower_bound(correct, len(rows)),
+                "depth_within_1_lower95": binomial_lower_bound(within, len(impure)) if impure else None,
                 "depth_within_1": (sum(r["class_correct"] and abs(r["depth_error"]) <= 1 for r in located)
                                    / len(impure)) if impure else None,
                 "depth_exact": (sum(r["class_correct"] and r["depth_error"] == 0 for r in located)
@@ -167,6 +177,28 @@ def summarize(records: list[dict]) -> dict:
             }
         out[host] = per_snr
     return out
+
+
+def binomial_lower_bound(successes: int, trials: int, confidence: float = 0.95) -> float:
+    """Clopper–Pearson lower limit of a success rate (two-sided ``confidence``): the p at which seeing
+    ``successes`` or more of ``trials`` has probability (1 − confidence)/2; 0 with no success."""
+    if successes <= 0:
+        return 0.0
+    tail = (1 - confidence) / 2
+
+    def at_least(p: float) -> float:  # P(X ≥ successes | p)
+        terms = [math.exp(math.lgamma(trials + 1) - math.lgamma(k + 1) - math.lgamma(trials - k + 1)
+                          + k * math.log(p) + (trials - k) * math.log1p(-p)) for k in range(successes, trials + 1)]
+        return math.fsum(terms)
+
+    lo, hi = 0.0, 1.0
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if at_least(mid) < tail:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
 
 
 def _by(rows: list[dict], key: str) -> dict:

@@ -254,6 +254,19 @@ def test_study_summary_counts():
     assert table["mass_ratio_interval_coverage"] == pytest.approx(1 / 3)
     assert table["confusion"]["heavy"] == {"none": 1, "light": 1, "heavy": 0}
     assert table["confusion"]["none"]["none"] == 1 and table["confusion"]["light"]["light"] == 2
+    # Clopper–Pearson lower limits (95 %, two-sided): 3 of 5 → 0.1466 (tabulated); 1 of 4 → 0.00631
+    assert table["class_accuracy_lower95"] == pytest.approx(0.1466, abs=1e-4)
+    assert table["depth_within_1_lower95"] == pytest.approx(0.00631, abs=1e-5)
+
+
+def test_binomial_lower_bound_closed_forms():
+    """All successes: (α/2)^(1/n); none: 0; half of 10: 0.1871 (tabulated Clopper–Pearson)."""
+    from hertzian.ensemble.detect_study import binomial_lower_bound
+
+    for n in (1, 28, 384):
+        assert binomial_lower_bound(n, n) == pytest.approx(0.025 ** (1 / n), rel=1e-9)
+    assert binomial_lower_bound(0, 10) == 0.0
+    assert binomial_lower_bound(5, 10) == pytest.approx(0.1871, abs=1e-4)
 
 
 # ---- --fit-a: the impurity's self-constant a as well as its mass -----------------------------------------
@@ -574,15 +587,19 @@ def test_cli_detect_study_takes_its_options_and_refuses_a_bad_study(tmp_path):
     assert_refused(invoke("detect-study", str(study), "--out", str(out), "--device", "cpu"), out)
 
 
-@pytest.mark.parametrize("study, key", [("window_past_bottom = 3.0", "study.window_past_bottom"),
-                                        ("windw = 1.1", "study")])
-def test_cli_detect_study_refuses_bad_study_keys(tmp_path, study, key):
-    """[study] keys are checked: an unknown key or a window past the bottom outside [1, 2] is one line, exit 2."""
+@pytest.mark.parametrize("study, host, key", [("window_past_bottom = 3.0", "", "study.window_past_bottom"),
+                                              ("windw = 1.1", "", "study"),
+                                              ("", "noise_trials = 0", "hosts[0].noise_trials"),
+                                              ("", "noise_trials = 2.5", "hosts[0].noise_trials")])
+def test_cli_detect_study_refuses_bad_study_keys(tmp_path, study, host, key):
+    """[study] and [[hosts]] keys are checked: an unknown key, a window past the bottom outside [1, 2] or noise
+    trials that are not a whole number ≥ 1 is one line, exit 2."""
     from cli_cases import assert_refused, invoke
 
     path = tmp_path / "study.toml"
     path.write_text('[scene]\nchain = { grains = 20, l0 = 1e-4 }\nexcitation = { impact = 1e-2 }\n\n'
-                    f'[study]\n{study}\n\n[[hosts]]\nsnr_db = [26]\nmass_ratios = [0.5]\ndepth_fractions = [0.5]\n')
+                    f'[study]\n{study}\n\n[[hosts]]\nsnr_db = [26]\nmass_ratios = [0.5]\ndepth_fractions = [0.5]\n'
+                    f'{host}\n')
     out = tmp_path / "out.json"
     assert_refused(invoke("detect-study", str(path), "--out", str(out), "--device", "cpu"), out, key)
 
@@ -645,3 +662,37 @@ def test_library_assembled_on_the_device_equals_the_host_path(monkeypatch):
         np.testing.assert_allclose(getattr(device, name), getattr(host, name), rtol=1e-12, atol=0, err_msg=name)
         assert np.array_equal(getattr(device, name), getattr(device, name).transpose(0, 2, 1))
     assert np.max(host.first_echo_gram) > 0 and np.any(host.first_echo_gram != host.gram)
+
+
+def test_large_library_arrays_are_saved_by_threads_as_np_save_would(tmp_path, monkeypatch):
+    """A library array over SAVE_PIECE_BYTES is copied into its .npy file's memory map by several threads: the file
+    must be byte for byte the one np.save writes (here with pieces of 1 KiB, so 7 threads share 3 × 5 × 101 rows)."""
+    from hertzian.ensemble import detect as detect_module
+
+    monkeypatch.setattr(detect_module, "SAVE_PIECE_BYTES", 1024)
+    array = np.random.default_rng(3).standard_normal((21, 5, 101))
+    detect_module._save_array(tmp_path / "threads.npy", array)
+    np.save(tmp_path / "reference.npy", array)
+    assert (tmp_path / "threads.npy").read_bytes() == (tmp_path / "reference.npy").read_bytes()
+    detect_module._save_array(tmp_path / "strided.npy", array[:, ::2])  # not contiguous: np.save itself
+    np.testing.assert_array_equal(np.load(tmp_path / "strided.npy"), array[:, ::2])
+
+
+def test_study_draws_noise_trials_per_planted_case(tmp_path):
+    """`noise_trials = 2`: each planted case is detected twice, with independent noise of the same σ (a small study
+    on a 30-grain host, run on the CPU)."""
+    from hertzian.ensemble.detect_study import run_study
+
+    path = tmp_path / "study.toml"
+    path.write_text('[scene]\nchain = { grains = 30, l0 = 1e-4 }\nexcitation = { impact = 1e-2 }\n'
+                    'integrator = { method = "gear4", dt = 1e-3, duration = 1.0, events = "off" }\n\n'
+                    '[study]\nspacing = 0.01\nseed = 7\nmass_steps = 2\nrefine = 1\niterations = 1\n'
+                    'probe_duration = 10.0\n\n'
+                    '[[hosts]]\nsnr_db = [26]\nmass_ratios = [0.4]\ndepth_fractions = [0.3]\nclean_trials = 1\n'
+                    'noise_trials = 2\n')
+    result = run_study(path, "cpu")
+    records = result["records"]
+    assert [r["true_class"] for r in records] == ["light", "light", "none"]
+    assert records[0]["sigma"] == records[1]["sigma"] > 0
+    assert records[0]["noise"] != records[1]["noise"]  # two draws of the noise: two estimates of σ
+    assert result["summary"]["g0-block1"]["26.0"]["detections"] == 3
