@@ -22,7 +22,9 @@ likelihood becomes rugged in μ. Depths whose echo cannot start inside the windo
 earliest echo, or ``noise``), its minimum may be a needle narrower than the library's and Gauss–Newton's steps
 (a light grain next to the impact, whose collision sequence changes with μ): ln μ is then scanned every
 FINE_SCAN_SPACING over the class's range at that depth (one ensemble run) and refined by Gauss–Newton from the
-best point; the lower RSS is kept (``Detection.fine_scan`` says what ran).
+best point; the lower RSS is kept (``Detection.fine_scan`` says what ran). If the fit is still poor, both classes
+are scanned more coarsely (WIDE_SCAN_SPACING) at the depths within WIDE_SCAN_DEPTHS grains, and the best (class,
+depth) of that scan is scanned finely in turn (``fine_scan["wide"]``).
 
 **Noise model.** i.i.d. Gaussian noise of standard deviation σ: ``--noise σ``, or estimated twice. First
 as the rms of ``v − v_clean`` over the samples before the earliest possible echo, ``t < 2 t_front(d_min)``
@@ -1176,8 +1178,28 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
                 quads[kind_best][k_best_fit] = q_scan
             fine = {"depth": int(depths[k_best_fit]), "class": kind_best, "points": points,
                     "spacing": FINE_SCAN_SPACING, "misfit_before": misfit, "rss_before": rss_best,
-                    "rss_after": q_scan.rss0 if improved else rss_best, "improved": improved,
-                    "seconds": time.perf_counter() - scan_start}
+                    "rss_after": q_scan.rss0 if improved else rss_best, "improved": improved}
+            rss_now = q_scan.rss0 if improved else rss_best
+            misfit_now = math.sqrt(rss_now / max(signal.sample_count - 2, 1)) / reference
+            if misfit_now > FINE_SCAN_MISFIT:
+                # still a poor fit: the needle may be the other class's, or a few grains off (a heavy grain at 100
+                # fit as a light one at 103): both classes scanned at the depths around, then the best one finely
+                kind_w, depth_w, rss_w, points_w = wide_scan(s, forward, grid.block, int(depths[k_best_fit]),
+                                                             depths, bounds, device, batch_size=batch_size)
+                wide = {"depths": [max(int(depths[0]), int(depths[k_best_fit]) - WIDE_SCAN_DEPTHS),
+                                   min(int(depths[-1]), int(depths[k_best_fit]) + WIDE_SCAN_DEPTHS)],
+                        "points": points_w, "spacing": WIDE_SCAN_SPACING, "misfit_before": misfit_now,
+                        "best": None if kind_w is None else {"class": kind_w, "depth": depth_w}, "improved": False}
+                if kind_w is not None and rss_w < rss_now:
+                    k_w = int(np.searchsorted(depths, depth_w))
+                    q_w, _ = fine_scan(s, forward, grid.block, depth_w, bounds[kind_w], device, batch_size=batch_size)
+                    current = quads[kind_w][k_w]
+                    if q_w is not None and q_w.rss0 < rss_now and (current is None or q_w.rss0 < current.rss0):
+                        quads[kind_w][k_w] = q_w
+                        wide["improved"] = True
+                        fine["rss_after"] = q_w.rss0
+                fine["wide"] = wide
+            fine["seconds"] = time.perf_counter() - scan_start
     if noise is None:
         # second estimate, from every sample: the best candidate's residual (2 fitted parameters)
         best_rss = min([rss_clean] + [q.rss0 for kind in quads for q in quads[kind] if q is not None])
@@ -1284,6 +1306,38 @@ FINE_SCAN_SPACING = 0.004
 grain, so one scan point falls inside it."""
 FINE_SCAN_ITERATIONS = 2
 """Gauss–Newton iterations from the best scan point (finite differences of half the spacing)."""
+
+
+WIDE_SCAN_DEPTHS = 4
+"""When the fine scan leaves the fit poor (σ still above FINE_SCAN_MISFIT times the noise), both classes are scanned
+at the depths within this many grains of the best one (:func:`wide_scan`): on the 1000-grain host at 26 dB a heavy
+grain (μ = 2) at depth 100 was otherwise taken for a light one at 103 (μ 0.75, misfit 5.3-5.9×) in 4 of 4 noise
+draws (docs/detection.md §6d)."""
+WIDE_SCAN_SPACING = 0.01
+"""ln μ spacing of that scan: within the ±1.5 % width of a needle, so one point falls inside it; the best (class,
+depth) is then scanned every FINE_SCAN_SPACING (:func:`fine_scan`)."""
+
+
+def wide_scan(s: np.ndarray, forward: Scene, block: int, depth: int, depths: np.ndarray, bounds: dict, device: str, *,
+              batch_size: int | None = None) -> tuple[str | None, int | None, float, int]:
+    """ln μ every WIDE_SCAN_SPACING over each class's range in ``bounds`` at every searched depth within
+    WIDE_SCAN_DEPTHS of ``depth`` (one ensemble); returns (class, depth, RSS) of the lowest RSS and the points run."""
+    searched = set(int(d) for d in depths)
+    keys = []
+    for kind in ("light", "heavy"):
+        lo, hi = bounds[kind]
+        xs = np.arange(lo + WIDE_SCAN_SPACING, hi - 0.5 * WIDE_SCAN_SPACING, WIDE_SCAN_SPACING)
+        keys += [(kind, d, float(x)) for d in range(depth - WIDE_SCAN_DEPTHS, depth + WIDE_SCAN_DEPTHS + 1)
+                 if d in searched for x in xs]
+    if not keys:
+        return None, None, math.inf, 0
+    traces, ok = run_candidates(forward, [(d, math.exp(x)) for _, d, x in keys], block, device, batch_size=batch_size)
+    residual = s[None, :] - traces
+    rss = np.where(ok, np.einsum("cs,cs->c", residual, residual), np.inf)
+    i = int(np.argmin(rss))
+    if not np.isfinite(rss[i]):
+        return None, None, math.inf, len(keys)
+    return keys[i][0], keys[i][1], float(rss[i]), len(keys)
 
 
 def fine_scan(s: np.ndarray, forward: Scene, block: int, depth: int, x_bounds: tuple[float, float], device: str, *,

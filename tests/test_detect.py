@@ -696,3 +696,19 @@ def test_study_draws_noise_trials_per_planted_case(tmp_path):
     assert records[0]["sigma"] == records[1]["sigma"] > 0
     assert records[0]["noise"] != records[1]["noise"]  # two draws of the noise: two estimates of σ
     assert result["summary"]["g0-block1"]["26.0"]["detections"] == 3
+
+
+def test_wide_scan_finds_the_other_class_a_few_grains_off():
+    """:func:`wide_scan` from a depth 3 grains off (where a heavy grain at 10 had been taken for a light one at 13):
+    scanning both classes at the depths around finds the heavy class at depth 10, its best point within a scan step
+    of μ = 2 (a noise-free planted signal on a 40-grain host)."""
+    from hertzian.ensemble.detect import _class_bounds, forward_scene, make_grid, run_candidates, wide_scan
+
+    forward = forward_scene(scene_from_dict(BASE), SPACING, 301)
+    truth, _ = run_candidates(forward, [(10, 2.0)], 1, "cpu")
+    grid = make_grid(np.arange(2, 35))
+    kind, depth, rss, points = wide_scan(truth[0], forward, 1, 13, grid.depths, _class_bounds(grid), "cpu")
+    assert (kind, depth) == ("heavy", 10)
+    assert points == 2 * 9 * 138  # both classes, depths 9 … 17, ln μ every 0.01 inside (0, ln 4)
+    near, _ = run_candidates(forward, [(10, 2.0 * math.exp(0.006))], 1, "cpu")
+    assert rss <= float(np.sum((truth[0] - near[0]) ** 2))  # at least as close as a point 0.6 % off in μ

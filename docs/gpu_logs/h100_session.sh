@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -422,6 +422,12 @@ nov26v)
   step pytest_cuda_v 200 "python3 -m pytest -q -p no:cacheprovider tests/test_detect.py -k cuda 2>&1"
   step detect_first_dt2_v 200 "python3 docs/logs/detection/profile_first.py --device cuda --study sweeps/detect_study_1000_target_dt2.toml --repeat"
   step detect_study_target_dt2_400 330 "$HZ detect-study sweeps/detect_study_1000_target_dt2_400.toml --out $LOGS/study_1000_target_dt2_400_gpu.json --overwrite --device cuda"
+  ;;
+nov26w)
+  # the wide scan (both classes at the depths around when the fine scan leaves the fit poor): the depth-100 heavy
+  # case at dt 1e-3 and 2e-3, then the 416-detection target study again
+  step detect_study_depth10 200 "$HZ detect-study sweeps/detect_study_1000_depth10.toml --out $LOGS/study_1000_depth10_gpu.json --overwrite --device cuda"
+  step detect_study_target_dt2_400_w 360 "$HZ detect-study sweeps/detect_study_1000_target_dt2_400.toml --out $LOGS/study_1000_target_dt2_400_gpu_w.json --overwrite --device cuda"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
