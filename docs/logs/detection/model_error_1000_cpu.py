@@ -4,6 +4,7 @@ window, against the noise σ at 40 and 26 dB. CPU, about 15 s per step:
 
     python docs/logs/detection/model_error_1000_cpu.py > docs/logs/detection/model_error_1000_cpu.txt
     python docs/logs/detection/model_error_1000_cpu.py --dt 2e-3 > docs/logs/detection/model_error_1000_dt2e-3_cpu.txt
+    python docs/logs/detection/model_error_1000_cpu.py --dt 1e-3 --gravity 1 > docs/logs/detection/model_error_1000_g1_dt1e-3_cpu.txt
 """
 
 import argparse
@@ -16,10 +17,12 @@ from hertzian.ensemble.detect_study import _truth_velocities
 from hertzian.ensemble.scene import scene_from_dict
 parser = argparse.ArgumentParser()
 parser.add_argument("--dt", type=float, default=1e-3, help="BASE's step (the planted truth runs at half of it)")
-dt = parser.parse_args().dt
-base = scene_from_dict({"chain": {"grains": 1000, "l0": 1e-4}, "excitation": {"impact": 1e-2},
+parser.add_argument("--gravity", type=float, default=0.0)
+args = parser.parse_args()
+dt = args.dt
+base = scene_from_dict({"chain": {"grains": 1000, "l0": 1e-4, "gravity": args.gravity}, "excitation": {"impact": 1e-2},
                         "integrator": {"method": "gear4", "dt": dt, "duration": 1.0, "events": "off"}})
-print(f"BASE dt {dt:g} (truth at {dt / 2:g}, event-aware steps)")
+print(f"BASE dt {dt:g} (truth at {dt / 2:g}, event-aware steps), gravity {args.gravity:g}")
 S = 11661
 fwd = forward_scene(base, 0.01, S)
 t0 = time.perf_counter()
