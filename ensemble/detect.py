@@ -704,6 +704,17 @@ def build_library(forward: Scene, grid: Grid, device: str, *, fronts: np.ndarray
 
 # ---- Gaussian helpers ----------------------------------------------------------------------
 
+def bisect_increasing(f, target: float, lo: float, hi: float, steps: int = 80) -> float:
+    """x in [lo, hi] where the non-decreasing ``f`` crosses ``target``, by ``steps`` halvings."""
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        if f(mid) < target:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
 def log_normal_cdf(z: float) -> float:
     """log Φ(z), accurate in the far left tail."""
     if z > -30.0:
@@ -1242,17 +1253,8 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
         def mixture_cdf(x: float) -> float:
             return sum(w * qq.cdf(x, lo, hi, sigma) for w, qq in weights) / wsum
 
-        def quantile(target: float) -> float:
-            a, b = lo, hi
-            for _ in range(80):
-                mid = 0.5 * (a + b)
-                if mixture_cdf(mid) < target:
-                    a = mid
-                else:
-                    b = mid
-            return 0.5 * (a + b)
-
-        mass_interval = (math.exp(quantile(tail)), math.exp(quantile(1 - tail)))
+        mass_interval = (math.exp(bisect_increasing(mixture_cdf, tail, lo, hi)),
+                         math.exp(bisect_increasing(mixture_cdf, 1 - tail, lo, hi)))
         best_fit = run_candidates(forward, [(depth, mass_ratio)], grid.block, device)[0][0]
     fit_a_result = None
     if fit_a and kind != "none":

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .detect import _cached_fronts, detect, forward_scene, impurity_scene, signal_from_arrays
+from .detect import _cached_fronts, bisect_increasing, detect, forward_scene, impurity_scene, signal_from_arrays
 from .scene import SceneError, apply_overrides, read_toml, scene_from_dict
 
 HOST_KEYS = {"name", "gravity", "block", "dt", "snr_db", "mass_ratios", "depth_fractions", "clean_trials",
@@ -191,14 +191,7 @@ def binomial_lower_bound(successes: int, trials: int, confidence: float = 0.95) 
                           + k * math.log(p) + (trials - k) * math.log1p(-p)) for k in range(successes, trials + 1)]
         return math.fsum(terms)
 
-    lo, hi = 0.0, 1.0
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        if at_least(mid) < tail:
-            lo = mid
-        else:
-            hi = mid
-    return 0.5 * (lo + hi)
+    return bisect_increasing(at_least, tail, 0.0, 1.0, steps=200)
 
 
 def _by(rows: list[dict], key: str) -> dict:

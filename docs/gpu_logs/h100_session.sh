@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -432,6 +432,15 @@ nov26w)
 nov26x)
   # the study's other hosts at 1000 grains, 26 dB: g = 1 (dt 1e-3) and 5-grain blocks (g = 0 at dt 2e-3, g = 1 at 1e-3)
   step detect_study_hosts 560 "$HZ detect-study sweeps/detect_study_1000_hosts.toml --out $LOGS/study_1000_hosts_gpu.json --overwrite --device cuda"
+  ;;
+nov26y)
+  # the driven 10 000-grain columns (Figs. 9-10 to t = 500) end to end after this session's sweep pipeline changes,
+  # and their timeline by thread
+  B910="bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step e2e_fig9_10_cold_y 200 "$HZ $B910"
+  step e2e_fig9_10_warm_y 100 "$HZ $B910"
+  step e2e_fig9_10_warm_y2 100 "$HZ $B910"
+  step timeline_fig9_10_y 100 "python3 docs/logs/sweep_timeline.py sweeps/paper_fig9_10.toml --device cuda --json $LOGS/timeline_fig9_10_y.json"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
