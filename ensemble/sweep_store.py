@@ -93,6 +93,17 @@ def status_codes() -> dict[str, str]:
 
 # ---- variables ---------------------------------------------------------------------------
 
+ROW_SHARD_BYTES = 8 << 20
+"""A batch's snapshots (and traces) are sharded along the record dim in groups of records of at least about this
+many bytes: one record each for gpu_10k.toml (20 MB a record), 50 for the driven 10 000-grain columns of
+paper_fig9_10.toml (160 kB a record), whose 2001 one-record shards cost the store thread ≈ 2 ms each, 4 s in all."""
+
+
+def records_per_shard(block_points: int, record_bytes_per_point: int) -> int:
+    """Records per shard of a batch block of ``block_points`` points: enough for ROW_SHARD_BYTES."""
+    return max(1, -(-ROW_SHARD_BYTES // max(1, block_points * record_bytes_per_point)))
+
+
 def trace_rows_per_record(scene: Scene) -> int | None:
     """Trace samples between two records when every record interval holds the same whole number of them
     (the traces' shards are then cut there, so they can be written record by record), else None."""
@@ -115,6 +126,7 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
     real = _store_real(plan)
     records = scene.record_count
     n = scene.chain.grains
+    block_points = math.prod(plan.block) if plan.block else 1
 
     def coords(*names: str) -> dict:
         joined = " ".join(list(names) + companions)
@@ -123,7 +135,8 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
     out = []
     for name in scene.record.fields:
         out.append(dict(name=name, dims=dims + ("record", "grain"), trailing=(records, n), dtype=real,
-                        fill=np.nan, attrs={**FIELD_ATTRS[name], **coords("t")}, rows_per_shard=1))
+                        fill=np.nan, attrs={**FIELD_ATTRS[name], **coords("t")},
+                        rows_per_shard=records_per_shard(block_points, n * real.itemsize)))
     if scene.record.energy:
         out.append(dict(name="energy", dims=dims + ("record",), trailing=(records,), dtype=np.dtype(np.float64),
                         fill=np.nan, attrs={**coords("t"), "long_name": "total energy relative to the static "
@@ -154,10 +167,13 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
         ]
     tt = trace_times(scene)
     if tt is not None:
+        per_record = trace_rows_per_record(scene)
+        trace_rows = None if per_record is None else per_record * records_per_shard(
+            block_points, per_record * len(scene.record.traces) * real.itemsize)
         for name in ("u", "v"):
             out.append(dict(name=f"trace_{name}", dims=dims + ("sample", "traced"),
                             trailing=(len(tt), len(scene.record.traces)), dtype=real, fill=np.nan,
-                            attrs=coords("trace_t", "traced_grain"), rows_per_shard=trace_rows_per_record(scene)))
+                            attrs=coords("trace_t", "traced_grain"), rows_per_shard=trace_rows))
     out += [
         dict(name="status", dims=dims, trailing=(), dtype=np.dtype(np.int32), fill=NOT_RUN,
              attrs={**coords(), "flag_values": [int(k) for k in status_codes()], "flag_meanings": status_codes()}),

@@ -94,6 +94,7 @@ def test_records_written_while_the_batch_runs_give_the_same_store(tmp_path, monk
         return final_write(path, batch, result, **kw)
 
     monkeypatch.setattr(sweep_store, "write_batch", spy)
+    monkeypatch.setattr(sweep_store, "ROW_SHARD_BYTES", 1)  # a shard per record (interval) however small
     at_once, batches = _store(tmp_path, "at_once.zarr", overlap=False, sweep=sweep, rows_while_running=False)
     assert at_end == [None] * batches
     at_end.clear()

@@ -285,7 +285,12 @@ def test_store_has_a_runs_variables_with_the_sweep_dims_first(tmp_path):
     assert json.loads(ds.attrs["sweep"])["axis"][0]["name"] == "v_imp"
 
 
-def test_chunks_are_the_batch_blocks(tmp_path):
+def test_chunks_are_the_batch_blocks(tmp_path, monkeypatch):
+    from hertzian.ensemble import sweep_store
+
+    # shards of one record of u and v (of one record interval of the traces) however small: the default groups
+    # records into shards of ROW_SHARD_BYTES, which this small sweep's records do not reach (checked below)
+    monkeypatch.setattr(sweep_store, "ROW_SHARD_BYTES", 1)
     out = run_store(tmp_path, SWEEP, "--batch-size", "2")
     sweep = load_sweep(tmp_path / "out.zarr.toml")
     plan = plan_sweep(sweep, sweep_scenes(sweep), "cpu", batch_size=2)
@@ -313,6 +318,17 @@ def test_chunks_are_the_batch_blocks(tmp_path):
     assert sorted(batches.array_keys()) == ["done", "record", "where"] and not list(batches.group_keys())
     for name in ("done", "record", "where"):
         assert batches[name].shape[0] == 3 and batches[name].chunks[0] == 1, name
+    monkeypatch.undo()
+    grouped = zarr.open_group(str(run_store(tmp_path, SWEEP, "--batch-size", "2", name="grouped.zarr")), mode="r")
+    assert (grouped["u"].shards or grouped["u"].chunks)[2] == grouped["u"].shape[2]  # 2 × 12 × 8 B a record: one shard
+
+
+def test_records_per_shard_reach_the_shard_bytes():
+    from hertzian.ensemble.sweep_store import ROW_SHARD_BYTES, records_per_shard
+
+    assert records_per_shard(5000, 500 * 8) == 1                    # gpu_10k: 20 MB a record
+    assert records_per_shard(2, 10000 * 8) == 53                    # the driven columns: 160 kB a record
+    assert records_per_shard(1, 1) == ROW_SHARD_BYTES and records_per_shard(0, 0) == ROW_SHARD_BYTES
 
 
 @pytest.mark.parametrize("block,trailing,chunks,shards", [

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -441,6 +441,22 @@ nov26y)
   step e2e_fig9_10_warm_y 100 "$HZ $B910"
   step e2e_fig9_10_warm_y2 100 "$HZ $B910"
   step timeline_fig9_10_y 100 "python3 docs/logs/sweep_timeline.py sweeps/paper_fig9_10.toml --device cuda --json $LOGS/timeline_fig9_10_y.json"
+  ;;
+nov26z)
+  # records grouped into shards of >= 8 MB (one per record for gpu_10k, 53 for the driven columns, whose 2001
+  # one-record shards had cost the store thread 4 s in nov26y): both end to end again
+  B910="bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  B10K="bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  S10K="sweep sweeps/gpu_10k.toml --out $WORK/gpu10k.zarr --overwrite --device cuda --quiet --json"
+  step e2e_fig9_10_cold_z 200 "$HZ $B910"
+  step e2e_fig9_10_warm_z 100 "$HZ $B910"
+  step e2e_fig9_10_warm_z2 100 "$HZ $B910"
+  step e2e_gpu10k_cold_z 120 "$HZ $B10K"
+  step e2e_gpu10k_warm_z 60 "$HZ $B10K"
+  step e2e_gpu10k_warm_z2 60 "$HZ $B10K"
+  step e2e_gpu10k_warm_z3 60 "$HZ $B10K"
+  step sweep_gpu10k_warm_z 60 "$HZ $S10K"
+  step sweep_gpu10k_warm_z2 60 "$HZ $S10K"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
