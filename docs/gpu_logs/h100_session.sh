@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -457,6 +457,15 @@ nov26z)
   step e2e_gpu10k_warm_z3 60 "$HZ $B10K"
   step sweep_gpu10k_warm_z 60 "$HZ $S10K"
   step sweep_gpu10k_warm_z2 60 "$HZ $S10K"
+  ;;
+nov26final)
+  # the submitted state: CUDA tests of the changed paths, a first detection at BASE dt 2e-3, warm gpu_10k end to end
+  B10K="bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step pytest_cuda_final 300 "python3 -m pytest -q -p no:cacheprovider tests/test_records.py tests/test_host_costs.py tests/test_sweep.py tests/test_detect.py tests/test_fused_features.py -k cuda 2>&1"
+  step detect_first_dt2_final 200 "python3 docs/logs/detection/profile_first.py --device cuda --study sweeps/detect_study_1000_target_dt2.toml --repeat"
+  step e2e_gpu10k_cold_final 120 "$HZ $B10K"
+  step e2e_gpu10k_warm_final 60 "$HZ $B10K"
+  step e2e_gpu10k_warm_final2 60 "$HZ $B10K"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
