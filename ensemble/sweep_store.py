@@ -228,9 +228,13 @@ def chunk_layout(block: tuple[int, ...], trailing: tuple[int, ...], itemsize: in
     trailing = tuple(trailing)
     if rows_per_shard is not None and 0 < rows_per_shard < trailing[0]:
         row = int(np.prod(trailing[1:])) * itemsize
-        fit = max(1, min(rows_per_shard, INNER_CHUNK_BYTES // max(row, 1)))
-        first = max(k for k in range(1, fit + 1) if rows_per_shard % k == 0)
-        inner, shard = (first,) + trailing[1:], (rows_per_shard,) + trailing[1:]
+        first = max(1, min(rows_per_shard, INNER_CHUNK_BYTES // max(row, 1)))
+        # the shard holds whole inner chunks of ~INNER_CHUNK_BYTES: its rows rounded up to a multiple of theirs (53
+        # records of 80 kB had made 53 one-record chunks a shard, 53 being prime)
+        rows = -(-rows_per_shard // first) * first
+        if rows >= trailing[0]:
+            return chunk_layout(block, trailing, itemsize)
+        inner, shard = (first,) + trailing[1:], (rows,) + trailing[1:]
     else:
         inner, shard = _trailing_chunks(trailing, itemsize)
     point_bytes = int(np.prod(inner)) * itemsize

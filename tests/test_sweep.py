@@ -346,6 +346,8 @@ def test_chunk_layout(block, trailing, chunks, shards):
     ((50, 100), (501, 2), 50, (10, 100, 50, 2), (50, 100, 50, 2)),  # trace samples: a shard per record interval
     ((2, 3), (4, 5), 4, (2, 3, 4, 5), None),  # a shard holding every row: the plain layout
     ((4,), (6, 200000), 3, (1, 1, 200000), (4, 3, 200000)),  # rows over 1 MiB: one point and row per inner chunk
+    ((2,), (2001, 10000), 53, (1, 13, 10000), (2, 65, 10000)),  # shards of whole ~1 MiB chunks: 53 rounded up to 65
+    ((2,), (60, 10000), 53, (1, 13, 10000), (2, 65, 10000)),  # past every row: the plain layout, one shard
 ])
 def test_chunk_layout_with_rows_per_shard(block, trailing, rows, chunks, shards):
     assert chunk_layout(block, trailing, 8, rows) == (chunks, shards)
