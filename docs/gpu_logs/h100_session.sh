@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -476,6 +476,19 @@ nov26rec)
   step e2e_fig9_10_every2p5 100 "$HZ $B910 --set record.every=2.5"
   step e2e_fig9_10_every25 100 "$HZ $B910 --set record.every=25"
   step e2e_fig9_10_every025_b 100 "$HZ $B910"
+  ;;
+nov26rec2)
+  # shards of whole ~1 MiB inner chunks (65 records a shard for the driven columns, was 53 one-record chunks): the
+  # driven columns with 2001 and 21 records, warm gpu_10k
+  B910="bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  B10K="bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step e2e_fig9_10_cold_rec2 200 "$HZ $B910"
+  step e2e_fig9_10_every025_rec2 100 "$HZ $B910"
+  step e2e_fig9_10_every025_rec2b 100 "$HZ $B910"
+  step e2e_fig9_10_every25_rec2 100 "$HZ $B910 --set record.every=25"
+  step e2e_gpu10k_cold_rec2 120 "$HZ $B10K"
+  step e2e_gpu10k_warm_rec2 60 "$HZ $B10K"
+  step e2e_gpu10k_warm_rec2b 60 "$HZ $B10K"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
