@@ -95,8 +95,9 @@ def status_codes() -> dict[str, str]:
 
 ROW_SHARD_BYTES = 8 << 20
 """A batch's snapshots (and traces) are sharded along the record dim in groups of records of at least about this
-many bytes: one record each for gpu_10k.toml (20 MB a record), 50 for the driven 10 000-grain columns of
-paper_fig9_10.toml (160 kB a record), whose 2001 one-record shards cost the store thread ≈ 2 ms each, 4 s in all."""
+many bytes: one record each for gpu_10k.toml (20 MB a record), 53 (rounded up to whole inner chunks: 65) for the
+driven 10 000-grain columns of paper_fig9_10.toml (160 kB a record), whose 2001 one-record shards cost the store thread
+≈ 2 ms each, 4 s in all."""
 
 
 def records_per_shard(block_points: int, record_bytes_per_point: int) -> int:
