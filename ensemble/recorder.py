@@ -169,8 +169,8 @@ class Recorder:
     def _ring_buffer(self) -> wp.array:
         # page-locked on CUDA: allocated at the first record after t = 0, when the launches before it are queued,
         # so the allocation (≈ 0.4 s per GB on the H100 host) overlaps them (allocated in a background thread from
-        # the start instead, it held up the first launches by as long: CUDA calls wait for it); a pageable copy of a detection
-        # library's 1.2 GB of traces took ≈ 1.9 s there, a page-locked one ≈ 0.1 s
+        # the start instead, it held up the first launches by as long: CUDA calls wait for it); a pageable copy
+        # of a detection library's 1.2 GB of traces took ≈ 1.9 s there, a page-locked one ≈ 0.1 s
         m = self.model
         shape = (len(self.trace_values), m.chain_count, self.capacity, len(self.traced))
         return wp.empty(shape, dtype=m.real, device="cpu", pinned=m.device.is_cuda)
