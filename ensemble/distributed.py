@@ -65,13 +65,17 @@ def warm_kernels(features: Iterable[Features], device: str, *, runs: Iterable[tu
     stepping kernel warmed is the one each will use — on a GPU the fused kernel of the shape the calibration cache
     holds for it (none when not yet calibrated: the run calibrates), the per-step kernel only where ``auto`` takes
     it — instead of the per-step kernel of every feature set."""
-    from hertzian.kernels.records import record_kernels
+    from hertzian.kernels.records import STAGED_GRAINS, record_kernels
     from hertzian.kernels.step import step_kernel
 
     wp = _quiet_warp()
     dev = wp.get_device(device)
+    runs = None if runs is None else list(runs)
+    staged = {run[0] for run in runs or () if run[1] >= STAGED_GRAINS}  # long chains' two-stage reductions
     for f in set(features):
-        for kernel in record_kernels(f):
+        kernels = record_kernels(f)
+        for kernel in (kernels.parts, kernels.record, *((kernels.grains, kernels.parts_of_grains) if f in staged
+                                                       else ())):
             wp.load_module(kernel.module, device=device)
     if runs is None:
         for f in set(features):

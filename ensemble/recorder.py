@@ -16,7 +16,8 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import warp as wp
 
-from hertzian.kernels.records import PART_SUMS, record_kernels, record_part_count, traced_start_kernel, track_extremes
+from hertzian.kernels.records import (PART_SUMS, STAGED_GRAINS, record_kernels, record_part_count, traced_start_kernel,
+                                     track_extremes)
 
 from .model import Model, State
 from .response import ResponseAccumulator
@@ -80,7 +81,10 @@ class Recorder:
         """What the traces keep: displacement u, velocity v or both (a detection library keeps v only)."""
         m, scene = model, model.scenes[0]
         c, dev = m.chain_count, m.device
-        self.parts_kernel, self.kernel = record_kernels(m.features)
+        self.kernels = record_kernels(m.features)
+        self.staged = m.grain_count >= STAGED_GRAINS
+        """Long chains: each grain's terms in its own thread first (kernels/records.py)."""
+        self.grain_terms = wp.empty((c, m.grain_count) if self.staged else (0, 0), dtype=wp.vec4d, device=dev)
         self.parts = wp.zeros((c, record_part_count(m.grain_count), PART_SUMS), dtype=wp.float64, device=dev)
         """Per chain and run of grains: the partial sums of kernels/records.py (device scratch)."""
         self.energy_now = wp.zeros(c, dtype=wp.float64, device=dev)
@@ -184,8 +188,9 @@ class Recorder:
 
     def load(self) -> None:
         """Compile and load the reduction kernels (before a clock starts)."""
-        wp.load_module(self.parts_kernel.module, device=self.model.device)
-        wp.load_module(self.kernel.module, device=self.model.device)
+        for kernel in ((self.kernels.grains, self.kernels.parts_of_grains) if self.staged else (self.kernels.parts,)):
+            wp.load_module(kernel.module, device=self.model.device)
+        wp.load_module(self.kernels.record.module, device=self.model.device)
         wp.load_module(track_extremes.module, device=self.model.device)
         if self.traced and not self.fields:
             wp.load_module(traced_start_kernel(self.model.features.precision).module, device=self.model.device)
@@ -195,10 +200,17 @@ class Recorder:
     def check(self, state: State, step: int) -> None:
         """Energy, work, largest overlap and status of every chain at ``step`` (device only, no sync)."""
         m = self.model
-        wp.launch(self.parts_kernel, dim=self.parts.shape[:2],
-                  inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.dt,
-                          state.dissipated], outputs=[self.parts], device=m.device)
-        wp.launch(self.kernel, dim=m.chain_count,
+        if self.staged:
+            wp.launch(self.kernels.grains, dim=self.grain_terms.shape,
+                      inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.dt],
+                      outputs=[self.grain_terms], device=m.device)
+            wp.launch(self.kernels.parts_of_grains, dim=self.parts.shape[:2],
+                      inputs=[self.grain_terms, state.dissipated], outputs=[self.parts], device=m.device)
+        else:
+            wp.launch(self.kernels.parts, dim=self.parts.shape[:2],
+                      inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.dt,
+                              state.dissipated], outputs=[self.parts], device=m.device)
+        wp.launch(self.kernels.record, dim=m.chain_count,
                   inputs=[state.x, m.contact_constant, m.static_overlap, m.exponent, m.drive,
                           state.work, state.power, step, m.dt, m.validity_overlap, self.parts],
                   outputs=[self.energy_now, self.work_now, self.max_overlap_now, state.status, m.damping,

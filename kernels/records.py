@@ -5,11 +5,14 @@ Two launches, no atomics, so results are bitwise reproducible: ``record_parts`` 
 thread per chain) adds the parts in order and closes the chain's sums (walls, driver, status). A
 chain of up to RECORD_PART grains is one part: the same bits as one thread summing the whole chain.
 Parts keep a record of a long chain from being one thread's serial loop (on a GPU, a 10 000-grain
-chain's energy took one thread ~20 ms per record). Sums are float64 whatever the state precision.
+chain's energy took one thread ~20 ms per record). Chains of STAGED_GRAINS grains or more take a third launch
+first: ``record_grains`` evaluates each grain's terms in its own thread and ``record_parts_of_grains`` sums them
+per part in the same order. Sums are float64 whatever the state precision.
 """
 
 
 import functools
+from typing import Any, NamedTuple
 
 import warp as wp
 
@@ -18,6 +21,12 @@ from .physics import contact_functions, contact_parameters, excess_potential
 
 RECORD_PART = 128
 """Grains per thread of ``record_parts`` (fixed, so the sums' order does not depend on the device)."""
+STAGED_GRAINS = 2048
+"""Chains of at least this many grains are reduced in two stages: each grain's terms by one thread
+(``record_grains``), then summed per part in the same order (``record_parts_of_grains``). A 10 000-grain column's
+parts are 79 threads that each evaluate 128 excess potentials in turn (a series with a division per term): one
+record took 0.5 ms of an H100. The choice depends on the grain count only, so a chain alone and in an ensemble
+take the same path."""
 PART_SUMS = 5
 """Per part: kinetic energy, excess potential, largest overlap, finite (1.0 or 0.0), dissipated energy."""
 
@@ -27,10 +36,24 @@ def record_part_count(grains: int) -> int:
     return -(-grains // RECORD_PART)
 
 
+class RecordKernels(NamedTuple):
+    """The record reductions of one feature set (see the module docstring)."""
+
+    parts: Any
+    """record_parts: one thread per run of RECORD_PART grains."""
+    record: Any
+    """record: one thread per chain, closing its sums."""
+    grains: Any
+    """record_grains: long chains, each grain's terms (one thread per grain)."""
+    parts_of_grains: Any
+    """record_parts_of_grains: long chains, record_parts' sums of record_grains' terms (the same bits where the
+    compiler contracts alike)."""
+
+
 @functools.cache
-def record_kernels(features: Features):
-    """``(record_parts, record)`` for one feature set: energy (relative to the static state), work, max
-    overlap and status, as described in the module docstring."""
+def record_kernels(features: Features) -> RecordKernels:
+    """The record kernels for one feature set: energy (relative to the static state), work, max overlap and
+    status, as described in the module docstring."""
     f = features
     real = wp.float64 if f.precision == "float64" else wp.float32
     SURFACE_WALL = f.surface == "wall"
@@ -108,6 +131,75 @@ def record_kernels(features: Features):
                                       position(x, c, i - 1) - u)
                 potential += terms[0]
                 largest = wp.max(largest, terms[1])
+        lost = wp.float64(0.0)
+        if wp.static(DAMPED):
+            for i in range(start, end):
+                lost += dissipated_grain[c, i]
+        parts[c, part, 0] = kinetic
+        parts[c, part, 1] = potential
+        parts[c, part, 2] = largest
+        parts[c, part, 3] = finite
+        parts[c, part, 4] = lost
+
+    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
+    def record_grains(
+        x: wp.array3d(dtype=real),
+        inverse_mass: wp.array2d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        static_overlap: wp.array2d(dtype=real),
+        exponent: wp.array(dtype=real),
+        dt: wp.float64,
+        terms_out: wp.array2d(dtype=wp.vec4d),
+    ):
+        # long chains, first stage: grain i's terms of record_parts' sums, one thread per grain (kinetic energy,
+        # excess potential and overlap of the contact above it, finite), in record_parts' arithmetic
+        c, i = wp.tid()
+        first = int(0)
+        if wp.static(DRIVEN):
+            first = 1
+        u = position(x, c, i)
+        v = rate(x, c, i) / dt
+        finite = wp.float64(1.0)
+        if not (wp.isfinite(u) and wp.isfinite(v)):
+            finite = wp.float64(0.0)
+        kinetic = wp.float64(0.0)
+        if i >= first:
+            inv_m = wp.float64(0.0)
+            if wp.static(HETERO):
+                inv_m = wp.float64(inverse_mass[c, i])
+            else:
+                inv_m = wp.float64(inverse_mass[c, 0])
+            kinetic = wp.float64(0.5) * v * v / inv_m
+        potential = wp.float64(0.0)
+        overlap = wp.float64(-1.0e300)
+        if i > 0:
+            terms = contact_terms(static_overlap, contact_constant, exponent, c, i, position(x, c, i - 1) - u)
+            potential = terms[0]
+            overlap = terms[1]
+        terms_out[c, i] = wp.vec4d(kinetic, potential, overlap, finite)
+
+    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
+    def record_parts_of_grains(
+        grain_terms: wp.array2d(dtype=wp.vec4d),
+        dissipated_grain: wp.array2d(dtype=wp.float64),
+        parts: wp.array3d(dtype=wp.float64),
+    ):
+        # long chains, second stage: record_parts' sums over grains [part·RECORD_PART, (part + 1)·RECORD_PART) of
+        # chain c, in the same order, from record_grains' terms
+        c, part = wp.tid()
+        n_grains = grain_terms.shape[1]
+        start = part * wp.static(RECORD_PART)
+        end = wp.min(start + wp.static(RECORD_PART), n_grains)
+        kinetic = wp.float64(0.0)
+        potential = wp.float64(0.0)
+        largest = wp.float64(-1.0e300)
+        finite = wp.float64(1.0)
+        for i in range(start, end):
+            terms = grain_terms[c, i]
+            kinetic += terms[0]
+            potential += terms[1]
+            largest = wp.max(largest, terms[2])
+            finite = wp.min(finite, terms[3])
         lost = wp.float64(0.0)
         if wp.static(DAMPED):
             for i in range(start, end):
@@ -198,7 +290,7 @@ def record_kernels(features: Features):
         elif status[c] == wp.static(STATUS_OK) and largest > validity_overlap[c]:
             status[c] = wp.static(STATUS_OVERLAP_BEYOND_VALIDITY)
 
-    return record_parts, record
+    return RecordKernels(record_parts, record, record_grains, record_parts_of_grains)
 
 
 @wp.kernel(enable_backward=False)
