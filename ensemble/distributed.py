@@ -83,7 +83,7 @@ def warm_kernels(features: Iterable[Features], device: str, *, runs: Iterable[tu
         return
     from types import SimpleNamespace
 
-    from hertzian.kernels.tile import tile_kernel
+    from hertzian.kernels.tile import drive_table, tile_kernel
 
     from .solvers.calibrate import _cache_key, _read_cache, step_reason_of
     from .solvers.config import SolverConfig
@@ -102,6 +102,8 @@ def warm_kernels(features: Iterable[Features], device: str, *, runs: Iterable[tu
                 if dev.is_cpu and block_dim > 1:
                     wp.config.enable_cpu_blocks = True
                 wp.load_module(tile_kernel(f, config.shape).module, device=device, block_dim=block_dim)
+                if f.surface == "driven":  # its phase table (TileSolver)
+                    wp.load_module(drive_table.module, device=device)
         elif step_reason_of(f, dev.is_cpu, float(grains) * chains * steps):
             wp.load_module(step_kernel(f).module, device=device)
 

@@ -178,6 +178,11 @@ def record_kernels(features: Features) -> RecordKernels:
             overlap = terms[1]
         terms_out[c, i] = wp.vec4d(kinetic, potential, overlap, finite)
 
+    @wp.func
+    def add_terms(sums: wp.vec4d, terms: wp.vec4d) -> wp.vec4d:
+        # record_parts' running sums (kinetic, potential), largest overlap and finite flag, one grain further
+        return wp.vec4d(sums[0] + terms[0], sums[1] + terms[1], wp.max(sums[2], terms[2]), wp.min(sums[3], terms[3]))
+
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def record_parts_of_grains(
         grain_terms: wp.array2d(dtype=wp.vec4d),
@@ -190,16 +195,22 @@ def record_kernels(features: Features) -> RecordKernels:
         n_grains = grain_terms.shape[1]
         start = part * wp.static(RECORD_PART)
         end = wp.min(start + wp.static(RECORD_PART), n_grains)
-        kinetic = wp.float64(0.0)
-        potential = wp.float64(0.0)
-        largest = wp.float64(-1.0e300)
-        finite = wp.float64(1.0)
-        for i in range(start, end):
-            terms = grain_terms[c, i]
-            kinetic += terms[0]
-            potential += terms[1]
-            largest = wp.max(largest, terms[2])
-            finite = wp.min(finite, terms[3])
+        sums = wp.vec4d(wp.float64(0.0), wp.float64(0.0), wp.float64(-1.0e300), wp.float64(1.0))
+        i = start
+        while i + 4 <= end:  # four loads in flight, then their terms added in order (the same sums)
+            t0 = grain_terms[c, i]
+            t1 = grain_terms[c, i + 1]
+            t2 = grain_terms[c, i + 2]
+            t3 = grain_terms[c, i + 3]
+            sums = add_terms(add_terms(add_terms(add_terms(sums, t0), t1), t2), t3)
+            i += 4
+        while i < end:
+            sums = add_terms(sums, grain_terms[c, i])
+            i += 1
+        kinetic = sums[0]
+        potential = sums[1]
+        largest = sums[2]
+        finite = sums[3]
         lost = wp.float64(0.0)
         if wp.static(DAMPED):
             for i in range(start, end):

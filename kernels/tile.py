@@ -32,9 +32,10 @@ reads its neighbours at t_n, as in the per-step kernel.
 A driven surface (``surface = "driven"``): the lane holding grain 0 sets its predicted position to the
 driver's u_0(t_{n+1}), overwrites it with the driver's values after the corrector and accumulates the
 driver's work in registers, each in kernels/step.py's arithmetic (grain 1 must sit in grain 0's lane).
-The driver's sin ωt and cos ωt come from a shared table that all lanes of the block refill every
-``lanes_per_chain`` steps, one row each (with the per-step kernel's argument ω·(n·dt), so the same bits):
-without it the lane of grain 0 evaluated three of them every step while the block waited at the next barrier.
+The driver's sin ωt and cos ωt come from a table in device memory that ``drive_table`` fills before the launches
+(with the per-step kernel's argument ω·(n·dt), so the same bits); every lane loads the next step's row one step
+ahead (one address per chain: a broadcast). Evaluated by the lane of grain 0 every step, they held up the block
+at the next barrier (docs/benchmarks.md).
 Traces are written inside the launch after each step k·stride, from the lanes that keep the traced grains
 (a window's interior), as the per-step kernel writes them.
 
@@ -131,6 +132,13 @@ def out_of_line(event_step, values_t, vec3, real):
     return event_step_call
 
 
+@wp.func_native("WP_TILE_SYNC();")
+def block_sync(unused: int):
+    """A barrier for every thread of the block (CUDA: __syncthreads; CPU blocks: Warp's fiber barrier); it also
+    makes the block's earlier writes to device memory visible to the whole block."""
+    ...
+
+
 @functools.cache
 def tile_kernel(features: Features, shape: TileShape):
     """The fused kernel for one feature set and compile-time launch shape (cached)."""
@@ -207,7 +215,6 @@ def tile_kernel(features: Features, shape: TileShape):
         return v
 
     driver_values_at = nordsieck.driver_values_at
-    DRIVE_ROWS = B if DRIVEN else 1
     dashpot = damping_functions(f.precision, ORDER)[1]
 
     @wp.func
@@ -227,52 +234,32 @@ def tile_kernel(features: Features, shape: TileShape):
         return out
 
     @wp.func
-    def drive_phases(table: Any, fill: bool, offset: int, segment: int, lane_c: int, omega: wp.float64,
-                     step0: int, dt: wp.float64) -> wp.vec2d:
-        # (sin ωt, cos ωt) at step step0 + offset (offset ≥ 1) from a shared table of L steps per chain: every L
-        # steps each lane of a block that holds a driven grain (``fill``, the same for the whole block) evaluates
-        # one row, so no sine or cosine lies on a step's critical path. The argument is the per-step kernel's,
-        # ω·(n·dt), so every value has its bits.
-        row = (offset - 1) % L
-        if fill and row == 0:
-            t = wp.float64(step0 + offset + lane_c) * dt
-            wp.tile_assign(table, wp.tile(wp.vec2d(wp.sin(omega * t), wp.cos(omega * t)), preserve_type=True))
-        index = segment * L + row
-        return wp.vec2d(wp.tile_extract(table, index, 0), wp.tile_extract(table, index, 1))
-
-    @wp.func
-    def driver_work(s: state_t, k0: int, work_power: wp.vec2d, delta0: contact_vec, a_c: contact_vec,
-                    force0: contact_vec, n: real, amplitude: wp.float64, omega: wp.float64, cos_old: wp.float64,
-                    dt: wp.float64, gamma: real, first: bool) -> wp.vec2d:
-        # kernels/step.py: driver's work, trapezoid of P = ΔF_01 · v_0 at t_n (grains 0 and 1 in this lane);
-        # cos_old = cos(ω t_n)
-        # grains k0, k0 + 1 and their contact picked by selects over the static positions: an index known only at
-        # run time would put the lane's whole register matrix in local memory, for every lane, every step
+    def driver_log_entry(s: state_t, k0: int) -> wp.vec2d:
+        # what the driver's power at t_n needs of the state besides cos(ω t_n) (kernels/step.py: P = ΔF_01 · v_0):
+        # grain 0's overlap change d = u_0 − u_1 and, with the contact dashpot, grain 1's dt·v, as float64 (exact for
+        # float32). Grains k0, k0 + 1 picked by selects over the static positions: an index known only at run time
+        # would put the lane's whole register matrix in local memory, for every lane, every step
         d_old = real(0)
-        below0 = real(0)
-        below_ac = real(0)
-        below_f0 = real(0)
+        below_rate_old = real(0)
         for k in range(G):  # range(G), not range(G - 1): Warp unrolls only a bound it reads as a constant
             if k == k0:
                 d_old = s[0, k] - s[0, wp.min(k + 1, G - 1)]
-                below0 = delta0[k + 1]
-                below_ac = a_c[k + 1]
-                below_f0 = force0[k + 1]
-        # the lane's contact law (branchless where the lane's is: the same bits as contact_force)
+                if wp.static(DASHPOT):
+                    below_rate_old = s[1, wp.min(k + 1, G - 1)]
+        return wp.vec2d(wp.float64(d_old), wp.float64(below_rate_old))
+
+    @wp.func
+    def driver_power(entry: wp.vec2d, cos_old: wp.float64, below0: real, below_ac: real, below_f0: real, n: real,
+                     amplitude: wp.float64, omega: wp.float64, dt: wp.float64, gamma: real) -> wp.float64:
+        # kernels/step.py: the driver's power at t_n from its driver_log_entry and cos(ω t_n), with the lane's
+        # contact law (branchless where the lane's is: the same bits as contact_force)
+        d_old = real(entry[0])
         force_old = wp.float64(one_force(one_vec(below0 + d_old), one_vec(below_ac), one_vec(below_f0), n)[0])
         if wp.static(DASHPOT):
             # the driver also pushes through the dashpot of its contact (kernels/step.py: the work includes it)
-            below_rate_old = real(0)
-            for k in range(G):
-                if k == k0:
-                    below_rate_old = s[1, wp.min(k + 1, G - 1)]
-            rate_old = real(dt * amplitude * omega * cos_old) - below_rate_old
+            rate_old = real(dt * amplitude * omega * cos_old) - real(entry[1])
             force_old += wp.float64(dashpot(below0, d_old, rate_old, gamma, real(dt)))
-        power = force_old * amplitude * omega * cos_old
-        if wp.static(DASHPOT):
-            if first:
-                return wp.vec2d(work_power[0], power)  # W(0) = 0: the dashpot's power at t = 0 is not zero
-        return wp.vec2d(work_power[0] + dt * wp.float64(0.5) * (work_power[1] + power), power)
+        return force_old * amplitude * omega * cos_old
 
     @wp.func
     def lane_rates(s: state_t, k0: int, amplitude: wp.float64, omega: wp.float64, phase_new: wp.vec2d,
@@ -403,15 +390,19 @@ def tile_kernel(features: Features, shape: TileShape):
             else:
                 up[k] = nordsieck.predict_position(column(s, k))
         if wp.static(DRIVEN):
-            if k0 >= 0:
-                for k in range(G):  # selects over the static positions (see driver_work)
+            # selects over the static positions, false in every lane but the driver's (k0 = -1): no branch, whose
+            # reconvergence every block of the driven kernel paid each step
+            if wp.static(COMP):
+                driver_position = nordsieck.exact_position(amplitude * phase_new[0])
+                for k in range(G):
                     if k == k0:
-                        if wp.static(COMP):
-                            driver_position = nordsieck.exact_position(amplitude * phase_new[0])
-                            up[k] = driver_position[0]
-                            up_lo[k] = driver_position[1]
-                        else:
-                            up[k] = real(amplitude * phase_new[0])
+                        up[k] = driver_position[0]
+                        up_lo[k] = driver_position[1]
+            else:
+                driver_u = real(amplitude * phase_new[0])
+                for k in range(G):
+                    if k == k0:
+                        up[k] = driver_u
         # 2. exchange the lane's edge positions with its neighbours (virtual grains outside sit at 0)
         if wp.static(EVENTS):
             # events also need the neighbour lanes' edge grains' Nordsieck vectors
@@ -580,14 +571,16 @@ def tile_kernel(features: Features, shape: TileShape):
                             for q in range(Q):
                                 out[q, k] = new[q]
         if wp.static(DRIVEN):
-            if k0 >= 0:
-                # the prescribed surface grain: the driver's u_0 and dt·v_0 at t_{n+1}, higher values 0
-                for k in range(G):
-                    if k == k0:
-                        for q in range(Q):
-                            out[q, k] = real(0)
-                        out[0, k] = real(amplitude * phase_new[0])
-                        out[1, k] = real(dt * amplitude * omega * phase_new[1])
+            # the prescribed surface grain: the driver's u_0 and dt·v_0 at t_{n+1} (selects, as above). Its higher
+            # values are left to its own corrector: no other grain reads them (its predicted position and rate
+            # are the driver's, also in an event step's neighbours: driver_values_at), and the write-back stores
+            # them as kernels/step.py does, 0
+            driver_u = real(amplitude * phase_new[0])
+            driver_rate = real(dt * amplitude * omega * phase_new[1])
+            for k in range(G):
+                if k == k0:
+                    out[0, k] = driver_u
+                    out[1, k] = driver_rate
         return out
 
     @wp.func
@@ -637,6 +630,10 @@ def tile_kernel(features: Features, shape: TileShape):
         trace_x: wp.array4d(dtype=real),
         damping: wp.array(dtype=real),
         dissipated: wp.array2d(dtype=wp.float64),
+        phases: wp.array2d(dtype=wp.vec2d),
+        phase_first: wp.array(dtype=wp.int32),
+        driver_log: wp.array2d(dtype=wp.vec2d),
+        driver_powers: wp.array2d(dtype=wp.float64),
     ):
         block, lane = wp.tid()
         chain_count = x_in.shape[1]
@@ -730,13 +727,19 @@ def tile_kernel(features: Features, shape: TileShape):
             work_power = wp.vec2d(work_in[cc], power_in[cc])
         phase_old = wp.vec2d()  # the driver's (sin ωt, cos ωt) at the last step taken
         phase_new = wp.vec2d()
-        drive_table = wp.tile_zeros(shape=DRIVE_ROWS, dtype=wp.vec2d, storage="shared")
-        fill_table = False
+        phase_next = wp.vec2d()  # ... at the step after phase_new's, loaded one step ahead
+        first_row = int(0)  # the row of drive_table's phases that holds step0
+        # the driver's power is evaluated after the step loop from a log of its state, one row per chain: every lane
+        # stores its entry each step, the driver's lane into its chain's row and the others into their block's
+        # scratch row (chain_count + block), so the store needs no branch (a branch there, not taken by 157 of a
+        # column's 158 windows, made every window of the driven column's kernel slower on an H100)
+        log_row = chain_count + block
+        if k0 >= 0:
+            log_row = cc
         if wp.static(DRIVEN):
-            fill_table = first <= 0  # the window holds grain 0 (windowed: its interior, or its ghost zone)
-            if k0 >= 0:
-                t0 = wp.float64(step0) * dt
-                phase_old = wp.vec2d(wp.sin(omega * t0), wp.cos(omega * t0))
+            first_row = step0 - phase_first[0]
+            phase_old = phases[cc, first_row]
+            phase_next = phases[cc, first_row + 1]
         edges_even = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
         edges_odd = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
         frozen = status[cc] == wp.static(STATUS_NON_FINITE)
@@ -750,10 +753,9 @@ def tile_kernel(features: Features, shape: TileShape):
                     lost[k] = dissipated[cc, g]
         for _pair in range(steps / 2):
             if wp.static(DRIVEN):
-                phase_new = drive_phases(drive_table, fill_table, 2 * _pair + 1, segment, lane_c, omega, step0, dt)
-                if k0 >= 0:
-                    work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
-                                             phase_old[1], dt, gamma, step0 + 2 * _pair + 1 == 1)
+                phase_new = phase_next
+                phase_next = phases[cc, first_row + 2 * _pair + 1 + 1]  # (the table holds a row past the launch's last)
+                driver_log[log_row, 2 * _pair] = driver_log_entry(s, k0)
             if wp.static(VISCOUS):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
@@ -768,10 +770,9 @@ def tile_kernel(features: Features, shape: TileShape):
                 write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
                              step0 + 2 * _pair + 1, trace_x)
             if wp.static(DRIVEN):
-                phase_new = drive_phases(drive_table, fill_table, 2 * _pair + 2, segment, lane_c, omega, step0, dt)
-                if k0 >= 0:
-                    work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
-                                             phase_old[1], dt, gamma, step0 + 2 * _pair + 2 == 1)
+                phase_new = phase_next
+                phase_next = phases[cc, first_row + 2 * _pair + 2 + 1]  # (the table holds a row past the launch's last)
+                driver_log[log_row, 2 * _pair + 1] = driver_log_entry(s, k0)
             if wp.static(VISCOUS):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
@@ -787,10 +788,8 @@ def tile_kernel(features: Features, shape: TileShape):
                              step0 + 2 * _pair + 2, trace_x)
         if steps % 2 == 1:
             if wp.static(DRIVEN):
-                phase_new = drive_phases(drive_table, fill_table, steps, segment, lane_c, omega, step0, dt)
-                if k0 >= 0:
-                    work_power = driver_work(s, k0, work_power, delta0, a_c, force0, n, amplitude, omega,
-                                             phase_old[1], dt, gamma, step0 + steps == 1)
+                phase_new = phase_next
+                driver_log[log_row, steps - 1] = driver_log_entry(s, k0)
             if wp.static(VISCOUS):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
@@ -804,6 +803,34 @@ def tile_kernel(features: Features, shape: TileShape):
                 write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
                              step0 + steps, trace_x)
 
+        if wp.static(DRIVEN):
+            if first <= 0:  # the block holds grain 0 (a window at the surface; every block of whole chains)
+                # the driver's power at each step's t_n from the log its lane wrote, one step per lane, then its
+                # work summed by that lane in step order (kernels/step.py's trapezoid): off the steps' critical
+                # path, where the driver's lane alone evaluated a contact force every step while its block waited
+                block_sync(0)
+                p01 = params(static_overlap, contact_constant, exponent, cc, 1)
+                below0 = p01[0]
+                below_ac = p01[1]
+                below_f0 = contact_force(below0, below_ac, n)
+                j = lane_c
+                while j < steps:
+                    if live:
+                        driver_powers[cc, j] = driver_power(driver_log[cc, j], phases[cc, first_row + j][1], below0,
+                                                            below_ac, below_f0, n, amplitude, omega, dt, gamma)
+                    j += L
+                block_sync(0)
+                if k0 >= 0:
+                    for j in range(steps):
+                        power = driver_powers[cc, j]
+                        opening = False
+                        if wp.static(DASHPOT):
+                            opening = step0 + j == 0  # W(0) = 0: the dashpot's power at t = 0 is not zero
+                        if opening:
+                            work_power = wp.vec2d(work_power[0], power)
+                        else:
+                            work_power = wp.vec2d(work_power[0] + dt * wp.float64(0.5) * (work_power[1] + power),
+                                                  power)
         # write back the interior; a frozen (non-finite) chain keeps its state
         if wp.static(DRIVEN):
             if k0 >= 0 and keep_lo <= 0:
@@ -818,7 +845,11 @@ def tile_kernel(features: Features, shape: TileShape):
                     if frozen:
                         x_out[q, cc, g] = x_in[q, cc, g]
                     else:
-                        x_out[q, cc, g] = s[q, k]
+                        value = s[q, k]
+                        if wp.static(DRIVEN):
+                            if q >= 2 and g == 0:
+                                value = real(0)  # the driver's higher values (see advance)
+                        x_out[q, cc, g] = value
                 if wp.static(DISSIPATES):
                     if not frozen:
                         dissipated[cc, g] = lost[k]
@@ -904,16 +935,43 @@ def launchable_register_cap(block_dim: int) -> int:
     return REGISTER_FILE // threads // 8 * 8
 
 
+@wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
+def drive_table(clock: wp.array(dtype=wp.int32), drive: wp.array2d(dtype=wp.float64), dt: wp.float64,
+                phases: wp.array2d(dtype=wp.vec2d), phase_first: wp.array(dtype=wp.int32)):
+    # the driver's (sin ωt, cos ωt) of chain c at step clock + row, with the per-step kernel's argument ω·(n·dt)
+    # (the same bits); phase_first: the step of row 0
+    c, row = wp.tid()
+    first = clock[0]
+    if c == 0 and row == 0:
+        phase_first[0] = first
+    omega = drive[c, 1]
+    t = wp.float64(first + row) * dt
+    phases[c, row] = wp.vec2d(wp.sin(omega * t), wp.cos(omega * t))
+
+
+def launch_drive_table(*, clock, drive, dt: float, phases, phase_first, device) -> None:
+    """Fill ``phases`` (chains, rows) with the driver's phases at steps clock … clock + rows − 1 (read on the device,
+    so a captured graph replays it at any clock); a driven fused kernel launched from that clock on reads them."""
+    import os
+    if "zerophase" in os.environ.get("HZ_EXP", ""):  # EXPERIMENT (not committed): the driver held at u = 0
+        dt = 0.0
+    wp.launch(drive_table, dim=phases.shape, inputs=[clock, drive, dt], outputs=[phases, phase_first], device=device)
+
+
 def launch_tile(plan: TilePlan, kernel, *, x_in, clock_in, inverse_mass, contact_constant, static_overlap,
                 exponent, status, dt: float, steps: int, x_out, clock_out, device, drive, work_in, power_in,
                 work_out, power_out, trace_slot=None, trace_stride: int = 1, trace_x=None, damping=None,
-                dissipated=None, record_cmd: bool = False):
+                dissipated=None, phases=None, phase_first=None, driver_log=None, driver_powers=None,
+                record_cmd: bool = False):
     """Launch ``steps`` fused steps (``steps ≤ plan.steps_per_launch`` when windowed); x_in and x_out differ.
 
     ``drive`` (chains, 2), ``work_*``/``power_*`` (chains,): the model's and states' arrays (size 0 undriven);
     ``trace_slot`` (grains,) each grain's column in the ring ``trace_x`` (2, chains, length, traced) or −1, and
     ``trace_stride``: traces (None without them). ``damping`` (chains,) γ and ``dissipated`` (chains, grains),
-    updated in place: viscous damping (None undamped)."""
+    updated in place: viscous damping (None undamped). ``phases``/``phase_first``: a driven surface's phase table
+    (:func:`launch_drive_table`, filled from a clock at or before ``clock_in``'s and covering every step of this
+    launch plus ``lanes_per_chain`` rows; None undriven); ``driver_log`` (chains + plan.block_count, K) vec2d and
+    ``driver_powers`` (chains, K): the driver's per-step scratch (None undriven)."""
     if plan.shape.windowed and steps > plan.ghost:
         raise ValueError(f"steps = {steps}: a windowed launch takes at most {plan.ghost}")
     device = wp.get_device(device)
@@ -926,9 +984,15 @@ def launch_tile(plan: TilePlan, kernel, *, x_in, clock_in, inverse_mass, contact
     if damping is None:
         damping = wp.empty(0, dtype=x_in.dtype, device=device)
         dissipated = wp.empty((0, 0), dtype=wp.float64, device=device)
+    if phases is None:
+        phases = wp.empty((0, 0), dtype=wp.vec2d, device=device)
+        phase_first = wp.empty(0, dtype=wp.int32, device=device)
+        driver_log = wp.empty((0, 0), dtype=wp.vec2d, device=device)
+        driver_powers = wp.empty((0, 0), dtype=wp.float64, device=device)
     return wp.launch_tiled(
         kernel, dim=[plan.block_count],
         inputs=[x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status, dt, steps,
                 plan.interior, plan.ghost, plan.blocks_per_chain, drive, work_in, power_in],
-        outputs=[x_out, clock_out, work_out, power_out, trace_slot, trace_stride, trace_x, damping, dissipated],
+        outputs=[x_out, clock_out, work_out, power_out, trace_slot, trace_stride, trace_x, damping, dissipated, phases,
+                 phase_first, driver_log, driver_powers],
         block_dim=plan.shape.block_dim, device=device, record_cmd=record_cmd)

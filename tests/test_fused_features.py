@@ -158,6 +158,31 @@ def test_tile_drive_equals_per_step(case, windowed, device):
     assert_kernels_agree(got.work, want.work, device)
 
 
+@pytest.mark.parametrize("launches_per_table", [1, 3])
+def test_drive_table_refilled_within_an_advance_equals_per_step(launches_per_table, device, monkeypatch):
+    """The driver's phases come from a device table that TileSolver fills before its launches (kernels/tile.py
+    drive_table); with the table covering one launch, or three, it is refilled within every advance between
+    records, and the fused run still equals the per-step kernel."""
+    import hertzian.ensemble.solvers.tile as tile_solver
+
+    sections = DRIVEN_CASES["traces, events auto, bottom wall"]
+    model = build_model(driven_scenes(**sections), device)
+    plan = plan_tile(replace(model.features, traces=False), model.grain_count, model.chain_count,
+                     **SHAPE_KEYWORDS[True])
+    k, lanes = plan.steps_per_launch, plan.shape.lanes_per_chain
+    monkeypatch.setattr(tile_solver, "DRIVE_TABLE_BYTES", 16 * model.chain_count * (launches_per_table * k + lanes + 1))
+    assert tile_solver.TileSolver(model, config_of(plan)).table_steps == launches_per_table * k
+    assert np.diff(model.scenes[0].record_steps).min() > 2 * launches_per_table * k  # refilled between records
+    want = run(model, "step")
+    got = run(model, config_of(plan))
+    for name in ("u", "v"):
+        assert_kernels_agree(got.fields[name], want.fields[name], device)
+        assert_kernels_agree(got.traces[name], want.traces[name], device)
+    assert np.all(np.max(np.abs(want.work), axis=1) > 0)
+    assert_kernels_agree(got.work, want.work, device)
+    assert_kernels_agree(got.energy, want.energy, device)
+
+
 def test_driven_window_needs_grains_0_and_1_in_one_lane():
     model = build_model(driven_scenes(traces=False), "cpu")
     with pytest.raises(ValueError, match="grains 0 and 1"):

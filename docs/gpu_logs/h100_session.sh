@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -489,6 +489,125 @@ nov26rec2)
   step e2e_gpu10k_cold_rec2 120 "$HZ $B10K"
   step e2e_gpu10k_warm_rec2 60 "$HZ $B10K"
   step e2e_gpu10k_warm_rec2b 60 "$HZ $B10K"
+  ;;
+nov27a)
+  # what the drive costs the window kernel (kernel variants that leave parts of the drive out: timing only, wrong
+  # results; HZ_EXP is read by an uncommitted experiment build of kernels/tile.py) and what a record costs the device
+  P910="python3 docs/gpu_logs/window_probe.py --chains 2 --configs 'G=4 lanes=32 K=32'"
+  step probe_a_base 120 "$P910 --variants 0,3 --out $LOGS/probe_a_base.json"
+  for e in nowork nofill nok0 nowork,nofill; do
+    step "probe_a_$e" 90 "HZ_EXP=$e $P910 --variants 0 --out $LOGS/probe_a_$e.json"
+  done
+  step record_probe_a 200 "python3 docs/gpu_logs/record_probe.py --out $LOGS/record_probe_a.json"
+  ;;
+nov27b)
+  # the same, with the driven column's amplitude 2 and 1e-4 (variants 0, 1), and the sqrt without its fast path
+  P910="python3 docs/gpu_logs/window_probe.py --chains 2 --configs 'G=4 lanes=32 K=32'"
+  step probe_b_base 120 "$P910 --variants 0,1,2,3 --out $LOGS/probe_b_base.json"
+  for e in nok0 nofill sqrtrn nowork; do
+    step "probe_b_$e" 90 "HZ_EXP=$e $P910 --variants 0,1 --out $LOGS/probe_b_$e.json"
+  done
+  ;;
+nov27c)
+  # the driver's phases from a device table filled before the launches (no sine in the step loop), long chains'
+  # records reduced in two stages: the window kernel alone, a record's device cost, the driven columns end to end,
+  # and the CUDA tests of the changed paths
+  P910="python3 docs/gpu_logs/window_probe.py --configs 'G=4 lanes=32 K=32'"
+  B910="bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step probe_c_2 120 "$P910 --chains 2 --variants 0,1,3 --out $LOGS/probe_c_2.json"
+  step probe_c_64 120 "$P910 --chains 64 --variants 0,3 --out $LOGS/probe_c_64.json"
+  step record_probe_c 200 "python3 docs/gpu_logs/record_probe.py --out $LOGS/record_probe_c.json"
+  step e2e_fig9_10_cold_c 200 "$HZ $B910"
+  step e2e_fig9_10_warm_c 100 "$HZ $B910"
+  step e2e_fig9_10_warm_c2 100 "$HZ $B910"
+  step e2e_fig9_10_every25_c 100 "$HZ $B910 --set record.every=25"
+  step pytest_cuda_c 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and (drive or record or refilled)' tests 2>&1"
+  ;;
+nov27d)
+  # the driver's phases loaded by every lane one step ahead from the device table (no shared table, no refill in
+  # the loop); the same kernel with the driver held at u = 0 (HZ_EXP=zerophase: is the cost in the data?); the
+  # shared-table form of nov27c (exp/tile_sharedtable.py, not committed) on the same machine
+  P910="python3 docs/gpu_logs/window_probe.py --configs 'G=4 lanes=32 K=32'"
+  step probe_d_2 120 "$P910 --chains 2 --variants 0,1,3 --out $LOGS/probe_d_2.json"
+  step probe_d_zero 120 "HZ_EXP=zerophase $P910 --chains 2 --variants 0 --out $LOGS/probe_d_zero.json"
+  if [ -f exp/tile_sharedtable.py ]; then
+    cp kernels/tile.py /tmp/tile_direct.py && cp exp/tile_sharedtable.py kernels/tile.py
+    step probe_d_shared 120 "$P910 --chains 2 --variants 0 --out $LOGS/probe_d_shared.json"
+    step probe_d_shared_zero 120 "HZ_EXP=zerophase $P910 --chains 2 --variants 0 --out $LOGS/probe_d_shared_zero.json"
+    cp /tmp/tile_direct.py kernels/tile.py
+  fi
+  step probe_d_64 120 "$P910 --chains 64 --variants 0 --out $LOGS/probe_d_64.json"
+  ;;
+nov27e)
+  # cycles each block spends in its step loop (one launch; clock64 from an uncommitted experiment build,
+  # exp/tile_clock.py): does the driver's window set the pace, or is every window of the driven kernel slower?
+  P910="python3 docs/gpu_logs/window_probe.py --configs 'G=4 lanes=32 K=32' --chains 2"
+  step tools_e 20 "which ncu nsys nvdisasm cuobjdump; ls /usr/local/cuda/bin 2>&1 | head -50"
+  if [ -f exp/tile_clock.py ]; then
+    cp kernels/tile.py /tmp/tile_keep.py && cp exp/tile_clock.py kernels/tile.py
+    step clock_e_driven 120 "HZ_EXP=clock $P910 --variants 0 --out $LOGS/clock_e_driven.json"
+    step clock_e_struck 120 "HZ_EXP=clock $P910 --variants 3 --out $LOGS/clock_e_struck.json"
+    cp /tmp/tile_keep.py kernels/tile.py
+  fi
+  ;;
+nov27f)
+  # the driver's work evaluated after the step loop from a per-step log (one step per lane), and the driver's
+  # selects without a branch; the deferred work with the branches (exp/tile_deferred.py, not committed), same machine
+  P910="python3 docs/gpu_logs/window_probe.py --configs 'G=4 lanes=32 K=32'"
+  B910="bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step probe_f_2 120 "$P910 --chains 2 --variants 0,1,3 --out $LOGS/probe_f_2.json"
+  step probe_f_64 120 "$P910 --chains 64 --variants 0,3 --out $LOGS/probe_f_64.json"
+  if [ -f exp/tile_deferred.py ]; then
+    cp kernels/tile.py /tmp/tile_keep.py && cp exp/tile_deferred.py kernels/tile.py
+    step probe_f_branches_2 120 "$P910 --chains 2 --variants 0 --out $LOGS/probe_f_branches_2.json"
+    cp /tmp/tile_keep.py kernels/tile.py
+  fi
+  step e2e_fig9_10_cold_f 200 "$HZ $B910"
+  step e2e_fig9_10_warm_f 100 "$HZ $B910"
+  step e2e_fig9_10_warm_f2 100 "$HZ $B910"
+  ;;
+nov27g)
+  # cycles per block of the nov27f kernel (loop; after it), exp/tile_clock2.py (not committed); a timeline of the
+  # warm driven columns (host threads and GPU busy intervals)
+  P910="python3 docs/gpu_logs/window_probe.py --configs 'G=4 lanes=32 K=32' --chains 2"
+  if [ -f exp/tile_clock2.py ]; then
+    cp kernels/tile.py /tmp/tile_keep.py && cp exp/tile_clock2.py kernels/tile.py
+    step clock_g_driven 120 "HZ_EXP=clock $P910 --variants 0 --out $LOGS/clock_g_driven.json"
+    step clock_g_struck 120 "HZ_EXP=clock $P910 --variants 3 --out $LOGS/clock_g_struck.json"
+    cp /tmp/tile_keep.py kernels/tile.py
+  fi
+  B910="bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step e2e_fig9_10_cold_g 200 "$HZ $B910"
+  step timeline_fig9_10_g 100 "python3 docs/logs/sweep_timeline.py sweeps/paper_fig9_10.toml --device cuda --json $LOGS/timeline_fig9_10_g.json"
+  ;;
+nov27h)
+  # the driver's log stored without a branch (a scratch row per block); the window kernel, the driven columns end to
+  # end (cold: a fresh calibration), and the 64-column response map
+  P910="python3 docs/gpu_logs/window_probe.py --configs 'G=4 lanes=32 K=32'"
+  B910="bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step probe_h_2 120 "$P910 --chains 2 --variants 0,1,3 --out $LOGS/probe_h_2.json"
+  step probe_h_64 120 "$P910 --chains 64 --variants 0,3 --out $LOGS/probe_h_64.json"
+  step e2e_fig9_10_cold_h 200 "$HZ $B910"
+  step e2e_fig9_10_warm_h 100 "$HZ $B910"
+  step e2e_fig9_10_warm_h2 100 "$HZ $B910"
+  step timeline_fig9_10_h 100 "python3 docs/logs/sweep_timeline.py sweeps/paper_fig9_10.toml --device cuda --json $LOGS/timeline_fig9_10_h.json"
+  ;;
+nov27i)
+  # the driver's higher Nordsieck values left to its corrector (zeroed at the write-back), its log one vec2d a step,
+  # the long chains' record sums with four loads in flight: the window kernel, a record's device cost, the driven
+  # columns end to end (cold: calibration), the 64-column response map, the CUDA tests of the changed paths
+  P910="python3 docs/gpu_logs/window_probe.py --configs 'G=4 lanes=32 K=32'"
+  B910="bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step probe_i_2 120 "$P910 --chains 2 --variants 0,1,3 --out $LOGS/probe_i_2.json"
+  step probe_i_64 120 "$P910 --chains 64 --variants 0,3 --out $LOGS/probe_i_64.json"
+  step record_probe_i 200 "python3 docs/gpu_logs/record_probe.py --out $LOGS/record_probe_i.json"
+  step e2e_fig9_10_cold_i 200 "$HZ $B910"
+  step e2e_fig9_10_warm_i 100 "$HZ $B910"
+  step e2e_fig9_10_warm_i2 100 "$HZ $B910"
+  step e2e_fig9_10_every25_i 100 "$HZ $B910 --set record.every=25"
+  step timeline_fig9_10_i 100 "python3 docs/logs/sweep_timeline.py sweeps/paper_fig9_10.toml --device cuda --json $LOGS/timeline_fig9_10_i.json"
+  step drive_map_i 240 "$HZ sweep sweeps/drive_map_gpu.toml --out $WORK/drive_map_i.zarr --device cuda --json"
+  step pytest_cuda_i 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and (drive or record or refilled or fused)' tests 2>&1"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"

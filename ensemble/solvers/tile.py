@@ -2,12 +2,18 @@
 
 from __future__ import annotations
 
+import warp as wp
+
 from hertzian.kernels.ghost import plan_windows
-from hertzian.kernels.tile import TilePlan, launch_tile, tile_kernel
+from hertzian.kernels.tile import TilePlan, drive_table, launch_drive_table, launch_tile, tile_kernel
 
 from ..model import Model, State
 from .base import Solver
-from .config import SolverConfig
+from .config import FUSED_GRAPH_LAUNCHES, SolverConfig
+
+DRIVE_TABLE_BYTES = 32 * 2**20
+"""Device memory a driven model's phase table may take (TileSolver): it covers a graph's launches where that fits,
+else fewer (one launch at least)."""
 
 
 def tile_plan(config: SolverConfig, grain_count: int, chain_count: int) -> TilePlan:
@@ -40,6 +46,41 @@ class TileSolver(Solver):
         self.trace_stride_in_kernel = model.scenes[0].trace_stride if model.features.traces else 1
         self.block_dim = config.shape.block_dim
         self.damped = model.features.damping != "none"
+        self.phases = self.phase_first = self.driver_log = self.driver_powers = None
+        self.table_steps = 0
+        """Driven: the steps one fill of the phase table covers (a multiple of K)."""
+        if model.features.surface == "driven":
+            k, lanes = config.steps_per_launch, config.shape.lanes_per_chain
+            piece = config.graph_steps or FUSED_GRAPH_LAUNCHES * k
+            fits = DRIVE_TABLE_BYTES // (16 * model.chain_count) - lanes - 1
+            self.table_steps = max(k, min(-(-piece // k) * k, fits // k * k))
+            self.phases = wp.empty((model.chain_count, self.table_steps + lanes + 1), dtype=wp.vec2d,
+                                   device=model.device)
+            self.phase_first = wp.zeros(1, dtype=wp.int32, device=model.device)
+            # one row per chain, then one scratch row per block (kernels/tile.py: the log's store has no branch)
+            self.driver_log = wp.empty((model.chain_count + self.plan.block_count, k), dtype=wp.vec2d,
+                                       device=model.device)
+            self.driver_powers = wp.empty((model.chain_count, k), dtype=wp.float64, device=model.device)
+
+    def launches(self, state_in: State, state_out: State, n_steps: int) -> State:
+        """Ping-pong launches; a driven model's phase table is filled first, and again every ``table_steps``."""
+        if self.phases is None:
+            return super().launches(state_in, state_out, n_steps)
+        m = self.model
+        a, b = state_in, state_out
+        while n_steps > 0:
+            steps = min(n_steps, self.table_steps)
+            launch_drive_table(clock=a.clock, drive=m.drive, dt=m.dt, phases=self.phases,
+                               phase_first=self.phase_first, device=m.device)
+            end = super().launches(a, b, steps)
+            a, b = (end, b if end is a else a)
+            n_steps -= steps
+        return a
+
+    def load(self) -> None:
+        super().load()
+        if self.phases is not None:
+            wp.load_module(drive_table.module, device=self.model.device)
 
     def launch(self, state_in: State, state_out: State, steps: int) -> None:
         m = self.model
@@ -49,7 +90,9 @@ class TileSolver(Solver):
                     device=m.device, drive=m.drive, work_in=state_in.work, power_in=state_in.power,
                     work_out=state_out.work, power_out=state_out.power, trace_slot=m.trace_slot,
                     trace_stride=self.trace_stride_in_kernel, trace_x=state_in.traces,
-                    damping=m.damping if self.damped else None, dissipated=state_in.dissipated if self.damped else None)
+                    damping=m.damping if self.damped else None, dissipated=state_in.dissipated if self.damped else None,
+                    phases=self.phases, phase_first=self.phase_first, driver_log=self.driver_log,
+                    driver_powers=self.driver_powers)
 
     def describe(self) -> str:
         return f"{self.kind} ({self.plan.describe()})"
