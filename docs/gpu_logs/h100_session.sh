@@ -606,7 +606,7 @@ nov27i)
   step e2e_fig9_10_warm_i2 100 "$HZ $B910"
   step e2e_fig9_10_every25_i 100 "$HZ $B910 --set record.every=25"
   step timeline_fig9_10_i 100 "python3 docs/logs/sweep_timeline.py sweeps/paper_fig9_10.toml --device cuda --json $LOGS/timeline_fig9_10_i.json"
-  step drive_map_i 240 "$HZ sweep sweeps/drive_map_gpu.toml --out $WORK/drive_map_i.zarr --device cuda --json"
+  step drive_map_i 240 "$HZ sweep sweeps/drive_map_gpu.toml --out $WORK/drive_map_i.zarr --overwrite --device cuda --quiet --json"
   step pytest_cuda_i 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and (drive or record or refilled or fused)' tests 2>&1"
   ;;
 repro)
