@@ -30,7 +30,7 @@ import warp as wp
 from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
 from .events import event_functions
 from .gear import nordsieck_functions, refuse_composed_extras, substep_weight_function
-from .physics import contact_functions, contact_parameters, damping_functions
+from .physics import contact_functions, contact_parameters, damping_functions, product_rn
 
 
 def sweepable(features: Features) -> bool:
@@ -183,7 +183,7 @@ def sweep_kernel(features: Features):
                 # kernels/step.py's driven grain 0: prescribed u_0, and the driver's work (state at t_n)
                 step_new = step_first + _step + 1
                 t_new = wp.float64(step_new) * dt
-                u_drive = amplitude * wp.sin(omega * t_new)
+                u_drive = product_rn(amplitude, wp.sin(omega * t_new))
                 t_old = wp.float64(step_new - 1) * dt
                 d_old = x_out[0, c, 0] - x_out[0, c, 1]
                 force_old = wp.float64(contact(static_overlap, contact_constant, c, 1, d_old, a_c0, delta00,
@@ -314,7 +314,7 @@ def sweep_kernel(features: Features):
                                             outer = True
                                             t_old_d = wp.float64(step_new - 1) * dt
                                             a_u = real(u_drive)
-                                            a_u_old = real(amplitude * wp.sin(omega * t_old_d))
+                                            a_u_old = real(product_rn(amplitude, wp.sin(omega * t_old_d)))
                                             a_rate = real(dt * amplitude * omega * wp.cos(omega * t_new))
                                             a_rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old_d))
                                 delta0_above = params(static_overlap, contact_constant, exponent, c, i)[0]

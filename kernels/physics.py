@@ -40,6 +40,22 @@ _SQRT_NEEDS_SLOW_PATH = """
 """
 
 
+# a·b rounded as a product on CUDA (__dmul_rn is never contracted into a fused multiply-add): the driver's
+# displacement A·sin ωt, which the kernels then subtract or split into float32 parts, has the same bits in every
+# kernel whatever contractions each compiler chooses around it
+_PRODUCT_RN = """
+#if defined(__CUDA_ARCH__)
+    return __dmul_rn(a, b);
+#else
+    return a * b;
+#endif
+"""
+
+
+@wp.func_native(_PRODUCT_RN)
+def product_rn(a: wp.float64, b: wp.float64) -> wp.float64: ...
+
+
 @wp.func_native(_SQRT_FAST_PATH)
 def sqrt_fast_path(x: wp.float64) -> wp.float64: ...
 

@@ -18,7 +18,7 @@ import warp as wp
 from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
 from .events import event_functions
 from .gear import nordsieck_functions, refuse_composed_extras, substep_weight_function
-from .physics import contact_functions, contact_parameters, damping_functions
+from .physics import contact_functions, contact_parameters, damping_functions, product_rn
 
 
 @functools.cache
@@ -131,7 +131,7 @@ def step_kernel(features: Features):
             amplitude = drive[c, 0]
             omega = drive[c, 1]
             t_new = wp.float64(step_new) * dt
-            u_drive = amplitude * wp.sin(omega * t_new)
+            u_drive = product_rn(amplitude, wp.sin(omega * t_new))
             if i == 0:
                 # driver's work on the rest of the chain: trapezoid of P = ΔF_01 · v_0 (state at t_n)
                 t_old = wp.float64(step_new - 1) * dt
@@ -302,7 +302,7 @@ def step_kernel(features: Features):
                                 outer = True
                                 t_old_d = wp.float64(step_new - 1) * dt
                                 above_u = real(u_drive)
-                                above_u_old = real(amplitude * wp.sin(omega * t_old_d))
+                                above_u_old = real(product_rn(amplitude, wp.sin(omega * t_old_d)))
                                 above_rate = real(dt * amplitude * omega * wp.cos(omega * t_new))
                                 above_rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old_d))
                     delta0_above = params(static_overlap, contact_constant, exponent, c, i)[0]

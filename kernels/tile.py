@@ -58,7 +58,7 @@ import warp as wp
 from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
 from .events import event_functions
 from .gear import nordsieck_functions
-from .physics import contact_forces, contact_functions, contact_parameters, damping_functions
+from .physics import contact_forces, contact_functions, contact_parameters, damping_functions, product_rn
 
 
 def fusable(features: Features) -> bool:
@@ -314,7 +314,7 @@ def tile_kernel(features: Features, shape: TileShape):
             if k0 >= 0:
                 for k in range(G):
                     if k == k0:
-                        up[k] = real(amplitude * phase_new[0])
+                        up[k] = real(product_rn(amplitude, phase_new[0]))
         rates = lane_rates(s, k0, amplitude, omega, phase_new, dt)
         u_left = real(0)
         rate_left = real(0)
@@ -362,7 +362,7 @@ def tile_kernel(features: Features, shape: TileShape):
                     if k0 >= 0 and k == k0 + 1:
                         outer = True
                         above_rate = real(dt * amplitude * omega * phase_new[1])
-                        above_u_old = real(amplitude * phase_old[0])
+                        above_u_old = real(product_rn(amplitude, phase_old[0]))
                         above_rate_old = real(dt * amplitude * omega * phase_old[1])
                 if outer:
                     loss_new += damp[k] * (above_rate - own_rate) / h
@@ -393,13 +393,13 @@ def tile_kernel(features: Features, shape: TileShape):
             # selects over the static positions, false in every lane but the driver's (k0 = -1): no branch, whose
             # reconvergence every block of the driven kernel paid each step
             if wp.static(COMP):
-                driver_position = nordsieck.exact_position(amplitude * phase_new[0])
+                driver_position = nordsieck.exact_position(product_rn(amplitude, phase_new[0]))
                 for k in range(G):
                     if k == k0:
                         up[k] = driver_position[0]
                         up_lo[k] = driver_position[1]
             else:
-                driver_u = real(amplitude * phase_new[0])
+                driver_u = real(product_rn(amplitude, phase_new[0]))
                 for k in range(G):
                     if k == k0:
                         up[k] = driver_u
@@ -575,7 +575,7 @@ def tile_kernel(features: Features, shape: TileShape):
             # values are left to its own corrector: no other grain reads them (its predicted position and rate
             # are the driver's, also in an event step's neighbours: driver_values_at), and the write-back stores
             # them as kernels/step.py does, 0
-            driver_u = real(amplitude * phase_new[0])
+            driver_u = real(product_rn(amplitude, phase_new[0]))
             driver_rate = real(dt * amplitude * omega * phase_new[1])
             for k in range(G):
                 if k == k0:

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -608,6 +608,19 @@ nov27i)
   step timeline_fig9_10_i 100 "python3 docs/logs/sweep_timeline.py sweeps/paper_fig9_10.toml --device cuda --json $LOGS/timeline_fig9_10_i.json"
   step drive_map_i 240 "$HZ sweep sweeps/drive_map_gpu.toml --out $WORK/drive_map_i.zarr --overwrite --device cuda --quiet --json"
   step pytest_cuda_i 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and (drive or record or refilled or fused)' tests 2>&1"
+  ;;
+nov27j)
+  # the driver's displacement A·sin ωt as a product that no kernel contracts (__dmul_rn): the CUDA tests of the fused
+  # and driven paths (nov27i: compensated float32, viscous, driven differed from the per-step kernel by 6e-7), the
+  # same with contraction off (bit for bit), the window kernel and the driven columns end to end
+  step pytest_cuda_j 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and (drive or record or refilled or fused)' tests 2>&1"
+  step pytest_cuda_j_nofma 200 "HERTZIAN_FUSE_FP=0 python3 -m pytest -q -p no:cacheprovider -k 'cuda and damping' tests/test_fused_features.py 2>&1"
+  P910="python3 docs/gpu_logs/window_probe.py --configs 'G=4 lanes=32 K=32'"
+  B910="bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step probe_j_2 120 "$P910 --chains 2 --variants 0,3 --out $LOGS/probe_j_2.json"
+  step e2e_fig9_10_cold_j 200 "$HZ $B910"
+  step e2e_fig9_10_warm_j 100 "$HZ $B910"
+  step e2e_fig9_10_warm_j2 100 "$HZ $B910"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
