@@ -234,7 +234,7 @@ def tile_kernel(features: Features, shape: TileShape):
         return out
 
     @wp.func
-    def driver_log_entry(s: state_t, k0: int) -> wp.vec2d:
+    def driver_log_entry(s: state_t, k0: int, u_driver: real) -> wp.vec2d:
         # what the driver's power at t_n needs of the state besides cos(ω t_n) (kernels/step.py: P = ΔF_01 · v_0):
         # grain 0's overlap change d = u_0 − u_1 and, with the contact dashpot, grain 1's dt·v, as float64 (exact for
         # float32). Grains k0, k0 + 1 picked by selects over the static positions: an index known only at run time
@@ -243,7 +243,7 @@ def tile_kernel(features: Features, shape: TileShape):
         below_rate_old = real(0)
         for k in range(G):  # range(G), not range(G - 1): Warp unrolls only a bound it reads as a constant
             if k == k0:
-                d_old = s[0, k] - s[0, wp.min(k + 1, G - 1)]
+                d_old = u_driver - s[0, wp.min(k + 1, G - 1)]
                 if wp.static(DASHPOT):
                     below_rate_old = s[1, wp.min(k + 1, G - 1)]
         return wp.vec2d(wp.float64(d_old), wp.float64(below_rate_old))
@@ -570,25 +570,25 @@ def tile_kernel(features: Features, shape: TileShape):
                         else:
                             for q in range(Q):
                                 out[q, k] = new[q]
-        if wp.static(DRIVEN):
-            # the prescribed surface grain: the driver's u_0 and dt·v_0 at t_{n+1} (selects, as above). Its higher
-            # values are left to its own corrector: no other grain reads them (its predicted position and rate
-            # are the driver's, also in an event step's neighbours: driver_values_at), and the write-back stores
-            # them as kernels/step.py does, 0
-            driver_u = real(product_rn(amplitude, phase_new[0]))
-            driver_rate = real(dt * amplitude * omega * phase_new[1])
-            for k in range(G):
-                if k == k0:
-                    out[0, k] = driver_u
-                    out[1, k] = driver_rate
+        # (the driver's own column is left to its corrector: see driver_values)
         return out
+
+    @wp.func
+    def driver_values(amplitude: wp.float64, omega: wp.float64, phase: wp.vec2d, dt: wp.float64) -> vec2:
+        # the prescribed surface grain's u_0 and dt·v_0 where (sin ωt, cos ωt) = phase, as kernels/step.py stores
+        # them. The fused kernels never store them in the driver's register column during the launch: every step
+        # reads the driver from its phases (its predicted position, its overlap change in driver_log_entry, an
+        # event step's neighbour: driver_values_at), so its column is left to its own corrector (no select per
+        # step), and traces and the write-back take these values
+        return vec2(real(product_rn(amplitude, phase[0])), real(dt * amplitude * omega * phase[1]))
 
     @wp.func
     def write_traces(s: state_t, x_in: wp.array3d(dtype=real), frozen: bool, live: bool, cc: int, base: int,
                      keep_lo: int, keep_hi: int, trace_slot: wp.array(dtype=wp.int32), trace_stride: int,
-                     step_new: int, trace_x: wp.array4d(dtype=real)):
+                     step_new: int, trace_x: wp.array4d(dtype=real), amplitude: wp.float64, omega: wp.float64,
+                     phase: wp.vec2d, dt: wp.float64):
         # kernels/step.py's trace sample after a step k·stride: (u, dt·v) of the traced grains this lane keeps
-        # (a frozen chain: its frozen state), ring slot k % length
+        # (a frozen chain: its frozen state; the driven grain 0: its driver_values at ``phase``), ring slot k % length
         if step_new % trace_stride == 0 and live:
             sample = (step_new / trace_stride) % trace_x.shape[2]
             for k in range(G):
@@ -600,8 +600,15 @@ def tile_kernel(features: Features, shape: TileShape):
                             trace_x[0, cc, sample, slot] = x_in[0, cc, g]
                             trace_x[1, cc, sample, slot] = x_in[1, cc, g]
                         else:
-                            trace_x[0, cc, sample, slot] = s[0, k]
-                            trace_x[1, cc, sample, slot] = s[1, k]
+                            u = s[0, k]
+                            rate = s[1, k]
+                            if wp.static(DRIVEN):
+                                if g == 0:
+                                    driver = driver_values(amplitude, omega, phase, dt)
+                                    u = driver[0]
+                                    rate = driver[1]
+                            trace_x[0, cc, sample, slot] = u
+                            trace_x[1, cc, sample, slot] = rate
 
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False, grid_stride=False,
                cuda_max_registers=shape.max_registers or None)
@@ -755,7 +762,7 @@ def tile_kernel(features: Features, shape: TileShape):
             if wp.static(DRIVEN):
                 phase_new = phase_next
                 phase_next = phases[cc, first_row + 2 * _pair + 1 + 1]  # (the table holds a row past the launch's last)
-                driver_log[log_row, 2 * _pair] = driver_log_entry(s, k0)
+                driver_log[log_row, 2 * _pair] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
             if wp.static(VISCOUS):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
@@ -768,11 +775,11 @@ def tile_kernel(features: Features, shape: TileShape):
             phase_old = phase_new
             if wp.static(TRACES):
                 write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
-                             step0 + 2 * _pair + 1, trace_x)
+                             step0 + 2 * _pair + 1, trace_x, amplitude, omega, phase_old, dt)
             if wp.static(DRIVEN):
                 phase_new = phase_next
                 phase_next = phases[cc, first_row + 2 * _pair + 2 + 1]  # (the table holds a row past the launch's last)
-                driver_log[log_row, 2 * _pair + 1] = driver_log_entry(s, k0)
+                driver_log[log_row, 2 * _pair + 1] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
             if wp.static(VISCOUS):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
@@ -785,11 +792,11 @@ def tile_kernel(features: Features, shape: TileShape):
             phase_old = phase_new
             if wp.static(TRACES):
                 write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
-                             step0 + 2 * _pair + 2, trace_x)
+                             step0 + 2 * _pair + 2, trace_x, amplitude, omega, phase_old, dt)
         if steps % 2 == 1:
             if wp.static(DRIVEN):
                 phase_new = phase_next
-                driver_log[log_row, steps - 1] = driver_log_entry(s, k0)
+                driver_log[log_row, steps - 1] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
             if wp.static(VISCOUS):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
@@ -801,7 +808,8 @@ def tile_kernel(features: Features, shape: TileShape):
                                       move_bits, k0, amplitude, omega, phase_old, phase_new, gamma, h, dt)
             if wp.static(TRACES):
                 write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
-                             step0 + steps, trace_x)
+                             step0 + steps, trace_x, amplitude, omega, phase_new, dt)
+            phase_old = phase_new
 
         if wp.static(DRIVEN):
             if first <= 0:  # the block holds grain 0 (a window at the surface; every block of whole chains)
@@ -847,8 +855,10 @@ def tile_kernel(features: Features, shape: TileShape):
                     else:
                         value = s[q, k]
                         if wp.static(DRIVEN):
-                            if q >= 2 and g == 0:
-                                value = real(0)  # the driver's higher values (see advance)
+                            if g == 0:  # the driven grain: kernels/step.py's (u_0, dt·v_0, 0, …) (driver_values)
+                                value = real(0)
+                                if q < 2:
+                                    value = driver_values(amplitude, omega, phase_old, dt)[q]
                         x_out[q, cc, g] = value
                 if wp.static(DISSIPATES):
                     if not frozen:
@@ -952,9 +962,6 @@ def drive_table(clock: wp.array(dtype=wp.int32), drive: wp.array2d(dtype=wp.floa
 def launch_drive_table(*, clock, drive, dt: float, phases, phase_first, device) -> None:
     """Fill ``phases`` (chains, rows) with the driver's phases at steps clock … clock + rows − 1 (read on the device,
     so a captured graph replays it at any clock); a driven fused kernel launched from that clock on reads them."""
-    import os
-    if "zerophase" in os.environ.get("HZ_EXP", ""):  # EXPERIMENT (not committed): the driver held at u = 0
-        dt = 0.0
     wp.launch(drive_table, dim=phases.shape, inputs=[clock, drive, dt], outputs=[phases, phase_first], device=device)
 
 
