@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -621,6 +621,30 @@ nov27j)
   step e2e_fig9_10_cold_j 200 "$HZ $B910"
   step e2e_fig9_10_warm_j 100 "$HZ $B910"
   step e2e_fig9_10_warm_j2 100 "$HZ $B910"
+  ;;
+nov27k)
+  # the submitted driven kernels (the driver's column no longer overwritten each step): the window kernel alone, the
+  # CUDA tests of the fused/driven/record paths, the driven columns end to end, the response map, the same-size
+  # impact and driven 1000-grain scenes long enough for the fused kernels (6e9 grain-steps), warm gpu_10k
+  P910="python3 docs/gpu_logs/window_probe.py --configs 'G=4 lanes=32 K=32'"
+  B910="bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  B10K="bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step probe_k_2 120 "$P910 --chains 2 --variants 0,1,3 --out $LOGS/probe_k_2.json"
+  step probe_k_64 120 "$P910 --chains 64 --variants 0,3 --out $LOGS/probe_k_64.json"
+  step e2e_fig9_10_cold_k 200 "$HZ $B910"
+  step e2e_fig9_10_warm_k 100 "$HZ $B910"
+  step e2e_fig9_10_warm_k2 100 "$HZ $B910"
+  step e2e_fig9_10_warm_k3 100 "$HZ $B910"
+  step e2e_fig9_10_every25_k 100 "$HZ $B910 --set record.every=25"
+  step timeline_fig9_10_k 100 "python3 docs/logs/sweep_timeline.py sweeps/paper_fig9_10.toml --device cuda --json $LOGS/timeline_fig9_10_k.json"
+  for s in impact_1000 driven_1000; do
+    step "e2e_${s}_300_k" 120 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --json"
+    step "e2e_${s}_300_k2" 120 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --json"
+  done
+  step drive_map_k 240 "$HZ sweep sweeps/drive_map_gpu.toml --out $WORK/drive_map_k.zarr --overwrite --device cuda --quiet --json"
+  step e2e_gpu10k_cold_k 120 "$HZ $B10K"
+  step e2e_gpu10k_warm_k 60 "$HZ $B10K"
+  step pytest_cuda_k 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and (drive or record or refilled or fused)' tests 2>&1"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
