@@ -3,10 +3,12 @@
 ``check(state, step)`` launches the record kernel (energy, driver's work, largest overlap and the
 status flags, which a non-finite chain's later steps read to freeze it) and folds the result into
 running extremes; it never synchronises. ``record(state, r)`` does a check and then copies what the
-scenes keep (snapshots, energy, work, the trace ring) into one of two host staging buffers (page-
+scenes keep (snapshots, energy, work, the trace ring) into one of ``depth`` host staging buffers (page-
 locked on CUDA, so the copies are asynchronous and ordered before the next launches on the same
-stream); the buffer is unpacked into the host arrays only when it is reused two records later, or
-by ``finish()``, so a record never waits for the device.
+stream), used in turn; a buffer is unpacked into the host arrays only when it is reused ``depth`` records
+later, or by ``finish()``, so a record never waits for the device, and the host may run up to ``depth``
+records ahead of it (2 buffers, or up to 8 while they fit in STAGING_BYTES: a host held up for a few
+milliseconds, by another thread or the store's writes, then leaves the device idle less often).
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ class StagingPool:
     (page-locked on CUDA, where allocating and freeing them costs milliseconds per megabyte).
 
     Buffers are keyed by device and layout; only the most recent layout is kept (a sweep's batches
-    share one), so the pool holds at most the two buffers of one run beyond the runs in flight.
+    share one), so the pool holds at most the buffers of one run beyond the runs in flight.
     """
 
     def __init__(self):
@@ -51,7 +53,7 @@ class StagingPool:
             if key != self._key:
                 self._key, self._free = key, []
             self._free.extend(buffers)
-            del self._free[2:]
+            del self._free[MAX_STAGING_DEPTH:]
 
 
 def _map_pages(arrays: list[np.ndarray]) -> None:
@@ -61,6 +63,10 @@ def _map_pages(arrays: list[np.ndarray]) -> None:
 
 _MAPPER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="hertzian-map")
 """Maps the pages of new host result arrays in the background (Recorder)."""
+
+STAGING_BYTES = 64 * 2**20
+"""Page-locked host memory a run's staging buffers may take beyond two (Recorder.depth)."""
+MAX_STAGING_DEPTH = 8
 
 STAGING = StagingPool()
 """The process's staging buffers (hertzian.ensemble.runner returns a run's after its last record)."""
@@ -122,10 +128,14 @@ class Recorder:
         self.dissipated = np.zeros((c, records)) if damped else None
         self.response = ResponseAccumulator(m) if scene.has_response else None
 
+        self.snapshot_values = tuple(name for name in ("u", "v") if name in self.fields or (
+            self.fields and name in self.traces))
+        """The state rows each record copies: the snapshots' (and, traced, the trace values' at t = 0)."""
         self.staging_key = self._staging_key()
-        self.staging = [STAGING.take(self.staging_key, self._staging_buffer) for _ in range(2)]
-        """Two sets of host copies, used alternately (double buffering)."""
-        self.pending: list[tuple[int, object] | None] = [None, None]
+        self.depth = self._staging_depth()
+        """Staging buffers, used in turn: how many records the host may run ahead of the device."""
+        self.staging = [STAGING.take(self.staging_key, self._staging_buffer) for _ in range(self.depth)]
+        self.pending: list[tuple[int, object] | None] = [None] * self.depth
         """Per staging buffer: (record index, CUDA event after its copies) not yet unpacked, or None."""
         self._mapping = None
         if (m.device.is_cuda if map_in_background is None else map_in_background) and (self.fields or self.traces):
@@ -138,8 +148,17 @@ class Recorder:
     def _staging_key(self) -> tuple:
         m = self.model
         return (str(m.device), m.chain_count, m.grain_count, m.features.precision, self.work is not None,
-                self.dissipated is not None, bool(self.fields), len(self.traced), self.capacity,
+                self.dissipated is not None, self.snapshot_values, len(self.traced), self.capacity,
                 self.trace_values)
+
+    def _staging_depth(self) -> int:
+        m = self.model
+        item = np.dtype(self.real_np).itemsize
+        size = 8 * m.chain_count * (1 + (self.work is not None) + (self.dissipated is not None))
+        size += len(self.snapshot_values) * m.chain_count * m.grain_count * item
+        if self.traced and not self.traces_on_device:
+            size += len(self.trace_values) * m.chain_count * self.capacity * len(self.traced) * item
+        return int(min(MAX_STAGING_DEPTH, max(2, 2 + (STAGING_BYTES - 2 * size) // max(size, 1))))
 
     def release(self) -> None:
         """Hand the staging buffers back to the pool (after :meth:`finish`; the recorder keeps no copy)."""
@@ -161,10 +180,9 @@ class Recorder:
             buf["work"] = host(c, wp.float64)
         if self.dissipated is not None:
             buf["dissipated"] = host(c, wp.float64)
-        if self.fields:
-            buf["u"] = host((c, n), m.real)
-            buf["v"] = host((c, n), m.real)
-        elif self.traced:  # the traced grains at t = 0 (record 0), gathered on the device
+        for name in self.snapshot_values:
+            buf[name] = host((c, n), m.real)
+        if self.traced and not self.fields:  # the traced grains at t = 0 (record 0), gathered on the device
             buf["start"] = host((2, c, len(self.traced)), m.real)
         # the trace ring's copy ("ring", the largest) is allocated at its first use, a record r > 0: a run with
         # one record after t = 0 (a detection library: every chain's whole trace) needs it in one buffer only
@@ -225,10 +243,10 @@ class Recorder:
     def record(self, state: State, r: int, step: int) -> None:
         """Check at ``step`` and keep record ``r`` (snapshots, energy, work, the traces since record r − 1).
 
-        The device → host copies are queued into staging buffer r % 2 (asynchronous on CUDA); the host
-        arrays hold record r after ``finish()`` (or once the buffer is reused at record r + 2)."""
+        The device → host copies are queued into staging buffer r % depth (asynchronous on CUDA); the host
+        arrays hold record r after ``finish()`` (or once the buffer is reused at record r + depth)."""
         self.check(state, step)
-        slot = r % 2
+        slot = r % self.depth
         if self.pending[slot] is not None:
             self._unpack(slot)
         buf = self.staging[slot]
@@ -237,9 +255,9 @@ class Recorder:
             wp.copy(buf["work"], self.work_now)
         if "dissipated" in buf:
             wp.copy(buf["dissipated"], self.dissipated_now)
-        if "u" in buf:
-            wp.copy(buf["u"], state.x[0])
-            wp.copy(buf["v"], state.x[1])
+        for row, name in enumerate(("u", "v")):
+            if name in buf:
+                wp.copy(buf[name], state.x[row])
         if r == 0 and "start" in buf:
             wp.launch(traced_start_kernel(self.model.features.precision), dim=self.traced_start.shape,
                       inputs=[state.x, self.traced_index], outputs=[self.traced_start], device=self.model.device)
@@ -253,7 +271,8 @@ class Recorder:
 
     def finish(self) -> None:
         """Unpack every queued record into the host arrays (waits for their copies)."""
-        for slot in sorted((s for s in range(2) if self.pending[s] is not None), key=lambda s: self.pending[s][0]):
+        for slot in sorted((s for s in range(self.depth) if self.pending[s] is not None),
+                           key=lambda s: self.pending[s][0]):
             self._unpack(slot)
 
     def _unpack(self, slot: int) -> None:
@@ -276,12 +295,11 @@ class Recorder:
             self.dissipated[:, r] = buf["dissipated"].numpy()
         if self.traced and not self.traces_on_device:
             if r == 0:
-                u0, v0 = (buf["u"].numpy()[:, self.traced], buf["v"].numpy()[:, self.traced]) if "u" in buf else \
-                    buf["start"].numpy()
+                start = buf["start"].numpy() if "start" in buf else None
                 if "u" in self.traces:
-                    self.traces["u"][:, 0] = u0
+                    self.traces["u"][:, 0] = start[0] if start is not None else buf["u"].numpy()[:, self.traced]
                 if "v" in self.traces:
-                    self.traces["v"][:, 0] = v0 / dt
+                    self.traces["v"][:, 0] = (start[1] if start is not None else buf["v"].numpy()[:, self.traced]) / dt
             else:
                 # sample k (taken at step k·stride) sits in ring slot k % capacity
                 rows = slice(int(self.record_steps[r - 1]) // self.stride + 1,

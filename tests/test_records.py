@@ -155,6 +155,41 @@ def test_traces_of_one_value_equal_those_of_both(device):
         Recorder(build_model([scene], device), trace_values=("x",))
 
 
+def test_staging_depth_keeps_every_record_in_order(device, monkeypatch):
+    """Small records get up to MAX_STAGING_DEPTH staging buffers (the host may run that many records ahead of the
+    device), large ones two (STAGING_BYTES); each record copies only the state rows the scene keeps. A run of more
+    records than buffers, with snapshots of v only and traces, gives the same result with 8 buffers as with 2, bit
+    for bit, and hands its records to ``on_unpacked`` in order."""
+    import hertzian.ensemble.recorder as recorder_module
+    from hertzian.ensemble.runner import Runner
+
+    scene = make_scene(chain={"grains": 30, "l0": 1e-4}, excitation={"impact": 1e-2},
+                       integrator={"method": "gear4", "dt": 1e-3, "duration": 0.2},
+                       record={"every": 0.01, "fields": ["v"], "traces": [0, 29], "trace_every": 0.002})
+    assert len(scene.record_steps) == 21
+    results, orders = {}, {}
+    for staging_bytes in (recorder_module.STAGING_BYTES, 0):
+        monkeypatch.setattr(recorder_module, "STAGING_BYTES", staging_bytes)
+        order = []
+        runner = Runner(build_model([scene, scene], device), on_unpacked=lambda rec, r: order.append(r))
+        depth = runner.recorder.depth
+        results[depth], orders[depth] = runner.run(), order
+    assert set(results) == {recorder_module.MAX_STAGING_DEPTH, 2}
+    deep, double = results[recorder_module.MAX_STAGING_DEPTH], results[2]
+    assert set(deep.fields) == {"v"} and np.max(np.abs(deep.fields["v"][:, -1])) > 0
+    for name in ("v",):
+        np.testing.assert_array_equal(deep.fields[name], double.fields[name])
+    for name in ("u", "v"):
+        np.testing.assert_array_equal(deep.traces[name], double.traces[name])
+    np.testing.assert_array_equal(deep.energy, double.energy)
+    assert orders[2] == orders[recorder_module.MAX_STAGING_DEPTH] == list(range(21))
+    # without traces a record copies v alone (with them, u too: the traces' t = 0 values come from the snapshot)
+    from dataclasses import replace
+
+    untraced = replace(scene, record=replace(scene.record, traces=()))
+    assert set(Recorder(build_model([untraced], device)).staging[0]) == {"energy", "v"}
+
+
 def test_host_pages_mapped_in_the_background_keep_every_record(device, monkeypatch):
     """On CUDA a background thread writes the new host arrays once (mapping their pages) while the first records
     run; the first unpack waits for it. Made slow here, the mapping must still finish before any record lands:
