@@ -262,6 +262,14 @@ def tile_kernel(features: Features, shape: TileShape):
         return force_old * amplitude * omega * cos_old
 
     @wp.func
+    def work_step(work_power: wp.vec2d, power: wp.float64, step_old: int, dt: wp.float64) -> wp.vec2d:
+        # kernels/step.py: the driver's work W and power P after the step from step_old, whose power at t_n is power
+        if wp.static(DASHPOT):
+            if step_old == 0:
+                return wp.vec2d(work_power[0], power)  # W(0) = 0: the dashpot's power at t = 0 is not zero
+        return wp.vec2d(work_power[0] + dt * wp.float64(0.5) * (work_power[1] + power), power)
+
+    @wp.func
     def lane_rates(s: state_t, k0: int, amplitude: wp.float64, omega: wp.float64, phase_new: wp.vec2d,
                    dt: wp.float64) -> grain_vec:
         # dt·v of the lane's grains predicted at t_n+1 (the contact dashpot); the driver's is its own at t_n+1
@@ -829,16 +837,15 @@ def tile_kernel(features: Features, shape: TileShape):
                     j += L
                 block_sync(0)
                 if k0 >= 0:
-                    for j in range(steps):
-                        power = driver_powers[cc, j]
-                        opening = False
-                        if wp.static(DASHPOT):
-                            opening = step0 + j == 0  # W(0) = 0: the dashpot's power at t = 0 is not zero
-                        if opening:
-                            work_power = wp.vec2d(work_power[0], power)
-                        else:
-                            work_power = wp.vec2d(work_power[0] + dt * wp.float64(0.5) * (work_power[1] + power),
-                                                  power)
+                    j = int(0)
+                    while j < steps:  # four loads in flight, then the trapezoid's steps in order
+                        powers = wp.vec4d()
+                        for q in range(4):
+                            powers[q] = driver_powers[cc, wp.min(j + q, steps - 1)]
+                        for q in range(4):
+                            if j + q < steps:
+                                work_power = work_step(work_power, powers[q], step0 + j + q, dt)
+                        j += 4
         # write back the interior; a frozen (non-finite) chain keeps its state
         if wp.static(DRIVEN):
             if k0 >= 0 and keep_lo <= 0:
