@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -660,6 +660,22 @@ nov27l)
     step "e2e_${s}_off_l" 150 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
     step "e2e_${s}_off_l2" 100 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
   done
+  ;;
+nov27m)
+  # the driver's work summed with four loads in flight (the submitted state): the window kernel, the driven columns
+  # end to end, the same-size 1000-grain impact and driven scenes (events off), the CUDA tests of the changed paths
+  P910="python3 docs/gpu_logs/window_probe.py --configs 'G=4 lanes=32 K=32'"
+  B910="bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step probe_m_2 120 "$P910 --chains 2 --variants 0,3 --out $LOGS/probe_m_2.json"
+  step e2e_fig9_10_cold_m 200 "$HZ $B910"
+  step e2e_fig9_10_warm_m 100 "$HZ $B910"
+  step e2e_fig9_10_warm_m2 100 "$HZ $B910"
+  step e2e_fig9_10_warm_m3 100 "$HZ $B910"
+  for s in impact_1000 driven_1000; do
+    step "e2e_${s}_off_m" 150 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
+    step "e2e_${s}_off_m2" 100 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
+  done
+  step pytest_cuda_m 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and (drive or record or refilled or fused)' tests 2>&1"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
