@@ -90,6 +90,18 @@ def record_kernels(features: Features) -> RecordKernels:
         delta0 = wp.float64(p[0])
         return wp.vec2d(excess_potential(delta0, d, wp.float64(p[1]), wp.float64(p[2])), delta0 + d)
 
+    @wp.func
+    def store_part(parts: wp.array3d(dtype=wp.float64), c: int, part: int, sums: wp.vec4d,
+                   dissipated_grain: wp.array2d(dtype=wp.float64), start: int, end: int):
+        # a part's (kinetic, potential, largest overlap, finite) and, damped, its grains' dissipated energy in order
+        lost = wp.float64(0.0)
+        if wp.static(DAMPED):
+            for i in range(start, end):
+                lost += dissipated_grain[c, i]
+        for q in range(4):
+            parts[c, part, q] = sums[q]
+        parts[c, part, 4] = lost
+
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def record_parts(
         x: wp.array3d(dtype=real),
@@ -131,15 +143,7 @@ def record_kernels(features: Features) -> RecordKernels:
                                       position(x, c, i - 1) - u)
                 potential += terms[0]
                 largest = wp.max(largest, terms[1])
-        lost = wp.float64(0.0)
-        if wp.static(DAMPED):
-            for i in range(start, end):
-                lost += dissipated_grain[c, i]
-        parts[c, part, 0] = kinetic
-        parts[c, part, 1] = potential
-        parts[c, part, 2] = largest
-        parts[c, part, 3] = finite
-        parts[c, part, 4] = lost
+        store_part(parts, c, part, wp.vec4d(kinetic, potential, largest, finite), dissipated_grain, start, end)
 
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def record_grains(
@@ -207,19 +211,7 @@ def record_kernels(features: Features) -> RecordKernels:
         while i < end:
             sums = add_terms(sums, grain_terms[c, i])
             i += 1
-        kinetic = sums[0]
-        potential = sums[1]
-        largest = sums[2]
-        finite = sums[3]
-        lost = wp.float64(0.0)
-        if wp.static(DAMPED):
-            for i in range(start, end):
-                lost += dissipated_grain[c, i]
-        parts[c, part, 0] = kinetic
-        parts[c, part, 1] = potential
-        parts[c, part, 2] = largest
-        parts[c, part, 3] = finite
-        parts[c, part, 4] = lost
+        store_part(parts, c, part, sums, dissipated_grain, start, end)
 
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def record(
