@@ -966,10 +966,13 @@ def drive_table(clock: wp.array(dtype=wp.int32), drive: wp.array2d(dtype=wp.floa
     phases[c, row] = wp.vec2d(wp.sin(omega * t), wp.cos(omega * t))
 
 
-def launch_drive_table(*, clock, drive, dt: float, phases, phase_first, device) -> None:
-    """Fill ``phases`` (chains, rows) with the driver's phases at steps clock … clock + rows − 1 (read on the device,
-    so a captured graph replays it at any clock); a driven fused kernel launched from that clock on reads them."""
-    wp.launch(drive_table, dim=phases.shape, inputs=[clock, drive, dt], outputs=[phases, phase_first], device=device)
+def launch_drive_table(*, clock, drive, dt: float, phases, phase_first, device, rows: int | None = None) -> None:
+    """Fill the first ``rows`` rows (all by default) of ``phases`` (chains, rows) with the driver's phases at steps
+    clock … clock + rows − 1 (the clock read on the device, so a captured graph replays it at any clock); a driven
+    fused kernel launched from that clock on reads them (its launches' steps plus lanes_per_chain rows)."""
+    rows = phases.shape[1] if rows is None else min(rows, phases.shape[1])
+    wp.launch(drive_table, dim=(phases.shape[0], rows), inputs=[clock, drive, dt], outputs=[phases, phase_first],
+              device=device)
 
 
 def launch_tile(plan: TilePlan, kernel, *, x_in, clock_in, inverse_mass, contact_constant, static_overlap,

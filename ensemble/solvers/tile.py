@@ -70,8 +70,10 @@ class TileSolver(Solver):
         a, b = state_in, state_out
         while n_steps > 0:
             steps = min(n_steps, self.table_steps)
+            # only the rows these steps read (an advance between response samples may be a few steps)
             launch_drive_table(clock=a.clock, drive=m.drive, dt=m.dt, phases=self.phases,
-                               phase_first=self.phase_first, device=m.device)
+                               phase_first=self.phase_first, device=m.device,
+                               rows=steps + self.config.shape.lanes_per_chain + 1)
             end = super().launches(a, b, steps)
             a, b = (end, b if end is a else a)
             n_steps -= steps
