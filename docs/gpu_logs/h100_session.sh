@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -676,6 +676,20 @@ nov27m)
     step "e2e_${s}_off_m2" 100 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
   done
   step pytest_cuda_m 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and (drive or record or refilled or fused)' tests 2>&1"
+  ;;
+nov27n)
+  # the submitted state with the drive table filled only for the rows an advance reads: the CUDA tests of the driven
+  # paths, the driven columns end to end, and the whole reproduction twice (a fresh machine compiles everything the
+  # first time; issue 11's <= 30 s is the second)
+  B910="bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step pytest_cuda_n 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and (drive or refilled)' tests 2>&1"
+  step e2e_fig9_10_cold_n 200 "$HZ $B910"
+  step e2e_fig9_10_warm_n 100 "$HZ $B910"
+  step e2e_fig9_10_warm_n2 100 "$HZ $B910"
+  step reproduce_cold_n 300 "$HZ reproduce --device cuda --out-dir $WORK/repro_cold"
+  cp "$WORK"/repro_cold/log.json "$LOGS"/reproduce_cold_n_log.json 2>/dev/null
+  step reproduce_warm_n 120 "$HZ reproduce --device cuda --out-dir $WORK/repro_warm"
+  cp "$WORK"/repro_warm/log.json "$LOGS"/reproduce_warm_n_log.json 2>/dev/null
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
