@@ -182,6 +182,8 @@ def record_kernels(features: Features) -> RecordKernels:
             overlap = terms[1]
         terms_out[c, i] = wp.vec4d(kinetic, potential, overlap, finite)
 
+    part_block = wp.types.matrix(shape=(4, 5), dtype=wp.float64)  # four parts' sums, loaded together
+
     @wp.func
     def add_terms(sums: wp.vec4d, terms: wp.vec4d) -> wp.vec4d:
         # record_parts' running sums (kinetic, potential), largest overlap and finite flag, one grain further
@@ -236,17 +238,24 @@ def record_kernels(features: Features) -> RecordKernels:
         # the parts of chain c in order, then the walls, the driver's work and the status
         c = wp.tid()
         n_grains = x.shape[2]
-        kinetic = wp.float64(0.0)
-        potential = wp.float64(0.0)
-        largest = wp.float64(-1.0e300)
-        finite = wp.float64(1.0)
+        sums = wp.vec4d(wp.float64(0.0), wp.float64(0.0), wp.float64(-1.0e300), wp.float64(1.0))
         lost = wp.float64(0.0)
-        for part in range(parts.shape[1]):
-            kinetic += parts[c, part, 0]
-            potential += parts[c, part, 1]
-            largest = wp.max(largest, parts[c, part, 2])
-            finite = wp.min(finite, parts[c, part, 3])
-            lost += parts[c, part, 4]
+        part_count = parts.shape[1]
+        part = int(0)
+        while part < part_count:  # four parts' loads in flight, then added in order (a long chain has many parts)
+            loaded = part_block()
+            for q in range(4):
+                for k in range(5):
+                    loaded[q, k] = parts[c, wp.min(part + q, part_count - 1), k]
+            for q in range(4):
+                if part + q < part_count:
+                    sums = add_terms(sums, wp.vec4d(loaded[q, 0], loaded[q, 1], loaded[q, 2], loaded[q, 3]))
+                    lost += loaded[q, 4]
+            part += 4
+        kinetic = sums[0]
+        potential = sums[1]
+        largest = sums[2]
+        finite = sums[3]
         if wp.static(SURFACE_WALL):
             terms = contact_terms(static_overlap, contact_constant, exponent, c, 0, -position(x, c, 0))
             potential += terms[0]
