@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -690,6 +690,26 @@ nov27n)
   cp "$WORK"/repro_cold/log.json "$LOGS"/reproduce_cold_n_log.json 2>/dev/null
   step reproduce_warm_n 120 "$HZ reproduce --device cuda --out-dir $WORK/repro_warm"
   cp "$WORK"/repro_warm/log.json "$LOGS"/reproduce_warm_n_log.json 2>/dev/null
+  ;;
+nov27o)
+  # a chain's record parts summed with four loads in flight: the driven columns end to end; then the same with shards
+  # of 2 MB of records instead of 8 (exp/sweep_store_2mb.py, not committed: a shorter last shard write?); CUDA tests
+  # of the record paths
+  B910="bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step e2e_fig9_10_cold_o 200 "$HZ $B910"
+  step e2e_fig9_10_warm_o 100 "$HZ $B910"
+  step e2e_fig9_10_warm_o2 100 "$HZ $B910"
+  step e2e_fig9_10_warm_o3 100 "$HZ $B910"
+  step timeline_fig9_10_o 100 "python3 docs/logs/sweep_timeline.py sweeps/paper_fig9_10.toml --device cuda --json $LOGS/timeline_fig9_10_o.json"
+  if [ -f exp/sweep_store_2mb.py ]; then
+    cp ensemble/sweep_store.py /tmp/sweep_store_keep.py && cp exp/sweep_store_2mb.py ensemble/sweep_store.py
+    step e2e_fig9_10_2mb_o 100 "$HZ $B910"
+    step e2e_fig9_10_2mb_o2 100 "$HZ $B910"
+    step e2e_fig9_10_2mb_o3 100 "$HZ $B910"
+    step timeline_fig9_10_2mb_o 100 "python3 docs/logs/sweep_timeline.py sweeps/paper_fig9_10.toml --device cuda --json $LOGS/timeline_fig9_10_2mb_o.json"
+    cp /tmp/sweep_store_keep.py ensemble/sweep_store.py
+  fi
+  step pytest_cuda_o 200 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and record' tests 2>&1"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
