@@ -29,13 +29,15 @@ is then called once per set bit in a loop, its inputs gathered and its result sc
 the G static register positions, so the code holds one event step per lane, not G. Every event step
 reads its neighbours at t_n, as in the per-step kernel.
 
-A driven surface (``surface = "driven"``): the lane holding grain 0 sets its predicted position to the
-driver's u_0(t_{n+1}), overwrites it with the driver's values after the corrector and accumulates the
-driver's work in registers, each in kernels/step.py's arithmetic (grain 1 must sit in grain 0's lane).
-The driver's sin ωt and cos ωt come from a table in device memory that ``drive_table`` fills before the launches
-(with the per-step kernel's argument ω·(n·dt), so the same bits); every lane loads the next step's row one step
-ahead (one address per chain: a broadcast). Evaluated by the lane of grain 0 every step, they held up the block
-at the next barrier (docs/benchmarks.md).
+A driven surface (``surface = "driven"``), in kernels/step.py's arithmetic (grain 1 must sit in grain 0's lane):
+the lane holding grain 0 takes the driver's u_0(t_{n+1}) as that grain's predicted position, by a select in every
+lane (no branch: its reconvergence slowed every block each step). The driver's sin ωt and cos ωt come from a
+table in device memory that ``drive_table`` fills before the launches (with the per-step kernel's argument
+ω·(n·dt), so the same bits); every lane loads the next step's row one step ahead (one address per chain: a
+broadcast). Each step logs what the driver's power needs (grain 0's overlap change); after the step loop the
+block's lanes evaluate one step's power each and the driver's lane sums the work in step order, so no contact
+force of the driver's lies on a step's critical path. The driver's own register column is never overwritten:
+traces and the write-back take its values from the phases (docs/benchmarks.md, fifth session).
 Traces are written inside the launch after each step k·stride, from the lanes that keep the traced grains
 (a window's interior), as the per-step kernel writes them.
 
@@ -744,14 +746,15 @@ def tile_kernel(features: Features, shape: TileShape):
         phase_new = wp.vec2d()
         phase_next = wp.vec2d()  # ... at the step after phase_new's, loaded one step ahead
         first_row = int(0)  # the row of drive_table's phases that holds step0
-        # the driver's power is evaluated after the step loop from a log of its state, one row per chain: every lane
-        # stores its entry each step, the driver's lane into its chain's row and the others into their block's
-        # scratch row (chain_count + block), so the store needs no branch (a branch there, not taken by 157 of a
-        # column's 158 windows, made every window of the driven column's kernel slower on an H100)
-        log_row = chain_count + block
-        if k0 >= 0:
-            log_row = cc
+        log_row = int(0)
         if wp.static(DRIVEN):
+            # the driver's power is evaluated after the step loop from a log of its state, one row per chain: every
+            # lane stores its entry each step, the driver's lane into its chain's row and the others into their
+            # block's scratch row (chain_count + block), so the store needs no branch (a branch there, not taken by
+            # 157 of a column's 158 windows, made every window of the driven column's kernel slower on an H100)
+            log_row = chain_count + block
+            if k0 >= 0:
+                log_row = cc
             first_row = step0 - phase_first[0]
             phase_old = phases[cc, first_row]
             phase_next = phases[cc, first_row + 1]
@@ -769,7 +772,7 @@ def tile_kernel(features: Features, shape: TileShape):
         for _pair in range(steps / 2):
             if wp.static(DRIVEN):
                 phase_new = phase_next
-                phase_next = phases[cc, first_row + 2 * _pair + 1 + 1]  # (the table holds a row past the launch's last)
+                phase_next = phases[cc, first_row + 2 * _pair + 1 + 1]  # (a row past the launch's last)
                 driver_log[log_row, 2 * _pair] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
             if wp.static(VISCOUS):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
@@ -786,7 +789,7 @@ def tile_kernel(features: Features, shape: TileShape):
                              step0 + 2 * _pair + 1, trace_x, amplitude, omega, phase_old, dt)
             if wp.static(DRIVEN):
                 phase_new = phase_next
-                phase_next = phases[cc, first_row + 2 * _pair + 2 + 1]  # (the table holds a row past the launch's last)
+                phase_next = phases[cc, first_row + 2 * _pair + 2 + 1]  # (a row past the launch's last)
                 driver_log[log_row, 2 * _pair + 1] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
             if wp.static(VISCOUS):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
@@ -968,8 +971,8 @@ def drive_table(clock: wp.array(dtype=wp.int32), drive: wp.array2d(dtype=wp.floa
 
 def launch_drive_table(*, clock, drive, dt: float, phases, phase_first, device, rows: int | None = None) -> None:
     """Fill the first ``rows`` rows (all by default) of ``phases`` (chains, rows) with the driver's phases at steps
-    clock … clock + rows − 1 (the clock read on the device, so a captured graph replays it at any clock); a driven
-    fused kernel launched from that clock on reads them (its launches' steps plus lanes_per_chain rows)."""
+    clock … clock + rows − 1 (the clock read on the device, so a captured graph replays it at any clock); driven
+    fused launches of n steps in all from that clock read rows 0 … n + 1 (each loads the next step's row ahead)."""
     rows = phases.shape[1] if rows is None else min(rows, phases.shape[1])
     wp.launch(drive_table, dim=(phases.shape[0], rows), inputs=[clock, drive, dt], outputs=[phases, phase_first],
               device=device)
@@ -987,7 +990,7 @@ def launch_tile(plan: TilePlan, kernel, *, x_in, clock_in, inverse_mass, contact
     ``trace_stride``: traces (None without them). ``damping`` (chains,) γ and ``dissipated`` (chains, grains),
     updated in place: viscous damping (None undamped). ``phases``/``phase_first``: a driven surface's phase table
     (:func:`launch_drive_table`, filled from a clock at or before ``clock_in``'s and covering every step of this
-    launch plus ``lanes_per_chain`` rows; None undriven); ``driver_log`` (chains + plan.block_count, K) vec2d and
+    launch and the one after it; None undriven); ``driver_log`` (chains + plan.block_count, K) vec2d and
     ``driver_powers`` (chains, K): the driver's per-step scratch (None undriven)."""
     if plan.shape.windowed and steps > plan.ghost:
         raise ValueError(f"steps = {steps}: a windowed launch takes at most {plan.ghost}")

@@ -136,8 +136,7 @@ SHAPE_KEYWORDS = {
 
 @pytest.mark.parametrize("case,windowed", TILE_DRIVE)
 def test_tile_drive_equals_per_step(case, windowed, device):
-    # the lanes of a block that holds grain 0 refill a table of sines and cosines every lanes_per_chain steps:
-    # launches of more steps than that cross a refill
+    # the driver's phases come from a device table and its work is summed after each launch's steps (kernels/tile.py)
     sections = DRIVEN_CASES[case]
     model = build_model(driven_scenes(**sections), device)
     f = replace(model.features, traces=False)
@@ -169,8 +168,8 @@ def test_drive_table_refilled_within_an_advance_equals_per_step(launches_per_tab
     model = build_model(driven_scenes(**sections), device)
     plan = plan_tile(replace(model.features, traces=False), model.grain_count, model.chain_count,
                      **SHAPE_KEYWORDS[True])
-    k, lanes = plan.steps_per_launch, plan.shape.lanes_per_chain
-    monkeypatch.setattr(tile_solver, "DRIVE_TABLE_BYTES", 16 * model.chain_count * (launches_per_table * k + lanes + 1))
+    k = plan.steps_per_launch
+    monkeypatch.setattr(tile_solver, "DRIVE_TABLE_BYTES", 16 * model.chain_count * (launches_per_table * k + 2))
     assert tile_solver.TileSolver(model, config_of(plan)).table_steps == launches_per_table * k
     assert np.diff(model.scenes[0].record_steps).min() > 2 * launches_per_table * k  # refilled between records
     want = run(model, "step")

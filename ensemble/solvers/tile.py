@@ -50,12 +50,12 @@ class TileSolver(Solver):
         self.table_steps = 0
         """Driven: the steps one fill of the phase table covers (a multiple of K)."""
         if model.features.surface == "driven":
-            k, lanes = config.steps_per_launch, config.shape.lanes_per_chain
+            k = config.steps_per_launch
             piece = config.graph_steps or FUSED_GRAPH_LAUNCHES * k
-            fits = DRIVE_TABLE_BYTES // (16 * model.chain_count) - lanes - 1
+            fits = DRIVE_TABLE_BYTES // (16 * model.chain_count) - 2
             self.table_steps = max(k, min(-(-piece // k) * k, fits // k * k))
-            self.phases = wp.empty((model.chain_count, self.table_steps + lanes + 1), dtype=wp.vec2d,
-                                   device=model.device)
+            # rows for step0 … step0 + table_steps and the step after (loaded one step ahead: kernels/tile.py)
+            self.phases = wp.empty((model.chain_count, self.table_steps + 2), dtype=wp.vec2d, device=model.device)
             self.phase_first = wp.zeros(1, dtype=wp.int32, device=model.device)
             # one row per chain, then one scratch row per block (kernels/tile.py: the log's store has no branch)
             self.driver_log = wp.empty((model.chain_count + self.plan.block_count, k), dtype=wp.vec2d,
@@ -72,8 +72,7 @@ class TileSolver(Solver):
             steps = min(n_steps, self.table_steps)
             # only the rows these steps read (an advance between response samples may be a few steps)
             launch_drive_table(clock=a.clock, drive=m.drive, dt=m.dt, phases=self.phases,
-                               phase_first=self.phase_first, device=m.device,
-                               rows=steps + self.config.shape.lanes_per_chain + 1)
+                               phase_first=self.phase_first, device=m.device, rows=steps + 2)
             end = super().launches(a, b, steps)
             a, b = (end, b if end is a else a)
             n_steps -= steps
