@@ -102,6 +102,41 @@ def record_kernels(features: Features) -> RecordKernels:
             parts[c, part, q] = sums[q]
         parts[c, part, 4] = lost
 
+    @wp.func
+    def grain_terms_of(x: wp.array3d(dtype=real), inverse_mass: wp.array2d(dtype=real),
+                       contact_constant: wp.array2d(dtype=real), static_overlap: wp.array2d(dtype=real),
+                       exponent: wp.array(dtype=real), dt: wp.float64, c: int, i: int) -> wp.vec4d:
+        # grain i's terms of a chain's sums: kinetic energy (0 for the driven grain, whose motion is prescribed),
+        # excess potential and overlap of the contact above it (0 and -1e300 for grain 0), finite (1.0 or 0.0)
+        u = position(x, c, i)
+        v = rate(x, c, i) / dt
+        finite = wp.float64(1.0)
+        if not (wp.isfinite(u) and wp.isfinite(v)):
+            finite = wp.float64(0.0)
+        first = int(0)
+        if wp.static(DRIVEN):
+            first = 1
+        kinetic = wp.float64(0.0)
+        if i >= first:
+            inv_m = wp.float64(0.0)
+            if wp.static(HETERO):
+                inv_m = wp.float64(inverse_mass[c, i])
+            else:
+                inv_m = wp.float64(inverse_mass[c, 0])
+            kinetic = wp.float64(0.5) * v * v / inv_m
+        potential = wp.float64(0.0)
+        overlap = wp.float64(-1.0e300)
+        if i > 0:
+            terms = contact_terms(static_overlap, contact_constant, exponent, c, i, position(x, c, i - 1) - u)
+            potential = terms[0]
+            overlap = terms[1]
+        return wp.vec4d(kinetic, potential, overlap, finite)
+
+    @wp.func
+    def add_terms(sums: wp.vec4d, terms: wp.vec4d) -> wp.vec4d:
+        # a part's running sums (kinetic, potential), largest overlap and finite flag, one grain further
+        return wp.vec4d(sums[0] + terms[0], sums[1] + terms[1], wp.max(sums[2], terms[2]), wp.min(sums[3], terms[3]))
+
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def record_parts(
         x: wp.array3d(dtype=real),
@@ -118,32 +153,11 @@ def record_kernels(features: Features) -> RecordKernels:
         n_grains = x.shape[2]
         start = part * wp.static(RECORD_PART)
         end = wp.min(start + wp.static(RECORD_PART), n_grains)
-        kinetic = wp.float64(0.0)
-        potential = wp.float64(0.0)
-        # (dynamic variables: they change inside the loop)
-        largest = wp.float64(-1.0e300)
-        finite = wp.float64(1.0)
-        first = int(0)
-        if wp.static(DRIVEN):
-            first = 1  # the driven grain's motion is prescribed: not part of the chain's energy
+        sums = wp.vec4d(wp.float64(0.0), wp.float64(0.0), wp.float64(-1.0e300), wp.float64(1.0))
         for i in range(start, end):
-            u = position(x, c, i)
-            v = rate(x, c, i) / dt
-            if not (wp.isfinite(u) and wp.isfinite(v)):
-                finite = wp.float64(0.0)
-            if i >= first:
-                inv_m = wp.float64(0.0)
-                if wp.static(HETERO):
-                    inv_m = wp.float64(inverse_mass[c, i])
-                else:
-                    inv_m = wp.float64(inverse_mass[c, 0])
-                kinetic += wp.float64(0.5) * v * v / inv_m
-            if i > 0:
-                terms = contact_terms(static_overlap, contact_constant, exponent, c, i,
-                                      position(x, c, i - 1) - u)
-                potential += terms[0]
-                largest = wp.max(largest, terms[1])
-        store_part(parts, c, part, wp.vec4d(kinetic, potential, largest, finite), dissipated_grain, start, end)
+            sums = add_terms(sums, grain_terms_of(x, inverse_mass, contact_constant, static_overlap, exponent, dt, c,
+                                                  i))
+        store_part(parts, c, part, sums, dissipated_grain, start, end)
 
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def record_grains(
@@ -155,39 +169,11 @@ def record_kernels(features: Features) -> RecordKernels:
         dt: wp.float64,
         terms_out: wp.array2d(dtype=wp.vec4d),
     ):
-        # long chains, first stage: grain i's terms of record_parts' sums, one thread per grain (kinetic energy,
-        # excess potential and overlap of the contact above it, finite), in record_parts' arithmetic
+        # long chains, first stage: grain i's terms of record_parts' sums, one thread per grain
         c, i = wp.tid()
-        first = int(0)
-        if wp.static(DRIVEN):
-            first = 1
-        u = position(x, c, i)
-        v = rate(x, c, i) / dt
-        finite = wp.float64(1.0)
-        if not (wp.isfinite(u) and wp.isfinite(v)):
-            finite = wp.float64(0.0)
-        kinetic = wp.float64(0.0)
-        if i >= first:
-            inv_m = wp.float64(0.0)
-            if wp.static(HETERO):
-                inv_m = wp.float64(inverse_mass[c, i])
-            else:
-                inv_m = wp.float64(inverse_mass[c, 0])
-            kinetic = wp.float64(0.5) * v * v / inv_m
-        potential = wp.float64(0.0)
-        overlap = wp.float64(-1.0e300)
-        if i > 0:
-            terms = contact_terms(static_overlap, contact_constant, exponent, c, i, position(x, c, i - 1) - u)
-            potential = terms[0]
-            overlap = terms[1]
-        terms_out[c, i] = wp.vec4d(kinetic, potential, overlap, finite)
+        terms_out[c, i] = grain_terms_of(x, inverse_mass, contact_constant, static_overlap, exponent, dt, c, i)
 
     part_block = wp.types.matrix(shape=(4, 5), dtype=wp.float64)  # four parts' sums, loaded together
-
-    @wp.func
-    def add_terms(sums: wp.vec4d, terms: wp.vec4d) -> wp.vec4d:
-        # record_parts' running sums (kinetic, potential), largest overlap and finite flag, one grain further
-        return wp.vec4d(sums[0] + terms[0], sums[1] + terms[1], wp.max(sums[2], terms[2]), wp.min(sums[3], terms[3]))
 
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def record_parts_of_grains(
