@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -710,6 +710,18 @@ nov27o)
     cp /tmp/sweep_store_keep.py ensemble/sweep_store.py
   fi
   step pytest_cuda_o 200 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and record' tests 2>&1"
+  ;;
+nov27p)
+  # after the review: the phase table sized to what the launches read (two rows past an advance's start, not a
+  # block's lanes), one per-grain function for both record reductions; the CUDA tests of the changed paths, the
+  # window kernel, the driven columns end to end
+  P910="python3 docs/gpu_logs/window_probe.py --configs 'G=4 lanes=32 K=32'"
+  B910="bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step pytest_cuda_p 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and (drive or record or refilled or fused)' tests 2>&1"
+  step probe_p_2 120 "$P910 --chains 2 --variants 0,3 --out $LOGS/probe_p_2.json"
+  step e2e_fig9_10_cold_p 200 "$HZ $B910"
+  step e2e_fig9_10_warm_p 100 "$HZ $B910"
+  step e2e_fig9_10_warm_p2 100 "$HZ $B910"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
