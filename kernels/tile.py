@@ -595,11 +595,15 @@ def tile_kernel(features: Features, shape: TileShape):
     @wp.func
     def write_traces(s: state_t, x_in: wp.array3d(dtype=real), frozen: bool, live: bool, cc: int, base: int,
                      keep_lo: int, keep_hi: int, trace_slot: wp.array(dtype=wp.int32), trace_stride: int,
-                     step_new: int, trace_x: wp.array4d(dtype=real), amplitude: wp.float64, omega: wp.float64,
-                     phase: wp.vec2d, dt: wp.float64):
+                     step_new: int, next_trace: int, trace_x: wp.array4d(dtype=real), amplitude: wp.float64,
+                     omega: wp.float64, phase: wp.vec2d, dt: wp.float64) -> int:
         # kernels/step.py's trace sample after a step k·stride: (u, dt·v) of the traced grains this lane keeps
-        # (a frozen chain: its frozen state; the driven grain 0: its driver_values at ``phase``), ring slot k % length
-        if step_new % trace_stride == 0 and live:
+        # (a frozen chain: its frozen state; the driven grain 0: its driver_values at ``phase``), ring slot k % length.
+        # ``next_trace``: the first multiple of the stride not yet passed (one comparison a step, not a modulo);
+        # returns the next one
+        if step_new != next_trace:
+            return next_trace
+        if live:
             sample = (step_new / trace_stride) % trace_x.shape[2]
             for k in range(G):
                 g = base + k
@@ -619,6 +623,7 @@ def tile_kernel(features: Features, shape: TileShape):
                                     rate = driver[1]
                             trace_x[0, cc, sample, slot] = u
                             trace_x[1, cc, sample, slot] = rate
+        return next_trace + trace_stride
 
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False, grid_stride=False,
                cuda_max_registers=shape.max_registers or None)
@@ -650,7 +655,6 @@ def tile_kernel(features: Features, shape: TileShape):
         phases: wp.array2d(dtype=wp.vec2d),
         phase_first: wp.array(dtype=wp.int32),
         driver_log: wp.array2d(dtype=wp.vec2d),
-        driver_powers: wp.array2d(dtype=wp.float64),
     ):
         block, lane = wp.tid()
         chain_count = x_in.shape[1]
@@ -761,6 +765,9 @@ def tile_kernel(features: Features, shape: TileShape):
         edges_even = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
         edges_odd = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
         frozen = status[cc] == wp.static(STATUS_NON_FINITE)
+        next_trace = int(0)  # the first step after step0 that takes a trace sample (a multiple of the stride)
+        if wp.static(TRACES):
+            next_trace = (step0 / trace_stride + 1) * trace_stride
         gamma = real(0)
         lost = loss_vec()  # the interior grains' dissipated energy so far (damped)
         if wp.static(DISSIPATES):
@@ -785,8 +792,8 @@ def tile_kernel(features: Features, shape: TileShape):
                                       move_bits, k0, amplitude, omega, phase_old, phase_new, gamma, h, dt)
             phase_old = phase_new
             if wp.static(TRACES):
-                write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
-                             step0 + 2 * _pair + 1, trace_x, amplitude, omega, phase_old, dt)
+                next_trace = write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
+                             step0 + 2 * _pair + 1, next_trace, trace_x, amplitude, omega, phase_old, dt)
             if wp.static(DRIVEN):
                 phase_new = phase_next
                 phase_next = phases[cc, first_row + 2 * _pair + 2 + 1]  # (a row past the launch's last)
@@ -802,8 +809,8 @@ def tile_kernel(features: Features, shape: TileShape):
                                       move_bits, k0, amplitude, omega, phase_old, phase_new, gamma, h, dt)
             phase_old = phase_new
             if wp.static(TRACES):
-                write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
-                             step0 + 2 * _pair + 2, trace_x, amplitude, omega, phase_old, dt)
+                next_trace = write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
+                             step0 + 2 * _pair + 2, next_trace, trace_x, amplitude, omega, phase_old, dt)
         if steps % 2 == 1:
             if wp.static(DRIVEN):
                 phase_new = phase_next
@@ -818,8 +825,8 @@ def tile_kernel(features: Features, shape: TileShape):
                 lost = dashpot_losses(s_prev, lost, edges_even, lane, base, has_left, has_right, delta0, contact_bits,
                                       move_bits, k0, amplitude, omega, phase_old, phase_new, gamma, h, dt)
             if wp.static(TRACES):
-                write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
-                             step0 + steps, trace_x, amplitude, omega, phase_new, dt)
+                next_trace = write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
+                             step0 + steps, next_trace, trace_x, amplitude, omega, phase_new, dt)
             phase_old = phase_new
 
         if wp.static(DRIVEN):
@@ -827,28 +834,28 @@ def tile_kernel(features: Features, shape: TileShape):
                 # the driver's power at each step's t_n from the log its lane wrote, one step per lane, then its
                 # work summed by that lane in step order (kernels/step.py's trapezoid): off the steps' critical
                 # path, where the driver's lane alone evaluated a contact force every step while its block waited
+                # the powers go through shared memory: the sum's loads are the driver lane's serial path
                 block_sync(0)
                 p01 = params(static_overlap, contact_constant, exponent, cc, 1)
                 below0 = p01[0]
                 below_ac = p01[1]
                 below_f0 = contact_force(below0, below_ac, n)
-                j = lane_c
-                while j < steps:
-                    if live:
-                        driver_powers[cc, j] = driver_power(driver_log[cc, j], phases[cc, first_row + j][1], below0,
-                                                            below_ac, below_f0, n, amplitude, omega, dt, gamma)
-                    j += L
-                block_sync(0)
-                if k0 >= 0:
-                    j = int(0)
-                    while j < steps:  # four loads in flight, then the trapezoid's steps in order
-                        powers = wp.vec4d()
-                        for q in range(4):
-                            powers[q] = driver_powers[cc, wp.min(j + q, steps - 1)]
-                        for q in range(4):
-                            if j + q < steps:
-                                work_power = work_step(work_power, powers[q], step0 + j + q, dt)
-                        j += 4
+                powers = wp.tile_zeros(shape=B, dtype=wp.float64, storage="shared")
+                round_first = int(0)
+                while round_first < steps:  # rounds of L steps, one a lane
+                    if round_first > 0:
+                        block_sync(0)  # the driver's lane has read the last round
+                    j = round_first + lane_c
+                    power = wp.float64(0)
+                    if live and j < steps:
+                        power = driver_power(driver_log[cc, j], phases[cc, first_row + j][1], below0, below_ac,
+                                             below_f0, n, amplitude, omega, dt, gamma)
+                    powers[lane] = power
+                    block_sync(0)
+                    if k0 >= 0:
+                        for q in range(wp.min(steps - round_first, L)):  # the trapezoid's steps in order
+                            work_power = work_step(work_power, powers[segment * L + q], step0 + round_first + q, dt)
+                    round_first += L
         # write back the interior; a frozen (non-finite) chain keeps its state
         if wp.static(DRIVEN):
             if k0 >= 0 and keep_lo <= 0:
@@ -981,8 +988,7 @@ def launch_drive_table(*, clock, drive, dt: float, phases, phase_first, device, 
 def launch_tile(plan: TilePlan, kernel, *, x_in, clock_in, inverse_mass, contact_constant, static_overlap,
                 exponent, status, dt: float, steps: int, x_out, clock_out, device, drive, work_in, power_in,
                 work_out, power_out, trace_slot=None, trace_stride: int = 1, trace_x=None, damping=None,
-                dissipated=None, phases=None, phase_first=None, driver_log=None, driver_powers=None,
-                record_cmd: bool = False):
+                dissipated=None, phases=None, phase_first=None, driver_log=None, record_cmd: bool = False):
     """Launch ``steps`` fused steps (``steps ≤ plan.steps_per_launch`` when windowed); x_in and x_out differ.
 
     ``drive`` (chains, 2), ``work_*``/``power_*`` (chains,): the model's and states' arrays (size 0 undriven);
@@ -990,8 +996,8 @@ def launch_tile(plan: TilePlan, kernel, *, x_in, clock_in, inverse_mass, contact
     ``trace_stride``: traces (None without them). ``damping`` (chains,) γ and ``dissipated`` (chains, grains),
     updated in place: viscous damping (None undamped). ``phases``/``phase_first``: a driven surface's phase table
     (:func:`launch_drive_table`, filled from a clock at or before ``clock_in``'s and covering every step of this
-    launch and the one after it; None undriven); ``driver_log`` (chains + plan.block_count, K) vec2d and
-    ``driver_powers`` (chains, K): the driver's per-step scratch (None undriven)."""
+    launch and the one after it; None undriven); ``driver_log`` (chains + plan.block_count, K) vec2d: the driver's
+    per-step log (None undriven)."""
     if plan.shape.windowed and steps > plan.ghost:
         raise ValueError(f"steps = {steps}: a windowed launch takes at most {plan.ghost}")
     device = wp.get_device(device)
@@ -1008,11 +1014,10 @@ def launch_tile(plan: TilePlan, kernel, *, x_in, clock_in, inverse_mass, contact
         phases = wp.empty((0, 0), dtype=wp.vec2d, device=device)
         phase_first = wp.empty(0, dtype=wp.int32, device=device)
         driver_log = wp.empty((0, 0), dtype=wp.vec2d, device=device)
-        driver_powers = wp.empty((0, 0), dtype=wp.float64, device=device)
     return wp.launch_tiled(
         kernel, dim=[plan.block_count],
         inputs=[x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status, dt, steps,
                 plan.interior, plan.ghost, plan.blocks_per_chain, drive, work_in, power_in],
         outputs=[x_out, clock_out, work_out, power_out, trace_slot, trace_stride, trace_x, damping, dissipated, phases,
-                 phase_first, driver_log, driver_powers],
+                 phase_first, driver_log],
         block_dim=plan.shape.block_dim, device=device, record_cmd=record_cmd)

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -722,6 +722,36 @@ nov27p)
   step e2e_fig9_10_cold_p 200 "$HZ $B910"
   step e2e_fig9_10_warm_p 100 "$HZ $B910"
   step e2e_fig9_10_warm_p2 100 "$HZ $B910"
+  ;;
+nov28a)
+  # the driver's powers summed from shared memory (not global), the trace step found by a comparison (not a modulo):
+  # the CUDA tests of those paths; the kernel alone on the 1000-grain bench scenes (every shape the calibration
+  # considers) and on the driven 10 000-grain columns, then the same with the previous kernel (exp/tile_head.py and
+  # exp/solver_tile_head.py, the committed state before the change) on the same machine
+  P910="python3 docs/gpu_logs/window_probe.py --configs 'G=4 lanes=32 K=32' --chains 2 --variants 0,3"
+  PS="python3 docs/gpu_logs/scene_probe.py"
+  step pytest_cuda_a 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and (drive or trace or refilled)' tests/test_fused_features.py 2>&1"
+  step scenes_a 200 "$PS --out $LOGS/scenes_a.json"
+  step probe910_a 100 "$P910 --out $LOGS/probe910_a.json"
+  if [ -f exp/tile_head.py ]; then
+    cp kernels/tile.py /tmp/tile_keep.py && cp ensemble/solvers/tile.py /tmp/solver_keep.py
+    cp exp/tile_head.py kernels/tile.py && cp exp/solver_tile_head.py ensemble/solvers/tile.py
+    step scenes_a_head 150 "$PS --configs 'lanes=66,lanes=33' --out $LOGS/scenes_a_head.json"
+    step probe910_a_head 100 "$P910 --out $LOGS/probe910_a_head.json"
+    cp /tmp/tile_keep.py kernels/tile.py && cp /tmp/solver_keep.py ensemble/solvers/tile.py
+  fi
+  ;;
+nov28b)
+  # end to end, warm: the driven 10 000-grain columns (the first run calibrates) and the 1000-grain bench scenes
+  B910="bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step e2e_fig9_10_cold_b 200 "$HZ $B910"
+  step e2e_fig9_10_warm_b 100 "$HZ $B910"
+  step e2e_fig9_10_warm_b2 100 "$HZ $B910"
+  step e2e_fig9_10_warm_b3 100 "$HZ $B910"
+  for s in impact_1000 impact_1000_traces driven_1000; do
+    step "e2e_${s}_off_b" 150 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
+    step "e2e_${s}_off_b2" 100 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
+  done
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"

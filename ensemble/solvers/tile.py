@@ -46,7 +46,7 @@ class TileSolver(Solver):
         self.trace_stride_in_kernel = model.scenes[0].trace_stride if model.features.traces else 1
         self.block_dim = config.shape.block_dim
         self.damped = model.features.damping != "none"
-        self.phases = self.phase_first = self.driver_log = self.driver_powers = None
+        self.phases = self.phase_first = self.driver_log = None
         self.table_steps = 0
         """Driven: the steps one fill of the phase table covers (a multiple of K)."""
         if model.features.surface == "driven":
@@ -60,7 +60,6 @@ class TileSolver(Solver):
             # one row per chain, then one scratch row per block (kernels/tile.py: the log's store has no branch)
             self.driver_log = wp.empty((model.chain_count + self.plan.block_count, k), dtype=wp.vec2d,
                                        device=model.device)
-            self.driver_powers = wp.empty((model.chain_count, k), dtype=wp.float64, device=model.device)
 
     def launches(self, state_in: State, state_out: State, n_steps: int) -> State:
         """Ping-pong launches; a driven model's phase table is filled first, and again every ``table_steps``."""
@@ -92,8 +91,7 @@ class TileSolver(Solver):
                     work_out=state_out.work, power_out=state_out.power, trace_slot=m.trace_slot,
                     trace_stride=self.trace_stride_in_kernel, trace_x=state_in.traces,
                     damping=m.damping if self.damped else None, dissipated=state_in.dissipated if self.damped else None,
-                    phases=self.phases, phase_first=self.phase_first, driver_log=self.driver_log,
-                    driver_powers=self.driver_powers)
+                    phases=self.phases, phase_first=self.phase_first, driver_log=self.driver_log)
 
     def describe(self) -> str:
         return f"{self.kind} ({self.plan.describe()})"
