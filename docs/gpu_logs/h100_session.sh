@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -752,6 +752,48 @@ nov28b)
     step "e2e_${s}_off_b" 150 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
     step "e2e_${s}_off_b2" 100 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
   done
+  ;;
+nov28c)
+  # which part of the driven code costs the driver's window its step at 1000 grains: an ablation build
+  # (exp/tile_ablate.py, not committed; HZ_EXP drops the phase loads, the log's stores, the driver's select or the
+  # work after the loop: timing only, the results are wrong), on the impact's shape; registers and spills of the
+  # fused kernels compiled on this machine (cuobjdump -res-usage)
+  PS="python3 docs/gpu_logs/scene_probe.py --configs 'G=4 lanes=32 K=32'"
+  P910="python3 docs/gpu_logs/window_probe.py --configs 'G=4 lanes=32 K=32' --chains 2"
+  step scenes_c 100 "$PS --scenes impact_1000,driven_1000 --out $LOGS/scenes_c.json"
+  if [ -f exp/tile_ablate.py ]; then
+    cp kernels/tile.py /tmp/tile_keep.py && cp exp/tile_ablate.py kernels/tile.py
+    for v in noload nolog nosel noafter noload,nolog noload,nolog,nosel,noafter; do
+      step "scenes_c_$v" 60 "HZ_EXP=$v $PS --scenes driven_1000 --out $LOGS/scenes_c_$v.json"
+    done
+    step probe910_c_all 60 "HZ_EXP=noload,nolog,nosel,noafter $P910 --variants 0 --out $LOGS/probe910_c_all.json"
+    step probe910_c_noload 60 "HZ_EXP=noload $P910 --variants 0 --out $LOGS/probe910_c_noload.json"
+    cp /tmp/tile_keep.py kernels/tile.py
+  fi
+  step resusage_c 60 "for f in \$(ls -t ~/.cache/warp/*/*fused*/*.cubin | head -40); do echo \$f; /usr/local/cuda/bin/cuobjdump -res-usage \$f | grep -E 'Function|REG'; done"
+  ;;
+nov28d)
+  # a windowed driven chain's other windows on a plain step loop (only the window holding grain 0 runs the driver's
+  # code): CUDA tests of the driven and traced fused paths; the kernel alone on the driven 10 000-grain columns and the
+  # 1000-grain scenes, then the same with the previous kernel (exp/tile_nosplit.py: the committed ba5fc80); the driven
+  # columns end to end
+  P910="python3 docs/gpu_logs/window_probe.py --configs 'G=4 lanes=32 K=32' --chains 2 --variants 0,3"
+  PS="python3 docs/gpu_logs/scene_probe.py --configs 'G=4 lanes=32 K=32,G=2 lanes=32 K=16'"
+  B910="bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step probe910_d 100 "$P910 --out $LOGS/probe910_d.json"
+  step scenes_d 100 "$PS --out $LOGS/scenes_d.json"
+  if [ -f exp/tile_nosplit.py ]; then
+    cp kernels/tile.py /tmp/tile_keep.py && cp exp/tile_nosplit.py kernels/tile.py
+    step probe910_d_nosplit 100 "$P910 --variants 0 --out $LOGS/probe910_d_nosplit.json"
+    step scenes_d_nosplit 100 "$PS --scenes driven_1000 --out $LOGS/scenes_d_nosplit.json"
+    cp /tmp/tile_keep.py kernels/tile.py
+  fi
+  step probe910_d2 100 "$P910 --out $LOGS/probe910_d2.json"
+  step pytest_cuda_d 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and (drive or trace or refilled)' tests/test_fused_features.py 2>&1"
+  step e2e_fig9_10_cold_d 200 "$HZ $B910"
+  step e2e_fig9_10_warm_d 100 "$HZ $B910"
+  step e2e_fig9_10_warm_d2 100 "$HZ $B910"
+  step e2e_fig9_10_warm_d3 100 "$HZ $B910"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
