@@ -625,81 +625,10 @@ def tile_kernel(features: Features, shape: TileShape):
                             trace_x[1, cc, sample, slot] = rate
         return next_trace + trace_stride
 
-    def step_functions(driver_path: bool):
-        """(one step, the launch's steps) as ``@wp.func``s; ``driver_path``: the block holds grain 0 of a driven chain,
-        so each step loads the driver's next phases (one step ahead) and logs its state for the work; without it the
-        driver's code is absent (the other windows of a windowed driven chain)."""
-        DRIVER_PATH = DRIVEN and driver_path
-
-        @wp.func
-        def one_step(s: state_t, edges: Any, lane: int, base: int, has_left: bool, has_right: bool,
-                     delta0: contact_vec, a_c: contact_vec, force0: contact_vec, n: real, inv_m: grain_vec, hh: real,
-                     contact_bits: int, move_bits: int, h: real, k0: int, amplitude: wp.float64, omega: wp.float64,
-                     phase_old: wp.vec2d, phase_next: wp.vec2d, phases: wp.array2d(dtype=wp.vec2d), row_next: int,
-                     driver_log: wp.array2d(dtype=wp.vec2d), log_row: int, log_column: int, dt: wp.float64,
-                     gamma: real, lost: loss_vec, x_in: wp.array3d(dtype=real), frozen: bool, live: bool, cc: int,
-                     keep_lo: int, keep_hi: int, trace_slot: wp.array(dtype=wp.int32), trace_stride: int,
-                     step_new: int, next_trace: int, trace_x: wp.array4d(dtype=real)):
-            # the step to step_new: returns (state, the driver's phases at step_new and at the step after, losses,
-            # the next trace step)
-            phase_new = phase_old
-            if wp.static(DRIVER_PATH):
-                phase_new = phase_next
-                phase_next = phases[cc, row_next]  # (a row past the launch's last)
-                driver_log[log_row, log_column] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
-            if wp.static(VISCOUS):
-                lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
-            s_prev = s
-            s = advance(s, edges, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh, contact_bits,
-                        move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
-            if wp.static(DASHPOT):
-                lost = dashpot_losses(s_prev, lost, edges, lane, base, has_left, has_right, delta0, contact_bits,
-                                      move_bits, k0, amplitude, omega, phase_old, phase_new, gamma, h, dt)
-            if wp.static(TRACES):
-                next_trace = write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
-                                          step_new, next_trace, trace_x, amplitude, omega, phase_new, dt)
-            return s, phase_new, phase_next, lost, next_trace
-
-        @wp.func
-        def launch_steps(s: state_t, edges_even: Any, edges_odd: Any, steps: int, lane: int, base: int,
-                         has_left: bool, has_right: bool, delta0: contact_vec, a_c: contact_vec, force0: contact_vec,
-                         n: real, inv_m: grain_vec, hh: real, contact_bits: int, move_bits: int, h: real, k0: int,
-                         amplitude: wp.float64, omega: wp.float64, phase_old: wp.vec2d, phase_next: wp.vec2d,
-                         phases: wp.array2d(dtype=wp.vec2d), first_row: int, driver_log: wp.array2d(dtype=wp.vec2d),
-                         log_row: int, dt: wp.float64, gamma: real, lost: loss_vec, x_in: wp.array3d(dtype=real),
-                         frozen: bool, live: bool, cc: int, keep_lo: int, keep_hi: int,
-                         trace_slot: wp.array(dtype=wp.int32), trace_stride: int, step0: int, next_trace: int,
-                         trace_x: wp.array4d(dtype=real)):
-            # the launch's ``steps`` steps from step0, two a turn (the edge tiles alternate by step parity); returns
-            # (state, the driver's phases at the last step, losses, the next trace step)
-            for _pair in range(steps / 2):
-                j = 2 * _pair
-                s, phase_old, phase_next, lost, next_trace = one_step(
-                    s, edges_even, lane, base, has_left, has_right, delta0, a_c, force0, n, inv_m, hh, contact_bits,
-                    move_bits, h, k0, amplitude, omega, phase_old, phase_next, phases, first_row + j + 2, driver_log,
-                    log_row, j, dt, gamma, lost, x_in, frozen, live, cc, keep_lo, keep_hi, trace_slot, trace_stride,
-                    step0 + j + 1, next_trace, trace_x)
-                s, phase_old, phase_next, lost, next_trace = one_step(
-                    s, edges_odd, lane, base, has_left, has_right, delta0, a_c, force0, n, inv_m, hh, contact_bits,
-                    move_bits, h, k0, amplitude, omega, phase_old, phase_next, phases, first_row + j + 3, driver_log,
-                    log_row, j + 1, dt, gamma, lost, x_in, frozen, live, cc, keep_lo, keep_hi, trace_slot,
-                    trace_stride, step0 + j + 2, next_trace, trace_x)
-            if steps % 2 == 1:
-                j = steps - 1
-                s, phase_old, phase_next, lost, next_trace = one_step(
-                    s, edges_even, lane, base, has_left, has_right, delta0, a_c, force0, n, inv_m, hh, contact_bits,
-                    move_bits, h, k0, amplitude, omega, phase_old, phase_next, phases, first_row + j + 2, driver_log,
-                    log_row, j, dt, gamma, lost, x_in, frozen, live, cc, keep_lo, keep_hi, trace_slot, trace_stride,
-                    step0 + j + 1, next_trace, trace_x)
-            return s, phase_old, lost, next_trace
-
-        return launch_steps
-
-    steps_driver = step_functions(True)
-    steps_plain = step_functions(False) if DRIVEN and WINDOWED else steps_driver
-
-    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False, grid_stride=False,
-               cuda_max_registers=shape.max_registers or None)
+    # the module's block size is the launch's: Warp hashes a module's source for its default block size when the
+    # kernel is made and again for each other size it is loaded with (each hash walks every function the kernel calls)
+    @wp.kernel(module="unique", module_options=dict(KERNEL_OPTIONS, block_dim=B), enable_backward=False,
+               grid_stride=False, cuda_max_registers=shape.max_registers or None)
     def fused(
         x_in: wp.array3d(dtype=real),
         clock_in: wp.array(dtype=wp.int32),
@@ -820,7 +749,8 @@ def tile_kernel(features: Features, shape: TileShape):
             omega = drive[cc, 1]
             work_power = wp.vec2d(work_in[cc], power_in[cc])
         phase_old = wp.vec2d()  # the driver's (sin ωt, cos ωt) at the last step taken
-        phase_next = wp.vec2d()  # ... at the step after it, loaded one step ahead
+        phase_new = wp.vec2d()
+        phase_next = wp.vec2d()  # ... at the step after phase_new's, loaded one step ahead
         first_row = int(0)  # the row of drive_table's phases that holds step0
         log_row = int(0)
         if wp.static(DRIVEN):
@@ -848,27 +778,58 @@ def tile_kernel(features: Features, shape: TileShape):
                 g = base + k
                 if live and g >= keep_lo and g < keep_hi:
                     lost[k] = dissipated[cc, g]
-        # the step loop: a windowed driven chain's other windows take the plain path (no phase loads, no log), so
-        # only the window that holds grain 0 pays for the driver's code (one branch a launch, not one a step)
-        if wp.static(DRIVEN and WINDOWED):
-            if first <= 0:
-                s, phase_old, lost, next_trace = steps_driver(
-                    s, edges_even, edges_odd, steps, lane, base, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                    contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_next, phases, first_row,
-                    driver_log, log_row, dt, gamma, lost, x_in, frozen, live, cc, keep_lo, keep_hi, trace_slot,
-                    trace_stride, step0, next_trace, trace_x)
-            else:
-                s, phase_old, lost, next_trace = steps_plain(
-                    s, edges_even, edges_odd, steps, lane, base, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                    contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_next, phases, first_row,
-                    driver_log, log_row, dt, gamma, lost, x_in, frozen, live, cc, keep_lo, keep_hi, trace_slot,
-                    trace_stride, step0, next_trace, trace_x)
-        else:
-            s, phase_old, lost, next_trace = steps_driver(
-                s, edges_even, edges_odd, steps, lane, base, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_next, phases, first_row,
-                driver_log, log_row, dt, gamma, lost, x_in, frozen, live, cc, keep_lo, keep_hi, trace_slot,
-                trace_stride, step0, next_trace, trace_x)
+        for _pair in range(steps / 2):
+            if wp.static(DRIVEN):
+                phase_new = phase_next
+                phase_next = phases[cc, first_row + 2 * _pair + 1 + 1]  # (a row past the launch's last)
+                driver_log[log_row, 2 * _pair] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
+            if wp.static(VISCOUS):
+                lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
+            if wp.static(DASHPOT):
+                s_prev = s
+            s = advance(s, edges_even, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
+                        contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
+            if wp.static(DASHPOT):
+                lost = dashpot_losses(s_prev, lost, edges_even, lane, base, has_left, has_right, delta0, contact_bits,
+                                      move_bits, k0, amplitude, omega, phase_old, phase_new, gamma, h, dt)
+            phase_old = phase_new
+            if wp.static(TRACES):
+                next_trace = write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
+                                          step0 + 2 * _pair + 1, next_trace, trace_x, amplitude, omega, phase_old, dt)
+            if wp.static(DRIVEN):
+                phase_new = phase_next
+                phase_next = phases[cc, first_row + 2 * _pair + 2 + 1]  # (a row past the launch's last)
+                driver_log[log_row, 2 * _pair + 1] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
+            if wp.static(VISCOUS):
+                lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
+            if wp.static(DASHPOT):
+                s_prev = s
+            s = advance(s, edges_odd, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
+                        contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
+            if wp.static(DASHPOT):
+                lost = dashpot_losses(s_prev, lost, edges_odd, lane, base, has_left, has_right, delta0, contact_bits,
+                                      move_bits, k0, amplitude, omega, phase_old, phase_new, gamma, h, dt)
+            phase_old = phase_new
+            if wp.static(TRACES):
+                next_trace = write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
+                                          step0 + 2 * _pair + 2, next_trace, trace_x, amplitude, omega, phase_old, dt)
+        if steps % 2 == 1:
+            if wp.static(DRIVEN):
+                phase_new = phase_next
+                driver_log[log_row, steps - 1] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
+            if wp.static(VISCOUS):
+                lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
+            if wp.static(DASHPOT):
+                s_prev = s
+            s = advance(s, edges_even, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
+                        contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
+            if wp.static(DASHPOT):
+                lost = dashpot_losses(s_prev, lost, edges_even, lane, base, has_left, has_right, delta0, contact_bits,
+                                      move_bits, k0, amplitude, omega, phase_old, phase_new, gamma, h, dt)
+            if wp.static(TRACES):
+                next_trace = write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
+                                          step0 + steps, next_trace, trace_x, amplitude, omega, phase_new, dt)
+            phase_old = phase_new
 
         if wp.static(DRIVEN):
             if first <= 0:  # the block holds grain 0 (a window at the surface; every block of whole chains)

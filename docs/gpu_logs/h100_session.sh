@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d nov28e)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -774,9 +774,9 @@ nov28c)
   ;;
 nov28d)
   # a windowed driven chain's other windows on a plain step loop (only the window holding grain 0 runs the driver's
-  # code): CUDA tests of the driven and traced fused paths; the kernel alone on the driven 10 000-grain columns and the
-  # 1000-grain scenes, then the same with the previous kernel (exp/tile_nosplit.py: the committed ba5fc80); the driven
-  # columns end to end
+  # code; commit 1c9a29c, measured and then reverted: no gain): CUDA tests of the driven and traced fused paths; the
+  # kernel alone on the driven 10 000-grain columns and the 1000-grain scenes, then the same with the previous kernel
+  # (exp/tile_nosplit.py: the committed ba5fc80); the driven columns end to end
   P910="python3 docs/gpu_logs/window_probe.py --configs 'G=4 lanes=32 K=32' --chains 2 --variants 0,3"
   PS="python3 docs/gpu_logs/scene_probe.py --configs 'G=4 lanes=32 K=32,G=2 lanes=32 K=16'"
   B910="bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
@@ -794,6 +794,22 @@ nov28d)
   step e2e_fig9_10_warm_d 100 "$HZ $B910"
   step e2e_fig9_10_warm_d2 100 "$HZ $B910"
   step e2e_fig9_10_warm_d3 100 "$HZ $B910"
+  ;;
+nov28e)
+  # after reverting the split: the fused kernel's module made for its launch's block size (one source hash, not two);
+  # the driven columns end to end and a timeline with the store's opens and row writes; each record kernel's device
+  # time (ncu, 40 repetitions of the record probe); the 1000-grain bench scenes end to end
+  B910="bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step e2e_fig9_10_cold_e 200 "$HZ $B910"
+  step e2e_fig9_10_warm_e 100 "$HZ $B910"
+  step e2e_fig9_10_warm_e2 100 "$HZ $B910"
+  step e2e_fig9_10_warm_e3 100 "$HZ $B910"
+  step timeline_fig9_10_e 100 "python3 docs/logs/sweep_timeline.py sweeps/paper_fig9_10.toml --device cuda --json $LOGS/timeline_fig9_10_e.json"
+  step ncu_record_e 200 "/usr/local/cuda/bin/ncu --metrics gpu__time_duration.sum --csv -k regex:record python3 docs/gpu_logs/record_probe.py --repeats 40 --out $LOGS/record_probe_e.json"
+  for s in impact_1000 impact_1000_traces driven_1000; do
+    step "e2e_${s}_off_e" 150 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
+    step "e2e_${s}_off_e2" 100 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
+  done
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"

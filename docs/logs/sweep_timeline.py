@@ -80,6 +80,11 @@ def instrument() -> None:
                  "front_times", "fine_scan", "build_library"):
         _wrap(detect_module, name, name)
     _wrap(detect_module.Library, "finish_saving", "Library.finish_saving")
+    from hertzian.ensemble import sweep_store as store_module
+
+    _wrap(store_module, "_open_for_writing", "_open_for_writing")
+    _wrap(store_module.RowWriter, "_write", "RowWriter._write")
+    _wrap(store_module.RowWriter, "settle", "RowWriter.settle")
     _wrap(wp, "synchronize_event", "wp.synchronize_event")
     _wrap(wp, "load_module", "wp.load_module")
     _wrap(wp, "synchronize_device", "wp.synchronize_device")
