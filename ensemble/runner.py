@@ -8,6 +8,7 @@ and host copies the recorder's (ensemble/recorder.py); this module only sequence
 
 from __future__ import annotations
 
+import gc
 import time
 from dataclasses import dataclass, field, replace
 
@@ -210,6 +211,10 @@ class Runner:
         setup = self.setup_seconds + time.perf_counter() - clock
         events = [] if m.device.is_cuda else None
         advance_seconds = record_seconds = 0.0
+        # the objects made so far (Warp's kernels and their syntax trees, the model, the store's handles) live for the
+        # whole run: frozen, the collector's full passes skip them. A full pass over them stopped the host for
+        # 40-50 ms at a time, while the device waited for its next launches (docs/benchmarks.md, sixth session)
+        gc.freeze()
         start = time.perf_counter()
         if rec.response is not None and rec.response.start_step == 0:
             rec.response.sample(self.current)
@@ -233,6 +238,7 @@ class Runner:
         rec.finish()
         wp.synchronize_device(m.device)
         rec.release()
+        gc.unfreeze()
         record_seconds += time.perf_counter() - clock
         wall = time.perf_counter() - start
         device_seconds = advance_seconds if events is None else sum(

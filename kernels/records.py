@@ -27,6 +27,13 @@ STAGED_GRAINS = 2048
 parts are 79 threads that each evaluate 128 excess potentials in turn (a series with a division per term): one
 record took 0.5 ms of an H100. The choice depends on the grain count only, so a chain alone and in an ensemble
 take the same path."""
+GRAINS_IN_FLIGHT = 16
+"""record_parts_of_grains: grains' terms loaded together before they are added in order. The sums are serial (one
+thread per part), so a part costs about RECORD_PART / GRAINS_IN_FLIGHT load latencies: with four, the second
+stage of a 10 000-grain column's record took 58 µs of an H100 (ncu, docs/benchmarks.md)."""
+PARTS_IN_FLIGHT = 8
+"""record: parts' sums loaded together before they are added in order (with four: 25 µs a record of a 10 000-grain
+column, 79 parts)."""
 PART_SUMS = 5
 """Per part: kinetic energy, excess potential, largest overlap, finite (1.0 or 0.0), dissipated energy."""
 
@@ -173,7 +180,8 @@ def record_kernels(features: Features) -> RecordKernels:
         c, i = wp.tid()
         terms_out[c, i] = grain_terms_of(x, inverse_mass, contact_constant, static_overlap, exponent, dt, c, i)
 
-    part_block = wp.types.matrix(shape=(4, 5), dtype=wp.float64)  # four parts' sums, loaded together
+    grain_block = wp.types.matrix(shape=(GRAINS_IN_FLIGHT, 4), dtype=wp.float64)  # grains' terms, loaded together
+    part_block = wp.types.matrix(shape=(PARTS_IN_FLIGHT, 5), dtype=wp.float64)  # parts' sums, loaded together
 
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def record_parts_of_grains(
@@ -189,13 +197,13 @@ def record_kernels(features: Features) -> RecordKernels:
         end = wp.min(start + wp.static(RECORD_PART), n_grains)
         sums = wp.vec4d(wp.float64(0.0), wp.float64(0.0), wp.float64(-1.0e300), wp.float64(1.0))
         i = start
-        while i + 4 <= end:  # four loads in flight, then their terms added in order (the same sums)
-            t0 = grain_terms[c, i]
-            t1 = grain_terms[c, i + 1]
-            t2 = grain_terms[c, i + 2]
-            t3 = grain_terms[c, i + 3]
-            sums = add_terms(add_terms(add_terms(add_terms(sums, t0), t1), t2), t3)
-            i += 4
+        while i + GRAINS_IN_FLIGHT <= end:  # loads in flight together, then their terms added in order (same sums)
+            loaded = grain_block()
+            for q in range(GRAINS_IN_FLIGHT):
+                loaded[q] = grain_terms[c, i + q]
+            for q in range(GRAINS_IN_FLIGHT):
+                sums = add_terms(sums, loaded[q])
+            i += GRAINS_IN_FLIGHT
         while i < end:
             sums = add_terms(sums, grain_terms[c, i])
             i += 1
@@ -228,16 +236,16 @@ def record_kernels(features: Features) -> RecordKernels:
         lost = wp.float64(0.0)
         part_count = parts.shape[1]
         part = int(0)
-        while part < part_count:  # four parts' loads in flight, then added in order (a long chain has many parts)
+        while part < part_count:  # parts' loads in flight together, then added in order (a long chain has many parts)
             loaded = part_block()
-            for q in range(4):
+            for q in range(PARTS_IN_FLIGHT):
                 for k in range(5):
                     loaded[q, k] = parts[c, wp.min(part + q, part_count - 1), k]
-            for q in range(4):
+            for q in range(PARTS_IN_FLIGHT):
                 if part + q < part_count:
                     sums = add_terms(sums, wp.vec4d(loaded[q, 0], loaded[q, 1], loaded[q, 2], loaded[q, 3]))
                     lost += loaded[q, 4]
-            part += 4
+            part += PARTS_IN_FLIGHT
         kinetic = sums[0]
         potential = sums[1]
         largest = sums[2]

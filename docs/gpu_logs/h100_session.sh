@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d nov28e)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d nov28e nov28f)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -809,6 +809,25 @@ nov28e)
   for s in impact_1000 impact_1000_traces driven_1000; do
     step "e2e_${s}_off_e" 150 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
     step "e2e_${s}_off_e2" 100 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
+  done
+  ;;
+nov28f)
+  # a record's serial sums with 16 grains' (8 parts') loads in flight instead of 4; the collector's full passes kept off
+  # the run's objects (gc.freeze for the run): CUDA tests of the record and driven paths, each record kernel's device
+  # time (ncu), the driven columns end to end and a timeline (with the collector's full passes), the 1000-grain scenes
+  B910="bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  step pytest_cuda_f 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and (record or drive or refilled)' tests 2>&1"
+  step ncu_record_f 200 "/usr/local/cuda/bin/ncu --metrics gpu__time_duration.sum --csv -k regex:record python3 docs/gpu_logs/record_probe.py --repeats 20 --out $LOGS/record_probe_f_ncu.json"
+  step record_probe_f 100 "python3 docs/gpu_logs/record_probe.py --out $LOGS/record_probe_f.json"
+  step e2e_fig9_10_cold_f 200 "$HZ $B910"
+  step e2e_fig9_10_warm_f 100 "$HZ $B910"
+  step e2e_fig9_10_warm_f2 100 "$HZ $B910"
+  step e2e_fig9_10_warm_f3 100 "$HZ $B910"
+  step e2e_fig9_10_warm_f4 100 "$HZ $B910"
+  step timeline_fig9_10_f 100 "python3 docs/logs/sweep_timeline.py sweeps/paper_fig9_10.toml --device cuda --json $LOGS/timeline_fig9_10_f.json"
+  for s in impact_1000 impact_1000_traces driven_1000; do
+    step "e2e_${s}_off_f" 150 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
+    step "e2e_${s}_off_f2" 100 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
   done
   ;;
 repro)

@@ -65,11 +65,12 @@ def main() -> None:
     buf = rec.staging[0]
     rows = {"device": str(device), "kernel": runner.solver.describe(), "repeats": args.repeats}
 
-    def copies():
+    def copies():  # a record's copies: the state rows the scene keeps (v here), energy and work
         wp.copy(buf["energy"], rec.energy_now)
         wp.copy(buf["work"], rec.work_now)
-        wp.copy(buf["u"], state.x[0])
-        wp.copy(buf["v"], state.x[1])
+        for row, name in enumerate(("u", "v")):
+            if name in buf:
+                wp.copy(buf[name], state.x[row])
 
     counter = iter(range(10 ** 9))
 
@@ -88,7 +89,7 @@ def main() -> None:
         dev, host = device_seconds(device, repeats, action)
         rows[name] = {"device_ms": dev * 1e3, "host_ms": host * 1e3}
         print(f"{name}: device {dev * 1e3:.4f} ms, host {host * 1e3:.4f} ms per repetition", flush=True)
-    rec.pending = [None, None]
+    rec.pending = [None] * rec.depth
     with open(args.out, "w") as f:
         json.dump(rows, f, indent=1)
 

@@ -47,8 +47,25 @@ def _wrap(owner, name: str, label: str) -> None:
     setattr(owner, name, timed)
 
 
+_GC_START = [0.0]
+
+
+def _gc_interval(phase: str, info: dict) -> None:
+    # the garbage collector's passes over the oldest generation (they stop every Python thread)
+    if info["generation"] != 2:
+        return
+    if phase == "start":
+        _GC_START[0] = time.perf_counter()
+    else:
+        INTERVALS.append(("gc (full pass)", threading.current_thread().name, _GC_START[0], time.perf_counter()))
+
+
 def instrument() -> None:
+    import gc
+
     import warp as wp
+
+    gc.callbacks.append(_gc_interval)
 
     targets = {
         "hertzian.ensemble.sweep": ["load_sweep", "expand"],
