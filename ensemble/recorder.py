@@ -18,8 +18,8 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import warp as wp
 
-from hertzian.kernels.records import (PART_SUMS, STAGED_GRAINS, record_kernels, record_part_count, traced_start_kernel,
-                                     track_extremes)
+from hertzian.kernels.records import (PART_SUMS, RECORD_BLOCK_DIM, STAGED_GRAINS, record_kernels, record_part_count,
+                                     traced_start_kernel, track_extremes)
 
 from .model import Model, State
 from .response import ResponseAccumulator
@@ -222,13 +222,13 @@ class Recorder:
             wp.launch(self.kernels.grains, dim=self.grain_terms.shape,
                       inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.dt],
                       outputs=[self.grain_terms], device=m.device)
-            wp.launch(self.kernels.parts_of_grains, dim=self.parts.shape[:2],
+            wp.launch(self.kernels.parts_of_grains, dim=self.parts.shape[:2], block_dim=RECORD_BLOCK_DIM,
                       inputs=[self.grain_terms, state.dissipated], outputs=[self.parts], device=m.device)
         else:
-            wp.launch(self.kernels.parts, dim=self.parts.shape[:2],
+            wp.launch(self.kernels.parts, dim=self.parts.shape[:2], block_dim=RECORD_BLOCK_DIM,
                       inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.dt,
                               state.dissipated], outputs=[self.parts], device=m.device)
-        wp.launch(self.kernels.record, dim=m.chain_count,
+        wp.launch(self.kernels.record, dim=m.chain_count, block_dim=RECORD_BLOCK_DIM,
                   inputs=[state.x, m.contact_constant, m.static_overlap, m.exponent, m.drive,
                           state.work, state.power, step, m.dt, m.validity_overlap, self.parts],
                   outputs=[self.energy_now, self.work_now, self.max_overlap_now, state.status, m.damping,

@@ -27,13 +27,10 @@ STAGED_GRAINS = 2048
 parts are 79 threads that each evaluate 128 excess potentials in turn (a series with a division per term): one
 record took 0.5 ms of an H100. The choice depends on the grain count only, so a chain alone and in an ensemble
 take the same path."""
-GRAINS_IN_FLIGHT = 16
-"""record_parts_of_grains: grains' terms loaded together before they are added in order. The sums are serial (one
-thread per part), so a part costs about RECORD_PART / GRAINS_IN_FLIGHT load latencies: with four, the second
-stage of a 10 000-grain column's record took 58 µs of an H100 (ncu, docs/benchmarks.md)."""
-PARTS_IN_FLIGHT = 8
-"""record: parts' sums loaded together before they are added in order (with four: 25 µs a record of a 10 000-grain
-column, 79 parts)."""
+RECORD_BLOCK_DIM = 32
+"""Threads per block of the record's serial sums (``record_parts``, ``record_parts_of_grains``: a thread per part;
+``record``: a thread per chain): few threads in all (a 10 000-grain column has 79 parts), so small blocks spread them
+over the GPU's SMs instead of leaving them to one (Warp's default block holds 256). Their modules are made for it."""
 PART_SUMS = 5
 """Per part: kinetic energy, excess potential, largest overlap, finite (1.0 or 0.0), dissipated energy."""
 
@@ -144,7 +141,8 @@ def record_kernels(features: Features) -> RecordKernels:
         # a part's running sums (kinetic, potential), largest overlap and finite flag, one grain further
         return wp.vec4d(sums[0] + terms[0], sums[1] + terms[1], wp.max(sums[2], terms[2]), wp.min(sums[3], terms[3]))
 
-    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
+    @wp.kernel(module="unique", module_options=dict(KERNEL_OPTIONS, block_dim=RECORD_BLOCK_DIM),
+               enable_backward=False)
     def record_parts(
         x: wp.array3d(dtype=real),
         inverse_mass: wp.array2d(dtype=real),
@@ -180,10 +178,10 @@ def record_kernels(features: Features) -> RecordKernels:
         c, i = wp.tid()
         terms_out[c, i] = grain_terms_of(x, inverse_mass, contact_constant, static_overlap, exponent, dt, c, i)
 
-    grain_block = wp.types.matrix(shape=(GRAINS_IN_FLIGHT, 4), dtype=wp.float64)  # grains' terms, loaded together
-    part_block = wp.types.matrix(shape=(PARTS_IN_FLIGHT, 5), dtype=wp.float64)  # parts' sums, loaded together
+    part_block = wp.types.matrix(shape=(4, 5), dtype=wp.float64)  # four parts' sums, loaded together
 
-    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
+    @wp.kernel(module="unique", module_options=dict(KERNEL_OPTIONS, block_dim=RECORD_BLOCK_DIM),
+               enable_backward=False)
     def record_parts_of_grains(
         grain_terms: wp.array2d(dtype=wp.vec4d),
         dissipated_grain: wp.array2d(dtype=wp.float64),
@@ -197,19 +195,20 @@ def record_kernels(features: Features) -> RecordKernels:
         end = wp.min(start + wp.static(RECORD_PART), n_grains)
         sums = wp.vec4d(wp.float64(0.0), wp.float64(0.0), wp.float64(-1.0e300), wp.float64(1.0))
         i = start
-        while i + GRAINS_IN_FLIGHT <= end:  # loads in flight together, then their terms added in order (same sums)
-            loaded = grain_block()
-            for q in range(GRAINS_IN_FLIGHT):
-                loaded[q] = grain_terms[c, i + q]
-            for q in range(GRAINS_IN_FLIGHT):
-                sums = add_terms(sums, loaded[q])
-            i += GRAINS_IN_FLIGHT
+        while i + 4 <= end:  # four loads in flight, then their terms added in order (the same sums)
+            t0 = grain_terms[c, i]
+            t1 = grain_terms[c, i + 1]
+            t2 = grain_terms[c, i + 2]
+            t3 = grain_terms[c, i + 3]
+            sums = add_terms(add_terms(add_terms(add_terms(sums, t0), t1), t2), t3)
+            i += 4
         while i < end:
             sums = add_terms(sums, grain_terms[c, i])
             i += 1
         store_part(parts, c, part, sums, dissipated_grain, start, end)
 
-    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
+    @wp.kernel(module="unique", module_options=dict(KERNEL_OPTIONS, block_dim=RECORD_BLOCK_DIM),
+               enable_backward=False)
     def record(
         x: wp.array3d(dtype=real),
         contact_constant: wp.array2d(dtype=real),
@@ -236,16 +235,16 @@ def record_kernels(features: Features) -> RecordKernels:
         lost = wp.float64(0.0)
         part_count = parts.shape[1]
         part = int(0)
-        while part < part_count:  # parts' loads in flight together, then added in order (a long chain has many parts)
+        while part < part_count:  # four parts' loads in flight, then added in order (a long chain has many parts)
             loaded = part_block()
-            for q in range(PARTS_IN_FLIGHT):
+            for q in range(4):
                 for k in range(5):
                     loaded[q, k] = parts[c, wp.min(part + q, part_count - 1), k]
-            for q in range(PARTS_IN_FLIGHT):
+            for q in range(4):
                 if part + q < part_count:
                     sums = add_terms(sums, wp.vec4d(loaded[q, 0], loaded[q, 1], loaded[q, 2], loaded[q, 3]))
                     lost += loaded[q, 4]
-            part += PARTS_IN_FLIGHT
+            part += 4
         kinetic = sums[0]
         potential = sums[1]
         largest = sums[2]

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d nov28e nov28f)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d nov28e nov28f nov28g)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -829,6 +829,38 @@ nov28f)
     step "e2e_${s}_off_f" 150 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
     step "e2e_${s}_off_f2" 100 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
   done
+  ;;
+nov28g)
+  # the record's serial sums back to four loads in flight (16 were slower, nov28f) and launched in blocks of 32 threads
+  # (spread over SMs, not one block of 256); the run's loop with a 0.5 ms thread switch interval: CUDA tests of the
+  # record paths; each record kernel's device time (ncu) now and with the previous kernels and launches
+  # (exp/records_old.py, exp/recorder_old.py: blocks of 256); the driven columns end to end and a timeline, then with
+  # Python's 5 ms switch interval (exp/runner_noswitch.py)
+  B910="bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  NCU="/usr/local/cuda/bin/ncu --metrics gpu__time_duration.sum --csv -k regex:record"
+  step pytest_cuda_g 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and (record or drive)' tests/test_records.py tests/test_fused_features.py tests/test_host_costs.py 2>&1"
+  step ncu_record_g 200 "$NCU python3 docs/gpu_logs/record_probe.py --repeats 20 --out $LOGS/record_probe_g_ncu.json"
+  if [ -f exp/records_old.py ]; then
+    cp kernels/records.py /tmp/records_keep.py && cp ensemble/recorder.py /tmp/recorder_keep.py
+    cp exp/records_old.py kernels/records.py && cp exp/recorder_old.py ensemble/recorder.py
+    step ncu_record_g_old 200 "$NCU python3 docs/gpu_logs/record_probe.py --repeats 20 --out $LOGS/record_probe_g_old_ncu.json"
+    cp /tmp/records_keep.py kernels/records.py && cp /tmp/recorder_keep.py ensemble/recorder.py
+  fi
+  step e2e_fig9_10_cold_g 200 "$HZ $B910"
+  step e2e_fig9_10_warm_g 100 "$HZ $B910"
+  step e2e_fig9_10_warm_g2 100 "$HZ $B910"
+  step e2e_fig9_10_warm_g3 100 "$HZ $B910"
+  step e2e_fig9_10_warm_g4 100 "$HZ $B910"
+  step timeline_fig9_10_g 100 "python3 docs/logs/sweep_timeline.py sweeps/paper_fig9_10.toml --device cuda --json $LOGS/timeline_fig9_10_g.json"
+  if [ -f exp/runner_noswitch.py ]; then
+    cp ensemble/runner.py /tmp/runner_keep.py && cp exp/runner_noswitch.py ensemble/runner.py
+    step e2e_fig9_10_noswitch_g 100 "$HZ $B910"
+    step e2e_fig9_10_noswitch_g2 100 "$HZ $B910"
+    step e2e_fig9_10_noswitch_g3 100 "$HZ $B910"
+    cp /tmp/runner_keep.py ensemble/runner.py
+  fi
+  step e2e_fig9_10_warm_g5 100 "$HZ $B910"
+  step e2e_fig9_10_warm_g6 100 "$HZ $B910"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"

@@ -79,7 +79,7 @@ def main() -> None:
         rec.record(state, r, 2000 * r)
 
     for name, action in [("check", lambda: rec.check(state, 2000)),
-                         ("parts_kernel", lambda: wp.launch(rec.kernels.parts, dim=rec.parts.shape[:2], inputs=[
+                         ("parts_kernel", lambda: wp.launch(rec.kernels.parts, dim=rec.parts.shape[:2], block_dim=32, inputs=[
                              state.x, model.inverse_mass, model.contact_constant, model.static_overlap,
                              model.exponent, model.dt, state.dissipated], outputs=[rec.parts], device=device)),
                          ("copies", copies),
