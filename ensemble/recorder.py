@@ -228,7 +228,7 @@ class Recorder:
             wp.launch(self.kernels.parts, dim=self.parts.shape[:2], block_dim=RECORD_BLOCK_DIM,
                       inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.dt,
                               state.dissipated], outputs=[self.parts], device=m.device)
-        wp.launch(self.kernels.record, dim=m.chain_count, block_dim=RECORD_BLOCK_DIM,
+        wp.launch(self.kernels.record, dim=m.chain_count,
                   inputs=[state.x, m.contact_constant, m.static_overlap, m.exponent, m.drive,
                           state.work, state.power, step, m.dt, m.validity_overlap, self.parts],
                   outputs=[self.energy_now, self.work_now, self.max_overlap_now, state.status, m.damping,

@@ -8,9 +8,6 @@ and host copies the recorder's (ensemble/recorder.py); this module only sequence
 
 from __future__ import annotations
 
-import contextlib
-import gc
-import sys
 import time
 from dataclasses import dataclass, field, replace
 
@@ -26,28 +23,6 @@ from .scene import Scene
 from .solvers import SolverConfig, choose_config, make_solver
 from .solvers.calibrate import fused_lacks, step_reason
 from .status import Status
-
-RUN_SWITCH_INTERVAL = 0.0005
-"""Seconds: Python's thread switch interval while a run's loop feeds the device (restored after it)."""
-
-
-@contextlib.contextmanager
-def host_paced_for_the_device():
-    """While a run's loop queues launches and records: the objects made before it (Warp's kernels and their syntax
-    trees, the model, the store's handles) are frozen for the garbage collector, so a full pass, which stops every
-    thread, skips them (one over them took 35 ms on the H100 host); and the interpreter lock changes threads every
-    RUN_SWITCH_INTERVAL instead of Python's 5 ms, since every launch and copy hands the lock to the store's writer
-    thread, and a busy writer kept it while the device ran out of queued work (docs/benchmarks.md, sixth session).
-    Both restored on exit."""
-    switch_interval = sys.getswitchinterval()
-    gc.freeze()
-    sys.setswitchinterval(min(switch_interval, RUN_SWITCH_INTERVAL))
-    try:
-        yield
-    finally:
-        sys.setswitchinterval(switch_interval)
-        gc.unfreeze()
-
 
 SAMPLED_PIECES_PER_GRAPH = 64
 """Advance-and-sample pieces of the response windows per captured CUDA graph (Runner._advance_sampled)."""
@@ -235,30 +210,29 @@ class Runner:
         setup = self.setup_seconds + time.perf_counter() - clock
         events = [] if m.device.is_cuda else None
         advance_seconds = record_seconds = 0.0
-        with host_paced_for_the_device():
-            start = time.perf_counter()
-            if rec.response is not None and rec.response.start_step == 0:
-                rec.response.sample(self.current)
-            for r, step in enumerate(record_steps):
-                if r:
-                    clock = time.perf_counter()
-                    if events is not None:
-                        events.append(wp.get_stream(m.device).record_event(wp.Event(m.device, enable_timing=True)))
-                    self.advance_monitored(record_steps[r - 1], step - record_steps[r - 1])
-                    if events is not None:
-                        events.append(wp.get_stream(m.device).record_event(wp.Event(m.device, enable_timing=True)))
-                    advance_seconds += time.perf_counter() - clock
+        start = time.perf_counter()
+        if rec.response is not None and rec.response.start_step == 0:
+            rec.response.sample(self.current)
+        for r, step in enumerate(record_steps):
+            if r:
                 clock = time.perf_counter()
-                rec.record(self.current, r, step)
-                if progress is not None:
-                    progress(r + 1, len(record_steps))
-                record_seconds += time.perf_counter() - clock
-            if self.on_queued is not None:
-                self.on_queued()
+                if events is not None:
+                    events.append(wp.get_stream(m.device).record_event(wp.Event(m.device, enable_timing=True)))
+                self.advance_monitored(record_steps[r - 1], step - record_steps[r - 1])
+                if events is not None:
+                    events.append(wp.get_stream(m.device).record_event(wp.Event(m.device, enable_timing=True)))
+                advance_seconds += time.perf_counter() - clock
             clock = time.perf_counter()
-            rec.finish()
-            wp.synchronize_device(m.device)
-            rec.release()
+            rec.record(self.current, r, step)
+            if progress is not None:
+                progress(r + 1, len(record_steps))
+            record_seconds += time.perf_counter() - clock
+        if self.on_queued is not None:
+            self.on_queued()
+        clock = time.perf_counter()
+        rec.finish()
+        wp.synchronize_device(m.device)
+        rec.release()
         record_seconds += time.perf_counter() - clock
         wall = time.perf_counter() - start
         device_seconds = advance_seconds if events is None else sum(

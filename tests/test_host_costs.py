@@ -228,21 +228,3 @@ def test_reused_staging_buffers_give_the_same_records():
     other.run()
     assert STAGING._key == other.recorder.staging_key
 
-
-def test_host_paced_for_the_device_restores_the_interpreter():
-    """A run's loop shortens the thread switch interval and freezes the collector's objects; both come back after it,
-    also when the run raises."""
-    import gc
-    import sys
-
-    from hertzian.ensemble.runner import RUN_SWITCH_INTERVAL, host_paced_for_the_device
-
-    before = sys.getswitchinterval()
-    assert before > RUN_SWITCH_INTERVAL
-    with pytest.raises(RuntimeError):
-        with host_paced_for_the_device():
-            assert sys.getswitchinterval() == RUN_SWITCH_INTERVAL
-            assert gc.get_freeze_count() > 0
-            raise RuntimeError("a failed run")
-    assert sys.getswitchinterval() == before
-    assert gc.get_freeze_count() == 0
