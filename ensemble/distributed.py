@@ -65,7 +65,7 @@ def warm_kernels(features: Iterable[Features], device: str, *, runs: Iterable[tu
     stepping kernel warmed is the one each will use — on a GPU the fused kernel of the shape the calibration cache
     holds for it (none when not yet calibrated: the run calibrates), the per-step kernel only where ``auto`` takes
     it — instead of the per-step kernel of every feature set."""
-    from hertzian.kernels.records import STAGED_GRAINS, record_kernels
+    from hertzian.kernels.records import STAGED_GRAINS, parts_of_grains_block_dim, record_kernels
     from hertzian.kernels.step import step_kernel
 
     wp = _quiet_warp()
@@ -74,9 +74,11 @@ def warm_kernels(features: Iterable[Features], device: str, *, runs: Iterable[tu
     staged = {run[0] for run in runs or () if run[1] >= STAGED_GRAINS}  # long chains' two-stage reductions
     for f in set(features):
         kernels = record_kernels(f)
-        for kernel in (kernels.parts, kernels.record, *((kernels.grains, kernels.parts_of_grains) if f in staged
-                                                       else ())):
+        for kernel in (kernels.parts, kernels.record, *((kernels.grains,) if f in staged else ())):
             wp.load_module(kernel.module, device=device)
+        if f in staged:
+            for kernel in (kernels.parts_of_grains, kernels.record_long):
+                wp.load_module(kernel.module, device=device, block_dim=parts_of_grains_block_dim(device))
     if runs is None:
         for f in set(features):
             wp.load_module(step_kernel(f).module, device=device)

@@ -18,8 +18,9 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import warp as wp
 
-from hertzian.kernels.records import (PART_SUMS, RECORD_BLOCK_DIM, STAGED_GRAINS, record_kernels, record_part_count,
-                                     traced_start_kernel, track_extremes)
+from hertzian.kernels.records import (PART_SUMS, RECORD_BLOCK_DIM, STAGED_GRAINS, launch_parts_of_grains, launch_record,
+                                     parts_of_grains_block_dim, record_kernels, record_part_count, traced_start_kernel,
+                                     track_extremes)
 
 from .model import Model, State
 from .response import ResponseAccumulator
@@ -206,9 +207,14 @@ class Recorder:
 
     def load(self) -> None:
         """Compile and load the reduction kernels (before a clock starts)."""
-        for kernel in ((self.kernels.grains, self.kernels.parts_of_grains) if self.staged else (self.kernels.parts,)):
-            wp.load_module(kernel.module, device=self.model.device)
-        wp.load_module(self.kernels.record.module, device=self.model.device)
+        if self.staged:
+            wp.load_module(self.kernels.grains.module, device=self.model.device)
+            for kernel in (self.kernels.parts_of_grains, self.kernels.record_long):
+                wp.load_module(kernel.module, device=self.model.device,
+                               block_dim=parts_of_grains_block_dim(self.model.device))
+        else:
+            wp.load_module(self.kernels.parts.module, device=self.model.device)
+            wp.load_module(self.kernels.record.module, device=self.model.device)
         wp.load_module(track_extremes.module, device=self.model.device)
         if self.traced and not self.fields:
             wp.load_module(traced_start_kernel(self.model.features.precision).module, device=self.model.device)
@@ -222,17 +228,16 @@ class Recorder:
             wp.launch(self.kernels.grains, dim=self.grain_terms.shape,
                       inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.dt],
                       outputs=[self.grain_terms], device=m.device)
-            wp.launch(self.kernels.parts_of_grains, dim=self.parts.shape[:2], block_dim=RECORD_BLOCK_DIM,
-                      inputs=[self.grain_terms, state.dissipated], outputs=[self.parts], device=m.device)
+            launch_parts_of_grains(self.kernels, self.grain_terms, state.dissipated, self.parts, m.device)
         else:
             wp.launch(self.kernels.parts, dim=self.parts.shape[:2], block_dim=RECORD_BLOCK_DIM,
                       inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.dt,
                               state.dissipated], outputs=[self.parts], device=m.device)
-        wp.launch(self.kernels.record, dim=m.chain_count,
-                  inputs=[state.x, m.contact_constant, m.static_overlap, m.exponent, m.drive,
-                          state.work, state.power, step, m.dt, m.validity_overlap, self.parts],
-                  outputs=[self.energy_now, self.work_now, self.max_overlap_now, state.status, m.damping,
-                           self.dissipated_now], device=m.device)
+        launch_record(self.kernels, long_chains=self.staged, chains=m.chain_count,
+                      inputs=[state.x, m.contact_constant, m.static_overlap, m.exponent, m.drive,
+                              state.work, state.power, step, m.dt, m.validity_overlap, self.parts],
+                      outputs=[self.energy_now, self.work_now, self.max_overlap_now, state.status, m.damping,
+                               self.dissipated_now], device=m.device)
         if step == 0:
             wp.copy(self.initial_energy, self.energy_now)
         wp.launch(track_extremes, dim=m.chain_count,

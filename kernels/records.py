@@ -7,7 +7,10 @@ chain of up to RECORD_PART grains is one part: the same bits as one thread summi
 Parts keep a record of a long chain from being one thread's serial loop (on a GPU, a 10 000-grain
 chain's energy took one thread ~20 ms per record). Chains of STAGED_GRAINS grains or more take a third launch
 first: ``record_grains`` evaluates each grain's terms in its own thread and ``record_parts_of_grains`` sums them
-per part in the same order. Sums are float64 whatever the state precision.
+per part in the same order; for them ``record_long`` replaces ``record``. Both are tiled launches (a block per part,
+a block per chain) whose threads copy the values to shared memory together, so the one thread that adds them in
+order reads shared memory (:func:`launch_parts_of_grains`, :func:`launch_record`). Sums are float64 whatever the
+state precision.
 """
 
 
@@ -18,6 +21,7 @@ import warp as wp
 
 from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, STATUS_OK, STATUS_OVERLAP_BEYOND_VALIDITY, Features
 from .physics import contact_functions, contact_parameters, excess_potential
+from .tile import block_sync
 
 RECORD_PART = 128
 """Grains per thread of ``record_parts`` (fixed, so the sums' order does not depend on the device)."""
@@ -28,10 +32,15 @@ parts are 79 threads that each evaluate 128 excess potentials in turn (a series 
 record took 0.5 ms of an H100. The choice depends on the grain count only, so a chain alone and in an ensemble
 take the same path."""
 RECORD_BLOCK_DIM = 32
-"""Threads per block of ``record_parts`` and ``record_parts_of_grains`` (a thread per part): few threads in all (a
-10 000-grain column has 79 parts), so small blocks spread them over the GPU's SMs instead of leaving them to one
-(Warp's default block holds 256): 51 µs against 58 µs a record of that column on an H100 (ncu, nov28g). Their
-modules are made for it."""
+"""Threads per block of ``record_parts`` (a thread per part): few threads in all for long chains, so small blocks
+spread them over the GPU's SMs instead of leaving them to one (Warp's default block holds 256). Its module is made
+for it."""
+PART_TILE = 32
+"""Parts' sums ``record_long`` copies to shared memory at a time."""
+PART_TILE_THREADS = 32
+"""Threads of a ``record_parts_of_grains`` block (one block per part; launched with :func:`launch_parts_of_grains`).
+A thread per part summing its terms from device memory took 51-58 µs a record of a 10 000-grain column on an H100
+(ncu, docs/gpu_logs nov28e-g), each of its loads waited for in turn."""
 PART_SUMS = 5
 """Per part: kinetic energy, excess potential, largest overlap, finite (1.0 or 0.0), dissipated energy."""
 
@@ -53,6 +62,8 @@ class RecordKernels(NamedTuple):
     parts_of_grains: Any
     """record_parts_of_grains: long chains, record_parts' sums of record_grains' terms (the same bits where the
     compiler contracts alike)."""
+    record_long: Any
+    """record_long: long chains, ``record`` with a block per chain (launched by :func:`launch_record`)."""
 
 
 @functools.cache
@@ -181,70 +192,39 @@ def record_kernels(features: Features) -> RecordKernels:
 
     part_block = wp.types.matrix(shape=(4, 5), dtype=wp.float64)  # four parts' sums, loaded together
 
-    @wp.kernel(module="unique", module_options=dict(KERNEL_OPTIONS, block_dim=RECORD_BLOCK_DIM),
+    @wp.kernel(module="unique", module_options=dict(KERNEL_OPTIONS, block_dim=PART_TILE_THREADS),
                enable_backward=False)
     def record_parts_of_grains(
         grain_terms: wp.array2d(dtype=wp.vec4d),
         dissipated_grain: wp.array2d(dtype=wp.float64),
         parts: wp.array3d(dtype=wp.float64),
     ):
-        # long chains, second stage: record_parts' sums over grains [part·RECORD_PART, (part + 1)·RECORD_PART) of
-        # chain c, in the same order, from record_grains' terms
-        c, part = wp.tid()
+        # long chains, second stage (a block per part, launch_tiled): record_parts' sums over grains
+        # [part·RECORD_PART, (part + 1)·RECORD_PART) of chain c, in the same order, from record_grains' terms. The
+        # block copies the part's terms to shared memory together, then one thread adds them in order: its serial
+        # loop reads shared memory, where a thread loading its own terms from device memory waited on every load
+        c, part, lane = wp.tid()
         n_grains = grain_terms.shape[1]
         start = part * wp.static(RECORD_PART)
         end = wp.min(start + wp.static(RECORD_PART), n_grains)
-        sums = wp.vec4d(wp.float64(0.0), wp.float64(0.0), wp.float64(-1.0e300), wp.float64(1.0))
-        i = start
-        while i + 4 <= end:  # four loads in flight, then their terms added in order (the same sums)
-            t0 = grain_terms[c, i]
-            t1 = grain_terms[c, i + 1]
-            t2 = grain_terms[c, i + 2]
-            t3 = grain_terms[c, i + 3]
-            sums = add_terms(add_terms(add_terms(add_terms(sums, t0), t1), t2), t3)
-            i += 4
-        while i < end:
-            sums = add_terms(sums, grain_terms[c, i])
-            i += 1
-        store_part(parts, c, part, sums, dissipated_grain, start, end)
+        terms = wp.tile_load(grain_terms, shape=(1, RECORD_PART), offset=(c, start), storage="shared")
+        if lane == 0:
+            sums = wp.vec4d(wp.float64(0.0), wp.float64(0.0), wp.float64(-1.0e300), wp.float64(1.0))
+            for i in range(end - start):
+                sums = add_terms(sums, terms[0, i])
+            store_part(parts, c, part, sums, dissipated_grain, start, end)
 
-    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
-    def record(
-        x: wp.array3d(dtype=real),
-        contact_constant: wp.array2d(dtype=real),
-        static_overlap: wp.array2d(dtype=real),
-        exponent: wp.array(dtype=real),
-        drive: wp.array2d(dtype=wp.float64),
-        work_in: wp.array(dtype=wp.float64),
-        power_in: wp.array(dtype=wp.float64),
-        step: int,
-        dt: wp.float64,
-        validity_overlap: wp.array(dtype=wp.float64),
-        parts: wp.array3d(dtype=wp.float64),
-        energy: wp.array(dtype=wp.float64),
-        work: wp.array(dtype=wp.float64),
-        max_overlap: wp.array(dtype=wp.float64),
-        status: wp.array(dtype=wp.int32),
-        damping: wp.array(dtype=real),
-        dissipated: wp.array(dtype=wp.float64),
-    ):
-        # the parts of chain c in order, then the walls, the driver's work and the status
-        c = wp.tid()
+    @wp.func
+    def close_record(x: wp.array3d(dtype=real), contact_constant: wp.array2d(dtype=real),
+                     static_overlap: wp.array2d(dtype=real), exponent: wp.array(dtype=real),
+                     drive: wp.array2d(dtype=wp.float64), work_in: wp.array(dtype=wp.float64),
+                     power_in: wp.array(dtype=wp.float64), step: int, dt: wp.float64,
+                     validity_overlap: wp.array(dtype=wp.float64), energy: wp.array(dtype=wp.float64),
+                     work: wp.array(dtype=wp.float64), max_overlap: wp.array(dtype=wp.float64),
+                     status: wp.array(dtype=wp.int32), damping: wp.array(dtype=real),
+                     dissipated: wp.array(dtype=wp.float64), c: int, sums: wp.vec4d, lost: wp.float64):
+        # chain c's record from the sums of its parts: the walls, the driver's work and the status
         n_grains = x.shape[2]
-        sums = wp.vec4d(wp.float64(0.0), wp.float64(0.0), wp.float64(-1.0e300), wp.float64(1.0))
-        lost = wp.float64(0.0)
-        part_count = parts.shape[1]
-        part = int(0)
-        while part < part_count:  # four parts' loads in flight, then added in order (a long chain has many parts)
-            loaded = part_block()
-            for q in range(4):
-                for k in range(5):
-                    loaded[q, k] = parts[c, wp.min(part + q, part_count - 1), k]
-            for q in range(4):
-                if part + q < part_count:
-                    sums = add_terms(sums, wp.vec4d(loaded[q, 0], loaded[q, 1], loaded[q, 2], loaded[q, 3]))
-                    lost += loaded[q, 4]
-            part += 4
         kinetic = sums[0]
         potential = sums[1]
         largest = sums[2]
@@ -295,7 +275,88 @@ def record_kernels(features: Features) -> RecordKernels:
         elif status[c] == wp.static(STATUS_OK) and largest > validity_overlap[c]:
             status[c] = wp.static(STATUS_OVERLAP_BEYOND_VALIDITY)
 
-    return RecordKernels(record_parts, record, record_grains, record_parts_of_grains)
+
+    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
+    def record(
+        x: wp.array3d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        static_overlap: wp.array2d(dtype=real),
+        exponent: wp.array(dtype=real),
+        drive: wp.array2d(dtype=wp.float64),
+        work_in: wp.array(dtype=wp.float64),
+        power_in: wp.array(dtype=wp.float64),
+        step: int,
+        dt: wp.float64,
+        validity_overlap: wp.array(dtype=wp.float64),
+        parts: wp.array3d(dtype=wp.float64),
+        energy: wp.array(dtype=wp.float64),
+        work: wp.array(dtype=wp.float64),
+        max_overlap: wp.array(dtype=wp.float64),
+        status: wp.array(dtype=wp.int32),
+        damping: wp.array(dtype=real),
+        dissipated: wp.array(dtype=wp.float64),
+    ):
+        # the parts of chain c in order, then the walls, the driver's work and the status
+        c = wp.tid()
+        sums = wp.vec4d(wp.float64(0.0), wp.float64(0.0), wp.float64(-1.0e300), wp.float64(1.0))
+        lost = wp.float64(0.0)
+        part_count = parts.shape[1]
+        part = int(0)
+        while part < part_count:  # four parts' loads in flight, then added in order (a long chain has many parts)
+            loaded = part_block()
+            for q in range(4):
+                for k in range(5):
+                    loaded[q, k] = parts[c, wp.min(part + q, part_count - 1), k]
+            for q in range(4):
+                if part + q < part_count:
+                    sums = add_terms(sums, wp.vec4d(loaded[q, 0], loaded[q, 1], loaded[q, 2], loaded[q, 3]))
+                    lost += loaded[q, 4]
+            part += 4
+        close_record(x, contact_constant, static_overlap, exponent, drive, work_in, power_in, step, dt, validity_overlap,
+                     energy, work, max_overlap, status, damping, dissipated, c, sums, lost)
+
+    @wp.kernel(module="unique", module_options=dict(KERNEL_OPTIONS, block_dim=PART_TILE_THREADS),
+               enable_backward=False)
+    def record_long(
+        x: wp.array3d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        static_overlap: wp.array2d(dtype=real),
+        exponent: wp.array(dtype=real),
+        drive: wp.array2d(dtype=wp.float64),
+        work_in: wp.array(dtype=wp.float64),
+        power_in: wp.array(dtype=wp.float64),
+        step: int,
+        dt: wp.float64,
+        validity_overlap: wp.array(dtype=wp.float64),
+        parts: wp.array3d(dtype=wp.float64),
+        energy: wp.array(dtype=wp.float64),
+        work: wp.array(dtype=wp.float64),
+        max_overlap: wp.array(dtype=wp.float64),
+        status: wp.array(dtype=wp.int32),
+        damping: wp.array(dtype=real),
+        dissipated: wp.array(dtype=wp.float64),
+    ):
+        # ``record`` for long chains (a block per chain, launch_tiled): the block copies PART_TILE parts' sums at a
+        # time to shared memory together, one thread adds them in order (the same sums), then closes the record
+        c, lane = wp.tid()
+        sums = wp.vec4d(wp.float64(0.0), wp.float64(0.0), wp.float64(-1.0e300), wp.float64(1.0))
+        lost = wp.float64(0.0)
+        part_count = parts.shape[1]
+        first = int(0)
+        while first < part_count:
+            loaded = wp.tile_load(parts, shape=(1, PART_TILE, PART_SUMS), offset=(c, first, 0), storage="shared")
+            if lane == 0:
+                for q in range(wp.min(part_count - first, PART_TILE)):
+                    sums = add_terms(sums, wp.vec4d(loaded[0, q, 0], loaded[0, q, 1], loaded[0, q, 2],
+                                                    loaded[0, q, 3]))
+                    lost += loaded[0, q, 4]
+            block_sync(0)  # the tile is read before the next part's copy overwrites it
+            first += PART_TILE
+        if lane == 0:
+            close_record(x, contact_constant, static_overlap, exponent, drive, work_in, power_in, step, dt,
+                         validity_overlap, energy, work, max_overlap, status, damping, dissipated, c, sums, lost)
+
+    return RecordKernels(record_parts, record, record_grains, record_parts_of_grains, record_long)
 
 
 @wp.kernel(enable_backward=False)
@@ -332,3 +393,26 @@ def traced_start_kernel(precision: str):
         out[row, c, j] = x[row, c, traced[j]]
 
     return traced_start
+
+
+def parts_of_grains_block_dim(device) -> int:
+    """Threads of a ``record_parts_of_grains`` block on ``device``: one on a CPU (which runs a block's threads in
+    turn), PART_TILE_THREADS on a GPU."""
+    return 1 if wp.get_device(device).is_cpu else PART_TILE_THREADS
+
+
+def launch_parts_of_grains(kernels: RecordKernels, grain_terms, dissipated_grain, parts, device) -> None:
+    """``record_parts_of_grains`` over every (chain, part) of ``parts`` (chains, parts, PART_SUMS): a block each."""
+    wp.launch_tiled(kernels.parts_of_grains, dim=list(parts.shape[:2]), inputs=[grain_terms, dissipated_grain],
+                    outputs=[parts], block_dim=parts_of_grains_block_dim(device), device=device)
+
+
+def launch_record(kernels: RecordKernels, *, long_chains: bool, inputs: list, outputs: list, chains: int,
+                  device) -> None:
+    """``record`` (a thread per chain) or, for ``long_chains`` (the two-stage reductions), ``record_long`` (a block
+    per chain): the same arguments and the same sums."""
+    if long_chains:
+        wp.launch_tiled(kernels.record_long, dim=[chains], inputs=inputs, outputs=outputs,
+                        block_dim=parts_of_grains_block_dim(device), device=device)
+    else:
+        wp.launch(kernels.record, dim=chains, inputs=inputs, outputs=outputs, device=device)

@@ -12,7 +12,7 @@ import warp as wp
 from hertzian.ensemble.model import build_model
 from hertzian.ensemble.recorder import Recorder
 from hertzian.ensemble.status import Status
-from hertzian.kernels.records import RECORD_PART, record_part_count
+from hertzian.kernels.records import PART_TILE, RECORD_PART, record_part_count
 
 from conftest import make_scene
 from reference import static_overlaps, total_energy
@@ -79,6 +79,10 @@ STAGED_CASES = {
     "driven, gravity, fixed bottom, viscous": dict(  # 3 grains more: a last part of 47, not a multiple of 4
         chain={"grains": GRAINS + 3, "gravity": 1.0}, boundary={"surface": "driven", "bottom": "fixed"},
         excitation={"drive_amplitude": 0.5, "drive_period": 3.0}, damping={"model": "viscous", "gamma": 0.1}),
+    # more parts than record_long copies to shared memory at once: its second copy holds the last 4 parts
+    "driven column of 36 parts": dict(
+        chain={"grains": (PART_TILE + 3) * RECORD_PART + 17, "gravity": 1.0},
+        boundary={"surface": "driven", "bottom": "fixed"}, excitation={"drive_amplitude": 0.5, "drive_period": 3.0}),
 }
 
 
@@ -92,6 +96,7 @@ def test_long_chains_two_stage_reduction_equals_the_parts(device, monkeypatch):
     for name, sections in STAGED_CASES.items():
         model = build_model([make_scene(**sections)] * 2, device)
         n = model.grain_count
+        monkeypatch.setattr(recorder_module, "STAGED_GRAINS", n + 1)
         one_stage = Recorder(model)
         monkeypatch.setattr(recorder_module, "STAGED_GRAINS", n)
         staged = Recorder(model)
