@@ -8,6 +8,8 @@ and host copies the recorder's (ensemble/recorder.py); this module only sequence
 
 from __future__ import annotations
 
+import contextlib
+import gc
 import time
 from dataclasses import dataclass, field, replace
 
@@ -23,6 +25,19 @@ from .scene import Scene
 from .solvers import SolverConfig, choose_config, make_solver
 from .solvers.calibrate import fused_lacks, step_reason
 from .status import Status
+
+@contextlib.contextmanager
+def frozen_collector():
+    """While a run's loop queues launches and records, the objects made before it (Warp's kernels and their syntax
+    trees, the model, the store's handles) are frozen for Python's garbage collector, so its full passes skip them: one
+    over them stopped every thread for 85 ms in the middle of the driven columns' run on the H100 host, and the device
+    ran out of queued work for 77 ms (docs/benchmarks.md, sixth session). Unfrozen on exit."""
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
+
 
 SAMPLED_PIECES_PER_GRAPH = 64
 """Advance-and-sample pieces of the response windows per captured CUDA graph (Runner._advance_sampled)."""
@@ -210,29 +225,30 @@ class Runner:
         setup = self.setup_seconds + time.perf_counter() - clock
         events = [] if m.device.is_cuda else None
         advance_seconds = record_seconds = 0.0
-        start = time.perf_counter()
-        if rec.response is not None and rec.response.start_step == 0:
-            rec.response.sample(self.current)
-        for r, step in enumerate(record_steps):
-            if r:
+        with frozen_collector():
+            start = time.perf_counter()
+            if rec.response is not None and rec.response.start_step == 0:
+                rec.response.sample(self.current)
+            for r, step in enumerate(record_steps):
+                if r:
+                    clock = time.perf_counter()
+                    if events is not None:
+                        events.append(wp.get_stream(m.device).record_event(wp.Event(m.device, enable_timing=True)))
+                    self.advance_monitored(record_steps[r - 1], step - record_steps[r - 1])
+                    if events is not None:
+                        events.append(wp.get_stream(m.device).record_event(wp.Event(m.device, enable_timing=True)))
+                    advance_seconds += time.perf_counter() - clock
                 clock = time.perf_counter()
-                if events is not None:
-                    events.append(wp.get_stream(m.device).record_event(wp.Event(m.device, enable_timing=True)))
-                self.advance_monitored(record_steps[r - 1], step - record_steps[r - 1])
-                if events is not None:
-                    events.append(wp.get_stream(m.device).record_event(wp.Event(m.device, enable_timing=True)))
-                advance_seconds += time.perf_counter() - clock
+                rec.record(self.current, r, step)
+                if progress is not None:
+                    progress(r + 1, len(record_steps))
+                record_seconds += time.perf_counter() - clock
+            if self.on_queued is not None:
+                self.on_queued()
             clock = time.perf_counter()
-            rec.record(self.current, r, step)
-            if progress is not None:
-                progress(r + 1, len(record_steps))
-            record_seconds += time.perf_counter() - clock
-        if self.on_queued is not None:
-            self.on_queued()
-        clock = time.perf_counter()
-        rec.finish()
-        wp.synchronize_device(m.device)
-        rec.release()
+            rec.finish()
+            wp.synchronize_device(m.device)
+            rec.release()
         record_seconds += time.perf_counter() - clock
         wall = time.perf_counter() - start
         device_seconds = advance_seconds if events is None else sum(

@@ -451,6 +451,7 @@ class RowWriter:
         self.seconds = 0.0
         """Seconds spent in these writes (writer thread)."""
         self._arrays: dict[str, tuple[Any, int | None]] = {}
+        self._opened: dict[str, Any] = {}
         self._futures: list = []
 
     def submit(self, recorder, r: int) -> None:
@@ -459,11 +460,24 @@ class RowWriter:
         if recorder.traced:
             samples = int(recorder.record_steps[r]) // recorder.stride + 1
             available.update({f"trace_{name}": (data, samples) for name, data in recorder.traces.items()})
+        if not self._futures and r == 0:
+            # the store's other per-point arrays opened while the batch runs, not after it (write_batch)
+            self._futures.append(self.executor.submit(self._open_all))
         self._futures.append(self.executor.submit(self._write, available))
+
+    def array(self, name: str):
+        """The store's array ``name`` opened for writing, once per batch (writer thread)."""
+        if name not in self._opened:
+            self._opened[name] = _open_for_writing(self.path, name)
+        return self._opened[name]
+
+    def _open_all(self) -> None:
+        for name in zarr.open_group(store=str(self.path), mode="r").array_keys():
+            self.array(name)
 
     def _rows_per_shard(self, name: str):
         if name not in self._arrays:
-            arr = _open_for_writing(self.path, name)
+            arr = self.array(name)
             dim = len(self.batch.shape)
             outer = arr.shards or arr.chunks
             rows = outer[dim] if outer[dim] < arr.shape[dim] else None
@@ -505,7 +519,7 @@ def write_batch(path: str | Path, batch: Batch, result: RunResult, *, grain_step
     written = rows.written if rows is not None else {}
 
     def put(name: str, data: np.ndarray) -> None:
-        arr = _open_for_writing(path, name)
+        arr = rows.array(name) if rows is not None else _open_for_writing(path, name)
         done = written.get(name, 0)
         if done:
             if done >= data.shape[1]:

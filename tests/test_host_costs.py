@@ -228,3 +228,18 @@ def test_reused_staging_buffers_give_the_same_records():
     other.run()
     assert STAGING._key == other.recorder.staging_key
 
+
+
+def test_the_collector_is_frozen_during_a_run_and_unfrozen_after():
+    """A run's loop freezes the objects made before it for the garbage collector (its full passes skip them) and
+    unfreezes them after, also when the run raises."""
+    import gc
+
+    from hertzian.ensemble.runner import frozen_collector
+
+    assert gc.get_freeze_count() == 0
+    with pytest.raises(RuntimeError):
+        with frozen_collector():
+            assert gc.get_freeze_count() > 0
+            raise RuntimeError("a failed run")
+    assert gc.get_freeze_count() == 0

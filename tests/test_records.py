@@ -197,8 +197,9 @@ def test_staging_depth_keeps_every_record_in_order(device, monkeypatch):
 
 def test_host_pages_mapped_in_the_background_keep_every_record(device, monkeypatch):
     """On CUDA a background thread writes the new host arrays once (mapping their pages) while the first records
-    run; the first unpack waits for it. Made slow here, the mapping must still finish before any record lands:
-    the records equal those of a run that maps nothing in the background, bit for bit."""
+    run, in blocks along the record axis; an unpack waits only for the blocks it writes. Made slow here, the first
+    unpack comes before the mapping ends, and no record is overwritten by it: the records equal those of a run that
+    maps nothing in the background, bit for bit."""
     import time
 
     from hertzian.ensemble import recorder as recorder_module
@@ -208,15 +209,23 @@ def test_host_pages_mapped_in_the_background_keep_every_record(device, monkeypat
                        integrator={"method": "gear4", "dt": 1e-3, "duration": 0.05},
                        record={"every": 0.01, "fields": ["u", "v"], "traces": [0, 29], "trace_every": 0.002})
     model = build_model([scene, scene], device)
-    runs = []
+    runs, mapped_at_first_unpack = [], []
+
+    def first_unpack(recorder, r):
+        if r == 0:
+            mapped_at_first_unpack.append(recorder._mapping.blocks_done if recorder._mapping else None)
+
     for background in (False, True):
         if background:
-            slow = recorder_module._map_pages
-            monkeypatch.setattr(recorder_module, "_map_pages", lambda arrays: (time.sleep(0.3), slow(arrays)))
-        rec = Recorder(model, map_in_background=background)
+            slow = recorder_module._map_block
+            monkeypatch.setattr(recorder_module, "_map_block", lambda arrays, block: (
+                time.sleep(0.6 / recorder_module.MAP_BLOCKS), slow(arrays, block)))
+        rec = Recorder(model, map_in_background=background, on_unpacked=first_unpack)
         monkeypatch.setattr(runner_module, "Recorder", lambda m, **kw: rec)
         runs.append(runner_module.Runner(model).run())
     recorder_module._MAPPER.submit(lambda: None).result()  # any mapping still running has finished
+    assert mapped_at_first_unpack[0] is None
+    assert 0 < mapped_at_first_unpack[1] < recorder_module.MAP_BLOCKS
     assert np.max(np.abs(runs[0].fields["v"][:, -1])) > 1e-4  # the records hold motion
     for name in ("u", "v"):
         np.testing.assert_array_equal(runs[1].fields[name], runs[0].fields[name])
