@@ -93,6 +93,7 @@ def test_end_to_end_scene_json(tmp_path):
     s = record["seconds"]
     parts = s["build"] + s["compile"] + s["kernel"] + s["record"] + s["store"]
     assert 0 < s["kernel"] and 0 < s["store"] and parts <= s["total"] < elapsed
+    assert 0 < s["startup"] and s["startup"] + s["total"] < elapsed  # the device made ready before the clock
     assert 0 < record["device_busy"] <= 1
 
 
@@ -107,6 +108,7 @@ def test_end_to_end_sweep_json(tmp_path):
     assert record["kernel"] == "sweep" and record["grain_steps"] == 3 * 20 * 400
     s = record["seconds"]
     assert 0 < s["kernel"] and 0 < s["store"] and s["build"] + s["kernel"] + s["store"] <= s["total"]
+    assert 0 < s["startup"]
 
 
 def test_end_to_end_bad_input(tmp_path):

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d nov28e nov28f nov28g nov28h nov28i nov28j)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d nov28e nov28f nov28g nov28h nov28i nov28j nov28k)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -917,6 +917,28 @@ nov28j)
   done
   step e2e_gpu10k_cold_j 200 "$HZ $B10K"
   step e2e_gpu10k_warm_j 100 "$HZ $B10K"
+  ;;
+nov28k)
+  # the bench makes the device ready before its clock (the CUDA context, reported as "startup", outside "total"):
+  # the driven columns, the 1000-grain scenes and gpu_10k end to end (warm), a timeline; the CUDA tests of the bench
+  B910="bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
+  B10K="bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  step pytest_cuda_k 200 "python3 -m pytest -q -p no:cacheprovider tests/test_bench.py 2>&1"
+  step e2e_fig9_10_cold_k 200 "$HZ $B910"
+  step e2e_fig9_10_warm_k 100 "$HZ $B910"
+  step e2e_fig9_10_warm_k2 100 "$HZ $B910"
+  step e2e_fig9_10_warm_k3 100 "$HZ $B910"
+  step e2e_fig9_10_warm_k4 100 "$HZ $B910"
+  step e2e_fig9_10_warm_k5 100 "$HZ $B910"
+  step timeline_fig9_10_k 100 "python3 docs/logs/sweep_timeline.py sweeps/paper_fig9_10.toml --device cuda --json $LOGS/timeline_fig9_10_k.json"
+  for s in impact_1000 impact_1000_traces driven_1000; do
+    step "e2e_${s}_off_k" 150 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
+    step "e2e_${s}_off_k2" 100 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
+    step "e2e_${s}_off_k3" 100 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
+  done
+  step e2e_gpu10k_cold_k 200 "$HZ $B10K"
+  step e2e_gpu10k_warm_k 100 "$HZ $B10K"
+  step e2e_gpu10k_warm_k2 100 "$HZ $B10K"
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
