@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d nov28e nov28f nov28g nov28h nov28i nov28j nov28k)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d nov28e nov28f nov28g nov28h nov28i nov28j nov28k nov28l)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -939,6 +939,15 @@ nov28k)
   step e2e_gpu10k_cold_k 200 "$HZ $B10K"
   step e2e_gpu10k_warm_k 100 "$HZ $B10K"
   step e2e_gpu10k_warm_k2 100 "$HZ $B10K"
+  ;;
+nov28l)
+  # the submitted state of the sixth session: every CUDA test; the whole reproduction with plain Gear steps
+  # (--events off), fresh (it compiles) and warm (issue 11's <= 30 s is the warm one)
+  step pytest_cuda_l 330 "python3 -m pytest -q -p no:cacheprovider -k cuda tests 2>&1"
+  step reproduce_cold_l 200 "$HZ reproduce --device cuda --events off --out-dir $WORK/repro_cold"
+  cp "$WORK"/repro_cold/log.json "$LOGS"/reproduce_cold_l_log.json 2>/dev/null
+  step reproduce_warm_l 60 "$HZ reproduce --device cuda --events off --out-dir $WORK/repro_warm"
+  cp "$WORK"/repro_warm/log.json "$LOGS"/reproduce_warm_l_log.json 2>/dev/null
   ;;
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
