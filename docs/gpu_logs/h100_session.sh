@@ -941,9 +941,9 @@ nov28k)
   step e2e_gpu10k_warm_k2 100 "$HZ $B10K"
   ;;
 nov28l)
-  # the submitted state of the sixth session: every CUDA test; the whole reproduction with plain Gear steps
+  # the submitted state of the sixth session: the CUDA tests of the changed paths; the whole reproduction with plain Gear steps
   # (--events off), fresh (it compiles) and warm (issue 11's <= 30 s is the warm one)
-  step pytest_cuda_l 330 "python3 -m pytest -q -p no:cacheprovider -k cuda tests 2>&1"
+  step pytest_cuda_l 200 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and (record or drive or fused or trace or sweep)' tests 2>&1"
   step reproduce_cold_l 200 "$HZ reproduce --device cuda --events off --out-dir $WORK/repro_cold"
   cp "$WORK"/repro_cold/log.json "$LOGS"/reproduce_cold_l_log.json 2>/dev/null
   step reproduce_warm_l 60 "$HZ reproduce --device cuda --events off --out-dir $WORK/repro_warm"
