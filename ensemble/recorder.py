@@ -82,6 +82,7 @@ class PageMapping:
     def __init__(self, arrays: list[np.ndarray]):
         self.arrays = arrays
         self.blocks_done = 0
+        self._ended = False  # the mapping thread has returned or raised
         self._ready = threading.Condition()
         self._future = _MAPPER.submit(self._map)
 
@@ -94,16 +95,18 @@ class PageMapping:
                     self._ready.notify_all()
         finally:
             with self._ready:
+                self._ended = True
                 self._ready.notify_all()
 
     def wait_for(self, counts: list[int]) -> bool:
-        """Wait until the first ``counts[i]`` entries along axis 1 of array i are mapped; True once all are."""
+        """Wait until the first ``counts[i]`` entries along axis 1 of array i are mapped; True once all are. An error
+        of the mapping thread is raised here."""
         need = max((-(-count * MAP_BLOCKS // array.shape[1]) for count, array in zip(counts, self.arrays)
                     if array.shape[1]), default=0)
         with self._ready:
-            self._ready.wait_for(lambda: self.blocks_done >= need or self._future.done())
-        if self._future.done():
-            self._future.result()  # the mapping's error, if any
+            self._ready.wait_for(lambda: self.blocks_done >= need or self._ended)
+        if self._ended:
+            self._future.result()  # the mapping's error, if any (waits for its future to settle)
         return self.blocks_done == MAP_BLOCKS
 
 STAGING_BYTES = 64 * 2**20

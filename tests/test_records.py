@@ -230,3 +230,37 @@ def test_host_pages_mapped_in_the_background_keep_every_record(device, monkeypat
     for name in ("u", "v"):
         np.testing.assert_array_equal(runs[1].fields[name], runs[0].fields[name])
         np.testing.assert_array_equal(runs[1].traces[name], runs[0].traces[name])
+
+
+def test_a_failed_page_mapping_is_raised_at_the_unpack_that_waits_for_it(monkeypatch):
+    """The background mapping of the host arrays fails part-way: an unpack waiting for a block it never mapped raises
+    the mapping's error instead of waiting for ever."""
+    import threading
+    import time
+
+    from hertzian.ensemble import recorder as recorder_module
+
+    release = threading.Event()
+
+    def fail_at_block_3(arrays, block):
+        if block == 3:
+            release.wait()  # fail once the unpack below is waiting
+            raise MemoryError("no pages left")
+
+    monkeypatch.setattr(recorder_module, "_map_block", fail_at_block_3)
+    mapping = recorder_module.PageMapping([np.empty((2, recorder_module.MAP_BLOCKS, 4))])
+    raised = []
+
+    def unpack():
+        try:
+            mapping.wait_for([10])  # block 9: never mapped
+        except MemoryError as err:
+            raised.append(err)
+
+    waiter = threading.Thread(target=unpack, daemon=True)
+    waiter.start()
+    time.sleep(0.2)
+    release.set()
+    waiter.join(timeout=10)
+    assert not waiter.is_alive(), "the unpack waits for ever"
+    assert len(raised) == 1 and "no pages left" in str(raised[0])
