@@ -109,6 +109,7 @@ class PageMapping:
             self._future.result()  # the mapping's error, if any (waits for its future to settle)
         return self.blocks_done == MAP_BLOCKS
 
+
 STAGING_BYTES = 64 * 2**20
 """Page-locked host memory a run's staging buffers may take beyond two (Recorder.depth)."""
 MAX_STAGING_DEPTH = 8
@@ -186,8 +187,9 @@ class Recorder:
         if (m.device.is_cuda if map_in_background is None else map_in_background) and (self.fields or self.traces):
             # the host arrays' pages are mapped (written once) by a background thread while the first records run
             # (or, for a detection library's one record after t = 0, while the whole run does): mapping fresh zeroed
-            # pages on first write cost up to ≈ 1 s per GB on the H100 host, and the first unpack writes into every
-            # page (a record is one row of every chain), so it stalled the device between records
+            # pages on first write cost up to ≈ 1 s per GB on the H100 host, and with many short chains the first
+            # unpack writes into every page (a record is one row of every chain), so it stalled the device between
+            # records. They are mapped in blocks along the record axis; an unpack waits for the blocks it writes
             self._mapping = PageMapping([*self.fields.values(), *self.traces.values()])
 
     def _staging_key(self) -> tuple:
