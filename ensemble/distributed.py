@@ -65,20 +65,18 @@ def warm_kernels(features: Iterable[Features], device: str, *, runs: Iterable[tu
     stepping kernel warmed is the one each will use — on a GPU the fused kernel of the shape the calibration cache
     holds for it (none when not yet calibrated: the run calibrates), the per-step kernel only where ``auto`` takes
     it — instead of the per-step kernel of every feature set."""
-    from hertzian.kernels.records import STAGED_GRAINS, parts_of_grains_block_dim, record_kernels
+    from hertzian.kernels.records import STAGED_GRAINS, load_record_kernels, record_kernels
     from hertzian.kernels.step import step_kernel
 
     wp = _quiet_warp()
     dev = wp.get_device(device)
     runs = None if runs is None else list(runs)
-    staged = {run[0] for run in runs or () if run[1] >= STAGED_GRAINS}  # long chains' two-stage reductions
     for f in set(features):
-        kernels = record_kernels(f)
-        for kernel in (kernels.parts, kernels.record, *((kernels.grains,) if f in staged else ())):
-            wp.load_module(kernel.module, device=device)
-        if f in staged:
-            for kernel in (kernels.parts_of_grains, kernels.record_long):
-                wp.load_module(kernel.module, device=device, block_dim=parts_of_grains_block_dim(device))
+        # the record reductions of the chain lengths the runs have (unknown runs: the one-stage ones; a long chain's
+        # recorder loads its own)
+        lengths = {run[1] >= STAGED_GRAINS for run in runs if run[0] == f} if runs is not None else set()
+        for long_chains in lengths or {False}:
+            load_record_kernels(record_kernels(f), long_chains=long_chains, device=device)
     if runs is None:
         for f in set(features):
             wp.load_module(step_kernel(f).module, device=device)

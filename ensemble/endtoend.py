@@ -55,7 +55,7 @@ def _summary(kind: str, source: str, device: str, *, chains: int, grains: int, s
 
 def start_device(device: str) -> float:
     """Make ``device`` ready before a bench's clock starts, as Warp's initialisation is before it: on CUDA the first use
-    creates the context and its memory pool (0.13-0.3 s on the H100 hosts, docs/benchmarks.md, sixth session), once
+    creates the context and its memory pool (0.11-0.14 s on the H100 hosts, docs/benchmarks.md, sixth session), once
     per process whatever runs after it. Returns its seconds (reported as ``startup``, outside ``total``)."""
     start = time.perf_counter()
     wp.synchronize_device(device)

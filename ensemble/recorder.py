@@ -20,7 +20,7 @@ import numpy as np
 import warp as wp
 
 from hertzian.kernels.records import (PART_SUMS, RECORD_BLOCK_DIM, STAGED_GRAINS, launch_parts_of_grains, launch_record,
-                                     parts_of_grains_block_dim, record_kernels, record_part_count, traced_start_kernel,
+                                     load_record_kernels, record_kernels, record_part_count, traced_start_kernel,
                                      track_extremes)
 
 from .model import Model, State
@@ -253,14 +253,7 @@ class Recorder:
 
     def load(self) -> None:
         """Compile and load the reduction kernels (before a clock starts)."""
-        if self.staged:
-            wp.load_module(self.kernels.grains.module, device=self.model.device)
-            for kernel in (self.kernels.parts_of_grains, self.kernels.record_long):
-                wp.load_module(kernel.module, device=self.model.device,
-                               block_dim=parts_of_grains_block_dim(self.model.device))
-        else:
-            wp.load_module(self.kernels.parts.module, device=self.model.device)
-            wp.load_module(self.kernels.record.module, device=self.model.device)
+        load_record_kernels(self.kernels, long_chains=self.staged, device=self.model.device)
         wp.load_module(track_extremes.module, device=self.model.device)
         if self.traced and not self.fields:
             wp.load_module(traced_start_kernel(self.model.features.precision).module, device=self.model.device)

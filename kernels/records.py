@@ -275,7 +275,6 @@ def record_kernels(features: Features) -> RecordKernels:
         elif status[c] == wp.static(STATUS_OK) and largest > validity_overlap[c]:
             status[c] = wp.static(STATUS_OVERLAP_BEYOND_VALIDITY)
 
-
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def record(
         x: wp.array3d(dtype=real),
@@ -399,6 +398,19 @@ def parts_of_grains_block_dim(device) -> int:
     """Threads of a ``record_parts_of_grains`` block on ``device``: one on a CPU (which runs a block's threads in
     turn), PART_TILE_THREADS on a GPU."""
     return 1 if wp.get_device(device).is_cpu else PART_TILE_THREADS
+
+
+def load_record_kernels(kernels: RecordKernels, *, long_chains: bool, device) -> None:
+    """Load the reductions a record takes on ``device``: for ``long_chains`` (STAGED_GRAINS grains or more) the grain
+    terms, the per-part sums and ``record_long`` (tiled, at their block size there), else ``record_parts`` and
+    ``record``."""
+    if long_chains:
+        wp.load_module(kernels.grains.module, device=device)
+        for kernel in (kernels.parts_of_grains, kernels.record_long):
+            wp.load_module(kernel.module, device=device, block_dim=parts_of_grains_block_dim(device))
+    else:
+        for kernel in (kernels.parts, kernels.record):
+            wp.load_module(kernel.module, device=device)
 
 
 def launch_parts_of_grains(kernels: RecordKernels, grain_terms, dissipated_grain, parts, device) -> None:

@@ -181,6 +181,11 @@ def test_a_serial_sweep_warms_the_stepping_kernel_its_batches_use(monkeypatch):
     loaded.clear()
     distributed.warm_kernels([f], "cpu")
     assert set(loaded) == records | {step_kernel(f).module}
+    loaded.clear()
+    distributed.warm_kernels([f], "cpu", runs=[(f, 4096, 2, 10**9)])  # long chains: the two-stage reductions only
+    long_records = record_kernels(f)
+    assert set(loaded) == {long_records.grains.module, long_records.parts_of_grains.module,
+                           long_records.record_long.module}
 
 
 def test_overlapped_preparation_of_batches_spanning_templates(tmp_path):
