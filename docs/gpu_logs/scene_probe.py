@@ -11,15 +11,14 @@ same shape, and the calibration's choice for each seen against the others.
 
 import argparse
 import json
-import time
 from pathlib import Path
 
 import warp as wp
 
 from hertzian.ensemble.model import build_model
 from hertzian.ensemble.scene import load_scene
-from hertzian.ensemble.solvers.calibrate import time_solver, whole_chain_configs, window_configs
-from hertzian.ensemble.solvers.tile import TileSolver
+from hertzian.ensemble.solvers.calibrate import whole_chain_configs, window_configs
+from window_probe import timed_configs  # this folder's window probe (the script's folder is on sys.path)
 
 BENCH = Path(__file__).resolve().parent.parent / "bench"
 
@@ -39,17 +38,10 @@ def main() -> None:
     for name in args.scenes.split(","):
         scene = load_scene(BENCH / f"{name}.toml").with_overrides({"integrator.events": "off"})
         model = build_model([scene], args.device)
-        for config in whole_chain_configs(model) + window_configs(model):
-            if wanted and not any(text in config.describe() for text in wanted):
-                continue
-            t0 = time.perf_counter()
-            try:
-                seconds = time_solver(TileSolver(model, config), steps=args.steps)
-            except Exception as err:  # a shape the device refuses
-                print(f"{name}: {config.describe()}: {type(err).__name__}: {err}", flush=True)
-                continue
+        configs = whole_chain_configs(model) + window_configs(model)
+        for config, seconds, wall in timed_configs(model, configs, wanted, args.steps, name):
             row = {"scene": name, "config": config.describe(), "us_per_step": seconds * 1e6,
-                   "wall_with_compile": time.perf_counter() - t0}
+                   "wall_with_compile": wall}
             rows.append(row)
             print(f"{name}: {config.describe()}: {seconds * 1e6:.3f} us/step", flush=True)
     with open(args.out, "w") as f:

@@ -47,6 +47,22 @@ def scene(variant: dict):
     return scene_from_dict(data)
 
 
+def timed_configs(model, configs, wanted: list[str], steps: int, label: str):
+    """(config, seconds per step, wall seconds with the compile) for each of ``configs`` whose description contains
+    one of ``wanted`` (all when empty), timed by calibrate.time_solver; a shape the device refuses is printed and
+    skipped."""
+    for config in configs:
+        if wanted and not any(text in config.describe() for text in wanted):
+            continue
+        t0 = time.perf_counter()
+        try:
+            seconds = time_solver(TileSolver(model, config), steps=steps)
+        except Exception as err:  # a shape the device refuses
+            print(f"{label}: {config.describe()}: {type(err).__name__}: {err}", flush=True)
+            continue
+        yield config, seconds, time.perf_counter() - t0
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--device", default="cuda")
@@ -65,18 +81,11 @@ def main() -> None:
             s = scene(variant)
             model = build_model([s] * chains, args.device)
             wanted = [text.strip() for text in args.configs.split(",") if text.strip()]
-            for config in window_configs(model):
-                if wanted and not any(text in config.describe() for text in wanted):
-                    continue
-                t0 = time.perf_counter()
-                try:
-                    seconds = time_solver(TileSolver(model, config), steps=args.steps)
-                except Exception as err:  # a shape the device refuses
-                    print(f"{chains} x {name}: {config.describe()}: {type(err).__name__}: {err}", flush=True)
-                    continue
+            for config, seconds, wall in timed_configs(model, window_configs(model), wanted, args.steps,
+                                                       f"{chains} x {name}"):
                 row = {"chains": chains, "variant": name, "config": config.describe(),
                        "us_per_step": seconds * 1e6, "grain_steps_per_second": chains * 10000 / seconds,
-                       "wall_with_compile": time.perf_counter() - t0}
+                       "wall_with_compile": wall}
                 rows.append(row)
                 print(f"{chains} x {name}: {config.describe()}: {seconds * 1e6:.3f} us/step, "
                       f"{row['grain_steps_per_second']:.3g} GS/s", flush=True)
