@@ -134,6 +134,20 @@ def out_of_line(event_step, values_t, vec3, real):
     return event_step_call
 
 
+@wp.func_native("""
+#if defined(__CUDA_ARCH__)
+return __syncthreads_or(flag);
+#else
+return 1;
+#endif
+""")
+def block_any(flag: int) -> int:
+    """A barrier that returns nonzero if any thread of the block passed a nonzero ``flag`` (CUDA:
+    __syncthreads_or). CPU blocks (tests) answer 1 without a barrier: every lane then takes the branch it guards,
+    which must give the same bits as skipping it."""
+    ...
+
+
 @wp.func_native("WP_TILE_SYNC();")
 def block_sync(unused: int):
     """A barrier for every thread of the block (CUDA: __syncthreads; CPU blocks: Warp's fiber barrier); it also
@@ -182,7 +196,7 @@ def tile_kernel(features: Features, shape: TileShape):
     contact_vec = wp.types.vector(length=G + 1, dtype=real)
     EVENTS = f.event_window > 0
     COMP = f.compensation  # compensated float32: predicted positions also carry their low parts (kernels/gear.py)
-    EDGE_LO = 2 + 2 * Q if EVENTS else 2  # where the edge tile keeps the low parts of the edge positions
+    EDGE_LO = 6 if EVENTS else 2  # where the edge tile keeps the low parts of the edge positions
     # the contact dashpot also needs the neighbour lanes' edge grains' predicted rates and the first grain's (u, dt·v)
     # at t_n: [u_first, u_last, rate_first, rate_last, u_first(t_n), dt·v_first(t_n)] (no events, no compensation)
     edge_t = wp.types.vector(length=6 if DASHPOT else EDGE_LO + (2 if COMP else 0), dtype=real)
@@ -214,6 +228,14 @@ def tile_kernel(features: Features, shape: TileShape):
         v = value_vec()
         for q in range(Q):
             v[q] = s[q, k]
+        return v
+
+    @wp.func
+    def shared_column(states: Any, lane: int, k: int) -> value_vec:
+        # grain k's Nordsieck vector in lane ``lane``'s state of the shared tile (a run-time k: shared memory)
+        v = value_vec()
+        for q in range(Q):
+            v[q] = wp.tile_extract(states, lane, q, k)
         return v
 
     driver_values_at = nordsieck.driver_values_at
@@ -382,7 +404,7 @@ def tile_kernel(features: Features, shape: TileShape):
         return out
 
     @wp.func
-    def advance(s: state_t, edges: Any, lane: int, has_left: bool, has_right: bool,
+    def advance(s: state_t, edges: Any, states: Any, lane: int, has_left: bool, has_right: bool,
                 delta0: contact_vec, a_c: contact_vec, force0: contact_vec, n: real,
                 inv_m: grain_vec, hh: real, contact_bits: int, move_bits: int, h: real,
                 k0: int, amplitude: wp.float64, omega: wp.float64, phase_old: wp.vec2d, phase_new: wp.vec2d,
@@ -415,13 +437,14 @@ def tile_kernel(features: Features, shape: TileShape):
                         up[k] = driver_u
         # 2. exchange the lane's edge positions with its neighbours (virtual grains outside sit at 0)
         if wp.static(EVENTS):
-            # events also need the neighbour lanes' edge grains' Nordsieck vectors
+            # the event test also needs the neighbour lanes' edge grains' (u, dt·v) at t_n
             edge = edge_t()
             edge[0] = up[0]
             edge[1] = up[G - 1]
-            for q in range(Q):
-                edge[2 + q] = s[q, 0]
-                edge[2 + Q + q] = s[q, G - 1]
+            edge[2] = s[0, 0]
+            edge[3] = s[1, 0]
+            edge[4] = s[0, G - 1]
+            edge[5] = s[1, G - 1]
             if wp.static(COMP):
                 edge[wp.static(EDGE_LO)] = up_lo[0]
                 edge[wp.static(EDGE_LO + 1)] = up_lo[G - 1]
@@ -447,14 +470,12 @@ def tile_kernel(features: Features, shape: TileShape):
             if wp.static(COMP):
                 u_right_lo = wp.tile_extract(edges, lane + 1, wp.static(EDGE_LO))
         if wp.static(EVENTS):
-            left_values = value_vec()
-            right_values = value_vec()
+            left_values = vec2()  # (u, dt·v) at t_n of the grains beyond the lane's edges (0: none)
+            right_values = vec2()
             if has_left:
-                for q in range(Q):
-                    left_values[q] = wp.tile_extract(edges, lane - 1, 2 + Q + q)
+                left_values = vec2(wp.tile_extract(edges, lane - 1, 4), wp.tile_extract(edges, lane - 1, 5))
             if has_right:
-                for q in range(Q):
-                    right_values[q] = wp.tile_extract(edges, lane + 1, 2 + q)
+                right_values = vec2(wp.tile_extract(edges, lane + 1, 2), wp.tile_extract(edges, lane + 1, 3))
         # 3. every contact of the lane once (the two edge contacts also in the neighbour lane)
         delta = contact_vec()
         if wp.static(COMP):
@@ -491,26 +512,9 @@ def tile_kernel(features: Features, shape: TileShape):
                                   rate_right, delta0, contact_bits, gamma, h)
             for k in range(G + 1):
                 force[k] = force[k] + damp[k]
-        # 4. corrector. Padding grains have 1/m = 0: at rest they stay exactly 0. A fixed bottom grain is held.
-        out = s
-        for k in range(G):
-            half_h2_acc = hh * (force[k] - force[k + 1]) * inv_m[k]
-            if wp.static(VISCOUS):
-                half_h2_acc -= real(0.5) * h * gamma * predicted_rate(column(s, k))  # h²/2 · (−γ v)
-            new = nordsieck.corrected(column(s, k), up[k], half_h2_acc)
-            if wp.static(FIXED):
-                moving = (move_bits & (1 << k)) != 0
-                for q in range(Q):
-                    out[q, k] = wp.where(moving, new[q], s[q, k])
-            else:
-                for q in range(Q):
-                    out[q, k] = new[q]
         if wp.static(EVENTS):
-            # grains touching a contact near an opening or closing: kernels/step.py's event test and step.
-            # One event step in a loop over the flagged grains, not one per grain (G inlined copies or calls:
-            # code size, and every lane of a warp waited for each one any lane needed); gathers and scatters
-            # select over the G static positions (a register matrix indexed at run time: local memory).
-            # Every event step reads its neighbours at t_n (s, not out), as the per-step kernel does.
+            # grains touching a contact near an opening or closing (kernels/step.py's event test), from t_n's (u, dt·v)
+            # and the predicted positions, before the corrector, so that t_n's state need not outlive it
             driver_above = value_vec()  # the driver's vector at t_n: what grain 1 sees above it
             if wp.static(DRIVEN):
                 if k0 >= 0:
@@ -544,42 +548,71 @@ def tile_kernel(features: Features, shape: TileShape):
                                                     delta0[k + 1] + (up[k] - u_below), s[1, k] - below_hv, h)
                 if flagged:
                     event_bits = event_bits | (1 << k)
-            while event_bits != 0:
-                grain_bit = event_bits & (-event_bits)  # the lowest flagged grain
-                event_bits = event_bits ^ grain_bit
-                own = value_vec()
-                above = value_vec()
-                below = value_vec()
-                p_above = vec3()
-                p_below = vec3()
-                inv_m_event = real(0)
-                for k in range(G):
-                    if grain_bit == (1 << k):
-                        own = column(s, k)
-                        above = left_values
-                        if k > 0:
-                            above = column(s, wp.max(k - 1, 0))
-                        below = right_values
-                        if k < G - 1:
-                            below = column(s, wp.min(k + 1, G - 1))
-                        if wp.static(DRIVEN):
-                            if k0 >= 0 and k == k0 + 1:
-                                above = driver_above
-                        p_above = vec3(delta0[k], a_c[k], n)
-                        p_below = vec3(delta0[k + 1], a_c[k + 1], n)
-                        inv_m_event = inv_m[k]
-                has_above = (contact_bits & grain_bit) != 0
-                has_below = (contact_bits & (grain_bit << 1)) != 0
-                new = event_step(own, above, below, has_above, has_below, p_above, p_below, inv_m_event, h)
-                for k in range(G):
-                    if grain_bit == (1 << k):
-                        if wp.static(FIXED):
-                            moving = (move_bits & (1 << k)) != 0
-                            for q in range(Q):
-                                out[q, k] = wp.where(moving, new[q], s[q, k])
-                        else:
-                            for q in range(Q):
-                                out[q, k] = new[q]
+            # one vote a step: a block with no flagged grain (most steps) skips the rest; otherwise every lane
+            # publishes its t_n state to shared memory, where the event steps read their neighbours
+            any_event = block_any(event_bits)
+            if any_event != 0:
+                wp.tile_assign(states, wp.tile(s, preserve_type=True))
+        # 4. corrector. Padding grains have 1/m = 0: at rest they stay exactly 0. A fixed bottom grain is held.
+        out = s
+        for k in range(G):
+            half_h2_acc = hh * (force[k] - force[k + 1]) * inv_m[k]
+            if wp.static(VISCOUS):
+                half_h2_acc -= real(0.5) * h * gamma * predicted_rate(column(s, k))  # h²/2 · (−γ v)
+            new = nordsieck.corrected(column(s, k), up[k], half_h2_acc)
+            if wp.static(FIXED):
+                moving = (move_bits & (1 << k)) != 0
+                for q in range(Q):
+                    out[q, k] = wp.where(moving, new[q], s[q, k])
+            else:
+                for q in range(Q):
+                    out[q, k] = new[q]
+        if wp.static(EVENTS):
+            # the flagged grains' event steps, one per set bit in a loop (not G inlined copies or calls: code size),
+            # each reading its own and its neighbours' Nordsieck vectors at t_n from the shared tile (lane·G + k is a
+            # grain's place in the block; a neighbour lane's edge grain is the next place over); the result is
+            # scattered by selects over the G static register positions (a register matrix indexed at run time
+            # would live in local memory)
+            if any_event != 0:
+                while event_bits != 0:
+                    grain_bit = event_bits & (-event_bits)  # the lowest flagged grain
+                    event_bits = event_bits ^ grain_bit
+                    kf = int(0)
+                    p_above = vec3()
+                    p_below = vec3()
+                    inv_m_event = real(0)
+                    for k in range(G):
+                        if grain_bit == (1 << k):
+                            kf = k
+                            p_above = vec3(delta0[k], a_c[k], n)
+                            p_below = vec3(delta0[k + 1], a_c[k + 1], n)
+                            inv_m_event = inv_m[k]
+                    own = shared_column(states, lane, kf)
+                    above = value_vec()
+                    if kf > 0:
+                        above = shared_column(states, lane, kf - 1)
+                    elif has_left:
+                        above = shared_column(states, lane - 1, G - 1)
+                    below = value_vec()
+                    if kf < G - 1:
+                        below = shared_column(states, lane, kf + 1)
+                    elif has_right:
+                        below = shared_column(states, lane + 1, 0)
+                    if wp.static(DRIVEN):
+                        if k0 >= 0 and kf == k0 + 1:
+                            above = driver_above
+                    has_above = (contact_bits & grain_bit) != 0
+                    has_below = (contact_bits & (grain_bit << 1)) != 0
+                    new = event_step(own, above, below, has_above, has_below, p_above, p_below, inv_m_event, h)
+                    for k in range(G):
+                        if grain_bit == (1 << k):
+                            if wp.static(FIXED):
+                                moving = (move_bits & (1 << k)) != 0
+                                for q in range(Q):
+                                    out[q, k] = wp.where(moving, new[q], own[q])
+                            else:
+                                for q in range(Q):
+                                    out[q, k] = new[q]
         # (the driver's own column is left to its corrector: see driver_values)
         return out
 
@@ -766,6 +799,10 @@ def tile_kernel(features: Features, shape: TileShape):
             phase_next = phases[cc, first_row + 1]
         edges_even = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
         edges_odd = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
+        if wp.static(EVENTS):
+            states = wp.tile_empty(shape=B, dtype=state_t, storage="shared")  # t_n's state, for event steps
+        else:
+            states = edges_even  # (unused)
         frozen = status[cc] == wp.static(STATUS_NON_FINITE)
         next_trace = int(0)  # the first step after step0 that takes a trace sample (a multiple of the stride)
         if wp.static(TRACES):
@@ -787,7 +824,7 @@ def tile_kernel(features: Features, shape: TileShape):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
                 s_prev = s
-            s = advance(s, edges_even, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
+            s = advance(s, edges_even, states, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
                         contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
             if wp.static(DASHPOT):
                 lost = dashpot_losses(s_prev, lost, edges_even, lane, base, has_left, has_right, delta0, contact_bits,
@@ -804,7 +841,7 @@ def tile_kernel(features: Features, shape: TileShape):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
                 s_prev = s
-            s = advance(s, edges_odd, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
+            s = advance(s, edges_odd, states, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
                         contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
             if wp.static(DASHPOT):
                 lost = dashpot_losses(s_prev, lost, edges_odd, lane, base, has_left, has_right, delta0, contact_bits,
@@ -821,7 +858,7 @@ def tile_kernel(features: Features, shape: TileShape):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
                 s_prev = s
-            s = advance(s, edges_even, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
+            s = advance(s, edges_even, states, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
                         contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
             if wp.static(DASHPOT):
                 lost = dashpot_losses(s_prev, lost, edges_even, lane, base, has_left, has_right, delta0, contact_bits,

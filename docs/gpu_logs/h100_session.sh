@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d nov28e nov28f nov28g nov28h nov28i nov28j nov28k nov28l)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d nov28e nov28f nov28g nov28h nov28i nov28j nov28k nov28l nov29a nov29b)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -952,6 +952,24 @@ nov28l)
 repro)
   step reproduce ${REPRO_LIMIT:-560} "$HZ reproduce --device cuda --out-dir $WORK/repro"
   cp "$WORK"/repro/*.json "$WORK"/repro/*.png "$LOGS"/ 2>/dev/null
+  ;;
+nov29a)
+  # issue 15: event-aware steps on the frontier workload (16 384 x 1000 grains, gear6, dt = 1e-3, t = 20), the tile
+  # kernel alone: the new event path (test before the corrector, one block vote a step, t_n's state through shared
+  # memory only in the steps that take event steps) against the previous one (exp/old: the committed tree before it)
+  step cuda_event_tests 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and event' tests 2>&1"
+  step frontier_probe_new 240 "python3 docs/gpu_logs/frontier_events_probe.py --variants off4,call4,off8,call8"
+  mkdir -p /tmp/hzold/hertzian
+  for d in ensemble kernels sweeps; do ln -sfn "$REPO/exp/old/$d" "/tmp/hzold/hertzian/$d"; done
+  step frontier_probe_old 240 "cd exp/old && PYTHONPATH=/tmp/hzold:/tmp/site python3 docs/gpu_logs/frontier_events_probe.py --variants call4,call8"
+  ;;
+nov29b)
+  # issue 15, end to end (calibration included in the first run of each feature set; the second is warm)
+  F="$HZ bench --device cuda --sweep sweeps/frontier_16384.toml --json"
+  step frontier_gear6_auto_1e-3 240 "$F --set integrator.method=gear6 --set integrator.dt=1e-3 --set integrator.events=auto"
+  step frontier_gear6_auto_1e-3_warm 120 "$F --set integrator.method=gear6 --set integrator.dt=1e-3 --set integrator.events=auto"
+  step frontier_gear4_off_2e-4 150 "$F --set integrator.method=gear4 --set integrator.dt=2e-4 --set integrator.events=off"
+  step frontier_gear4_off_2e-4_warm 120 "$F --set integrator.method=gear4 --set integrator.dt=2e-4 --set integrator.events=off"
   ;;
 detect)
   step detect_study_1000 500 "$HZ detect-study sweeps/detect_study_1000.toml --out $LOGS/study_1000_gpu.json --overwrite --device cuda"
