@@ -128,8 +128,10 @@ def event_functions(features: Features):
             hv = hv - j[1] / real(24)
         # classical Runge–Kutta in (u, dt·v) over M substeps of dt/M; time in units of dt
         s = real(1) / real(wp.static(M))
-        for m in range(wp.static(M)):
+        m = int(0)
+        while m < wp.static(M):  # a loop, not unrolled: the substeps' neighbour values are not all held at once
             mf = real(m)
+            m += 1
             t0 = mf * s
             tm = (mf + real(0.5)) * s
             t1 = (mf + real(1)) * s

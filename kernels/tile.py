@@ -138,13 +138,14 @@ def out_of_line(event_step, values_t, vec3, real):
 #if defined(__CUDA_ARCH__)
 return __syncthreads_or(flag);
 #else
+WP_TILE_SYNC();
 return 1;
 #endif
 """)
 def block_any(flag: int) -> int:
     """A barrier that returns nonzero if any thread of the block passed a nonzero ``flag`` (CUDA:
-    __syncthreads_or). CPU blocks (tests) answer 1 without a barrier: every lane then takes the branch it guards,
-    which must give the same bits as skipping it."""
+    __syncthreads_or). CPU blocks (tests) answer 1 after a plain barrier: every lane then takes the branch it
+    guards, which must give the same bits as skipping it."""
     ...
 
 
@@ -171,6 +172,7 @@ def tile_kernel(features: Features, shape: TileShape):
     L = shape.lanes_per_chain
     CPB = shape.chains_per_block
     B = shape.block_dim
+    BG = B * G  # grains a block holds
     WINDOWED = shape.windowed
     MASKED = shape.masked
     SURFACE_WALL = f.surface == "wall"
@@ -403,8 +405,73 @@ def tile_kernel(features: Features, shape: TileShape):
                 out[k] = out[k] + dt * wp.float64(0.5) * (wp.float64(loss_old) + wp.float64(loss_new))
         return out
 
+    if EVENTS:
+        LO_CONTACT = 0 if SURFACE_WALL else 1  # padded contacts c with LO_CONTACT <= c <= n_grains - HI_OFFSET exist
+        HI_OFFSET = 0 if BOTTOM_WALL else 1
+
+        @wp.func
+        def shared_event_steps(states: Any, flags: Any, results: Any, lane_c: int, segment: int, first: int, cc: int,
+                               n_grains: int, static_overlap: wp.array2d(dtype=real),
+                               contact_constant: wp.array2d(dtype=real), exponent: wp.array(dtype=real),
+                               inverse_mass: wp.array2d(dtype=real), n: real, h: real, amplitude: wp.float64,
+                               omega: wp.float64, phase_old: wp.vec2d, dt: wp.float64):
+            # The event steps of a chain's flagged grains, shared among the chain's L lanes: in round m lane j takes
+            # the chain's grain j + m·L (neighbouring flagged grains, which sit in one lane, go to neighbouring
+            # lanes). A worker reads everything from t_n's shared state and the parameter arrays, nothing from its
+            # own lane's registers, and writes the new Nordsieck vector to the grain's slot of ``results``; rounds
+            # no lane needs are skipped by one vote.
+            m = int(0)
+            while m < G:  # (a loop: one copy of the event step)
+                chain_grain = lane_c + m * L
+                owner_c = chain_grain / G
+                k = chain_grain - owner_c * G
+                owner = segment * L + owner_c
+                mine = (wp.tile_extract(flags, owner) >> k) & 1
+                if block_any(mine) != 0:
+                    new = value_vec()
+                    if mine != 0:
+                        g = first + owner_c * G + k
+                        own = shared_column(states, owner, k)
+                        above = value_vec()
+                        if k > 0:
+                            above = shared_column(states, owner, k - 1)
+                        elif owner_c > 0:
+                            above = shared_column(states, owner - 1, G - 1)
+                        below = value_vec()
+                        if k < G - 1:
+                            below = shared_column(states, owner, k + 1)
+                        elif owner_c < L - 1:
+                            below = shared_column(states, owner + 1, 0)
+                        if wp.static(DRIVEN):
+                            if g == 1:  # grain 1 sees the driver's vector at t_n above it
+                                above = driver_values_at(amplitude, omega, phase_old[0], phase_old[1], dt)
+                        has_above = g >= LO_CONTACT and g <= n_grains - HI_OFFSET
+                        has_below = g + 1 >= LO_CONTACT and g + 1 <= n_grains - HI_OFFSET
+                        p_above = params(static_overlap, contact_constant, exponent, cc, wp.min(wp.max(g, 0), n_grains))
+                        p_below = params(static_overlap, contact_constant, exponent, cc,
+                                         wp.min(wp.max(g + 1, 0), n_grains))
+                        inside = g >= 0 and g < n_grains
+                        inv_m_event = real(0)
+                        if wp.static(HETERO):
+                            inv_m_event = inverse_mass[cc, wp.min(wp.max(g, 0), n_grains - 1)]
+                        else:
+                            inv_m_event = inverse_mass[cc, 0]
+                        if wp.static(MASKED):
+                            if not inside:
+                                inv_m_event = real(0)
+                        new = event_step(own, above, below, has_above, has_below, vec3(p_above[0], p_above[1], n),
+                                         vec3(p_below[0], p_below[1], n), inv_m_event, h)
+                        if wp.static(FIXED):
+                            if not inside or g == n_grains - 1:  # a held bottom grain (or padding) stays
+                                new = own
+                    wp.tile_scatter_masked(results, owner * G + k, new, mine != 0)
+                m += 1
+
     @wp.func
-    def advance(s: state_t, edges: Any, states: Any, lane: int, has_left: bool, has_right: bool,
+    def advance(s: state_t, edges: Any, states: Any, flags: Any, results: Any, lane: int, lane_c: int, segment: int,
+                first: int, cc: int, n_grains: int, static_overlap: wp.array2d(dtype=real),
+                contact_constant: wp.array2d(dtype=real), exponent: wp.array(dtype=real),
+                inverse_mass: wp.array2d(dtype=real), has_left: bool, has_right: bool,
                 delta0: contact_vec, a_c: contact_vec, force0: contact_vec, n: real,
                 inv_m: grain_vec, hh: real, contact_bits: int, move_bits: int, h: real,
                 k0: int, amplitude: wp.float64, omega: wp.float64, phase_old: wp.vec2d, phase_new: wp.vec2d,
@@ -553,6 +620,10 @@ def tile_kernel(features: Features, shape: TileShape):
             any_event = block_any(event_bits)
             if any_event != 0:
                 wp.tile_assign(states, wp.tile(s, preserve_type=True))
+                wp.tile_assign(flags, wp.tile(event_bits))
+                shared_event_steps(states, flags, results, lane_c, segment, first, cc, n_grains, static_overlap,
+                                   contact_constant, exponent, inverse_mass, n, h, amplitude, omega, phase_old, dt)
+                s = wp.tile_extract(states, lane)  # (so that the lane's registers need not hold s meanwhile)
         # 4. corrector. Padding grains have 1/m = 0: at rest they stay exactly 0. A fixed bottom grain is held.
         out = s
         for k in range(G):
@@ -568,51 +639,12 @@ def tile_kernel(features: Features, shape: TileShape):
                 for q in range(Q):
                     out[q, k] = new[q]
         if wp.static(EVENTS):
-            # the flagged grains' event steps, one per set bit in a loop (not G inlined copies or calls: code size),
-            # each reading its own and its neighbours' Nordsieck vectors at t_n from the shared tile (lane·G + k is a
-            # grain's place in the block; a neighbour lane's edge grain is the next place over); the result is
-            # scattered by selects over the G static register positions (a register matrix indexed at run time
-            # would live in local memory)
             if any_event != 0:
-                while event_bits != 0:
-                    grain_bit = event_bits & (-event_bits)  # the lowest flagged grain
-                    event_bits = event_bits ^ grain_bit
-                    kf = int(0)
-                    p_above = vec3()
-                    p_below = vec3()
-                    inv_m_event = real(0)
-                    for k in range(G):
-                        if grain_bit == (1 << k):
-                            kf = k
-                            p_above = vec3(delta0[k], a_c[k], n)
-                            p_below = vec3(delta0[k + 1], a_c[k + 1], n)
-                            inv_m_event = inv_m[k]
-                    own = shared_column(states, lane, kf)
-                    above = value_vec()
-                    if kf > 0:
-                        above = shared_column(states, lane, kf - 1)
-                    elif has_left:
-                        above = shared_column(states, lane - 1, G - 1)
-                    below = value_vec()
-                    if kf < G - 1:
-                        below = shared_column(states, lane, kf + 1)
-                    elif has_right:
-                        below = shared_column(states, lane + 1, 0)
-                    if wp.static(DRIVEN):
-                        if k0 >= 0 and kf == k0 + 1:
-                            above = driver_above
-                    has_above = (contact_bits & grain_bit) != 0
-                    has_below = (contact_bits & (grain_bit << 1)) != 0
-                    new = event_step(own, above, below, has_above, has_below, p_above, p_below, inv_m_event, h)
-                    for k in range(G):
-                        if grain_bit == (1 << k):
-                            if wp.static(FIXED):
-                                moving = (move_bits & (1 << k)) != 0
-                                for q in range(Q):
-                                    out[q, k] = wp.where(moving, new[q], own[q])
-                            else:
-                                for q in range(Q):
-                                    out[q, k] = new[q]
+                for k in range(G):  # the lane's flagged grains take their event steps' results
+                    if ((event_bits >> k) & 1) != 0:
+                        taken = wp.tile_extract(results, lane * G + k)
+                        for q in range(Q):
+                            out[q, k] = taken[q]
         # (the driver's own column is left to its corrector: see driver_values)
         return out
 
@@ -800,9 +832,14 @@ def tile_kernel(features: Features, shape: TileShape):
         edges_even = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
         edges_odd = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
         if wp.static(EVENTS):
-            states = wp.tile_empty(shape=B, dtype=state_t, storage="shared")  # t_n's state, for event steps
+            # event steps: every lane's state at t_n, its flagged grains, one event step's result per lane
+            states = wp.tile_empty(shape=B, dtype=state_t, storage="shared")
+            flags = wp.tile_zeros(shape=B, dtype=int, storage="shared")
+            results = wp.tile_empty(shape=BG, dtype=value_vec, storage="shared")
         else:
             states = edges_even  # (unused)
+            flags = edges_even
+            results = edges_even
         frozen = status[cc] == wp.static(STATUS_NON_FINITE)
         next_trace = int(0)  # the first step after step0 that takes a trace sample (a multiple of the stride)
         if wp.static(TRACES):
@@ -824,7 +861,8 @@ def tile_kernel(features: Features, shape: TileShape):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
                 s_prev = s
-            s = advance(s, edges_even, states, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
+            s = advance(s, edges_even, states, flags, results, lane, lane_c, segment, first, cc, n_grains,
+                        static_overlap, contact_constant, exponent, inverse_mass, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
                         contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
             if wp.static(DASHPOT):
                 lost = dashpot_losses(s_prev, lost, edges_even, lane, base, has_left, has_right, delta0, contact_bits,
@@ -841,7 +879,8 @@ def tile_kernel(features: Features, shape: TileShape):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
                 s_prev = s
-            s = advance(s, edges_odd, states, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
+            s = advance(s, edges_odd, states, flags, results, lane, lane_c, segment, first, cc, n_grains,
+                        static_overlap, contact_constant, exponent, inverse_mass, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
                         contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
             if wp.static(DASHPOT):
                 lost = dashpot_losses(s_prev, lost, edges_odd, lane, base, has_left, has_right, delta0, contact_bits,
@@ -858,7 +897,8 @@ def tile_kernel(features: Features, shape: TileShape):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
                 s_prev = s
-            s = advance(s, edges_even, states, lane, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
+            s = advance(s, edges_even, states, flags, results, lane, lane_c, segment, first, cc, n_grains,
+                        static_overlap, contact_constant, exponent, inverse_mass, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
                         contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
             if wp.static(DASHPOT):
                 lost = dashpot_losses(s_prev, lost, edges_even, lane, base, has_left, has_right, delta0, contact_bits,

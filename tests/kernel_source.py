@@ -41,4 +41,4 @@ def call_count(source: str, name: str) -> int:
     """Call sites of the ``@wp.func`` called ``name`` in a piece of generated source."""
     import re
 
-    return len(re.findall(rf"= [\w]*__locals__{name}_\d+\(", source))
+    return len(re.findall(rf"(?:= |^\s+)[\w]*__locals__{name}_\d+\(", source, re.MULTILINE))

@@ -113,8 +113,8 @@ def test_tile_event_steps_hold_a_fixed_bottom():
 
 def test_tile_kernel_writes_the_event_step_once():
     """The fused kernel tests every grain of a lane (unrolled: 2 calls of the contact test per grain) but
-    calls the event step once per lane-step, in a loop over the flagged grains, whatever G: inlined per
-    grain it made the CUDA code G times larger (kernels/tile.py). Generated C++ only, nothing compiled."""
+    writes the event step once, in the loop over rounds of the chain's shared event steps, whatever G: inlined
+    per grain it made the CUDA code G times larger (kernels/tile.py). Generated C++ only, nothing compiled."""
     for features in (Features(method="gear4", surface="wall", bottom="wall", static="none", event_window=0.5),
                      Features(method="gear5", surface="driven", bottom="fixed", static="uniform",
                               event_window=0.5)):
@@ -123,11 +123,14 @@ def test_tile_kernel_writes_the_event_step_once():
             source = generated_source(tile_kernel(features, shape), block_dim=shape.block_dim)
             advance = function_body(source, "advance")
             assert call_count(advance, "near_event") == 2 * grains_per_lane, (features, grains_per_lane)
-            assert call_count(advance, "event_step") == 1, (features, grains_per_lane)
+            assert call_count(advance, "event_step") == 0, (features, grains_per_lane)
+            assert call_count(advance, "shared_event_steps") == 1, (features, grains_per_lane)
+            assert call_count(function_body(source, "shared_event_steps"), "event_step") == 1, (features,
+                                                                                                 grains_per_lane)
     # out of line (the default): the one call site calls a function the compiler must not inline
     shape = TileShape(8, 4)
     source = generated_source(tile_kernel(features, shape), block_dim=shape.block_dim)
-    assert call_count(function_body(source, "advance"), "event_step_call") == 1
+    assert call_count(function_body(source, "shared_event_steps"), "event_step_call") == 1
     assert re.search(r"^static WP_NOINLINE [^\n]*__locals__event_step_call_\d+\(", source, re.MULTILINE)
 
 
