@@ -61,14 +61,16 @@ def event_functions(features: Features):
     WINDOW = float(f.event_window)
     M = SUBSTEPS
     GEAR4 = Q == 4
+    TOP = Q - 2  # Horner's loops below run over names and literals only, so that Warp unrolls them
     _, excess_force = contact_functions(f.precision, f.hertz)
     derivatives = contact_derivatives(f.precision, f.hertz)
 
     @wp.func
     def near_event(delta_now: real, delta_pred: real, rate_h: real, h: real) -> bool:
-        if (delta_now > real(0)) != (delta_pred > real(0)):
-            return True
-        return wp.abs(delta_now) * h < wp.abs(rate_h) * real(wp.static(WINDOW))
+        # both halves evaluated, no branch (the fused kernels test every contact every step)
+        crossed = (delta_now > real(0)) != (delta_pred > real(0))
+        near = wp.abs(delta_now) * h < wp.abs(rate_h) * real(wp.static(WINDOW))
+        return crossed or near
 
     @wp.func
     def taylor(x: values_t, tau: real) -> vec3:
@@ -76,11 +78,11 @@ def event_functions(features: Features):
         u = x[Q - 1]
         du = real(Q - 1) * x[Q - 1]
         ddu = real((Q - 1) * (Q - 2)) * x[Q - 1]
-        for j in range(Q - 2, -1, -1):
+        for j in range(TOP, -1, -1):
             u = u * tau + x[j]
-        for j in range(Q - 2, 0, -1):
+        for j in range(TOP, 0, -1):
             du = du * tau + real(j) * x[j]
-        for j in range(Q - 2, 1, -1):
+        for j in range(TOP, 1, -1):
             ddu = ddu * tau + real(j * (j - 1)) * x[j]
         return vec3(u, du, ddu)
 
@@ -173,7 +175,7 @@ def event_functions(features: Features):
     def offset(x: values_t, tau: real) -> real:
         # compensated: a Nordsieck polynomial at t_n + tau·dt minus its hi part x0 (Horner, low parts added)
         o = x[Q - 1]
-        for j in range(Q - 2, 0, -1):
+        for j in range(TOP, 0, -1):
             o = o * tau + x[j]
         return o * tau + (x[wp.static(LO_RATE)] * tau + x[wp.static(LO_U)])
 

@@ -92,10 +92,10 @@ class TileShape:
     """float64 Hertz on CUDA: the sqrt's fast path without a branch per contact (one test per lane-step)."""
     max_registers: int = 0
     """CUDA register cap per thread (0: the compiler's choice); lower caps fit more blocks per SM."""
-    inline_event_step: bool = False
-    """Event-aware steps: the event step (called once per lane-step) as an out-of-line function (CUDA
-    ``__noinline__``: less code, live registers saved around the call); True: inlined. Same bits. Out of line
-    was 1.3-1.5x faster on an H100 (gpu_10k's chains, G = 8 and 4; docs/benchmarks.md)."""
+    inline_event_step: bool = True
+    """Event-aware steps: the event step (written once, in the loop over rounds) inlined; False: an out-of-line
+    function (CUDA ``__noinline__``). Same bits. Since the event steps moved to shared memory and rounds, inlined
+    compiles without spills at G = 4 where out of line spills (sm_90, ptxas; docs/benchmarks.md)."""
 
     @property
     def block_dim(self) -> int:
@@ -113,8 +113,8 @@ class TileShape:
             text += f" regs<={self.max_registers}"
         if not self.fast_sqrt:
             text += " sqrt=rn"
-        if self.inline_event_step:
-            text += " event-step=inline"
+        if not self.inline_event_step:
+            text += " event-step=call"
         return text
 
     @property
@@ -173,6 +173,9 @@ def tile_kernel(features: Features, shape: TileShape):
     CPB = shape.chains_per_block
     B = shape.block_dim
     BG = B * G  # grains a block holds
+    G1 = G + 1  # contacts a lane sweeps (a name: Warp unrolls range() only over a literal or a constant's name)
+    MAX_UNROLL = max(16, G1)  # every loop over a lane's grains or contacts unrolled (Warp's default limit is 16):
+    # a loop left to run indexes the lane's register vectors at run time, which puts them in local memory
     WINDOWED = shape.windowed
     MASKED = shape.masked
     SURFACE_WALL = f.surface == "wall"
@@ -315,7 +318,7 @@ def tile_kernel(features: Features, shape: TileShape):
         # kernels/step.py's dashpot γ·δ̇ of each of the lane's G + 1 contacts at the predicted t_n+1 (a contact the
         # chain lacks, at a free end, has none): upper minus lower grain, as both of its grains compute it there
         out = contact_vec()
-        for j in range(G + 1):
+        for j in range(G1):
             upper_u = u_left
             upper_rate = rate_left
             if j > 0:
@@ -562,7 +565,7 @@ def tile_kernel(features: Features, shape: TileShape):
                 delta[k + 1] = delta0[k + 1] + (up[k] - u_below)
         force = forces(delta, a_c, force0, n)
         if wp.static(MASKED and FREE_END):
-            for k in range(G + 1):
+            for k in range(G1):
                 if (contact_bits & (1 << k)) == 0:
                     force[k] = real(0)
         if wp.static(DASHPOT):
@@ -577,7 +580,7 @@ def tile_kernel(features: Features, shape: TileShape):
                 rate_right = wp.tile_extract(edges, lane + 1, 2)
             damp = dashpot_forces(up, lane_rates(s, k0, amplitude, omega, phase_new, dt), u_left, rate_left, u_right,
                                   rate_right, delta0, contact_bits, gamma, h)
-            for k in range(G + 1):
+            for k in range(G1):
                 force[k] = force[k] + damp[k]
         if wp.static(EVENTS):
             # grains touching a contact near an opening or closing (kernels/step.py's event test), from t_n's (u, dt·v)
@@ -586,35 +589,33 @@ def tile_kernel(features: Features, shape: TileShape):
             if wp.static(DRIVEN):
                 if k0 >= 0:
                     driver_above = driver_values_at(amplitude, omega, phase_old[0], phase_old[1], dt)
-            event_bits = int(0)
-            for k in range(G):
-                above_u = left_values[0]
-                above_hv = left_values[1]
-                u_above = u_left
-                if k > 0:
-                    above_u = s[0, wp.max(k - 1, 0)]
-                    above_hv = s[1, wp.max(k - 1, 0)]
-                    u_above = up[wp.max(k - 1, 0)]
-                below_u = right_values[0]
-                below_hv = right_values[1]
-                u_below = u_right
-                if k < G - 1:
-                    below_u = s[0, wp.min(k + 1, G - 1)]
-                    below_hv = s[1, wp.min(k + 1, G - 1)]
-                    u_below = up[wp.min(k + 1, G - 1)]
+            # each of the lane's G + 1 contacts tested once, without a branch (branches around the tests broke the
+            # step into pieces the compiler could not interleave: the kernel ran 2.3x slower on an H100); a grain is
+            # flagged when either of its contacts is. Contact c joins grains c - 1 (above) and c of the lane.
+            contact_flags = int(0)
+            for c in range(G1):
+                upper_u = left_values[0]
+                upper_hv = left_values[1]
+                upper_pred = u_left
+                if c > 0:
+                    upper_u = s[0, wp.max(c - 1, 0)]
+                    upper_hv = s[1, wp.max(c - 1, 0)]
+                    upper_pred = up[wp.max(c - 1, 0)]
+                lower_u = right_values[0]
+                lower_hv = right_values[1]
+                lower_pred = u_right
+                if c < G:
+                    lower_u = s[0, wp.min(c, G - 1)]
+                    lower_hv = s[1, wp.min(c, G - 1)]
+                    lower_pred = up[wp.min(c, G - 1)]
                 if wp.static(DRIVEN):
-                    if k0 >= 0 and k == k0 + 1:
-                        above_u = driver_above[0]
-                        above_hv = driver_above[1]
-                flagged = False
-                if (contact_bits & (1 << k)) != 0:
-                    flagged = near_event(delta0[k] + (above_u - s[0, k]), delta0[k] + (u_above - up[k]),
-                                         above_hv - s[1, k], h)
-                if (contact_bits & (1 << (k + 1))) != 0:
-                    flagged = flagged or near_event(delta0[k + 1] + (s[0, k] - below_u),
-                                                    delta0[k + 1] + (up[k] - u_below), s[1, k] - below_hv, h)
-                if flagged:
-                    event_bits = event_bits | (1 << k)
+                    driver_above_here = k0 >= 0 and c == k0 + 1
+                    upper_u = wp.where(driver_above_here, driver_above[0], upper_u)
+                    upper_hv = wp.where(driver_above_here, driver_above[1], upper_hv)
+                hit = near_event(delta0[c] + (upper_u - lower_u), delta0[c] + (upper_pred - lower_pred),
+                                 upper_hv - lower_hv, h)
+                contact_flags = contact_flags | ((int(hit) & ((contact_bits >> c) & 1)) << c)
+            event_bits = (contact_flags | (contact_flags >> 1)) & ((1 << G) - 1)
             # one vote a step: a block with no flagged grain (most steps) skips the rest; otherwise every lane
             # publishes its t_n state to shared memory, where the event steps read their neighbours
             any_event = block_any(event_bits)
@@ -692,7 +693,7 @@ def tile_kernel(features: Features, shape: TileShape):
 
     # the module's block size is the launch's: Warp hashes a module's source for its default block size when the
     # kernel is made and again for each other size it is loaded with (each hash walks every function the kernel calls)
-    @wp.kernel(module="unique", module_options=dict(KERNEL_OPTIONS, block_dim=B), enable_backward=False,
+    @wp.kernel(module="unique", module_options=dict(KERNEL_OPTIONS, block_dim=B, max_unroll=MAX_UNROLL), enable_backward=False,
                grid_stride=False, cuda_max_registers=shape.max_registers or None)
     def fused(
         x_in: wp.array3d(dtype=real),
@@ -770,7 +771,7 @@ def tile_kernel(features: Features, shape: TileShape):
         hi = n_grains - 1
         if wp.static(BOTTOM_WALL):
             hi = n_grains
-        for k in range(G + 1):
+        for k in range(G1):
             kk = wp.min(wp.max(base + k, 0), n_grains)
             if base + k >= lo and base + k <= hi:
                 contact_bits = contact_bits | (1 << k)
@@ -984,7 +985,7 @@ class TilePlan:
 def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_per_lane: int = 8,
               lanes_per_chain: int | None = None, chains_per_block: int = 1, steps_per_launch: int = 64,
               windowed: bool = False, branchless: bool = True, fast_sqrt: bool = True,
-              max_registers: int = 0, inline_event_step: bool = False) -> TilePlan:
+              max_registers: int = 0, inline_event_step: bool = True) -> TilePlan:
     """Lay out a fused launch for ``chain_count`` chains of ``grain_count`` grains.
 
     Whole chains: ``lanes_per_chain = ceil(grain_count / grains_per_lane)`` unless given (it must cover

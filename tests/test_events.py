@@ -112,7 +112,7 @@ def test_tile_event_steps_hold_a_fixed_bottom():
 
 
 def test_tile_kernel_writes_the_event_step_once():
-    """The fused kernel tests every grain of a lane (unrolled: 2 calls of the contact test per grain) but
+    """The fused kernel tests every contact of a lane once (unrolled: G + 1 calls of the contact test) but
     writes the event step once, in the loop over rounds of the chain's shared event steps, whatever G: inlined
     per grain it made the CUDA code G times larger (kernels/tile.py). Generated C++ only, nothing compiled."""
     for features in (Features(method="gear4", surface="wall", bottom="wall", static="none", event_window=0.5),
@@ -122,26 +122,26 @@ def test_tile_kernel_writes_the_event_step_once():
             shape = TileShape(grains_per_lane, 4, inline_event_step=True)
             source = generated_source(tile_kernel(features, shape), block_dim=shape.block_dim)
             advance = function_body(source, "advance")
-            assert call_count(advance, "near_event") == 2 * grains_per_lane, (features, grains_per_lane)
+            assert call_count(advance, "near_event") == grains_per_lane + 1, (features, grains_per_lane)
             assert call_count(advance, "event_step") == 0, (features, grains_per_lane)
             assert call_count(advance, "shared_event_steps") == 1, (features, grains_per_lane)
             assert call_count(function_body(source, "shared_event_steps"), "event_step") == 1, (features,
                                                                                                  grains_per_lane)
-    # out of line (the default): the one call site calls a function the compiler must not inline
-    shape = TileShape(8, 4)
+    # out of line: the one call site calls a function the compiler must not inline
+    shape = TileShape(8, 4, inline_event_step=False)
     source = generated_source(tile_kernel(features, shape), block_dim=shape.block_dim)
     assert call_count(function_body(source, "shared_event_steps"), "event_step_call") == 1
     assert re.search(r"^static WP_NOINLINE [^\n]*__locals__event_step_call_\d+\(", source, re.MULTILINE)
 
 
-def test_inlined_event_step_takes_the_same_steps():
-    """TileShape.inline_event_step = True (a tuning knob for CUDA; out of line is the default) computes the
+def test_out_of_line_event_step_takes_the_same_steps():
+    """TileShape.inline_event_step = False (a tuning knob for CUDA; inlined is the default) computes the
     same bits."""
     sections, n_chains, plan_keywords = EVENT_CASES["l0 = 0, gear4, free ends, 2 chains per block"]
     steps = 300
     model = build_model(chains(n_chains, **sections), "cpu")
-    plan = plan_tile(model.features, model.grain_count, model.chain_count, inline_event_step=True, **plan_keywords)
-    assert "event-step=inline" in plan.describe()
+    plan = plan_tile(model.features, model.grain_count, model.chain_count, inline_event_step=False, **plan_keywords)
+    assert "event-step=call" in plan.describe()
     np.testing.assert_array_equal(fused(model, plan, steps), per_step(model, steps))
 
 

@@ -6,8 +6,8 @@
 The workload is ``sweeps/frontier_16384.toml`` (16 384 copies of the paper's 1000-grain impact, v_imp within
 ±1 %, l0 = 1e-4, to t = 20): all chains in one model, advanced ``--steps`` steps from t = 0 in chunks of
 ``--chunk`` (the time per chunk shows how the cost follows the motion). Variants: plain Gear steps (``off``)
-and event-aware steps (``call``: the event step out of line, the default) at G grains per lane, one chain per
-block. Prints one JSON object per variant (compile seconds, seconds per chunk, grain-steps/s, the largest
+and event-aware steps (``inline``: the event step inlined, the default; ``call``: out of line) at G grains per
+lane, one chain per block. Prints one JSON object per variant (compile seconds, seconds per chunk, grain-steps/s, the largest
 difference of the final state from the first event variant, how many chains ended not OK).
 """
 
@@ -56,7 +56,7 @@ def main() -> None:
         kind, G = name.rstrip("0123456789"), int(name[len(name.rstrip("0123456789")):])
         f = replace(f_events, event_window=0.0) if kind == "off" else f_events
         plan = plan_tile(f, model.grain_count, model.chain_count, grains_per_lane=G, steps_per_launch=64,
-                         inline_event_step=(kind == "inline"))
+                         inline_event_step=(kind != "call"))
         m = replace(model, features=f) if kind == "off" else model
         solver = make_solver(m, config_of(plan))
         t0 = time.perf_counter()
