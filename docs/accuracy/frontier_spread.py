@@ -24,8 +24,8 @@ from hertzian.ensemble.scene import load_scene
 
 CONFIGS = [  # (method, events, dt)
     ("gear4", "off", 2e-4), ("gear4", "off", 1.6e-4), ("gear4", "off", 1.25e-4), ("gear4", "off", 1e-4),
-    ("gear4", "auto", 4e-4), ("gear4", "auto", 3.2e-4),
-    ("gear6", "auto", 1e-3), ("gear6", "auto", 8e-4),
+    ("gear4", "auto", 6.4e-4), ("gear4", "auto", 5e-4), ("gear4", "auto", 4e-4), ("gear4", "auto", 3.2e-4),
+    ("gear6", "auto", 1.25e-3), ("gear6", "auto", 1e-3), ("gear6", "auto", 8e-4),
 ]
 INDICES = [0, 2048, 4096, 6144, 8192, 10240, 12288, 14336, 16383]
 SPEEDS = [float(v) for v in np.linspace(0.0099, 0.0101, 16384)[INDICES]]

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d nov28e nov28f nov28g nov28h nov28i nov28j nov28k nov28l nov29a nov29b nov29c)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d nov28e nov28f nov28g nov28h nov28i nov28j nov28k nov28l nov29a nov29b nov29c nov29d nov29e)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -976,6 +976,31 @@ nov29c)
   # the event step inlined or out of line (kernels/tile.py), against plain steps; the CUDA event tests first
   step cuda_event_tests 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and event' tests 2>&1"
   step frontier_probe_rounds 300 "python3 docs/gpu_logs/frontier_events_probe.py --variants off4,inline4,call4,off8,inline8"
+  ;;
+nov29d)
+  # issue 15: what the event-aware tile kernel's steps cost without event steps (exp/abl: kernels/tile.py with
+  # HZ_ABLATE = 0 as committed; 1 vote taken but its branch never; 2 no vote (the test's code then unused);
+  # 3 a vote on a constant 0 flag (the barrier alone)), G = 4, the event step inlined; plain steps beside
+  step frontier_probe_off4 120 "python3 docs/gpu_logs/frontier_events_probe.py --variants off4"
+  mkdir -p /tmp/hzabl/hertzian
+  for d in ensemble kernels sweeps; do ln -sfn "$REPO/exp/abl/$d" "/tmp/hzabl/hertzian/$d"; done
+  for a in ${ABLATIONS:-0 1 2 3}; do
+    step "frontier_probe_ablate$a" 120 "cd exp/abl && HZ_ABLATE=$a WARP_CACHE_PATH=/tmp/wc_$a PYTHONPATH=/tmp/hzabl:/tmp/site python3 docs/gpu_logs/frontier_events_probe.py --variants inline4"
+  done
+  ;;
+nov29e)
+  # issue 15 after the branch-free event test (each contact once) and the unrolled lane loops: the tile kernel
+  # alone (probe), then end to end: gear6 with event steps at 1e-3, gear4 with event steps at 4e-4 and plain at
+  # 1e-4 and 2e-4 (docs/accuracy/frontier_spread_cpu.json: which steps meet 1e-8 on the sweep's speeds)
+  step cuda_event_tests 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and event' tests 2>&1"
+  step frontier_probe_e 300 "python3 docs/gpu_logs/frontier_events_probe.py --variants off4,inline4,call4,off8,inline8"
+  F="$HZ bench --device cuda --sweep sweeps/frontier_16384.toml --json"
+  step frontier_gear6_auto_1e-3 240 "$F --set integrator.method=gear6 --set integrator.dt=1e-3 --set integrator.events=auto"
+  step frontier_gear6_auto_1e-3_warm 120 "$F --set integrator.method=gear6 --set integrator.dt=1e-3 --set integrator.events=auto"
+  step frontier_gear4_auto_4e-4 240 "$F --set integrator.method=gear4 --set integrator.dt=4e-4 --set integrator.events=auto"
+  step frontier_gear4_auto_4e-4_warm 120 "$F --set integrator.method=gear4 --set integrator.dt=4e-4 --set integrator.events=auto"
+  step frontier_gear4_off_2e-4 150 "$F --set integrator.method=gear4 --set integrator.dt=2e-4 --set integrator.events=off"
+  step frontier_gear4_off_1e-4 150 "$F --set integrator.method=gear4 --set integrator.dt=1e-4 --set integrator.events=off"
   ;;
 detect)
   step detect_study_1000 500 "$HZ detect-study sweeps/detect_study_1000.toml --out $LOGS/study_1000_gpu.json --overwrite --device cuda"
