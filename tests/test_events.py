@@ -183,3 +183,22 @@ def test_cuda_runs_with_event_steps_say_what_they_cost():
                                     integrator={"events": "off"})])
     assert 'integrator.events = "off"' in event_cost_note(loose, is_cpu=False)
     assert event_cost_note(loose, is_cpu=True) is None and event_cost_note(plain, is_cpu=False) is None
+
+
+def test_event_kernels_calibrate_only_shapes_that_do_not_spill():
+    """The calibration times G = 8 and 4 for a kernel with event-aware steps (at G = 16 or under a 168-register cap
+    its event code spills on sm_90), and still G = 16 and the capped G = 8 for plain steps."""
+    from hertzian.ensemble.solvers.calibrate import whole_chain_configs
+
+    sections = {"chain": {"grains": 200, "l0": 0.0}, "excitation": {"impact": 1e-2},
+                "integrator": {"method": "gear4", "dt": 1e-3, "duration": 1.0}}
+    events = build_model(chains(4, **sections), "cpu")
+    plain = build_model(chains(4, **{**sections, "integrator": {**sections["integrator"], "events": "off"}}), "cpu")
+    assert events.features.event_window > 0 and plain.features.event_window == 0
+
+    def shapes(model):
+        return {(c.shape.grains_per_lane, c.shape.max_registers) for c in whole_chain_configs(model)}
+
+    assert {G for G, _ in shapes(events)} == {4, 8}
+    assert all(cap == 0 for _, cap in shapes(events))
+    assert (16, 0) in shapes(plain) and (8, 168) in shapes(plain)
