@@ -23,11 +23,15 @@ Long chains (more grains than a block holds) are cut into windows of ``interior`
 ``steps ≤ ghost`` steps a window's interior is exact; only the interior is written back. Windows read
 ``x_in`` and write ``x_out`` (never the same buffer), so no window sees another's partial update.
 
-Event-aware steps (kernels/events.py, ``Features.event_window > 0``): after the corrector every grain's
-contacts are tested (unrolled, cheap) into one bit per flagged grain; the event step (Runge–Kutta substeps)
-is then called once per set bit in a loop, its inputs gathered and its result scattered by selects over
-the G static register positions, so the code holds one event step per lane, not G. Every event step
-reads its neighbours at t_n, as in the per-step kernel.
+Event-aware steps (kernels/events.py, ``Features.event_window > 0``): before the corrector each of a lane's G + 1
+contacts is tested once, without a branch, into one bit per flagged grain, and the block votes (one
+``__syncthreads_or``) whether any grain is flagged. Most steps none is, and the block goes on to its corrector. When
+one is, every lane publishes its state at t_n to shared memory and the chain's flagged grains are stepped by its lanes
+in rounds (lane j takes the chain's grain j + m·L in round m, so neighbouring flagged grains, which sit in one lane, go
+to neighbouring lanes); each event step reads its neighbours at t_n from shared memory, as the per-step kernel does,
+and its result goes to the grain's slot of a shared tile, from which the owning lane takes it after its corrector.
+The event step is written once (inlined by default, ``TileShape.inline_event_step``); on the CPU every lane takes the
+event branch each step (same bits).
 
 A driven surface (``surface = "driven"``), in kernels/step.py's arithmetic (grain 1 must sit in grain 0's lane):
 the lane holding grain 0 takes the driver's u_0(t_{n+1}) as that grain's predicted position, by a select in every
@@ -1019,10 +1023,33 @@ def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_
         plan = TilePlan(shape, steps_per_launch, n, 0, 1, -(-chain_count // chains_per_block))
     if plan.shape.block_dim > 1024:
         raise ValueError(f"block of {plan.shape.block_dim} threads: at most 1024")
+    needed = shared_bytes(features, plan.shape)
+    if needed > SHARED_BYTES:
+        raise ValueError(f"block of {plan.shape.block_dim} lanes x {G} grains needs {needed} bytes of shared memory "
+                         f"(event steps keep the block's state there): at most {SHARED_BYTES}")
     cap = launchable_register_cap(plan.shape.block_dim)
     if cap and (max_registers == 0 or max_registers > cap):
         plan = replace(plan, shape=replace(plan.shape, max_registers=cap))
     return plan
+
+
+SHARED_BYTES = 227 * 1024
+"""Shared memory one block may use on the GPUs this was measured on (sm_90: 227 KiB; Warp's CPU blocks: 256 KiB)."""
+
+
+def shared_bytes(features: Features, shape: TileShape) -> int:
+    """Bytes of shared memory a block of the fused kernel uses: the two edge tiles, the driver's powers, and with
+    event-aware steps the block's state at t_n, one result per grain and the flags."""
+    size = 8 if features.precision == "float64" else 4
+    B, G, Q = shape.block_dim, shape.grains_per_lane, features.values
+    events = features.event_window > 0
+    edge = 6 if features.damping == "contact" else (6 if events else 2) + (2 if features.compensation else 0)
+    total = 2 * B * edge * size
+    if features.surface == "driven":
+        total += B * 8
+    if events:
+        total += 2 * B * G * Q * size + B * 4
+    return total
 
 
 REGISTER_FILE = 65536

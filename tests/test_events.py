@@ -202,3 +202,19 @@ def test_event_kernels_calibrate_only_shapes_that_do_not_spill():
     assert {G for G, _ in shapes(events)} == {4, 8}
     assert all(cap == 0 for _, cap in shapes(events))
     assert (16, 0) in shapes(plain) and (8, 168) in shapes(plain)
+
+
+def test_event_shapes_beyond_shared_memory_are_refused():
+    """With event-aware steps a block keeps its state at t_n and one result per grain in shared memory; a shape
+    that needs more than a block may have is refused at planning (the calibration then skips it), one line."""
+    from hertzian.kernels.tile import SHARED_BYTES, shared_bytes
+
+    events = Features(method="gear4", surface="wall", bottom="wall", static="uniform", event_window=1e-2)
+    plain = Features(method="gear4", surface="wall", bottom="wall", static="uniform")
+    big = dict(grains_per_lane=16, lanes_per_chain=256)
+    assert shared_bytes(events, TileShape(16, 256)) == 2 * 256 * 6 * 8 + 2 * 256 * 16 * 4 * 8 + 256 * 4
+    with pytest.raises(ValueError, match="shared memory"):
+        plan_tile(events, 4096, 1, **big)
+    assert shared_bytes(plain, TileShape(16, 256)) <= SHARED_BYTES
+    plan_tile(plain, 4096, 1, **big)
+    plan_tile(events, 1000, 1, grains_per_lane=4)  # the frontier workload's shape fits

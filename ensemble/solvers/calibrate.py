@@ -90,12 +90,13 @@ def step_reason_of(features, is_cpu: bool, grain_steps: float) -> str | None:
 
 def event_cost_note(features, is_cpu: bool) -> str | None:
     """One line when a CUDA run carries event-aware steps (a contact can open, ``integrator.events = "auto"``),
-    which measured ~20× slower in the fused kernels on an H100 (docs/benchmarks.md); None otherwise."""
+    which cost the fused kernels 2-11x the time of plain steps on an H200, the more contacts open
+    (docs/benchmarks.md, seventh session); None otherwise."""
     if is_cpu or features.event_window <= 0:
         return None
     return ('event-aware steps are compiled in (a contact can open; integrator.events = "auto"): on CUDA they '
-            'made the fused kernel ~20x slower (docs/benchmarks.md, docs/stability.md 6c); integrator.events = "off" '
-            'takes plain Gear steps')
+            'cost the fused kernel 2-11x the time of plain steps, the more contacts open (docs/benchmarks.md, '
+            'docs/stability.md 6c, 7c); integrator.events = "off" takes plain Gear steps')
 
 
 def step_reason(model: Model, run_steps: int | None = None) -> str | None:
