@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d nov28e nov28f nov28g nov28h nov28i nov28j nov28k nov28l nov29a nov29b nov29c nov29d nov29e nov29f nov29g)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d nov28e nov28f nov28g nov28h nov28i nov28j nov28k nov28l nov29a nov29b nov29c nov29d nov29e nov29f nov29g nov29h nov29i)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -1021,6 +1021,25 @@ nov29g)
   step e2e_gpu10k_events_auto 240 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --set integrator.events=auto --json"
   step e2e_gpu10k_events_auto_warm 200 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --set integrator.events=auto --json"
   step e2e_gpu10k_off_warm 120 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
+  ;;
+nov29h)
+  # the submitted state of the seventh session: every CUDA test (the tile loops' unrolling touched every fused
+  # kernel), then the 1000-grain bench scenes with the default event-aware steps and with plain steps
+  step pytest_cuda_h 480 "python3 -m pytest -q -p no:cacheprovider -k cuda tests 2>&1"
+  for s in impact_1000 impact_1000_traces driven_1000; do
+    step "e2e_${s}_auto_h" 90 "$HZ bench --device cuda --scene docs/bench/$s.toml --json"
+    step "e2e_${s}_off_h" 90 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.events=off --json"
+  done
+  ;;
+nov29i)
+  # the whole reproduction with each sweep file's own events setting (event-aware steps where a file keeps the default)
+  # and with plain steps, fresh then warm
+  step reproduce_default_cold_i 300 "$HZ reproduce --device cuda --out-dir $WORK/repro_default_cold"
+  cp "$WORK"/repro_default_cold/log.json "$LOGS"/reproduce_default_cold_i_log.json 2>/dev/null
+  step reproduce_default_warm_i 150 "$HZ reproduce --device cuda --out-dir $WORK/repro_default_warm"
+  cp "$WORK"/repro_default_warm/log.json "$LOGS"/reproduce_default_warm_i_log.json 2>/dev/null
+  step reproduce_off_warm_i 120 "$HZ reproduce --device cuda --events off --out-dir $WORK/repro_off_warm"
+  cp "$WORK"/repro_off_warm/log.json "$LOGS"/reproduce_off_warm_i_log.json 2>/dev/null
   ;;
 detect)
   step detect_study_1000 500 "$HZ detect-study sweeps/detect_study_1000.toml --out $LOGS/study_1000_gpu.json --overwrite --device cuda"
