@@ -1032,14 +1032,12 @@ nov29h)
   done
   ;;
 nov29i)
-  # the whole reproduction with each sweep file's own events setting (event-aware steps where a file keeps the default)
-  # and with plain steps, fresh then warm
+  # the whole reproduction with each sweep file's own events setting (event-aware steps where a file keeps the
+  # default), fresh then warm
   step reproduce_default_cold_i 300 "$HZ reproduce --device cuda --out-dir $WORK/repro_default_cold"
   cp "$WORK"/repro_default_cold/log.json "$LOGS"/reproduce_default_cold_i_log.json 2>/dev/null
   step reproduce_default_warm_i 150 "$HZ reproduce --device cuda --out-dir $WORK/repro_default_warm"
   cp "$WORK"/repro_default_warm/log.json "$LOGS"/reproduce_default_warm_i_log.json 2>/dev/null
-  step reproduce_off_warm_i 120 "$HZ reproduce --device cuda --events off --out-dir $WORK/repro_off_warm"
-  cp "$WORK"/repro_off_warm/log.json "$LOGS"/reproduce_off_warm_i_log.json 2>/dev/null
   ;;
 detect)
   step detect_study_1000 500 "$HZ detect-study sweeps/detect_study_1000.toml --out $LOGS/study_1000_gpu.json --overwrite --device cuda"
