@@ -48,14 +48,26 @@ def main() -> None:
     print(json.dumps({"device": str(model.device), "name": getattr(model.device, "name", ""),
                       "warp": wp.__version__, "features": repr(f_events), "chains": model.chain_count,
                       "grains": model.grain_count, "dt": model.dt}), flush=True)
+    rows = time_variants(model, args.variants.split(","), args.steps, args.chunk, several_chains_per_block=True)
+    if args.out:
+        with open(args.out, "w") as handle:
+            json.dump(rows, handle, indent=1)
+
+
+def time_variants(model, variants: list[str], steps: int, chunk: int, *, several_chains_per_block: bool) -> list[dict]:
+    """Time the tile kernel on ``model`` for each variant (``off``/``inline``/``call`` + G, e.g. ``call4``): plain Gear
+    steps, or event-aware steps with the event step inlined or out of line, G grains per lane; ``steps`` steps from
+    t = 0 in chunks of ``chunk``. Several short chains per block (up to 128 threads) or one chain per block. Prints
+    and returns one row per variant; event variants are compared with the first one (``bitwise_equal``)."""
+    f_events = model.features
     reference = None
     results = []
-    for name in args.variants.split(","):
+    for name in variants:
         kind, G = name.rstrip("0123456789"), int(name[len(name.rstrip("0123456789")):])
         f = replace(f_events, event_window=0.0) if kind == "off" else f_events
         lanes = -(-model.grain_count // G)
         per_block = 1
-        while per_block * 2 * lanes <= 128 and per_block * 2 <= model.chain_count:
+        while several_chains_per_block and per_block * 2 * lanes <= 128 and per_block * 2 <= model.chain_count:
             per_block *= 2
         plan = plan_tile(f, model.grain_count, model.chain_count, grains_per_lane=G, chains_per_block=per_block,
                          steps_per_launch=64, inline_event_step=(kind != "call"))
@@ -69,17 +81,17 @@ def main() -> None:
         current = a
         chunks = []
         done = 0
-        while done < args.steps:
-            k = min(args.chunk, args.steps - done)
+        while done < steps:
+            k = min(chunk, steps - done)
             t0 = time.perf_counter()
             current = solver.advance(current, b if current is a else a, k)
             wp.synchronize_device(m.device)
             chunks.append(time.perf_counter() - t0)
             done += k
         x = current.x.numpy()
-        row = {"variant": name, "plan": plan.describe(), "compile_s": compile_s, "chunk_steps": args.chunk,
+        row = {"variant": name, "plan": plan.describe(), "compile_s": compile_s, "chunk_steps": chunk,
                "chunk_s": chunks, "total_s": sum(chunks),
-               "grain_steps_per_s": m.chain_count * m.grain_count * args.steps / sum(chunks),
+               "grain_steps_per_s": m.chain_count * m.grain_count * steps / sum(chunks),
                "status_nonzero": int(np.count_nonzero(current.status.numpy()))}
         if kind != "off":
             if reference is None:
@@ -89,9 +101,7 @@ def main() -> None:
                 row["bitwise_equal"] = bool(np.array_equal(x, reference))
         results.append(row)
         print(json.dumps(row), flush=True)
-    if args.out:
-        with open(args.out, "w") as handle:
-            json.dump(results, handle, indent=1)
+    return results
 
 
 if __name__ == "__main__":
