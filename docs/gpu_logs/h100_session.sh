@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d nov28e nov28f nov28g nov28h nov28i nov28j nov28k nov28l nov29a nov29b nov29c nov29d nov29e nov29f nov29g nov29h nov29i)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d nov28e nov28f nov28g nov28h nov28i nov28j nov28k nov28l nov29a nov29b nov29c nov29d nov29e nov29f nov29g nov29h nov29i nov29j)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -1038,6 +1038,19 @@ nov29i)
   cp "$WORK"/repro_default_cold/log.json "$LOGS"/reproduce_default_cold_i_log.json 2>/dev/null
   step reproduce_default_warm_i 150 "$HZ reproduce --device cuda --out-dir $WORK/repro_default_warm"
   cp "$WORK"/repro_default_warm/log.json "$LOGS"/reproduce_default_warm_i_log.json 2>/dev/null
+  ;;
+nov29j)
+  # the submitted event kernel (exp/abl2 = commit after the seventh session's docs, with h100_2026-11-26f/ablate2.patch:
+  # register caps in the probe's variant names, HZ_ABLATE 7 = the test without the vote, 8 = the vote without the
+  # test): where the remaining cost of a step without event steps lies, and whether a register cap (2 blocks per SM
+  # at G = 4) pays, for plain and event-aware steps
+  mkdir -p /tmp/hzabl2/hertzian
+  for d in ensemble kernels sweeps; do ln -sfn "$REPO/exp/abl2/$d" "/tmp/hzabl2/hertzian/$d"; done
+  P="cd exp/abl2 && PYTHONPATH=/tmp/hzabl2:/tmp/site python3 docs/gpu_logs/frontier_events_probe.py"
+  step frontier_probe_caps 300 "$P --variants off4,off4r128,off8,inline4,inline4r168,inline4r128"
+  for a in 7 8; do
+    step "frontier_probe_ablate$a" 120 "cd exp/abl2 && HZ_ABLATE=$a WARP_CACHE_PATH=/tmp/wc2_$a PYTHONPATH=/tmp/hzabl2:/tmp/site python3 docs/gpu_logs/frontier_events_probe.py --variants inline4"
+  done
   ;;
 detect)
   step detect_study_1000 500 "$HZ detect-study sweeps/detect_study_1000.toml --out $LOGS/study_1000_gpu.json --overwrite --device cuda"
