@@ -567,25 +567,6 @@ def tile_kernel(features: Features, shape: TileShape):
                 if k < G - 1:
                     u_below = up[wp.min(k + 1, G - 1)]
                 delta[k + 1] = delta0[k + 1] + (up[k] - u_below)
-        force = forces(delta, a_c, force0, n)
-        if wp.static(MASKED and FREE_END):
-            for k in range(G1):
-                if (contact_bits & (1 << k)) == 0:
-                    force[k] = real(0)
-        if wp.static(DASHPOT):
-            # each contact's dashpot at the predicted t_n+1 (kernels/step.py: added to its Hertz force). The lane's
-            # rates are recomputed rather than kept from the edge tile above: keeping them across the barrier cost
-            # registers (sm_90, ptxas: 251 -> 255 on gpu_10k's tile kernel; docs/logs/tile_damping_code.py)
-            rate_left = real(0)
-            rate_right = real(0)
-            if has_left:
-                rate_left = wp.tile_extract(edges, lane - 1, 3)
-            if has_right:
-                rate_right = wp.tile_extract(edges, lane + 1, 2)
-            damp = dashpot_forces(up, lane_rates(s, k0, amplitude, omega, phase_new, dt), u_left, rate_left, u_right,
-                                  rate_right, delta0, contact_bits, gamma, h)
-            for k in range(G1):
-                force[k] = force[k] + damp[k]
         if wp.static(EVENTS):
             # grains touching a contact near an opening or closing (kernels/step.py's event test), from t_n's (u, dt·v)
             # and the predicted positions, before the corrector, so that t_n's state need not outlive it
@@ -629,6 +610,27 @@ def tile_kernel(features: Features, shape: TileShape):
                 shared_event_steps(states, flags, results, lane_c, segment, first, cc, n_grains, static_overlap,
                                    contact_constant, exponent, inverse_mass, n, h, amplitude, omega, phase_old, dt)
                 s = wp.tile_extract(states, lane)  # (so that the lane's registers need not hold s meanwhile)
+        # the contact forces after the event section (which needs only the overlaps), so that with event-aware steps
+        # the forces and the corrector are scheduled together, not split by the section's branch
+        force = forces(delta, a_c, force0, n)
+        if wp.static(MASKED and FREE_END):
+            for k in range(G1):
+                if (contact_bits & (1 << k)) == 0:
+                    force[k] = real(0)
+        if wp.static(DASHPOT):
+            # each contact's dashpot at the predicted t_n+1 (kernels/step.py: added to its Hertz force). The lane's
+            # rates are recomputed rather than kept from the edge tile above: keeping them across the barrier cost
+            # registers (sm_90, ptxas: 251 -> 255 on gpu_10k's tile kernel; docs/logs/tile_damping_code.py)
+            rate_left = real(0)
+            rate_right = real(0)
+            if has_left:
+                rate_left = wp.tile_extract(edges, lane - 1, 3)
+            if has_right:
+                rate_right = wp.tile_extract(edges, lane + 1, 2)
+            damp = dashpot_forces(up, lane_rates(s, k0, amplitude, omega, phase_new, dt), u_left, rate_left, u_right,
+                                  rate_right, delta0, contact_bits, gamma, h)
+            for k in range(G1):
+                force[k] = force[k] + damp[k]
         # 4. corrector. Padding grains have 1/m = 0: at rest they stay exactly 0. A fixed bottom grain is held.
         out = s
         for k in range(G):
