@@ -1040,7 +1040,7 @@ nov29i)
   cp "$WORK"/repro_default_warm/log.json "$LOGS"/reproduce_default_warm_i_log.json 2>/dev/null
   ;;
 nov29j)
-  # the submitted event kernel (exp/abl2 = commit after the seventh session's docs, with h100_2026-11-26f/ablate2.patch:
+  # the submitted event kernel (exp/abl2 = commit 1652f05 with h100_2026-11-26f/ablate2.patch:
   # register caps in the probe's variant names, HZ_ABLATE 7 = the test without the vote, 8 = the vote without the
   # test): where the remaining cost of a step without event steps lies, and whether a register cap (2 blocks per SM
   # at G = 4) pays, for plain and event-aware steps
