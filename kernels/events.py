@@ -31,7 +31,7 @@ import warp as wp
 
 from .features import GEAR_VALUES, Features
 from .gear import two_sum_function
-from .physics import contact_derivatives, contact_functions
+from .physics import contact_derivatives, contact_forces, contact_functions
 
 SUBSTEPS = 8
 """Runge–Kutta substeps over a step near an event (the error of the event step falls as SUBSTEPS^-3.5)."""
@@ -62,7 +62,10 @@ def event_functions(features: Features):
     M = SUBSTEPS
     GEAR4 = Q == 4
     TOP = Q - 2  # Horner's loops below run over names and literals only, so that Warp unrolls them
-    _, excess_force = contact_functions(f.precision, f.hertz)
+    contact_force, excess_force = contact_functions(f.precision, f.hertz)
+    # the two contacts' forces of a substep at once, branchless (float64 Hertz: the sqrt's fast path): the same bits
+    # as excess_force's, with F(δ0) computed once an event step instead of once a force (kernels/physics.py)
+    pair_forces = contact_forces(f.precision, f.hertz, 2, branchless=True, fast_sqrt=True)
     derivatives = contact_derivatives(f.precision, f.hertz)
 
     @wp.func
@@ -88,13 +91,13 @@ def event_functions(features: Features):
 
     @wp.func
     def acceleration(u: real, u_above: real, u_below: real, has_above: bool, has_below: bool,
-                     p_above: vec3, p_below: vec3, inv_m: real) -> real:
-        up = real(0)
-        down = real(0)
-        if has_above:
-            up = excess_force(p_above[0], u_above - u, p_above[1], p_above[2])
-        if has_below:
-            down = excess_force(p_below[0], u - u_below, p_below[1], p_below[2])
+                     p_above: vec3, p_below: vec3, force0: vec2, inv_m: real) -> real:
+        # (F_above − F_below)/m in excess of the static forces ``force0`` = (F(δ0_above), F(δ0_below)); a contact the
+        # grain lacks contributes 0 (computed and discarded: no branch)
+        excess = pair_forces(vec2(p_above[0] + (u_above - u), p_below[0] + (u - u_below)), vec2(p_above[1], p_below[1]),
+                             force0, p_above[2])
+        up = wp.where(has_above, excess[0], real(0))
+        down = wp.where(has_below, excess[1], real(0))
         return (up - down) * inv_m
 
     @wp.func
@@ -119,13 +122,14 @@ def event_functions(features: Features):
     def event_step(own: values_t, above: values_t, below: values_t, has_above: bool, has_below: bool,
                    p_above: vec3, p_below: vec3, inv_m: real, h: real) -> values_t:
         hh = h * h
+        force0 = vec2(contact_force(p_above[0], p_above[1], p_above[2]), contact_force(p_below[0], p_below[1], p_below[2]))
         u = own[0]
         hv = own[1]  # dt·v
         if wp.static(GEAR4):
             # remove Gear's steady-state term dt⁴/24·u⁗ from x1
             ta = taylor(above, real(0))
             tb = taylor(below, real(0))
-            hha = hh * acceleration(u, ta[0], tb[0], has_above, has_below, p_above, p_below, inv_m)
+            hha = hh * acceleration(u, ta[0], tb[0], has_above, has_below, p_above, p_below, force0, inv_m)
             j = jerks(u, hv, hha, ta, tb, has_above, has_below, p_above, p_below, inv_m, hh)
             hv = hv - j[1] / real(24)
         # classical Runge–Kutta in (u, dt·v) over M substeps of dt/M; time in units of dt
@@ -139,25 +143,25 @@ def event_functions(features: Features):
             t1 = (mf + real(1)) * s
             k1u = hv
             k1v = hh * acceleration(u, taylor(above, t0)[0], taylor(below, t0)[0], has_above, has_below,
-                                    p_above, p_below, inv_m)
+                                    p_above, p_below, force0, inv_m)
             u2 = u + real(0.5) * s * k1u
             k2u = hv + real(0.5) * s * k1v
             k2v = hh * acceleration(u2, taylor(above, tm)[0], taylor(below, tm)[0], has_above, has_below,
-                                    p_above, p_below, inv_m)
+                                    p_above, p_below, force0, inv_m)
             u3 = u + real(0.5) * s * k2u
             k3u = hv + real(0.5) * s * k2v
             k3v = hh * acceleration(u3, taylor(above, tm)[0], taylor(below, tm)[0], has_above, has_below,
-                                    p_above, p_below, inv_m)
+                                    p_above, p_below, force0, inv_m)
             u4 = u + s * k3u
             k4u = hv + s * k3v
             k4v = hh * acceleration(u4, taylor(above, t1)[0], taylor(below, t1)[0], has_above, has_below,
-                                    p_above, p_below, inv_m)
+                                    p_above, p_below, force0, inv_m)
             u = u + s / real(6) * (k1u + real(2) * k2u + real(2) * k3u + k4u)
             hv = hv + s / real(6) * (k1v + real(2) * k2v + real(2) * k3v + k4v)
         # restart the Nordsieck vector from the exact derivatives at t_{n+1}
         ta = taylor(above, real(1))
         tb = taylor(below, real(1))
-        hha = hh * acceleration(u, ta[0], tb[0], has_above, has_below, p_above, p_below, inv_m)
+        hha = hh * acceleration(u, ta[0], tb[0], has_above, has_below, p_above, p_below, force0, inv_m)
         j = jerks(u, hv, hha, ta, tb, has_above, has_below, p_above, p_below, inv_m, hh)
         new = values_t()
         new[0] = u
