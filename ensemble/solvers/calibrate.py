@@ -90,12 +90,12 @@ def step_reason_of(features, is_cpu: bool, grain_steps: float) -> str | None:
 
 def event_cost_note(features, is_cpu: bool) -> str | None:
     """One line when a CUDA run carries event-aware steps (a contact can open, ``integrator.events = "auto"``),
-    which cost the fused kernels 2-11x the time of plain steps on an H200, the more contacts open
+    which cost the fused kernels 1.7x (H100) to 11x (H200) the time of plain steps, the more contacts open
     (docs/benchmarks.md, seventh session); None otherwise."""
     if is_cpu or features.event_window <= 0:
         return None
     return ('event-aware steps are compiled in (a contact can open; integrator.events = "auto"): on CUDA they '
-            'cost the fused kernel 2-11x the time of plain steps, the more contacts open (docs/benchmarks.md, '
+            'cost the fused kernel 1.7-11x the time of plain steps, the more contacts open (docs/benchmarks.md, '
             'docs/stability.md 6c, 7c); integrator.events = "off" takes plain Gear steps')
 
 
