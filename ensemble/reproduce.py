@@ -807,7 +807,7 @@ def reproduce(out_dir: Path, *, groups: list[str] | None = None, quick: bool = F
     ``drive_grains``: the driven column's length for Figs. 9–10 (default 10 000, or 300 with ``quick``;
     the paper's times are scaled by the travel time ∝ N^(5/6)). ``kernel``: the solver choice of the sweep
     groups (default: "fused" on a GPU with ``events="off"``, whose short groups would otherwise take the
-    per-step kernel; else "auto": event-aware steps cost the fused kernels 2–11× on a GPU).
+    per-step kernel; else "auto": event-aware steps cost the fused kernels 1.7–11× on a GPU).
     Each run's ``seconds`` splits its wall time (setup, integrate, finalize or store, figures, measure).
     ``background`` (default: on a GPU): figures and measurements of a group are made in worker processes
     while the next groups integrate (same PNGs and numbers); the log's ``figure_wait_seconds`` is the time
