@@ -416,7 +416,7 @@ def tile_kernel(features: Features, shape: TileShape):
         LO_CONTACT = 0 if SURFACE_WALL else 1  # padded contacts c with LO_CONTACT <= c <= n_grains - HI_OFFSET exist
         HI_OFFSET = 0 if BOTTOM_WALL else 1
 
-        @wp.func(inline=False)
+        @wp.func
         def shared_event_steps(states: Any, flags: Any, results: Any, lane_c: int, segment: int, first: int, cc: int,
                                n_grains: int, static_overlap: wp.array2d(dtype=real),
                                contact_constant: wp.array2d(dtype=real), exponent: wp.array(dtype=real),
