@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d nov28e nov28f nov28g nov28h nov28i nov28j nov28k nov28l nov29a nov29b nov29c nov29d nov29e nov29f nov29g nov29h nov29i nov29j nov29k nov29l nov29m)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d nov28e nov28f nov28g nov28h nov28i nov28j nov28k nov28l nov29a nov29b nov29c nov29d nov29e nov29f nov29g nov29h nov29i nov29j nov29k nov29l nov29m nov29n)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -1075,6 +1075,16 @@ nov29m)
   # the rounds of event steps out of line (a noinline function): the tile kernel alone, the CUDA event tests
   step frontier_probe_m 300 "python3 docs/gpu_logs/frontier_events_probe.py --variants off4,inline4,inline8"
   step cuda_event_tests_m 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and event' tests 2>&1"
+  ;;
+nov29n)
+  # issue 11's traced scene: what the trace-writing code costs the window kernel by its presence (exp/abl3 = the
+  # commit named in h100_2026-11-26f/ablate3.patch; HZ_ABLATE=9 returns before writing any trace: wrong results,
+  # only the time counts), the kernel alone on the 1000-grain scenes in the shapes the calibration picks
+  mkdir -p /tmp/hzabl3/hertzian
+  for d in ensemble kernels sweeps; do ln -sfn "$REPO/exp/abl3/$d" "/tmp/hzabl3/hertzian/$d"; done
+  for a in 0 9; do
+    step "scenes_ablate$a" 200 "cd exp/abl3 && HZ_ABLATE=$a WARP_CACHE_PATH=/tmp/wc3_$a PYTHONPATH=/tmp/hzabl3:/tmp/site python3 docs/gpu_logs/scene_probe.py --scenes impact_1000,impact_1000_traces --configs 'lanes=32' --out $LOGS/scenes_ablate$a.json"
+  done
   ;;
 detect)
   step detect_study_1000 500 "$HZ detect-study sweeps/detect_study_1000.toml --out $LOGS/study_1000_gpu.json --overwrite --device cuda"
