@@ -664,17 +664,15 @@ def tile_kernel(features: Features, shape: TileShape):
         # step), and traces and the write-back take these values
         return vec2(real(product_rn(amplitude, phase[0])), real(dt * amplitude * omega * phase[1]))
 
-    @wp.func
-    def write_traces(s: state_t, x_in: wp.array3d(dtype=real), frozen: bool, live: bool, cc: int, base: int,
-                     keep_lo: int, keep_hi: int, trace_slot: wp.array(dtype=wp.int32), trace_stride: int,
-                     step_new: int, next_trace: int, trace_x: wp.array4d(dtype=real), amplitude: wp.float64,
-                     omega: wp.float64, phase: wp.vec2d, dt: wp.float64) -> int:
-        # kernels/step.py's trace sample after a step k·stride: (u, dt·v) of the traced grains this lane keeps
-        # (a frozen chain: its frozen state; the driven grain 0: its driver_values at ``phase``), ring slot k % length.
-        # ``next_trace``: the first multiple of the stride not yet passed (one comparison a step, not a modulo);
-        # returns the next one
-        if step_new != next_trace:
-            return next_trace
+    @wp.func(inline=False)
+    def write_trace_sample(s: state_t, x_in: wp.array3d(dtype=real), frozen: bool, live: bool, cc: int, base: int,
+                           keep_lo: int, keep_hi: int, trace_slot: wp.array(dtype=wp.int32), trace_stride: int,
+                           step_new: int, trace_x: wp.array4d(dtype=real), amplitude: wp.float64, omega: wp.float64,
+                           phase: wp.vec2d, dt: wp.float64) -> int:
+        # kernels/step.py's trace sample after step ``step_new`` (a multiple of the stride): (u, dt·v) of the traced
+        # grains this lane keeps (a frozen chain: its frozen state; the driven grain 0: its driver_values at
+        # ``phase``), ring slot k % length. Out of line: written into the step loop, this code made every step of the
+        # traced window kernel 28 % slower on an H100, though it runs once a stride (docs/benchmarks.md)
         if live:
             sample = (step_new / trace_stride) % trace_x.shape[2]
             for k in range(G):
@@ -695,6 +693,19 @@ def tile_kernel(features: Features, shape: TileShape):
                                     rate = driver[1]
                             trace_x[0, cc, sample, slot] = u
                             trace_x[1, cc, sample, slot] = rate
+        return 0
+
+    @wp.func
+    def write_traces(s: state_t, x_in: wp.array3d(dtype=real), frozen: bool, live: bool, cc: int, base: int,
+                     keep_lo: int, keep_hi: int, trace_slot: wp.array(dtype=wp.int32), trace_stride: int,
+                     step_new: int, next_trace: int, trace_x: wp.array4d(dtype=real), amplitude: wp.float64,
+                     omega: wp.float64, phase: wp.vec2d, dt: wp.float64) -> int:
+        # after a step: the trace sample when ``step_new`` reaches ``next_trace``, the first multiple of the stride not
+        # yet passed (one comparison a step, not a modulo); returns the next one
+        if step_new != next_trace:
+            return next_trace
+        write_trace_sample(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride, step_new,
+                           trace_x, amplitude, omega, phase, dt)
         return next_trace + trace_stride
 
     # the module's block size is the launch's: Warp hashes a module's source for its default block size when the
