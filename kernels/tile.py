@@ -43,7 +43,8 @@ block's lanes evaluate one step's power each and the driver's lane sums the work
 force of the driver's lies on a step's critical path. The driver's own register column is never overwritten:
 traces and the write-back take its values from the phases (docs/benchmarks.md, fifth session).
 Traces are written inside the launch after each step k·stride, from the lanes that keep the traced grains
-(a window's interior), as the per-step kernel writes them.
+(a window's interior), as the per-step kernel writes them, by an out-of-line function called only when a sample is
+due (its code in the step loop slowed every step).
 
 Damping, in the per-step kernel's arithmetic. Viscous (``damping = "viscous"``: force −γ m v on every integrated
 grain) adds kernels/step.py's −h²/2·γ·(dt·v predicted) to each corrector. The contact dashpot (``"contact"``) adds

@@ -457,3 +457,19 @@ def test_fused_kernels_refuse_the_dashpot_in_compensated_float32():
                                               grains_per_lane=4).shape)
     with pytest.raises(ValueError, match="damping"):
         choose_config(model, "tile", calibrate_now=False)
+
+
+def test_trace_sample_is_written_out_of_the_step_loop():
+    """The fused kernel writes a trace sample through one out-of-line function, called only when a sample is due:
+    written into the step loop, the sample's code slowed every step of the traced window kernel by 28 % on an H100
+    (docs/benchmarks.md, seventh session). Generated C++ only, nothing compiled."""
+    from hertzian.kernels.features import Features
+    from hertzian.kernels.tile import TileShape, tile_kernel
+    from kernel_source import call_count, function_body, generated_source
+
+    for surface in ("wall", "driven"):
+        features = Features(method="gear4", surface=surface, bottom="wall", static="uniform", traces=True)
+        shape = TileShape(4, 32, windowed=True, masked=True)
+        source = generated_source(tile_kernel(features, shape), block_dim=shape.block_dim)
+        assert re.search(r"^static WP_NOINLINE [^\n]*__locals__write_trace_sample_\d+\(", source, re.MULTILINE)
+        assert call_count(function_body(source, "write_traces"), "write_trace_sample") == 1
