@@ -178,8 +178,6 @@ def tile_kernel(features: Features, shape: TileShape):
     CPB = shape.chains_per_block
     B = shape.block_dim
     BG = B * G  # grains a block holds
-    PHASE_ROWS = MAX_DRIVEN_STEPS + 2  # a driven launch's rows of phases: its steps and two ahead
-    PHASE_FILL = -(-PHASE_ROWS // L)  # rounds of L lanes that copy them
     G1 = G + 1  # contacts a lane sweeps (a name: Warp unrolls range() only over a literal or a constant's name)
     MAX_UNROLL = max(16, G1)  # every loop over a lane's grains or contacts unrolled (Warp's default limit is 16):
     # a loop left to run indexes the lane's register vectors at run time, which puts them in local memory
@@ -852,19 +850,6 @@ def tile_kernel(features: Features, shape: TileShape):
             phase_next = phases[cc, first_row + 1]
         edges_even = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
         edges_odd = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
-        if wp.static(DRIVEN):
-            # the launch's rows of the driver's phases (steps + 2 of them) copied to shared memory once, so that a
-            # step reads its next row there, not from device memory
-            phase_rows = wp.tile_zeros(shape=(CPB, PHASE_ROWS), dtype=wp.vec2d, storage="shared")
-            for fill in range(PHASE_FILL):
-                r = lane_c + fill * L
-                wanted = live and r < steps + 2
-                row_value = wp.vec2d()
-                if wanted:
-                    row_value = phases[cc, first_row + r]
-                wp.tile_scatter_masked(phase_rows, segment, r, row_value, wanted)
-        else:
-            phase_rows = edges_even  # (unused)
         if wp.static(EVENTS):
             # event steps: every lane's state at t_n, its flagged grains, one event step's result per lane
             states = wp.tile_empty(shape=B, dtype=state_t, storage="shared")
@@ -889,7 +874,7 @@ def tile_kernel(features: Features, shape: TileShape):
         for _pair in range(steps / 2):
             if wp.static(DRIVEN):
                 phase_new = phase_next
-                phase_next = wp.tile_extract(phase_rows, segment, 2 * _pair + 1 + 1)  # (a row past the launch's last)
+                phase_next = phases[cc, first_row + 2 * _pair + 1 + 1]  # (a row past the launch's last)
                 driver_log[log_row, 2 * _pair] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
             if wp.static(VISCOUS):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
@@ -907,7 +892,7 @@ def tile_kernel(features: Features, shape: TileShape):
                                           step0 + 2 * _pair + 1, next_trace, trace_x, amplitude, omega, phase_old, dt)
             if wp.static(DRIVEN):
                 phase_new = phase_next
-                phase_next = wp.tile_extract(phase_rows, segment, 2 * _pair + 2 + 1)  # (a row past the launch's last)
+                phase_next = phases[cc, first_row + 2 * _pair + 2 + 1]  # (a row past the launch's last)
                 driver_log[log_row, 2 * _pair + 1] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
             if wp.static(VISCOUS):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
@@ -1052,8 +1037,6 @@ def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_
         plan = TilePlan(shape, steps_per_launch, n, 0, 1, -(-chain_count // chains_per_block))
     if plan.shape.block_dim > 1024:
         raise ValueError(f"block of {plan.shape.block_dim} threads: at most 1024")
-    if features.surface == "driven" and steps_per_launch > MAX_DRIVEN_STEPS:
-        raise ValueError(f"a driven launch of {steps_per_launch} steps: at most {MAX_DRIVEN_STEPS}")
     needed = shared_bytes(features, plan.shape)
     if needed > SHARED_BYTES:
         raise ValueError(f"block of {plan.shape.block_dim} lanes x {G} grains needs {needed} bytes of shared memory "
@@ -1063,9 +1046,6 @@ def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_
         plan = replace(plan, shape=replace(plan.shape, max_registers=cap))
     return plan
 
-
-MAX_DRIVEN_STEPS = 64
-"""The most steps a launch of a driven fused kernel takes (its phases are copied to shared memory at its start)."""
 
 SHARED_BYTES = 227 * 1024
 """Shared memory one block may use on the GPUs this was measured on (sm_90: 227 KiB; Warp's CPU blocks: 256 KiB)."""
@@ -1080,7 +1060,7 @@ def shared_bytes(features: Features, shape: TileShape) -> int:
     edge = 6 if features.damping == "contact" else (6 if events else 2) + (2 if features.compensation else 0)
     total = 2 * B * edge * size
     if features.surface == "driven":
-        total += B * 8 + shape.chains_per_block * (MAX_DRIVEN_STEPS + 2) * 16
+        total += B * 8
     if events:
         total += 2 * B * G * Q * size + B * 4
     return total
