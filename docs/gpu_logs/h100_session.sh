@@ -19,6 +19,8 @@ export PYTHONUNBUFFERED=1
 HZ="python3 -m hertzian.ensemble.cli"
 WORK=/tmp/hzwork
 mkdir -p "$WORK"
+# the folder that holds the staged Warp (and zarr) packages, for the groups that run another package tree beside it
+SITE="$(python3 -c 'import os, warp; print(os.path.dirname(os.path.dirname(warp.__file__)))' 2>/dev/null || true)"
 
 step() {  # step NAME SECONDS COMMAND...   (stdout → NAME.json when it starts with [ or {, else NAME.log)
   local name="$1" limit="$2"; shift 2
@@ -956,12 +958,12 @@ repro)
 nov29a)
   # issue 15: event-aware steps on the frontier workload (16 384 x 1000 grains, gear6, dt = 1e-3, t = 20), the tile
   # kernel alone: the new event path (test before the corrector, one block vote a step, t_n's state through shared
-  # memory only in the steps that take event steps) against the previous one (exp/old: the committed tree before it)
+  # memory only in the steps that take event steps) against the previous one (.trees/old, built by docs/gpu_logs/build_trees.sh: the tree of commit 0cb09e6)
   step cuda_event_tests 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and event' tests 2>&1"
   step frontier_probe_new 240 "python3 docs/gpu_logs/frontier_events_probe.py --variants off4,call4,off8,call8"
-  mkdir -p /tmp/hzold/hertzian
-  for d in ensemble kernels sweeps; do ln -sfn "$REPO/exp/old/$d" "/tmp/hzold/hertzian/$d"; done
-  step frontier_probe_old 240 "cd exp/old && PYTHONPATH=/tmp/hzold:/tmp/site python3 docs/gpu_logs/frontier_events_probe.py --variants call4,call8"
+  mkdir -p $WORK/hzold/hertzian
+  for d in ensemble kernels sweeps; do ln -sfn "$REPO/.trees/old/$d" "$WORK/hzold/hertzian/$d"; done
+  step frontier_probe_old 240 "cd .trees/old && PYTHONPATH=$WORK/hzold:$SITE python3 docs/gpu_logs/frontier_events_probe.py --variants call4,call8"
   ;;
 nov29b)
   # issue 15, end to end (calibration included in the first run of each feature set; the second is warm)
@@ -978,14 +980,14 @@ nov29c)
   step frontier_probe_rounds 300 "python3 docs/gpu_logs/frontier_events_probe.py --variants off4,inline4,call4,off8,inline8"
   ;;
 nov29d)
-  # issue 15: what the event-aware tile kernel's steps cost without event steps (exp/abl: kernels/tile.py with
+  # issue 15: what the event-aware tile kernel's steps cost without event steps (.trees/abl, build_trees.sh: commit f30c0b3 with ablate_tile.patch;
   # HZ_ABLATE = 0 as committed; 1 vote taken but its branch never; 2 no vote (the test's code then unused);
   # 3 a vote on a constant 0 flag (the barrier alone)), G = 4, the event step inlined; plain steps beside
   step frontier_probe_off4 120 "python3 docs/gpu_logs/frontier_events_probe.py --variants off4"
-  mkdir -p /tmp/hzabl/hertzian
-  for d in ensemble kernels sweeps; do ln -sfn "$REPO/exp/abl/$d" "/tmp/hzabl/hertzian/$d"; done
+  mkdir -p $WORK/hzabl/hertzian
+  for d in ensemble kernels sweeps; do ln -sfn "$REPO/.trees/abl/$d" "$WORK/hzabl/hertzian/$d"; done
   for a in ${ABLATIONS:-0 1 2 3}; do
-    step "frontier_probe_ablate$a" 120 "cd exp/abl && HZ_ABLATE=$a WARP_CACHE_PATH=/tmp/wc_$a PYTHONPATH=/tmp/hzabl:/tmp/site python3 docs/gpu_logs/frontier_events_probe.py --variants inline4"
+    step "frontier_probe_ablate$a" 120 "cd .trees/abl && HZ_ABLATE=$a WARP_CACHE_PATH=$WORK/wc_$a PYTHONPATH=$WORK/hzabl:$SITE python3 docs/gpu_logs/frontier_events_probe.py --variants inline4"
   done
   ;;
 nov29e)
@@ -1040,16 +1042,16 @@ nov29i)
   cp "$WORK"/repro_default_warm/log.json "$LOGS"/reproduce_default_warm_i_log.json 2>/dev/null
   ;;
 nov29j)
-  # the submitted event kernel (exp/abl2 = commit 1652f05 with h100_2026-11-26f/ablate2.patch:
+  # the submitted event kernel (.trees/abl2, build_trees.sh: commit 1652f05 with h100_2026-11-26f/ablate2.patch:
   # register caps in the probe's variant names, HZ_ABLATE 7 = the test without the vote, 8 = the vote without the
   # test): where the remaining cost of a step without event steps lies, and whether a register cap (2 blocks per SM
   # at G = 4) pays, for plain and event-aware steps
-  mkdir -p /tmp/hzabl2/hertzian
-  for d in ensemble kernels sweeps; do ln -sfn "$REPO/exp/abl2/$d" "/tmp/hzabl2/hertzian/$d"; done
-  P="cd exp/abl2 && PYTHONPATH=/tmp/hzabl2:/tmp/site python3 docs/gpu_logs/frontier_events_probe.py"
+  mkdir -p $WORK/hzabl2/hertzian
+  for d in ensemble kernels sweeps; do ln -sfn "$REPO/.trees/abl2/$d" "$WORK/hzabl2/hertzian/$d"; done
+  P="cd .trees/abl2 && PYTHONPATH=$WORK/hzabl2:$SITE python3 docs/gpu_logs/frontier_events_probe.py"
   step frontier_probe_caps 300 "$P --variants off4,off4r128,off8,inline4,inline4r168,inline4r128"
   for a in 7 8; do
-    step "frontier_probe_ablate$a" 120 "cd exp/abl2 && HZ_ABLATE=$a WARP_CACHE_PATH=/tmp/wc2_$a PYTHONPATH=/tmp/hzabl2:/tmp/site python3 docs/gpu_logs/frontier_events_probe.py --variants inline4"
+    step "frontier_probe_ablate$a" 120 "cd .trees/abl2 && HZ_ABLATE=$a WARP_CACHE_PATH=$WORK/wc2_$a PYTHONPATH=$WORK/hzabl2:$SITE python3 docs/gpu_logs/frontier_events_probe.py --variants inline4"
   done
   ;;
 nov29k)
@@ -1077,13 +1079,13 @@ nov29m)
   step cuda_event_tests_m 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and event' tests 2>&1"
   ;;
 nov29n)
-  # issue 11's traced scene: what the trace-writing code costs the window kernel by its presence (exp/abl3 = the
-  # commit named in h100_2026-11-26f/ablate3.patch; HZ_ABLATE=9 returns before writing any trace: wrong results,
+  # issue 11's traced scene: what the trace-writing code costs the window kernel by its presence (.trees/abl3, build_trees.sh:
+  # commit d49645a with h100_2026-11-26f/ablate3.patch; HZ_ABLATE=9 returns before writing any trace: wrong results,
   # only the time counts), the kernel alone on the 1000-grain scenes in the shapes the calibration picks
-  mkdir -p /tmp/hzabl3/hertzian
-  for d in ensemble kernels sweeps; do ln -sfn "$REPO/exp/abl3/$d" "/tmp/hzabl3/hertzian/$d"; done
+  mkdir -p $WORK/hzabl3/hertzian
+  for d in ensemble kernels sweeps; do ln -sfn "$REPO/.trees/abl3/$d" "$WORK/hzabl3/hertzian/$d"; done
   for a in 0 9; do
-    step "scenes_ablate$a" 200 "cd exp/abl3 && HZ_ABLATE=$a WARP_CACHE_PATH=/tmp/wc3_$a PYTHONPATH=/tmp/hzabl3:/tmp/site python3 docs/gpu_logs/scene_probe.py --scenes impact_1000,impact_1000_traces --configs 'lanes=32' --out $LOGS/scenes_ablate$a.json"
+    step "scenes_ablate$a" 200 "cd .trees/abl3 && HZ_ABLATE=$a WARP_CACHE_PATH=$WORK/wc3_$a PYTHONPATH=$WORK/hzabl3:$SITE python3 docs/gpu_logs/scene_probe.py --scenes impact_1000,impact_1000_traces --configs 'lanes=32' --out $LOGS/scenes_ablate$a.json"
   done
   ;;
 nov29o)
