@@ -209,7 +209,7 @@ def tile_kernel(features: Features, shape: TileShape):
     EDGE_LO = 6 if EVENTS else 2  # where the edge tile keeps the low parts of the edge positions
     # the contact dashpot also needs the neighbour lanes' edge grains' predicted rates and the first grain's (u, dt·v)
     # at t_n: [u_first, u_last, rate_first, rate_last, u_first(t_n), dt·v_first(t_n)] (no events, no compensation)
-    edge_t = wp.types.vector(length=6 if DASHPOT else EDGE_LO + (2 if COMP else 0), dtype=real)
+    edge_t = wp.types.vector(length=edge_values(f), dtype=real)
     vec2 = wp.types.vector(2, real)
     vec3 = wp.types.vector(3, real)
     if EVENTS:
@@ -1051,14 +1051,22 @@ SHARED_BYTES = 227 * 1024
 """Shared memory one block may use on the GPUs this was measured on (sm_90: 227 KiB; Warp's CPU blocks: 256 KiB)."""
 
 
+def edge_values(features: Features) -> int:
+    """Values a lane publishes to its neighbours each step: its edge grains' predicted positions (2), with event-aware
+    steps also their (u, dt·v) at t_n (4 more), with compensated float32 the positions' low parts (2 more); with the
+    contact dashpot the predicted rates and the first grain's (u, dt·v) at t_n (6 in all)."""
+    if features.damping == "contact":
+        return 6
+    return (6 if features.event_window > 0 else 2) + (2 if features.compensation else 0)
+
+
 def shared_bytes(features: Features, shape: TileShape) -> int:
     """Bytes of shared memory a block of the fused kernel uses: the two edge tiles, the driver's powers, and with
     event-aware steps the block's state at t_n, one result per grain and the flags."""
     size = 8 if features.precision == "float64" else 4
     B, G, Q = shape.block_dim, shape.grains_per_lane, features.values
     events = features.event_window > 0
-    edge = 6 if features.damping == "contact" else (6 if events else 2) + (2 if features.compensation else 0)
-    total = 2 * B * edge * size
+    total = 2 * B * edge_values(features) * size
     if features.surface == "driven":
         total += B * 8
     if events:
