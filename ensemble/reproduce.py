@@ -120,11 +120,11 @@ def default_sweeps_dir() -> Path:
 # ---- a sweep group ---------------------------------------------------------------------------
 
 
-def run_sweep_group(path: Path, overrides: dict[str, Any], out: Path, device: str, kernel: str = "auto"
+def run_sweep_group(path: Path, overrides: dict[str, Any], out: Path, device: str, kernel: str | None = "auto"
                     ) -> dict[str, Any]:
     """Run one sweep file into a store at ``out`` (as ``hertzian sweep --kernel KERNEL`` does, serially); returns
     its log entry, with ``seconds``: setup (plan, store, kernel loads), integrate (the batches, calibration
-    included), finalize."""
+    included), finalize. ``kernel=None``: ``group_kernel``'s choice for the sweep's scene on ``device``."""
     import zarr
 
     from .distributed import jobs_for, run_serial, warm_kernels
@@ -135,6 +135,8 @@ def run_sweep_group(path: Path, overrides: dict[str, Any], out: Path, device: st
     clock = time.perf_counter()
     definition = load_sweep(path, overrides)
     points = expand(definition)
+    if kernel is None:
+        kernel = group_kernel(points.scene(0).integrator.events, device)
     plan = plan_sweep(definition, points, device)
     create_sweep_store(out, definition, points.templates[0], plan, device=device, overwrite=True)
     jobs = jobs_for(out.resolve(), plan, points, plan.batches, kernel=kernel)
@@ -157,6 +159,16 @@ def run_sweep_group(path: Path, overrides: dict[str, Any], out: Path, device: st
         "status_counts": {str(int(c)): int(k) for c, k in zip(codes, counts)},
         "kernel_choice": kernel, "kernel": prov.get("kernel", ""), "seconds": seconds,
     }
+
+
+def group_kernel(events: str, device: str) -> str:
+    """The solver choice of a figure group whose scene takes ``integrator.events = events``: on a GPU "fused" for
+    plain Gear steps (the calibrated fused kernels, cached after the first run; "auto"'s short-run rule would give
+    the short groups the per-step kernel, launch-bound at a few µs a step), else "auto" (event-aware steps cost the
+    fused kernels 1.7–11× on a GPU where contacts keep opening, docs/stability.md §6c)."""
+    import warp as wp
+
+    return "fused" if events == "off" and not wp.get_device(device).is_cpu else "auto"
 
 
 # ---- Figs. 9-10: windows of the driven column --------------------------------------------------
@@ -806,8 +818,8 @@ def reproduce(out_dir: Path, *, groups: list[str] | None = None, quick: bool = F
     ``events``: "auto" or "off" sets integrator.events for every group (default None: each sweep file's).
     ``drive_grains``: the driven column's length for Figs. 9–10 (default 10 000, or 300 with ``quick``;
     the paper's times are scaled by the travel time ∝ N^(5/6)). ``kernel``: the solver choice of the sweep
-    groups (default: "fused" on a GPU with ``events="off"``, whose short groups would otherwise take the
-    per-step kernel; else "auto": event-aware steps cost the fused kernels 1.7–11× on a GPU).
+    groups (default: per group, ``group_kernel``: "fused" on a GPU where the group takes plain Gear steps, as
+    every paper_*.toml does, whose short groups would otherwise take the per-step kernel; else "auto").
     Each run's ``seconds`` splits its wall time (setup, integrate, finalize or store, figures, measure).
     ``background`` (default: on a GPU): figures and measurements of a group are made in worker processes
     while the next groups integrate (same PNGs and numbers); the log's ``figure_wait_seconds`` is the time
@@ -815,13 +827,12 @@ def reproduce(out_dir: Path, *, groups: list[str] | None = None, quick: bool = F
     import warp as wp
 
     sweeps_dir = sweeps_dir or default_sweeps_dir()
-    kernel = kernel or ("fused" if events == "off" and not wp.get_device(device).is_cpu else "auto")
     out_dir.mkdir(parents=True, exist_ok=True)
     names = groups or list(GROUPS)
     log: dict[str, Any] = {
         "command": "hertzian reproduce" + (" --quick" if quick else "") + "".join(
             f" --figure {g}" for g in (groups or [])) + (f" --drive-grains {drive_grains}" if drive_grains else "")
-        + (f" --events {events}" if events else "") + f" --kernel {kernel} --device {device}",
+        + (f" --events {events}" if events else "") + (f" --kernel {kernel}" if kernel else "") + f" --device {device}",
         "date": datetime.now(timezone.utc).isoformat(timespec="seconds"), "device": device,
         "device_name": wp.get_device(device).name, "cpu_count": _cpu_count(), "platform": platform.platform(),
         "warp_version": wp.config.version, "quick": quick, "events": events or "as each sweep file says",
