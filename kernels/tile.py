@@ -101,6 +101,10 @@ class TileShape:
     """Event-aware steps: the event step (written once, in the loop over rounds) inlined; False: an out-of-line
     function (CUDA ``__noinline__``). Same bits. Since the event steps moved to shared memory and rounds, inlined
     compiles without spills at G = 4 where out of line spills (sm_90, ptxas; docs/benchmarks.md)."""
+    driver_slot: int = -1
+    """A driven surface: grain 0's position among its lane's G grains when it is the same in every block that holds
+    grain 0 (``plan_tile`` sets it), so the driver's code indexes a fixed register; -1: found at run time, by a
+    select over the lane's G positions each time (the same bits, more instructions a step)."""
 
     @property
     def block_dim(self) -> int:
@@ -185,9 +189,12 @@ def tile_kernel(features: Features, shape: TileShape):
     MASKED = shape.masked
     SURFACE_WALL = f.surface == "wall"
     DRIVEN = f.surface == "driven"
+    DRIVER_SLOT = shape.driver_slot if DRIVEN else -1
     BOTTOM_WALL = f.bottom == "wall"
     FIXED = f.bottom == "fixed"
-    FREE_END = (not SURFACE_WALL) or f.bottom == "free"
+    # a free end's missing contact is masked out of the forces. A driven surface is no free end: the contact above the
+    # driven grain 0 acts on grain 0, whose corrected column no output reads (driver_values), and on padding (1/m = 0)
+    FREE_END = (not SURFACE_WALL and not DRIVEN) or f.bottom == "free"
     HETERO = f.heterogeneous
     params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz)
     HERTZ = f.hertz
@@ -252,13 +259,21 @@ def tile_kernel(features: Features, shape: TileShape):
     dashpot = damping_functions(f.precision, ORDER)[1]
 
     @wp.func
+    def at_driver(k: int, k0: int) -> bool:
+        # grain k of the lane is the driven grain 0 (k0: its index in this lane, or -1). With a fixed slot the test of
+        # k is settled when compiled (k is a constant in every unrolled loop), only k0 >= 0 is left to run
+        if wp.static(DRIVER_SLOT >= 0):
+            return k == wp.static(DRIVER_SLOT) and k0 >= 0
+        return k == k0 and k0 >= 0
+
+    @wp.func
     def dissipation(s: state_t, lost: loss_vec, inv_m: grain_vec, move_bits: int, k0: int, gamma: real, h: real,
                     dt: wp.float64) -> loss_vec:
         # kernels/step.py's viscous loss of one step for every integrated grain of the lane (not a held bottom
         # grain, not the driver, not padding): the trapezoid of γ m (dt·v)²/h² at t_n and at the predicted t_n+1
         out = lost
         for k in range(G):
-            if (move_bits & (1 << k)) != 0 and k != k0:
+            if (move_bits & (1 << k)) != 0 and not at_driver(k, k0):
                 own_rate = predicted_rate(column(s, k))
                 own_rate_old = s[1, k]
                 m_i = real(1) / inv_m[k]
@@ -275,11 +290,17 @@ def tile_kernel(features: Features, shape: TileShape):
         # would put the lane's whole register matrix in local memory, for every lane, every step
         d_old = real(0)
         below_rate_old = real(0)
-        for k in range(G):  # range(G), not range(G - 1): Warp unrolls only a bound it reads as a constant
-            if k == k0:
-                d_old = u_driver - s[0, wp.min(k + 1, G - 1)]
-                if wp.static(DASHPOT):
-                    below_rate_old = s[1, wp.min(k + 1, G - 1)]
+        if wp.static(DRIVER_SLOT >= 0):
+            # a fixed slot: no select, every lane computes the entry (the others' go to their scratch rows)
+            d_old = u_driver - s[0, wp.static(min(DRIVER_SLOT + 1, G - 1))]
+            if wp.static(DASHPOT):
+                below_rate_old = s[1, wp.static(min(DRIVER_SLOT + 1, G - 1))]
+        else:
+            for k in range(G):  # range(G), not range(G - 1): Warp unrolls only a bound it reads as a constant
+                if k == k0:
+                    d_old = u_driver - s[0, wp.min(k + 1, G - 1)]
+                    if wp.static(DASHPOT):
+                        below_rate_old = s[1, wp.min(k + 1, G - 1)]
         return wp.vec2d(wp.float64(d_old), wp.float64(below_rate_old))
 
     @wp.func
@@ -313,7 +334,7 @@ def tile_kernel(features: Features, shape: TileShape):
         if wp.static(DRIVEN):
             if k0 >= 0:
                 for k in range(G):
-                    if k == k0:
+                    if at_driver(k, k0):
                         rates[k] = real(dt * amplitude * omega * phase_new[1])
         return rates
 
@@ -355,7 +376,7 @@ def tile_kernel(features: Features, shape: TileShape):
         if wp.static(DRIVEN):
             if k0 >= 0:
                 for k in range(G):
-                    if k == k0:
+                    if at_driver(k, k0):
                         up[k] = real(product_rn(amplitude, phase_new[0]))
         rates = lane_rates(s, k0, amplitude, omega, phase_new, dt)
         u_left = real(0)
@@ -375,7 +396,7 @@ def tile_kernel(features: Features, shape: TileShape):
         damp = dashpot_forces(up, rates, u_left, rate_left, u_right, rate_right, delta0, contact_bits, gamma, h)
         out = lost
         for k in range(G):
-            if (move_bits & (1 << k)) != 0 and k != k0:
+            if (move_bits & (1 << k)) != 0 and not at_driver(k, k0):
                 own_rate = rates[k]
                 own_rate_old = s[1, k]
                 loss_old = real(0)
@@ -401,7 +422,7 @@ def tile_kernel(features: Features, shape: TileShape):
                 if wp.static(SURFACE_WALL):
                     outer = base + k == 0
                 if wp.static(DRIVEN):
-                    if k0 >= 0 and k == k0 + 1:
+                    if k0 >= 0 and at_driver(k - 1, k0):
                         outer = True
                         above_rate = real(dt * amplitude * omega * phase_new[1])
                         above_u_old = real(product_rn(amplitude, phase_old[0]))
@@ -502,13 +523,13 @@ def tile_kernel(features: Features, shape: TileShape):
             if wp.static(COMP):
                 driver_position = nordsieck.exact_position(product_rn(amplitude, phase_new[0]))
                 for k in range(G):
-                    if k == k0:
+                    if at_driver(k, k0):
                         up[k] = driver_position[0]
                         up_lo[k] = driver_position[1]
             else:
                 driver_u = real(product_rn(amplitude, phase_new[0]))
                 for k in range(G):
-                    if k == k0:
+                    if at_driver(k, k0):
                         up[k] = driver_u
         # 2. exchange the lane's edge positions with its neighbours (virtual grains outside sit at 0)
         if wp.static(EVENTS):
@@ -595,7 +616,7 @@ def tile_kernel(features: Features, shape: TileShape):
                     lower_hv = s[1, wp.min(c, G - 1)]
                     lower_pred = up[wp.min(c, G - 1)]
                 if wp.static(DRIVEN):
-                    driver_above_here = k0 >= 0 and c == k0 + 1
+                    driver_above_here = at_driver(c - 1, k0)
                     upper_u = wp.where(driver_above_here, driver_above[0], upper_u)
                     upper_hv = wp.where(driver_above_here, driver_above[1], upper_hv)
                 hit = near_event(delta0[c] + (upper_u - lower_u), delta0[c] + (upper_pred - lower_pred),
@@ -1020,9 +1041,6 @@ def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_
         if lanes_per_chain is None:
             raise ValueError("a windowed plan needs lanes_per_chain")
         windows = plan_windows(n, lanes_per_chain * G, steps_per_launch)
-        if features.surface == "driven" and windows.ghost % G == G - 1:
-            raise ValueError(f"a driven windowed plan needs grains 0 and 1 in one lane (ghost {windows.ghost} "
-                             f"≢ {G - 1} mod {G})")
         shape = TileShape(G, lanes_per_chain, 1, windowed=True, masked=True, branchless=branchless,
                           fast_sqrt=fast_sqrt, max_registers=max_registers, inline_event_step=inline_event_step)
         plan = TilePlan(shape, steps_per_launch, windows.interior, windows.ghost, windows.blocks_per_chain,
@@ -1035,6 +1053,7 @@ def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_
         shape = TileShape(G, lanes, chains_per_block, windowed=False, masked=masked, branchless=branchless,
                           fast_sqrt=fast_sqrt, max_registers=max_registers, inline_event_step=inline_event_step)
         plan = TilePlan(shape, steps_per_launch, n, 0, 1, -(-chain_count // chains_per_block))
+    plan = with_driver_slot(plan, features)
     if plan.shape.block_dim > 1024:
         raise ValueError(f"block of {plan.shape.block_dim} threads: at most 1024")
     needed = shared_bytes(features, plan.shape)
@@ -1045,6 +1064,30 @@ def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_
     if cap and (max_registers == 0 or max_registers > cap):
         plan = replace(plan, shape=replace(plan.shape, max_registers=cap))
     return plan
+
+
+def with_driver_slot(plan: TilePlan, features: Features) -> TilePlan:
+    """``plan`` with ``shape.driver_slot`` set for its geometry: for a driven surface grain 0's position in its
+    lane when every block that holds grain 0 has it at the same one (whole chains: lane 0's first grain; window p
+    starts at grain p·interior − ghost), else -1 (found at run time); -1 for any other surface. Raises ValueError
+    for a driven window plan where a block holds grain 0 as its lane's last grain (the driver's code needs grains 0
+    and 1 in one lane)."""
+    G = plan.shape.grains_per_lane
+    slot = -1
+    if features.surface == "driven":
+        if not plan.shape.windowed:
+            slot = 0
+        else:
+            span = plan.shape.lanes_per_chain * G
+            slots = {(plan.ghost - p * plan.interior) % G for p in range(plan.blocks_per_chain)
+                     if p * plan.interior - plan.ghost <= 0 < p * plan.interior - plan.ghost + span}
+            if G - 1 in slots:
+                raise ValueError(f"a driven windowed plan needs grains 0 and 1 in one lane (ghost {plan.ghost}, "
+                                 f"interior {plan.interior}: grain 0 is the last of a lane's {G})")
+            slot = slots.pop() if len(slots) == 1 else -1
+    if plan.shape.driver_slot == slot:
+        return plan
+    return replace(plan, shape=replace(plan.shape, driver_slot=slot))
 
 
 SHARED_BYTES = 227 * 1024

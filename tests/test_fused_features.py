@@ -187,6 +187,32 @@ def test_driven_window_needs_grains_0_and_1_in_one_lane():
     with pytest.raises(ValueError, match="grains 0 and 1"):
         plan_tile(model.features, model.grain_count, model.chain_count, grains_per_lane=4, lanes_per_chain=4,
                   steps_per_launch=3, windowed=True)
+    # also where grain 0 is the last of a lane in the second window that holds it (its interior is short of its ghost)
+    with pytest.raises(ValueError, match="grains 0 and 1"):
+        plan_tile(model.features, model.grain_count, model.chain_count, grains_per_lane=4, lanes_per_chain=3,
+                  steps_per_launch=5, windowed=True)
+
+
+@pytest.mark.parametrize("keywords", [dict(grains_per_lane=4), dict(grains_per_lane=8, lanes_per_chain=4),
+                                      SHAPE_KEYWORDS[True], SHAPE_KEYWORDS["G=2"],
+                                      dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=4, windowed=True),
+                                      dict(grains_per_lane=8, lanes_per_chain=3, steps_per_launch=6, windowed=True)])
+def test_driver_slot_is_grain_0s_place_in_every_block_that_holds_it(keywords):
+    # the fused kernel reads the driven grain at a fixed register (shape.driver_slot) when every block holding grain 0
+    # has it at the same place in a lane: here found by listing every block's grains, lane by lane
+    model = build_model(driven_scenes(traces=False), "cpu")
+    plan = plan_tile(model.features, model.grain_count, model.chain_count, **keywords)
+    G, lanes = plan.shape.grains_per_lane, plan.shape.lanes_per_chain
+    places = set()
+    for block in range(plan.blocks_per_chain):
+        first = block * plan.interior - plan.ghost if plan.shape.windowed else 0
+        for lane in range(lanes):
+            for k in range(G):
+                if first + lane * G + k == 0:
+                    places.add(k)
+    assert len(places) == 1 and plan.shape.driver_slot == places.pop()
+    undriven = plan_tile(replace(model.features, surface="free"), model.grain_count, model.chain_count, **keywords)
+    assert undriven.shape.driver_slot == -1
 
 
 def test_records_reach_the_host_arrays():

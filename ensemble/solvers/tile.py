@@ -5,7 +5,8 @@ from __future__ import annotations
 import warp as wp
 
 from hertzian.kernels.ghost import plan_windows
-from hertzian.kernels.tile import TilePlan, drive_table, launch_drive_table, launch_tile, tile_kernel
+from hertzian.kernels.tile import (TilePlan, drive_table, launch_drive_table, launch_tile, tile_kernel,
+                                   with_driver_slot)
 
 from ..model import Model, State
 from .base import Solver
@@ -41,8 +42,9 @@ class TileSolver(Solver):
     def __init__(self, model: Model, config: SolverConfig):
         super().__init__(model, config)
         self.kind = config.kind
-        self.plan = tile_plan(config, model.grain_count, model.chain_count)
-        self.kernel = tile_kernel(self.kernel_features, config.shape)
+        # the driver's slot follows this model's geometry, whatever the config says (a cached calibration's)
+        self.plan = with_driver_slot(tile_plan(config, model.grain_count, model.chain_count), model.features)
+        self.kernel = tile_kernel(self.kernel_features, self.plan.shape)
         self.trace_stride_in_kernel = model.scenes[0].trace_stride if model.features.traces else 1
         self.block_dim = config.shape.block_dim
         self.damped = model.features.damping != "none"
