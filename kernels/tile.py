@@ -227,8 +227,6 @@ def tile_kernel(features: Features, shape: TileShape):
         near_event = event_step = None
     value_vec = nordsieck.values
     loss_vec = wp.types.vector(length=G, dtype=wp.float64)
-    sum_vec = wp.types.vector(length=8, dtype=wp.float64)  # the driver's trapezoid terms, loaded 8 at a time
-    CHUNKS = (L - 1 + 7) // 8  # chunks of 8 cover a round's L - 1 terms after its first
 
     @wp.func
     def predicted_rate(v: value_vec) -> real:
@@ -955,46 +953,27 @@ def tile_kernel(features: Features, shape: TileShape):
                 # the driver's power at each step's t_n from the log its lane wrote, one step per lane, then its
                 # work summed by that lane in step order (kernels/step.py's trapezoid): off the steps' critical
                 # path, where the driver's lane alone evaluated a contact force every step while its block waited
-                # the powers, and each step's trapezoid term from its power and the step before's, go through shared
-                # memory: what remains for the driver's lane is the sum W + term in step order (kernels/step.py's
-                # W + dt/2·(P_old + P), the same bits), its loads issued 8 at a time. All that the first barrier
-                # does not order (the contact's constants, the phases) is read before it
+                # the powers go through shared memory: the sum's loads are the driver lane's serial path
+                block_sync(0)
                 p01 = params(static_overlap, contact_constant, exponent, cc, 1)
                 below0 = p01[0]
                 below_ac = p01[1]
                 below_f0 = contact_force(below0, below_ac, n)
-                half_dt = dt * wp.float64(0.5)
                 powers = wp.tile_zeros(shape=B, dtype=wp.float64, storage="shared")
-                terms = wp.tile_zeros(shape=B, dtype=wp.float64, storage="shared")
                 round_first = int(0)
                 while round_first < steps:  # rounds of L steps, one a lane
+                    if round_first > 0:
+                        block_sync(0)  # the driver's lane has read the last round
                     j = round_first + lane_c
-                    cos_old = phases[cc, first_row + wp.min(j, steps - 1)][1]
-                    block_sync(0)  # the log is written (first round); the driver's lane has read the last round
                     power = wp.float64(0)
                     if live and j < steps:
-                        power = driver_power(driver_log[cc, j], cos_old, below0, below_ac, below_f0, n, amplitude,
-                                             omega, dt, gamma)
+                        power = driver_power(driver_log[cc, j], phases[cc, first_row + j][1], below0, below_ac,
+                                             below_f0, n, amplitude, omega, dt, gamma)
                     powers[lane] = power
                     block_sync(0)
-                    # (every lane writes: a tile's element written in a branch some lanes skip is lost on the CPU; the
-                    # round's first step's term, lane_c = 0, is the driver lane's, which holds its P_old)
-                    terms[lane] = half_dt * (powers[wp.max(lane - 1, 0)] + power)
-                    block_sync(0)
                     if k0 >= 0:
-                        count = wp.min(steps - round_first, L)
-                        row = segment * L
-                        work_power = work_step(work_power, powers[row], step0 + round_first, dt)
-                        work = work_power[0]
-                        for c8 in range(CHUNKS):  # the trapezoid's steps in order
-                            q = 1 + 8 * c8
-                            chunk = sum_vec()
-                            for i in range(8):
-                                chunk[i] = terms[row + wp.min(q + i, count - 1)]
-                            for i in range(8):
-                                if q + i < count:
-                                    work = work + chunk[i]
-                        work_power = wp.vec2d(work, powers[row + count - 1])
+                        for q in range(wp.min(steps - round_first, L)):  # the trapezoid's steps in order
+                            work_power = work_step(work_power, powers[segment * L + q], step0 + round_first + q, dt)
                     round_first += L
         # write back the interior; a frozen (non-finite) chain keeps its state
         if wp.static(DRIVEN):
@@ -1125,14 +1104,14 @@ def edge_values(features: Features) -> int:
 
 
 def shared_bytes(features: Features, shape: TileShape) -> int:
-    """Bytes of shared memory a block of the fused kernel uses: the two edge tiles, the driver's powers and work terms, and with
+    """Bytes of shared memory a block of the fused kernel uses: the two edge tiles, the driver's powers, and with
     event-aware steps the block's state at t_n, one result per grain and the flags."""
     size = 8 if features.precision == "float64" else 4
     B, G, Q = shape.block_dim, shape.grains_per_lane, features.values
     events = features.event_window > 0
     total = 2 * B * edge_values(features) * size
     if features.surface == "driven":
-        total += 2 * B * 8
+        total += B * 8
     if events:
         total += 2 * B * G * Q * size + B * 4
     return total
