@@ -190,7 +190,6 @@ def tile_kernel(features: Features, shape: TileShape):
     SURFACE_WALL = f.surface == "wall"
     DRIVEN = f.surface == "driven"
     DRIVER_SLOT = shape.driver_slot if DRIVEN else -1
-    ROTATE = DRIVEN and f.event_window == 0 and f.damping != "contact"  # the driver's phases in two registers in turn
     BOTTOM_WALL = f.bottom == "wall"
     FIXED = f.bottom == "fixed"
     # a free end's missing contact is masked out of the forces. A driven surface is no free end: the contact above the
@@ -893,109 +892,61 @@ def tile_kernel(features: Features, shape: TileShape):
                 g = base + k
                 if live and g >= keep_lo and g < keep_hi:
                     lost[k] = dissipated[cc, g]
-        if wp.static(ROTATE):
-            # a driven launch without event steps or dashpot, which read t_n's phases only at a step's start (the
-            # log's entry): two phase registers in turn, each loaded a step ahead straight into the register its
-            # step reads (phase_b holds t_n's and phase_a t_n+1's at an even step, the other way round at an odd
-            # one). Handing a loaded value on by a copy made the compiler place the copy next to the load, which then
-            # waited for it in the step that issued it (docs/benchmarks.md, eighth session)
-            phase_b = phase_old
-            phase_a = phase_next
-            for _pair in range(steps / 2):
-                driver_log[log_row, 2 * _pair] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_b[0])))
-                phase_b = phases[cc, first_row + 2 * _pair + 2]  # the odd step's t_n+1
-                if wp.static(VISCOUS):
-                    lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
-                s = advance(s, edges_even, states, flags, results, lane, lane_c, segment, first, cc, n_grains,
-                            static_overlap, contact_constant, exponent, inverse_mass, has_left, has_right, delta0, a_c,
-                            force0, n, inv_m, hh, contact_bits, move_bits, h, k0, amplitude, omega, phase_a, phase_a,
-                            dt, gamma)
-                if wp.static(TRACES):
-                    next_trace = write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot,
-                                              trace_stride, step0 + 2 * _pair + 1, next_trace, trace_x, amplitude, omega,
-                                              phase_a, dt)
-                driver_log[log_row, 2 * _pair + 1] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_a[0])))
-                phase_a = phases[cc, first_row + 2 * _pair + 3]  # the next even step's t_n+1 (a row past the last)
-                if wp.static(VISCOUS):
-                    lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
-                s = advance(s, edges_odd, states, flags, results, lane, lane_c, segment, first, cc, n_grains,
-                            static_overlap, contact_constant, exponent, inverse_mass, has_left, has_right, delta0, a_c,
-                            force0, n, inv_m, hh, contact_bits, move_bits, h, k0, amplitude, omega, phase_b, phase_b,
-                            dt, gamma)
-                if wp.static(TRACES):
-                    next_trace = write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot,
-                                              trace_stride, step0 + 2 * _pair + 2, next_trace, trace_x, amplitude, omega,
-                                              phase_b, dt)
-            phase_old = phase_b
-            if steps % 2 == 1:
-                driver_log[log_row, steps - 1] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_b[0])))
-                if wp.static(VISCOUS):
-                    lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
-                s = advance(s, edges_even, states, flags, results, lane, lane_c, segment, first, cc, n_grains,
-                            static_overlap, contact_constant, exponent, inverse_mass, has_left, has_right, delta0, a_c,
-                            force0, n, inv_m, hh, contact_bits, move_bits, h, k0, amplitude, omega, phase_a, phase_a,
-                            dt, gamma)
-                if wp.static(TRACES):
-                    next_trace = write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot,
-                                              trace_stride, step0 + steps, next_trace, trace_x, amplitude, omega,
-                                              phase_a, dt)
-                phase_old = phase_a
-        else:
-            for _pair in range(steps / 2):
-                if wp.static(DRIVEN):
-                    phase_new = phase_next
-                    phase_next = phases[cc, first_row + 2 * _pair + 1 + 1]  # (a row past the launch's last)
-                    driver_log[log_row, 2 * _pair] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
-                if wp.static(VISCOUS):
-                    lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
-                if wp.static(DASHPOT):
-                    s_prev = s
-                s = advance(s, edges_even, states, flags, results, lane, lane_c, segment, first, cc, n_grains,
-                            static_overlap, contact_constant, exponent, inverse_mass, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                            contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
-                if wp.static(DASHPOT):
-                    lost = dashpot_losses(s_prev, lost, edges_even, lane, base, has_left, has_right, delta0, contact_bits,
-                                          move_bits, k0, amplitude, omega, phase_old, phase_new, gamma, h, dt)
-                phase_old = phase_new
-                if wp.static(TRACES):
-                    next_trace = write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
-                                              step0 + 2 * _pair + 1, next_trace, trace_x, amplitude, omega, phase_old, dt)
-                if wp.static(DRIVEN):
-                    phase_new = phase_next
-                    phase_next = phases[cc, first_row + 2 * _pair + 2 + 1]  # (a row past the launch's last)
-                    driver_log[log_row, 2 * _pair + 1] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
-                if wp.static(VISCOUS):
-                    lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
-                if wp.static(DASHPOT):
-                    s_prev = s
-                s = advance(s, edges_odd, states, flags, results, lane, lane_c, segment, first, cc, n_grains,
-                            static_overlap, contact_constant, exponent, inverse_mass, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                            contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
-                if wp.static(DASHPOT):
-                    lost = dashpot_losses(s_prev, lost, edges_odd, lane, base, has_left, has_right, delta0, contact_bits,
-                                          move_bits, k0, amplitude, omega, phase_old, phase_new, gamma, h, dt)
-                phase_old = phase_new
-                if wp.static(TRACES):
-                    next_trace = write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
-                                              step0 + 2 * _pair + 2, next_trace, trace_x, amplitude, omega, phase_old, dt)
-            if steps % 2 == 1:
-                if wp.static(DRIVEN):
-                    phase_new = phase_next
-                    driver_log[log_row, steps - 1] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
-                if wp.static(VISCOUS):
-                    lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
-                if wp.static(DASHPOT):
-                    s_prev = s
-                s = advance(s, edges_even, states, flags, results, lane, lane_c, segment, first, cc, n_grains,
-                            static_overlap, contact_constant, exponent, inverse_mass, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                            contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
-                if wp.static(DASHPOT):
-                    lost = dashpot_losses(s_prev, lost, edges_even, lane, base, has_left, has_right, delta0, contact_bits,
-                                          move_bits, k0, amplitude, omega, phase_old, phase_new, gamma, h, dt)
-                if wp.static(TRACES):
-                    next_trace = write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
-                                              step0 + steps, next_trace, trace_x, amplitude, omega, phase_new, dt)
-                phase_old = phase_new
+        for _pair in range(steps / 2):
+            if wp.static(DRIVEN):
+                phase_new = phase_next
+                phase_next = phases[cc, first_row + 2 * _pair + 1 + 1]  # (a row past the launch's last)
+                driver_log[log_row, 2 * _pair] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
+            if wp.static(VISCOUS):
+                lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
+            if wp.static(DASHPOT):
+                s_prev = s
+            s = advance(s, edges_even, states, flags, results, lane, lane_c, segment, first, cc, n_grains,
+                        static_overlap, contact_constant, exponent, inverse_mass, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
+                        contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
+            if wp.static(DASHPOT):
+                lost = dashpot_losses(s_prev, lost, edges_even, lane, base, has_left, has_right, delta0, contact_bits,
+                                      move_bits, k0, amplitude, omega, phase_old, phase_new, gamma, h, dt)
+            phase_old = phase_new
+            if wp.static(TRACES):
+                next_trace = write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
+                                          step0 + 2 * _pair + 1, next_trace, trace_x, amplitude, omega, phase_old, dt)
+            if wp.static(DRIVEN):
+                phase_new = phase_next
+                phase_next = phases[cc, first_row + 2 * _pair + 2 + 1]  # (a row past the launch's last)
+                driver_log[log_row, 2 * _pair + 1] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
+            if wp.static(VISCOUS):
+                lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
+            if wp.static(DASHPOT):
+                s_prev = s
+            s = advance(s, edges_odd, states, flags, results, lane, lane_c, segment, first, cc, n_grains,
+                        static_overlap, contact_constant, exponent, inverse_mass, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
+                        contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
+            if wp.static(DASHPOT):
+                lost = dashpot_losses(s_prev, lost, edges_odd, lane, base, has_left, has_right, delta0, contact_bits,
+                                      move_bits, k0, amplitude, omega, phase_old, phase_new, gamma, h, dt)
+            phase_old = phase_new
+            if wp.static(TRACES):
+                next_trace = write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
+                                          step0 + 2 * _pair + 2, next_trace, trace_x, amplitude, omega, phase_old, dt)
+        if steps % 2 == 1:
+            if wp.static(DRIVEN):
+                phase_new = phase_next
+                driver_log[log_row, steps - 1] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
+            if wp.static(VISCOUS):
+                lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
+            if wp.static(DASHPOT):
+                s_prev = s
+            s = advance(s, edges_even, states, flags, results, lane, lane_c, segment, first, cc, n_grains,
+                        static_overlap, contact_constant, exponent, inverse_mass, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
+                        contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
+            if wp.static(DASHPOT):
+                lost = dashpot_losses(s_prev, lost, edges_even, lane, base, has_left, has_right, delta0, contact_bits,
+                                      move_bits, k0, amplitude, omega, phase_old, phase_new, gamma, h, dt)
+            if wp.static(TRACES):
+                next_trace = write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
+                                          step0 + steps, next_trace, trace_x, amplitude, omega, phase_new, dt)
+            phase_old = phase_new
 
         if wp.static(DRIVEN):
             if first <= 0:  # the block holds grain 0 (a window at the surface; every block of whole chains)
