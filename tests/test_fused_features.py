@@ -97,7 +97,7 @@ def driven_scenes(*, traces: bool, **sections):
 
 DRIVEN_CASES = {
     "traces, events auto, bottom wall": dict(traces=True),
-    # plain steps: the fused kernels keep the driver's phases in two registers in turn (kernels/tile.py ROTATE)
+    # traces of a driven chain with plain steps (no event section in the fused kernels' step loop)
     "traces, events off, bottom wall": dict(traces=True, integrator={"events": "off"}),
     "no traces, events off, fixed bottom, gear5": dict(traces=False, boundary={"bottom": "fixed"},
                                                       integrator={"events": "off", "method": "gear5"}),
