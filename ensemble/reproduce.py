@@ -916,12 +916,18 @@ def _merge_drawn(runs: list[dict[str, Any]], drawn: dict[str, Any], say: Callabl
     return len(drawn["failures"])
 
 
+FIGURE_WORKERS = 8
+"""The most worker processes drawing a reproduction's figures (docs/benchmarks.md, eighth session: with 4 the whole
+reproduction waited 9.4 s for them after its last run on a 16-core GPU host; its figures take ~49 CPU seconds)."""
+
+
 def _figure_pool(groups: int):
-    """Worker processes (spawned: the parent holds a CUDA context) for figures and measurements."""
+    """Worker processes (spawned: the parent holds a CUDA context) for figures and measurements: up to
+    FIGURE_WORKERS, one core left to the process that drives the GPU."""
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
-    workers = max(1, min(groups, 4, _cpu_count() - 1))
+    workers = max(1, min(groups, FIGURE_WORKERS, _cpu_count() - 1))
     return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
 
 
