@@ -36,6 +36,17 @@ step() {  # step NAME SECONDS COMMAND...   (stdout → NAME.json when it starts 
   head -c 1 "$LOGS/$name.out" | grep -q '[[{]' && mv "$LOGS/$name.out" "$LOGS/$name.json"
 }
 
+scene_runs() {  # scene_runs TAG SCENE...: issue 11's 1000-grain scenes end to end (6e6 steps, events off), one run
+  # then three more (warm), as steps e2e_SCENE_off_TAG and e2e_SCENE_off_TAG2 ... TAG4
+  local tag="$1" s r; shift
+  for s in "$@"; do
+    step "e2e_${s}_off_${tag}" 150 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
+    for r in 2 3 4; do
+      step "e2e_${s}_off_${tag}$r" 100 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
+    done
+  done
+}
+
 # the logs come back as one archive; a watchdog packs what is there before the call's limit
 WATCHDOG_PID=""
 if [ -n "${OUT:-}" ]; then
@@ -1100,24 +1111,14 @@ nov29o)
   ;;
 nov29p)
   # the submitted state: issue 11's 1000-grain scenes end to end again on another lease (as nov29o), three warm runs each
-  for s in impact_1000 impact_1000_traces driven_1000; do
-    step "e2e_${s}_off_p" 150 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
-    for r in 2 3 4; do
-      step "e2e_${s}_off_p$r" 100 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
-    done
-  done
+  scene_runs p impact_1000 impact_1000_traces driven_1000
   ;;
 nov29q)
   # trial: a driven launch's phases in shared memory: the kernel alone on the 1000-grain scenes and the driven
   # columns' shape, the CUDA drive tests, issue 11's scenes end to end (three warm runs each after one cold)
   step scenes_q 200 "python3 docs/gpu_logs/scene_probe.py --scenes impact_1000,driven_1000 --configs 'lanes=32' --out $LOGS/scenes_q.json"
   step pytest_cuda_q 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and (drive or refilled)' tests 2>&1"
-  for s in impact_1000 driven_1000; do
-    step "e2e_${s}_off_q" 150 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
-    for r in 2 3 4; do
-      step "e2e_${s}_off_q$r" 100 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
-    done
-  done
+  scene_runs q impact_1000 driven_1000
   ;;
 nov30a)
   # eighth session: the driven grain at a fixed register slot and no free-end mask for a driven surface: the kernel
@@ -1125,12 +1126,7 @@ nov30a)
   # (one cold, then three warm runs each)
   step scenes_a 200 "python3 docs/gpu_logs/scene_probe.py --scenes impact_1000,impact_1000_traces,driven_1000 --configs 'lanes=32' --out $LOGS/scenes_a.json"
   step pytest_cuda_a 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and (drive or refilled or fused or window or trace)' tests 2>&1"
-  for s in impact_1000 impact_1000_traces driven_1000; do
-    step "e2e_${s}_off_a" 150 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
-    for r in 2 3 4; do
-      step "e2e_${s}_off_a$r" 100 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
-    done
-  done
+  scene_runs a impact_1000 impact_1000_traces driven_1000
   ;;
 nov30b)
   # the paper reproduction as shipped (plain Gear steps in every group, fused kernels on the GPU): on a fresh
@@ -1147,12 +1143,7 @@ nov30c)
   # the driven columns of Figs. 9-10 end to end (cold, warm)
   step scenes_c 200 "python3 docs/gpu_logs/scene_probe.py --scenes impact_1000,driven_1000 --configs 'lanes=32' --out $LOGS/scenes_c.json"
   step pytest_cuda_c 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and (drive or refilled or fused or window)' tests 2>&1"
-  for s in impact_1000 driven_1000; do
-    step "e2e_${s}_off_c" 150 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
-    for r in 2 3 4; do
-      step "e2e_${s}_off_c$r" 100 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
-    done
-  done
+  scene_runs c impact_1000 driven_1000
   step e2e_fig9_10_c 200 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
   step e2e_fig9_10_c2 120 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
   ;;
@@ -1160,12 +1151,7 @@ nov30d)
   # the driver's phases in two registers in turn (no copy of a loaded value): as nov30c, and the traced scene once
   step scenes_d 200 "python3 docs/gpu_logs/scene_probe.py --scenes impact_1000,driven_1000 --configs 'lanes=32' --out $LOGS/scenes_d.json"
   step pytest_cuda_d 300 "python3 -m pytest -q -p no:cacheprovider -k 'cuda and (drive or refilled or fused or window)' tests 2>&1"
-  for s in impact_1000 driven_1000; do
-    step "e2e_${s}_off_d" 150 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
-    for r in 2 3 4; do
-      step "e2e_${s}_off_d$r" 100 "$HZ bench --device cuda --scene docs/bench/$s.toml --set integrator.duration=300 --set integrator.events=off --json"
-    done
-  done
+  scene_runs d impact_1000 driven_1000
   step e2e_fig9_10_d 200 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
   step e2e_fig9_10_d2 120 "$HZ bench --device cuda --sweep sweeps/paper_fig9_10.toml --json"
   ;;
