@@ -852,7 +852,6 @@ def tile_kernel(features: Features, shape: TileShape):
                 k0 = -base
             amplitude = drive[cc, 0]
             omega = drive[cc, 1]
-            work_power = wp.vec2d(work_in[cc], power_in[cc])
         phase_old = wp.vec2d()  # the driver's (sin ωt, cos ωt) at the last step taken
         phase_new = wp.vec2d()
         phase_next = wp.vec2d()  # ... at the step after phase_new's, loaded one step ahead
@@ -949,6 +948,10 @@ def tile_kernel(features: Features, shape: TileShape):
             phase_old = phase_new
 
         if wp.static(DRIVEN):
+            # read again after the loop, with the driver's work: what the loop keeps of them is only what its steps
+            # read (the table's row of the last step's t_n+1 holds the same bits as the loop's phase_old)
+            phase_old = phases[cc, first_row + steps]
+            work_power = wp.vec2d(work_in[cc], power_in[cc])
             if first <= 0:  # the block holds grain 0 (a window at the surface; every block of whole chains)
                 # the driver's power at each step's t_n from the log its lane wrote, one step per lane, then its
                 # work summed by that lane in step order (kernels/step.py's trapezoid): off the steps' critical
