@@ -83,11 +83,11 @@ def warm_kernels(features: Iterable[Features], device: str, *, runs: Iterable[tu
         return
     from types import SimpleNamespace
 
-    from hertzian.kernels.tile import drive_table, tile_kernel, with_driver_slot
+    from hertzian.kernels.tile import drive_table, tile_kernel
 
     from .solvers.calibrate import _cache_key, _read_cache, step_reason_of
     from .solvers.config import SolverConfig
-    from .solvers.tile import tile_plan
+    from .solvers.tile import solver_plan
 
     cache = _read_cache()  # (only GPUs calibrate: empty for a CPU)
     for f, grains, chains, steps in set(runs):
@@ -102,7 +102,7 @@ def warm_kernels(features: Iterable[Features], device: str, *, runs: Iterable[tu
                 block_dim = config.shape.block_dim
                 if dev.is_cpu and block_dim > 1:
                     wp.config.enable_cpu_blocks = True
-                shape = with_driver_slot(tile_plan(config, grains, chains), f).shape  # as TileSolver compiles it
+                shape = solver_plan(config, f, grains, chains).shape  # as TileSolver compiles it
                 wp.load_module(tile_kernel(f, shape).module, device=device, block_dim=block_dim)
                 if f.surface == "driven":  # its phase table (TileSolver)
                     wp.load_module(drive_table.module, device=device)

@@ -29,6 +29,12 @@ def tile_plan(config: SolverConfig, grain_count: int, chain_count: int) -> TileP
     return TilePlan(shape, k, grain_count, 0, 1, -(-chain_count // shape.chains_per_block))
 
 
+def solver_plan(config: SolverConfig, features, grain_count: int, chain_count: int) -> TilePlan:
+    """The plan TileSolver compiles and launches for ``config``: ``tile_plan``'s geometry with the driver's slot
+    set for it (whatever the config says, e.g. a cached calibration's)."""
+    return with_driver_slot(tile_plan(config, grain_count, chain_count), features)
+
+
 def config_of(plan: TilePlan) -> SolverConfig:
     """The SolverConfig of a hertzian.kernels.tile.TilePlan (e.g. from ``plan_tile``)."""
     return SolverConfig("window" if plan.shape.windowed else "tile", shape=plan.shape,
@@ -42,8 +48,7 @@ class TileSolver(Solver):
     def __init__(self, model: Model, config: SolverConfig):
         super().__init__(model, config)
         self.kind = config.kind
-        # the driver's slot follows this model's geometry, whatever the config says (a cached calibration's)
-        self.plan = with_driver_slot(tile_plan(config, model.grain_count, model.chain_count), model.features)
+        self.plan = solver_plan(config, model.features, model.grain_count, model.chain_count)
         self.kernel = tile_kernel(self.kernel_features, self.plan.shape)
         self.trace_stride_in_kernel = model.scenes[0].trace_stride if model.features.traces else 1
         self.block_dim = config.shape.block_dim
