@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The measurements of one GPU session, in groups that each fit a 10-minute call:
 #   bash docs/gpu_logs/h100_session.sh GROUP [GROUP ...]
-#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d nov28e nov28f nov28g nov28h nov28i nov28j nov28k nov28l nov29a nov29b nov29c nov29d nov29e nov29f nov29g nov29h nov29i nov29j nov29k nov29l nov29m nov29n nov29o nov29p nov29q nov30a nov30b nov30c nov30d nov30e nov30f nov30g nov30h)
+#   (GROUP: env tests kernels e2e off nofma warm drive fig910 repro detect events fixes next first drive2 probe drive3 drive4 frontier scenes settle final nov24 nov26a nov26b nov26c nov26d nov26e nov26f next27 nov26g nov26h nov26i nov26j nov26k nov26l nov26m nov26n nov26o nov26p nov26q nov26r nov26s nov26t nov26u nov26v nov26w nov26x nov26y nov26z nov26final nov26rec nov26rec2 nov27a nov27b nov27c nov27d nov27e nov27f nov27g nov27h nov27i nov27j nov27k nov27l nov27m nov27n nov27o nov27p nov28a nov28b nov28c nov28d nov28e nov28f nov28g nov28h nov28i nov28j nov28k nov28l nov29a nov29b nov29c nov29d nov29e nov29f nov29g nov29h nov29i nov29j nov29k nov29l nov29m nov29n nov29o nov29p nov29q nov30a nov30b nov30c nov30d nov30e nov30f nov30g nov30h nov30i)
 # Every command's output goes to $LOGS/<name>.log (stdout JSON to <name>.json where the command prints
 # one), with its wall time and exit code in $LOGS/summary.tsv. Each command has its own time limit, so one
 # slow command does not lose the others. On a machine without a package index the package runs from the
@@ -1186,6 +1186,14 @@ nov30h)
   step e2e_gpu10k_h2 120 "$HZ bench --device cuda --sweep sweeps/gpu_10k.toml --json"
   scene_runs h impact_1000 driven_1000
   step pytest_cuda_h 330 "python3 -m pytest -q -p no:cacheprovider -k cuda tests 2>&1"
+  ;;
+nov30i)
+  # the inverse-mass function (sm_90: the impact window kernel 140 -> 122 registers, 26 moves fewer a step pair):
+  # kernel alone, issue 11's impact and driven scenes, the fused kernels' bench, the event kernel alone
+  step scenes_i 200 "python3 docs/gpu_logs/scene_probe.py --scenes impact_1000,driven_1000 --configs 'lanes=32' --out $LOGS/scenes_i.json"
+  scene_runs i impact_1000 driven_1000
+  step bench_kernels_i 200 "$HZ bench --device cuda --chains 16384,16384,1,1 --grains 1000,4096,1000,10240 --repeats 3 --json"
+  step frontier_probe_i 200 "python3 docs/gpu_logs/frontier_events_probe.py --variants inline4,off4"
   ;;
 detect)
   step detect_study_1000 500 "$HZ detect-study sweeps/detect_study_1000.toml --out $LOGS/study_1000_gpu.json --overwrite --device cuda"
