@@ -94,8 +94,9 @@ def _exact(dt: float) -> Fraction:
     return Fraction(repr(float(dt)))
 
 
-def common_record_interval(dts: list[float], duration: float, *, records: int = 40,
-                           preferred: float | None = None) -> float:
+def common_record_interval(
+    dts: list[float], duration: float, *, records: int = 40, preferred: float | None = None
+) -> float:
     """A record interval [time] that every step in ``dts`` divides, near ``duration / records``.
 
     Keeps ``preferred`` when all steps divide it. Raises SceneError when the steps have no common
@@ -114,10 +115,13 @@ def common_record_interval(dts: list[float], duration: float, *, records: int = 
     if preferred is not None and preferred <= duration * (1 + 1e-12) and divides_all(preferred):
         return preferred
     if multiple > _exact(duration) * (1 + Fraction(1, 10**12)):
-        raise SceneError("--dt", ",".join(f"{d:g}" for d in dts),
-                         f"the steps (and the reference's, min/4) have no common multiple within the "
-                         f"duration {duration:g} (least common multiple {float(multiple):.3g}); use steps "
-                         "like 2e-4, 1e-4, 5e-5")
+        raise SceneError(
+            "--dt",
+            ",".join(f"{d:g}" for d in dts),
+            f"the steps (and the reference's, min/4) have no common multiple within the "
+            f"duration {duration:g} (least common multiple {float(multiple):.3g}); use steps "
+            "like 2e-4, 1e-4, 5e-5",
+        )
     # the multiple of the common step nearest duration/records, preferring one that divides the duration
     total = _exact(duration) / multiple
     target = max(1, math.floor(total / max(records, 1)))
@@ -128,15 +132,23 @@ def common_record_interval(dts: list[float], duration: float, *, records: int = 
     return float(multiple * target)
 
 
-def study_scene(scene: Scene, *, method: str, dt: float, precision: str, every: float,
-                events: str | None = None) -> Scene:
+def study_scene(
+    scene: Scene, *, method: str, dt: float, precision: str, every: float, events: str | None = None
+) -> Scene:
     """The scene as a study runs it: one method/step/precision, positions every ``every``, no traces."""
-    return scene.with_overrides({
-        "integrator.method": method, "integrator.dt": dt, "integrator.precision": precision,
-        "integrator.events": events or scene.integrator.events,
-        "record.every": every, "record.fields": ["u"], "record.traces": [], "record.trace_every": None,
-        "record.energy": True,
-    })
+    return scene.with_overrides(
+        {
+            "integrator.method": method,
+            "integrator.dt": dt,
+            "integrator.precision": precision,
+            "integrator.events": events or scene.integrator.events,
+            "record.every": every,
+            "record.fields": ["u"],
+            "record.traces": [],
+            "record.trace_every": None,
+            "record.energy": True,
+        }
+    )
 
 
 def relative_error(u: np.ndarray, u_ref: np.ndarray) -> float:
@@ -151,8 +163,9 @@ def relative_error(u: np.ndarray, u_ref: np.ndarray) -> float:
     return float(np.max(np.abs(u - u_ref))) / (scale if scale > 0 else 1.0)
 
 
-def richardson_estimate(u_h: np.ndarray, u_2h: np.ndarray, u_4h: np.ndarray, *,
-                        max_order: float = REFERENCE_ORDER) -> tuple[float, float]:
+def richardson_estimate(
+    u_h: np.ndarray, u_2h: np.ndarray, u_4h: np.ndarray, *, max_order: float = REFERENCE_ORDER
+) -> tuple[float, float]:
     """(estimated relative error of u_h, observed order) from three runs at steps h, 2h, 4h."""
     runs = [np.asarray(u, dtype=np.float64) for u in (u_h, u_2h, u_4h)]
     if not all(np.all(np.isfinite(u)) for u in runs):
@@ -172,7 +185,6 @@ def study_kernel(scene: Scene, device: str | None) -> str:
     the run length): on a CPU the chain-per-thread sweep where it applies, else the per-step kernel; on a
     GPU ``auto`` (ensemble/solvers/calibrate.py)."""
     import warp as wp
-
     from hertzian.kernels.cpu import sweepable
 
     from .model import features_of
@@ -194,18 +206,28 @@ def _run(scene: Scene, device: str | None, kernel: str = "auto"):
     return result, result.kernel
 
 
-def reference_run(scene: Scene, dt: float, every: float, device: str | None = None, *,
-                  kernel: str = "auto") -> ReferenceRun:
+def reference_run(
+    scene: Scene, dt: float, every: float, device: str | None = None, *, kernel: str = "auto"
+) -> ReferenceRun:
     """gear6 float64 at ``dt``, checked against 2·dt and 4·dt (Richardson); see the module docstring."""
-    runs = [_run(study_scene(scene, method=REFERENCE_METHOD, dt=dt * f, precision="float64", every=every), device,
-                 kernel)[0] for f in (1, 2, 4)]
+    runs = [
+        _run(study_scene(scene, method=REFERENCE_METHOD, dt=dt * f, precision="float64", every=every), device, kernel)[
+            0
+        ]
+        for f in (1, 2, 4)
+    ]
     u_h, u_2h, u_4h = (r.u[0] for r in runs)
     if not np.all(np.isfinite(u_h)):
-        raise SceneError("--dt", f"{dt * 4:g}", f"the reference ({REFERENCE_METHOD} at dt = {dt:g}) is not "
-                         "finite: the scene is unstable even there; use smaller steps")
+        raise SceneError(
+            "--dt",
+            f"{dt * 4:g}",
+            f"the reference ({REFERENCE_METHOD} at dt = {dt:g}) is not "
+            "finite: the scene is unstable even there; use smaller steps",
+        )
     estimate, observed = richardson_estimate(u_h, u_2h, u_4h)
-    return ReferenceRun(dt=dt, u=u_h, error_estimate=estimate, observed_order=observed,
-                        seconds=sum(r.wall_seconds for r in runs))
+    return ReferenceRun(
+        dt=dt, u=u_h, error_estimate=estimate, observed_order=observed, seconds=sum(r.wall_seconds for r in runs)
+    )
 
 
 def parse_list(key: str, text: str, allowed: tuple[str, ...]) -> list[str]:
@@ -304,21 +326,44 @@ def time_to_target(records: list[AccuracyRecord], targets: list[float], measure:
         for (method, precision, events), runs in groups.items():
             meeting = [r for r in runs if _meets(r, target, measure)]
             best = max(meeting, key=lambda r: r.dt) if meeting else None
-            found.append(TimeToTarget(
-                target=target, measure=measure, method=method, precision=precision, events=events,
-                dt=best.dt if best else None, seconds=best.seconds if best else None,
-                error=best.error if best else None, energy_error=best.energy_error if best else None,
-                reference_limited=bool(best and measure == "error" and best.reference_limited)))
-        found.sort(key=lambda t: (t.seconds is None, t.seconds if t.seconds is not None else 0.0,
-                                  METHODS.index(t.method) if t.method in METHODS else 0))
+            found.append(
+                TimeToTarget(
+                    target=target,
+                    measure=measure,
+                    method=method,
+                    precision=precision,
+                    events=events,
+                    dt=best.dt if best else None,
+                    seconds=best.seconds if best else None,
+                    error=best.error if best else None,
+                    energy_error=best.energy_error if best else None,
+                    reference_limited=bool(best and measure == "error" and best.reference_limited),
+                )
+            )
+        found.sort(
+            key=lambda t: (
+                t.seconds is None,
+                t.seconds if t.seconds is not None else 0.0,
+                METHODS.index(t.method) if t.method in METHODS else 0,
+            )
+        )
         rows.extend(found)
     return rows
 
 
-def work_precision(scene: Scene, methods: list[str], dts: list[float], precisions: list[str], *,
-                   device: str | None = None, reference_factor: int = 4, records: int = 40,
-                   kernel: str | None = None, progress=None,
-                   events: list[str] | None = None) -> tuple[list[AccuracyRecord], ReferenceRun, float]:
+def work_precision(
+    scene: Scene,
+    methods: list[str],
+    dts: list[float],
+    precisions: list[str],
+    *,
+    device: str | None = None,
+    reference_factor: int = 4,
+    records: int = 40,
+    kernel: str | None = None,
+    progress=None,
+    events: list[str] | None = None,
+) -> tuple[list[AccuracyRecord], ReferenceRun, float]:
     """Run every (events, precision, method, dt) of a study and measure it against a gear6 reference.
 
     Returns (records, reference, record interval). ``kernel`` (ensemble/solvers/calibrate.py KERNELS) is the
@@ -346,11 +391,20 @@ def work_precision(scene: Scene, methods: list[str], dts: list[float], precision
     if dts[0] > duration:
         raise SceneError("--dt", dts[0], f"must not exceed integrator.duration = {duration:g}")
     reference_dt = float(_exact(dts[-1]) / reference_factor)
-    every = common_record_interval(dts + [reference_dt, 2 * reference_dt, 4 * reference_dt], duration,
-                                   records=records, preferred=scene.record.every)
+    every = common_record_interval(
+        dts + [reference_dt, 2 * reference_dt, 4 * reference_dt],
+        duration,
+        records=records,
+        preferred=scene.record.every,
+    )
     # validate every study scene before running anything
-    plan = [(e, p, m, dt, study_scene(scene, method=m, dt=dt, precision=p, every=every, events=e))
-            for e in events for p in precisions for m in methods for dt in dts]
+    plan = [
+        (e, p, m, dt, study_scene(scene, method=m, dt=dt, precision=p, every=every, events=e))
+        for e in events
+        for p in precisions
+        for m in methods
+        for dt in dts
+    ]
     if progress:
         progress(f"reference: {REFERENCE_METHOD} float64 at dt = {reference_dt:g}, 2·dt and 4·dt")
     kernel = kernel or study_kernel(plan[0][4], device)
@@ -363,17 +417,30 @@ def work_precision(scene: Scene, methods: list[str], dts: list[float], precision
         r, ran = _run(s, device, kernel)
         err = relative_error(r.u[0], reference.u)
         status = int(r.status[0])
-        out.append(AccuracyRecord(
-            method=m, dt=dt, precision=p, error=err, energy_error=float(r.energy_error[0]),
-            seconds=float(r.wall_seconds), grain_steps_per_second=float(r.grain_steps_per_second),
-            steps=int(r.steps), steps_per_contact_time=contact_time / dt, status=status,
-            status_name=Status(status).name if status in Status._value2member_map_ else str(status),
-            reference_limited=bool(err < RESOLVED_FACTOR * reference.error_estimate), kernel=ran, events=e))
+        out.append(
+            AccuracyRecord(
+                method=m,
+                dt=dt,
+                precision=p,
+                error=err,
+                energy_error=float(r.energy_error[0]),
+                seconds=float(r.wall_seconds),
+                grain_steps_per_second=float(r.grain_steps_per_second),
+                steps=int(r.steps),
+                steps_per_contact_time=contact_time / dt,
+                status=status,
+                status_name=Status(status).name if status in Status._value2member_map_ else str(status),
+                reference_limited=bool(err < RESOLVED_FACTOR * reference.error_estimate),
+                kernel=ran,
+                events=e,
+            )
+        )
     return out, reference, every
 
 
-def plot_work_precision(records: list[AccuracyRecord], path, *, title: str = "",
-                        reference_error: float | None = None) -> None:
+def plot_work_precision(
+    records: list[AccuracyRecord], path, *, title: str = "", reference_error: float | None = None
+) -> None:
     """Error and energy error against wall seconds, log–log, one line per (method, precision); writes ``path``.
 
     Open markers: errors within a factor 10 of the reference's own estimated error (drawn dotted).
@@ -385,15 +452,19 @@ def plot_work_precision(records: list[AccuracyRecord], path, *, title: str = "",
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.8), constrained_layout=True)
     colours = {"gear4": "C0", "gear5": "C1", "gear6": "C2", "verlet": "C3", "yoshida4": "C4"}
-    lines = sorted({(r.method, r.precision, r.events) for r in records},
-                   key=lambda k: (k[2], k[1], METHODS.index(k[0])))
+    lines = sorted(
+        {(r.method, r.precision, r.events) for r in records}, key=lambda k: (k[2], k[1], METHODS.index(k[0]))
+    )
     several_events = len({k[2] for k in lines}) > 1
     methods = {m for m, _, _ in lines}
     labelled = {m for m in methods if m in ("verlet", "yoshida4")} | {
-        min((m for m in methods if m not in ("verlet", "yoshida4")), default="")}
+        min((m for m in methods if m not in ("verlet", "yoshida4")), default="")
+    }
     for method, precision, events in lines:
-        rows = sorted((r for r in records if r.method == method and r.precision == precision
-                       and r.events == events), key=lambda r: r.seconds)
+        rows = sorted(
+            (r for r in records if r.method == method and r.precision == precision and r.events == events),
+            key=lambda r: r.seconds,
+        )
         seconds = np.array([r.seconds for r in rows])
         colour = colours.get(method, "k")
         marker = "o" if precision == "float64" else "s"
@@ -406,19 +477,30 @@ def plot_work_precision(records: list[AccuracyRecord], path, *, title: str = "",
         for ax, values in ((axes[0], [r.error for r in rows]), (axes[1], [r.energy_error for r in rows])):
             values = np.array(values, dtype=float)
             ok = np.isfinite(values) & (values > 0)
-            ax.loglog(seconds[ok], values[ok], marker=marker, linestyle=style,
-                      color=colour, label=label, markersize=4)
+            ax.loglog(seconds[ok], values[ok], marker=marker, linestyle=style, color=colour, label=label, markersize=4)
         for r in rows:
             if r.reference_limited and np.isfinite(r.error) and r.error > 0:
-                axes[0].plot([r.seconds], [r.error], marker=marker, markersize=7, markerfacecolor="white",
-                             color=colour)
+                axes[0].plot([r.seconds], [r.error], marker=marker, markersize=7, markerfacecolor="white", color=colour)
             if method in labelled and precision == "float64" and np.isfinite(r.error) and r.error > 0:
-                axes[0].annotate(f"{r.dt:g}", (r.seconds, r.error), fontsize=6, textcoords="offset points",
-                                 xytext=(3, 3), color=colour)
+                axes[0].annotate(
+                    f"{r.dt:g}",
+                    (r.seconds, r.error),
+                    fontsize=6,
+                    textcoords="offset points",
+                    xytext=(3, 3),
+                    color=colour,
+                )
     if reference_error is not None and reference_error > 0 and np.isfinite(reference_error):
         axes[0].axhline(reference_error, color="0.4", linestyle=":", linewidth=1)
-        axes[0].annotate("reference's estimated error", (axes[0].get_xlim()[1], reference_error), fontsize=7,
-                         textcoords="offset points", xytext=(-4, -9), ha="right", color="0.3")
+        axes[0].annotate(
+            "reference's estimated error",
+            (axes[0].get_xlim()[1], reference_error),
+            fontsize=7,
+            textcoords="offset points",
+            xytext=(-4, -9),
+            ha="right",
+            color="0.3",
+        )
     axes[0].set_ylabel("max |u − u_ref| / max |u_ref|")
     axes[1].set_ylabel("energy error max |E(t) − E(0)| / E_inj")
     for ax in axes:

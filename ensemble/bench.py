@@ -36,7 +36,6 @@ from .solvers import choose_config, make_solver
 from .solvers.calibrate import states_equal, whole_chain_configs
 
 
-
 def today() -> str:
     """The date of a measurement, UTC, ISO 8601 (YYYY-MM-DD), from the clock at the time it is taken."""
     return datetime.now(timezone.utc).date().isoformat()
@@ -56,12 +55,14 @@ def bench_scenes(chains: int, grains: int) -> list[Scene]:
 
     Plain Gear steps (``integrator.events = "off"``): the peers implement those, and the bench measures them.
     """
-    base = scene_from_dict({
-        "chain": {"grains": grains, "l0": 1e-4},
-        "excitation": {"impact": 1e-2},
-        "integrator": {"method": "gear4", "dt": 1.25e-5, "duration": 1.0, "precision": "float64", "events": "off"},
-        "record": {"fields": ["u", "v"]},
-    })
+    base = scene_from_dict(
+        {
+            "chain": {"grains": grains, "l0": 1e-4},
+            "excitation": {"impact": 1e-2},
+            "integrator": {"method": "gear4", "dt": 1.25e-5, "duration": 1.0, "precision": "float64", "events": "off"},
+            "record": {"fields": ["u", "v"]},
+        }
+    )
     return [base.with_overrides({"excitation.impact": 1e-2 * (1.0 + c / max(chains, 1))}) for c in range(chains)]
 
 
@@ -69,7 +70,7 @@ def copy_bandwidth(device) -> float:
     """Measured copy bandwidth of ``device`` [bytes/s], bytes read plus bytes written (median of repeats)."""
     device = wp.get_device(device)
     if device.is_cuda:
-        n = 1 << 27   # 1 GiB of float64
+        n = 1 << 27  # 1 GiB of float64
         src = wp.empty(n, dtype=wp.float64, device=device)
         src.fill_(1.0)
         dst = wp.empty_like(src)
@@ -81,7 +82,7 @@ def copy_bandwidth(device) -> float:
             times.append(timer.elapsed / 1e3)
         del src, dst
         return 2 * n * 8 / statistics.median(times)
-    n = 1 << 24   # 128 MiB
+    n = 1 << 24  # 128 MiB
     src = np.ones(n)
     dst = np.empty_like(src)
     np.copyto(dst, src)
@@ -120,13 +121,20 @@ def _warp_impl(name: str, runner: Runner) -> Implementation:
         if dev.is_cuda:
             chunk = math.lcm(chunk, 512)
     return Implementation(
-        name=name, kernel=kernel, chains=runner.model.chain_count,
-        advance=runner.advance, state=lambda: runner.current.x.numpy(), chunk=chunk,
-        synchronize=lambda: wp.synchronize_device(dev), cpu=dev.is_cpu)
+        name=name,
+        kernel=kernel,
+        chains=runner.model.chain_count,
+        advance=runner.advance,
+        state=lambda: runner.current.x.numpy(),
+        chunk=chunk,
+        synchronize=lambda: wp.synchronize_device(dev),
+        cpu=dev.is_cpu,
+    )
 
 
-def _time(impl: Implementation, steps: int | None, repeats: int, min_seconds: float,
-          max_steps: int) -> tuple[int, float]:
+def _time(
+    impl: Implementation, steps: int | None, repeats: int, min_seconds: float, max_steps: int
+) -> tuple[int, float]:
     """(steps per run, median seconds per run) after a warm-up at the timed step count."""
     sync = impl.synchronize or (lambda: None)
 
@@ -153,9 +161,18 @@ def _time(impl: Implementation, steps: int | None, repeats: int, min_seconds: fl
     return n, statistics.median(times)
 
 
-def run_bench(device: str, sizes: list[tuple[int, int]], *, kernel: str = "all", steps: int | None = None,
-              repeats: int = 5, check_steps: int = 64, peers: bool = True, min_seconds: float | None = None,
-              log=None) -> list[dict]:
+def run_bench(
+    device: str,
+    sizes: list[tuple[int, int]],
+    *,
+    kernel: str = "all",
+    steps: int | None = None,
+    repeats: int = 5,
+    check_steps: int = 64,
+    peers: bool = True,
+    min_seconds: float | None = None,
+    log=None,
+) -> list[dict]:
     """Bench every implementation at every (chains, grains); returns one record (dict) per implementation and size."""
     if kernel not in KERNEL_CHOICES:
         raise ValueError(f"kernel = {kernel!r}: one of {', '.join(KERNEL_CHOICES)}")
@@ -175,8 +192,10 @@ def run_bench(device: str, sizes: list[tuple[int, int]], *, kernel: str = "all",
         wall = bandwidth / bytes_per_grain_step
         host_wall = host_bandwidth / bytes_per_grain_step
         max_steps = 1 << 24
-        log(f"{chains} chains x {grains} grains: memory wall {wall:.3g} grain-steps/s "
-            f"({bytes_per_grain_step} B/grain-step)")
+        log(
+            f"{chains} chains x {grains} grains: memory wall {wall:.3g} grain-steps/s "
+            f"({bytes_per_grain_step} B/grain-step)"
+        )
 
         # one runner (one pair of state buffers) serves every project kernel, reset to t = 0 in between
         runner = Runner(model, kernel="step")
@@ -197,30 +216,49 @@ def run_bench(device: str, sizes: list[tuple[int, int]], *, kernel: str = "all",
         def bench(impl: Implementation, on_wall: float, real_chains: int):
             diff = states_equal(impl.state(), reference[:, :real_chains])
             if not diff <= impl.tolerance:
-                raise RuntimeError(f"{impl.name} ({impl.kernel}) differs from the per-step kernel by {diff:.3g} "
-                                   f"(relative) after {check_steps} steps at {real_chains}x{grains}")
+                raise RuntimeError(
+                    f"{impl.name} ({impl.kernel}) differs from the per-step kernel by {diff:.3g} "
+                    f"(relative) after {check_steps} steps at {real_chains}x{grains}"
+                )
             n, seconds = _time(impl, steps, repeats, min_seconds, max_steps)
             gs = real_chains * grains * n / seconds
             rec = {
-                "implementation": impl.name, "kernel": impl.kernel,
-                "device": "cpu" if impl.cpu else str(dev), "device_name": "CPU" if impl.cpu else dev.name,
-                "chains": real_chains, "grains": grains, "steps": n, "repeats": repeats,
-                "seconds": seconds, "grain_steps_per_second": gs, "steps_per_second": n / seconds,
-                "bytes_per_grain_step": bytes_per_grain_step, "memory_wall_grain_steps_per_second": on_wall,
-                "ratio_to_memory_wall": gs / on_wall, "max_relative_difference": diff,
+                "implementation": impl.name,
+                "kernel": impl.kernel,
+                "device": "cpu" if impl.cpu else str(dev),
+                "device_name": "CPU" if impl.cpu else dev.name,
+                "chains": real_chains,
+                "grains": grains,
+                "steps": n,
+                "repeats": repeats,
+                "seconds": seconds,
+                "grain_steps_per_second": gs,
+                "steps_per_second": n / seconds,
+                "bytes_per_grain_step": bytes_per_grain_step,
+                "memory_wall_grain_steps_per_second": on_wall,
+                "ratio_to_memory_wall": gs / on_wall,
+                "max_relative_difference": diff,
                 "date": today(),
             }
             size_records.append(rec)
-            log(f"  {impl.name:12s} {impl.kernel:44s} {gs:10.3g} GS/s {n / seconds:10.3g} steps/s "
-                f"x{gs / on_wall:5.2f} wall  diff {diff:.1e}")
+            log(
+                f"  {impl.name:12s} {impl.kernel:44s} {gs:10.3g} GS/s {n / seconds:10.3g} steps/s "
+                f"x{gs / on_wall:5.2f} wall  diff {diff:.1e}"
+            )
 
         # the project's kernels
-        names = {"all": ["step", "tile", "window"] if dev.is_cuda else ["step", "sweep"],
-                 "auto": ["auto"]}.get(kernel, [kernel])
+        names = {"all": ["step", "tile", "window"] if dev.is_cuda else ["step", "sweep"], "auto": ["auto"]}.get(
+            kernel, [kernel]
+        )
         step_solver = runner.solver
         for name in names:
-            if (kernel == "all" and name == "window" and chains >= (dev.sm_count or 1) and grains <= 1024
-                    and whole_chain_configs(model)):
+            if (
+                kernel == "all"
+                and name == "window"
+                and chains >= (dev.sm_count or 1)
+                and grains <= 1024
+                and whole_chain_configs(model)
+            ):
                 log("  window: skipped (whole chains fit a block and fill the GPU)")
                 continue
             solver = step_solver
@@ -238,30 +276,51 @@ def run_bench(device: str, sizes: list[tuple[int, int]], *, kernel: str = "all",
             label = name if name != "auto" else solver.kind
             bench(_warp_impl(f"warp-{label}", runner), wall, chains)
             del solver
-        del runner
+        runner = None
         gc.collect()
 
         # peers
         if peers:
-            problem = PeerProblem(x=initial, contact_constant=model.contact_constant.numpy().reshape(chains, 1),
-                                  static_overlap=model.static_overlap.numpy().reshape(chains, 1),
-                                  inverse_mass=model.inverse_mass.numpy().reshape(chains, 1), dt=model.dt)
+            problem = PeerProblem(
+                x=initial,
+                contact_constant=model.contact_constant.numpy().reshape(chains, 1),
+                static_overlap=model.static_overlap.numpy().reshape(chains, 1),
+                inverse_mass=model.inverse_mass.numpy().reshape(chains, 1),
+                dt=model.dt,
+            )
             numpy_chains = max(1, min(chains, NUMPY_MAX_GRAINS // grains))
             sub = _first_chains(problem, numpy_chains)
             peer = NumpyGear4(sub)
             peer.run(check_steps)
-            bench(Implementation(name="numpy", kernel="numpy, 1 core", chains=numpy_chains, advance=peer.run,
-                                 state=peer.state, tolerance=PEER_TOLERANCE, cpu=True), host_wall, numpy_chains)
+            bench(
+                Implementation(
+                    name="numpy",
+                    kernel="numpy, 1 core",
+                    chains=numpy_chains,
+                    advance=peer.run,
+                    state=peer.state,
+                    tolerance=PEER_TOLERANCE,
+                    cpu=True,
+                ),
+                host_wall,
+                numpy_chains,
+            )
             del peer
             if jax_available():
                 os.environ.setdefault("XLA_PYTHON_CLIENT_PREALLOCATE", "false")
                 peer = JaxGear4(problem, str(dev))
                 peer.run(check_steps)
                 platform = peer.device.platform
-                impl = Implementation(name="jax", kernel=f"lax.scan unroll={peer.unroll} ({platform})",
-                                      chains=chains,
-                                      advance=peer.run, state=peer.state, tolerance=PEER_TOLERANCE,
-                                      chunk=512 if platform == "gpu" else 1, cpu=platform == "cpu")
+                impl = Implementation(
+                    name="jax",
+                    kernel=f"lax.scan unroll={peer.unroll} ({platform})",
+                    chains=chains,
+                    advance=peer.run,
+                    state=peer.state,
+                    tolerance=PEER_TOLERANCE,
+                    chunk=512 if platform == "gpu" else 1,
+                    cpu=platform == "cpu",
+                )
                 bench(impl, host_wall if platform == "cpu" else wall, chains)
                 del peer
             gc.collect()
@@ -270,12 +329,18 @@ def run_bench(device: str, sizes: list[tuple[int, int]], *, kernel: str = "all",
         for r in size_records:
             r["ratio_to_best"] = r["grain_steps_per_second"] / best
         records.extend(size_records)
-        del model, reference, initial
+        model = reference = initial = None
         gc.collect()
     return records
 
 
 def _first_chains(problem: PeerProblem, chains: int) -> PeerProblem:
-    return PeerProblem(x=problem.x[:, :chains].copy(), contact_constant=problem.contact_constant[:chains],
-                       static_overlap=problem.static_overlap[:chains], inverse_mass=problem.inverse_mass[:chains],
-                       dt=problem.dt, surface_wall=problem.surface_wall, bottom_wall=problem.bottom_wall)
+    return PeerProblem(
+        x=problem.x[:, :chains].copy(),
+        contact_constant=problem.contact_constant[:chains],
+        static_overlap=problem.static_overlap[:chains],
+        inverse_mass=problem.inverse_mass[:chains],
+        dt=problem.dt,
+        surface_wall=problem.surface_wall,
+        bottom_wall=problem.bottom_wall,
+    )

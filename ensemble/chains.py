@@ -20,9 +20,19 @@ import numpy as np
 
 from .scene import Scene
 
-CHAIN_KEYS = ("chain.mass", "chain.a", "chain.exponent", "chain.diameter", "chain.l0", "chain.load",
-              "chain.gravity", "excitation.impact", "excitation.drive_amplitude", "excitation.drive_period",
-              "damping.gamma")
+CHAIN_KEYS = (
+    "chain.mass",
+    "chain.a",
+    "chain.exponent",
+    "chain.diameter",
+    "chain.l0",
+    "chain.load",
+    "chain.gravity",
+    "excitation.impact",
+    "excitation.drive_amplitude",
+    "excitation.drive_period",
+    "damping.gamma",
+)
 IMPURITY_KEY = re.compile(r"^impurities\.(\d+)\.(mass|a)$")
 
 
@@ -65,8 +75,9 @@ class ChainSet(Sequence):
     @classmethod
     def of(cls, template: Scene, values: dict[str, Any], count: int) -> "ChainSet":
         """A set with columns converted to float64 arrays."""
-        return cls(template=template, values={k: np.asarray(v, dtype=np.float64) for k, v in values.items()},
-                   count=count)
+        return cls(
+            template=template, values={k: np.asarray(v, dtype=np.float64) for k, v in values.items()}, count=count
+        )
 
     def column(self, key: str) -> np.ndarray | None:
         """Value of ``key`` for every chain, shape (count,), float64; None where the template's value is unset."""
@@ -96,9 +107,9 @@ class ChainSet(Sequence):
     def take(self, indices: np.ndarray) -> "ChainSet":
         """The chains at ``indices`` (in that order)."""
         indices = np.asarray(indices)
-        return ChainSet(template=self.template, values={k: v[indices] for k, v in self.values.items()},
-                        count=len(indices))
-
+        return ChainSet(
+            template=self.template, values={k: v[indices] for k, v in self.values.items()}, count=len(indices)
+        )
 
 
 class ChainStack(Sequence):
@@ -127,6 +138,7 @@ class ChainStack(Sequence):
         index %= len(self)
         part = int(np.searchsorted(self.offsets, index, side="right")) - 1
         return self.parts[part][index - int(self.offsets[part])]
+
 
 def row_codes(columns: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """(index of the first row of each distinct row, distinct-row number of every row) of equal-length

@@ -59,15 +59,13 @@ yoshida4: the one-step matrix on ü = −ω²u is the product of its three veloc
 |trace/2| ≤ 1. Bisection of |trace/2| = 1 gives ω dt = 1.573402 (first crossing; rounded down here,
 recomputed by tests/test_check.py)."""
 
-ACCURATE_STEPS_PER_CONTACT_TIME = {"gear4": 400.0, "gear5": 300.0, "gear6": 400.0, "verlet": 3200.0,
-                                   "yoshida4": 400.0}
+ACCURATE_STEPS_PER_CONTACT_TIME = {"gear4": 400.0, "gear5": 300.0, "gear6": 400.0, "verlet": 3200.0, "yoshida4": 400.0}
 """Steps per contact time T/dt that kept the energy error below 1e-6 in every extreme case measured
 (docs/stability.md: 13 cases × 11 step sizes on 30 grains, 2026-11-22; yoshida4: the same 13 cases at
 T/dt = 50 … 3200, worst 5.6e-7 at 400 and 1.3e-6 at 300, docs/accuracy/yoshida4_thresholds.json, measured)."""
 
 STABILITY_MARGIN = 2.0
 """The suggested dt stays this factor below the stability limit."""
-
 
 
 @dataclass(frozen=True)
@@ -140,25 +138,40 @@ class StepCheck:
         """One line when dt looks unsafe (unstable or inaccurate), else None."""
         if self.verdict == "ok":
             return None
-        what = ("unstable: ω_max·dt = {:.3g} > {:.3g}".format(self.omega_dt, STABLE_OMEGA_DT[self.method])
-                if self.verdict == "unstable" else
-                "inaccurate: {:.3g} steps per contact time < {:.0f}".format(
-                    self.steps_per_contact_time, ACCURATE_STEPS_PER_CONTACT_TIME[self.method]))
-        return (f"integrator.dt = {self.dt:g} looks {what} for {self.method} "
-                f"(contact time {self.contact_time:.3g}); suggested dt ≤ {self.suggested_dt:.3g} "
-                "(hertzian check for details)")
+        what = (
+            "unstable: ω_max·dt = {:.3g} > {:.3g}".format(self.omega_dt, STABLE_OMEGA_DT[self.method])
+            if self.verdict == "unstable"
+            else "inaccurate: {:.3g} steps per contact time < {:.0f}".format(
+                self.steps_per_contact_time, ACCURATE_STEPS_PER_CONTACT_TIME[self.method]
+            )
+        )
+        return (
+            f"integrator.dt = {self.dt:g} looks {what} for {self.method} "
+            f"(contact time {self.contact_time:.3g}); suggested dt ≤ {self.suggested_dt:.3g} "
+            "(hertzian check for details)"
+        )
 
     def to_dict(self) -> dict:
         """Plain data (JSON-ready), derived values included."""
         return {
-            "method": self.method, "dt": self.dt, "largest_overlap": self.largest_overlap,
-            "validity_overlap": self.validity_overlap, "beyond_validity": self.beyond_validity,
-            "stiffest_contact": self.stiffest_contact, "stiffness": self.stiffness,
-            "reduced_mass": self.reduced_mass, "contact_time": self.contact_time,
-            "steps_per_contact_time": self.steps_per_contact_time, "highest_frequency": self.highest_frequency,
-            "omega_dt": self.omega_dt, "stable_omega_dt": STABLE_OMEGA_DT[self.method], "stable": self.stable,
+            "method": self.method,
+            "dt": self.dt,
+            "largest_overlap": self.largest_overlap,
+            "validity_overlap": self.validity_overlap,
+            "beyond_validity": self.beyond_validity,
+            "stiffest_contact": self.stiffest_contact,
+            "stiffness": self.stiffness,
+            "reduced_mass": self.reduced_mass,
+            "contact_time": self.contact_time,
+            "steps_per_contact_time": self.steps_per_contact_time,
+            "highest_frequency": self.highest_frequency,
+            "omega_dt": self.omega_dt,
+            "stable_omega_dt": STABLE_OMEGA_DT[self.method],
+            "stable": self.stable,
             "accurate_steps_per_contact_time": ACCURATE_STEPS_PER_CONTACT_TIME[self.method],
-            "accurate": self.accurate, "verdict": self.verdict, "suggested_dt": self.suggested_dt,
+            "accurate": self.accurate,
+            "verdict": self.verdict,
+            "suggested_dt": self.suggested_dt,
             "notes": list(self.notes),
         }
 
@@ -220,8 +233,9 @@ def injected_energy_bound(scene: Scene, mass: np.ndarray) -> tuple[float, list[s
         omega = 2.0 * math.pi / e.drive_period
         speed = 2.0 * e.drive_amplitude * omega
         return 0.5 * mass[1] * speed**2, [
-            f"drive: energy budget ½ m_1 (2Aω)² = {0.5 * mass[1] * speed ** 2:.3g} is an estimate "
-            "(a resonant drive can pump in more over many periods)"]
+            f"drive: energy budget ½ m_1 (2Aω)² = {0.5 * mass[1] * speed**2:.3g} is an estimate "
+            "(a resonant drive can pump in more over many periods)"
+        ]
     return 0.5 * mass[0] * e.impact**2, []
 
 
@@ -263,16 +277,26 @@ def check_scene(scene: Scene) -> StepCheck:
         else:
             # n < 2: k = n(n−1)aδ^(n−2) grows without bound as δ → 0; use the secant F(δ)/δ at δ_max
             stiffness = n * a_c * largest ** (n - 2.0)
-            notes.append("n < 2: the contact stiffness is unbounded at zero overlap; the estimate uses "
-                         "F(δ)/δ at the largest overlap and may be optimistic")
+            notes.append(
+                "n < 2: the contact stiffness is unbounded at zero overlap; the estimate uses "
+                "F(δ)/δ at the largest overlap and may be optimistic"
+            )
     stiffness = np.where(exists & np.isfinite(stiffness), stiffness, 0.0)
     omega2 = stiffness * inverse_reduced
     if not np.any(omega2 > 0):
         notes.append("no loaded contact: nothing ever touches with a positive stiffness")
-        return StepCheck(method=scene.integrator.method, dt=scene.integrator.dt, largest_overlap=0.0,
-                         stiffest_contact=-1, stiffness=0.0, reduced_mass=math.inf, contact_time=math.inf,
-                         highest_frequency=0.0, validity_overlap=scene.chain.validity_overlap,
-                         notes=tuple(notes))
+        return StepCheck(
+            method=scene.integrator.method,
+            dt=scene.integrator.dt,
+            largest_overlap=0.0,
+            stiffest_contact=-1,
+            stiffness=0.0,
+            reduced_mass=math.inf,
+            contact_time=math.inf,
+            highest_frequency=0.0,
+            validity_overlap=scene.chain.validity_overlap,
+            notes=tuple(notes),
+        )
     k_star = int(np.argmax(omega2))
 
     # Gershgorin bound on the highest eigenvalue of M^(-1/2) K M^(-1/2) (moving grains only)
@@ -288,13 +312,22 @@ def check_scene(scene: Scene) -> StepCheck:
         notes.append(f"exponent n = {n:g} is outside the range the accuracy thresholds were measured on (2 … 3)")
     validity = scene.chain.validity_overlap
     if np.max(largest) > validity:
-        notes.append(f"largest overlap {np.max(largest):.3g} may exceed {VALIDITY_FRACTION:g}·diameter = {validity:g}, "
-                     "beyond where the Hertz law holds (status OVERLAP_BEYOND_VALIDITY)")
+        notes.append(
+            f"largest overlap {np.max(largest):.3g} may exceed {VALIDITY_FRACTION:g}·diameter = {validity:g}, "
+            "beyond where the Hertz law holds (status OVERLAP_BEYOND_VALIDITY)"
+        )
     return StepCheck(
-        method=scene.integrator.method, dt=scene.integrator.dt, largest_overlap=float(np.max(largest)),
-        stiffest_contact=k_star, stiffness=float(stiffness[k_star]), reduced_mass=float(1.0 / inverse_reduced[k_star]),
-        contact_time=float(2.0 * math.pi / math.sqrt(omega2[k_star])), highest_frequency=omega_max,
-        validity_overlap=validity, notes=tuple(notes))
+        method=scene.integrator.method,
+        dt=scene.integrator.dt,
+        largest_overlap=float(np.max(largest)),
+        stiffest_contact=k_star,
+        stiffness=float(stiffness[k_star]),
+        reduced_mass=float(1.0 / inverse_reduced[k_star]),
+        contact_time=float(2.0 * math.pi / math.sqrt(omega2[k_star])),
+        highest_frequency=omega_max,
+        validity_overlap=validity,
+        notes=tuple(notes),
+    )
 
 
 def dt_warning(scene: Scene) -> str | None:
@@ -403,13 +436,17 @@ def memory_refusal(scene: Scene, device: str | None = None, chains: int = 1) -> 
     for what, needed, limit, where in checks:
         if needed > limit:
             part = max(("state", "records", "traces"), key=need.get)
-            key, value = {"state": ("chain.grains", scene.chain.grains),
-                          "records": ("record.every", scene.record.every),
-                          "traces": ("record.trace_every", scene.record.trace_every)}[part]
+            key, value = {
+                "state": ("chain.grains", scene.chain.grains),
+                "records": ("record.every", scene.record.every),
+                "traces": ("record.trace_every", scene.record.trace_every),
+            }[part]
             if value is None:
                 key, value = "chain.grains", scene.chain.grains
             needed = float(needed) if needed < 1e300 else float("inf")  # an int past float range prints as inf
-            return (f"{key} = {value!r}: the run needs {needed:.3g} bytes of memory for its {what} "
-                    f"({scene.chain.grains} grains, {scene.record_count} records), more than the {limit:.3g} "
-                    f"bytes {where}")
+            return (
+                f"{key} = {value!r}: the run needs {needed:.3g} bytes of memory for its {what} "
+                f"({scene.chain.grains} grains, {scene.record_count} records), more than the {limit:.3g} "
+                f"bytes {where}"
+            )
     return None

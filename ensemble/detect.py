@@ -82,6 +82,7 @@ echoes and their Gram matrices; version 1's ``.npz`` files are not read)."""
 
 # ---- the signal ------------------------------------------------------------------------
 
+
 @dataclass(frozen=True)
 class Signal:
     """Surface grain velocity sampled uniformly from the impact at t = 0 (program units)."""
@@ -120,8 +121,11 @@ def signal_from_arrays(t, v, source: str = "signal") -> Signal:
     steps = np.diff(t)
     worst = int(np.argmax(np.abs(steps - spacing)))
     if abs(steps[worst] - spacing) > 1e-6 * spacing:
-        raise SceneError(f"{source}: t[{worst + 1}] − t[{worst}]", float(steps[worst]),
-                         f"samples must be uniform (spacing {spacing:.6g}, tolerance 1e-6 relative)")
+        raise SceneError(
+            f"{source}: t[{worst + 1}] − t[{worst}]",
+            float(steps[worst]),
+            f"samples must be uniform (spacing {spacing:.6g}, tolerance 1e-6 relative)",
+        )
     if abs(t[0]) > 1e-6 * spacing:
         raise SceneError(f"{source}: t[0]", float(t[0]), "the signal must start at the impact, t = 0")
     return Signal(t=np.arange(t.size) * spacing, v=v, source=source)
@@ -172,8 +176,9 @@ def _signal_from_store(path: Path) -> Signal:
         raise SceneError("SIGNAL", str(path), f"the store traces grains {traced}, not grain 0")
     data = np.asarray(group["trace_v"][...])
     if data.ndim != 2 and int(np.prod(data.shape[:-2])) != 1:
-        raise SceneError("SIGNAL", str(path), f"the store holds {int(np.prod(data.shape[:-2]))} points; "
-                         "give a store of one run")
+        raise SceneError(
+            "SIGNAL", str(path), f"the store holds {int(np.prod(data.shape[:-2]))} points; give a store of one run"
+        )
     data = data.reshape(data.shape[-2:])
     return signal_from_arrays(np.asarray(group["trace_t"][...]), data[:, traced.index(0)], source=str(path))
 
@@ -188,13 +193,15 @@ def write_signal_csv(path: str | Path, signal: Signal) -> None:
 
 # ---- forward model ------------------------------------------------------------------------
 
+
 def check_base(base: Scene) -> None:
     """BASE must be an impact on a chain without impurities (the host chain)."""
     if base.impurities:
         raise SceneError("BASE impurities", len(base.impurities), "the host chain must have no impurities")
     if base.boundary.surface == "driven" or not base.excitation.impact > 0:
-        raise SceneError("BASE excitation.impact", base.excitation.impact,
-                         "detection needs an impact (> 0) at grain 0, not a drive")
+        raise SceneError(
+            "BASE excitation.impact", base.excitation.impact, "detection needs an impact (> 0) at grain 0, not a drive"
+        )
 
 
 def forward_scene(base: Scene, spacing: float, sample_count: int) -> Scene:
@@ -206,10 +213,17 @@ def forward_scene(base: Scene, spacing: float, sample_count: int) -> Scene:
     steps_per_sample = max(1, math.ceil(spacing / base.integrator.dt * (1 - 1e-9)))
     dt = spacing / steps_per_sample
     duration = spacing * (sample_count - 1)
-    return base.with_overrides({
-        "integrator.dt": dt, "integrator.duration": duration, "record.every": duration, "record.fields": [],
-        "record.traces": [0], "record.trace_every": spacing, "record.energy": True,
-    })
+    return base.with_overrides(
+        {
+            "integrator.dt": dt,
+            "integrator.duration": duration,
+            "record.every": duration,
+            "record.fields": [],
+            "record.traces": [0],
+            "record.trace_every": spacing,
+            "record.energy": True,
+        }
+    )
 
 
 def impurity_scene(forward: Scene, depth: int, mass_ratio: float, block: int = 1, a_ratio: float = 1.0) -> Scene:
@@ -255,6 +269,7 @@ def front_times(forward: Scene, device: str) -> np.ndarray:
 
 # ---- the library --------------------------------------------------------------------------
 
+
 @dataclass(frozen=True)
 class Grid:
     """The candidates searched: depths × log mass ratios, for blocks of ``block`` grains."""
@@ -276,8 +291,12 @@ class Grid:
         return np.flatnonzero(self.log_mass_ratio > 0)
 
     def to_dict(self) -> dict:
-        return {"depths": [int(d) for d in self.depths], "log_mass_ratio": [float(x) for x in self.log_mass_ratio],
-                "block": int(self.block), "mass_ratio_range": [float(m) for m in self.mass_ratio_range]}
+        return {
+            "depths": [int(d) for d in self.depths],
+            "log_mass_ratio": [float(x) for x in self.log_mass_ratio],
+            "block": int(self.block),
+            "mass_ratio_range": [float(m) for m in self.mass_ratio_range],
+        }
 
 
 def make_grid(depths, mass_ratio_range=(0.25, 4.0), mass_steps: int = 7, block: int = 1) -> Grid:
@@ -289,8 +308,12 @@ def make_grid(depths, mass_ratio_range=(0.25, 4.0), mass_steps: int = 7, block: 
         raise SceneError("--mass-steps", mass_steps, "must be an integer ≥ 1")
     light = np.linspace(math.log(low), 0.0, mass_steps + 1)[:-1]
     heavy = np.linspace(0.0, math.log(high), mass_steps + 1)[1:]
-    return Grid(depths=np.asarray(depths, dtype=int), log_mass_ratio=np.concatenate([light, heavy]), block=int(block),
-                mass_ratio_range=(float(low), float(high)))
+    return Grid(
+        depths=np.asarray(depths, dtype=int),
+        log_mass_ratio=np.concatenate([light, heavy]),
+        block=int(block),
+        mass_ratio_range=(float(low), float(high)),
+    )
 
 
 @dataclass
@@ -341,8 +364,7 @@ def cache_dir() -> Path:
 
 def library_key(forward: Scene, grid: Grid) -> str:
     """Hash of the forward scene (BASE + signal times) and the grid."""
-    text = json.dumps({"version": LIBRARY_VERSION, "scene": forward.to_dict(), "grid": grid.to_dict()},
-                      sort_keys=True)
+    text = json.dumps({"version": LIBRARY_VERSION, "scene": forward.to_dict(), "grid": grid.to_dict()}, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:24]
 
 
@@ -422,18 +444,22 @@ def _moved_impurity(moved, chains, depth: int, block: int):
     import dataclasses
 
     part = moved
-    if (len(chains) != len(part.chains) or not _impurity_can_move(chains.template, depth, 1.0)
-            or chains.template.impurities[0].a is not None):
+    if (
+        len(chains) != len(part.chains)
+        or not _impurity_can_move(chains.template, depth, 1.0)
+        or chains.template.impurities[0].a is not None
+    ):
         return None
     inverse = part.arrays["inverse_mass"]
     new_inverse = np.repeat(inverse[:, :1], inverse.shape[1], axis=1)  # grain 0 is the host's (above the window)
     mass = chains.values["impurities.0.mass"]
-    new_inverse[:, depth:depth + block] = (1.0 / mass)[:, None].astype(inverse.dtype)
+    new_inverse[:, depth : depth + block] = (1.0 / mass)[:, None].astype(inverse.dtype)
     return dataclasses.replace(part, chains=chains, arrays={**part.arrays, "inverse_mass": new_inverse}, seconds=0.0)
 
 
-def run_candidates(forward: Scene, candidates: list[tuple], block: int, device: str, *,
-                   batch_size: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+def run_candidates(
+    forward: Scene, candidates: list[tuple], block: int, device: str, *, batch_size: int | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Surface traces of candidate (depth, mass ratio[, a ratio]) chains (ensembles of ≤ batch_size chains,
     default :data:`LIBRARY_BATCH` of the device).
 
@@ -457,11 +483,12 @@ def run_candidates(forward: Scene, candidates: list[tuple], block: int, device: 
     with ThreadPoolExecutor(max_workers=1) as pool:
         pending = pool.submit(_prepare_candidates, forward, candidates[:batch_size], block)
         for n, start in enumerate(starts):
-            batch = candidates[start:start + batch_size]
+            batch = candidates[start : start + batch_size]
             prepared, order = pending.result()
             if n + 1 < len(starts):
-                pending = pool.submit(_prepare_candidates, forward, candidates[starts[n + 1]:starts[n + 1] + batch_size],
-                                      block)
+                pending = pool.submit(
+                    _prepare_candidates, forward, candidates[starts[n + 1] : starts[n + 1] + batch_size], block
+                )
             if prepared is None:
                 scenes = []
                 for candidate in batch:
@@ -495,8 +522,17 @@ def first_echo_ends(t: np.ndarray, fronts: np.ndarray, depths: np.ndarray) -> np
     return np.searchsorted(t, 2 * fronts[deeper]).astype(np.int64)
 
 
-def assemble_library(key: str, grid: Grid, forward: Scene, clean: np.ndarray, traces: np.ndarray, ok: np.ndarray,
-                     fronts: np.ndarray, *, in_place: bool = False) -> Library:
+def assemble_library(
+    key: str,
+    grid: Grid,
+    forward: Scene,
+    clean: np.ndarray,
+    traces: np.ndarray,
+    ok: np.ndarray,
+    fronts: np.ndarray,
+    *,
+    in_place: bool = False,
+) -> Library:
     """A library from the clean chain's surface trace (S,), the candidates' (D, M, S) and whether each ran OK
     (D, M): the echoes (a candidate that did not run OK as velocity 0) and their Gram matrices over all samples
     and over each depth's first-echo window (samples at the forward scene's trace times). ``in_place``: the
@@ -514,8 +550,19 @@ def assemble_library(key: str, grid: Grid, forward: Scene, clean: np.ndarray, tr
     for k, end in enumerate(ends):
         head = echoes[k, :, :end]
         first_echo_gram[k] = head @ head.T
-    return Library(key=key, grid=grid, forward=forward, clean=clean, echoes=echoes, ok=ok, fronts=fronts, gram=gram,
-                   first_echo_ends=ends, first_echo_gram=first_echo_gram, build_seconds=0.0)
+    return Library(
+        key=key,
+        grid=grid,
+        forward=forward,
+        clean=clean,
+        echoes=echoes,
+        ok=ok,
+        fronts=fronts,
+        gram=gram,
+        first_echo_ends=ends,
+        first_echo_gram=first_echo_gram,
+        build_seconds=0.0,
+    )
 
 
 CACHED_ARRAYS = ("clean", "echoes", "ok", "fronts", "gram", "first_echo_ends", "first_echo_gram")
@@ -548,7 +595,7 @@ def _save_array(path: Path, array: np.ndarray) -> None:
     with ThreadPoolExecutor(max_workers=pieces) as pool:
         for future in [pool.submit(copy, a, b) for a, b in zip(edges[:-1], edges[1:])]:
             future.result()
-    del flat, target  # unmapped: the file holds the data (written back by the kernel, no fsync)
+    flat = target = None  # unmapped: the file holds the data (written back by the kernel, no fsync)
 
 
 def save_library(path: Path, library: Library) -> None:
@@ -578,33 +625,53 @@ def load_library(path: Path, key: str, grid: Grid, forward: Scene) -> Library | 
         problem = f"{err.__class__.__name__}: {err}"
     else:
         depths, masses, samples = len(grid.depths), len(grid.log_mass_ratio), forward.trace_sample_count
-        expected = {"clean": ((samples,), np.float64), "echoes": ((depths, masses, samples), np.float64),
-                    "ok": ((depths, masses), np.bool_), "fronts": ((forward.chain.grains,), np.float64),
-                    "gram": ((depths, masses, masses), np.float64), "first_echo_ends": ((depths,), np.int64),
-                    "first_echo_gram": ((depths, masses, masses), np.float64)}
-        wrong = [f"{name} {arrays[name].shape} {arrays[name].dtype}" for name, (shape, dtype) in expected.items()
-                 if arrays[name].shape != shape or arrays[name].dtype != dtype]
+        expected = {
+            "clean": ((samples,), np.float64),
+            "echoes": ((depths, masses, samples), np.float64),
+            "ok": ((depths, masses), np.bool_),
+            "fronts": ((forward.chain.grains,), np.float64),
+            "gram": ((depths, masses, masses), np.float64),
+            "first_echo_ends": ((depths,), np.int64),
+            "first_echo_gram": ((depths, masses, masses), np.float64),
+        }
+        wrong = [
+            f"{name} {arrays[name].shape} {arrays[name].dtype}"
+            for name, (shape, dtype) in expected.items()
+            if arrays[name].shape != shape or arrays[name].dtype != dtype
+        ]
         if wrong:
             problem = "unexpected shape or type: " + ", ".join(wrong)
         else:
             t = np.arange(samples) * forward.record.trace_every
             if np.array_equal(arrays["first_echo_ends"], first_echo_ends(t, np.asarray(arrays["fronts"]), grid.depths)):
-                return Library(key=key, grid=grid, forward=forward, build_seconds=0.0, from_cache=True,
-                               **{name: np.asarray(array) for name, array in arrays.items()})
+                return Library(
+                    key=key,
+                    grid=grid,
+                    forward=forward,
+                    build_seconds=0.0,
+                    from_cache=True,
+                    **{name: np.asarray(array) for name, array in arrays.items()},
+                )
             problem = "its first-echo windows differ from FIRST_ECHO_GRAINS's"
     warnings.warn(f"detection library cache {path} is not usable ({problem}); rebuilding it", stacklevel=3)
     return None
 
 
-def _library_on_device(key: str, grid: Grid, forward: Scene, fronts: np.ndarray, candidates: list[tuple],
-                       device: str, batch_size: int | None) -> Library | None:
+def _library_on_device(
+    key: str,
+    grid: Grid,
+    forward: Scene,
+    fronts: np.ndarray,
+    candidates: list[tuple],
+    device: str,
+    batch_size: int | None,
+) -> Library | None:
     """The library simulated as one ensemble whose traces stay on the device, where its echoes and Gram matrices are
     assembled (kernels/library.py: the same echoes, bit for bit, as :func:`assemble_library` from host traces; Gram
     matrices equal to rounding); only the echoes (into page-locked memory allocated while the run executes) and the
     small arrays come back. None where that path does not apply (more candidates than one batch, candidates that
     cannot be stacked, more than one record interval): the caller takes the host path."""
     import warp as wp
-
     from hertzian.kernels.library import library_kernels
 
     from .devices import init_warp
@@ -634,26 +701,46 @@ def _library_on_device(key: str, grid: Grid, forward: Scene, fronts: np.ndarray,
     dev = model.device
     clean = wp.empty(samples, dtype=wp.float64, device=dev)
     echoes = wp.empty((depths * ratios, samples), dtype=wp.float64, device=dev)
-    wp.launch(library_echoes, dim=(len(candidates), samples),
-              inputs=[runner.current.traces, runner.recorder.traced_start,
-                      wp.array(np.asarray(order, dtype=np.int32), dtype=wp.int32, device=dev),
-                      int(np.flatnonzero(np.asarray(order) == 0)[0]),
-                      wp.array(ok.astype(np.int32), dtype=wp.int32, device=dev), model.trace_capacity,
-                      runner.recorder.real_np(model.dt)],
-              outputs=[clean, echoes], device=dev)
+    wp.launch(
+        library_echoes,
+        dim=(len(candidates), samples),
+        inputs=[
+            runner.current.traces,
+            runner.recorder.traced_start,
+            wp.array(np.asarray(order, dtype=np.int32), dtype=wp.int32, device=dev),
+            int(np.flatnonzero(np.asarray(order) == 0)[0]),
+            wp.array(ok.astype(np.int32), dtype=wp.int32, device=dev),
+            model.trace_capacity,
+            runner.recorder.real_np(model.dt),
+        ],
+        outputs=[clean, echoes],
+        device=dev,
+    )
     t = np.arange(samples) * forward.record.trace_every
     ends = first_echo_ends(t, fronts, grid.depths)
     gram = wp.empty((depths, ratios, ratios), dtype=wp.float64, device=dev)
     first_echo_gram = wp.empty_like(gram)
-    wp.launch(library_grams, dim=gram.shape,
-              inputs=[echoes.reshape((depths, ratios, samples)),
-                      wp.array(ends.astype(np.int32), dtype=wp.int32, device=dev)],
-              outputs=[gram, first_echo_gram], device=dev)
+    wp.launch(
+        library_grams,
+        dim=gram.shape,
+        inputs=[echoes.reshape((depths, ratios, samples)), wp.array(ends.astype(np.int32), dtype=wp.int32, device=dev)],
+        outputs=[gram, first_echo_gram],
+        device=dev,
+    )
     wp.copy(host["echoes"], echoes)
-    return Library(key=key, grid=grid, forward=forward, clean=clean.numpy(),
-                   echoes=host["echoes"].numpy().reshape(depths, ratios, samples), ok=ok[1:].reshape(depths, ratios),
-                   fronts=np.asarray(fronts, dtype=np.float64), gram=gram.numpy(), first_echo_ends=ends,
-                   first_echo_gram=first_echo_gram.numpy(), build_seconds=0.0)
+    return Library(
+        key=key,
+        grid=grid,
+        forward=forward,
+        clean=clean.numpy(),
+        echoes=host["echoes"].numpy().reshape(depths, ratios, samples),
+        ok=ok[1:].reshape(depths, ratios),
+        fronts=np.asarray(fronts, dtype=np.float64),
+        gram=gram.numpy(),
+        first_echo_ends=ends,
+        first_echo_gram=first_echo_gram.numpy(),
+        build_seconds=0.0,
+    )
 
 
 ASSEMBLE_ON_DEVICE: bool | None = None
@@ -661,8 +748,16 @@ ASSEMBLE_ON_DEVICE: bool | None = None
 devices (on a CPU the host path is as fast; tests set True to check the two paths agree)."""
 
 
-def build_library(forward: Scene, grid: Grid, device: str, *, fronts: np.ndarray | None = None,
-                  use_cache: bool = True, batch_size: int | None = None, save_in_background: bool = False) -> Library:
+def build_library(
+    forward: Scene,
+    grid: Grid,
+    device: str,
+    *,
+    fronts: np.ndarray | None = None,
+    use_cache: bool = True,
+    batch_size: int | None = None,
+    save_in_background: bool = False,
+) -> Library:
     """The library for a forward scene and grid, from the cache when it is there (else simulated and saved).
 
     The cache is the directory ``<cache_dir>/<key>/`` of one ``.npy`` file per array (:func:`save_library`),
@@ -686,8 +781,16 @@ def build_library(forward: Scene, grid: Grid, device: str, *, fronts: np.ndarray
     if library is None:
         traces, ok = run_candidates(forward, candidates, grid.block, device, batch_size=batch_size)
         shape = (len(grid.depths), len(grid.log_mass_ratio))
-        library = assemble_library(key, grid, forward, traces[0], traces[1:].reshape(shape + (-1,)),
-                                   ok[1:].reshape(shape), fronts, in_place=True)
+        library = assemble_library(
+            key,
+            grid,
+            forward,
+            traces[0],
+            traces[1:].reshape(shape + (-1,)),
+            ok[1:].reshape(shape),
+            fronts,
+            in_place=True,
+        )
     library.build_seconds = time.perf_counter() - start
     if use_cache:
         if save_in_background:
@@ -703,6 +806,7 @@ def build_library(forward: Scene, grid: Grid, device: str, *, fronts: np.ndarray
 
 
 # ---- Gaussian helpers ----------------------------------------------------------------------
+
 
 def bisect_increasing(f, target: float, lo: float, hi: float, steps: int = 80) -> float:
     """x in [lo, hi] where the non-decreasing ``f`` crosses ``target``, by ``steps`` halvings."""
@@ -767,8 +871,12 @@ class Quadratic:
             return -self.rss0 / (2 * sigma**2)
         s = sigma / math.sqrt(self.H)
         m = self.optimum
-        return (-self.rss_min / (2 * sigma**2) + math.log(math.sqrt(2 * math.pi) * s)
-                + log_normal_mass((lo - m) / s, (hi - m) / s) - math.log(width))
+        return (
+            -self.rss_min / (2 * sigma**2)
+            + math.log(math.sqrt(2 * math.pi) * s)
+            + log_normal_mass((lo - m) / s, (hi - m) / s)
+            - math.log(width)
+        )
 
     def cdf(self, x: float, lo: float, hi: float, sigma: float) -> float:
         """Posterior CDF of x on [lo, hi] under this quadratic (a truncated Gaussian)."""
@@ -790,6 +898,7 @@ def quadratic_at(signal: np.ndarray, x0: float, model: np.ndarray, jacobian: np.
 
 
 # ---- detection ------------------------------------------------------------------------------
+
 
 @dataclass
 class Detection:
@@ -865,27 +974,29 @@ class Detection:
         }
 
 
-def default_depths(fronts: np.ndarray, duration: float, grain_count: int, block: int,
-                   depth_range: tuple[int, int] | None = None) -> np.ndarray:
+def default_depths(
+    fronts: np.ndarray, duration: float, grain_count: int, block: int, depth_range: tuple[int, int] | None = None
+) -> np.ndarray:
     """Depths searched: from max(1, ⌈N/20⌉) (or the given start) to the deepest whose echo can start in the record."""
     last_fit = grain_count - block
     if depth_range is not None:
         first, last = depth_range
         if not (1 <= first <= last <= last_fit):
-            raise SceneError("--depths", f"{first}:{last}", f"must satisfy 1 ≤ first ≤ last ≤ {last_fit} "
-                             f"(N − block)")
+            raise SceneError("--depths", f"{first}:{last}", f"must satisfy 1 ≤ first ≤ last ≤ {last_fit} (N − block)")
     else:
         first, last = max(1, math.ceil(grain_count / 20)), last_fit
     reachable = np.flatnonzero(2 * fronts[: last_fit + 1] < duration)
     deepest = int(reachable[-1]) if reachable.size else 0
     if deepest < first:
-        raise SceneError("SIGNAL duration", f"{duration:g}", f"is shorter than one echo: the echo from depth "
-                         f"{first} cannot start before t = {2 * fronts[first]:.4g}")
+        raise SceneError(
+            "SIGNAL duration",
+            f"{duration:g}",
+            f"is shorter than one echo: the echo from depth {first} cannot start before t = {2 * fronts[first]:.4g}",
+        )
     return np.arange(first, min(last, deepest) + 1)
 
 
-def estimate_noise(signal: Signal, clean: np.ndarray, fronts: np.ndarray, first_depth: int
-                   ) -> tuple[float | None, str]:
+def estimate_noise(signal: Signal, clean: np.ndarray, fronts: np.ndarray, first_depth: int) -> tuple[float | None, str]:
     """rms of (signal − clean model) before the earliest possible echo, t < 2 t_front(first_depth).
 
     None when fewer than NOISE_MIN_SAMPLES samples precede it.
@@ -954,8 +1065,9 @@ def _class_interpolation(library: Library, kind: str):
     return columns, order, fine, W, dW
 
 
-def rss_from_projections(residual_norm2: float | np.ndarray, projections: np.ndarray, gram: np.ndarray,
-                         W: np.ndarray) -> np.ndarray:
+def rss_from_projections(
+    residual_norm2: float | np.ndarray, projections: np.ndarray, gram: np.ndarray, W: np.ndarray
+) -> np.ndarray:
     """|e − W @ D|² per row of W, from e's projections on the rows of D and their Gram matrix alone.
 
     RSS = |e|² − 2 W (D e) + diag(W (D Dᵀ) Wᵀ). ``residual_norm2``: |e|² (a number, or one per leading index);
@@ -979,8 +1091,9 @@ def interpolated_rss(signal: np.ndarray, models: np.ndarray, clean: np.ndarray, 
     return rss_from_projections(float(e @ e), D @ e, D @ D.T, W)
 
 
-def _class_rss(residual_norm2: float | np.ndarray, projections: np.ndarray, gram: np.ndarray, library: Library,
-               kind: str):
+def _class_rss(
+    residual_norm2: float | np.ndarray, projections: np.ndarray, gram: np.ndarray, library: Library, kind: str
+):
     """Per depth, the RSS of the class's interpolated library against the signal, at every fine x.
 
     ``projections``: the echoes' projections on the clean chain's residual e = signal − clean, shape (D, M);
@@ -1024,8 +1137,9 @@ def _candidate_rss(residual_norm2: float, projections: np.ndarray, library: Libr
     return np.where(library.ok, np.maximum(rss, 0.0), np.inf)
 
 
-def _library_quadratics(residual_norm2: float, projections: np.ndarray, library: Library, kind: str
-                        ) -> list[Quadratic | None]:
+def _library_quadratics(
+    residual_norm2: float, projections: np.ndarray, library: Library, kind: str
+) -> list[Quadratic | None]:
     """Per depth, the Gauss–Newton quadratic at the best point of the class's interpolated library.
 
     The traces are interpolated in x = ln μ (local cubic through the library's ratios and the clean
@@ -1040,9 +1154,12 @@ def _library_quadratics(residual_norm2: float, projections: np.ndarray, library:
     w, dw = W[j], dW[j]
     g = np.einsum("di,di->d", dw, b - np.einsum("dij,dj->di", G, w))
     H = np.einsum("di,dij,dj->d", dw, G, dw)
-    return [Quadratic(x0=x0, rss0=rss0, g=gk, H=Hk) if usable else None
-            for x0, rss0, gk, Hk, usable in zip(fine[j].tolist(), rss[rows, j].tolist(), g.tolist(), H.tolist(),
-                                                 np.isfinite(rss).any(axis=1).tolist())]
+    return [
+        Quadratic(x0=x0, rss0=rss0, g=gk, H=Hk) if usable else None
+        for x0, rss0, gk, Hk, usable in zip(
+            fine[j].tolist(), rss[rows, j].tolist(), g.tolist(), H.tolist(), np.isfinite(rss).any(axis=1).tolist()
+        )
+    ]
 
 
 FIRST_ECHO_GRAINS = 10
@@ -1051,8 +1168,9 @@ library caches Gram matrices over these windows (``Library.first_echo_gram``): a
 another value is rebuilt."""
 
 
-def _first_echo_scores(first_echo: tuple[np.ndarray, np.ndarray], library: Library, kind: str
-                       ) -> tuple[np.ndarray, np.ndarray]:
+def _first_echo_scores(
+    first_echo: tuple[np.ndarray, np.ndarray], library: Library, kind: str
+) -> tuple[np.ndarray, np.ndarray]:
     """Per depth: how much the class's interpolated library reduces the RSS of the clean chain over the
     samples before 2 t_front(d + FIRST_ECHO_GRAINS) (its first echo and little else), and the best x there
     (-inf and 0 for a window of fewer than 2 samples). ``first_echo``: |e|² and the echoes' projections over
@@ -1065,11 +1183,25 @@ def _first_echo_scores(first_echo: tuple[np.ndarray, np.ndarray], library: Libra
     return gain, np.where(windowed, fine[j], 0.0)
 
 
-def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None = None, device: str = "cpu",
-           depth_range: tuple[int, int] | None = None, mass_ratio_range=(0.25, 4.0), mass_steps: int = 7,
-           refine: int = 3, iterations: int = 2, step: float = 0.02, window: float | None = None,
-           use_cache: bool = True, batch_size: int | None = None, fit_a: bool = False,
-           a_ratio_range: tuple[float, float] = (0.25, 4.0)) -> tuple[Detection, Library]:
+def detect(
+    signal: Signal,
+    base: Scene,
+    *,
+    block: int = 1,
+    noise: float | None = None,
+    device: str = "cpu",
+    depth_range: tuple[int, int] | None = None,
+    mass_ratio_range=(0.25, 4.0),
+    mass_steps: int = 7,
+    refine: int = 3,
+    iterations: int = 2,
+    step: float = 0.02,
+    window: float | None = None,
+    use_cache: bool = True,
+    batch_size: int | None = None,
+    fit_a: bool = False,
+    a_ratio_range: tuple[float, float] = (0.25, 4.0),
+) -> tuple[Detection, Library]:
     """Class, depth and mass ratio of an impurity in BASE from a surface signal (see the module docstring).
 
     ``refine``: depths per class refined by Gauss–Newton (0: the library alone); ``iterations``: ensemble
@@ -1092,8 +1224,11 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
     if fit_a:
         a_low, a_high = a_ratio_range
         if not (0 < a_low < 1 < a_high and math.isfinite(a_high)):
-            raise SceneError("--a-range", f"{a_low},{a_high}", "must be two numbers a_min < 1 < a_max, both > 0 "
-                             "(prior range of a_impurity / a_host)")
+            raise SceneError(
+                "--a-range",
+                f"{a_low},{a_high}",
+                "must be two numbers a_min < 1 < a_max, both > 0 (prior range of a_impurity / a_host)",
+            )
     # the pulse fronts of the clean chain (cached under a key of BASE and the sample times)
     fronts = _cached_fronts(forward_scene(base, signal.spacing, signal.sample_count), device, use_cache)
     end = 2 * float(fronts[-1]) if window is None else float(window)
@@ -1103,8 +1238,15 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
     signal = Signal(t=signal.t[:count], v=signal.v[:count], source=signal.source)
     depths = default_depths(fronts, float(signal.t[-1]), base.chain.grains, block, depth_range)
     forward = forward_scene(base, signal.spacing, signal.sample_count)
-    library = build_library(forward, make_grid(depths, mass_ratio_range, mass_steps, block), device, fronts=fronts,
-                            use_cache=use_cache, batch_size=batch_size, save_in_background=True)
+    library = build_library(
+        forward,
+        make_grid(depths, mass_ratio_range, mass_steps, block),
+        device,
+        fronts=fronts,
+        use_cache=use_cache,
+        batch_size=batch_size,
+        save_in_background=True,
+    )
     library_seconds = library.build_seconds
     grid = library.grid
     depths = grid.depths
@@ -1159,8 +1301,8 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
             traces, ok = run_candidates(forward, candidates, grid.block, device, batch_size=batch_size)
             nxt = []
             for n, (kind, k, x0) in enumerate(todo):
-                minus, centre, plus = traces[3 * n: 3 * n + 3]
-                if not ok[3 * n: 3 * n + 3].all():
+                minus, centre, plus = traces[3 * n : 3 * n + 3]
+                if not ok[3 * n : 3 * n + 3].all():
                     continue
                 q = quadratic_at(s, x0, centre, (plus - minus) / (2 * step))
                 best = final.get((kind, k))
@@ -1182,25 +1324,41 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
         misfit = math.sqrt(rss_best / max(signal.sample_count - 2, 1)) / reference
         if rss_best < rss_clean and misfit > FINE_SCAN_MISFIT:
             scan_start = time.perf_counter()
-            q_scan, points = fine_scan(s, forward, grid.block, int(depths[k_best_fit]), bounds[kind_best], device,
-                                       batch_size=batch_size)
+            q_scan, points = fine_scan(
+                s, forward, grid.block, int(depths[k_best_fit]), bounds[kind_best], device, batch_size=batch_size
+            )
             improved = q_scan is not None and q_scan.rss0 < rss_best
             if improved:
                 quads[kind_best][k_best_fit] = q_scan
-            fine = {"depth": int(depths[k_best_fit]), "class": kind_best, "points": points,
-                    "spacing": FINE_SCAN_SPACING, "misfit_before": misfit, "rss_before": rss_best,
-                    "rss_after": q_scan.rss0 if improved else rss_best, "improved": improved}
+            fine = {
+                "depth": int(depths[k_best_fit]),
+                "class": kind_best,
+                "points": points,
+                "spacing": FINE_SCAN_SPACING,
+                "misfit_before": misfit,
+                "rss_before": rss_best,
+                "rss_after": q_scan.rss0 if improved else rss_best,
+                "improved": improved,
+            }
             rss_now = q_scan.rss0 if improved else rss_best
             misfit_now = math.sqrt(rss_now / max(signal.sample_count - 2, 1)) / reference
             if misfit_now > FINE_SCAN_MISFIT:
                 # still a poor fit: the needle may be the other class's, or a few grains off (a heavy grain at 100
                 # fit as a light one at 103): both classes scanned at the depths around, then the best one finely
-                kind_w, depth_w, rss_w, points_w = wide_scan(s, forward, grid.block, int(depths[k_best_fit]),
-                                                             depths, bounds, device, batch_size=batch_size)
-                wide = {"depths": [max(int(depths[0]), int(depths[k_best_fit]) - WIDE_SCAN_DEPTHS),
-                                   min(int(depths[-1]), int(depths[k_best_fit]) + WIDE_SCAN_DEPTHS)],
-                        "points": points_w, "spacing": WIDE_SCAN_SPACING, "misfit_before": misfit_now,
-                        "best": None if kind_w is None else {"class": kind_w, "depth": depth_w}, "improved": False}
+                kind_w, depth_w, rss_w, points_w = wide_scan(
+                    s, forward, grid.block, int(depths[k_best_fit]), depths, bounds, device, batch_size=batch_size
+                )
+                wide = {
+                    "depths": [
+                        max(int(depths[0]), int(depths[k_best_fit]) - WIDE_SCAN_DEPTHS),
+                        min(int(depths[-1]), int(depths[k_best_fit]) + WIDE_SCAN_DEPTHS),
+                    ],
+                    "points": points_w,
+                    "spacing": WIDE_SCAN_SPACING,
+                    "misfit_before": misfit_now,
+                    "best": None if kind_w is None else {"class": kind_w, "depth": depth_w},
+                    "improved": False,
+                }
                 if kind_w is not None and rss_w < rss_now:
                     k_w = int(np.searchsorted(depths, depth_w))
                     q_w, _ = fine_scan(s, forward, grid.block, depth_w, bounds[kind_w], device, batch_size=batch_size)
@@ -1215,14 +1373,18 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
         # second estimate, from every sample: the best candidate's residual (2 fitted parameters)
         best_rss = min([rss_clean] + [q.rss0 for kind in quads for q in quads[kind] if q is not None])
         sigma = max(math.sqrt(best_rss / (signal.sample_count - 2)), floor)
-        noise_source = (f"rms residual of the best candidate over all {signal.sample_count} samples, RSS/(S − 2); "
-                        + (f"rms of signal − clean chain before the earliest echo: {window_sigma:.4g} over {window_text}"
-                           if window_sigma is not None else window_text))
+        noise_source = f"rms residual of the best candidate over all {signal.sample_count} samples, RSS/(S − 2); " + (
+            f"rms of signal − clean chain before the earliest echo: {window_sigma:.4g} over {window_text}"
+            if window_sigma is not None
+            else window_text
+        )
     norm = -0.5 * signal.sample_count * math.log(2 * math.pi * sigma**2)
     per_depth = {kind: depth_logz(kind) + log_prior_depth for kind in ("light", "heavy")}
-    log_z = {"none": norm - rss_clean / (2 * sigma**2),
-             "light": norm + logsumexp(per_depth["light"]),
-             "heavy": norm + logsumexp(per_depth["heavy"])}
+    log_z = {
+        "none": norm - rss_clean / (2 * sigma**2),
+        "light": norm + logsumexp(per_depth["light"]),
+        "heavy": norm + logsumexp(per_depth["heavy"]),
+    }
     total = logsumexp(list(log_z.values()))
     probability = {kind: math.exp(log_z[kind] - total) for kind in CLASSES}
     kind = max(CLASSES, key=lambda c: log_z[c])
@@ -1241,8 +1403,10 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
         depth = int(depths[k_best])
         cdf = np.cumsum(p)
         tail = (1 - CREDIBLE) / 2
-        depth_interval = (int(depths[int(np.searchsorted(cdf, tail))]),
-                          int(depths[min(int(np.searchsorted(cdf, 1 - tail)), len(depths) - 1)]))
+        depth_interval = (
+            int(depths[int(np.searchsorted(cdf, tail))]),
+            int(depths[min(int(np.searchsorted(cdf, 1 - tail)), len(depths) - 1)]),
+        )
         lo, hi = bounds[kind]
         q = quads[kind][k_best]
         x_best = min(max(q.optimum, lo), hi)
@@ -1253,17 +1417,36 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
         def mixture_cdf(x: float) -> float:
             return sum(w * qq.cdf(x, lo, hi, sigma) for w, qq in weights) / wsum
 
-        mass_interval = (math.exp(bisect_increasing(mixture_cdf, tail, lo, hi)),
-                         math.exp(bisect_increasing(mixture_cdf, 1 - tail, lo, hi)))
+        mass_interval = (
+            math.exp(bisect_increasing(mixture_cdf, tail, lo, hi)),
+            math.exp(bisect_increasing(mixture_cdf, 1 - tail, lo, hi)),
+        )
         best_fit = run_candidates(forward, [(depth, mass_ratio)], grid.block, device)[0][0]
     fit_a_result = None
     if fit_a and kind != "none":
         fit_start = time.perf_counter()
         # a ≠ a_host can shift the echo's best depth with a = a_host by a grain: fit the neighbours too
-        fit_depths = [d for d in range(depth - FIT_A_DEPTHS, depth + FIT_A_DEPTHS + 1)
-                      if int(depths[0]) <= d <= int(depths[-1])]
-        fits = [(d, fit_contact(s, forward, grid.block, d, bounds[kind], a_ratio_range, device, noise=noise,
-                                step=step, batch_size=batch_size)) for d in fit_depths]
+        fit_depths = [
+            d for d in range(depth - FIT_A_DEPTHS, depth + FIT_A_DEPTHS + 1) if int(depths[0]) <= d <= int(depths[-1])
+        ]
+        fits = [
+            (
+                d,
+                fit_contact(
+                    s,
+                    forward,
+                    grid.block,
+                    d,
+                    bounds[kind],
+                    a_ratio_range,
+                    device,
+                    noise=noise,
+                    step=step,
+                    batch_size=batch_size,
+                ),
+            )
+            for d in fit_depths
+        ]
         fits = [(d, c) for d, c in fits if c is not None]
         fit_depth, contact = min(fits, key=lambda dc: dc[1].rss) if fits else (depth, None)
         rss_host_a = float((s - best_fit) @ (s - best_fit))
@@ -1276,25 +1459,53 @@ def detect(signal: Signal, base: Scene, *, block: int = 1, noise: float | None =
             mass_ratio = math.exp(contact.x)
             mass_interval = (math.exp(max(contact.x - z * sx, lo)), math.exp(min(contact.x + z * sx, hi)))
             best_fit = contact.trace
-            fit_a_result = {"a_ratio": math.exp(contact.y),
-                            "a_ratio_interval": [math.exp(max(contact.y - z * sy, a_lo)),
-                                                 math.exp(min(contact.y + z * sy, a_hi))],
-                            "rss": contact.rss, "rss_a_host": rss_host_a, "noise_fit_a": contact.sigma,
-                            "fit_a_depths": {str(d): c.rss for d, c in fits}}
+            fit_a_result = {
+                "a_ratio": math.exp(contact.y),
+                "a_ratio_interval": [math.exp(max(contact.y - z * sy, a_lo)), math.exp(min(contact.y + z * sy, a_hi))],
+                "rss": contact.rss,
+                "rss_a_host": rss_host_a,
+                "noise_fit_a": contact.sigma,
+                "fit_a_depths": {str(d): c.rss for d, c in fits},
+            }
         else:  # the joint fit did not improve on a = a_host
-            fit_a_result = {"a_ratio": 1.0, "a_ratio_interval": None, "rss": rss_host_a, "rss_a_host": rss_host_a,
-                            "noise_fit_a": None, "fit_a_depths": {str(d): c.rss for d, c in fits}}
+            fit_a_result = {
+                "a_ratio": 1.0,
+                "a_ratio_interval": None,
+                "rss": rss_host_a,
+                "rss_a_host": rss_host_a,
+                "noise_fit_a": None,
+                "fit_a_depths": {str(d): c.rss for d, c in fits},
+            }
         fit_a_result["fit_a_seconds"] = time.perf_counter() - fit_start
     library.finish_saving()  # the cache is complete when detect returns (a second signal may read it)
-    seconds = {"library": library_seconds, "refinement": refine_seconds,
-               **({"fine_scan": fine["seconds"]} if fine else {}), "total": time.perf_counter() - started}
+    seconds = {
+        "library": library_seconds,
+        "refinement": refine_seconds,
+        **({"fine_scan": fine["seconds"]} if fine else {}),
+        "total": time.perf_counter() - started,
+    }
     return Detection(
-        kind=kind, class_probability=probability, log_evidence=log_z, depth=depth, depth_interval=depth_interval,
-        mass_ratio=mass_ratio, mass_ratio_interval=mass_interval, noise=sigma, noise_source=noise_source,
+        kind=kind,
+        class_probability=probability,
+        log_evidence=log_z,
+        depth=depth,
+        depth_interval=depth_interval,
+        mass_ratio=mass_ratio,
+        mass_ratio_interval=mass_interval,
+        noise=sigma,
+        noise_source=noise_source,
         noise_before_echo=window_sigma if noise is None else None,
-        depths_searched=(int(depths[0]), int(depths[-1])), window=float(signal.t[-1]), block=grid.block, best_fit=best_fit,
-        depth_posterior=posterior, seconds=seconds, library_from_cache=library.from_cache,
-        dt=forward.integrator.dt, refined_depths=refined, fine_scan=fine, fit_a=fit_a_result,
+        depths_searched=(int(depths[0]), int(depths[-1])),
+        window=float(signal.t[-1]),
+        block=grid.block,
+        best_fit=best_fit,
+        depth_posterior=posterior,
+        seconds=seconds,
+        library_from_cache=library.from_cache,
+        dt=forward.integrator.dt,
+        refined_depths=refined,
+        fine_scan=fine,
+        fit_a=fit_a_result,
     ), library
 
 
@@ -1320,8 +1531,17 @@ WIDE_SCAN_SPACING = 0.01
 depth) is then scanned every FINE_SCAN_SPACING (:func:`fine_scan`)."""
 
 
-def wide_scan(s: np.ndarray, forward: Scene, block: int, depth: int, depths: np.ndarray, bounds: dict, device: str, *,
-              batch_size: int | None = None) -> tuple[str | None, int | None, float, int]:
+def wide_scan(
+    s: np.ndarray,
+    forward: Scene,
+    block: int,
+    depth: int,
+    depths: np.ndarray,
+    bounds: dict,
+    device: str,
+    *,
+    batch_size: int | None = None,
+) -> tuple[str | None, int | None, float, int]:
     """ln μ every WIDE_SCAN_SPACING over each class's range in ``bounds`` at every searched depth within
     WIDE_SCAN_DEPTHS of ``depth`` (one ensemble); returns (class, depth, RSS) of the lowest RSS and the points run."""
     searched = set(int(d) for d in depths)
@@ -1329,8 +1549,12 @@ def wide_scan(s: np.ndarray, forward: Scene, block: int, depth: int, depths: np.
     for kind in ("light", "heavy"):
         lo, hi = bounds[kind]
         xs = np.arange(lo + WIDE_SCAN_SPACING, hi - 0.5 * WIDE_SCAN_SPACING, WIDE_SCAN_SPACING)
-        keys += [(kind, d, float(x)) for d in range(depth - WIDE_SCAN_DEPTHS, depth + WIDE_SCAN_DEPTHS + 1)
-                 if d in searched for x in xs]
+        keys += [
+            (kind, d, float(x))
+            for d in range(depth - WIDE_SCAN_DEPTHS, depth + WIDE_SCAN_DEPTHS + 1)
+            if d in searched
+            for x in xs
+        ]
     if not keys:
         return None, None, math.inf, 0
     traces, ok = run_candidates(forward, [(d, math.exp(x)) for _, d, x in keys], block, device, batch_size=batch_size)
@@ -1342,8 +1566,16 @@ def wide_scan(s: np.ndarray, forward: Scene, block: int, depth: int, depths: np.
     return keys[i][0], keys[i][1], float(rss[i]), len(keys)
 
 
-def fine_scan(s: np.ndarray, forward: Scene, block: int, depth: int, x_bounds: tuple[float, float], device: str, *,
-              batch_size: int | None = None) -> tuple[Quadratic | None, int]:
+def fine_scan(
+    s: np.ndarray,
+    forward: Scene,
+    block: int,
+    depth: int,
+    x_bounds: tuple[float, float],
+    device: str,
+    *,
+    batch_size: int | None = None,
+) -> tuple[Quadratic | None, int]:
     """ln μ scanned every FINE_SCAN_SPACING over the class's range ``x_bounds`` at ``depth`` (one ensemble run),
     then Gauss–Newton from the best point; returns (the quadratic of lowest RSS, scan points)."""
     lo, hi = x_bounds
@@ -1359,8 +1591,9 @@ def fine_scan(s: np.ndarray, forward: Scene, block: int, depth: int, x_bounds: t
     h = 0.5 * FINE_SCAN_SPACING
     x = min(max(best.optimum, lo + h), hi - h)
     for _ in range(FINE_SCAN_ITERATIONS):
-        (minus, centre, plus), fine_ok = run_candidates(forward, [(depth, math.exp(x + dx)) for dx in (-h, 0.0, h)],
-                                                        block, device)
+        (minus, centre, plus), fine_ok = run_candidates(
+            forward, [(depth, math.exp(x + dx)) for dx in (-h, 0.0, h)], block, device
+        )
         if not fine_ok.all():
             break
         q = quadratic_at(s, x, centre, (plus - minus) / (2 * h))
@@ -1399,9 +1632,19 @@ class ContactFit:
     """(y, x, RSS): the grid's best x and its RSS at each grid value of y (the profile over a)."""
 
 
-def fit_contact(s: np.ndarray, forward: Scene, block: int, depth: int, x_bounds: tuple[float, float],
-                a_ratio_range: tuple[float, float], device: str, *, noise: float | None, step: float,
-                batch_size: int | None = None) -> ContactFit | None:
+def fit_contact(
+    s: np.ndarray,
+    forward: Scene,
+    block: int,
+    depth: int,
+    x_bounds: tuple[float, float],
+    a_ratio_range: tuple[float, float],
+    device: str,
+    *,
+    noise: float | None,
+    step: float,
+    batch_size: int | None = None,
+) -> ContactFit | None:
     """Fit x = ln μ and y = ln(a/a_host) at ``depth``; μ and a trade off along a curved valley (the echo's
     impedance), so Gauss–Newton from afar zig-zags or overshoots. First a grid: X_STEPS × A_STEPS points
     over the class's range of x and the prior range of y, one ensemble; then JOINT_ITERATIONS Gauss–Newton
@@ -1420,8 +1663,9 @@ def fit_contact(s: np.ndarray, forward: Scene, block: int, depth: int, x_bounds:
             best = (rss, x, y, H, trace)
 
     grid = [(float(x), float(y)) for y in ys for x in xs if x != 0.0 or y != 0.0]
-    traces, ok = run_candidates(forward, [(depth, math.exp(x), math.exp(y)) for x, y in grid], block, device,
-                                batch_size=batch_size)
+    traces, ok = run_candidates(
+        forward, [(depth, math.exp(x), math.exp(y)) for x, y in grid], block, device, batch_size=batch_size
+    )
     rss_grid = np.where(ok, np.einsum("cs,cs->c", s[None] - traces, s[None] - traces), np.inf)
     profile = []
     for y in ys:
@@ -1458,8 +1702,9 @@ def fit_contact(s: np.ndarray, forward: Scene, block: int, depth: int, x_bounds:
 
 
 def _cached_fronts(forward: Scene, device: str, use_cache: bool) -> np.ndarray:
-    key = hashlib.sha256(json.dumps({"version": LIBRARY_VERSION, "scene": forward.to_dict()},
-                                    sort_keys=True).encode()).hexdigest()[:24]
+    key = hashlib.sha256(
+        json.dumps({"version": LIBRARY_VERSION, "scene": forward.to_dict()}, sort_keys=True).encode()
+    ).hexdigest()[:24]
     path = cache_dir() / f"fronts-{key}.npy"
     if use_cache and path.is_file():
         return np.load(path)
@@ -1473,6 +1718,7 @@ def _cached_fronts(forward: Scene, device: str, use_cache: bool) -> np.ndarray:
 
 
 # ---- plot -------------------------------------------------------------------------------------
+
 
 def plot_detection(signal: Signal, detection: Detection, library: Library, path: str | Path) -> None:
     """Signal, best fit and residual (top); posterior over depth of both classes (bottom)."""
@@ -1492,10 +1738,15 @@ def plot_detection(signal: Signal, detection: Detection, library: Library, path:
     top.set_ylim(-3 * scale, 3 * scale)
     top.set_xlabel("t [program time, 1.0102e-3 s]")
     top.set_ylabel("v of grain 0 [program velocity]")
-    what = detection.kind if detection.kind == "none" else (
-        f"{detection.kind}, depth {detection.depth} {list(detection.depth_interval)}, "
-        f"μ = {detection.mass_ratio:.3g} [{detection.mass_ratio_interval[0]:.3g}, "
-        f"{detection.mass_ratio_interval[1]:.3g}]")
+    what = (
+        detection.kind
+        if detection.kind == "none"
+        else (
+            f"{detection.kind}, depth {detection.depth} {list(detection.depth_interval)}, "
+            f"μ = {detection.mass_ratio:.3g} [{detection.mass_ratio_interval[0]:.3g}, "
+            f"{detection.mass_ratio_interval[1]:.3g}]"
+        )
+    )
     top.set_title(f"{signal.source}: {what}; σ = {detection.noise:.3g}", fontsize=9)
     top.legend(fontsize=8, loc="upper right")
     for kind, color in (("light", "C2"), ("heavy", "C1")):

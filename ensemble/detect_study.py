@@ -31,10 +31,27 @@ import numpy as np
 from .detect import _cached_fronts, bisect_increasing, detect, forward_scene, impurity_scene, signal_from_arrays
 from .scene import SceneError, apply_overrides, read_toml, scene_from_dict
 
-HOST_KEYS = {"name", "gravity", "block", "dt", "snr_db", "mass_ratios", "depth_fractions", "clean_trials",
-             "noise_trials"}
-STUDY_KEYS = {"spacing", "seed", "mass_steps", "refine", "iterations", "probe_duration", "mass_range",
-              "window_past_bottom"}
+HOST_KEYS = {
+    "name",
+    "gravity",
+    "block",
+    "dt",
+    "snr_db",
+    "mass_ratios",
+    "depth_fractions",
+    "clean_trials",
+    "noise_trials",
+}
+STUDY_KEYS = {
+    "spacing",
+    "seed",
+    "mass_steps",
+    "refine",
+    "iterations",
+    "probe_duration",
+    "mass_range",
+    "window_past_bottom",
+}
 
 
 def load_study(path: str | Path) -> dict:
@@ -47,15 +64,20 @@ def load_study(path: str | Path) -> dict:
         raise SceneError("study", sorted(unknown), f"unknown keys; allowed: {', '.join(sorted(STUDY_KEYS))}")
     past = data["study"].get("window_past_bottom", 1.0)
     if isinstance(past, bool) or not isinstance(past, (int, float)) or not 1.0 <= past <= 2.0:
-        raise SceneError("study.window_past_bottom", past, "must be a number in [1, 2] (the analysis window's end as a "
-                                                           "multiple of the bottom reflection's return)")
+        raise SceneError(
+            "study.window_past_bottom",
+            past,
+            "must be a number in [1, 2] (the analysis window's end as a multiple of the bottom reflection's return)",
+        )
     for k, host in enumerate(data["hosts"]):
         unknown = set(host) - HOST_KEYS
         if unknown:
             raise SceneError(f"hosts[{k}]", sorted(unknown), f"unknown keys; allowed: {', '.join(sorted(HOST_KEYS))}")
         repeats = host.get("noise_trials", 1)
         if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1:
-            raise SceneError(f"hosts[{k}].noise_trials", repeats, "must be an integer ≥ 1 (noise draws per planted case)")
+            raise SceneError(
+                f"hosts[{k}].noise_trials", repeats, "must be an integer ≥ 1 (noise draws per planted case)"
+            )
     return data
 
 
@@ -111,36 +133,68 @@ def run_study(path: str | Path, device: str, *, progress=None) -> dict:
         peaks = [float(np.max(np.abs(v - clean)[in_window])) for v in truths[1:]]
         t = np.arange(samples) * spacing
         # each planted case with ``noise_trials`` independent noise draws
-        trials = ([(d, mu, truths[1 + k], peaks[k]) for k, (d, mu) in enumerate(cases)]
-                  * int(host.get("noise_trials", 1)))
+        trials = [(d, mu, truths[1 + k], peaks[k]) for k, (d, mu) in enumerate(cases)] * int(
+            host.get("noise_trials", 1)
+        )
         trials += [(None, 1.0, clean, float(np.median(peaks)))] * int(host.get("clean_trials", 0))
         name = host.get("name", f"g{overrides['chain.gravity']:g}-block{block}")
-        hosts_meta.append({"name": name, "grains": n, "gravity": overrides["chain.gravity"], "block": block,
-                           "dt": forward.integrator.dt, "truth_dt": forward.integrator.dt / 2, "window": window,
-                           "samples": samples, "depths": depths, "truth_seconds": truth_seconds})
+        hosts_meta.append(
+            {
+                "name": name,
+                "grains": n,
+                "gravity": overrides["chain.gravity"],
+                "block": block,
+                "dt": forward.integrator.dt,
+                "truth_dt": forward.integrator.dt / 2,
+                "window": window,
+                "samples": samples,
+                "depths": depths,
+                "truth_seconds": truth_seconds,
+            }
+        )
         for snr in host["snr_db"]:
             for depth, mu, velocity, peak in trials:
                 sigma = peak / 10 ** (float(snr) / 20)
                 signal = signal_from_arrays(t, velocity + rng.normal(scale=sigma, size=samples), source="study")
-                result, _ = detect(signal, base, block=block, device=device,
-                                   window=None if past_bottom == 1.0 else past_bottom * window, **detect_options)
+                result, _ = detect(
+                    signal,
+                    base,
+                    block=block,
+                    device=device,
+                    window=None if past_bottom == 1.0 else past_bottom * window,
+                    **detect_options,
+                )
                 truth_class = "none" if depth is None else ("light" if mu < 1 else "heavy")
                 interval = result.mass_ratio_interval
-                records.append({
-                    "host": name, "snr_db": float(snr), "true_class": truth_class, "true_depth": depth,
-                    "true_mass_ratio": mu, "depth_fraction": None if depth is None else depth / n,
-                    "sigma": sigma, "echo_peak": peak, **result.to_dict(),
-                    "class_correct": result.kind == truth_class,
-                    "depth_error": None if (depth is None or result.depth is None) else result.depth - depth,
-                    "mass_ratio_covered": (None if depth is None or interval is None
-                                           else bool(interval[0] <= mu <= interval[1])),
-                })
+                records.append(
+                    {
+                        "host": name,
+                        "snr_db": float(snr),
+                        "true_class": truth_class,
+                        "true_depth": depth,
+                        "true_mass_ratio": mu,
+                        "depth_fraction": None if depth is None else depth / n,
+                        "sigma": sigma,
+                        "echo_peak": peak,
+                        **result.to_dict(),
+                        "class_correct": result.kind == truth_class,
+                        "depth_error": None if (depth is None or result.depth is None) else result.depth - depth,
+                        "mass_ratio_covered": (
+                            None if depth is None or interval is None else bool(interval[0] <= mu <= interval[1])
+                        ),
+                    }
+                )
                 if progress is not None:
                     progress(records[-1])
     meta = {
-        "study_file": str(path), "device": device, "cpu": platform.processor() or platform.machine(),
-        "date": datetime.now(timezone.utc).isoformat(timespec="seconds"), "hosts": hosts_meta,
-        "scene": study["scene"], "study": options, "wall_seconds": time.perf_counter() - started,
+        "study_file": str(path),
+        "device": device,
+        "cpu": platform.processor() or platform.machine(),
+        "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "hosts": hosts_meta,
+        "scene": study["scene"],
+        "study": options,
+        "wall_seconds": time.perf_counter() - started,
     }
     return {"meta": meta, "summary": summarize(records), "records": records}
 
@@ -155,8 +209,13 @@ def summarize(records: list[dict]) -> dict:
             impure = [r for r in rows if r["true_class"] != "none"]
             located = [r for r in impure if r["depth_error"] is not None]
             covered = [r for r in impure if r["mass_ratio_covered"] is not None]
-            confusion = {tc: {pc: sum(1 for r in rows if r["true_class"] == tc and r["class"] == pc)
-                              for pc in ("none", "light", "heavy")} for tc in ("none", "light", "heavy")}
+            confusion = {
+                tc: {
+                    pc: sum(1 for r in rows if r["true_class"] == tc and r["class"] == pc)
+                    for pc in ("none", "light", "heavy")
+                }
+                for tc in ("none", "light", "heavy")
+            }
             correct = sum(r["class_correct"] for r in rows)
             within = sum(r["class_correct"] and abs(r["depth_error"]) <= 1 for r in located)
             per_snr[str(snr)] = {
@@ -164,12 +223,17 @@ def summarize(records: list[dict]) -> dict:
                 "class_accuracy": correct / len(rows),
                 "class_accuracy_lower95": binomial_lower_bound(correct, len(rows)),
                 "depth_within_1_lower95": binomial_lower_bound(within, len(impure)) if impure else None,
-                "depth_within_1": (sum(r["class_correct"] and abs(r["depth_error"]) <= 1 for r in located)
-                                   / len(impure)) if impure else None,
-                "depth_exact": (sum(r["class_correct"] and r["depth_error"] == 0 for r in located)
-                                / len(impure)) if impure else None,
-                "mass_ratio_interval_coverage": (sum(r["mass_ratio_covered"] for r in covered) / len(covered)
-                                                 if covered else None),
+                "depth_within_1": (
+                    sum(r["class_correct"] and abs(r["depth_error"]) <= 1 for r in located) / len(impure)
+                )
+                if impure
+                else None,
+                "depth_exact": (sum(r["class_correct"] and r["depth_error"] == 0 for r in located) / len(impure))
+                if impure
+                else None,
+                "mass_ratio_interval_coverage": (
+                    sum(r["mass_ratio_covered"] for r in covered) / len(covered) if covered else None
+                ),
                 "confusion": confusion,
                 "seconds_per_detection_median": float(np.median([r["seconds"]["total"] for r in rows])),
                 "by_depth_fraction": _by(impure, "depth_fraction"),
@@ -187,8 +251,16 @@ def binomial_lower_bound(successes: int, trials: int, confidence: float = 0.95) 
     tail = (1 - confidence) / 2
 
     def at_least(p: float) -> float:  # P(X ≥ successes | p)
-        terms = [math.exp(math.lgamma(trials + 1) - math.lgamma(k + 1) - math.lgamma(trials - k + 1)
-                          + k * math.log(p) + (trials - k) * math.log1p(-p)) for k in range(successes, trials + 1)]
+        terms = [
+            math.exp(
+                math.lgamma(trials + 1)
+                - math.lgamma(k + 1)
+                - math.lgamma(trials - k + 1)
+                + k * math.log(p)
+                + (trials - k) * math.log1p(-p)
+            )
+            for k in range(successes, trials + 1)
+        ]
         return math.fsum(terms)
 
     return bisect_increasing(at_least, tail, 0.0, 1.0, steps=200)
@@ -201,8 +273,10 @@ def _by(rows: list[dict], key: str) -> dict:
         table[f"{value:.3g}"] = {
             "n": len(group),
             "class_accuracy": sum(r["class_correct"] for r in group) / len(group),
-            "depth_within_1": sum(r["depth_error"] is not None and abs(r["depth_error"]) <= 1
-                                  and r["class_correct"] for r in group) / len(group),
+            "depth_within_1": sum(
+                r["depth_error"] is not None and abs(r["depth_error"]) <= 1 and r["class_correct"] for r in group
+            )
+            / len(group),
         }
     return table
 
@@ -215,16 +289,22 @@ def markdown_tables(result: dict) -> str:
     """The study's summary as Markdown tables (what docs/detection.md quotes)."""
     lines = []
     meta = result["meta"]
-    lines.append(f"Study file `{meta['study_file']}`, device {meta['device']} ({meta['cpu']}), {meta['date']}, "
-                 f"{meta['wall_seconds']:.0f} s wall in all.\n")
+    lines.append(
+        f"Study file `{meta['study_file']}`, device {meta['device']} ({meta['cpu']}), {meta['date']}, "
+        f"{meta['wall_seconds']:.0f} s wall in all.\n"
+    )
     lines.append("| host | grains | g | block | dt (truth dt) | window | depths planted |")
     lines.append("| --- | --- | --- | --- | --- | --- | --- |")
     for h in meta["hosts"]:
-        lines.append(f"| {h['name']} | {h['grains']} | {h['gravity']:g} | {h['block']} | {h['dt']:g} ({h['truth_dt']:g}) "
-                     f"| t ≤ {h['window']:.4g} | {', '.join(map(str, h['depths']))} |")
+        lines.append(
+            f"| {h['name']} | {h['grains']} | {h['gravity']:g} | {h['block']} | {h['dt']:g} ({h['truth_dt']:g}) "
+            f"| t ≤ {h['window']:.4g} | {', '.join(map(str, h['depths']))} |"
+        )
     lines.append("")
-    lines.append("| host | SNR [dB] | detections | class correct | depth exact | depth ±1 | μ in 95 % interval "
-                 "| s / detection (median) |")
+    lines.append(
+        "| host | SNR [dB] | detections | class correct | depth exact | depth ±1 | μ in 95 % interval "
+        "| s / detection (median) |"
+    )
     lines.append("| --- | --- | --- | --- | --- | --- | --- | --- |")
 
     def fmt(x):
@@ -232,9 +312,11 @@ def markdown_tables(result: dict) -> str:
 
     for host, per_snr in result["summary"].items():
         for snr, row in per_snr.items():
-            lines.append(f"| {host} | {float(snr):g} | {row['detections']} | {fmt(row['class_accuracy'])} | "
-                         f"{fmt(row['depth_exact'])} | {fmt(row['depth_within_1'])} | "
-                         f"{fmt(row['mass_ratio_interval_coverage'])} | {row['seconds_per_detection_median']:.2f} |")
+            lines.append(
+                f"| {host} | {float(snr):g} | {row['detections']} | {fmt(row['class_accuracy'])} | "
+                f"{fmt(row['depth_exact'])} | {fmt(row['depth_within_1'])} | "
+                f"{fmt(row['mass_ratio_interval_coverage'])} | {row['seconds_per_detection_median']:.2f} |"
+            )
     lines.append("")
     for host, per_snr in result["summary"].items():
         for snr, row in per_snr.items():
@@ -256,7 +338,9 @@ def markdown_tables(result: dict) -> str:
                 cells = []
                 for s in snrs:
                     cell = per_snr[s][key].get(v)
-                    cells.append("–" if cell is None else f"{cell['class_accuracy']:.2f} / {cell['depth_within_1']:.2f}")
+                    cells.append(
+                        "–" if cell is None else f"{cell['class_accuracy']:.2f} / {cell['depth_within_1']:.2f}"
+                    )
                 lines.append(f"| {v} | " + " | ".join(cells) + " |")
             lines.append("")
     return "\n".join(lines)

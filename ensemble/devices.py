@@ -50,7 +50,7 @@ def init_warp() -> None:
     try:
         with _stderr_silenced():
             wp.init()
-    except OSError:   # no file descriptor 2 to redirect (an embedded interpreter): start as usual
+    except OSError:  # no file descriptor 2 to redirect (an embedded interpreter): start as usual
         wp.init()
 
 

@@ -42,12 +42,21 @@ class BatchJob:
     """Which solver steps the batch (``--kernel``: auto | step | tile | window | sweep)."""
 
 
-def jobs_for(store: str | Path, plan: Plan, points: SweepPoints, batches: Iterable[Batch], *,
-             kernel: str = "auto") -> list[BatchJob]:
+def jobs_for(
+    store: str | Path, plan: Plan, points: SweepPoints, batches: Iterable[Batch], *, kernel: str = "auto"
+) -> list[BatchJob]:
     """One job per batch (``points``: the sweep expanded by ``hertzian.ensemble.sweep.expand``)."""
-    return [BatchJob(store=str(store), batch=b, chains=points.chains(b.points),
-                     features=plan.groups[b.group].features, grain_steps=plan.batch_grain_steps(b), kernel=kernel)
-            for b in batches]
+    return [
+        BatchJob(
+            store=str(store),
+            batch=b,
+            chains=points.chains(b.points),
+            features=plan.groups[b.group].features,
+            grain_steps=plan.batch_grain_steps(b),
+            kernel=kernel,
+        )
+        for b in batches
+    ]
 
 
 def _quiet_warp():
@@ -123,8 +132,9 @@ def runs_of(plan, points, batches) -> list[tuple]:
     return out
 
 
-def run_job(job: BatchJob, device: str, progress: Callable[[int, int], None] | None = None, *,
-            worker: str = "") -> dict[str, Any]:
+def run_job(
+    job: BatchJob, device: str, progress: Callable[[int, int], None] | None = None, *, worker: str = ""
+) -> dict[str, Any]:
     """Run one batch on ``device`` and write it into the store; return its completion record."""
     return write_job(job, *integrate_job(job, device, progress), worker=worker)
 
@@ -139,8 +149,9 @@ def prepare_job(job: BatchJob):
     return prepare_model(job.chains, features=job.features)
 
 
-def integrate_job(job: BatchJob, device: str, progress: Callable[[int, int], None] | None = None, *,
-                  prepared=None, on_unpacked=None):
+def integrate_job(
+    job: BatchJob, device: str, progress: Callable[[int, int], None] | None = None, *, prepared=None, on_unpacked=None
+):
     """Build and run one batch on ``device``; returns (RunResult, build seconds). Writes nothing itself.
 
     ``prepared``: :func:`prepare_job` of this job, computed earlier (the build seconds are then what
@@ -151,8 +162,11 @@ def integrate_job(job: BatchJob, device: str, progress: Callable[[int, int], Non
 
     _quiet_warp()
     start = time.perf_counter()
-    runner = Runner(build_model(job.chains, device, features=job.features, prepared=prepared), kernel=job.kernel,
-                    on_unpacked=on_unpacked)
+    runner = Runner(
+        build_model(job.chains, device, features=job.features, prepared=prepared),
+        kernel=job.kernel,
+        on_unpacked=on_unpacked,
+    )
     build = time.perf_counter() - start
     return runner.run(progress), build
 
@@ -169,8 +183,9 @@ def write_job(job: BatchJob, result, build: float, *, worker: str = "", rows=Non
     ``rows``: the batch's RowWriter (what it wrote while the batch ran is not written again)."""
     from .sweep_store import write_batch
 
-    return write_batch(job.store, job.batch, result, grain_steps=job.grain_steps, worker=worker,
-                       build_seconds=build, rows=rows)
+    return write_batch(
+        job.store, job.batch, result, grain_steps=job.grain_steps, worker=worker, build_seconds=build, rows=rows
+    )
 
 
 def worker_device(requested: str | None, worker_name: Any = None) -> str:
@@ -222,10 +237,18 @@ def take_prepared(ahead, builder, jobs, index: int, timing: dict):
     return prepared, (builder.submit(prepare_job, jobs[index + 1]) if index + 1 < len(jobs) else None)
 
 
-def run_serial(jobs: list[BatchJob], device: str, *, on_record: Callable[[BatchJob, int, int], None] | None = None,
-               on_done: Callable[[BatchJob, dict], None] | None = None, overlap: bool | None = None,
-               rows_while_running: bool | None = None, on_result: Callable | None = None,
-               create_store: Callable[[], Any] | None = None, timing: dict | None = None) -> None:
+def run_serial(
+    jobs: list[BatchJob],
+    device: str,
+    *,
+    on_record: Callable[[BatchJob, int, int], None] | None = None,
+    on_done: Callable[[BatchJob, dict], None] | None = None,
+    overlap: bool | None = None,
+    rows_while_running: bool | None = None,
+    on_result: Callable | None = None,
+    create_store: Callable[[], Any] | None = None,
+    timing: dict | None = None,
+) -> None:
     """Run jobs one after the other in this process; each batch's store write runs in a background thread
     while the next batch integrates (writes stay in batch order; ``on_done`` follows each write).
 
@@ -260,8 +283,10 @@ def run_serial(jobs: list[BatchJob], device: str, *, on_record: Callable[[BatchJ
         create_store()
         timing["create_store"] = time.perf_counter() - clock
 
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="hertzian-store") as writer, \
-            ThreadPoolExecutor(max_workers=1, thread_name_prefix="hertzian-build") as builder:
+    with (
+        ThreadPoolExecutor(max_workers=1, thread_name_prefix="hertzian-store") as writer,
+        ThreadPoolExecutor(max_workers=1, thread_name_prefix="hertzian-build") as builder,
+    ):
         pending = None
         creating = [None] if create_store is not None else []
         ahead = builder.submit(prepare_job, jobs[0]) if overlap and jobs else None
@@ -294,8 +319,13 @@ def run_serial(jobs: list[BatchJob], device: str, *, on_record: Callable[[BatchJ
                 created()
                 rows.submit(recorder, r)
 
-            result, build = integrate_job(job, device, progress if (on_record or creating) else None,
-                                          prepared=prepared, on_unpacked=on_unpacked if rows is not None else None)
+            result, build = integrate_job(
+                job,
+                device,
+                progress if (on_record or creating) else None,
+                prepared=prepared,
+                on_unpacked=on_unpacked if rows is not None else None,
+            )
             if on_result is not None:
                 on_result(job, result, build)
             created()
@@ -313,19 +343,33 @@ def local_cluster(workers: int):
     """A LocalCluster of ``workers`` processes with one thread each (one device per worker)."""
     from distributed import LocalCluster
 
-    return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                        silence_logs=logging.ERROR)
+    return LocalCluster(
+        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR
+    )
 
 
-def run_distributed(jobs: list[BatchJob], client, requested_device: str | None, *,
-                    on_done: Callable[[BatchJob, dict], None] | None = None) -> None:
+def run_distributed(
+    jobs: list[BatchJob],
+    client,
+    requested_device: str | None,
+    *,
+    on_done: Callable[[BatchJob, dict], None] | None = None,
+) -> None:
     """Run jobs on a Dask client's workers; each worker writes its batches into the store."""
     from distributed import as_completed
 
     token = f"{time.time_ns():x}"
-    futures = {client.submit(run_job_on_worker, job, requested_device, pure=False,
-                             key=f"hertzian-batch-{job.batch.index}-{token}", priority=-job.batch.index): job
-               for job in jobs}
+    futures = {
+        client.submit(
+            run_job_on_worker,
+            job,
+            requested_device,
+            pure=False,
+            key=f"hertzian-batch-{job.batch.index}-{token}",
+            priority=-job.batch.index,
+        ): job
+        for job in jobs
+    }
     for future in as_completed(futures):
         record = future.result()
         if on_done:

@@ -38,13 +38,33 @@ def _device_name(device: str) -> str:
     return f"{d.name} ({platform.processor() or platform.machine()})" if d.is_cpu else d.name
 
 
-def _summary(kind: str, source: str, device: str, *, chains: int, grains: int, steps: int, grain_steps: float,
-             kernels: list[str], seconds: dict[str, float], device_seconds: float, notes: list[str]) -> dict:
+def _summary(
+    kind: str,
+    source: str,
+    device: str,
+    *,
+    chains: int,
+    grains: int,
+    steps: int,
+    grain_steps: float,
+    kernels: list[str],
+    seconds: dict[str, float],
+    device_seconds: float,
+    notes: list[str],
+) -> dict:
     total = seconds["total"]
     return {
-        "workload": source, "kind": kind, "device": device, "device_name": _device_name(device), "date": today(),
-        "chains": chains, "grains": grains, "steps": steps, "grain_steps": grain_steps,
-        "kernel": ",".join(sorted(set(kernels))), "notes": notes,
+        "workload": source,
+        "kind": kind,
+        "device": device,
+        "device_name": _device_name(device),
+        "date": today(),
+        "chains": chains,
+        "grains": grains,
+        "steps": steps,
+        "grain_steps": grain_steps,
+        "kernel": ",".join(sorted(set(kernels))),
+        "notes": notes,
         "seconds": {k: round(v, 6) for k, v in seconds.items()},
         "device_seconds": round(device_seconds, 6),
         "device_busy": device_seconds / total if total > 0 else 0.0,
@@ -64,8 +84,9 @@ def start_device(device: str) -> float:
     return time.perf_counter() - start
 
 
-def bench_scene(path: str | Path, device: str, *, kernel: str = "auto", overrides: dict[str, Any] | None = None,
-                log=None) -> dict:
+def bench_scene(
+    path: str | Path, device: str, *, kernel: str = "auto", overrides: dict[str, Any] | None = None, log=None
+) -> dict:
     """Time ``hertzian run`` of one scene file end to end (store written to a temporary directory)."""
     from .model import build_model
     from .runner import Runner
@@ -85,17 +106,35 @@ def bench_scene(path: str | Path, device: str, *, kernel: str = "auto", override
         store = time.perf_counter() - clock
     total = time.perf_counter() - start
     t = result.timing
-    seconds = {"total": total, "build": build, "compile": t["setup"], "kernel": t["advance"], "record": t["record"],
-               "store": store, "startup": startup}
+    seconds = {
+        "total": total,
+        "build": build,
+        "compile": t["setup"],
+        "kernel": t["advance"],
+        "record": t["record"],
+        "store": store,
+        "startup": startup,
+    }
     if log:
         log(f"{path}: {result.kernel}, {total:.2f} s end to end")
-    return _summary("scene", str(path), device, chains=1, grains=model.grain_count, steps=result.steps,
-                    grain_steps=float(model.grain_count) * result.steps, kernels=[result.kernel], seconds=seconds,
-                    device_seconds=t["device"], notes=[runner.kernel_note] if runner.kernel_note else [])
+    return _summary(
+        "scene",
+        str(path),
+        device,
+        chains=1,
+        grains=model.grain_count,
+        steps=result.steps,
+        grain_steps=float(model.grain_count) * result.steps,
+        kernels=[result.kernel],
+        seconds=seconds,
+        device_seconds=t["device"],
+        notes=[runner.kernel_note] if runner.kernel_note else [],
+    )
 
 
-def bench_sweep(path: str | Path, device: str, *, kernel: str = "auto", overrides: dict[str, Any] | None = None,
-                log=None) -> dict:
+def bench_sweep(
+    path: str | Path, device: str, *, kernel: str = "auto", overrides: dict[str, Any] | None = None, log=None
+) -> dict:
     """Time ``hertzian sweep`` (serial, this process) end to end: plan, store, batches, background writes."""
     from .distributed import jobs_for, run_serial, runs_of, warm_kernels
     from .planner import plan_sweep
@@ -111,23 +150,35 @@ def bench_sweep(path: str | Path, device: str, *, kernel: str = "auto", override
     notes = []
     for index, group in enumerate(plan.groups):
         batch = next((b for b in plan.batches if b.group == index), None)
-        reason = batch is not None and kernel == "auto" and step_reason_of(
-            group.features, wp.get_device(device).is_cpu, plan.batch_grain_steps(batch))
+        reason = (
+            batch is not None
+            and kernel == "auto"
+            and step_reason_of(group.features, wp.get_device(device).is_cpu, plan.batch_grain_steps(batch))
+        )
         if reason:
             notes.append(f"launch group {index}: per-step kernel: {reason}")
     with tempfile.TemporaryDirectory(prefix="hertzian-bench-") as tmp, ThreadPoolExecutor(max_workers=1) as loader:
         out = Path(tmp) / "sweep.zarr"
         # as `hertzian sweep`: the kernels load in a thread; the store thread creates the store while the first
         # batch's first records run
-        warming = loader.submit(warm_kernels, [g.features for g in plan.groups], device,
-                                runs=runs_of(plan, points, plan.batches))
+        warming = loader.submit(
+            warm_kernels, [g.features for g in plan.groups], device, runs=runs_of(plan, points, plan.batches)
+        )
         jobs = jobs_for(out, plan, points, plan.batches, kernel=kernel)
         build = time.perf_counter() - start
         clock = time.perf_counter()
         warming.result()
         compile_seconds = time.perf_counter() - clock  # the part of loading that nothing hid
-        totals = {"compile": 0.0, "kernel": 0.0, "record": 0.0, "device": 0.0, "build": 0.0, "store": 0.0,
-                  "prepare": 0.0, "prepare_wait": 0.0}
+        totals = {
+            "compile": 0.0,
+            "kernel": 0.0,
+            "record": 0.0,
+            "device": 0.0,
+            "build": 0.0,
+            "store": 0.0,
+            "prepare": 0.0,
+            "prepare_wait": 0.0,
+        }
         kernels = []
 
         def add(job, result, batch_build):
@@ -140,18 +191,40 @@ def bench_sweep(path: str | Path, device: str, *, kernel: str = "auto", override
             kernels.append(result.kernel)
 
         # exactly `hertzian sweep`'s pipeline (serial): the next batch prepared and the store written in threads
-        run_serial(jobs, device, on_result=add, timing=totals,
-                   create_store=lambda: create_sweep_store(out, definition, points.templates[0], plan, device=device))
+        run_serial(
+            jobs,
+            device,
+            on_result=add,
+            timing=totals,
+            create_store=lambda: create_sweep_store(out, definition, points.templates[0], plan, device=device),
+        )
         finalize(out)
     total = time.perf_counter() - start
-    seconds = {"total": total, "build": build + totals["build"] + totals["prepare_wait"],
-               "compile": compile_seconds + totals["compile"], "kernel": totals["kernel"], "record": totals["record"],
-               "store": totals["store"], "create_store_overlapped": totals.get("create_store", 0.0),
-               "prepare_overlapped": totals["prepare"], "startup": startup}
+    seconds = {
+        "total": total,
+        "build": build + totals["build"] + totals["prepare_wait"],
+        "compile": compile_seconds + totals["compile"],
+        "kernel": totals["kernel"],
+        "record": totals["record"],
+        "store": totals["store"],
+        "create_store_overlapped": totals.get("create_store", 0.0),
+        "prepare_overlapped": totals["prepare"],
+        "startup": startup,
+    }
     grain_steps = float(sum(j.grain_steps for j in jobs))
     first = points.templates[0]
     if log:
         log(f"{path}: {plan.point_count} points, {len(jobs)} batches, {total:.2f} s end to end")
-    return _summary("sweep", str(path), device, chains=plan.point_count, grains=first.chain.grains,
-                    steps=first.step_count, grain_steps=grain_steps, kernels=kernels, seconds=seconds,
-                    device_seconds=totals["device"], notes=notes)
+    return _summary(
+        "sweep",
+        str(path),
+        device,
+        chains=plan.point_count,
+        grains=first.chain.grains,
+        steps=first.step_count,
+        grain_steps=grain_steps,
+        kernels=kernels,
+        seconds=seconds,
+        device_seconds=totals["device"],
+        notes=notes,
+    )

@@ -15,7 +15,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import warp as wp
-
 from hertzian.kernels.features import EVENT_WINDOW, GEAR_CORRECTOR, GEAR_VALUES, Features
 
 from .chains import ChainSet, ChainStack, per_unique
@@ -49,15 +48,17 @@ def features_of(scenes: list[Scene], statics: list[StaticState] | None = None) -
         if len(values) > 1:
             raise SceneError(key, sorted(map(str, values)), "chains in one ensemble must share this")
     statics = statics or [static_state(s) for s in scenes]
-    return _features(first, any_static=any(np.any(st.static_overlap > 0) for st in statics),
-                     heterogeneous=any(s.impurities for s in scenes),
-                     gravity=any(s.chain.gravity > 0 for s in scenes),
-                     hertz=all(s.chain.exponent == 2.5 for s in scenes),
-                     can_open=lambda: any(contact_can_open(s, st) for s, st in zip(scenes, statics)))
+    return _features(
+        first,
+        any_static=any(np.any(st.static_overlap > 0) for st in statics),
+        heterogeneous=any(s.impurities for s in scenes),
+        gravity=any(s.chain.gravity > 0 for s in scenes),
+        hertz=all(s.chain.exponent == 2.5 for s in scenes),
+        can_open=lambda: any(contact_can_open(s, st) for s, st in zip(scenes, statics)),
+    )
 
 
-def _features(first: Scene, *, any_static: bool, heterogeneous: bool, gravity: bool, hertz: bool,
-              can_open) -> Features:
+def _features(first: Scene, *, any_static: bool, heterogeneous: bool, gravity: bool, hertz: bool, can_open) -> Features:
     """The feature set from what the chains use (``can_open()`` is asked only where events may apply)."""
     if not any_static:
         static = "none"
@@ -67,8 +68,12 @@ def _features(first: Scene, *, any_static: bool, heterogeneous: bool, gravity: b
         static = "uniform"
     # event steps carry no damping: a damped scene takes plain steps (docs/drive.md); they are Gear steps
     # (Verlet and its composition yoshida4 take none)
-    events = (first.integrator.events == "auto" and first.integrator.method in GEAR_CORRECTOR
-              and first.damping.model == "none" and can_open())
+    events = (
+        first.integrator.events == "auto"
+        and first.integrator.method in GEAR_CORRECTOR
+        and first.damping.model == "none"
+        and can_open()
+    )
     return Features(
         method=first.integrator.method,
         precision=first.integrator.precision,
@@ -198,7 +203,9 @@ class Model:
             clock=wp.zeros(1, dtype=wp.int32, device=self.device),
             work=wp.zeros(c if driven else 0, dtype=wp.float64, device=self.device),
             power=wp.zeros(c if driven else 0, dtype=wp.float64, device=self.device),
-            status=status, traces=traces, dissipated=dissipated,
+            status=status,
+            traces=traces,
+            dissipated=dissipated,
         )
 
     def state_pair(self) -> tuple[State, State]:
@@ -220,8 +227,9 @@ class Model:
             # only the first grains move at t = 0 (startup.taylor_window): upload those into the zeroed
             # buffer (a copy of the window, not of every grain)
             if start is None:
-                start = state_layout(initial_nordsieck_of(self.scenes, order, self.dt, self._static, whole=False),
-                                     self.features)
+                start = state_layout(
+                    initial_nordsieck_of(self.scenes, order, self.dt, self._static, whole=False), self.features
+                )
             width = start.shape[2]
             (state.x if width == self.grain_count else state.x[:, :, :width]).assign(start)
             return state
@@ -255,15 +263,25 @@ def covers(wider: Features, needed: Features) -> bool:
     # event-aware steps may run chains that cannot open a contact (they then step as plain Gear would
     # wherever no contact comes near opening), not the other way round; ``compensated`` is not compared:
     # a forced plain float32 variant runs float32 scenes, less accurately (kept for comparison)
-    return (wider.method, wider.precision, wider.surface, wider.bottom, wider.traces, wider.damping) == (
-        needed.method, needed.precision, needed.surface, needed.bottom, needed.traces, needed.damping) and (
-        wider.event_window == needed.event_window or needed.event_window == 0.0) and (
-        STATIC_LEVELS.index(wider.static) >= STATIC_LEVELS.index(needed.static)
-        and wider.heterogeneous >= needed.heterogeneous and (needed.hertz or not wider.hertz))
+    return (
+        (wider.method, wider.precision, wider.surface, wider.bottom, wider.traces, wider.damping)
+        == (needed.method, needed.precision, needed.surface, needed.bottom, needed.traces, needed.damping)
+        and (wider.event_window == needed.event_window or needed.event_window == 0.0)
+        and (
+            STATIC_LEVELS.index(wider.static) >= STATIC_LEVELS.index(needed.static)
+            and wider.heterogeneous >= needed.heterogeneous
+            and (needed.hertz or not wider.hertz)
+        )
+    )
 
 
-def build_model(scenes: "list[Scene] | ChainSet", device: str | None = None, *,
-                features: Features | None = None, prepared: "HostModel | None" = None) -> Model:
+def build_model(
+    scenes: "list[Scene] | ChainSet",
+    device: str | None = None,
+    *,
+    features: Features | None = None,
+    prepared: "HostModel | None" = None,
+) -> Model:
     """Upload an ensemble of compatible scenes to ``device`` (default: CUDA if present, else CPU).
 
     ``scenes``: a list of scenes, or a :class:`~hertzian.ensemble.chains.ChainSet` (a template scene and
@@ -304,8 +322,7 @@ def build_model(scenes: "list[Scene] | ChainSet", device: str | None = None, *,
         static_overlap = np.zeros((0, 0))
     exponent = np.zeros(0) if f.hertz else np.array([s.chain.exponent for s in scenes])
     if f.surface == "driven":
-        drive = np.array([[s.excitation.drive_amplitude, 2.0 * math.pi / s.excitation.drive_period]
-                          for s in scenes])
+        drive = np.array([[s.excitation.drive_amplitude, 2.0 * math.pi / s.excitation.drive_period] for s in scenes])
     else:
         drive = np.zeros((0, 2))
     trace_slot = np.full(n if f.traces else 0, -1, dtype=np.int32)
@@ -327,18 +344,20 @@ def build_model(scenes: "list[Scene] | ChainSet", device: str | None = None, *,
         trace_slot=upload(trace_slot, wp.int32),
         validity_overlap=upload(np.array([s.chain.validity_overlap for s in scenes]), wp.float64),
         injected_energy=np.array([s.injected_energy for s in scenes]),
-        damping=upload(np.array([s.damping.gamma for s in scenes] if f.damping != "none" else [],
-                                dtype=np_real)),
+        damping=upload(np.array([s.damping.gamma for s in scenes] if f.damping != "none" else [], dtype=np_real)),
     )
 
 
 def chain_set_features(chains: ChainSet, static) -> Features:
     """features_of for a ChainSet, from its static arrays (no scene per chain)."""
-    return _features(chains.template, any_static=bool(np.any(static.static_overlap > 0)),
-                     heterogeneous=bool(chains.template.impurities),
-                     gravity=bool(np.any(chains.column("chain.gravity") > 0)),
-                     hertz=bool(np.all(chains.column("chain.exponent") == 2.5)),
-                     can_open=lambda: chain_set_can_open(chains, static))
+    return _features(
+        chains.template,
+        any_static=bool(np.any(static.static_overlap > 0)),
+        heterogeneous=bool(chains.template.impurities),
+        gravity=bool(np.any(chains.column("chain.gravity") > 0)),
+        hertz=bool(np.all(chains.column("chain.exponent") == 2.5)),
+        can_open=lambda: chain_set_can_open(chains, static),
+    )
 
 
 def chain_set_can_open(chains: ChainSet, static) -> bool:
@@ -413,8 +432,13 @@ def prepare_model(chains: ChainSet, *, features: Features | None = None) -> Host
         static_overlap = np.zeros((0, 0))
     exponent = np.zeros(0) if f.hertz else st.exponent
     if f.surface == "driven":
-        drive = np.stack([chains.column("excitation.drive_amplitude"),
-                          per_unique(lambda p: 2.0 * math.pi / p, chains.column("excitation.drive_period"))], axis=1)
+        drive = np.stack(
+            [
+                chains.column("excitation.drive_amplitude"),
+                per_unique(lambda p: 2.0 * math.pi / p, chains.column("excitation.drive_period")),
+            ],
+            axis=1,
+        )
     else:
         drive = np.zeros((0, 2))
     trace_slot = np.full(n if f.traces else 0, -1, dtype=np.int32)
@@ -430,13 +454,19 @@ def prepare_model(chains: ChainSet, *, features: Features | None = None) -> Host
         "drive": drive,
         "trace_slot": trace_slot,
         "validity_overlap": per_unique(lambda d: VALIDITY_FRACTION * d, chains.column("chain.diameter")),
-        "damping": (chains.column("damping.gamma") if f.damping != "none" else np.zeros(0)).astype(np_real,
-                                                                                                   copy=False),
+        "damping": (chains.column("damping.gamma") if f.damping != "none" else np.zeros(0)).astype(np_real, copy=False),
     }
     # only the first grains move at t = 0 (startup.taylor_window); the others start at zero
     start = state_layout(initial_nordsieck_of(chains, f.nordsieck_values, scene.integrator.dt, st, whole=False), f)
-    return HostModel(chains=chains, features=f, static=st, arrays=arrays, injected_energy=injected, start=start,
-                     seconds=time.perf_counter() - clock)
+    return HostModel(
+        chains=chains,
+        features=f,
+        static=st,
+        arrays=arrays,
+        injected_energy=injected,
+        start=start,
+        seconds=time.perf_counter() - clock,
+    )
 
 
 def stack_prepared(parts: list[HostModel]) -> HostModel:
@@ -453,7 +483,11 @@ def stack_prepared(parts: list[HostModel]) -> HostModel:
             raise ValueError(f"stacked chain sets need one kernel: {part.features} differs from {first.features}")
         template, other = first.chains.template, part.chains.template
         if (other.chain.grains, other.integrator, other.record, other.boundary) != (
-                template.chain.grains, template.integrator, template.record, template.boundary):
+            template.chain.grains,
+            template.integrator,
+            template.record,
+            template.boundary,
+        ):
             raise ValueError("stacked chain sets must share grains, integrator, record and boundaries")
     arrays = {}
     for name, array in first.arrays.items():
@@ -471,11 +505,17 @@ def stack_prepared(parts: list[HostModel]) -> HostModel:
     start = np.zeros((first.start.shape[0], sum(len(p.chains) for p in parts), width), dtype=first.start.dtype)
     row = 0
     for part in parts:
-        start[:, row:row + len(part.chains), :part.start.shape[2]] = part.start
+        start[:, row : row + len(part.chains), : part.start.shape[2]] = part.start
         row += len(part.chains)
-    return HostModel(chains=ChainStack([p.chains for p in parts]), features=first.features, static=None,
-                     arrays=arrays, injected_energy=np.concatenate([p.injected_energy for p in parts]),
-                     start=start, seconds=sum(p.seconds for p in parts))
+    return HostModel(
+        chains=ChainStack([p.chains for p in parts]),
+        features=first.features,
+        static=None,
+        arrays=arrays,
+        injected_energy=np.concatenate([p.injected_energy for p in parts]),
+        start=start,
+        seconds=sum(p.seconds for p in parts),
+    )
 
 
 def _build_model_of(chains: ChainSet, device, features: Features | None, prepared: HostModel | None = None) -> Model:

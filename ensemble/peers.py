@@ -52,10 +52,19 @@ class PeerProblem:
 def problem_from_model(model) -> PeerProblem:
     """The peer problem equivalent to an ensemble :class:`~hertzian.ensemble.model.Model` (benchmark features only)."""
     f = model.features
-    if (f.method != "gear4" or f.heterogeneous or f.static == "profile" or not f.hertz or f.traces
-            or f.surface == "driven" or f.bottom == "fixed" or f.precision != "float64"):
-        raise ValueError(f"peers implement gear4/float64/Hertz, homogeneous, uniform static, walls or free ends; "
-                         f"got {f}")
+    if (
+        f.method != "gear4"
+        or f.heterogeneous
+        or f.static == "profile"
+        or not f.hertz
+        or f.traces
+        or f.surface == "driven"
+        or f.bottom == "fixed"
+        or f.precision != "float64"
+    ):
+        raise ValueError(
+            f"peers implement gear4/float64/Hertz, homogeneous, uniform static, walls or free ends; got {f}"
+        )
     c = model.chain_count
     static = model.static_overlap.numpy() if f.static == "uniform" else np.zeros((c, 1))
     return PeerProblem(
@@ -90,8 +99,8 @@ class NumpyGear4:
         self.force0 = _hertz(self.delta0, self.a_c)
         self.half_h2 = 0.5 * p.dt * p.dt
         self.inverse_mass = p.inverse_mass
-        self.u = np.zeros((c, n + 2))          # predicted positions with a virtual grain at rest at each end
-        self.delta = np.empty((c, n + 1))      # padded contacts: k joins grains k-1 and k
+        self.u = np.zeros((c, n + 2))  # predicted positions with a virtual grain at rest at each end
+        self.delta = np.empty((c, n + 1))  # padded contacts: k joins grains k-1 and k
         self.root = np.empty((c, n + 1))
         self.force = np.empty((c, n + 1))
         self.acc = np.empty((c, n))
@@ -111,7 +120,7 @@ class NumpyGear4:
         np.maximum(delta, 0.0, out=root)
         np.sqrt(root, out=root)
         np.multiply(2.5 * self.a_c, delta, out=force)
-        force *= root                        # root = 0 where δ ≤ 0: no tension
+        force *= root  # root = 0 where δ ≤ 0: no tension
         force -= self.force0
         if not self.problem.surface_wall:
             force[:, 0] = 0.0
@@ -124,9 +133,9 @@ class NumpyGear4:
         np.multiply(3.0, x3, out=p)
         np.add(x2, p, out=corr)
         np.subtract(acc, corr, out=corr)
-        np.multiply(2.0, x2, out=x2)          # x2 is replaced by acc below; use it as scratch
+        np.multiply(2.0, x2, out=x2)  # x2 is replaced by acc below; use it as scratch
         np.add(x1, x2, out=x1)
-        x1 += p                              # x1 now holds p1
+        x1 += p  # x1 now holds p1
         np.multiply(GEAR4[0], corr, out=p)
         np.add(inner, p, out=x0)
         np.multiply(GEAR4[1], corr, out=p)
@@ -196,7 +205,7 @@ class JaxGear4:
         def step(carry, _):
             x0, x1, x2, x3 = carry
             up = x0 + x1 + x2 + x3
-            inner = excess(delta0 + (up[:, :-1] - up[:, 1:]))         # contacts between grains
+            inner = excess(delta0 + (up[:, :-1] - up[:, 1:]))  # contacts between grains
             top = excess(delta0 - up[:, :1]) if surface_wall else wall_u
             bottom = excess(delta0 + up[:, -1:]) if bottom_wall else wall_u
             above = jnp.concatenate([top, inner], axis=1)
@@ -227,7 +236,7 @@ class JaxGear4:
         best, best_time = 1, float("inf")
         for unroll in self.UNROLLS:
             run = self._compiled(steps, unroll)
-            self._jax.block_until_ready(run(x))          # compile, warm up
+            self._jax.block_until_ready(run(x))  # compile, warm up
             start = time.perf_counter()
             self._jax.block_until_ready(run(x))
             seconds = time.perf_counter() - start

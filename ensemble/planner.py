@@ -21,7 +21,6 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-
 from hertzian.kernels.features import GEAR_CORRECTOR, Features
 
 from .model import SHARED_KEYS, STATIC_LEVELS, chain_set_features
@@ -141,15 +140,15 @@ def chain_memory(scene: Scene, features: Features) -> tuple[int, int]:
     n = scene.chain.grains
     traced = len(scene.record.traces)
     capacity = scene.steps_per_record // scene.trace_stride if traced else 0
-    device = 2 * features.values * n * item            # two state buffers
-    device += 2 * capacity * traced * item              # trace ring buffer
+    device = 2 * features.values * n * item  # two state buffers
+    device += 2 * capacity * traced * item  # trace ring buffer
     if features.heterogeneous:
-        device += (2 * n + 1) * item                    # 1/m per grain, a_c per contact
+        device += (2 * n + 1) * item  # 1/m per grain, a_c per contact
     if features.static == "profile":
         device += (n + 1) * item
-    device += 256                                       # per-chain scalars
+    device += 256  # per-chain scalars
     if features.damping != "none":
-        device += n * 8                                 # dissipated energy per grain
+        device += n * 8  # dissipated energy per grain
     response = 0
     if scene.has_response:
         r = scene.record
@@ -157,10 +156,10 @@ def chain_memory(scene: Scene, features: Features) -> tuple[int, int]:
     device += response
     records = scene.record_count
     samples = (records - 1) * capacity + 1 if traced else 0
-    host = len(scene.record.fields) * records * n * 8   # snapshots (stored as float64 at most)
+    host = len(scene.record.fields) * records * n * 8  # snapshots (stored as float64 at most)
     host += 2 * samples * traced * 8 + 2 * 2 * capacity * traced * item  # traces and a buffer copy
-    host += 2 * records * 8 + 64                        # energy, work, per-chain scalars
-    host += 2 * response                                # response windows and their reduction
+    host += 2 * records * 8 + 64  # energy, work, per-chain scalars
+    host += 2 * response  # response windows and their reduction
     return device, host
 
 
@@ -176,8 +175,9 @@ def device_budget(device: str) -> int:
 
 def _splitting_dims(point_group: np.ndarray) -> list[bool]:
     """Dimensions along which the launch group changes somewhere."""
-    return [bool(point_group.shape[d] > 1 and np.any(np.diff(point_group, axis=d) != 0))
-            for d in range(point_group.ndim)]
+    return [
+        bool(point_group.shape[d] > 1 and np.any(np.diff(point_group, axis=d) != 0)) for d in range(point_group.ndim)
+    ]
 
 
 def block_for(shape: tuple[int, ...], splitting: list[bool], target: int) -> tuple[int, ...]:
@@ -210,8 +210,14 @@ def batches_for(shape: tuple[int, ...], block: tuple[int, ...], point_group: np.
     return batches
 
 
-def plan_sweep(sweep: Sweep, points: "SweepPoints | list[Scene] | None", device: str, *,
-               batch_size: int | None = None, block: tuple[int, ...] | None = None) -> Plan:
+def plan_sweep(
+    sweep: Sweep,
+    points: "SweepPoints | list[Scene] | None",
+    device: str,
+    *,
+    batch_size: int | None = None,
+    block: tuple[int, ...] | None = None,
+) -> Plan:
     """Group the sweep's points into launches on ``device``, without a scene per point.
 
     ``points``: the sweep expanded by ``hertzian.ensemble.sweep.expand`` (a list of scenes or None expands it
@@ -232,9 +238,16 @@ def plan_sweep(sweep: Sweep, points: "SweepPoints | list[Scene] | None", device:
         features = _group_features(points, members)
         first = points.templates[members[0]]
         device_bytes, host_bytes = chain_memory(first, features)
-        groups.append(LaunchGroup(key=key, features=features, point_count=int(counts[g]),
-                                  device_bytes_per_chain=device_bytes, host_bytes_per_chain=host_bytes,
-                                  grain_steps_per_chain=first.chain.grains * first.step_count))
+        groups.append(
+            LaunchGroup(
+                key=key,
+                features=features,
+                point_count=int(counts[g]),
+                device_bytes_per_chain=device_bytes,
+                host_bytes_per_chain=host_bytes,
+                grain_steps_per_chain=first.chain.grains * first.step_count,
+            )
+        )
     budget = device_budget(device)
     splitting = _splitting_dims(point_group)
     if block is None:
@@ -246,18 +259,31 @@ def plan_sweep(sweep: Sweep, points: "SweepPoints | list[Scene] | None", device:
         grains = points.templates[0].chain.grains
         fit = min(budget // per_device, HOST_MEMORY_BUDGET // per_host, max(1, MAX_GRAIN_THREADS // grains))
         if fit < 1:
-            raise SceneError("chain.grains", grains, f"one chain needs {per_device} bytes, more than the "
-                             f"{budget} bytes available on {device}")
+            raise SceneError(
+                "chain.grains",
+                grains,
+                f"one chain needs {per_device} bytes, more than the {budget} bytes available on {device}",
+            )
         target = min(fit, batch_size) if batch_size else fit
         block = block_for(shape, splitting, target)
     else:
         block = tuple(block)
-        if len(block) != len(shape) or any(b < 1 for b in block) or any(
-                s and b != 1 and sp for b, s, sp in zip(block, shape, splitting)):
+        if (
+            len(block) != len(shape)
+            or any(b < 1 for b in block)
+            or any(s and b != 1 and sp for b, s, sp in zip(block, shape, splitting))
+        ):
             raise SceneError("store batch block", list(block), f"does not fit this sweep's shape {list(shape)}")
     batches = batches_for(shape, block, point_group)
-    return Plan(shape=shape, block=block, groups=tuple(groups), batches=tuple(batches),
-                point_group=point_group, device=str(device), memory_budget=budget)
+    return Plan(
+        shape=shape,
+        block=block,
+        groups=tuple(groups),
+        batches=tuple(batches),
+        point_group=point_group,
+        device=str(device),
+        memory_budget=budget,
+    )
 
 
 def _group_features(points: SweepPoints, templates: list[int]) -> Features:
@@ -272,10 +298,12 @@ def _group_features(points: SweepPoints, templates: list[int]) -> Features:
         # steps (events off, verlet/yoshida4, damping) only "is there a static overlap" is asked of the contacts,
         # and contact 1 (carrying F0 + g·m_0) answers it for every chain
         i = chains.template.integrator
-        events_possible = (i.events == "auto" and i.method in GEAR_CORRECTOR
-                           and chains.template.damping.model == "none")
-        window = None if events_possible and (
-            chains.template.impurities or np.any(chains.column("chain.gravity") > 0)) else 2
+        events_possible = i.events == "auto" and i.method in GEAR_CORRECTOR and chains.template.damping.model == "none"
+        window = (
+            None
+            if events_possible and (chains.template.impurities or np.any(chains.column("chain.gravity") > 0))
+            else 2
+        )
         step = max(1, CHUNK_ELEMENTS // ((window or chains.template.chain.grains) + 1))
         for start in range(0, len(chains), step):
             part = chains.take(np.arange(start, min(start + step, len(chains))))
@@ -290,8 +318,13 @@ def _widen(a: Features, b: Features) -> Features:
     heterogeneous = a.heterogeneous or b.heterogeneous
     if static == "uniform" and heterogeneous:
         static = "profile"
-    return replace(a, static=static, heterogeneous=heterogeneous, hertz=a.hertz and b.hertz,
-                   event_window=max(a.event_window, b.event_window))
+    return replace(
+        a,
+        static=static,
+        heterogeneous=heterogeneous,
+        hertz=a.hertz and b.hertz,
+        event_window=max(a.event_window, b.event_window),
+    )
 
 
 def format_bytes(count: float) -> str:
@@ -304,29 +337,35 @@ def format_bytes(count: float) -> str:
 
 def describe(plan: Plan, sweep: Sweep, *, max_rows: int = 20) -> str:
     """The plan as text (``hertzian sweep --dry-run``)."""
+
     def dimension(d) -> str:
         zipped = f", with {', '.join(a.name for a in d.axes[1:])}" if len(d.axes) > 1 else ""
         return f"{d.name} ({d.size}{zipped})"
 
     dims = " × ".join(dimension(d) for d in sweep.dimensions) or "no axes"
-    lines = [f"points: {plan.point_count} over {dims}",
-             f"launch groups: {len(plan.groups)}"]
+    lines = [f"points: {plan.point_count} over {dims}", f"launch groups: {len(plan.groups)}"]
     names = [k for k, _ in SHARED_KEYS]
     for g_index, g in enumerate(plan.groups):
         shared = dict(zip(names, g.key))
         f = g.features
-        lines.append(f"  group {g_index}: {g.point_count} points, {shared['chain.grains']} grains, "
-                     f"{shared['integrator.method']} {shared['integrator.precision']} dt={shared['integrator.dt']:g}, "
-                     f"{g.grain_steps_per_chain // shared['chain.grains']} steps; kernel: static={f.static}, "
-                     f"heterogeneous={f.heterogeneous}, hertz={f.hertz}, traces={f.traces}")
-    lines.append(f"batches: {len(plan.batches)} of up to {plan.batch_size} points (block "
-                 f"{' × '.join(map(str, plan.block)) or '1'}) on {plan.device}, memory budget "
-                 f"{format_bytes(plan.memory_budget)}")
+        lines.append(
+            f"  group {g_index}: {g.point_count} points, {shared['chain.grains']} grains, "
+            f"{shared['integrator.method']} {shared['integrator.precision']} dt={shared['integrator.dt']:g}, "
+            f"{g.grain_steps_per_chain // shared['chain.grains']} steps; kernel: static={f.static}, "
+            f"heterogeneous={f.heterogeneous}, hertz={f.hertz}, traces={f.traces}"
+        )
+    lines.append(
+        f"batches: {len(plan.batches)} of up to {plan.batch_size} points (block "
+        f"{' × '.join(map(str, plan.block)) or '1'}) on {plan.device}, memory budget "
+        f"{format_bytes(plan.memory_budget)}"
+    )
     lines.append(f"estimated work: {plan.grain_steps:.4g} grain-steps")
     lines.append(f"{'batch':>7} {'group':>5} {'points':>7} {'device mem':>11} {'host mem':>10} {'grain-steps':>12}")
     for b in plan.batches[:max_rows]:
-        lines.append(f"{b.index:>7} {b.group:>5} {len(b.points):>7} {format_bytes(plan.batch_device_bytes(b)):>11} "
-                     f"{format_bytes(plan.batch_host_bytes(b)):>10} {plan.batch_grain_steps(b):>12.4g}")
+        lines.append(
+            f"{b.index:>7} {b.group:>5} {len(b.points):>7} {format_bytes(plan.batch_device_bytes(b)):>11} "
+            f"{format_bytes(plan.batch_host_bytes(b)):>10} {plan.batch_grain_steps(b):>12.4g}"
+        )
     if len(plan.batches) > max_rows:
         lines.append(f"    … {len(plan.batches) - max_rows} more")
     return "\n".join(lines)
@@ -337,9 +376,21 @@ def single_batch_plan(shape: tuple[int, ...], scene: Scene, features: Features, 
     launch group, one batch covering the whole grid ``shape`` (() for a single run)."""
     shape = tuple(shape)
     device_bytes, host_bytes = chain_memory(scene, features)
-    group = LaunchGroup(key=launch_key(scene), features=features, point_count=math.prod(shape),
-                        device_bytes_per_chain=device_bytes, host_bytes_per_chain=host_bytes,
-                        grain_steps_per_chain=scene.chain.grains * scene.step_count)
+    group = LaunchGroup(
+        key=launch_key(scene),
+        features=features,
+        point_count=math.prod(shape),
+        device_bytes_per_chain=device_bytes,
+        host_bytes_per_chain=host_bytes,
+        grain_steps_per_chain=scene.chain.grains * scene.step_count,
+    )
     batch = Batch(index=0, group=0, region=tuple((0, n) for n in shape), grid_shape=shape)
-    return Plan(shape=shape, block=shape, groups=(group,), batches=(batch,),
-                point_group=np.zeros(shape, dtype=np.int64), device=str(device), memory_budget=0)
+    return Plan(
+        shape=shape,
+        block=shape,
+        groups=(group,),
+        batches=(batch,),
+        point_group=np.zeros(shape, dtype=np.int64),
+        device=str(device),
+        memory_budget=0,
+    )

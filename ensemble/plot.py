@@ -26,8 +26,10 @@ from . import analysis as an
 
 DPI = 110
 PAPER_SIGN = "paper sign: + toward the surface"
-SIGN_NOTE = ("−u, −v: the paper's sign (change of grain position, + toward the surface); hertzian's u, v are "
-             "+ into the chain. Program units: length 1e-5 m, time 1.0102 ms.")
+SIGN_NOTE = (
+    "−u, −v: the paper's sign (change of grain position, + toward the surface); hertzian's u, v are "
+    "+ into the chain. Program units: length 1e-5 m, time 1.0102 ms."
+)
 TIME_UNIT = "time units of 1.0102 ms"
 VELOCITY_UNIT = "1e-5 m per 1.0102 ms = 9.9 mm/s"
 ENERGY_UNIT = "2.3e-9 J"
@@ -41,8 +43,10 @@ class PlotError(ValueError):
 def _require(ds, *names: str, figure: str) -> None:
     missing = [n for n in names if n not in ds.variables and n not in ds.dims]
     if missing:
-        raise PlotError(f"figure {figure} needs {', '.join(missing)} in the store; it has "
-                        f"{', '.join(sorted(map(str, ds.variables)))}")
+        raise PlotError(
+            f"figure {figure} needs {', '.join(missing)} in the store; it has "
+            f"{', '.join(sorted(map(str, ds.variables)))}"
+        )
 
 
 def _pyplot():
@@ -121,12 +125,16 @@ def _fig_profiles_by_vimp(ds, out: Path, figure: str, *, label_axis: bool, title
         _profiles_vs_label(ax, plt, point, label_axis=label_axis)
         l0 = float(point.l0) if "l0" in point.variables and point.l0.size == 1 else _scene_value(ds, "chain", "l0")
         heads = an.head_positions(point.v.values)
-        beyond = np.flatnonzero(heads > 0.9 * _grains(ds))     # before the head first reaches 0.9 of the chain
-        flight = np.flatnonzero(heads[:beyond[0] if beyond.size else len(heads)] > 0.1 * _grains(ds))
-        ratio = max(an.overlap_behind_head(point.u.values[r], heads[r], l0=l0) for r in flight) if flight.size \
-            else math.nan
-        ax.set_title(f"({'abcdef'[k]}) {title}, l0 = {l0:g}, v_imp = {v_imp:g}\nlargest overlap more than 10 grains "
-                     f"behind the front ≤ {ratio:.2f} × the front's", fontsize=8.5)
+        beyond = np.flatnonzero(heads > 0.9 * _grains(ds))  # before the head first reaches 0.9 of the chain
+        flight = np.flatnonzero(heads[: beyond[0] if beyond.size else len(heads)] > 0.1 * _grains(ds))
+        ratio = (
+            max(an.overlap_behind_head(point.u.values[r], heads[r], l0=l0) for r in flight) if flight.size else math.nan
+        )
+        ax.set_title(
+            f"({'abcdef'[k]}) {title}, l0 = {l0:g}, v_imp = {v_imp:g}\nlargest overlap more than 10 grains "
+            f"behind the front ≤ {ratio:.2f} × the front's",
+            fontsize=8.5,
+        )
     return _finish(fig, out, note=SIGN_NOTE)
 
 
@@ -158,8 +166,13 @@ def fig1d(ds, out: Path) -> Path:
     markers = "os^dv"
     for i, l0 in enumerate(l0s):
         fit = an.speed_exponent(v_imp, c[i])
-        ax.plot(np.log(v_imp), np.log(c[i]), markers[i % 5], mfc="none",
-                label=f"l0 = {l0:g}: α = {fit.exponent:.4f} ± {fit.exponent_error:.4f}")
+        ax.plot(
+            np.log(v_imp),
+            np.log(c[i]),
+            markers[i % 5],
+            mfc="none",
+            label=f"l0 = {l0:g}: α = {fit.exponent:.4f} ± {fit.exponent_error:.4f}",
+        )
         c0 = math.sqrt(3.75 * a * math.sqrt(l0))
         ax.axhline(math.log(c0), color=f"C{i}", ls=":", lw=0.8)
         ax.text(np.log(v_imp[0]), math.log(c0), f" sound speed, l0 = {l0:g}", color=f"C{i}", va="bottom", fontsize=7)
@@ -181,8 +194,9 @@ def fig3(ds, out: Path) -> Path:
     plt = _pyplot()
     dim = "l0"
     points = ds.sizes[dim]
-    fig, axes = plt.subplots(points + 1, 1, figsize=(8.0, 2.6 * (points + 1) + 1.2),
-                             gridspec_kw={"height_ratios": [1] * points + [1.5]})
+    fig, axes = plt.subplots(
+        points + 1, 1, figsize=(8.0, 2.6 * (points + 1) + 1.2), gridspec_kw={"height_ratios": [1] * points + [1.5]}
+    )
     t = ds.t.values
     for k in range(points):
         point = ds.isel({dim: k})
@@ -194,26 +208,38 @@ def fig3(ds, out: Path) -> Path:
         records = [int(np.argmin(np.abs(t - x))) for x in times]
         _profiles_vs_label(axes[k], plt, point, label_axis=False, records=records)
         surface = _scene_value(ds, "boundary", "surface")
-        axes[k].set_title(f"({'ab'[k]}) l0 = {l0:g}, v_imp = {v_imp:g}, surface {surface}: head at c = {speed:.2f} "
-                          "grains per time unit")
+        axes[k].set_title(
+            f"({'ab'[k]}) l0 = {l0:g}, v_imp = {v_imp:g}, surface {surface}: head at c = {speed:.2f} "
+            "grains per time unit"
+        )
         u = point.u.values
         load = _scene_value(ds, "boundary", "surface") == "load"
         for color, r in zip(_cmap_colors(plt, len(records)), records):
             z = heads[r] - np.arange(u.shape[-1])
-            level = an.rear_level(u[r]) if load else 0.0   # a constant-force surface shifts the whole rear
+            level = an.rear_level(u[r]) if load else 0.0  # a constant-force surface shifts the whole rear
             env = an.running_max(u[r] - level, 11)
             keep = (z >= 0) & (env > 0)
             fit = an.tail_decay(u[r], heads[r], baseline=level)
             style = "-" if k == 0 else "--"
-            axes[points].semilogy(z[keep], env[keep], style, color=color,
-                                  label=f"({'ab'[k]}) t = {t[r]:g}: λ = {fit.decay_length:.0f}, "
-                                        f"λ/(c t) = {fit.decay_length / (speed * t[r]):.2f}, "
-                                        f"R² = {fit.r_squared:.2f}")
+            axes[points].semilogy(
+                z[keep],
+                env[keep],
+                style,
+                color=color,
+                label=f"({'ab'[k]}) t = {t[r]:g}: λ = {fit.decay_length:.0f}, "
+                f"λ/(c t) = {fit.decay_length / (speed * t[r]):.2f}, "
+                f"R² = {fit.r_squared:.2f}",
+            )
     axes[points].set_xlabel("z = grains behind the head")
-    axes[points].set_ylabel("compressive u" + (" − rear level" if _scene_value(ds, "boundary", "surface") == "load"
-                                                else "") + ", envelope [1e-5 m]", fontsize=8)
-    axes[points].set_title("(c) tail envelopes (running max over 11 grains), (a) solid, (b) dashed; "
-                           "λ from exp(−z/λ) fits for z ≥ 10")
+    axes[points].set_ylabel(
+        "compressive u"
+        + (" − rear level" if _scene_value(ds, "boundary", "surface") == "load" else "")
+        + ", envelope [1e-5 m]",
+        fontsize=8,
+    )
+    axes[points].set_title(
+        "(c) tail envelopes (running max over 11 grains), (a) solid, (b) dashed; λ from exp(−z/λ) fits for z ≥ 10"
+    )
     axes[points].legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2, fontsize=6.5)
     return _finish(fig, out, note=SIGN_NOTE)
 
@@ -232,14 +258,17 @@ def fig4(ds, out: Path) -> Path:
     x = an.paper_label(np.arange(n), n)
     before = [int(np.argmin(np.abs(t - f * t_wall))) for f in (0.25, 0.5, 0.75, 0.95)]
     after = [int(np.argmin(np.abs(t - tt))) for tt in np.linspace(t_wall, t[-1], 5)[1:]]
-    for ax, records, title in ((axes[0], before, "(a) in-going pulse"), (axes[1], after, "(b) after reflection "
-                                                                          "from the rigid wall at label 0")):
+    for ax, records, title in (
+        (axes[0], before, "(a) in-going pulse"),
+        (axes[1], after, "(b) after reflection from the rigid wall at label 0"),
+    ):
         for color, r in zip(_cmap_colors(plt, len(records)), records):
             ax.plot(x, an.paper_displacement(u[r]), color=color, label=f"t = {t[r]:g}")
         ax.set_xlim(n, 0)
         ax.set_ylabel("−u [1e-5 m]")
-        ax.set_title(f"{title}; l0 = {_scene_value(ds, 'chain', 'l0'):g}, v_imp = "
-                     f"{_scene_value(ds, 'excitation', 'impact'):g}")
+        ax.set_title(
+            f"{title}; l0 = {_scene_value(ds, 'chain', 'l0'):g}, v_imp = {_scene_value(ds, 'excitation', 'impact'):g}"
+        )
         ax.legend(loc="best", ncol=2)
     axes[1].set_xlabel(f"grain label N − i (surface = {n})")
     return _finish(fig, out, note=SIGN_NOTE)
@@ -270,8 +299,11 @@ def fig5(ds, out: Path) -> Path:
         for color, r in zip(_cmap_colors(plt, len(records)), records):
             ax.plot(z, an.paper_displacement(u[r]), color=color, label=f"t = {t[r]:g}")
         ax.axvspan(min(block) - 0.5, max(block) + 0.5, color="0.85")
-        ax.set_title(f"({'ab'[index == heavy]}) {len(block)} {name} impurit{'ies' if len(block) > 1 else 'y'} "
-                     f"around grain {depth:g} (grey), contact rule harmonic", fontsize=8.5)
+        ax.set_title(
+            f"({'ab'[index == heavy]}) {len(block)} {name} impurit{'ies' if len(block) > 1 else 'y'} "
+            f"around grain {depth:g} (grey), contact rule harmonic",
+            fontsize=8.5,
+        )
         ax.set_ylabel("−u [1e-5 m]")
         ax.set_xlim(0, n)
         ax.legend(loc="upper right", ncol=4)
@@ -290,8 +322,13 @@ def fig5(ds, out: Path) -> Path:
     for rule, style in (("harmonic", "-"), ("own", ":")):
         pl, ph = profiles[rule]
         relative = np.linalg.norm(pl[front] - ph[front]) / np.linalg.norm(ph[front])
-        axes[3].plot(z[front], pl[front] - ph[front], style, color="k",
-                     label=f"{rule}: ‖light − heavy‖ / ‖heavy‖ = {relative:.2f}")
+        axes[3].plot(
+            z[front],
+            pl[front] - ph[front],
+            style,
+            color="k",
+            label=f"{rule}: ‖light − heavy‖ / ‖heavy‖ = {relative:.2f}",
+        )
     axes[3].axhline(0, color="0.6", lw=0.5)
     axes[3].set_title(f"(d) difference of the reflected profiles, light − heavy, at t = {t[r]:g}")
     axes[3].set_ylabel("Δ(−u) [1e-5 m]")
@@ -313,8 +350,15 @@ def _echo_panel(ax, ds, tag: str, *, span: tuple[float, float] = (-0.3, 2.0), le
     grain = int(ds.traced_grain.values[0])
     if clean is None:
         ax.axis("off")
-        ax.text(0.5, 0.5, f"{tag} no echo panel: this store has no clean chain (impurity_mass = 1) to subtract",
-                ha="center", va="center", fontsize=8, transform=ax.transAxes)
+        ax.text(
+            0.5,
+            0.5,
+            f"{tag} no echo panel: this store has no clean chain (impurity_mass = 1) to subtract",
+            ha="center",
+            va="center",
+            fontsize=8,
+            transform=ax.transAxes,
+        )
         return
     reference = ds.trace_v.isel(impurity_mass=clean, contact=0).values[:, 0]
     table = an.echo_table(ds)
@@ -325,18 +369,25 @@ def _echo_panel(ax, ds, tag: str, *, span: tuple[float, float] = (-0.3, 2.0), le
         for rule, style, marker in (("harmonic", "-", "v"), ("own", ":", "^")):
             echo = ds.trace_v.isel(impurity_mass=index).sel(contact=rule).values[:, 0] - reference
             b = table[f"{name}/{rule}"]
-            ax.plot(tt[window], -echo[window], style, color=color,
-                    label=f"{name}, {rule}: first lobe {'into chain' if b.leading_sign > 0 else 'toward surface'}"
-                          f", |echo| ≤ {b.amplitude:.2g}")
+            ax.plot(
+                tt[window],
+                -echo[window],
+                style,
+                color=color,
+                label=f"{name}, {rule}: first lobe {'into chain' if b.leading_sign > 0 else 'toward surface'}"
+                f", |echo| ≤ {b.amplitude:.2g}",
+            )
             k = int(np.argmin(np.abs(tt - b.arrival_time)))
             ax.plot(tt[k], -echo[k], marker, color=color, ms=5)
     ax.axhline(0, color="0.6", lw=0.5)
     ax.set_xlim(start + span[0], start + span[1])
     ax.set_xlabel(f"t [{TIME_UNIT}]")
     ax.set_ylabel("−(v − v_clean) [9.9 mm/s]", fontsize=7.5)
-    ax.set_title(f"{tag} echo at grain {grain}, −(v − v_clean) ({PAPER_SIGN});\n"
-                 "triangles: first sample with |echo| ≥ 20 % of its largest (where the leading sign is read)",
-                 fontsize=8)
+    ax.set_title(
+        f"{tag} echo at grain {grain}, −(v − v_clean) ({PAPER_SIGN});\n"
+        "triangles: first sample with |echo| ≥ 20 % of its largest (where the leading sign is read)",
+        fontsize=8,
+    )
     if legend == "below":
         ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.3), ncol=2, fontsize=6.5)
     else:
@@ -359,8 +410,13 @@ def fig7_8(ds, out: Path) -> Path:
     records = [int(np.argmin(np.abs(t - x))) for x in times]
     has_traces = "trace_v" in ds.variables and clean is not None
     rows = len(records) + (1 if has_traces else 0)
-    fig, axes = plt.subplots(rows, 2, figsize=(9.0, 1.45 * rows + 1.6), sharex=False,
-                             gridspec_kw={"height_ratios": [1] * len(records) + ([2.6] if has_traces else [])})
+    fig, axes = plt.subplots(
+        rows,
+        2,
+        figsize=(9.0, 1.45 * rows + 1.6),
+        sharex=False,
+        gridspec_kw={"height_ratios": [1] * len(records) + ([2.6] if has_traces else [])},
+    )
     z = np.arange(n)
     for col, (index, name) in enumerate(((light, "Fig. 7: light"), (heavy, "Fig. 8: heavy"))):
         v = ds.v.isel(impurity_mass=index).sel(contact="harmonic").values
@@ -380,9 +436,12 @@ def fig7_8(ds, out: Path) -> Path:
             a.remove()
         ax = fig.add_subplot(gs[-1, :])
         _echo_panel(ax, ds, "(g)", legend="below")
-    fig.suptitle(f"g = {_scene_value(ds, 'chain', 'gravity'):g} column, v_imp = "
-                 f"{_scene_value(ds, 'excitation', 'impact'):g}; −v [1e-5 m / 1.0102 ms] ({PAPER_SIGN}); "
-                 "contact rule harmonic", fontsize=8)
+    fig.suptitle(
+        f"g = {_scene_value(ds, 'chain', 'gravity'):g} column, v_imp = "
+        f"{_scene_value(ds, 'excitation', 'impact'):g}; −v [1e-5 m / 1.0102 ms] ({PAPER_SIGN}); "
+        "contact rule harmonic",
+        fontsize=8,
+    )
     return _finish(fig, out, note=SIGN_NOTE)
 
 
@@ -402,7 +461,7 @@ def modes(ds, out: Path) -> Path:
     a = _scene_value(ds, "chain", "a")
     a = 5657.0 if not np.isfinite(a) else a
     l0 = _scene_value(ds, "chain", "l0")
-    band_edge = 2.0 * math.sqrt(float(an.hertz_stiffness(a, 2.5 * a * l0 ** 1.5))) / (2 * math.pi)
+    band_edge = 2.0 * math.sqrt(float(an.hertz_stiffness(a, 2.5 * a * l0**1.5))) / (2 * math.pi)
     fig, axes = plt.subplots(4, 1, figsize=(7.5, 11.0))
     colors = {clean: "k"}
     starts = np.arange(arrival + 5.0, tt[-1] - 5.0 + 1e-9, 5.0)
@@ -410,8 +469,11 @@ def modes(ds, out: Path) -> Path:
     for k, (mass, stiffness) in enumerate(zip(masses, stiff)):
         v = ds.trace_v.isel(impurity_mass=k).values[:, column]
         color = colors.get(k, "C3" if mass < 1 else "C0")
-        name = "no impurity (clean chain)" if k == clean else f"{'light' if mass < 1 else 'heavy'} (m = {mass:g}, " \
-                                                              f"a = {stiffness:g})"
+        name = (
+            "no impurity (clean chain)"
+            if k == clean
+            else f"{'light' if mass < 1 else 'heavy'} (m = {mass:g}, a = {stiffness:g})"
+        )
         axes[0].plot(tt - arrival, v, color=color, lw=0.6, label=name)
         axes[1].plot(tt[late] - arrival, v[late], color=color, lw=0.6, label=name)
         freq, power = an.power_spectrum(tt[late], v[late])
@@ -424,19 +486,29 @@ def modes(ds, out: Path) -> Path:
         ax.set_ylabel(f"v at grain {site} [9.9 mm/s]")
         ax.legend(loc="upper right", fontsize=7)
     axes[0].set_xlim(-2.0, 10.0)
-    axes[0].set_title(f"(a) velocity of grain {site} (+ into the chain): the impurity itself, or the clean chain's "
-                      "grain", fontsize=8.5)
+    axes[0].set_title(
+        f"(a) velocity of grain {site} (+ into the chain): the impurity itself, or the clean chain's grain",
+        fontsize=8.5,
+    )
     axes[1].set_title("(b) the same from 5 time units after the pulse's arrival (the ringing, if any)", fontsize=8.5)
     axes[2].axvline(band_edge, color="0.4", ls="--", lw=0.8)
-    axes[2].text(band_edge, 0.5, f" linear band edge {band_edge:.2f}", va="center", fontsize=7,
-                 transform=axes[2].get_xaxis_transform())
+    axes[2].text(
+        band_edge,
+        0.5,
+        f" linear band edge {band_edge:.2f}",
+        va="center",
+        fontsize=7,
+        transform=axes[2].get_xaxis_transform(),
+    )
     axes[2].set_xlim(0, 3 * band_edge)
     top = max(line.get_ydata().max() for line in axes[2].get_lines()[:-1])
     axes[2].set_ylim(top * 1e-8, top * 3)
     axes[2].set_xlabel("frequency [cycles per time unit]")
     axes[2].set_ylabel("power of (b) [arb. units]")
-    axes[2].set_title(f"(c) power spectrum of (b); l0 = {l0:g}, v_imp = {_scene_value(ds, 'excitation', 'impact'):g}, "
-                      "g = 0", fontsize=8.5)
+    axes[2].set_title(
+        f"(c) power spectrum of (b); l0 = {l0:g}, v_imp = {_scene_value(ds, 'excitation', 'impact'):g}, g = 0",
+        fontsize=8.5,
+    )
     axes[2].legend(loc="upper right", fontsize=7)
     axes[3].set_xlabel(f"t − {arrival:.2f}, middle of each 5-unit window [{TIME_UNIT}]")
     axes[3].set_ylabel("rms v [9.9 mm/s]")
@@ -472,12 +544,13 @@ def fig6(ds, out: Path) -> Path:
         scale = np.max(np.abs(u[SURFACE_SKIP:]))
         low = min(low, float(np.min(an.paper_displacement(u[SURFACE_SKIP:]))))
         axes[0].plot(np.arange(n), an.paper_displacement(u), styles[k % 4], color=f"C{k}", label=f"g = {g:g}")
-        axes[1].plot(np.arange(n), an.paper_displacement(u) / scale, styles[k % 4], color=f"C{k}",
-                     label=f"g = {g:g}")
+        axes[1].plot(np.arange(n), an.paper_displacement(u) / scale, styles[k % 4], color=f"C{k}", label=f"g = {g:g}")
     axes[0].set_ylim(1.1 * low, -0.25 * low)
     axes[1].set_ylim(-1.1, 0.3)
-    axes[0].set_title(f"(a) t = {t[r]:g} after an impact v_imp = {_scene_value(ds, 'excitation', 'impact'):g} "
-                      f"({n}-grain column; g = 1 ≙ 9.8 m/s²)")
+    axes[0].set_title(
+        f"(a) t = {t[r]:g} after an impact v_imp = {_scene_value(ds, 'excitation', 'impact'):g} "
+        f"({n}-grain column; g = 1 ≙ 9.8 m/s²)"
+    )
     axes[0].set_ylabel("−u [1e-5 m]")
     axes[1].set_title(f"(b) the same, each scaled by its largest |u| below grain {SURFACE_SKIP - 1} (tail bumps)")
     axes[1].set_ylabel("−u / max|u|")
@@ -505,7 +578,9 @@ def depth(ds, out: Path) -> Path:
         fit = an.depth_law(t, heads, first_grain=50, last_grain=0.9 * n)
         mid, speed = an.speed_against_depth(t, heads, last_grain=0.9 * n)
         label = f"{dim[0]} = {value:g}: " if dim else ""
-        ax.loglog(mid, speed, ".", ms=3, color=f"C{k}", label=f"{label}c ∝ z^{fit.exponent:.4f}±{fit.exponent_error:.4f}")
+        ax.loglog(
+            mid, speed, ".", ms=3, color=f"C{k}", label=f"{label}c ∝ z^{fit.exponent:.4f}±{fit.exponent_error:.4f}"
+        )
     z = np.geomspace(5, n, 100)
     ax.loglog(z, an.column_sound_speed(z, gravity=g, a=a), "k-", lw=0.8, label="closed form √(K(z)/m), ∝ z^(1/6)")
     ax.set_xlabel("depth z of the head [grain diameters]")
@@ -525,8 +600,9 @@ def _fig_driven(ds, out: Path, which: str) -> Path:
     taus, centres = windows["taus"], windows["centres"]
     n = _grains(ds)
     data = windows["ke"] if which == "fig9" else -windows["v"]
-    fig, axes = plt.subplots(len(centres), len(taus), figsize=(4.4 * len(taus), 1.4 * len(centres) + 1.2),
-                             squeeze=False)
+    fig, axes = plt.subplots(
+        len(centres), len(taus), figsize=(4.4 * len(taus), 1.4 * len(centres) + 1.2), squeeze=False
+    )
     ylabel = f"⟨m v²/2⟩ [{ENERGY_UNIT}]" if which == "fig9" else "⟨−v⟩ [9.9 mm/s]"
     for col, tau in enumerate(taus):
         for row, centre in enumerate(centres):
@@ -541,12 +617,18 @@ def _fig_driven(ds, out: Path, which: str) -> Path:
             ax.set_title(text, loc="left", fontsize=7.5)
         axes[-1, col].set_xlabel("depth z [grain diameters] (surface = 0)")
     label = "kinetic energy per grain" if which == "fig9" else f"velocity −v ({PAPER_SIGN})"
-    fig.suptitle(f"{'Fig. 9' if which == 'fig9' else 'Fig. 10'}: {label}, averaged over {an.PAPER_WINDOW:g} "
-                 f"time units\n{n}-grain column, g = 1, surface driven 2 sin(2πt/τ), bottom grain fixed; "
-                 f"left τ = {taus[0]:g}" + (f", right τ = {taus[1]:g}" if len(taus) > 1 else ""), fontsize=8)
-    note = (SIGN_NOTE + " The paper's panel (f) (a later time) is not part of this run."
-            if which == "fig10" else "Program units: energy 2.36e-5 kg × (9.9 mm/s)² = 2.3e-9 J, time 1.0102 ms. "
-            "The paper's panel (f) (a later time) is not part of this run.")
+    fig.suptitle(
+        f"{'Fig. 9' if which == 'fig9' else 'Fig. 10'}: {label}, averaged over {an.PAPER_WINDOW:g} "
+        f"time units\n{n}-grain column, g = 1, surface driven 2 sin(2πt/τ), bottom grain fixed; "
+        f"left τ = {taus[0]:g}" + (f", right τ = {taus[1]:g}" if len(taus) > 1 else ""),
+        fontsize=8,
+    )
+    note = (
+        SIGN_NOTE + " The paper's panel (f) (a later time) is not part of this run."
+        if which == "fig10"
+        else "Program units: energy 2.36e-5 kg × (9.9 mm/s)² = 2.3e-9 J, time 1.0102 ms. "
+        "The paper's panel (f) (a later time) is not part of this run."
+    )
     return _finish(fig, out, note=note)
 
 
@@ -600,15 +682,24 @@ def plot_store(ds, out: str | Path, *, field: str = "v", at: dict[str, float] | 
     data = point[field].values
     n = data.shape[-1]
     limit = float(np.nanmax(np.abs(data))) or 1.0
-    half = 0.5 * (t[-1] - t[0]) / max(len(t) - 1, 1) or 0.5   # each record's row centred on its time
-    image = axes[0].imshow(data, origin="lower", aspect="auto", cmap="RdBu_r", vmin=-limit, vmax=limit,
-                           extent=(-0.5, n - 0.5, t[0] - half, t[-1] + half), interpolation="nearest")
+    half = 0.5 * (t[-1] - t[0]) / max(len(t) - 1, 1) or 0.5  # each record's row centred on its time
+    image = axes[0].imshow(
+        data,
+        origin="lower",
+        aspect="auto",
+        cmap="RdBu_r",
+        vmin=-limit,
+        vmax=limit,
+        extent=(-0.5, n - 0.5, t[0] - half, t[-1] + half),
+        interpolation="nearest",
+    )
     fig.colorbar(image, ax=axes[0], label=f"{field} [{'1e-5 m' if field == 'u' else '1e-5 m per time unit'}]")
     axes[0].set_xlabel("grain (depth; surface = 0)")
     axes[0].set_ylabel(f"t [{TIME_UNIT}]")
     where = ", ".join(f"{d} = {point[d].values:g}" for d in point_dims(ds) if d in point.coords)
-    axes[0].set_title(f"{field}(grain, t), + into the chain; {n} grains, {len(t)} records" + (f"; {where}" if where
-                                                                                              else ""))
+    axes[0].set_title(
+        f"{field}(grain, t), + into the chain; {n} grains, {len(t)} records" + (f"; {where}" if where else "")
+    )
     ax = axes[1]
     if traced:
         tt = point.trace_t.values
@@ -648,8 +739,14 @@ def drive_map(ds, out: Path) -> Path:
     for ax, metric in zip(axes.flat, metrics):
         data = np.asarray(numbers[metric], dtype=float)
         shown = np.log10(data) if metric == "swr" else data
-        image = ax.imshow(shown, origin="lower", aspect="auto", cmap="viridis" if metric != "label" else "Set2",
-                          vmin=0 if metric == "label" else None, vmax=len(an.LABELS) - 1 if metric == "label" else None)
+        image = ax.imshow(
+            shown,
+            origin="lower",
+            aspect="auto",
+            cmap="viridis" if metric != "label" else "Set2",
+            vmin=0 if metric == "label" else None,
+            vmax=len(an.LABELS) - 1 if metric == "label" else None,
+        )
         ax.set_xticks(range(len(x)), [f"{v:g}" for v in x])
         ax.set_yticks(range(len(y)), [f"{v:g}" for v in y])
         ax.set_xlabel(dims[1])
@@ -659,7 +756,7 @@ def drive_map(ds, out: Path) -> Path:
             text = an.LABELS[int(value)] if metric == "label" and np.isfinite(value) else f"{value:.3g}"
             ax.text(j, i, text, ha="center", va="center", fontsize=7, color="w")
         fig.colorbar(image, ax=ax)
-    for ax in list(axes.flat)[len(metrics):]:
+    for ax in list(axes.flat)[len(metrics) :]:
         ax.axis("off")
     return _finish(fig, out)
 
@@ -692,8 +789,16 @@ def plot_response_point(point, out: Path) -> Path:
     if "v" in point.variables:
         t, v = point.t.values, point.v.values
         limit = float(np.nanmax(np.abs(v))) or 1.0
-        image = axes[1, 1].imshow(v, origin="lower", aspect="auto", cmap="RdBu_r", vmin=-limit, vmax=limit,
-                                  extent=(-0.5, v.shape[-1] - 0.5, t[0], t[-1]), interpolation="nearest")
+        image = axes[1, 1].imshow(
+            v,
+            origin="lower",
+            aspect="auto",
+            cmap="RdBu_r",
+            vmin=-limit,
+            vmax=limit,
+            extent=(-0.5, v.shape[-1] - 0.5, t[0], t[-1]),
+            interpolation="nearest",
+        )
         fig.colorbar(image, ax=axes[1, 1], label="v [1e-5 m per time unit]")
         axes[1, 1].set_xlabel("grain")
         axes[1, 1].set_ylabel(f"t [{TIME_UNIT}]")
@@ -704,8 +809,19 @@ def plot_response_point(point, out: Path) -> Path:
 
 
 FIGURES: dict[str, Callable] = {
-    "fig1": fig1, "fig1d": fig1d, "fig2": fig2, "fig3": fig3, "fig4": fig4, "fig5": fig5, "fig6": fig6,
-    "depth": depth, "fig7_8": fig7_8, "fig9": fig9, "fig10": fig10, "modes": modes, "drive_map": drive_map,
+    "fig1": fig1,
+    "fig1d": fig1d,
+    "fig2": fig2,
+    "fig3": fig3,
+    "fig4": fig4,
+    "fig5": fig5,
+    "fig6": fig6,
+    "depth": depth,
+    "fig7_8": fig7_8,
+    "fig9": fig9,
+    "fig10": fig10,
+    "modes": modes,
+    "drive_map": drive_map,
 }
 """Figure name → drawing function (dataset, output path)."""
 

@@ -18,10 +18,18 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import warp as wp
-
-from hertzian.kernels.records import (PART_SUMS, RECORD_BLOCK_DIM, STAGED_GRAINS, launch_parts_of_grains, launch_record,
-                                     load_record_kernels, record_kernels, record_part_count, traced_start_kernel,
-                                     track_extremes)
+from hertzian.kernels.records import (
+    PART_SUMS,
+    RECORD_BLOCK_DIM,
+    STAGED_GRAINS,
+    launch_parts_of_grains,
+    launch_record,
+    load_record_kernels,
+    record_kernels,
+    record_part_count,
+    traced_start_kernel,
+    track_extremes,
+)
 
 from .model import Model, State
 from .response import ResponseAccumulator
@@ -66,7 +74,7 @@ def _map_block(arrays: list[np.ndarray], block: int) -> None:
     # block ``block`` of MAP_BLOCKS along axis 1 of every array, written once (numpy releases the GIL while it fills)
     for array in arrays:
         length = array.shape[1]
-        array[:, block * length // MAP_BLOCKS:(block + 1) * length // MAP_BLOCKS].fill(0)
+        array[:, block * length // MAP_BLOCKS : (block + 1) * length // MAP_BLOCKS].fill(0)
 
 
 _MAPPER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="hertzian-map")
@@ -101,8 +109,10 @@ class PageMapping:
     def wait_for(self, counts: list[int]) -> bool:
         """Wait until the first ``counts[i]`` entries along axis 1 of array i are mapped; True once all are. An error
         of the mapping thread is raised here."""
-        need = max((-(-count * MAP_BLOCKS // array.shape[1]) for count, array in zip(counts, self.arrays)
-                    if array.shape[1]), default=0)
+        need = max(
+            (-(-count * MAP_BLOCKS // array.shape[1]) for count, array in zip(counts, self.arrays) if array.shape[1]),
+            default=0,
+        )
         with self._ready:
             self._ready.wait_for(lambda: self.blocks_done >= need or self._ended)
         if self._ended:
@@ -121,8 +131,15 @@ STAGING = StagingPool()
 class Recorder:
     """The device reductions and host arrays of one run of ``model``."""
 
-    def __init__(self, model: Model, *, trace_values: tuple[str, ...] = ("u", "v"), on_unpacked=None,
-                 map_in_background: bool | None = None, traces_on_device: bool = False):
+    def __init__(
+        self,
+        model: Model,
+        *,
+        trace_values: tuple[str, ...] = ("u", "v"),
+        on_unpacked=None,
+        map_in_background: bool | None = None,
+        traces_on_device: bool = False,
+    ):
         if not trace_values or not set(trace_values) <= {"u", "v"}:
             raise ValueError(f"trace_values = {trace_values!r}: one or both of 'u', 'v'")
         self.model = model
@@ -162,8 +179,11 @@ class Recorder:
         self.traces_on_device = traces_on_device and bool(self.traced)
         """The traces stay in the device's ring (with ``traced_start``, their t = 0 values): nothing is copied,
         ``traces`` is empty (a detection library assembles its echoes on the device: kernels/library.py)."""
-        self.traces = ({name: np.zeros((c, sample_count, len(self.traced)), dtype=self.real_np)
-                        for name in self.trace_values} if self.traced and not self.traces_on_device else {})
+        self.traces = (
+            {name: np.zeros((c, sample_count, len(self.traced)), dtype=self.real_np) for name in self.trace_values}
+            if self.traced and not self.traces_on_device
+            else {}
+        )
         self.trace_t = (np.arange(sample_count) * scene.trace_stride * m.dt) if self.traced else None
         if self.traced and not self.fields:
             self.traced_index = wp.array(np.asarray(self.traced, dtype=np.int32), dtype=wp.int32, device=dev)
@@ -174,8 +194,9 @@ class Recorder:
         self.dissipated = np.zeros((c, records)) if damped else None
         self.response = ResponseAccumulator(m) if scene.has_response else None
 
-        self.snapshot_values = tuple(name for name in ("u", "v") if name in self.fields or (
-            self.fields and name in self.traces))
+        self.snapshot_values = tuple(
+            name for name in ("u", "v") if name in self.fields or (self.fields and name in self.traces)
+        )
         """The state rows each record copies: the snapshots' (and, traced, the trace values' at t = 0)."""
         self.staging_key = self._staging_key()
         self.depth = self._staging_depth()
@@ -194,9 +215,18 @@ class Recorder:
 
     def _staging_key(self) -> tuple:
         m = self.model
-        return (str(m.device), m.chain_count, m.grain_count, m.features.precision, self.work is not None,
-                self.dissipated is not None, self.snapshot_values, len(self.traced), self.capacity,
-                self.trace_values)
+        return (
+            str(m.device),
+            m.chain_count,
+            m.grain_count,
+            m.features.precision,
+            self.work is not None,
+            self.dissipated is not None,
+            self.snapshot_values,
+            len(self.traced),
+            self.capacity,
+            self.trace_values,
+        )
 
     def _staging_depth(self) -> int:
         m = self.model
@@ -249,7 +279,7 @@ class Recorder:
         if len(self.trace_values) == 2:
             return state.traces
         index = ("u", "v").index(self.trace_values[0])
-        return state.traces[index:index + 1]
+        return state.traces[index : index + 1]
 
     def load(self) -> None:
         """Compile and load the reduction kernels (before a clock starts)."""
@@ -264,25 +294,73 @@ class Recorder:
         """Energy, work, largest overlap and status of every chain at ``step`` (device only, no sync)."""
         m = self.model
         if self.staged:
-            wp.launch(self.kernels.grains, dim=self.grain_terms.shape,
-                      inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.dt],
-                      outputs=[self.grain_terms], device=m.device)
+            wp.launch(
+                self.kernels.grains,
+                dim=self.grain_terms.shape,
+                inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.dt],
+                outputs=[self.grain_terms],
+                device=m.device,
+            )
             launch_parts_of_grains(self.kernels, self.grain_terms, state.dissipated, self.parts, m.device)
         else:
-            wp.launch(self.kernels.parts, dim=self.parts.shape[:2], block_dim=RECORD_BLOCK_DIM,
-                      inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.dt,
-                              state.dissipated], outputs=[self.parts], device=m.device)
-        launch_record(self.kernels, long_chains=self.staged, chains=m.chain_count,
-                      inputs=[state.x, m.contact_constant, m.static_overlap, m.exponent, m.drive,
-                              state.work, state.power, step, m.dt, m.validity_overlap, self.parts],
-                      outputs=[self.energy_now, self.work_now, self.max_overlap_now, state.status, m.damping,
-                               self.dissipated_now], device=m.device)
+            wp.launch(
+                self.kernels.parts,
+                dim=self.parts.shape[:2],
+                block_dim=RECORD_BLOCK_DIM,
+                inputs=[
+                    state.x,
+                    m.inverse_mass,
+                    m.contact_constant,
+                    m.static_overlap,
+                    m.exponent,
+                    m.dt,
+                    state.dissipated,
+                ],
+                outputs=[self.parts],
+                device=m.device,
+            )
+        launch_record(
+            self.kernels,
+            long_chains=self.staged,
+            chains=m.chain_count,
+            inputs=[
+                state.x,
+                m.contact_constant,
+                m.static_overlap,
+                m.exponent,
+                m.drive,
+                state.work,
+                state.power,
+                step,
+                m.dt,
+                m.validity_overlap,
+                self.parts,
+            ],
+            outputs=[
+                self.energy_now,
+                self.work_now,
+                self.max_overlap_now,
+                state.status,
+                m.damping,
+                self.dissipated_now,
+            ],
+            device=m.device,
+        )
         if step == 0:
             wp.copy(self.initial_energy, self.energy_now)
-        wp.launch(track_extremes, dim=m.chain_count,
-                  inputs=[self.energy_now, self.work_now, self.initial_energy,
-                          int(m.features.surface == "driven"), self.max_overlap_now],
-                  outputs=[self.energy_deviation, self.largest_overlap, self.dissipated_now], device=m.device)
+        wp.launch(
+            track_extremes,
+            dim=m.chain_count,
+            inputs=[
+                self.energy_now,
+                self.work_now,
+                self.initial_energy,
+                int(m.features.surface == "driven"),
+                self.max_overlap_now,
+            ],
+            outputs=[self.energy_deviation, self.largest_overlap, self.dissipated_now],
+            device=m.device,
+        )
 
     def record(self, state: State, r: int, step: int) -> None:
         """Check at ``step`` and keep record ``r`` (snapshots, energy, work, the traces since record r − 1).
@@ -303,8 +381,13 @@ class Recorder:
             if name in buf:
                 wp.copy(buf[name], state.x[row])
         if r == 0 and "start" in buf:
-            wp.launch(traced_start_kernel(self.model.features.precision), dim=self.traced_start.shape,
-                      inputs=[state.x, self.traced_index], outputs=[self.traced_start], device=self.model.device)
+            wp.launch(
+                traced_start_kernel(self.model.features.precision),
+                dim=self.traced_start.shape,
+                inputs=[state.x, self.traced_index],
+                outputs=[self.traced_start],
+                device=self.model.device,
+            )
             wp.copy(buf["start"], self.traced_start)
         if self.traced and r > 0 and not self.traces_on_device:
             if "ring" not in buf:
@@ -315,8 +398,9 @@ class Recorder:
 
     def finish(self) -> None:
         """Unpack every queued record into the host arrays (waits for their copies)."""
-        for slot in sorted((s for s in range(self.depth) if self.pending[s] is not None),
-                           key=lambda s: self.pending[s][0]):
+        for slot in sorted(
+            (s for s in range(self.depth) if self.pending[s] is not None), key=lambda s: self.pending[s][0]
+        ):
             self._unpack(slot)
 
     def _unpack(self, slot: int) -> None:
@@ -349,17 +433,18 @@ class Recorder:
                     self.traces["v"][:, 0] = (start[1] if start is not None else buf["v"].numpy()[:, self.traced]) / dt
             else:
                 # sample k (taken at step k·stride) sits in ring slot k % capacity
-                rows = slice(int(self.record_steps[r - 1]) // self.stride + 1,
-                             int(self.record_steps[r]) // self.stride + 1)
+                rows = slice(
+                    int(self.record_steps[r - 1]) // self.stride + 1, int(self.record_steps[r]) // self.stride + 1
+                )
                 # the samples sit in consecutive slots from rows.start % capacity, wrapping at most once (a gap
                 # holds at most ``capacity`` samples): copied from the ring as one or two views, never gathered
                 # (a gathered temporary of a detection library's whole traces cost ≈ 2 s per GB on the H100 host)
                 ring = buf["ring"].numpy()
                 first, count = rows.start % self.capacity, rows.stop - rows.start
                 head = min(count, self.capacity - first)
-                pieces = [(rows.start, ring[:, :, first:first + head])]
+                pieces = [(rows.start, ring[:, :, first : first + head])]
                 if head < count:
-                    pieces.append((rows.start + head, ring[:, :, :count - head]))
+                    pieces.append((rows.start + head, ring[:, :, : count - head]))
                 for start, piece in pieces:
                     dest = slice(start, start + piece.shape[2])
                     for half, name in zip(piece, self.trace_values):

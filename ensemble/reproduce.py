@@ -57,40 +57,71 @@ class Group:
 
 _IMPURITY_5 = [98, 99, 100, 101, 102]
 GROUPS: dict[str, Group] = {
-    "fig1": Group("paper_fig1.toml", ("fig1",),
-                  {"chain.grains": 200, "integrator.duration": 12.0}),
-    "fig1d": Group("paper_fig1d.toml", ("fig1d",),
-                   {"chain.grains": 200, "integrator.duration": 8.0, "record.every": 0.25}),
-    "fig2": Group("paper_fig2.toml", ("fig2",),
-                  {"chain.grains": 200, "integrator.duration": 12.0}),
-    "fig3": Group("paper_fig3.toml", ("fig3",),
-                  {"chain.grains": 200, "integrator.duration": 12.0}),
-    "fig3_load": Group("paper_fig3_load.toml", ("fig3",),
-                       {"chain.grains": 200, "integrator.duration": 12.0}),
-    "fig4": Group("paper_fig4.toml", ("fig4",),
-                  {"chain.grains": 300, "integrator.duration": 13.0}),
-    "fig5": Group("paper_fig5.toml", ("fig5",),
-                  {"chain.grains": 150, "impurities.0.grains": [73, 74, 75, 76, 77], "record.traces": [0, 15, 35, 60],
-                   "integrator.duration": 12.0}),
-    "fig5_single": Group("paper_fig5_single.toml", ("fig5",),
-                         {"chain.grains": 150, "impurities.0.grains": [75], "record.traces": [0, 15, 35, 60],
-                          "integrator.duration": 12.0}),
-    "fig5_modes": Group("paper_fig5_modes.toml", ("modes",),
-                        {"chain.grains": 150, "impurities.0.grains": [75], "record.traces": [74, 75, 76, 95],
-                         "integrator.duration": 16.0}),
-    "fig6": Group("paper_fig6.toml", ("fig6",),
-                  {"chain.grains": 200, "integrator.duration": 2.5}),
-    "depth": Group("paper_fig6_depth.toml", ("depth",),
-                   {"chain.grains": 300, "integrator.duration": 5.0}),
-    "fig7_8": Group("paper_fig7_8.toml", ("fig7_8",),
-                    {"chain.grains": 200, "impurities.0.grains": _IMPURITY_5, "record.traces": [0, 20, 50],
-                     "integrator.duration": 5.0}),
-    "fig7_8_single": Group("paper_fig7_8_single.toml", ("fig7_8",),
-                           {"chain.grains": 200, "impurities.0.grains": [100], "record.traces": [0, 20, 50],
-                            "integrator.duration": 5.0}),
-    "fig7_8_slow": Group("paper_fig7_8_slow.toml", ("fig7_8",),
-                         {"chain.grains": 200, "impurities.0.grains": _IMPURITY_5, "record.traces": [0, 20, 50],
-                          "integrator.duration": 6.0}),
+    "fig1": Group("paper_fig1.toml", ("fig1",), {"chain.grains": 200, "integrator.duration": 12.0}),
+    "fig1d": Group(
+        "paper_fig1d.toml", ("fig1d",), {"chain.grains": 200, "integrator.duration": 8.0, "record.every": 0.25}
+    ),
+    "fig2": Group("paper_fig2.toml", ("fig2",), {"chain.grains": 200, "integrator.duration": 12.0}),
+    "fig3": Group("paper_fig3.toml", ("fig3",), {"chain.grains": 200, "integrator.duration": 12.0}),
+    "fig3_load": Group("paper_fig3_load.toml", ("fig3",), {"chain.grains": 200, "integrator.duration": 12.0}),
+    "fig4": Group("paper_fig4.toml", ("fig4",), {"chain.grains": 300, "integrator.duration": 13.0}),
+    "fig5": Group(
+        "paper_fig5.toml",
+        ("fig5",),
+        {
+            "chain.grains": 150,
+            "impurities.0.grains": [73, 74, 75, 76, 77],
+            "record.traces": [0, 15, 35, 60],
+            "integrator.duration": 12.0,
+        },
+    ),
+    "fig5_single": Group(
+        "paper_fig5_single.toml",
+        ("fig5",),
+        {
+            "chain.grains": 150,
+            "impurities.0.grains": [75],
+            "record.traces": [0, 15, 35, 60],
+            "integrator.duration": 12.0,
+        },
+    ),
+    "fig5_modes": Group(
+        "paper_fig5_modes.toml",
+        ("modes",),
+        {
+            "chain.grains": 150,
+            "impurities.0.grains": [75],
+            "record.traces": [74, 75, 76, 95],
+            "integrator.duration": 16.0,
+        },
+    ),
+    "fig6": Group("paper_fig6.toml", ("fig6",), {"chain.grains": 200, "integrator.duration": 2.5}),
+    "depth": Group("paper_fig6_depth.toml", ("depth",), {"chain.grains": 300, "integrator.duration": 5.0}),
+    "fig7_8": Group(
+        "paper_fig7_8.toml",
+        ("fig7_8",),
+        {
+            "chain.grains": 200,
+            "impurities.0.grains": _IMPURITY_5,
+            "record.traces": [0, 20, 50],
+            "integrator.duration": 5.0,
+        },
+    ),
+    "fig7_8_single": Group(
+        "paper_fig7_8_single.toml",
+        ("fig7_8",),
+        {"chain.grains": 200, "impurities.0.grains": [100], "record.traces": [0, 20, 50], "integrator.duration": 5.0},
+    ),
+    "fig7_8_slow": Group(
+        "paper_fig7_8_slow.toml",
+        ("fig7_8",),
+        {
+            "chain.grains": 200,
+            "impurities.0.grains": _IMPURITY_5,
+            "record.traces": [0, 20, 50],
+            "integrator.duration": 6.0,
+        },
+    ),
     "fig9_10": Group("paper_fig9_10.toml", ("fig9", "fig10"), {"chain.grains": 300}),
 }
 """Figure group → its sweep and figures, in the paper's order."""
@@ -120,8 +151,9 @@ def default_sweeps_dir() -> Path:
 # ---- a sweep group ---------------------------------------------------------------------------
 
 
-def run_sweep_group(path: Path, overrides: dict[str, Any], out: Path, device: str, kernel: str | None = "auto"
-                    ) -> dict[str, Any]:
+def run_sweep_group(
+    path: Path, overrides: dict[str, Any], out: Path, device: str, kernel: str | None = "auto"
+) -> dict[str, Any]:
     """Run one sweep file into a store at ``out`` (as ``hertzian sweep --kernel KERNEL`` does, serially); returns
     its log entry, with ``seconds``: setup (plan, store, kernel loads), integrate (the batches, calibration
     included), finalize. ``kernel=None``: ``group_kernel``'s choice for the sweep's scene on ``device``."""
@@ -151,13 +183,21 @@ def run_sweep_group(path: Path, overrides: dict[str, Any], out: Path, device: st
     codes, counts = np.unique(status, return_counts=True)
     scene = points.scene(0)
     return {
-        "points": points.point_count, "grains": scene.chain.grains, "steps": scene.step_count, "dt": scene.integrator.dt,
-        "method": scene.integrator.method, "events": scene.integrator.events, "device": prov["device"],
+        "points": points.point_count,
+        "grains": scene.chain.grains,
+        "steps": scene.step_count,
+        "dt": scene.integrator.dt,
+        "method": scene.integrator.method,
+        "events": scene.integrator.events,
+        "device": prov["device"],
         "wall_seconds": session,
-        "grain_steps": grain_steps, "grain_steps_per_second": grain_steps / max(session, 1e-12),
+        "grain_steps": grain_steps,
+        "grain_steps_per_second": grain_steps / max(session, 1e-12),
         "energy_error_max": prov["energy_error_max"],
         "status_counts": {str(int(c)): int(k) for c, k in zip(codes, counts)},
-        "kernel_choice": kernel, "kernel": prov.get("kernel", ""), "seconds": seconds,
+        "kernel_choice": kernel,
+        "kernel": prov.get("kernel", ""),
+        "seconds": seconds,
     }
 
 
@@ -178,8 +218,16 @@ def drive_scenes(path: Path, grains: int, duration: float, dt: float, events: st
     """The driven columns (τ = 10 and τ = 1) of sweeps/paper_fig9_10.toml at the given size."""
     from .sweep import load_sweep, sweep_scenes
 
-    sweep = load_sweep(path, {"chain.grains": grains, "integrator.duration": duration, "integrator.dt": dt,
-                              "record.every": duration, **({"integrator.events": events} if events else {})})
+    sweep = load_sweep(
+        path,
+        {
+            "chain.grains": grains,
+            "integrator.duration": duration,
+            "integrator.dt": dt,
+            "record.every": duration,
+            **({"integrator.events": events} if events else {}),
+        },
+    )
     return sweep, sweep_scenes(sweep)
 
 
@@ -210,7 +258,6 @@ def run_driven(scenes, device: str, centres: np.ndarray, *, coarse_every: float)
     snapshots, and energy and work at every step where something is read. The host only launches, so the
     GPU never waits for it."""
     import warp as wp
-
     from hertzian.kernels.windows import keep_chain_values, window_kernels
 
     from .model import build_model
@@ -252,8 +299,13 @@ def run_driven(scenes, device: str, centres: np.ndarray, *, coarse_every: float)
         wp.launch(keep_chain_values, dim=chains, inputs=[recorder.work_now, row], outputs=[work], device=dev)
         for kind, index in sorted(marks[mark]):
             if kind == "sample":
-                wp.launch(add_sample, dim=(chains, grains), inputs=[x, model.inverse_mass, hetero, wp_dt, index],
-                          outputs=[ke_sum, v_sum], device=dev)
+                wp.launch(
+                    add_sample,
+                    dim=(chains, grains),
+                    inputs=[x, model.inverse_mass, hetero, wp_dt, index],
+                    outputs=[ke_sum, v_sum],
+                    device=dev,
+                )
                 samples[index] += 1
             elif kind == "centre":
                 wp.launch(snapshot64, dim=(chains, grains), inputs=[x, wp_dt, index], outputs=[v_centre], device=dev)
@@ -282,8 +334,9 @@ def run_driven(scenes, device: str, centres: np.ndarray, *, coarse_every: float)
     }
 
 
-def write_driven(path: Path, sweep, scenes, centres: np.ndarray, result: dict, block: np.ndarray,
-                 lag: np.ndarray) -> None:
+def write_driven(
+    path: Path, sweep, scenes, centres: np.ndarray, result: dict, block: np.ndarray, lag: np.ndarray
+) -> None:
     """A Zarr store readable by xarray.open_zarr and ``hertzian plot --figure fig9|fig10``."""
     import xarray as xr
 
@@ -291,31 +344,54 @@ def write_driven(path: Path, sweep, scenes, centres: np.ndarray, result: dict, b
     grains = np.arange(scenes[0].chain.grains, dtype=np.int32)
     ds = xr.Dataset(
         {
-            "ke_window": (("tau", "window", "grain"), result["ke_window"],
-                          {"long_name": f"kinetic energy per grain averaged over {WINDOW} time units"}),
-            "v_window": (("tau", "window", "grain"), result["v_window"],
-                         {"long_name": f"velocity averaged over {WINDOW} time units, + toward the bottom"}),
-            "v_centre": (("tau", "window", "grain"), result["v_centre"],
-                         {"long_name": "velocity at the window centre, + toward the bottom"}),
-            "v": (("tau", "record", "grain"), result["v_coarse"],
-                  {"long_name": "velocity snapshots (float32), + toward the bottom"}),
+            "ke_window": (
+                ("tau", "window", "grain"),
+                result["ke_window"],
+                {"long_name": f"kinetic energy per grain averaged over {WINDOW} time units"},
+            ),
+            "v_window": (
+                ("tau", "window", "grain"),
+                result["v_window"],
+                {"long_name": f"velocity averaged over {WINDOW} time units, + toward the bottom"},
+            ),
+            "v_centre": (
+                ("tau", "window", "grain"),
+                result["v_centre"],
+                {"long_name": "velocity at the window centre, + toward the bottom"},
+            ),
+            "v": (
+                ("tau", "record", "grain"),
+                result["v_coarse"],
+                {"long_name": "velocity snapshots (float32), + toward the bottom"},
+            ),
             "energy": (("tau", "sample"), result["energy"]),
             "work": (("tau", "sample"), result["work"]),
             "energy_error": (("tau",), result["energy_error"]),
             "status": (("tau",), result["status"].astype(np.int32)),
         },
-        coords={"tau": taus, "window_t": ("window", centres), "window_block": ("window", block),
-                "window_lag": ("window", lag), "t": ("record", result["coarse_t"]),
-                "energy_t": ("sample", result["energy_t"]), "grain": grains},
-        attrs={"scene": json.dumps(scenes[0].to_dict()), "sweep": json.dumps(sweep.to_dict()),
-               "provenance": json.dumps({k: result[k] for k in ("device", "wall_seconds", "steps",
-                                                                "grain_steps_per_second")}),
-               "window": WINDOW, "sample_every": SAMPLE_EVERY},
+        coords={
+            "tau": taus,
+            "window_t": ("window", centres),
+            "window_block": ("window", block),
+            "window_lag": ("window", lag),
+            "t": ("record", result["coarse_t"]),
+            "energy_t": ("sample", result["energy_t"]),
+            "grain": grains,
+        },
+        attrs={
+            "scene": json.dumps(scenes[0].to_dict()),
+            "sweep": json.dumps(sweep.to_dict()),
+            "provenance": json.dumps(
+                {k: result[k] for k in ("device", "wall_seconds", "steps", "grain_steps_per_second")}
+            ),
+            "window": WINDOW,
+            "sample_every": SAMPLE_EVERY,
+        },
     )
     import warnings
 
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", category=UserWarning)   # zarr 3: consolidated metadata has no spec yet
+        warnings.simplefilter("ignore", category=UserWarning)  # zarr 3: consolidated metadata has no spec yet
         ds.to_zarr(path, mode="w", consolidated=True)
 
 
@@ -327,21 +403,40 @@ def standing_wave_numbers(ke_window: np.ndarray, paper_times: np.ndarray, block:
         rows = []
         for k, t0 in enumerate(paper_times):
             sw = an.standing_wave_measure(ke_window[chain, block == k])
-            rows.append({"t": float(t0), "lags": LAGS.tolist(), "correlation": sw.correlation.tolist(),
-                         "node_count": [int(n.size) for n in sw.nodes], "node_spacing": sw.node_spacing,
-                         "node_shift": sw.node_shift.tolist()})
+            rows.append(
+                {
+                    "t": float(t0),
+                    "lags": LAGS.tolist(),
+                    "correlation": sw.correlation.tolist(),
+                    "node_count": [int(n.size) for n in sw.nodes],
+                    "node_spacing": sw.node_spacing,
+                    "node_shift": sw.node_shift.tolist(),
+                }
+            )
         # long-time stability: each paper time's block of windows averaged (12 time units, more than one
         # drive period for both τ), smoothed over 25 grains, correlated with every other block
         blocks = np.array([ke_window[chain, block == k].mean(axis=0) for k in range(len(paper_times))])
         smoothed = np.array([np.convolve(b, np.ones(25) / 25, mode="same") for b in blocks])
-        rows.append({"block_average_correlation": np.corrcoef(smoothed).tolist(),
-                     "block_average_nodes": [an.profile_nodes(b, smooth=25).tolist() for b in blocks]})
+        rows.append(
+            {
+                "block_average_correlation": np.corrcoef(smoothed).tolist(),
+                "block_average_nodes": [an.profile_nodes(b, smooth=25).tolist() for b in blocks],
+            }
+        )
         out.append(rows)
     return out
 
 
-def run_drive_group(path: Path, out_dir: Path, device: str, *, quick: bool, grains: int | None = None,
-                    events: str | None = None, say: Callable[[str], None] = print) -> list[dict[str, Any]]:
+def run_drive_group(
+    path: Path,
+    out_dir: Path,
+    device: str,
+    *,
+    quick: bool,
+    grains: int | None = None,
+    events: str | None = None,
+    say: Callable[[str], None] = print,
+) -> list[dict[str, Any]]:
     """Figs. 9–10: the windowed run (store ``fig9_10.zarr``) and, at full size, the dt check
     (``fig9_10_dt_check.zarr``: dt = 1.25e-5 to the first window, compared window by window)."""
     grains = grains or (GROUPS["fig9_10"].quick["chain.grains"] if quick else 10000)
@@ -359,18 +454,32 @@ def run_drive_group(path: Path, out_dir: Path, device: str, *, quick: bool, grai
     store = out_dir / "fig9_10.zarr"
     write = time.perf_counter()
     write_driven(store, sweep, scenes, centres, result, block, lag)
-    seconds = {"integrate": result["wall_seconds"], "setup": write - clock - result["wall_seconds"],
-               "store": time.perf_counter() - write}
-    runs = [{
-        "name": "fig9_10", "store": store.name, "points": len(scenes), "grains": grains, "dt": DRIVE_DT,
-        "duration": duration, "steps": result["steps"], "taus": [s.excitation.drive_period for s in scenes],
-        "device": result["device"], "kernel": result["kernel"], "wall_seconds": result["wall_seconds"],
-        "grain_steps_per_second": result["grain_steps_per_second"],
-        "energy_error": result["energy_error"].tolist(),
-        "energy_error_max": float(np.max(result["energy_error"])),
-        "status": result["status"].tolist(),
-        "standing_wave": standing_wave_numbers(result["ke_window"], paper_times, block), "seconds": seconds,
-    }]
+    seconds = {
+        "integrate": result["wall_seconds"],
+        "setup": write - clock - result["wall_seconds"],
+        "store": time.perf_counter() - write,
+    }
+    runs = [
+        {
+            "name": "fig9_10",
+            "store": store.name,
+            "points": len(scenes),
+            "grains": grains,
+            "dt": DRIVE_DT,
+            "duration": duration,
+            "steps": result["steps"],
+            "taus": [s.excitation.drive_period for s in scenes],
+            "device": result["device"],
+            "kernel": result["kernel"],
+            "wall_seconds": result["wall_seconds"],
+            "grain_steps_per_second": result["grain_steps_per_second"],
+            "energy_error": result["energy_error"].tolist(),
+            "energy_error_max": float(np.max(result["energy_error"])),
+            "status": result["status"].tolist(),
+            "standing_wave": standing_wave_numbers(result["ke_window"], paper_times, block),
+            "seconds": seconds,
+        }
+    ]
     say(f"fig9_10: {result['wall_seconds']:.1f} s, energy error {np.max(result['energy_error']):.2e}")
     if quick:
         return runs
@@ -379,20 +488,36 @@ def run_drive_group(path: Path, out_dir: Path, device: str, *, quick: bool, grai
     _, fine_scenes = drive_scenes(path, grains, float(first[-1] + WINDOW), DRIVE_CHECK_DT, events)
     fine = run_driven(fine_scenes, device, first, coarse_every=float(first[-1] + WINDOW))
     write = time.perf_counter()
-    write_driven(out_dir / "fig9_10_dt_check.zarr", sweep, fine_scenes, first, fine, block[:len(first)],
-                 lag[:len(first)])
-    fine_seconds = {"integrate": fine["wall_seconds"], "setup": write - clock - fine["wall_seconds"],
-                    "store": time.perf_counter() - write}
-    coarse_ke = result["ke_window"][:, :len(first)]
+    write_driven(
+        out_dir / "fig9_10_dt_check.zarr", sweep, fine_scenes, first, fine, block[: len(first)], lag[: len(first)]
+    )
+    fine_seconds = {
+        "integrate": fine["wall_seconds"],
+        "setup": write - clock - fine["wall_seconds"],
+        "store": time.perf_counter() - write,
+    }
+    coarse_ke = result["ke_window"][:, : len(first)]
     difference = np.linalg.norm(fine["ke_window"] - coarse_ke, axis=-1) / np.linalg.norm(fine["ke_window"], axis=-1)
-    runs.append({
-        "name": "fig9_10_dt_check", "store": "fig9_10_dt_check.zarr", "points": len(fine_scenes), "grains": grains,
-        "dt": DRIVE_CHECK_DT, "duration": float(first[-1] + WINDOW), "steps": fine["steps"],
-        "device": fine["device"], "kernel": fine["kernel"], "wall_seconds": fine["wall_seconds"],
-        "grain_steps_per_second": fine["grain_steps_per_second"], "energy_error": fine["energy_error"].tolist(),
-        "energy_error_max": float(np.max(fine["energy_error"])), "window_t": first.tolist(),
-        "relative_l2_difference_of_window_ke(dt=1.25e-4 vs 1.25e-5)": difference.tolist(), "seconds": fine_seconds,
-    })
+    runs.append(
+        {
+            "name": "fig9_10_dt_check",
+            "store": "fig9_10_dt_check.zarr",
+            "points": len(fine_scenes),
+            "grains": grains,
+            "dt": DRIVE_CHECK_DT,
+            "duration": float(first[-1] + WINDOW),
+            "steps": fine["steps"],
+            "device": fine["device"],
+            "kernel": fine["kernel"],
+            "wall_seconds": fine["wall_seconds"],
+            "grain_steps_per_second": fine["grain_steps_per_second"],
+            "energy_error": fine["energy_error"].tolist(),
+            "energy_error_max": float(np.max(fine["energy_error"])),
+            "window_t": first.tolist(),
+            "relative_l2_difference_of_window_ke(dt=1.25e-4 vs 1.25e-5)": difference.tolist(),
+            "seconds": fine_seconds,
+        }
+    )
     say(f"fig9_10 dt check: {fine['wall_seconds']:.1f} s, relative KE-profile difference {difference.tolist()}")
     return runs
 
@@ -414,8 +539,15 @@ def _first_lobes(ds, grain: int, after: float, until: float, reference=None) -> 
     out = {}
     for name, index in (("light", light), ("heavy", heavy)):
         for rule in [str(c) for c in ds.contact.values]:
-            out[f"{name}/{rule}"] = list(an.first_lobe(ds.trace_t.values, ds.trace_v.isel(impurity_mass=index).sel(
-                contact=rule).values[:, column], reference, after=after, until=until))
+            out[f"{name}/{rule}"] = list(
+                an.first_lobe(
+                    ds.trace_t.values,
+                    ds.trace_v.isel(impurity_mass=index).sel(contact=rule).values[:, column],
+                    reference,
+                    after=after,
+                    until=until,
+                )
+            )
     return out
 
 
@@ -428,10 +560,12 @@ def _echo_measurements(ds) -> dict[str, Any]:
         after, until = an.echo_window(ds, grain)
         out[f"grain {grain}"] = {
             "window": [after, until],
-            "leading_sign_by_threshold": {key: {str(f): tables[f][key].leading_sign for f in ECHO_FRACTIONS}
-                                          for key in tables[0.2]},
-            "arrival_by_threshold": {key: {str(f): tables[f][key].arrival_time for f in ECHO_FRACTIONS}
-                                     for key in tables[0.2]},
+            "leading_sign_by_threshold": {
+                key: {str(f): tables[f][key].leading_sign for f in ECHO_FRACTIONS} for key in tables[0.2]
+            },
+            "arrival_by_threshold": {
+                key: {str(f): tables[f][key].arrival_time for f in ECHO_FRACTIONS} for key in tables[0.2]
+            },
             "amplitude": {key: b.amplitude for key, b in tables[0.2].items()},
             "peak_sign": {key: b.peak_sign for key, b in tables[0.2].items()},
             "peak_time": {key: b.peak_time for key, b in tables[0.2].items()},
@@ -454,7 +588,7 @@ def _profile_measurements(ds) -> dict[str, Any]:
     t_hit = depth / speed
     record = int(np.argmin(np.abs(t - 1.8 * t_hit)))
     out: dict[str, Any] = {"t_reflected": float(t[record]), "speed": speed}
-    contacts = slice(min(block) - 1, max(block) + 1)   # contacts (i, i+1) touching the block
+    contacts = slice(min(block) - 1, max(block) + 1)  # contacts (i, i+1) touching the block
     clean_u = ds.u.isel(impurity_mass=clean, contact=0).values
     clean_max = float(np.max(an.overlaps(clean_u, l0)[:, contacts] - l0))
     for rule in [str(c) for c in ds.contact.values]:
@@ -468,21 +602,27 @@ def _profile_measurements(ds) -> dict[str, Any]:
         best = int(np.argmin(left))
         entry = {
             "profile_difference": float(np.linalg.norm(pl - ph) / np.linalg.norm(ph)),
-            "profile_difference_after_shift": (float(left[best] / np.linalg.norm(ph[40:-40])) if ph[40:-40].any()
-                                               else math.nan),   # NaN: chain too short for the shifts
+            "profile_difference_after_shift": (
+                float(left[best] / np.linalg.norm(ph[40:-40])) if ph[40:-40].any() else math.nan
+            ),  # NaN: chain too short for the shifts
             "shift_grains": int(list(shifts)[best]),
             "block_dynamic_overlap_max": {
                 "light": float(np.max(an.overlaps(u_light, l0)[:, contacts] - l0)),
                 "heavy": float(np.max(an.overlaps(u_heavy, l0)[:, contacts] - l0)),
-                "clean": clean_max},
+                "clean": clean_max,
+            },
         }
         tails = {}
         for name, u in (("light", u_light), ("heavy", u_heavy)):
-            reflected = -u[record, front]           # the reflected pulse moves toward the surface
+            reflected = -u[record, front]  # the reflected pulse moves toward the surface
             head = float(np.argmax(reflected))
-            fit = an.tail_decay(reflected[::-1], reflected.size - 1 - head)   # "behind" = deeper
-            tails[name] = {"head": head, "decay_length": fit.decay_length, "r_squared": fit.r_squared,
-                           "points": fit.points}
+            fit = an.tail_decay(reflected[::-1], reflected.size - 1 - head)  # "behind" = deeper
+            tails[name] = {
+                "head": head,
+                "decay_length": fit.decay_length,
+                "r_squared": fit.r_squared,
+                "points": fit.points,
+            }
         entry["reflected_tail"] = tails
         out[rule] = entry
     return out
@@ -503,7 +643,7 @@ def _mode_measurements(ds) -> dict[str, Any]:
     v_clean = ds.trace_v.isel(impurity_mass=clean).values[:, column]
     arrival = float(tt[np.flatnonzero(np.abs(v_clean) >= 0.5 * np.max(np.abs(v_clean)))[0]])
     peak = float(np.max(np.abs(v_clean)))
-    load = 2.5 * a * l0 ** 1.5
+    load = 2.5 * a * l0**1.5
     out: dict[str, Any] = {"site": site, "arrival": arrival, "clean_peak_velocity": peak}
     windows = [(arrival + 5.0 + 10.0 * k, arrival + 15.0 + 10.0 * k) for k in range(4)]
     windows = [w for w in windows if w[1] <= tt[-1] + 1e-9]
@@ -512,14 +652,14 @@ def _mode_measurements(ds) -> dict[str, Any]:
     for k, (mass, stiffness) in enumerate(zip(masses, stiffnesses)):
         v = ds.trace_v.isel(impurity_mass=k).values[:, column]
         rms = [float(np.sqrt(np.mean(v[(tt >= lo) & (tt < hi)] ** 2)) / peak) for lo, hi in windows]
-        late = (tt >= arrival + 5.0)
+        late = tt >= arrival + 5.0
         freq, power = an.power_spectrum(tt[late], v[late])
         m = np.ones(n)
         m[site] = mass
         ac = np.full(n + 1, a)
         ac[site] = ac[site + 1] = 2 * stiffness * a / (stiffness + a)
         omega, shapes = an.linear_chain_modes(m, an.hertz_stiffness(ac, load))
-        ipr = np.sum(shapes ** 4, axis=0)
+        ipr = np.sum(shapes**4, axis=0)
         if mass == 1.0:
             band_edge = float(omega[-1] / (2 * np.pi))
         out[f"m={mass:g}"] = {
@@ -547,31 +687,44 @@ def _pulse_measurements(ds, name: str) -> dict[str, Any]:
     for k in range(ds.sizes[dim]):
         point = ds.isel({dim: k})
         l0 = float(point.l0) if "l0" in point.variables and point.l0.size == 1 else float(scene["chain"]["l0"])
-        v_imp = float(point.v_imp) if "v_imp" in point.variables and point.v_imp.size == 1 else \
-            float(scene["excitation"]["impact"])
+        v_imp = (
+            float(point.v_imp)
+            if "v_imp" in point.variables and point.v_imp.size == 1
+            else float(scene["excitation"]["impact"])
+        )
         u, v = point.u.values, point.v.values
         heads = an.head_positions(v)
         fit = an.pulse_speed(t, heads, first_grain=100, last_grain=800)
         entry: dict[str, Any] = {"l0": l0, "v_imp": v_imp, "speed": fit.slope, "speed_error": fit.slope_error}
-        beyond = np.flatnonzero(heads > 0.9 * n)     # before the head first reaches 0.9 of the chain
+        beyond = np.flatnonzero(heads > 0.9 * n)  # before the head first reaches 0.9 of the chain
         stop = beyond[0] if beyond.size else len(t)
         flight = np.flatnonzero(heads[:stop] > 0.1 * n)
         ratios = [an.overlap_behind_head(u[r], heads[r], l0=l0) for r in flight]
-        entry["overlap_behind_head_over_head"] = {"max": float(np.nanmax(ratios)), "min": float(np.nanmin(ratios)),
-                                                  "t_range": [float(t[flight[0]]), float(t[flight[-1]])]}
+        entry["overlap_behind_head_over_head"] = {
+            "max": float(np.nanmax(ratios)),
+            "min": float(np.nanmin(ratios)),
+            "t_range": [float(t[flight[0]]), float(t[flight[-1]])],
+        }
         if name.startswith("fig3"):
             fits = []
             load = scene["boundary"].get("surface") == "load"
             for time in TAIL_TIMES.get(l0, ()):
                 r = int(np.argmin(np.abs(t - time)))
-                level = an.rear_level(u[r]) if load else 0.0   # a constant-force surface shifts the rear
+                level = an.rear_level(u[r]) if load else 0.0  # a constant-force surface shifts the rear
                 tail = an.tail_decay(u[r], heads[r], baseline=level)
                 raw = an.tail_decay(u[r], heads[r])
-                fits.append({"t": float(t[r]), "head": float(heads[r]), "baseline": level,
-                             "decay_length": tail.decay_length, "r_squared": tail.r_squared,
-                             "decay_over_ct": tail.decay_length / (fit.slope * t[r]),
-                             "decay_length_without_baseline": raw.decay_length,
-                             "r_squared_without_baseline": raw.r_squared})
+                fits.append(
+                    {
+                        "t": float(t[r]),
+                        "head": float(heads[r]),
+                        "baseline": level,
+                        "decay_length": tail.decay_length,
+                        "r_squared": tail.r_squared,
+                        "decay_over_ct": tail.decay_length / (fit.slope * t[r]),
+                        "decay_length_without_baseline": raw.decay_length,
+                        "r_squared_without_baseline": raw.r_squared,
+                    }
+                )
             growth = an.fit_power_law([f["t"] for f in fits], [f["decay_length"] for f in fits])
             entry["tail"] = fits
             entry["decay_length_exponent"] = [growth.exponent, growth.exponent_error]
@@ -583,8 +736,13 @@ def _speed_measurements(ds) -> dict[str, Any]:
     """Fig. 1(d): c per (l0, v_imp), α per l0 and lumped (all points; v_imp ≥ 1e-2 only)."""
     c, err = an.speeds_table(ds)
     v_imp, l0s = ds.v_imp.values, ds.l0.values
-    out: dict[str, Any] = {"v_imp": v_imp.tolist(), "l0": l0s.tolist(), "speed": c.tolist(),
-                           "speed_error": err.tolist(), "alpha": {}}
+    out: dict[str, Any] = {
+        "v_imp": v_imp.tolist(),
+        "l0": l0s.tolist(),
+        "speed": c.tolist(),
+        "speed_error": err.tolist(),
+        "alpha": {},
+    }
     for i, l0 in enumerate(l0s):
         fit = an.speed_exponent(v_imp, c[i])
         out["alpha"][f"l0={l0:g}"] = [fit.exponent, fit.exponent_error]
@@ -605,12 +763,14 @@ def _width_measurements(ds) -> dict[str, Any]:
     for k, v_imp in enumerate(ds.v_imp.values):
         heads = an.head_positions(ds.v.isel(v_imp=k).values)
         widths = an.shock_widths(ds.u.isel(v_imp=k).values)
-        beyond = np.flatnonzero(heads > 0.9 * n)   # until the head first reaches 0.9 of the chain
+        beyond = np.flatnonzero(heads > 0.9 * n)  # until the head first reaches 0.9 of the chain
         keep = (np.arange(t.size) < (beyond[0] if beyond.size else t.size)) & (t > 0) & np.isfinite(widths)
         line = an.fit_line(t[keep], widths[keep])
         power = an.fit_power_law(t[keep], widths[keep])
-        out[f"v_imp={v_imp:g}"] = {"dW_dt": [line.slope, line.slope_error], "beta": [power.exponent,
-                                                                                    power.exponent_error]}
+        out[f"v_imp={v_imp:g}"] = {
+            "dW_dt": [line.slope, line.slope_error],
+            "beta": [power.exponent, power.exponent_error],
+        }
     return out
 
 
@@ -624,10 +784,12 @@ def _tilt_measurements(ds) -> dict[str, Any]:
     t_wall = float(t[arrive[0]] if arrive.size else t[-1])
     before = [int(np.argmin(np.abs(t - f * t_wall))) for f in (0.25, 0.5, 0.75, 0.95)]
     after = [int(np.argmin(np.abs(t - tt))) for tt in np.linspace(t_wall, t[-1], 5)[1:]]
-    return {"t_wall": t_wall,
-            "in_going": {f"t={t[r]:g}": an.plateau_tilt(u[r], fraction=0.9) for r in before},
-            "reflected": {f"t={t[r]:g}": an.plateau_tilt(-u[r], fraction=0.9) for r in after},
-            "speed": an.pulse_speed(t, heads, first_grain=100, last_grain=0.9 * n).slope}
+    return {
+        "t_wall": t_wall,
+        "in_going": {f"t={t[r]:g}": an.plateau_tilt(u[r], fraction=0.9) for r in before},
+        "reflected": {f"t={t[r]:g}": an.plateau_tilt(-u[r], fraction=0.9) for r in after},
+        "speed": an.pulse_speed(t, heads, first_grain=100, last_grain=0.9 * n).slope,
+    }
 
 
 def _column_measurements(ds, name: str) -> dict[str, Any]:
@@ -644,9 +806,12 @@ def _column_measurements(ds, name: str) -> dict[str, Any]:
         for g in ds.g.values:
             v = ds.v.sel(g=g).values[r]
             head = an.pulse_head(v)
-            out[f"g={g:g}"] = {"head": head, "bumps_10pc": an.count_bumps(v, head, fraction=0.1),
-                               "bumps_30pc": an.count_bumps(v, head, fraction=0.3),
-                               "largest_u_below_grain_2": float(np.max(np.abs(ds.u.sel(g=g).values[r][3:])))}
+            out[f"g={g:g}"] = {
+                "head": head,
+                "bumps_10pc": an.count_bumps(v, head, fraction=0.1),
+                "bumps_30pc": an.count_bumps(v, head, fraction=0.3),
+                "largest_u_below_grain_2": float(np.max(np.abs(ds.u.sel(g=g).values[r][3:]))),
+            }
         return out
     dim = [d for d in ds.v.dims if d not in ("record", "grain")]
     out = {}
@@ -655,14 +820,18 @@ def _column_measurements(ds, name: str) -> dict[str, Any]:
     for k, value in enumerate(ds[dim[0]].values):
         heads = an.head_positions(ds.v.isel({dim[0]: k}).values)
         fit = an.depth_law(t, heads, first_grain=50, last_grain=0.9 * n)
-        ranges = {str(first): an.depth_law(t, heads, first_grain=first, last_grain=0.9 * n).exponent
-                  for first in (20, 100, 200)}
+        ranges = {
+            str(first): an.depth_law(t, heads, first_grain=first, last_grain=0.9 * n).exponent
+            for first in (20, 100, 200)
+        }
         mid, speed = an.speed_against_depth(t, heads, last_grain=0.9 * n)
         keep = (mid >= 50) & np.isfinite(speed)
         ratio = speed[keep] / an.column_sound_speed(mid[keep], gravity=g, a=a)
-        out[f"{dim[0]}={value:g}"] = {"beta": [fit.exponent, fit.exponent_error], "beta_by_first_grain": ranges,
-                                      "c_over_closed_form": [float(np.mean(ratio)), float(np.min(ratio)),
-                                                             float(np.max(ratio))]}
+        out[f"{dim[0]}={value:g}"] = {
+            "beta": [fit.exponent, fit.exponent_error],
+            "beta_by_first_grain": ranges,
+            "c_over_closed_form": [float(np.mean(ratio)), float(np.min(ratio)), float(np.max(ratio))],
+        }
     return out
 
 
@@ -682,8 +851,7 @@ def measure(name: str, ds) -> dict[str, Any]:
     if name.startswith("fig5_modes"):
         return _mode_measurements(ds)
     if name.startswith("fig5") or name.startswith("fig7_8"):
-        out = {"echo": _echo_measurements(ds)} if "impurity_mass" in ds.dims and np.any(ds.impurity_mass == 1.0) \
-            else {}
+        out = {"echo": _echo_measurements(ds)} if "impurity_mass" in ds.dims and np.any(ds.impurity_mass == 1.0) else {}
         if name == "fig5":
             out["profiles"] = _profile_measurements(ds)
         return out
@@ -723,29 +891,47 @@ def compare(out_dir: Path) -> dict[str, Any]:
             contrast[group] = an.contrast_table(ds)
     for group, reference in (("fig5_single", "fig5"), ("fig7_8_single", "fig7_8")):
         ds, ref = store(group), store(reference)
-        if ds is not None and ref is not None:   # single impurities: the clean chain is in the five-impurity store
+        if ds is not None and ref is not None:  # single impurities: the clean chain is in the five-impurity store
             light, heavy, _ = an.impurity_points(ds)
             clean = int(np.flatnonzero(ref.impurity_mass.values == 1.0)[0])
             after, until = an.echo_window(ref, int(ds.traced_grain.values[0]))
-            contrast[group] = {str(rule): an.echo_contrast(
-                ds.trace_t.values, ds.trace_v.isel(impurity_mass=light).sel(contact=rule).values[:, 0],
-                ds.trace_v.isel(impurity_mass=heavy).sel(contact=rule).values[:, 0],
-                ref.trace_v.isel(impurity_mass=clean, contact=0).values[:, 0], after=after, until=until)
-                for rule in ds.contact.values}
+            contrast[group] = {
+                str(rule): an.echo_contrast(
+                    ds.trace_t.values,
+                    ds.trace_v.isel(impurity_mass=light).sel(contact=rule).values[:, 0],
+                    ds.trace_v.isel(impurity_mass=heavy).sel(contact=rule).values[:, 0],
+                    ref.trace_v.isel(impurity_mass=clean, contact=0).values[:, 0],
+                    after=after,
+                    until=until,
+                )
+                for rule in ds.contact.values
+            }
             tables = {}
             for f in ECHO_FRACTIONS:
                 for name, index in (("light", light), ("heavy", heavy)):
                     for rule in ds.contact.values:
-                        b = an.backscatter(ds.trace_t.values,
-                                           ds.trace_v.isel(impurity_mass=index).sel(contact=rule).values[:, 0],
-                                           ref.trace_v.isel(impurity_mass=clean, contact=0).values[:, 0],
-                                           after=after, until=until, fraction=f)
-                        tables.setdefault(f"{name}/{rule}", {})[str(f)] = [b.leading_sign, b.arrival_time,
-                                                                           b.amplitude, b.peak_sign]
+                        b = an.backscatter(
+                            ds.trace_t.values,
+                            ds.trace_v.isel(impurity_mass=index).sel(contact=rule).values[:, 0],
+                            ref.trace_v.isel(impurity_mass=clean, contact=0).values[:, 0],
+                            after=after,
+                            until=until,
+                            fraction=f,
+                        )
+                        tables.setdefault(f"{name}/{rule}", {})[str(f)] = [
+                            b.leading_sign,
+                            b.arrival_time,
+                            b.amplitude,
+                            b.peak_sign,
+                        ]
             out[f"{group}_echo_by_threshold (sign, arrival, amplitude, peak sign)"] = tables
             out[f"{group}_first_lobe (sign, height / largest)"] = _first_lobes(
-                ds, int(ds.traced_grain.values[0]), after, until,
-                reference=ref.trace_v.isel(impurity_mass=clean, contact=0).values[:, 0])
+                ds,
+                int(ds.traced_grain.values[0]),
+                after,
+                until,
+                reference=ref.trace_v.isel(impurity_mass=clean, contact=0).values[:, 0],
+            )
     out["light_heavy_contrast_at_surface"] = contrast
     return out
 
@@ -765,9 +951,14 @@ def measure_stores(root: Path, *, figures_dir: Path | None = None, command: str 
 
     from .plot import plot_figure
 
-    log: dict[str, Any] = {"command": command, "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-                           "platform": platform.platform(), "cpu_count": _cpu_count(),
-                           "warp_version": wp.config.version, "groups": {}}
+    log: dict[str, Any] = {
+        "command": command,
+        "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "platform": platform.platform(),
+        "cpu_count": _cpu_count(),
+        "warp_version": wp.config.version,
+        "groups": {},
+    }
     for name, group in GROUPS.items():
         run_log = root / name / "log.json"
         store = root / name / f"{name}.zarr"
@@ -775,17 +966,25 @@ def measure_stores(root: Path, *, figures_dir: Path | None = None, command: str 
             continue
         runs = json.loads(run_log.read_text())
         run = runs["runs"][0]
-        entry = {"run": {k: runs[k] for k in ("command", "date", "device", "device_name", "cpu_count", "platform")},
-                 "points": run["points"], "grains": run["grains"], "steps": run["steps"], "dt": run["dt"],
-                 "wall_seconds": run["wall_seconds"], "grain_steps_per_second": run["grain_steps_per_second"],
-                 "energy_error_max": run["energy_error_max"], "status_counts": run["status_counts"]}
+        entry = {
+            "run": {k: runs[k] for k in ("command", "date", "device", "device_name", "cpu_count", "platform")},
+            "points": run["points"],
+            "grains": run["grains"],
+            "steps": run["steps"],
+            "dt": run["dt"],
+            "wall_seconds": run["wall_seconds"],
+            "grain_steps_per_second": run["grain_steps_per_second"],
+            "energy_error_max": run["energy_error_max"],
+            "status_counts": run["status_counts"],
+        }
         with xr.open_zarr(store) as ds:
             entry["measurements"] = measure(name, ds)
             if figures_dir is not None:
                 entry["figures"] = {}
                 for figure in group.figures:
-                    png = figures_dir / (FIGURE_FILES.get(name, f"{name}.png") if len(group.figures) == 1
-                                         else f"{figure}.png")
+                    png = figures_dir / (
+                        FIGURE_FILES.get(name, f"{name}.png") if len(group.figures) == 1 else f"{figure}.png"
+                    )
                     plot_figure(ds, figure, png)
                     entry["figures"][figure] = f"hertzian plot {store} --figure {figure} --out {png}"
         log["groups"][name] = entry
@@ -809,10 +1008,19 @@ def finite(value):
     return value
 
 
-def reproduce(out_dir: Path, *, groups: list[str] | None = None, quick: bool = False, device: str = "cpu",
-              sweeps_dir: Path | None = None, drive_grains: int | None = None, events: str | None = None,
-              kernel: str | None = None, background: bool | None = None,
-              say: Callable[[str], None] = print) -> dict[str, Any]:
+def reproduce(
+    out_dir: Path,
+    *,
+    groups: list[str] | None = None,
+    quick: bool = False,
+    device: str = "cpu",
+    sweeps_dir: Path | None = None,
+    drive_grains: int | None = None,
+    events: str | None = None,
+    kernel: str | None = None,
+    background: bool | None = None,
+    say: Callable[[str], None] = print,
+) -> dict[str, Any]:
     """Run ``groups`` (default: all of GROUPS), write their stores and PNGs into ``out_dir`` and the log
     ``out_dir/log.json``; returns the log. A figure that cannot be drawn is logged with its error.
     ``events``: "auto" or "off" sets integrator.events for every group (default None: each sweep file's).
@@ -830,12 +1038,21 @@ def reproduce(out_dir: Path, *, groups: list[str] | None = None, quick: bool = F
     out_dir.mkdir(parents=True, exist_ok=True)
     names = groups or list(GROUPS)
     log: dict[str, Any] = {
-        "command": "hertzian reproduce" + (" --quick" if quick else "") + "".join(
-            f" --figure {g}" for g in (groups or [])) + (f" --drive-grains {drive_grains}" if drive_grains else "")
-        + (f" --events {events}" if events else "") + (f" --kernel {kernel}" if kernel else "") + f" --device {device}",
-        "date": datetime.now(timezone.utc).isoformat(timespec="seconds"), "device": device,
-        "device_name": wp.get_device(device).name, "cpu_count": _cpu_count(), "platform": platform.platform(),
-        "warp_version": wp.config.version, "quick": quick, "events": events or "as each sweep file says",
+        "command": "hertzian reproduce"
+        + (" --quick" if quick else "")
+        + "".join(f" --figure {g}" for g in (groups or []))
+        + (f" --drive-grains {drive_grains}" if drive_grains else "")
+        + (f" --events {events}" if events else "")
+        + (f" --kernel {kernel}" if kernel else "")
+        + f" --device {device}",
+        "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "device": device,
+        "device_name": wp.get_device(device).name,
+        "cpu_count": _cpu_count(),
+        "platform": platform.platform(),
+        "warp_version": wp.config.version,
+        "quick": quick,
+        "events": events or "as each sweep file says",
         "runs": [],
     }
     begin = time.perf_counter()
@@ -857,8 +1074,10 @@ def reproduce(out_dir: Path, *, groups: list[str] | None = None, quick: bool = F
             overrides = {**(group.quick if quick else {}), **({"integrator.events": events} if events else {})}
             entry = run_sweep_group(path, overrides, store, device, kernel)
             runs = [{"name": name, "sweep": group.sweep, "store": store.name, **entry}]
-            say(f"{name}: {entry['points']} points x {entry['grains']} grains, {entry['wall_seconds']:.1f} s, "
-                f"{entry['grain_steps_per_second']:.3g} grain-steps/s, energy error {entry['energy_error_max']:.2e}")
+            say(
+                f"{name}: {entry['points']} points x {entry['grains']} grains, {entry['wall_seconds']:.1f} s, "
+                f"{entry['grain_steps_per_second']:.3g} grain-steps/s, energy error {entry['energy_error_max']:.2e}"
+            )
         if pool is not None:
             pending.append((runs, pool.submit(draw_and_measure, str(out_dir), name, runs[0]["store"])))
         else:

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import numpy as np
 import warp as wp
-
 from hertzian.kernels.response import response_kernel, response_phases
 
 from .chains import ChainSet
@@ -94,24 +93,57 @@ class ResponseAccumulator:
         """Add ``state`` to the sums of the windows that hold its step (read from its clock on the device: no
         sync, and capturable in a CUDA graph)."""
         m = self.model
-        wp.launch(response_phases, dim=m.chain_count,
-                  inputs=[m.drive, self.window_steps_device, self.stride_device, self.start_step, state.clock,
-                          self.windows, self.harmonics, m.dt], outputs=[self.phases], device=m.device)
-        wp.launch(self.kernel, dim=(m.chain_count, m.grain_count),
-                  inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent,
-                          self.window_steps_device, self.stride_device, self.start_step, state.clock, self.windows,
-                          self.harmonics, m.dt, self.phases],
-                  outputs=[self.re, self.im, self.kinetic, self.open_count], device=m.device)
+        wp.launch(
+            response_phases,
+            dim=m.chain_count,
+            inputs=[
+                m.drive,
+                self.window_steps_device,
+                self.stride_device,
+                self.start_step,
+                state.clock,
+                self.windows,
+                self.harmonics,
+                m.dt,
+            ],
+            outputs=[self.phases],
+            device=m.device,
+        )
+        wp.launch(
+            self.kernel,
+            dim=(m.chain_count, m.grain_count),
+            inputs=[
+                state.x,
+                m.inverse_mass,
+                m.contact_constant,
+                m.static_overlap,
+                m.exponent,
+                self.window_steps_device,
+                self.stride_device,
+                self.start_step,
+                state.clock,
+                self.windows,
+                self.harmonics,
+                m.dt,
+                self.phases,
+            ],
+            outputs=[self.re, self.im, self.kinetic, self.open_count],
+            device=m.device,
+        )
 
     def result(self) -> dict[str, np.ndarray]:
         """``response`` (chains, window, harmonic, grain) complex, ``window_ke`` (chains, window, grain),
         ``driver_open`` (chains, window), ``window_start`` (chains, window) [time]."""
-        samples = (self.window_steps // self.stride).astype(float)           # M per chain (own stride)
+        samples = (self.window_steps // self.stride).astype(float)  # M per chain (own stride)
         weight = np.full(self.harmonics + 1, 2.0)
         weight[0] = 1.0
-        response = (self.re.numpy() + 1j * self.im.numpy()) * (weight[None, None, :, None]
-                                                                / samples[:, None, None, None])
+        response = (self.re.numpy() + 1j * self.im.numpy()) * (
+            weight[None, None, :, None] / samples[:, None, None, None]
+        )
         starts = (self.start_step + self.window_steps[:, None] * np.arange(self.windows)[None, :]) * self.model.dt
-        return {"response": response, "window_ke": self.kinetic.numpy() / samples[:, None, None],
-                "driver_open": self.open_count.numpy() / samples[:, None], "window_start": starts}
-
+        return {
+            "response": response,
+            "window_ke": self.kinetic.numpy() / samples[:, None, None],
+            "driver_open": self.open_count.numpy() / samples[:, None],
+            "window_start": starts,
+        }

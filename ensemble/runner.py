@@ -15,7 +15,6 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 import warp as wp
-
 from hertzian.kernels.features import Features
 
 from .devices import default_device, init_warp
@@ -25,6 +24,7 @@ from .scene import Scene
 from .solvers import SolverConfig, choose_config, make_solver
 from .solvers.calibrate import fused_lacks, step_reason
 from .status import Status
+
 
 @contextlib.contextmanager
 def frozen_collector():
@@ -122,33 +122,53 @@ class Runner:
     with ``recorder.traced_start``), none in the result. ``on_queued()``: see the attribute.
     """
 
-    def __init__(self, model: Model, *, use_graph: bool | None = None, energy_tolerance: float = 1e-2,
-                 kernel: str | SolverConfig = "auto", monitor_every: int | None = None,
-                 trace_values: tuple[str, ...] = ("u", "v"), on_unpacked=None, traces_on_device: bool = False,
-                 on_queued=None):
+    def __init__(
+        self,
+        model: Model,
+        *,
+        use_graph: bool | None = None,
+        energy_tolerance: float = 1e-2,
+        kernel: str | SolverConfig = "auto",
+        monitor_every: int | None = None,
+        trace_values: tuple[str, ...] = ("u", "v"),
+        on_unpacked=None,
+        traces_on_device: bool = False,
+        on_queued=None,
+    ):
         setup_start = time.perf_counter()
         self.model = model
-        self.monitor_every = (max(MONITOR_MIN_STEPS, MONITOR_STEPS_PER_GRAIN * model.grain_count)
-                              if monitor_every is None else monitor_every)
+        self.monitor_every = (
+            max(MONITOR_MIN_STEPS, MONITOR_STEPS_PER_GRAIN * model.grain_count)
+            if monitor_every is None
+            else monitor_every
+        )
         """Steps between device-side checks of energy, overlap and finiteness (0: at records only)."""
         self.energy_tolerance = energy_tolerance
         self.buffers = model.state_pair()
         """The two state halves (sharing status and the trace ring); ``current`` is the one holding now."""
         self.current: State = self.buffers[0]
-        config = kernel if isinstance(kernel, SolverConfig) else choose_config(
-            model, kernel, run_steps=model.scenes[0].step_count)
+        config = (
+            kernel
+            if isinstance(kernel, SolverConfig)
+            else choose_config(model, kernel, run_steps=model.scenes[0].step_count)
+        )
         self.kernel_note = None
         """Why the per-step kernel runs (one line), or None."""
         if config.kind == "step":
-            self.kernel_note = (step_reason(model, model.scenes[0].step_count) if kernel == "auto"
-                                else f"the fused kernels lack {fused_lacks(model.features, model.device.is_cpu)}"
-                                if kernel == "fused" else "per-step kernel requested")
+            self.kernel_note = (
+                step_reason(model, model.scenes[0].step_count)
+                if kernel == "auto"
+                else f"the fused kernels lack {fused_lacks(model.features, model.device.is_cpu)}"
+                if kernel == "fused"
+                else "per-step kernel requested"
+            )
         if use_graph is not None:
             config = replace(config, use_graph=use_graph)
         self.solver = make_solver(model, config)
         self.solver.load()
-        self.recorder = Recorder(model, trace_values=trace_values, on_unpacked=on_unpacked,
-                                 traces_on_device=traces_on_device)
+        self.recorder = Recorder(
+            model, trace_values=trace_values, on_unpacked=on_unpacked, traces_on_device=traces_on_device
+        )
         self.on_queued = on_queued
         """Called with no argument once every launch and record of ``run`` is queued, before it waits for the device
         (a caller's host work, such as allocating page-locked memory for what it will copy, overlaps the run)."""
@@ -167,8 +187,8 @@ class Runner:
         response = self.recorder.response
         samples = set(response.sample_steps(first_step, first_step + n_steps)) if response is not None else set()
         checks = set(range(first_step + every, first_step + n_steps, every))
-        done = first_step              # steps taken, or queued in the pending run of samples
-        run_gap, run_count = 0, 0      # the pending run: sample-only stops, equally spaced
+        done = first_step  # steps taken, or queued in the pending run of samples
+        run_gap, run_count = 0, 0  # the pending run: sample-only stops, equally spaced
 
         def flush() -> None:
             nonlocal run_count
@@ -220,7 +240,7 @@ class Runner:
         # records at these steps; the pieces between them may differ in length (Scene.record_steps)
         record_steps = [int(k) for k in scene.record_steps]
         clock = time.perf_counter()
-        rec.load()   # compile before the clock starts (the solver loaded in __init__)
+        rec.load()  # compile before the clock starts (the solver loaded in __init__)
         wp.synchronize_device(m.device)
         setup = self.setup_seconds + time.perf_counter() - clock
         events = [] if m.device.is_cuda else None
@@ -251,31 +271,63 @@ class Runner:
             rec.release()
         record_seconds += time.perf_counter() - clock
         wall = time.perf_counter() - start
-        device_seconds = advance_seconds if events is None else sum(
-            wp.get_event_elapsed_time(a, b) for a, b in zip(events[::2], events[1::2])) / 1e3
-        timing = {"setup": setup, "setup_in_init": self.setup_seconds, "advance": advance_seconds, "record": record_seconds, "device": device_seconds,
-                  "wall": wall}
+        device_seconds = (
+            advance_seconds
+            if events is None
+            else sum(wp.get_event_elapsed_time(a, b) for a, b in zip(events[::2], events[1::2])) / 1e3
+        )
+        timing = {
+            "setup": setup,
+            "setup_in_init": self.setup_seconds,
+            "advance": advance_seconds,
+            "record": record_seconds,
+            "device": device_seconds,
+            "wall": wall,
+        }
 
         status = self.current.status.numpy().copy()
         # max over records and the checks between them (the records alone would miss peaks in between)
-        energy_error = energy_errors(rec.energy, rec.work, m.injected_energy, deviation=rec.energy_deviation.numpy(),
-                                     dissipated=rec.dissipated)
-        drift = (status == Status.OK) & (energy_error > self.energy_tolerance) & (
-            (m.injected_energy > 0) | (rec.work is not None))
+        energy_error = energy_errors(
+            rec.energy, rec.work, m.injected_energy, deviation=rec.energy_deviation.numpy(), dissipated=rec.dissipated
+        )
+        drift = (
+            (status == Status.OK)
+            & (energy_error > self.energy_tolerance)
+            & ((m.injected_energy > 0) | (rec.work is not None))
+        )
         status[drift] = Status.ENERGY_DRIFT
         return RunResult(
-            scenes=m.scenes, features=m.features, device=str(m.device),
-            t=np.array(record_steps) * m.dt, energy=rec.energy, work=rec.work, status=status,
-            max_overlap=rec.largest_overlap.numpy(), energy_error=energy_error, wall_seconds=wall,
-            steps=record_steps[-1], fields=rec.fields, trace_t=rec.trace_t, traces=rec.traces,
+            scenes=m.scenes,
+            features=m.features,
+            device=str(m.device),
+            t=np.array(record_steps) * m.dt,
+            energy=rec.energy,
+            work=rec.work,
+            status=status,
+            max_overlap=rec.largest_overlap.numpy(),
+            energy_error=energy_error,
+            wall_seconds=wall,
+            steps=record_steps[-1],
+            fields=rec.fields,
+            trace_t=rec.trace_t,
+            traces=rec.traces,
             kernel=self.solver.describe() + (f" ({self.kernel_note})" if self.kernel_note else ""),
-            solver=self.solver.config, kernel_note=self.kernel_note, timing=timing,
-            dissipated=rec.dissipated, response=rec.response.result() if rec.response is not None else {},
+            solver=self.solver.config,
+            kernel_note=self.kernel_note,
+            timing=timing,
+            dissipated=rec.dissipated,
+            response=rec.response.result() if rec.response is not None else {},
         )
 
 
-def energy_errors(energy: np.ndarray, work: np.ndarray | None, injected: np.ndarray, *,
-                  deviation: np.ndarray | None = None, dissipated: np.ndarray | None = None) -> np.ndarray:
+def energy_errors(
+    energy: np.ndarray,
+    work: np.ndarray | None,
+    injected: np.ndarray,
+    *,
+    deviation: np.ndarray | None = None,
+    dissipated: np.ndarray | None = None,
+) -> np.ndarray:
     """SPEC §5: max_t |E(t) − E(0)| / E_inj; driven: |E − E(0) − W| / max|W|; absolute if nothing injected.
     With damping the dissipated energy D is added: |E + D − E(0) [− W]|.
 
@@ -298,8 +350,9 @@ def energy_errors(energy: np.ndarray, work: np.ndarray | None, injected: np.ndar
     return np.where(np.isfinite(err), err, np.inf)
 
 
-def run_ensemble(scenes: list[Scene], device: str | None = None, *, progress=None,
-                 use_graph: bool | None = None) -> RunResult:
+def run_ensemble(
+    scenes: list[Scene], device: str | None = None, *, progress=None, use_graph: bool | None = None
+) -> RunResult:
     """Run compatible scenes as one ensemble (one kernel launch per step for all chains)."""
     init_warp()
     model = build_model(list(scenes), device or default_device())

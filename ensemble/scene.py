@@ -13,7 +13,7 @@ import difflib
 import functools
 import math
 import tomllib
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -67,6 +67,7 @@ class ChainSpec:
     def validity_overlap(self) -> float:
         """Largest overlap where the Hertz law is trusted: VALIDITY_FRACTION·diameter [length]."""
         return VALIDITY_FRACTION * self.diameter
+
     l0: float = 0.0
     """Precompression: static overlap of two equal grains under the load [length]."""
     load: float | None = None
@@ -222,7 +223,7 @@ class Scene:
         if whole is not None:
             return -(-end // whole) + 1
         ratio = self._every / self.integrator.dt
-        last = int(end / ratio) + 2             # largest r with round(r·ratio) < end, found from above
+        last = int(end / ratio) + 2  # largest r with round(r·ratio) < end, found from above
         while last > 0 and round(last * ratio) >= end:
             last -= 1
         return last + 2
@@ -292,9 +293,12 @@ class Scene:
         """The scene as plain data, every key filled (JSON/TOML-ready)."""
         d = asdict(self)
         d["impurities"] = [
-            {**imp, "grains": list(imp["grains"]),
-             "mass": imp["mass"] if imp["mass"] is not None else self.chain.mass,
-             "a": imp["a"] if imp["a"] is not None else self.chain.a}
+            {
+                **imp,
+                "grains": list(imp["grains"]),
+                "mass": imp["mass"] if imp["mass"] is not None else self.chain.mass,
+                "a": imp["a"] if imp["a"] is not None else self.chain.a,
+            }
             for imp in d["impurities"]
         ]
         d["record"]["fields"] = list(d["record"]["fields"])
@@ -367,7 +371,9 @@ def _unknown(key: str, choices) -> SceneError:
 def _coerce(key: str, value: Any, default: Any, annotation: str) -> Any:
     """Check a TOML value against a field's type (annotation text) and convert it."""
     if "tuple[int" in annotation:
-        if not isinstance(value, (list, tuple)) or not all(isinstance(x, int) and not isinstance(x, bool) for x in value):
+        if not isinstance(value, (list, tuple)) or not all(
+            isinstance(x, int) and not isinstance(x, bool) for x in value
+        ):
             raise SceneError(key, value, "must be a list of integers")
         return tuple(value)
     if "tuple[str" in annotation:
@@ -496,6 +502,7 @@ def load_scene(path: str | Path, overrides: dict[str, Any] | None = None) -> Sce
 
 # ---- validation --------------------------------------------------------------------
 
+
 def _positive(key, value):
     if not (value > 0):
         raise SceneError(key, value, "must be > 0")
@@ -519,33 +526,46 @@ def _validate(s: Scene) -> None:
     if c.gravity < 0:
         raise SceneError("chain.gravity", c.gravity, "must be ≥ 0 (it points toward the bottom)")
     if b.surface not in SURFACE_KINDS:
-        raise SceneError("boundary.surface", b.surface, f"must be one of {', '.join(SURFACE_KINDS)}"
-                         + _did_you_mean(b.surface, SURFACE_KINDS))
+        raise SceneError(
+            "boundary.surface",
+            b.surface,
+            f"must be one of {', '.join(SURFACE_KINDS)}" + _did_you_mean(b.surface, SURFACE_KINDS),
+        )
     if b.bottom not in BOTTOM_KINDS:
-        raise SceneError("boundary.bottom", b.bottom, f"must be one of {', '.join(BOTTOM_KINDS)}"
-                         + _did_you_mean(b.bottom, BOTTOM_KINDS))
+        raise SceneError(
+            "boundary.bottom",
+            b.bottom,
+            f"must be one of {', '.join(BOTTOM_KINDS)}" + _did_you_mean(b.bottom, BOTTOM_KINDS),
+        )
     try:
         f0 = c.surface_force
     except OverflowError:
         f0 = math.inf
     if not math.isfinite(f0):
-        raise SceneError("chain.l0" if c.load is None else "chain.load", c.l0 if c.load is None else c.load,
-                         "too large: the load it gives overflows float64")
+        raise SceneError(
+            "chain.l0" if c.load is None else "chain.load",
+            c.l0 if c.load is None else c.load,
+            "too large: the load it gives overflows float64",
+        )
     if b.surface == "free" and f0 > 0:
-        raise SceneError("boundary.surface", "free", "a free surface cannot carry a load: set chain.l0 = 0 "
-                         "or use surface = \"load\" or \"wall\"")
+        raise SceneError(
+            "boundary.surface",
+            "free",
+            'a free surface cannot carry a load: set chain.l0 = 0 or use surface = "load" or "wall"',
+        )
     if b.bottom == "free" and (f0 > 0 or c.gravity > 0):
-        raise SceneError("boundary.bottom", "free", "a free bottom cannot hold a load or gravity: use "
-                         "bottom = \"wall\" or \"fixed\"")
+        raise SceneError(
+            "boundary.bottom", "free", 'a free bottom cannot hold a load or gravity: use bottom = "wall" or "fixed"'
+        )
     if b.surface == "driven":
         _positive("excitation.drive_amplitude", e.drive_amplitude)
         _positive("excitation.drive_period", e.drive_period)
         if e.impact != 0:
-            raise SceneError("excitation.impact", e.impact, "a driven surface grain has a prescribed motion: "
-                             "impact must be 0")
+            raise SceneError(
+                "excitation.impact", e.impact, "a driven surface grain has a prescribed motion: impact must be 0"
+            )
     elif e.drive_amplitude != 0:
-        raise SceneError("excitation.drive_amplitude", e.drive_amplitude,
-                         "a drive needs boundary.surface = \"driven\"")
+        raise SceneError("excitation.drive_amplitude", e.drive_amplitude, 'a drive needs boundary.surface = "driven"')
     if e.impact < 0:
         raise SceneError("excitation.impact", e.impact, "must be ≥ 0 (toward the bottom)")
     if b.bottom == "fixed" and c.grains < 3 and b.surface == "driven":
@@ -573,15 +593,19 @@ def _validate(s: Scene) -> None:
     if i.dt > i.duration:
         raise SceneError("integrator.dt", i.dt, f"must not exceed integrator.duration = {i.duration}")
     if i.method not in METHODS:
-        raise SceneError("integrator.method", i.method, f"must be one of {', '.join(METHODS)}"
-                         + _did_you_mean(i.method, METHODS))
+        raise SceneError(
+            "integrator.method", i.method, f"must be one of {', '.join(METHODS)}" + _did_you_mean(i.method, METHODS)
+        )
     if i.precision not in PRECISIONS:
         raise SceneError("integrator.precision", i.precision, "must be float64 or float32")
     steps = i.duration / i.dt
     if not (steps <= MAX_STEPS + 0.5):
-        raise SceneError("integrator.duration", i.duration,
-                         f"needs {steps:.3g} steps of integrator.dt = {i.dt:g}; the step counter holds at most "
-                         f"{MAX_STEPS} (int32): shorten the run or raise dt")
+        raise SceneError(
+            "integrator.duration",
+            i.duration,
+            f"needs {steps:.3g} steps of integrator.dt = {i.dt:g}; the step counter holds at most "
+            f"{MAX_STEPS} (int32): shorten the run or raise dt",
+        )
     if i.events not in EVENT_MODES:
         raise SceneError("integrator.events", i.events, f"must be one of {', '.join(EVENT_MODES)}")
     if r.every is not None:
@@ -601,27 +625,42 @@ def _validate(s: Scene) -> None:
     if r.trace_every is not None:
         _positive("record.trace_every", r.trace_every)
         if r.trace_every < i.dt * (1 - 1e-9):
-            raise SceneError("record.trace_every", r.trace_every,
-                             f"must be ≥ integrator.dt = {i.dt:g} (samples fall on steps)")
+            raise SceneError(
+                "record.trace_every", r.trace_every, f"must be ≥ integrator.dt = {i.dt:g} (samples fall on steps)"
+            )
         if r.trace_every > i.duration * (1 + 1e-12):
             raise SceneError("record.trace_every", r.trace_every, f"must not exceed integrator.duration = {i.duration}")
-        if s.trace_stride > 1 and (s._whole_steps_per_record is None or s.steps_per_record % s.trace_stride
-                                   or s.step_count % s.trace_stride):
-            raise SceneError("record.trace_every", r.trace_every,
-                             f"must divide record.every and integrator.duration into whole steps (every = "
-                             f"{r.every if r.every is not None else i.duration:g}, duration = {i.duration:g}, "
-                             f"trace_every = {s.trace_stride} steps of dt = {i.dt:g})")
+        if s.trace_stride > 1 and (
+            s._whole_steps_per_record is None or s.steps_per_record % s.trace_stride or s.step_count % s.trace_stride
+        ):
+            raise SceneError(
+                "record.trace_every",
+                r.trace_every,
+                f"must divide record.every and integrator.duration into whole steps (every = "
+                f"{r.every if r.every is not None else i.duration:g}, duration = {i.duration:g}, "
+                f"trace_every = {s.trace_stride} steps of dt = {i.dt:g})",
+            )
     _validate_damping_and_response(s)
     if i.method in COMPOSED_METHODS:
         allowed = ", ".join(m for m in METHODS if m not in COMPOSED_METHODS)
         if b.surface == "driven":
-            raise SceneError("integrator.method", i.method, f"a driven surface (boundary.surface = \"driven\") is "
-                             f"not implemented for {i.method}: use one of {allowed}")
+            raise SceneError(
+                "integrator.method",
+                i.method,
+                f'a driven surface (boundary.surface = "driven") is '
+                f"not implemented for {i.method}: use one of {allowed}",
+            )
         if s.damping.model != "none":
-            raise SceneError("integrator.method", i.method, f"damping (damping.model = \"{s.damping.model}\") is "
-                             f"not implemented for {i.method}: use one of {allowed}")
-    for key, value, derived in (("chain.l0" if c.load is None else "chain.load", c.l0 if c.load is None else c.load,
-                                 lambda: c.surface_force), ("excitation.impact", e.impact, lambda: s.injected_energy)):
+            raise SceneError(
+                "integrator.method",
+                i.method,
+                f'damping (damping.model = "{s.damping.model}") is '
+                f"not implemented for {i.method}: use one of {allowed}",
+            )
+    for key, value, derived in (
+        ("chain.l0" if c.load is None else "chain.load", c.l0 if c.load is None else c.load, lambda: c.surface_force),
+        ("excitation.impact", e.impact, lambda: s.injected_energy),
+    ):
         try:
             finite = math.isfinite(derived())
         except OverflowError:
@@ -633,17 +672,21 @@ def _validate(s: Scene) -> None:
 def _validate_damping_and_response(s: Scene) -> None:
     d, r, i = s.damping, s.record, s.integrator
     if d.model not in DAMPING_MODELS:
-        raise SceneError("damping.model", d.model, f"must be one of {', '.join(DAMPING_MODELS)}"
-                         + _did_you_mean(d.model, DAMPING_MODELS))
+        raise SceneError(
+            "damping.model",
+            d.model,
+            f"must be one of {', '.join(DAMPING_MODELS)}" + _did_you_mean(d.model, DAMPING_MODELS),
+        )
     if d.gamma < 0:
         raise SceneError("damping.gamma", d.gamma, "must be ≥ 0")
     if d.model == "none" and d.gamma != 0:
-        raise SceneError("damping.gamma", d.gamma, "needs damping.model = \"viscous\" or \"contact\"")
+        raise SceneError("damping.gamma", d.gamma, 'needs damping.model = "viscous" or "contact"')
     if r.response_start is None:
         return
     if s.boundary.surface != "driven":
-        raise SceneError("record.response_start", r.response_start,
-                         "response windows need a drive (boundary.surface = \"driven\")")
+        raise SceneError(
+            "record.response_start", r.response_start, 'response windows need a drive (boundary.surface = "driven")'
+        )
     if r.response_start < 0:
         raise SceneError("record.response_start", r.response_start, "must be ≥ 0")
     for key in ("response_periods", "response_windows"):
@@ -653,13 +696,20 @@ def _validate_damping_and_response(s: Scene) -> None:
         raise SceneError("record.harmonics", r.harmonics, f"must be an integer 0 … {MAX_HARMONICS}")
     ratio = s.excitation.drive_period / i.dt
     if abs(ratio - round(ratio)) > 1e-9 * ratio:
-        raise SceneError("excitation.drive_period", s.excitation.drive_period,
-                         f"response windows need a whole number of steps per period (τ/dt = {ratio:.6g})")
+        raise SceneError(
+            "excitation.drive_period",
+            s.excitation.drive_period,
+            f"response windows need a whole number of steps per period (τ/dt = {ratio:.6g})",
+        )
     ratio = r.response_start / i.dt
     if abs(ratio - round(ratio)) > 1e-9 * max(ratio, 1.0):
-        raise SceneError("record.response_start", r.response_start,
-                         f"must be a whole number of steps of integrator.dt = {i.dt:g}")
+        raise SceneError(
+            "record.response_start", r.response_start, f"must be a whole number of steps of integrator.dt = {i.dt:g}"
+        )
     if s.response_end_step > s.step_count:
-        raise SceneError("record.response_windows", r.response_windows,
-                         f"the windows end at t = {s.response_end_step * i.dt:g}, after integrator.duration = "
-                         f"{i.duration:g}: shorten or start them earlier")
+        raise SceneError(
+            "record.response_windows",
+            r.response_windows,
+            f"the windows end at t = {s.response_end_step * i.dt:g}, after integrator.duration = "
+            f"{i.duration:g}: shorten or start them earlier",
+        )

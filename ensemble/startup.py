@@ -59,9 +59,9 @@ def taylor_coefficients(scene: Scene, order: int, static: StaticState | None = N
         # overlap series of every padded contact up to order k
         d = np.zeros((k + 1, n_grains + 1))
         d[0] = delta0
-        d[1:, 1:n_grains] = u[1:k + 1, :-1] - u[1:k + 1, 1:]
-        d[1:, 0] = -u[1:k + 1, 0]
-        d[1:, n_grains] = u[1:k + 1, -1]
+        d[1:, 1:n_grains] = u[1 : k + 1, :-1] - u[1 : k + 1, 1:]
+        d[1:, 0] = -u[1 : k + 1, 0]
+        d[1:, n_grains] = u[1 : k + 1, -1]
         force_k = np.zeros(n_grains + 1)
         if k >= 1 and np.any(loaded):
             w = _power_series(d[:, loaded], n - 1.0)
@@ -90,6 +90,7 @@ def initial_nordsieck(scene: Scene, values: int, dt: float, static: StaticState 
 
 
 # ---- many chains at once -------------------------------------------------------------------
+
 
 def _drive_coefficient(amplitude: float, period: float, k: int) -> float:
     omega = 2.0 * math.pi / period
@@ -129,15 +130,14 @@ def taylor_coefficients_of(chains, order: int, static=None, *, whole: bool = Tru
             u[k, :, 0] = per_unique(lambda a, p, k=k: _drive_coefficient(a, p, k), amplitude, period)
     elif order >= 1:
         u[1, :, 0] = chains.column("excitation.impact")
-    a_c, delta0 = st.contact_constant[:, :n_grains + 1], st.static_overlap[:, :n_grains + 1]
+    a_c, delta0 = st.contact_constant[:, : n_grains + 1], st.static_overlap[:, : n_grains + 1]
     loaded = (a_c > 0) & (delta0 > 0)
     any_loaded = bool(np.any(loaded))
     inv_mass = 1.0 / st.mass[:, :n_grains]
     damping = scene.damping.model
     gamma = chains.column("damping.gamma") if damping != "none" else None
     exponents = np.unique(st.exponent).tolist()
-    groups = [(slice(None), exponents[0])] if len(exponents) == 1 else [
-        (st.exponent == n, n) for n in exponents]
+    groups = [(slice(None), exponents[0])] if len(exponents) == 1 else [(st.exponent == n, n) for n in exponents]
     d = np.zeros((order, count, n_grains + 1))
     d[0] = delta0
     # the power series w = δ^(n−1) of each exponent group, grown one order per k: its rows 0…k−1 depend
@@ -150,9 +150,9 @@ def taylor_coefficients_of(chains, order: int, static=None, *, whole: bool = Tru
             series.append(w)
     for k in range(0, order - 1):
         # overlap series of every padded contact up to order k (rows 1…k rewritten each order)
-        d[1:k + 1, :, 1:n_grains] = u[1:k + 1, :, :-1] - u[1:k + 1, :, 1:]
-        d[1:k + 1, :, 0] = -u[1:k + 1, :, 0]
-        d[1:k + 1, :, n_grains] = u[1:k + 1, :, -1]  # the bottom wall, or the still grain past the cut
+        d[1 : k + 1, :, 1:n_grains] = u[1 : k + 1, :, :-1] - u[1 : k + 1, :, 1:]
+        d[1 : k + 1, :, 0] = -u[1 : k + 1, :, 0]
+        d[1 : k + 1, :, n_grains] = u[1 : k + 1, :, -1]  # the bottom wall, or the still grain past the cut
         force_k = np.zeros((count, n_grains + 1))
         if k >= 1 and any_loaded:
             for (rows, n), w in zip(groups, series):

@@ -90,11 +90,19 @@ def static_state(scene: Scene) -> StaticState:
     carried[a_c == 0.0] = 0.0
     with np.errstate(divide="ignore", invalid="ignore"):
         overlap = np.where(carried > 0, (carried / (n * np.where(a_c > 0, a_c, 1.0))) ** (1.0 / (n - 1.0)), 0.0)
-    return StaticState(mass=mass, self_constant=self_a, contact_constant=a_c, carried_force=carried,
-                       static_overlap=overlap, exponent=n, surface_force=f0)
+    return StaticState(
+        mass=mass,
+        self_constant=self_a,
+        contact_constant=a_c,
+        carried_force=carried,
+        static_overlap=overlap,
+        exponent=n,
+        surface_force=f0,
+    )
 
 
 # ---- many chains at once -------------------------------------------------------------------
+
 
 @dataclass(frozen=True)
 class StaticArrays:
@@ -176,10 +184,15 @@ def static_arrays(chains, *, grains: int | None = None) -> StaticArrays:
         return _static_arrays(chains, grains)
     first, inverse = shared
     one = _static_arrays(chains.take(first), grains)
-    return StaticArrays(mass=one.mass[inverse], self_constant=one.self_constant[inverse],
-                        contact_constant=one.contact_constant[inverse], carried_force=one.carried_force[inverse],
-                        static_overlap=one.static_overlap[inverse], exponent=one.exponent[inverse],
-                        surface_force=one.surface_force[inverse])
+    return StaticArrays(
+        mass=one.mass[inverse],
+        self_constant=one.self_constant[inverse],
+        contact_constant=one.contact_constant[inverse],
+        carried_force=one.carried_force[inverse],
+        static_overlap=one.static_overlap[inverse],
+        exponent=one.exponent[inverse],
+        surface_force=one.surface_force[inverse],
+    )
 
 
 def _static_arrays(chains, grains: int | None) -> StaticArrays:
@@ -216,12 +229,17 @@ def _static_arrays(chains, grains: int | None) -> StaticArrays:
     if scene.boundary.bottom == "wall" and not cut:
         a_c[:, n_grains] = self_a[:, -1]
     if cut:
-        mass, self_a, a_c = mass[:, :window], self_a[:, :window], a_c[:, :window + 1]
+        mass, self_a, a_c = mass[:, :window], self_a[:, :window], a_c[:, : window + 1]
 
     exponent = chains.column("chain.exponent")
     load = chains.column("chain.load")
-    f0 = per_unique(_surface_force, load if load is not None else np.full(count, np.nan),
-                    chains.column("chain.l0"), exponent, chains.column("chain.a"))
+    f0 = per_unique(
+        _surface_force,
+        load if load is not None else np.full(count, np.nan),
+        chains.column("chain.l0"),
+        exponent,
+        chains.column("chain.a"),
+    )
     g = chains.column("chain.gravity")
     carried = np.zeros((count, window + 1))
     carried[:, 1:] = f0[:, None] + g[:, None] * np.cumsum(mass, axis=1)
@@ -230,5 +248,12 @@ def _static_arrays(chains, grains: int | None) -> StaticArrays:
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = carried / (exponent[:, None] * np.where(a_c > 0, a_c, 1.0))
         overlap = np.where(carried > 0, _power_by_exponent(ratio, exponent, lambda n: 1.0 / (n - 1.0)), 0.0)
-    return StaticArrays(mass=mass, self_constant=self_a, contact_constant=a_c, carried_force=carried,
-                        static_overlap=overlap, exponent=exponent, surface_force=f0)
+    return StaticArrays(
+        mass=mass,
+        self_constant=self_a,
+        contact_constant=a_c,
+        carried_force=carried,
+        static_overlap=overlap,
+        exponent=exponent,
+        surface_force=f0,
+    )

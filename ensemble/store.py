@@ -73,8 +73,14 @@ def _axis_key(name: str, values: np.ndarray, dim: int, shape: tuple[int, ...], d
     return ""
 
 
-def write_result(path: str | Path, result: RunResult, *, axes: dict[str, np.ndarray] | None = None,
-                 sweep: dict | None = None, overwrite: bool = False) -> Path:
+def write_result(
+    path: str | Path,
+    result: RunResult,
+    *,
+    axes: dict[str, np.ndarray] | None = None,
+    sweep: dict | None = None,
+    overwrite: bool = False,
+) -> Path:
     """Write a run (or an ensemble shaped by ``axes``: name → coordinate values, C order) as a Zarr v3
     store, through the sweep store's writer: a run is a sweep with no axes, one batch.
 
@@ -104,9 +110,17 @@ def write_result(path: str | Path, result: RunResult, *, axes: dict[str, np.ndar
     else:
         differences = scene_differences(list(scenes)) if len(scenes) > 1 else {}
     dimensions = tuple(
-        Dimension(axes=(Axis(name=name, key=_axis_key(name, values.tolist(), d, shape, differences),
-                             values=tuple(values.tolist())),))
-        for d, (name, values) in enumerate(axes.items()))
+        Dimension(
+            axes=(
+                Axis(
+                    name=name,
+                    key=_axis_key(name, values.tolist(), d, shape, differences),
+                    values=tuple(values.tolist()),
+                ),
+            )
+        )
+        for d, (name, values) in enumerate(axes.items())
+    )
     definition = Sweep(base=scene, dimensions=dimensions)
     plan = single_batch_plan(shape, scene, result.features, result.device)
     attributes = {"scene_overrides": json.dumps(differences)}
@@ -167,8 +181,9 @@ def summary_columns(path: str | Path) -> dict[str, np.ndarray]:
     for name in ("energy_error", "max_overlap", "wall_seconds"):
         columns[name] = np.asarray(group[name][...], dtype=np.float64).reshape(-1)
     if "grain_steps_per_second" in members:
-        columns["grain_steps_per_second"] = np.asarray(group["grain_steps_per_second"][...],
-                                                       dtype=np.float64).reshape(-1)
+        columns["grain_steps_per_second"] = np.asarray(group["grain_steps_per_second"][...], dtype=np.float64).reshape(
+            -1
+        )
     else:
         columns["grain_steps_per_second"] = np.full(count, float(prov["grain_steps_per_second"]))
     columns["device"] = np.full(count, str(prov["device"]))
@@ -176,8 +191,7 @@ def summary_columns(path: str | Path) -> dict[str, np.ndarray]:
     # the scheme of every point from its launch group: plain numpy (numbers, fixed-width strings)
     if "launch_group" in members and launch_groups:
         point_group = np.asarray(group["launch_group"][...]).reshape(-1).astype(np.int64)
-        point_group = np.where((point_group >= 0) & (point_group < len(launch_groups)), point_group,
-                               len(launch_groups))
+        point_group = np.where((point_group >= 0) & (point_group < len(launch_groups)), point_group, len(launch_groups))
     else:
         point_group = np.full(count, len(launch_groups), dtype=np.int64)
     for key in SUMMARY_SCHEME:

@@ -32,12 +32,37 @@ from .scene import Scene, SceneError, UnknownKeyError, apply_overrides, read_tom
 
 AXIS_KEYS = ("name", "key", "values", "linspace", "logspace")
 SPACINGS = ("values", "linspace", "logspace")
-RESERVED_NAMES = frozenset({
-    "t", "record", "grain", "sample", "traced", "trace_t", "traced_grain", "u", "v", "energy", "work",
-    "trace_u", "trace_v", "status", "energy_error", "max_overlap", "wall_seconds", "grain_steps_per_second",
-    "batch", "batches", "dissipated", "response", "window_ke", "driver_open", "window_start", "window",
-    "harmonic",
-})
+RESERVED_NAMES = frozenset(
+    {
+        "t",
+        "record",
+        "grain",
+        "sample",
+        "traced",
+        "trace_t",
+        "traced_grain",
+        "u",
+        "v",
+        "energy",
+        "work",
+        "trace_u",
+        "trace_v",
+        "status",
+        "energy_error",
+        "max_overlap",
+        "wall_seconds",
+        "grain_steps_per_second",
+        "batch",
+        "batches",
+        "dissipated",
+        "response",
+        "window_ke",
+        "driver_open",
+        "window_start",
+        "window",
+        "harmonic",
+    }
+)
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 MAX_POINTS = 10**7
 """Sweeps with more points are refused unless asked for (``--allow-large``): counted from the axis
@@ -154,6 +179,7 @@ class Sweep:
 
 # ---- parsing -----------------------------------------------------------------------
 
+
 def _scalar_list(key: str, values: Any) -> tuple:
     if not isinstance(values, list) or not values:
         raise SceneError(key, values, "must be a non-empty list of numbers, strings or booleans")
@@ -172,8 +198,11 @@ def _scalar_list(key: str, values: Any) -> tuple:
 
 def _spacing(key: str, spec: Any, log: bool, max_points: int | None = MAX_POINTS) -> tuple:
     what = "[from_exponent, to_exponent, count]" if log else "[first, last, count]"
-    if (not isinstance(spec, list) or len(spec) != 3
-            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in spec)):
+    if (
+        not isinstance(spec, list)
+        or len(spec) != 3
+        or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in spec)
+    ):
         raise SceneError(key, spec, f"must be {what}")
     start, stop, count = spec
     if not all(math.isfinite(x) for x in spec):
@@ -197,18 +226,28 @@ def _parse_axis(k: int, raw: Any, max_points: int | None = MAX_POINTS) -> Axis:
             raise UnknownKeyError(f"{where}.{key}", AXIS_KEYS)
     name = raw.get("name")
     if not isinstance(name, str) or not _NAME.match(name):
-        raise SceneError(f"{where}.name", name, "is required: a name of letters, digits and _ (not starting "
-                         "with a digit), e.g. \"v_imp\"")
+        raise SceneError(
+            f"{where}.name",
+            name,
+            'is required: a name of letters, digits and _ (not starting with a digit), e.g. "v_imp"',
+        )
     if name in RESERVED_NAMES:
-        raise SceneError(f"{where}.name", name, f"is a store variable name; choose another "
-                         f"(reserved: {', '.join(sorted(RESERVED_NAMES))})")
+        raise SceneError(
+            f"{where}.name",
+            name,
+            f"is a store variable name; choose another (reserved: {', '.join(sorted(RESERVED_NAMES))})",
+        )
     key = raw.get("key")
     if not isinstance(key, str) or not key:
-        raise SceneError(f"{where}.key", key, "is required: a dotted scene key, e.g. \"excitation.impact\"")
+        raise SceneError(f"{where}.key", key, 'is required: a dotted scene key, e.g. "excitation.impact"')
     given = [s for s in SPACINGS if s in raw]
     if len(given) != 1:
-        raise SceneError(where, name, "give exactly one of values, linspace = [first, last, count] or "
-                         "logspace = [from_exponent, to_exponent, count]")
+        raise SceneError(
+            where,
+            name,
+            "give exactly one of values, linspace = [first, last, count] or "
+            "logspace = [from_exponent, to_exponent, count]",
+        )
     spacing = given[0]
     if spacing == "values":
         values = _scalar_list(f"{where}.values", raw["values"])
@@ -237,7 +276,7 @@ def _parse_zips(raw: Any, names: list[str]) -> list[tuple[str, ...]]:
     if isinstance(raw, dict):
         raw = [raw]
     if not isinstance(raw, list):
-        raise SceneError("zip", raw, "must be an array of tables: [[zip]] axes = [\"v_imp\", \"l0\"]")
+        raise SceneError("zip", raw, 'must be an array of tables: [[zip]] axes = ["v_imp", "l0"]')
     groups, seen = [], {}
     for z, table in enumerate(raw):
         where = f"zip[{z}]"
@@ -253,8 +292,9 @@ def _parse_zips(raw: Any, names: list[str]) -> list[tuple[str, ...]]:
             if a not in names:
                 raise SceneError(f"{where}.axes", a, f"no such axis; axes: {', '.join(names)}")
             if a in seen:
-                raise SceneError(f"{where}.axes", a, f"axis already in zip[{seen[a]}] (an axis may be in one "
-                                 "zip group)")
+                raise SceneError(
+                    f"{where}.axes", a, f"axis already in zip[{seen[a]}] (an axis may be in one zip group)"
+                )
             seen[a] = z
         if len(set(axes)) != len(axes):
             raise SceneError(f"{where}.axes", axes, "axis names must not repeat")
@@ -262,8 +302,14 @@ def _parse_zips(raw: Any, names: list[str]) -> list[tuple[str, ...]]:
     return groups
 
 
-def sweep_from_dict(data: dict, *, base_dir: str | Path = ".", overrides: dict[str, Any] | None = None,
-                    source: str = "", max_points: int | None = MAX_POINTS) -> Sweep:
+def sweep_from_dict(
+    data: dict,
+    *,
+    base_dir: str | Path = ".",
+    overrides: dict[str, Any] | None = None,
+    source: str = "",
+    max_points: int | None = MAX_POINTS,
+) -> Sweep:
     """Build a sweep from parsed TOML: ``scene`` (path relative to ``base_dir``, or a table), ``[[axis]]``,
     ``[[zip]]``. ``overrides`` (``--set``) apply to the base scene before the axes. More than ``max_points``
     points (None: no limit) are refused before the grid is expanded."""
@@ -273,8 +319,9 @@ def sweep_from_dict(data: dict, *, base_dir: str | Path = ".", overrides: dict[s
         if key not in ("scene", "axis", "zip"):
             raise UnknownKeyError(key, ("scene", "axis", "zip"))
     if "scene" not in data:
-        raise SceneError("scene", None, "is required: a scene file path (relative to the sweep file) or an "
-                         "inline [scene] table")
+        raise SceneError(
+            "scene", None, "is required: a scene file path (relative to the sweep file) or an inline [scene] table"
+        )
     raw_scene = data["scene"]
     if isinstance(raw_scene, str):
         scene_path = Path(base_dir) / raw_scene
@@ -316,30 +363,38 @@ def sweep_from_dict(data: dict, *, base_dir: str | Path = ".", overrides: dict[s
             members = tuple(by_name[n] for n in group)
             for n, member in zip(group, members):
                 if len(member.values) != len(members[0].values):
-                    raise SceneError(f"zip[{zips.index(group)}].axes", n,
-                                     f"has {len(member.values)} values but {group[0]} has "
-                                     f"{len(members[0].values)}: zipped axes need equal lengths")
+                    raise SceneError(
+                        f"zip[{zips.index(group)}].axes",
+                        n,
+                        f"has {len(member.values)} values but {group[0]} has "
+                        f"{len(members[0].values)}: zipped axes need equal lengths",
+                    )
             dimensions.append(Dimension(axes=members))
     for dimension in dimensions:
         # the leading axis labels the store dimension; the other axes of a zip are coordinates
         # along it and may repeat values
         lead = dimension.axes[0]
         if len(set(lead.values)) != len(lead.values):
-            raise SceneError(f"axis[{names[lead.name]}].values", list(lead.values),
-                             "values must not repeat: they label a store dimension (in a [[zip]] group "
-                             "only the first axis labels it)")
+            raise SceneError(
+                f"axis[{names[lead.name]}].values",
+                list(lead.values),
+                "values must not repeat: they label a store dimension (in a [[zip]] group "
+                "only the first axis labels it)",
+            )
     _refuse_size("sweep points", math.prod(d.size for d in dimensions), max_points)
     return Sweep(base=base, dimensions=tuple(dimensions), zips=tuple(zips), source=source)
 
 
-def load_sweep(path: str | Path, overrides: dict[str, Any] | None = None, *,
-               max_points: int | None = MAX_POINTS) -> Sweep:
+def load_sweep(
+    path: str | Path, overrides: dict[str, Any] | None = None, *, max_points: int | None = MAX_POINTS
+) -> Sweep:
     """Read and validate a sweep file (the points' scenes are checked by :func:`sweep_scenes`)."""
     path = Path(path)
     if not path.is_file():
         raise SceneError("sweep file", str(path), "no such file")
-    return sweep_from_dict(read_toml(path), base_dir=path.parent, overrides=overrides, source=str(path),
-                           max_points=max_points)
+    return sweep_from_dict(
+        read_toml(path), base_dir=path.parent, overrides=overrides, source=str(path), max_points=max_points
+    )
 
 
 # ---- what every point must share ------------------------------------------------------
@@ -431,8 +486,9 @@ class SweepPoints:
             return np.zeros(points.shape, dtype=np.int64)
         index = self.grid_index(points)
         shape = self.sweep.shape
-        return np.ravel_multi_index(tuple(index[d] for d in self.structural),
-                                    tuple(shape[d] for d in self.structural)).astype(np.int64)
+        return np.ravel_multi_index(
+            tuple(index[d] for d in self.structural), tuple(shape[d] for d in self.structural)
+        ).astype(np.int64)
 
     def chains(self, points: np.ndarray) -> "ChainSet | list[Scene]":
         """The points (flat indices) as a ChainSet in the given order (a list of scenes when they span templates)."""
@@ -510,18 +566,25 @@ def _check_layout(templates: list[Scene]) -> None:
     for key, get in LAYOUT_KEYS:
         values = {get(s) for s in templates}
         if len(values) > 1:
-            raise SceneError(key, sorted(map(str, values)), "every point of a sweep shares the store's "
-                             "record/grain layout; sweep this key in separate sweeps")
+            raise SceneError(
+                key,
+                sorted(map(str, values)),
+                "every point of a sweep shares the store's record/grain layout; sweep this key in separate sweeps",
+            )
     t0, tt0 = record_times(first), trace_times(first)
     for s in templates:
         t = record_times(s)
         if not np.allclose(t, t0, rtol=1e-9, atol=0):
-            raise SceneError("record times", f"{t[1]:g} vs {t0[1]:g}", "every point must record at the same "
-                             "times (record.every a whole number of steps of each dt)")
+            raise SceneError(
+                "record times",
+                f"{t[1]:g} vs {t0[1]:g}",
+                "every point must record at the same times (record.every a whole number of steps of each dt)",
+            )
         tt = trace_times(s)
         if tt is not None and not np.allclose(tt, tt0, rtol=1e-9, atol=0):
-            raise SceneError("trace times", f"{tt[1]:g} vs {tt0[1]:g}", "every point must sample traces at "
-                             "the same times")
+            raise SceneError(
+                "trace times", f"{tt[1]:g} vs {tt0[1]:g}", "every point must sample traces at the same times"
+            )
 
 
 def expand(sweep: Sweep, *, validate: bool = True) -> SweepPoints:
@@ -537,8 +600,9 @@ def expand(sweep: Sweep, *, validate: bool = True) -> SweepPoints:
         for d, i in zip(structural, combo):
             index[d] = i
         templates.append(sweep.scene_at(tuple(index)))
-    expanded = SweepPoints(sweep=sweep, structural=tuple(structural), parameter=tuple(parameter),
-                           templates=tuple(templates))
+    expanded = SweepPoints(
+        sweep=sweep, structural=tuple(structural), parameter=tuple(parameter), templates=tuple(templates)
+    )
     if validate:
         validate_grid(expanded)
     _check_layout(templates)
@@ -554,10 +618,12 @@ def static_subgrid(expanded: SweepPoints, template: int) -> ChainSet:
     the injected energy ½·m_0·v_imp² grows, so the fastest impact of each static configuration decides it."""
     sweep = expanded.sweep
     shape = sweep.shape
-    impact_only = {d for d in expanded.parameter
-                   if all(a.key == "excitation.impact" for a in sweep.dimensions[d].axes)}
-    dims = [d for d in expanded.parameter if d not in impact_only
-            and any(_is_static_key(a.key) for a in sweep.dimensions[d].axes)]
+    impact_only = {d for d in expanded.parameter if all(a.key == "excitation.impact" for a in sweep.dimensions[d].axes)}
+    dims = [
+        d
+        for d in expanded.parameter
+        if d not in impact_only and any(_is_static_key(a.key) for a in sweep.dimensions[d].axes)
+    ]
     base = [0] * len(shape)
     if expanded.structural:
         combo = np.unravel_index(template, tuple(shape[d] for d in expanded.structural))

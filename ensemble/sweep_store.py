@@ -57,8 +57,16 @@ NOT_RUN = -1
 """``status`` of a point whose batch has not finished."""
 BATCHES = "batches"
 """Group holding the completion records: arrays ``done``, ``record`` and ``where`` over batches."""
-RECORD_COLUMNS = ("points", "wall_seconds", "grain_steps", "grain_steps_per_second", "energy_error_max",
-                  "finished", "build_seconds", "write_seconds")
+RECORD_COLUMNS = (
+    "points",
+    "wall_seconds",
+    "grain_steps",
+    "grain_steps_per_second",
+    "energy_error_max",
+    "finished",
+    "build_seconds",
+    "write_seconds",
+)
 """Columns of ``batches/record`` (float64; ``finished`` in seconds since 1970-01-01 UTC)."""
 WHERE_COLUMNS = ("device", "host", "worker", "kernel")
 """Columns of ``batches/where`` (strings)."""
@@ -68,10 +76,16 @@ TIMING_VARIABLES = ("wall_seconds", "grain_steps_per_second")
 """Per-point variables that measure the machine, not the physics (they differ between runs)."""
 
 FIELD_ATTRS = {
-    "u": {"coordinates": "t", "units": "program length (1e-5 m)",
-          "long_name": "displacement from static equilibrium, positive toward the bottom"},
-    "v": {"coordinates": "t", "units": "program velocity (1e-5 m / 1.0102e-3 s)",
-          "long_name": "velocity, positive toward the bottom"},
+    "u": {
+        "coordinates": "t",
+        "units": "program length (1e-5 m)",
+        "long_name": "displacement from static equilibrium, positive toward the bottom",
+    },
+    "v": {
+        "coordinates": "t",
+        "units": "program velocity (1e-5 m / 1.0102e-3 s)",
+        "long_name": "velocity, positive toward the bottom",
+    },
 }
 
 
@@ -87,8 +101,10 @@ def warp_version() -> str:
 
 def status_codes() -> dict[str, str]:
     """Status codes of a run plus ``-1: NOT_RUN``."""
-    return {str(NOT_RUN): "NOT_RUN: the point's batch has not finished (interrupted sweep; use --resume)",
-            **status_attrs()}
+    return {
+        str(NOT_RUN): "NOT_RUN: the point's batch has not finished (interrupted sweep; use --resume)",
+        **status_attrs(),
+    }
 
 
 # ---- variables ---------------------------------------------------------------------------
@@ -135,58 +151,150 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
 
     out = []
     for name in scene.record.fields:
-        out.append(dict(name=name, dims=dims + ("record", "grain"), trailing=(records, n), dtype=real,
-                        fill=np.nan, attrs={**FIELD_ATTRS[name], **coords("t")},
-                        rows_per_shard=records_per_shard(block_points, n * real.itemsize)))
+        out.append(
+            dict(
+                name=name,
+                dims=dims + ("record", "grain"),
+                trailing=(records, n),
+                dtype=real,
+                fill=np.nan,
+                attrs={**FIELD_ATTRS[name], **coords("t")},
+                rows_per_shard=records_per_shard(block_points, n * real.itemsize),
+            )
+        )
     if scene.record.energy:
-        out.append(dict(name="energy", dims=dims + ("record",), trailing=(records,), dtype=np.dtype(np.float64),
-                        fill=np.nan, attrs={**coords("t"), "long_name": "total energy relative to the static "
-                                            "state (SPEC §5 E minus a constant)"}))
+        out.append(
+            dict(
+                name="energy",
+                dims=dims + ("record",),
+                trailing=(records,),
+                dtype=np.dtype(np.float64),
+                fill=np.nan,
+                attrs={
+                    **coords("t"),
+                    "long_name": "total energy relative to the static state (SPEC §5 E minus a constant)",
+                },
+            )
+        )
         if scene.boundary.surface == "driven":
-            out.append(dict(name="work", dims=dims + ("record",), trailing=(records,),
-                            dtype=np.dtype(np.float64), fill=np.nan,
-                            attrs={**coords("t"), "long_name": "work done by the driver on the chain"}))
+            out.append(
+                dict(
+                    name="work",
+                    dims=dims + ("record",),
+                    trailing=(records,),
+                    dtype=np.dtype(np.float64),
+                    fill=np.nan,
+                    attrs={**coords("t"), "long_name": "work done by the driver on the chain"},
+                )
+            )
     if scene.damping.model != "none" and scene.record.energy:
-        out.append(dict(name="dissipated", dims=dims + ("record",), trailing=(records,),
-                        dtype=np.dtype(np.float64), fill=np.nan,
-                        attrs={**coords("t"), "long_name": "energy dissipated by damping up to the record"}))
+        out.append(
+            dict(
+                name="dissipated",
+                dims=dims + ("record",),
+                trailing=(records,),
+                dtype=np.dtype(np.float64),
+                fill=np.nan,
+                attrs={**coords("t"), "long_name": "energy dissipated by damping up to the record"},
+            )
+        )
     if scene.has_response:
         windows, harmonics = scene.record.response_windows, scene.record.harmonics + 1
         out += [
-            dict(name="response", dims=dims + ("window", "harmonic", "grain"), trailing=(windows, harmonics, n),
-                 dtype=np.dtype(np.complex128), fill=complex(np.nan, np.nan),
-                 attrs={**coords("window_start"), "long_name": "V_k = (c_k/T_w) ∫ v e^{-ikωt} dt over the "
-                        "window (c_0 = 1, c_k = 2), t absolute [length/time]"}),
-            dict(name="window_ke", dims=dims + ("window", "grain"), trailing=(windows, n),
-                 dtype=np.dtype(np.float64), fill=np.nan,
-                 attrs={**coords("window_start"), "long_name": "window-averaged kinetic energy ½ m v²"}),
-            dict(name="driver_open", dims=dims + ("window",), trailing=(windows,), dtype=np.dtype(np.float64),
-                 fill=np.nan, attrs={**coords("window_start"), "long_name": "fraction of the window during "
-                                     "which the driver–grain-1 contact is open"}),
-            dict(name="window_start", dims=dims + ("window",), trailing=(windows,), dtype=np.dtype(np.float64),
-                 fill=np.nan, attrs={"long_name": "start time of the window (depends on the point's period)"}),
+            dict(
+                name="response",
+                dims=dims + ("window", "harmonic", "grain"),
+                trailing=(windows, harmonics, n),
+                dtype=np.dtype(np.complex128),
+                fill=complex(np.nan, np.nan),
+                attrs={
+                    **coords("window_start"),
+                    "long_name": "V_k = (c_k/T_w) ∫ v e^{-ikωt} dt over the "
+                    "window (c_0 = 1, c_k = 2), t absolute [length/time]",
+                },
+            ),
+            dict(
+                name="window_ke",
+                dims=dims + ("window", "grain"),
+                trailing=(windows, n),
+                dtype=np.dtype(np.float64),
+                fill=np.nan,
+                attrs={**coords("window_start"), "long_name": "window-averaged kinetic energy ½ m v²"},
+            ),
+            dict(
+                name="driver_open",
+                dims=dims + ("window",),
+                trailing=(windows,),
+                dtype=np.dtype(np.float64),
+                fill=np.nan,
+                attrs={
+                    **coords("window_start"),
+                    "long_name": "fraction of the window during which the driver–grain-1 contact is open",
+                },
+            ),
+            dict(
+                name="window_start",
+                dims=dims + ("window",),
+                trailing=(windows,),
+                dtype=np.dtype(np.float64),
+                fill=np.nan,
+                attrs={"long_name": "start time of the window (depends on the point's period)"},
+            ),
         ]
     tt = trace_times(scene)
     if tt is not None:
         per_record = trace_rows_per_record(scene)
-        trace_rows = None if per_record is None else per_record * records_per_shard(
-            block_points, per_record * len(scene.record.traces) * real.itemsize)
+        trace_rows = (
+            None
+            if per_record is None
+            else per_record * records_per_shard(block_points, per_record * len(scene.record.traces) * real.itemsize)
+        )
         for name in ("u", "v"):
-            out.append(dict(name=f"trace_{name}", dims=dims + ("sample", "traced"),
-                            trailing=(len(tt), len(scene.record.traces)), dtype=real, fill=np.nan,
-                            attrs=coords("trace_t", "traced_grain"), rows_per_shard=trace_rows))
+            out.append(
+                dict(
+                    name=f"trace_{name}",
+                    dims=dims + ("sample", "traced"),
+                    trailing=(len(tt), len(scene.record.traces)),
+                    dtype=real,
+                    fill=np.nan,
+                    attrs=coords("trace_t", "traced_grain"),
+                    rows_per_shard=trace_rows,
+                )
+            )
     out += [
-        dict(name="status", dims=dims, trailing=(), dtype=np.dtype(np.int32), fill=NOT_RUN,
-             attrs={**coords(), "flag_values": [int(k) for k in status_codes()], "flag_meanings": status_codes()}),
-        dict(name="energy_error", dims=dims, trailing=(), dtype=np.dtype(np.float64), fill=np.nan,
-             attrs={**coords(), "long_name": "max_t |E(t) - E(0) [- W(t)]| / E_inj (absolute when nothing "
-                    "is injected)"}),
-        dict(name="max_overlap", dims=dims, trailing=(), dtype=np.dtype(np.float64), fill=np.nan,
-             attrs=coords()),
-        dict(name="wall_seconds", dims=dims, trailing=(), dtype=np.dtype(np.float64), fill=np.nan,
-             attrs={**coords(), "long_name": "wall seconds of the ensemble, shared evenly among its chains"}),
-        dict(name="grain_steps_per_second", dims=dims, trailing=(), dtype=np.dtype(np.float64), fill=np.nan,
-             attrs={**coords(), "long_name": "throughput of the point's batch (all its chains)"}),
+        dict(
+            name="status",
+            dims=dims,
+            trailing=(),
+            dtype=np.dtype(np.int32),
+            fill=NOT_RUN,
+            attrs={**coords(), "flag_values": [int(k) for k in status_codes()], "flag_meanings": status_codes()},
+        ),
+        dict(
+            name="energy_error",
+            dims=dims,
+            trailing=(),
+            dtype=np.dtype(np.float64),
+            fill=np.nan,
+            attrs={**coords(), "long_name": "max_t |E(t) - E(0) [- W(t)]| / E_inj (absolute when nothing is injected)"},
+        ),
+        dict(name="max_overlap", dims=dims, trailing=(), dtype=np.dtype(np.float64), fill=np.nan, attrs=coords()),
+        dict(
+            name="wall_seconds",
+            dims=dims,
+            trailing=(),
+            dtype=np.dtype(np.float64),
+            fill=np.nan,
+            attrs={**coords(), "long_name": "wall seconds of the ensemble, shared evenly among its chains"},
+        ),
+        dict(
+            name="grain_steps_per_second",
+            dims=dims,
+            trailing=(),
+            dtype=np.dtype(np.float64),
+            fill=np.nan,
+            attrs={**coords(), "long_name": "throughput of the point's batch (all its chains)"},
+        ),
     ]
     return out
 
@@ -252,16 +360,30 @@ last batch's write is the sweep's tail, which nothing overlaps."""
 
 def _create(group, name: str, shape, dtype, dims, block, trailing, fill, attrs, rows_per_shard=None):
     chunks, shards = chunk_layout(tuple(block), tuple(trailing), np.dtype(dtype).itemsize, rows_per_shard)
-    return group.create_array(name, shape=tuple(shape), dtype=dtype, chunks=chunks, shards=shards,
-                              dimension_names=list(dims), fill_value=fill, attributes=attrs,
-                              compressors=zarr.codecs.ZstdCodec(level=RESULT_ZSTD_LEVEL))
+    return group.create_array(
+        name,
+        shape=tuple(shape),
+        dtype=dtype,
+        chunks=chunks,
+        shards=shards,
+        dimension_names=list(dims),
+        fill_value=fill,
+        attributes=attrs,
+        compressors=zarr.codecs.ZstdCodec(level=RESULT_ZSTD_LEVEL),
+    )
 
 
 def _small(group, name: str, data: np.ndarray, dims: tuple[str, ...], attrs: dict | None = None):
     data = np.asarray(data)
-    arr = group.create_array(name, shape=data.shape, dtype=data.dtype if data.dtype.kind != "U" else str,
-                             chunks=data.shape or (), dimension_names=list(dims),
-                             fill_value="" if data.dtype.kind == "U" else 0, attributes=attrs or {})
+    arr = group.create_array(
+        name,
+        shape=data.shape,
+        dtype=data.dtype if data.dtype.kind != "U" else str,
+        chunks=data.shape or (),
+        dimension_names=list(dims),
+        fill_value="" if data.dtype.kind == "U" else 0,
+        attributes=attrs or {},
+    )
     arr[...] = data
     return arr
 
@@ -271,12 +393,17 @@ def launch_groups_attr(plan: Plan) -> list[dict[str, Any]]:
     out = []
     for g in plan.groups:
         shared = dict(zip(names, g.key))
-        out.append({
-            "grains": shared["chain.grains"], "method": shared["integrator.method"],
-            "precision": shared["integrator.precision"], "dt": shared["integrator.dt"],
-            "steps": g.grain_steps_per_chain // shared["chain.grains"], "points": g.point_count,
-            "kernel_features": {k: getattr(g.features, k) for k in g.features.__dataclass_fields__},
-        })
+        out.append(
+            {
+                "grains": shared["chain.grains"],
+                "method": shared["integrator.method"],
+                "precision": shared["integrator.precision"],
+                "dt": shared["integrator.dt"],
+                "steps": g.grain_steps_per_chain // shared["chain.grains"],
+                "points": g.point_count,
+                "kernel_features": {k: getattr(g.features, k) for k in g.features.__dataclass_fields__},
+            }
+        )
     return out
 
 
@@ -308,8 +435,16 @@ def _provenance(plan: Plan, device: str) -> dict[str, Any]:
     }
 
 
-def create_sweep_store(path: str | Path, sweep: Sweep, scene: "Scene | list[Scene]", plan: Plan, *, device: str,
-                       overwrite: bool = False, attributes: dict[str, Any] | None = None) -> Path:
+def create_sweep_store(
+    path: str | Path,
+    sweep: Sweep,
+    scene: "Scene | list[Scene]",
+    plan: Plan,
+    *,
+    device: str,
+    overwrite: bool = False,
+    attributes: dict[str, Any] | None = None,
+) -> Path:
     """Create the whole store (metadata, coordinates, attributes) with no batch written; atomic.
 
     ``scene``: any point's scene (they share the layout), e.g. ``SweepPoints.templates[0]``;
@@ -328,51 +463,104 @@ def create_sweep_store(path: str | Path, sweep: Sweep, scene: "Scene | list[Scen
         root = zarr.open_group(store=str(target), mode="w", zarr_format=3)
         for dimension in sweep.dimensions:
             for axis in dimension.axes:
-                _small(root, axis.name, axis.coordinate(), (dimension.name,),
-                       {"scene_key": axis.key, "long_name": f"scene key {axis.key}"})
+                _small(
+                    root,
+                    axis.name,
+                    axis.coordinate(),
+                    (dimension.name,),
+                    {"scene_key": axis.key, "long_name": f"scene key {axis.key}"},
+                )
         _small(root, "t", record_times(scene), ("record",), {"units": "program time (1.0102e-3 s)"})
-        _small(root, "grain", np.arange(scene.chain.grains, dtype=np.int32), ("grain",),
-               {"long_name": "grain index from the surface"})
+        _small(
+            root,
+            "grain",
+            np.arange(scene.chain.grains, dtype=np.int32),
+            ("grain",),
+            {"long_name": "grain index from the surface"},
+        )
         if scene.has_response:
-            _small(root, "harmonic", np.arange(scene.record.harmonics + 1, dtype=np.int32), ("harmonic",),
-                   {"long_name": "harmonic k of the drive frequency"})
+            _small(
+                root,
+                "harmonic",
+                np.arange(scene.record.harmonics + 1, dtype=np.int32),
+                ("harmonic",),
+                {"long_name": "harmonic k of the drive frequency"},
+            )
         tt = trace_times(scene)
         if tt is not None:
             _small(root, "trace_t", tt, ("sample",))
             _small(root, "traced_grain", np.asarray(scene.record.traces, dtype=np.int32), ("traced",))
         for var in variables(sweep, scene, plan):
-            _create(root, var["name"], shape + var["trailing"], var["dtype"], var["dims"], plan.block,
-                    var["trailing"], var["fill"], var["attrs"], var.get("rows_per_shard"))
+            _create(
+                root,
+                var["name"],
+                shape + var["trailing"],
+                var["dtype"],
+                var["dims"],
+                plan.block,
+                var["trailing"],
+                var["fill"],
+                var["attrs"],
+                var.get("rows_per_shard"),
+            )
         group_attrs = {"long_name": "launch group of the point (index into the launch_groups attribute)"}
         companions = " ".join(a.name for d in sweep.dimensions for a in d.axes[1:])
         if companions:
             group_attrs["coordinates"] = companions
-        lg = root.create_array("launch_group", shape=shape, dtype=np.int32, chunks=plan.block or (),
-                               dimension_names=list(dims), fill_value=-1, attributes=group_attrs)
+        lg = root.create_array(
+            "launch_group",
+            shape=shape,
+            dtype=np.int32,
+            chunks=plan.block or (),
+            dimension_names=list(dims),
+            fill_value=-1,
+            attributes=group_attrs,
+        )
         lg[...] = plan.point_group.astype(np.int32)
         batches = root.create_group(BATCHES, attributes={"long_name": "completion records, one row per batch"})
         count = len(plan.batches)
-        batches.create_array("done", shape=(count,), dtype=np.int8, chunks=(1,), fill_value=0,
-                             dimension_names=["batch"], attributes={"long_name": "1 once the batch is written"})
-        batches.create_array("record", shape=(count, len(RECORD_COLUMNS)), dtype=np.float64,
-                             chunks=(1, len(RECORD_COLUMNS)), fill_value=np.nan,
-                             dimension_names=["batch", "column"], attributes={"columns": list(RECORD_COLUMNS)})
-        batches.create_array("where", shape=(count, len(WHERE_COLUMNS)), dtype=str, chunks=(1, len(WHERE_COLUMNS)),
-                             fill_value="", dimension_names=["batch", "column"],
-                             attributes={"columns": list(WHERE_COLUMNS)})
-        root.attrs.update({
-            "schema_version": SCHEMA_VERSION,
-            "scene": json.dumps(sweep.base.to_dict()),
-            "scenes_differ_along": list(dims),
-            "sweep": json.dumps({**sweep.to_dict(), "source": sweep.source}),
-            "sweep_fingerprint": sweep.fingerprint(),
-            "sweep_axes": {a.name: {"dim": d.name, "key": a.key} for d in sweep.dimensions for a in d.axes},
-            "sweep_block": list(plan.block),
-            "launch_groups": launch_groups_attr(plan),
-            "status_codes": status_codes(),
-            "provenance": _provenance(plan, device),
-            **(attributes or {}),
-        })
+        batches.create_array(
+            "done",
+            shape=(count,),
+            dtype=np.int8,
+            chunks=(1,),
+            fill_value=0,
+            dimension_names=["batch"],
+            attributes={"long_name": "1 once the batch is written"},
+        )
+        batches.create_array(
+            "record",
+            shape=(count, len(RECORD_COLUMNS)),
+            dtype=np.float64,
+            chunks=(1, len(RECORD_COLUMNS)),
+            fill_value=np.nan,
+            dimension_names=["batch", "column"],
+            attributes={"columns": list(RECORD_COLUMNS)},
+        )
+        batches.create_array(
+            "where",
+            shape=(count, len(WHERE_COLUMNS)),
+            dtype=str,
+            chunks=(1, len(WHERE_COLUMNS)),
+            fill_value="",
+            dimension_names=["batch", "column"],
+            attributes={"columns": list(WHERE_COLUMNS)},
+        )
+        root.attrs.update(
+            {
+                "schema_version": SCHEMA_VERSION,
+                "scene": json.dumps(sweep.base.to_dict()),
+                "scenes_differ_along": list(dims),
+                "sweep": json.dumps({**sweep.to_dict(), "source": sweep.source}),
+                "sweep_fingerprint": sweep.fingerprint(),
+                "sweep_axes": {a.name: {"dim": d.name, "key": a.key} for d in sweep.dimensions for a in d.axes},
+                "sweep_block": list(plan.block),
+                "launch_groups": launch_groups_attr(plan),
+                "status_codes": status_codes(),
+                "provenance": _provenance(plan, device),
+                **(attributes or {}),
+            }
+        )
         consolidate(target)
         if path.exists():
             shutil.rmtree(path)
@@ -383,6 +571,7 @@ def create_sweep_store(path: str | Path, sweep: Sweep, scene: "Scene | list[Scen
 
 
 # ---- resume -----------------------------------------------------------------------------
+
 
 def check_resumable(path: str | Path, sweep: Sweep) -> tuple[int, ...]:
     """Raise SweepStoreError unless ``path`` was made from this sweep by this package; return its block."""
@@ -395,16 +584,21 @@ def check_resumable(path: str | Path, sweep: Sweep) -> tuple[int, ...]:
     if "sweep_fingerprint" not in attrs:
         raise SweepStoreError(f"{path}: not a hertzian sweep store (no sweep_fingerprint attribute)")
     if attrs.get("schema_version") != SCHEMA_VERSION:
-        raise SweepStoreError(f"{path}: schema version {attrs.get('schema_version')} differs from this "
-                              f"package's {SCHEMA_VERSION}")
+        raise SweepStoreError(
+            f"{path}: schema version {attrs.get('schema_version')} differs from this package's {SCHEMA_VERSION}"
+        )
     if attrs["sweep_fingerprint"] != sweep.fingerprint():
-        raise SweepStoreError(f"{path} was made from a different sweep (scene or axes differ); resume with the "
-                              "sweep file it was made from, or write a new store")
+        raise SweepStoreError(
+            f"{path} was made from a different sweep (scene or axes differ); resume with the "
+            "sweep file it was made from, or write a new store"
+        )
     prov = attrs.get("provenance", {})
     for key, current in (("package_version", package_version()), ("warp_version", warp_version())):
         if prov.get(key) != current:
-            raise SweepStoreError(f"{path} was written by {key.replace('_', ' ')} {prov.get(key)}, this is "
-                                  f"{current}; a resumed store must come from one version (start a new store)")
+            raise SweepStoreError(
+                f"{path} was written by {key.replace('_', ' ')} {prov.get(key)}, this is "
+                f"{current}; a resumed store must come from one version (start a new store)"
+            )
     return tuple(attrs["sweep_block"])
 
 
@@ -427,6 +621,7 @@ def remove_partial_files(path: str | Path) -> int:
 
 
 # ---- filling -----------------------------------------------------------------------------
+
 
 def _open_for_writing(path: Path, name: str):
     # write_empty_chunks: skip comparing every inner chunk with the fill value before writing it (a batch's
@@ -503,8 +698,16 @@ class RowWriter:
         self._futures = []
 
 
-def write_batch(path: str | Path, batch: Batch, result: RunResult, *, grain_steps: int,
-                worker: str = "", build_seconds: float = 0.0, rows: RowWriter | None = None) -> dict[str, Any]:
+def write_batch(
+    path: str | Path,
+    batch: Batch,
+    result: RunResult,
+    *,
+    grain_steps: int,
+    worker: str = "",
+    build_seconds: float = 0.0,
+    rows: RowWriter | None = None,
+) -> dict[str, Any]:
     """Write one batch's results into its block, then its completion record; return the record.
 
     ``build_seconds``: host time spent building the batch's model and initial state (recorded). ``rows``: the
@@ -543,29 +746,48 @@ def write_batch(path: str | Path, batch: Batch, result: RunResult, *, grain_step
         arrays["dissipated"] = result.dissipated
     arrays.update(result.response)
     arrays.update({f"trace_{name}": data for name, data in result.traces.items()})
-    arrays.update({"status": result.status.astype(np.int32), "energy_error": result.energy_error,
-                   "max_overlap": result.max_overlap, "wall_seconds": np.full(chains, wall / chains),
-                   "grain_steps_per_second": np.full(chains, rate)})
+    arrays.update(
+        {
+            "status": result.status.astype(np.int32),
+            "energy_error": result.energy_error,
+            "max_overlap": result.max_overlap,
+            "wall_seconds": np.full(chains, wall / chains),
+            "grain_steps_per_second": np.full(chains, rate),
+        }
+    )
     for name, data in arrays.items():
         put(name, data)
     finished = datetime.now(timezone.utc)
     record = {
-        "points": chains, "wall_seconds": wall, "grain_steps": int(grain_steps), "grain_steps_per_second": rate,
+        "points": chains,
+        "wall_seconds": wall,
+        "grain_steps": int(grain_steps),
+        "grain_steps_per_second": rate,
         "energy_error_max": float(np.max(result.energy_error)) if chains else 0.0,
-        "finished": finished.timestamp(), "build_seconds": float(build_seconds),
+        "finished": finished.timestamp(),
+        "build_seconds": float(build_seconds),
         "write_seconds": time.perf_counter() - write_start + (rows.seconds if rows is not None else 0.0),
     }
-    where = {"device": result.device, "host": platform.node(), "worker": worker,
-             "kernel": str(getattr(result, "kernel", ""))}
+    where = {
+        "device": result.device,
+        "host": platform.node(),
+        "worker": worker,
+        "kernel": str(getattr(result, "kernel", "")),
+    }
     batches = zarr.open_group(store=str(path), path=BATCHES, mode="r+")
     batches["record"][batch.index] = np.array([record[c] for c in RECORD_COLUMNS], dtype=np.float64)
     batches["where"][batch.index] = np.array([where[c] for c in WHERE_COLUMNS], dtype=object)
     # the completion flag comes last: a batch without it is rerun on --resume
     batches["done"][batch.index] = 1
     codes, counts = np.unique(result.status, return_counts=True)
-    return {"batch": batch.index, **record, "grain_steps": int(grain_steps), **where,
-            "status_counts": {str(int(c)): int(k) for c, k in zip(codes, counts)},
-            "finished": finished.isoformat(timespec="seconds")}
+    return {
+        "batch": batch.index,
+        **record,
+        "grain_steps": int(grain_steps),
+        **where,
+        "status_counts": {str(int(c)): int(k) for c, k in zip(codes, counts)},
+        "finished": finished.isoformat(timespec="seconds"),
+    }
 
 
 def batch_records(path: str | Path, *, status_counts: bool = False) -> list[dict[str, Any]]:
@@ -583,8 +805,11 @@ def batch_records(path: str | Path, *, status_counts: bool = False) -> list[dict
         block = tuple(zarr.open_group(store=str(path), mode="r").attrs["sweep_block"])
     out = []
     for index in done:
-        rec = {"batch": index, **dict(zip(RECORD_COLUMNS, record[index].tolist())),
-               **dict(zip(WHERE_COLUMNS, [str(x) for x in where[index]]))}
+        rec = {
+            "batch": index,
+            **dict(zip(RECORD_COLUMNS, record[index].tolist())),
+            **dict(zip(WHERE_COLUMNS, [str(x) for x in where[index]])),
+        }
         rec["points"], rec["grain_steps"] = int(rec["points"]), int(rec["grain_steps"])
         rec["finished"] = datetime.fromtimestamp(rec["finished"], timezone.utc).isoformat(timespec="seconds")
         if status is not None:
@@ -609,19 +834,21 @@ def finalize(path: str | Path, *, session_seconds: float | None = None, session_
         steps = sum(r["grain_steps"] for r in records)
         devices = sorted({r["device"] for r in records})
         kernels = sorted({r["kernel"] for r in records if r["kernel"]})
-        prov.update({
-            "kernel": ",".join(kernels),
-            "build_seconds": sum(r["build_seconds"] for r in records),
-            "write_seconds": sum(r["write_seconds"] for r in records),
-            "device": ",".join(devices) if devices else prov["device"],
-            "hosts": sorted({r["host"] for r in records}),
-            "wall_seconds": wall,
-            "grain_steps_per_second": steps / wall if wall > 0 else 0.0,
-            "energy_error_max": max((r["energy_error_max"] for r in records), default=0.0),
-            "batches_done": len(records),
-            "complete": len(records) == prov["batches"],
-            "finished": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-        })
+        prov.update(
+            {
+                "kernel": ",".join(kernels),
+                "build_seconds": sum(r["build_seconds"] for r in records),
+                "write_seconds": sum(r["write_seconds"] for r in records),
+                "device": ",".join(devices) if devices else prov["device"],
+                "hosts": sorted({r["host"] for r in records}),
+                "wall_seconds": wall,
+                "grain_steps_per_second": steps / wall if wall > 0 else 0.0,
+                "energy_error_max": max((r["energy_error_max"] for r in records), default=0.0),
+                "batches_done": len(records),
+                "complete": len(records) == prov["batches"],
+                "finished": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            }
+        )
         if session_seconds is not None:
             prov["session_wall_seconds"] = session_seconds
             prov["session_grain_steps_per_second"] = session_grain_steps / max(session_seconds, 1e-12)
@@ -653,7 +880,10 @@ def differing_arrays(a: str | Path, b: str | Path, *, skip: tuple[str, ...] = TI
             out.append(name)
             continue
         x, y = np.asarray(ga[name][...]), np.asarray(gb[name][...])
-        if x.shape != y.shape or x.dtype != y.dtype or (
-                x.tobytes() != y.tobytes() if x.dtype.kind not in "OTU" else not np.array_equal(x, y)):
+        if (
+            x.shape != y.shape
+            or x.dtype != y.dtype
+            or (x.tobytes() != y.tobytes() if x.dtype.kind not in "OTU" else not np.array_equal(x, y))
+        ):
             out.append(name)
     return out

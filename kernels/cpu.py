@@ -22,13 +22,12 @@ substep's weight w (kernels/step.py's substep launches, in the same order; the i
 is the same per substep).
 """
 
-
 import functools
 
 import warp as wp
 
-from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
 from .events import event_functions
+from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
 from .gear import nordsieck_functions, refuse_composed_extras, substep_weight_function
 from .physics import contact_functions, contact_parameters, damping_functions, product_rn
 
@@ -81,8 +80,17 @@ def sweep_kernel(features: Features):
     substep_weight = substep_weight_function(f.method, f.precision)
 
     @wp.func
-    def contact(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),
-                c: int, k: int, d: real, a_c0: real, delta00: real, force00: real, n: real) -> real:
+    def contact(
+        static_overlap: wp.array2d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        c: int,
+        k: int,
+        d: real,
+        a_c0: real,
+        delta00: real,
+        force00: real,
+        n: real,
+    ) -> real:
         # excess force of padded contact k at relative displacement d (step.py's `contact`)
         if wp.static(PROFILE or HETERO):
             delta0 = delta00
@@ -99,8 +107,14 @@ def sweep_kernel(features: Features):
     driver_values = nordsieck.driver_values
 
     @wp.func
-    def write_traces(trace_x: wp.array4d(dtype=real), traced_grain: wp.array(dtype=wp.int32), trace_stride: int,
-                     x: wp.array3d(dtype=real), c: int, step_new: int):
+    def write_traces(
+        trace_x: wp.array4d(dtype=real),
+        traced_grain: wp.array(dtype=wp.int32),
+        trace_stride: int,
+        x: wp.array3d(dtype=real),
+        c: int,
+        step_new: int,
+    ):
         # kernels/step.py's trace sample: (u, dt·v) of each traced grain after a step k·stride, ring slot k % length
         if step_new % trace_stride == 0:
             sample = (step_new / trace_stride) % trace_x.shape[2]
@@ -186,8 +200,9 @@ def sweep_kernel(features: Features):
                 u_drive = product_rn(amplitude, wp.sin(omega * t_new))
                 t_old = wp.float64(step_new - 1) * dt
                 d_old = x_out[0, c, 0] - x_out[0, c, 1]
-                force_old = wp.float64(contact(static_overlap, contact_constant, c, 1, d_old, a_c0, delta00,
-                                               force00, n))
+                force_old = wp.float64(
+                    contact(static_overlap, contact_constant, c, 1, d_old, a_c0, delta00, force00, n)
+                )
                 if wp.static(DASHPOT):
                     # the driver also pushes through the dashpot of its contact (work includes it)
                     rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old)) - x_out[1, c, 1]
@@ -205,8 +220,8 @@ def sweep_kernel(features: Features):
                 if wp.static(EVENTS):
                     driver_old = driver_values(amplitude, omega, t_old, dt)
             if wp.static(EVENTS):
-                u_above = real(0)         # predicted position of the grain above (0: the wall)
-                above_old = values_t()    # its Nordsieck vector at t_n (already overwritten in x_out)
+                u_above = real(0)  # predicted position of the grain above (0: the wall)
+                above_old = values_t()  # its Nordsieck vector at t_n (already overwritten in x_out)
             force_above = real(0)  # excess force of the contact above the current grain
             if wp.static(DASHPOT):
                 # the grain above at t_n and predicted (its x_out values are already overwritten)
@@ -217,12 +232,21 @@ def sweep_kernel(features: Features):
             if wp.static(SURFACE_WALL):
                 if wp.static(f.compensation):
                     # a wall is a grain at rest at 0 (as the fused kernel's padding grains)
-                    force_above = contact(static_overlap, contact_constant, c, 0,
-                                          gap(nordsieck.exact_position(wp.float64(0.0)), position_here),
-                                          a_c0, delta00, force00, n)
+                    force_above = contact(
+                        static_overlap,
+                        contact_constant,
+                        c,
+                        0,
+                        gap(nordsieck.exact_position(wp.float64(0.0)), position_here),
+                        a_c0,
+                        delta00,
+                        force00,
+                        n,
+                    )
                 else:
-                    force_above = contact(static_overlap, contact_constant, c, 0, -rounded(position_here), a_c0,
-                                          delta00, force00, n)
+                    force_above = contact(
+                        static_overlap, contact_constant, c, 0, -rounded(position_here), a_c0, delta00, force00, n
+                    )
             for i in range(n_grains):
                 u_here = rounded(position_here)
                 position_next = position_here
@@ -234,17 +258,35 @@ def sweep_kernel(features: Features):
                     else:
                         position_next = predicted_at(x_out, c, i + 1)
                     u_next = rounded(position_next)
-                    force_below = contact(static_overlap, contact_constant, c, i + 1, gap(position_here, position_next),
-                                          a_c0, delta00, force00, n)
+                    force_below = contact(
+                        static_overlap,
+                        contact_constant,
+                        c,
+                        i + 1,
+                        gap(position_here, position_next),
+                        a_c0,
+                        delta00,
+                        force00,
+                        n,
+                    )
                 else:
                     if wp.static(BOTTOM_WALL):
                         if wp.static(f.compensation):
-                            force_below = contact(static_overlap, contact_constant, c, n_grains,
-                                                  gap(position_here, nordsieck.exact_position(wp.float64(0.0))),
-                                                  a_c0, delta00, force00, n)
+                            force_below = contact(
+                                static_overlap,
+                                contact_constant,
+                                c,
+                                n_grains,
+                                gap(position_here, nordsieck.exact_position(wp.float64(0.0))),
+                                a_c0,
+                                delta00,
+                                force00,
+                                n,
+                            )
                         else:
-                            force_below = contact(static_overlap, contact_constant, c, n_grains, u_here,
-                                                  a_c0, delta00, force00, n)
+                            force_below = contact(
+                                static_overlap, contact_constant, c, n_grains, u_here, a_c0, delta00, force00, n
+                            )
                 held = False
                 if wp.static(FIXED):
                     held = i == last
@@ -322,11 +364,13 @@ def sweep_kernel(features: Features):
                                 up += f_new_a
                                 if outer:
                                     loss_new += f_new_a * (a_rate - own_rate) / h
-                                    f_old_a = dashpot(delta0_above, a_u_old - own_u_old, a_rate_old - own_rate_old,
-                                                      gamma, h)
+                                    f_old_a = dashpot(
+                                        delta0_above, a_u_old - own_u_old, a_rate_old - own_rate_old, gamma, h
+                                    )
                                     loss_old += f_old_a * (a_rate_old - own_rate_old) / h
                         dissipated[c, i] = dissipated[c, i] + dt * wp.float64(0.5) * (
-                            wp.float64(loss_old) + wp.float64(loss_new))
+                            wp.float64(loss_old) + wp.float64(loss_new)
+                        )
                     half_h2_acc = real(0.5) * h * h * (up - down) * m_inv
                     if wp.static(VISCOUS):
                         half_h2_acc -= real(0.5) * h * damping[c] * predicted_rate(x_out, c, i)  # h²/2 · (−γ v)
@@ -344,14 +388,26 @@ def sweep_kernel(features: Features):
                         p_below = params(static_overlap, contact_constant, exponent, c, i + 1)
                         flagged = False
                         if has_above:
-                            flagged = near_event(p_above[0] + (above_old[0] - own_old[0]),
-                                                 p_above[0] + (u_above - u_here), above_old[1] - own_old[1], h)
+                            flagged = near_event(
+                                p_above[0] + (above_old[0] - own_old[0]),
+                                p_above[0] + (u_above - u_here),
+                                above_old[1] - own_old[1],
+                                h,
+                            )
                         if has_below:
-                            flagged = flagged or near_event(p_below[0] + (own_old[0] - below[0]),
-                                                            p_below[0] + (u_here - u_next), own_old[1] - below[1], h)
+                            flagged = flagged or near_event(
+                                p_below[0] + (own_old[0] - below[0]),
+                                p_below[0] + (u_here - u_next),
+                                own_old[1] - below[1],
+                                h,
+                            )
                         if flagged:
-                            nordsieck.store(x_out, c, i, event_step(own_old, above_old, below, has_above, has_below,
-                                                                    p_above, p_below, m_inv, h))
+                            nordsieck.store(
+                                x_out,
+                                c,
+                                i,
+                                event_step(own_old, above_old, below, has_above, has_below, p_above, p_below, m_inv, h),
+                            )
                         else:
                             correct(x_out, x_out, c, i, u_here, half_h2_acc)
                     elif wp.static(COMPOSED):
@@ -369,14 +425,15 @@ def sweep_kernel(features: Features):
                     above_old = own_old
                     if wp.static(DRIVEN):
                         if i == 0:
-                            above_old = driver_old   # step.py: grain 1 sees the driver's vector at t_n
+                            above_old = driver_old  # step.py: grain 1 sees the driver's vector at t_n
                 position_here = position_next
             if wp.static(TRACES):
                 # after a whole step (a composed method: after its last substep)
                 if wp.static(COMPOSED):
                     if _step % wp.static(SUBSTEPS) == wp.static(SUBSTEPS - 1):
-                        write_traces(trace_x, traced_grain, trace_stride, x_out, c,
-                                     clock_in[0] + _step / wp.static(SUBSTEPS) + 1)
+                        write_traces(
+                            trace_x, traced_grain, trace_stride, x_out, c, clock_in[0] + _step / wp.static(SUBSTEPS) + 1
+                        )
                 else:
                     write_traces(trace_x, traced_grain, trace_stride, x_out, c, clock_in[0] + _step + 1)
         if wp.static(DRIVEN):
@@ -386,10 +443,33 @@ def sweep_kernel(features: Features):
     return sweep
 
 
-def launch_sweep(kernel, *, x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status,
-                 dt: float, steps: int, x_out, clock_out, device, drive, work_in, power_in, work_out, power_out,
-                 damping, dissipated, traced_grain, trace_stride: int, trace_x,
-                 chains: tuple[int, int] | None = None):
+def launch_sweep(
+    kernel,
+    *,
+    x_in,
+    clock_in,
+    inverse_mass,
+    contact_constant,
+    static_overlap,
+    exponent,
+    status,
+    dt: float,
+    steps: int,
+    x_out,
+    clock_out,
+    device,
+    drive,
+    work_in,
+    power_in,
+    work_out,
+    power_out,
+    damping,
+    dissipated,
+    traced_grain,
+    trace_stride: int,
+    trace_x,
+    chains: tuple[int, int] | None = None,
+):
     """Launch ``steps`` steps of the sweep kernel for chains ``chains = (first, end)`` (default: all), one
     kernel thread per chain.
 
@@ -401,8 +481,34 @@ def launch_sweep(kernel, *, x_in, clock_in, inverse_mass, contact_constant, stat
     ``traced_grain`` (traced,), ``trace_stride`` and the ring ``trace_x`` (2, chains, length, traced): traces
     (unused, size 0, without them)."""
     first, end = chains if chains is not None else (0, x_in.shape[1])
-    wp.launch(kernel, dim=end - first,
-              inputs=[x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status,
-                      dt, steps, drive, work_in, power_in],
-              outputs=[x_out, clock_out, work_out, power_out, damping, dissipated, traced_grain, trace_stride,
-                       trace_x, first], device=device)
+    wp.launch(
+        kernel,
+        dim=end - first,
+        inputs=[
+            x_in,
+            clock_in,
+            inverse_mass,
+            contact_constant,
+            static_overlap,
+            exponent,
+            status,
+            dt,
+            steps,
+            drive,
+            work_in,
+            power_in,
+        ],
+        outputs=[
+            x_out,
+            clock_out,
+            work_out,
+            power_out,
+            damping,
+            dissipated,
+            traced_grain,
+            trace_stride,
+            trace_x,
+            first,
+        ],
+        device=device,
+    )

@@ -90,19 +90,43 @@ def event_functions(features: Features):
         return vec3(u, du, ddu)
 
     @wp.func
-    def acceleration(u: real, u_above: real, u_below: real, has_above: bool, has_below: bool,
-                     p_above: vec3, p_below: vec3, force0: vec2, inv_m: real) -> real:
+    def acceleration(
+        u: real,
+        u_above: real,
+        u_below: real,
+        has_above: bool,
+        has_below: bool,
+        p_above: vec3,
+        p_below: vec3,
+        force0: vec2,
+        inv_m: real,
+    ) -> real:
         # (F_above − F_below)/m in excess of the static forces ``force0`` = (F(δ0_above), F(δ0_below)); a contact the
         # grain lacks contributes 0 (computed and discarded: no branch)
-        excess = pair_forces(vec2(p_above[0] + (u_above - u), p_below[0] + (u - u_below)), vec2(p_above[1], p_below[1]),
-                             force0, p_above[2])
+        excess = pair_forces(
+            vec2(p_above[0] + (u_above - u), p_below[0] + (u - u_below)),
+            vec2(p_above[1], p_below[1]),
+            force0,
+            p_above[2],
+        )
         up = wp.where(has_above, excess[0], real(0))
         down = wp.where(has_below, excess[1], real(0))
         return (up - down) * inv_m
 
     @wp.func
-    def jerks(u: real, hv: real, hha: real, above: vec3, below: vec3, has_above: bool, has_below: bool,
-              p_above: vec3, p_below: vec3, inv_m: real, hh: real) -> vec2:
+    def jerks(
+        u: real,
+        hv: real,
+        hha: real,
+        above: vec3,
+        below: vec3,
+        has_above: bool,
+        has_below: bool,
+        p_above: vec3,
+        p_below: vec3,
+        inv_m: real,
+        hh: real,
+    ) -> vec2:
         # (dt³·ȧ, dt⁴·ä) from (u, dt·v, dt²·a) of the grain and the neighbours' Taylor values
         j3 = real(0)
         j4 = real(0)
@@ -119,10 +143,21 @@ def event_functions(features: Features):
         return vec2(hh * j3 * inv_m, hh * j4 * inv_m)
 
     @wp.func
-    def event_step(own: values_t, above: values_t, below: values_t, has_above: bool, has_below: bool,
-                   p_above: vec3, p_below: vec3, inv_m: real, h: real) -> values_t:
+    def event_step(
+        own: values_t,
+        above: values_t,
+        below: values_t,
+        has_above: bool,
+        has_below: bool,
+        p_above: vec3,
+        p_below: vec3,
+        inv_m: real,
+        h: real,
+    ) -> values_t:
         hh = h * h
-        force0 = vec2(contact_force(p_above[0], p_above[1], p_above[2]), contact_force(p_below[0], p_below[1], p_below[2]))
+        force0 = vec2(
+            contact_force(p_above[0], p_above[1], p_above[2]), contact_force(p_below[0], p_below[1], p_below[2])
+        )
         u = own[0]
         hv = own[1]  # dt·v
         if wp.static(GEAR4):
@@ -142,20 +177,24 @@ def event_functions(features: Features):
             tm = (mf + real(0.5)) * s
             t1 = (mf + real(1)) * s
             k1u = hv
-            k1v = hh * acceleration(u, taylor(above, t0)[0], taylor(below, t0)[0], has_above, has_below,
-                                    p_above, p_below, force0, inv_m)
+            k1v = hh * acceleration(
+                u, taylor(above, t0)[0], taylor(below, t0)[0], has_above, has_below, p_above, p_below, force0, inv_m
+            )
             u2 = u + real(0.5) * s * k1u
             k2u = hv + real(0.5) * s * k1v
-            k2v = hh * acceleration(u2, taylor(above, tm)[0], taylor(below, tm)[0], has_above, has_below,
-                                    p_above, p_below, force0, inv_m)
+            k2v = hh * acceleration(
+                u2, taylor(above, tm)[0], taylor(below, tm)[0], has_above, has_below, p_above, p_below, force0, inv_m
+            )
             u3 = u + real(0.5) * s * k2u
             k3u = hv + real(0.5) * s * k2v
-            k3v = hh * acceleration(u3, taylor(above, tm)[0], taylor(below, tm)[0], has_above, has_below,
-                                    p_above, p_below, force0, inv_m)
+            k3v = hh * acceleration(
+                u3, taylor(above, tm)[0], taylor(below, tm)[0], has_above, has_below, p_above, p_below, force0, inv_m
+            )
             u4 = u + s * k3u
             k4u = hv + s * k3v
-            k4v = hh * acceleration(u4, taylor(above, t1)[0], taylor(below, t1)[0], has_above, has_below,
-                                    p_above, p_below, force0, inv_m)
+            k4v = hh * acceleration(
+                u4, taylor(above, t1)[0], taylor(below, t1)[0], has_above, has_below, p_above, p_below, force0, inv_m
+            )
             u = u + s / real(6) * (k1u + real(2) * k2u + real(2) * k3u + k4u)
             hv = hv + s / real(6) * (k1v + real(2) * k2v + real(2) * k3v + k4v)
         # restart the Nordsieck vector from the exact derivatives at t_{n+1}
@@ -184,8 +223,18 @@ def event_functions(features: Features):
         return o * tau + (x[wp.static(LO_RATE)] * tau + x[wp.static(LO_U)])
 
     @wp.func
-    def acceleration_of_offset(u0: real, du: real, above: values_t, below: values_t, tau: real, has_above: bool,
-                               has_below: bool, p_above: vec3, p_below: vec3, inv_m: real) -> real:
+    def acceleration_of_offset(
+        u0: real,
+        du: real,
+        above: values_t,
+        below: values_t,
+        tau: real,
+        has_above: bool,
+        has_below: bool,
+        p_above: vec3,
+        p_below: vec3,
+        inv_m: real,
+    ) -> real:
         # acceleration() with the contacts' relative displacements formed as (hi − hi) + (offset − offset),
         # so that they keep their digits when u ≫ δ (kernels/gear.py gap)
         up = real(0)
@@ -197,8 +246,17 @@ def event_functions(features: Features):
         return (up - down) * inv_m
 
     @wp.func
-    def event_step_compensated(own: values_t, above: values_t, below: values_t, has_above: bool, has_below: bool,
-                               p_above: vec3, p_below: vec3, inv_m: real, h: real) -> values_t:
+    def event_step_compensated(
+        own: values_t,
+        above: values_t,
+        below: values_t,
+        has_above: bool,
+        has_below: bool,
+        p_above: vec3,
+        p_below: vec3,
+        inv_m: real,
+        h: real,
+    ) -> values_t:
         # event_step in compensated float32: u = u0 + du and dt·v = hv0 + dhv, the substeps' small
         # increments accumulated in the offsets (a plain float32 u would drop their low bits), the
         # forces from offsets (acceleration_of_offset), the offsets folded back into (hi, lo) by TwoSum
@@ -210,8 +268,9 @@ def event_functions(features: Features):
         if wp.static(GEAR4):
             ta = taylor(above, real(0))
             tb = taylor(below, real(0))
-            hha = hh * acceleration_of_offset(u0, du, above, below, real(0), has_above, has_below, p_above, p_below,
-                                              inv_m)
+            hha = hh * acceleration_of_offset(
+                u0, du, above, below, real(0), has_above, has_below, p_above, p_below, inv_m
+            )
             j = jerks(u0 + du, hv0 + dhv, hha, ta, tb, has_above, has_below, p_above, p_below, inv_m, hh)
             dhv = dhv - j[1] / real(24)
         s = real(1) / real(wp.static(M))
@@ -221,25 +280,26 @@ def event_functions(features: Features):
             tm = (mf + real(0.5)) * s
             t1 = (mf + real(1)) * s
             k1u = hv0 + dhv
-            k1v = hh * acceleration_of_offset(u0, du, above, below, t0, has_above, has_below, p_above, p_below,
-                                              inv_m)
+            k1v = hh * acceleration_of_offset(u0, du, above, below, t0, has_above, has_below, p_above, p_below, inv_m)
             k2u = hv0 + (dhv + real(0.5) * s * k1v)
-            k2v = hh * acceleration_of_offset(u0, du + real(0.5) * s * k1u, above, below, tm, has_above, has_below,
-                                              p_above, p_below, inv_m)
+            k2v = hh * acceleration_of_offset(
+                u0, du + real(0.5) * s * k1u, above, below, tm, has_above, has_below, p_above, p_below, inv_m
+            )
             k3u = hv0 + (dhv + real(0.5) * s * k2v)
-            k3v = hh * acceleration_of_offset(u0, du + real(0.5) * s * k2u, above, below, tm, has_above, has_below,
-                                              p_above, p_below, inv_m)
+            k3v = hh * acceleration_of_offset(
+                u0, du + real(0.5) * s * k2u, above, below, tm, has_above, has_below, p_above, p_below, inv_m
+            )
             k4u = hv0 + (dhv + s * k3v)
-            k4v = hh * acceleration_of_offset(u0, du + s * k3u, above, below, t1, has_above, has_below,
-                                              p_above, p_below, inv_m)
+            k4v = hh * acceleration_of_offset(
+                u0, du + s * k3u, above, below, t1, has_above, has_below, p_above, p_below, inv_m
+            )
             du = du + s / real(6) * (k1u + real(2) * k2u + real(2) * k3u + k4u)
             dhv = dhv + s / real(6) * (k1v + real(2) * k2v + real(2) * k3v + k4v)
         u = u0 + du
         hv = hv0 + dhv
         ta = taylor(above, real(1))
         tb = taylor(below, real(1))
-        hha = hh * acceleration_of_offset(u0, du, above, below, real(1), has_above, has_below, p_above, p_below,
-                                          inv_m)
+        hha = hh * acceleration_of_offset(u0, du, above, below, real(1), has_above, has_below, p_above, p_below, inv_m)
         j = jerks(u, hv, hha, ta, tb, has_above, has_below, p_above, p_below, inv_m, hh)
         new = values_t()
         position = two_sum(u0, du)

@@ -104,7 +104,7 @@ def nordsieck_functions(method: str, precision: str, compensated: bool = False) 
     Q = GEAR_VALUES[method]
     COMP = compensated and precision != "float64"
     ROWS = state_rows(method, precision, compensated)
-    LO_U = Q       # row of u's low part (compensated only)
+    LO_U = Q  # row of u's low part (compensated only)
     LO_RATE = Q + 1  # row of dt·v's low part
     values_t = wp.types.vector(ROWS, real)
     GEAR = method in GEAR_CORRECTOR
@@ -149,7 +149,7 @@ def nordsieck_functions(method: str, precision: str, compensated: bool = False) 
         if wp.static(COMP and GEAR):
             # as below, with u and dt·v advanced by TwoSum (u_pred is recomputed unrounded)
             d1 = real(2) * v[2]  # p1 − x1
-            d2 = real(0)         # p2 − x2
+            d2 = real(0)  # p2 − x2
             p3 = real(0)
             p4 = real(0)
             p5 = real(0)
@@ -174,8 +174,9 @@ def nordsieck_functions(method: str, precision: str, compensated: bool = False) 
             # half_h2_acc − x2 is nearly exact (two close values); the small rest is subtracted after
             corr = (half_h2_acc - v[2]) - d2
             u = two_sum(v[0], position_increment(v) + real(wp.static(C[0][0])) / real(wp.static(C[0][1])) * corr)
-            rate = two_sum(v[1], v[wp.static(LO_RATE)]
-                           + (d1 + real(wp.static(C[1][0])) / real(wp.static(C[1][1])) * corr))
+            rate = two_sum(
+                v[1], v[wp.static(LO_RATE)] + (d1 + real(wp.static(C[1][0])) / real(wp.static(C[1][1])) * corr)
+            )
             new[0] = u[0]
             new[wp.static(LO_U)] = u[1]
             new[1] = rate[0]
@@ -254,15 +255,17 @@ def nordsieck_functions(method: str, precision: str, compensated: bool = False) 
         return predict_position(load(x, c, j))
 
     @wp.func
-    def correct(x_src: wp.array3d(dtype=real), x_dst: wp.array3d(dtype=real), c: int, i: int,
-                u_pred: real, half_h2_acc: real) -> vec2:
+    def correct(
+        x_src: wp.array3d(dtype=real), x_dst: wp.array3d(dtype=real), c: int, i: int, u_pred: real, half_h2_acc: real
+    ) -> vec2:
         new = corrected(load(x_src, c, i), u_pred, half_h2_acc)
         store(x_dst, c, i, new)
         return vec2(new[0], new[1])
 
     @wp.func
-    def driver_values_at(amplitude: wp.float64, omega: wp.float64, s: wp.float64, co: wp.float64,
-                         dt: wp.float64) -> values_t:
+    def driver_values_at(
+        amplitude: wp.float64, omega: wp.float64, s: wp.float64, co: wp.float64, dt: wp.float64
+    ) -> values_t:
         # the driver's scaled Nordsieck vector where sin ωt = s and cos ωt = co: x_j = dt^j/j! · d^j/dt^j (A sin ωt)
         v = values_t()
         scale = amplitude
@@ -358,8 +361,15 @@ def nordsieck_functions(method: str, precision: str, compensated: bool = False) 
         return new
 
     @wp.func
-    def substep_correct(x_src: wp.array3d(dtype=real), x_dst: wp.array3d(dtype=real), c: int, i: int,
-                        u_pred: real, half_h2_acc: real, w: real) -> vec2:
+    def substep_correct(
+        x_src: wp.array3d(dtype=real),
+        x_dst: wp.array3d(dtype=real),
+        c: int,
+        i: int,
+        u_pred: real,
+        half_h2_acc: real,
+        w: real,
+    ) -> vec2:
         new = substep_corrected(load(x_src, c, i), u_pred, half_h2_acc, w)
         store(x_dst, c, i, new)
         return vec2(new[0], new[1])
@@ -369,8 +379,19 @@ def nordsieck_functions(method: str, precision: str, compensated: bool = False) 
     else:
         position_api = (real, predict_position, predicted_position, gap_plain, rounded_plain, exact_plain)
     substep_api = (substep_pair_at if COMP else substep_position_at, substep_correct)
-    return Nordsieck(values_t, predict_position, corrected, load, store, predicted_position, correct, driver_values,
-                     driver_values_at, *position_api, *substep_api)
+    return Nordsieck(
+        values_t,
+        predict_position,
+        corrected,
+        load,
+        store,
+        predicted_position,
+        correct,
+        driver_values,
+        driver_values_at,
+        *position_api,
+        *substep_api,
+    )
 
 
 @functools.cache

@@ -49,6 +49,8 @@ def plan_windows(grain_count: int, window: int, steps_per_launch: int) -> Window
         raise ValueError(f"steps_per_launch = {steps_per_launch}: must be at least 1")
     interior = window - 2 * steps_per_launch
     if interior < 1:
-        raise ValueError(f"window = {window} grains leaves no interior for {steps_per_launch} ghost steps "
-                         f"(needs window > 2·steps_per_launch)")
+        raise ValueError(
+            f"window = {window} grains leaves no interior for {steps_per_launch} ghost steps "
+            f"(needs window > 2·steps_per_launch)"
+        )
     return Windows(interior=interior, ghost=steps_per_launch, blocks_per_chain=math.ceil(grain_count / interior))

@@ -23,18 +23,26 @@ def library_kernels(precision: str):
     real = wp.float64 if precision == "float64" else wp.float32
 
     @wp.func
-    def velocity(ring: wp.array4d(dtype=real), start: wp.array3d(dtype=real), chain: int, k: int, capacity: int,
-                 dt: real) -> real:
+    def velocity(
+        ring: wp.array4d(dtype=real), start: wp.array3d(dtype=real), chain: int, k: int, capacity: int, dt: real
+    ) -> real:
         rate = start[1, chain, 0]
         if k > 0:
             rate = ring[1, chain, k % capacity, 0]
         return rate / dt
 
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
-    def library_echoes(ring: wp.array4d(dtype=real), start: wp.array3d(dtype=real),
-                       candidate: wp.array(dtype=wp.int32), clean_chain: int, ok: wp.array(dtype=wp.int32),
-                       capacity: int, dt: real,
-                       clean: wp.array(dtype=wp.float64), echoes: wp.array2d(dtype=wp.float64)):
+    def library_echoes(
+        ring: wp.array4d(dtype=real),
+        start: wp.array3d(dtype=real),
+        candidate: wp.array(dtype=wp.int32),
+        clean_chain: int,
+        ok: wp.array(dtype=wp.int32),
+        capacity: int,
+        dt: real,
+        clean: wp.array(dtype=wp.float64),
+        echoes: wp.array2d(dtype=wp.float64),
+    ):
         chain, k = wp.tid()
         v_clean = wp.float64(velocity(ring, start, clean_chain, k, capacity, dt))
         c = candidate[chain]
@@ -47,8 +55,12 @@ def library_kernels(precision: str):
             echoes[c - 1, k] = v - v_clean
 
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
-    def library_grams(echoes: wp.array3d(dtype=wp.float64), first_echo_ends: wp.array(dtype=wp.int32),
-                      gram: wp.array3d(dtype=wp.float64), first_echo_gram: wp.array3d(dtype=wp.float64)):
+    def library_grams(
+        echoes: wp.array3d(dtype=wp.float64),
+        first_echo_ends: wp.array(dtype=wp.int32),
+        gram: wp.array3d(dtype=wp.float64),
+        first_echo_gram: wp.array3d(dtype=wp.float64),
+    ):
         d, i, j = wp.tid()
         end = first_echo_ends[d]
         total = wp.float64(0.0)

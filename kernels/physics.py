@@ -6,7 +6,6 @@ static forces, gravity and a surface load cancel by the sum rule, paper eq. 4), 
 floating point a scene without excitation stays exactly at rest.
 """
 
-
 import functools
 
 import warp as wp
@@ -172,8 +171,13 @@ def contact_parameters(precision: str, static: str, heterogeneous: bool, hertz: 
     STATIC, PROFILE = static != "none", static == "profile"
 
     @wp.func
-    def params(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),
-               exponent: wp.array(dtype=real), c: int, k: int) -> vec3:
+    def params(
+        static_overlap: wp.array2d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        exponent: wp.array(dtype=real),
+        c: int,
+        k: int,
+    ) -> vec3:
         delta0 = real(0)
         if wp.static(PROFILE):
             delta0 = static_overlap[c, k]

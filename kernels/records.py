@@ -13,7 +13,6 @@ order reads shared memory (:func:`launch_parts_of_grains`, :func:`launch_record`
 state precision.
 """
 
-
 import functools
 from typing import Any, NamedTuple
 
@@ -99,16 +98,29 @@ def record_kernels(features: Features) -> RecordKernels:
         return wp.float64(x[1, c, i])
 
     @wp.func
-    def contact_terms(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),
-                      exponent: wp.array(dtype=real), c: int, k: int, d: wp.float64) -> wp.vec2d:
+    def contact_terms(
+        static_overlap: wp.array2d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        exponent: wp.array(dtype=real),
+        c: int,
+        k: int,
+        d: wp.float64,
+    ) -> wp.vec2d:
         # (excess potential, absolute overlap) of padded contact k at relative displacement d
         p = params(static_overlap, contact_constant, exponent, c, k)
         delta0 = wp.float64(p[0])
         return wp.vec2d(excess_potential(delta0, d, wp.float64(p[1]), wp.float64(p[2])), delta0 + d)
 
     @wp.func
-    def store_part(parts: wp.array3d(dtype=wp.float64), c: int, part: int, sums: wp.vec4d,
-                   dissipated_grain: wp.array2d(dtype=wp.float64), start: int, end: int):
+    def store_part(
+        parts: wp.array3d(dtype=wp.float64),
+        c: int,
+        part: int,
+        sums: wp.vec4d,
+        dissipated_grain: wp.array2d(dtype=wp.float64),
+        start: int,
+        end: int,
+    ):
         # a part's (kinetic, potential, largest overlap, finite) and, damped, its grains' dissipated energy in order
         lost = wp.float64(0.0)
         if wp.static(DAMPED):
@@ -119,9 +131,16 @@ def record_kernels(features: Features) -> RecordKernels:
         parts[c, part, 4] = lost
 
     @wp.func
-    def grain_terms_of(x: wp.array3d(dtype=real), inverse_mass: wp.array2d(dtype=real),
-                       contact_constant: wp.array2d(dtype=real), static_overlap: wp.array2d(dtype=real),
-                       exponent: wp.array(dtype=real), dt: wp.float64, c: int, i: int) -> wp.vec4d:
+    def grain_terms_of(
+        x: wp.array3d(dtype=real),
+        inverse_mass: wp.array2d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        static_overlap: wp.array2d(dtype=real),
+        exponent: wp.array(dtype=real),
+        dt: wp.float64,
+        c: int,
+        i: int,
+    ) -> wp.vec4d:
         # grain i's terms of a chain's sums: kinetic energy (0 for the driven grain, whose motion is prescribed),
         # excess potential and overlap of the contact above it (0 and -1e300 for grain 0), finite (1.0 or 0.0)
         u = position(x, c, i)
@@ -153,8 +172,7 @@ def record_kernels(features: Features) -> RecordKernels:
         # a part's running sums (kinetic, potential), largest overlap and finite flag, one grain further
         return wp.vec4d(sums[0] + terms[0], sums[1] + terms[1], wp.max(sums[2], terms[2]), wp.min(sums[3], terms[3]))
 
-    @wp.kernel(module="unique", module_options=dict(KERNEL_OPTIONS, block_dim=RECORD_BLOCK_DIM),
-               enable_backward=False)
+    @wp.kernel(module="unique", module_options=dict(KERNEL_OPTIONS, block_dim=RECORD_BLOCK_DIM), enable_backward=False)
     def record_parts(
         x: wp.array3d(dtype=real),
         inverse_mass: wp.array2d(dtype=real),
@@ -172,8 +190,9 @@ def record_kernels(features: Features) -> RecordKernels:
         end = wp.min(start + wp.static(RECORD_PART), n_grains)
         sums = wp.vec4d(wp.float64(0.0), wp.float64(0.0), wp.float64(-1.0e300), wp.float64(1.0))
         for i in range(start, end):
-            sums = add_terms(sums, grain_terms_of(x, inverse_mass, contact_constant, static_overlap, exponent, dt, c,
-                                                  i))
+            sums = add_terms(
+                sums, grain_terms_of(x, inverse_mass, contact_constant, static_overlap, exponent, dt, c, i)
+            )
         store_part(parts, c, part, sums, dissipated_grain, start, end)
 
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
@@ -192,8 +211,7 @@ def record_kernels(features: Features) -> RecordKernels:
 
     part_block = wp.types.matrix(shape=(4, 5), dtype=wp.float64)  # four parts' sums, loaded together
 
-    @wp.kernel(module="unique", module_options=dict(KERNEL_OPTIONS, block_dim=PART_TILE_THREADS),
-               enable_backward=False)
+    @wp.kernel(module="unique", module_options=dict(KERNEL_OPTIONS, block_dim=PART_TILE_THREADS), enable_backward=False)
     def record_parts_of_grains(
         grain_terms: wp.array2d(dtype=wp.vec4d),
         dissipated_grain: wp.array2d(dtype=wp.float64),
@@ -215,14 +233,27 @@ def record_kernels(features: Features) -> RecordKernels:
             store_part(parts, c, part, sums, dissipated_grain, start, end)
 
     @wp.func
-    def close_record(x: wp.array3d(dtype=real), contact_constant: wp.array2d(dtype=real),
-                     static_overlap: wp.array2d(dtype=real), exponent: wp.array(dtype=real),
-                     drive: wp.array2d(dtype=wp.float64), work_in: wp.array(dtype=wp.float64),
-                     power_in: wp.array(dtype=wp.float64), step: int, dt: wp.float64,
-                     validity_overlap: wp.array(dtype=wp.float64), energy: wp.array(dtype=wp.float64),
-                     work: wp.array(dtype=wp.float64), max_overlap: wp.array(dtype=wp.float64),
-                     status: wp.array(dtype=wp.int32), damping: wp.array(dtype=real),
-                     dissipated: wp.array(dtype=wp.float64), c: int, sums: wp.vec4d, lost: wp.float64):
+    def close_record(
+        x: wp.array3d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        static_overlap: wp.array2d(dtype=real),
+        exponent: wp.array(dtype=real),
+        drive: wp.array2d(dtype=wp.float64),
+        work_in: wp.array(dtype=wp.float64),
+        power_in: wp.array(dtype=wp.float64),
+        step: int,
+        dt: wp.float64,
+        validity_overlap: wp.array(dtype=wp.float64),
+        energy: wp.array(dtype=wp.float64),
+        work: wp.array(dtype=wp.float64),
+        max_overlap: wp.array(dtype=wp.float64),
+        status: wp.array(dtype=wp.int32),
+        damping: wp.array(dtype=real),
+        dissipated: wp.array(dtype=wp.float64),
+        c: int,
+        sums: wp.vec4d,
+        lost: wp.float64,
+    ):
         # chain c's record from the sums of its parts: the walls, the driver's work and the status
         n_grains = x.shape[2]
         kinetic = sums[0]
@@ -234,8 +265,7 @@ def record_kernels(features: Features) -> RecordKernels:
             potential += terms[0]
             largest = wp.max(largest, terms[1])
         if wp.static(BOTTOM_WALL):
-            terms = contact_terms(static_overlap, contact_constant, exponent, c, n_grains,
-                                  position(x, c, n_grains - 1))
+            terms = contact_terms(static_overlap, contact_constant, exponent, c, n_grains, position(x, c, n_grains - 1))
             potential += terms[0]
             largest = wp.max(largest, terms[1])
         energy[c] = kinetic + potential
@@ -311,11 +341,29 @@ def record_kernels(features: Features) -> RecordKernels:
                     sums = add_terms(sums, wp.vec4d(loaded[q, 0], loaded[q, 1], loaded[q, 2], loaded[q, 3]))
                     lost += loaded[q, 4]
             part += 4
-        close_record(x, contact_constant, static_overlap, exponent, drive, work_in, power_in, step, dt, validity_overlap,
-                     energy, work, max_overlap, status, damping, dissipated, c, sums, lost)
+        close_record(
+            x,
+            contact_constant,
+            static_overlap,
+            exponent,
+            drive,
+            work_in,
+            power_in,
+            step,
+            dt,
+            validity_overlap,
+            energy,
+            work,
+            max_overlap,
+            status,
+            damping,
+            dissipated,
+            c,
+            sums,
+            lost,
+        )
 
-    @wp.kernel(module="unique", module_options=dict(KERNEL_OPTIONS, block_dim=PART_TILE_THREADS),
-               enable_backward=False)
+    @wp.kernel(module="unique", module_options=dict(KERNEL_OPTIONS, block_dim=PART_TILE_THREADS), enable_backward=False)
     def record_long(
         x: wp.array3d(dtype=real),
         contact_constant: wp.array2d(dtype=real),
@@ -346,14 +394,32 @@ def record_kernels(features: Features) -> RecordKernels:
             loaded = wp.tile_load(parts, shape=(1, PART_TILE, PART_SUMS), offset=(c, first, 0), storage="shared")
             if lane == 0:
                 for q in range(wp.min(part_count - first, PART_TILE)):
-                    sums = add_terms(sums, wp.vec4d(loaded[0, q, 0], loaded[0, q, 1], loaded[0, q, 2],
-                                                    loaded[0, q, 3]))
+                    sums = add_terms(sums, wp.vec4d(loaded[0, q, 0], loaded[0, q, 1], loaded[0, q, 2], loaded[0, q, 3]))
                     lost += loaded[0, q, 4]
             block_sync(0)  # the tile is read before the next part's copy overwrites it
             first += PART_TILE
         if lane == 0:
-            close_record(x, contact_constant, static_overlap, exponent, drive, work_in, power_in, step, dt,
-                         validity_overlap, energy, work, max_overlap, status, damping, dissipated, c, sums, lost)
+            close_record(
+                x,
+                contact_constant,
+                static_overlap,
+                exponent,
+                drive,
+                work_in,
+                power_in,
+                step,
+                dt,
+                validity_overlap,
+                energy,
+                work,
+                max_overlap,
+                status,
+                damping,
+                dissipated,
+                c,
+                sums,
+                lost,
+            )
 
     return RecordKernels(record_parts, record, record_grains, record_parts_of_grains, record_long)
 
@@ -415,16 +481,29 @@ def load_record_kernels(kernels: RecordKernels, *, long_chains: bool, device) ->
 
 def launch_parts_of_grains(kernels: RecordKernels, grain_terms, dissipated_grain, parts, device) -> None:
     """``record_parts_of_grains`` over every (chain, part) of ``parts`` (chains, parts, PART_SUMS): a block each."""
-    wp.launch_tiled(kernels.parts_of_grains, dim=list(parts.shape[:2]), inputs=[grain_terms, dissipated_grain],
-                    outputs=[parts], block_dim=parts_of_grains_block_dim(device), device=device)
+    wp.launch_tiled(
+        kernels.parts_of_grains,
+        dim=list(parts.shape[:2]),
+        inputs=[grain_terms, dissipated_grain],
+        outputs=[parts],
+        block_dim=parts_of_grains_block_dim(device),
+        device=device,
+    )
 
 
-def launch_record(kernels: RecordKernels, *, long_chains: bool, inputs: list, outputs: list, chains: int,
-                  device) -> None:
+def launch_record(
+    kernels: RecordKernels, *, long_chains: bool, inputs: list, outputs: list, chains: int, device
+) -> None:
     """``record`` (a thread per chain) or, for ``long_chains`` (the two-stage reductions), ``record_long`` (a block
     per chain): the same arguments and the same sums."""
     if long_chains:
-        wp.launch_tiled(kernels.record_long, dim=[chains], inputs=inputs, outputs=outputs,
-                        block_dim=parts_of_grains_block_dim(device), device=device)
+        wp.launch_tiled(
+            kernels.record_long,
+            dim=[chains],
+            inputs=inputs,
+            outputs=outputs,
+            block_dim=parts_of_grains_block_dim(device),
+            device=device,
+        )
     else:
         wp.launch(kernels.record, dim=chains, inputs=inputs, outputs=outputs, device=device)

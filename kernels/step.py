@@ -10,13 +10,12 @@ A composed method (yoshida4, ``SUBSTEP_WEIGHTS``) takes one velocity-Verlet subs
 step, so records and checks between launches of whole steps see whole steps only.
 """
 
-
 import functools
 
 import warp as wp
 
-from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
 from .events import event_functions
+from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
 from .gear import nordsieck_functions, refuse_composed_extras, substep_weight_function
 from .physics import contact_functions, contact_parameters, damping_functions, product_rn
 
@@ -26,7 +25,7 @@ def step_kernel(features: Features):
     """The step kernel for one feature set (cached; a feature that is off generates no code)."""
     f = features
     real = wp.float64 if f.precision == "float64" else wp.float32
-    Q = f.values                # rows of the state (kernels/gear.py)
+    Q = f.values  # rows of the state (kernels/gear.py)
     ORDER = f.nordsieck_values  # of which the Nordsieck vector
     SURFACE_WALL = f.surface == "wall"
     DRIVEN = f.surface == "driven"
@@ -41,7 +40,7 @@ def step_kernel(features: Features):
     predicted_at, gap, rounded = nordsieck.predicted_at, nordsieck.gap, nordsieck.rounded
     EVENTS = f.event_window > 0
     values_t = nordsieck.values
-    vec3 = wp.types.vector(3, real)
+
     if EVENTS:
         near_event, event_step = event_functions(f)
     else:
@@ -61,15 +60,29 @@ def step_kernel(features: Features):
     substep_weight = substep_weight_function(f.method, f.precision)
 
     @wp.func
-    def contact(static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real),
-                exponent: wp.array(dtype=real), c: int, k: int, d: real) -> real:
+    def contact(
+        static_overlap: wp.array2d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        exponent: wp.array(dtype=real),
+        c: int,
+        k: int,
+        d: real,
+    ) -> real:
         # excess force of padded contact k (between grains k-1 and k) at relative displacement d
         p = params(static_overlap, contact_constant, exponent, c, k)
         return excess_force(p[0], d, p[1], p[2])
 
     @wp.func
-    def write_trace(trace_x: wp.array4d(dtype=real), trace_slot: wp.array(dtype=wp.int32), trace_stride: int,
-                    c: int, i: int, step_new: int, x0: real, x1: real):
+    def write_trace(
+        trace_x: wp.array4d(dtype=real),
+        trace_slot: wp.array(dtype=wp.int32),
+        trace_stride: int,
+        c: int,
+        i: int,
+        step_new: int,
+        x0: real,
+        x1: real,
+    ):
         if wp.static(TRACES):
             slot = trace_slot[i]
             if slot >= 0 and step_new % trace_stride == 0:
@@ -198,11 +211,13 @@ def step_kernel(features: Features):
             p_below = params(static_overlap, contact_constant, exponent, c, i + 1)
             flagged = False
             if has_above:
-                flagged = near_event(p_above[0] + (above[0] - own[0]), p_above[0] + (u_above_p - u_p),
-                                     above[1] - own[1], h)
+                flagged = near_event(
+                    p_above[0] + (above[0] - own[0]), p_above[0] + (u_above_p - u_p), above[1] - own[1], h
+                )
             if has_below:
-                flagged = flagged or near_event(p_below[0] + (own[0] - below[0]), p_below[0] + (u_p - u_below_p),
-                                                own[1] - below[1], h)
+                flagged = flagged or near_event(
+                    p_below[0] + (own[0] - below[0]), p_below[0] + (u_p - u_below_p), own[1] - below[1], h
+                )
             if flagged:
                 inv_m_event = real(0)
                 if wp.static(HETERO):
@@ -213,7 +228,7 @@ def step_kernel(features: Features):
                 nordsieck.store(x_out, c, i, new_values)
                 write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, new_values[0], new_values[1])
                 return
-        up = real(0)    # excess force of the contact above grain i (pushes it toward the bottom)
+        up = real(0)  # excess force of the contact above grain i (pushes it toward the bottom)
         down = real(0)  # excess force of the contact below grain i
         if i > 0:
             position_above = position_p
@@ -232,8 +247,14 @@ def step_kernel(features: Features):
             if wp.static(SURFACE_WALL):
                 if wp.static(f.compensation):
                     # a wall is a grain at rest at 0 (as the fused kernel's padding grains)
-                    up = contact(static_overlap, contact_constant, exponent, c, 0,
-                                 gap(nordsieck.exact_position(wp.float64(0.0)), position_p))
+                    up = contact(
+                        static_overlap,
+                        contact_constant,
+                        exponent,
+                        c,
+                        0,
+                        gap(nordsieck.exact_position(wp.float64(0.0)), position_p),
+                    )
                 else:
                     up = contact(static_overlap, contact_constant, exponent, c, 0, -u_p)
         if i < n_grains - 1:
@@ -246,8 +267,14 @@ def step_kernel(features: Features):
         else:
             if wp.static(BOTTOM_WALL):
                 if wp.static(f.compensation):
-                    down = contact(static_overlap, contact_constant, exponent, c, n_grains,
-                                   gap(position_p, nordsieck.exact_position(wp.float64(0.0))))
+                    down = contact(
+                        static_overlap,
+                        contact_constant,
+                        exponent,
+                        c,
+                        n_grains,
+                        gap(position_p, nordsieck.exact_position(wp.float64(0.0))),
+                    )
                 else:
                     down = contact(static_overlap, contact_constant, exponent, c, n_grains, u_p)
 
@@ -310,8 +337,9 @@ def step_kernel(features: Features):
                     up += f_new
                     if outer:
                         loss_new += f_new * (above_rate - own_rate) / h
-                        f_old = dashpot(delta0_above, above_u_old - x_in[0, c, i], above_rate_old - own_rate_old,
-                                        gamma, h)
+                        f_old = dashpot(
+                            delta0_above, above_u_old - x_in[0, c, i], above_rate_old - own_rate_old, gamma, h
+                        )
                         loss_old += f_old * (above_rate_old - own_rate_old) / h
             dissipated[c, i] = dissipated[c, i] + dt * wp.float64(0.5) * (wp.float64(loss_old) + wp.float64(loss_new))
         half_h2_acc = real(0.5) * h * h * (up - down) * inv_m
@@ -327,4 +355,3 @@ def step_kernel(features: Features):
             write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, new[0], new[1])
 
     return step
-

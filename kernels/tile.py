@@ -55,15 +55,14 @@ from the stored value and written back for the interior once per launch. Not her
 float32.
 """
 
-
 import functools
 from dataclasses import dataclass, replace
 from typing import Any
 
 import warp as wp
 
-from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
 from .events import event_functions
+from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
 from .gear import nordsieck_functions
 from .physics import contact_forces, contact_functions, contact_parameters, damping_functions, product_rn
 
@@ -136,8 +135,17 @@ def out_of_line(event_step, values_t, vec3, real):
     """``event_step`` (kernels/events.py) behind a ``@wp.func`` the compiler keeps out of line."""
 
     @wp.func(inline=False)
-    def event_step_call(own: values_t, above: values_t, below: values_t, has_above: bool, has_below: bool,
-                        p_above: vec3, p_below: vec3, inv_m: real, h: real) -> values_t:
+    def event_step_call(
+        own: values_t,
+        above: values_t,
+        below: values_t,
+        has_above: bool,
+        has_below: bool,
+        p_above: vec3,
+        p_below: vec3,
+        inv_m: real,
+        h: real,
+    ) -> values_t:
         return event_step(own, above, below, has_above, has_below, p_above, p_below, inv_m, h)
 
     return event_step_call
@@ -170,8 +178,10 @@ def tile_kernel(features: Features, shape: TileShape):
     """The fused kernel for one feature set and compile-time launch shape (cached)."""
     f = features
     if f.damping == "contact" and f.compensation:
-        raise ValueError("fused kernels do not implement damping='contact' in compensated float32 (the per-step and CPU "
-                         "sweep kernels do)")
+        raise ValueError(
+            "fused kernels do not implement damping='contact' in compensated float32 (the per-step and CPU "
+            "sweep kernels do)"
+        )
     if not fusable(f):
         raise ValueError(f"fused kernels do not implement method={f.method!r}")
     TRACES = f.traces
@@ -267,8 +277,9 @@ def tile_kernel(features: Features, shape: TileShape):
         return k == k0 and k0 >= 0
 
     @wp.func
-    def dissipation(s: state_t, lost: loss_vec, inv_m: grain_vec, move_bits: int, k0: int, gamma: real, h: real,
-                    dt: wp.float64) -> loss_vec:
+    def dissipation(
+        s: state_t, lost: loss_vec, inv_m: grain_vec, move_bits: int, k0: int, gamma: real, h: real, dt: wp.float64
+    ) -> loss_vec:
         # kernels/step.py's viscous loss of one step for every integrated grain of the lane (not a held bottom
         # grain, not the driver, not padding): the trapezoid of γ m (dt·v)²/h² at t_n and at the predicted t_n+1
         out = lost
@@ -304,8 +315,18 @@ def tile_kernel(features: Features, shape: TileShape):
         return wp.vec2d(wp.float64(d_old), wp.float64(below_rate_old))
 
     @wp.func
-    def driver_power(entry: wp.vec2d, cos_old: wp.float64, below0: real, below_ac: real, below_f0: real, n: real,
-                     amplitude: wp.float64, omega: wp.float64, dt: wp.float64, gamma: real) -> wp.float64:
+    def driver_power(
+        entry: wp.vec2d,
+        cos_old: wp.float64,
+        below0: real,
+        below_ac: real,
+        below_f0: real,
+        n: real,
+        amplitude: wp.float64,
+        omega: wp.float64,
+        dt: wp.float64,
+        gamma: real,
+    ) -> wp.float64:
         # kernels/step.py: the driver's power at t_n from its driver_log_entry and cos(ω t_n), with the lane's
         # contact law (branchless where the lane's is: the same bits as contact_force)
         d_old = real(entry[0])
@@ -325,8 +346,9 @@ def tile_kernel(features: Features, shape: TileShape):
         return wp.vec2d(work_power[0] + dt * wp.float64(0.5) * (work_power[1] + power), power)
 
     @wp.func
-    def lane_rates(s: state_t, k0: int, amplitude: wp.float64, omega: wp.float64, phase_new: wp.vec2d,
-                   dt: wp.float64) -> grain_vec:
+    def lane_rates(
+        s: state_t, k0: int, amplitude: wp.float64, omega: wp.float64, phase_new: wp.vec2d, dt: wp.float64
+    ) -> grain_vec:
         # dt·v of the lane's grains predicted at t_n+1 (the contact dashpot); the driver's is its own at t_n+1
         rates = grain_vec()
         for k in range(G):
@@ -339,8 +361,18 @@ def tile_kernel(features: Features, shape: TileShape):
         return rates
 
     @wp.func
-    def dashpot_forces(up: grain_vec, rates: grain_vec, u_left: real, rate_left: real, u_right: real,
-                       rate_right: real, delta0: contact_vec, contact_bits: int, gamma: real, h: real) -> contact_vec:
+    def dashpot_forces(
+        up: grain_vec,
+        rates: grain_vec,
+        u_left: real,
+        rate_left: real,
+        u_right: real,
+        rate_right: real,
+        delta0: contact_vec,
+        contact_bits: int,
+        gamma: real,
+        h: real,
+    ) -> contact_vec:
         # kernels/step.py's dashpot γ·δ̇ of each of the lane's G + 1 contacts at the predicted t_n+1 (a contact the
         # chain lacks, at a free end, has none): upper minus lower grain, as both of its grains compute it there
         out = contact_vec()
@@ -363,10 +395,26 @@ def tile_kernel(features: Features, shape: TileShape):
         return out
 
     @wp.func
-    def dashpot_losses(s: state_t, lost: loss_vec, edges: Any, lane: int, base: int, has_left: bool,
-                       has_right: bool, delta0: contact_vec, contact_bits: int, move_bits: int, k0: int,
-                       amplitude: wp.float64, omega: wp.float64, phase_old: wp.vec2d, phase_new: wp.vec2d,
-                       gamma: real, h: real, dt: wp.float64) -> loss_vec:
+    def dashpot_losses(
+        s: state_t,
+        lost: loss_vec,
+        edges: Any,
+        lane: int,
+        base: int,
+        has_left: bool,
+        has_right: bool,
+        delta0: contact_vec,
+        contact_bits: int,
+        move_bits: int,
+        k0: int,
+        amplitude: wp.float64,
+        omega: wp.float64,
+        phase_old: wp.vec2d,
+        phase_new: wp.vec2d,
+        gamma: real,
+        h: real,
+        dt: wp.float64,
+    ) -> loss_vec:
         # kernels/step.py's dissipated energy of one step (contact dashpot) from the state at t_n and this step's
         # edge tile (read before the next step's barrier): per integrated grain the trapezoid of the power of the
         # dashpot below it, and of the one above it where no integrated grain is above (wall, driver)
@@ -439,11 +487,26 @@ def tile_kernel(features: Features, shape: TileShape):
         HI_OFFSET = 0 if BOTTOM_WALL else 1
 
         @wp.func
-        def shared_event_steps(states: Any, flags: Any, results: Any, lane_c: int, segment: int, first: int, cc: int,
-                               n_grains: int, static_overlap: wp.array2d(dtype=real),
-                               contact_constant: wp.array2d(dtype=real), exponent: wp.array(dtype=real),
-                               inverse_mass: wp.array2d(dtype=real), n: real, h: real, amplitude: wp.float64,
-                               omega: wp.float64, phase_old: wp.vec2d, dt: wp.float64):
+        def shared_event_steps(
+            states: Any,
+            flags: Any,
+            results: Any,
+            lane_c: int,
+            segment: int,
+            first: int,
+            cc: int,
+            n_grains: int,
+            static_overlap: wp.array2d(dtype=real),
+            contact_constant: wp.array2d(dtype=real),
+            exponent: wp.array(dtype=real),
+            inverse_mass: wp.array2d(dtype=real),
+            n: real,
+            h: real,
+            amplitude: wp.float64,
+            omega: wp.float64,
+            phase_old: wp.vec2d,
+            dt: wp.float64,
+        ):
             # The event steps of a chain's flagged grains, shared among the chain's L lanes: in round m lane j takes
             # the chain's grain j + m·L (neighbouring flagged grains, which sit in one lane, go to neighbouring
             # lanes). A worker reads everything from t_n's shared state and the parameter arrays, nothing from its
@@ -477,8 +540,9 @@ def tile_kernel(features: Features, shape: TileShape):
                         has_above = g >= LO_CONTACT and g <= n_grains - HI_OFFSET
                         has_below = g + 1 >= LO_CONTACT and g + 1 <= n_grains - HI_OFFSET
                         p_above = params(static_overlap, contact_constant, exponent, cc, wp.min(wp.max(g, 0), n_grains))
-                        p_below = params(static_overlap, contact_constant, exponent, cc,
-                                         wp.min(wp.max(g + 1, 0), n_grains))
+                        p_below = params(
+                            static_overlap, contact_constant, exponent, cc, wp.min(wp.max(g + 1, 0), n_grains)
+                        )
                         inside = g >= 0 and g < n_grains
                         inv_m_event = real(0)
                         if wp.static(HETERO):
@@ -488,8 +552,17 @@ def tile_kernel(features: Features, shape: TileShape):
                         if wp.static(MASKED):
                             if not inside:
                                 inv_m_event = real(0)
-                        new = event_step(own, above, below, has_above, has_below, vec3(p_above[0], p_above[1], n),
-                                         vec3(p_below[0], p_below[1], n), inv_m_event, h)
+                        new = event_step(
+                            own,
+                            above,
+                            below,
+                            has_above,
+                            has_below,
+                            vec3(p_above[0], p_above[1], n),
+                            vec3(p_below[0], p_below[1], n),
+                            inv_m_event,
+                            h,
+                        )
                         if wp.static(FIXED):
                             if not inside or g == n_grains - 1:  # a held bottom grain (or padding) stays
                                 new = own
@@ -497,14 +570,41 @@ def tile_kernel(features: Features, shape: TileShape):
                 m += 1
 
     @wp.func
-    def advance(s: state_t, edges: Any, states: Any, flags: Any, results: Any, lane: int, lane_c: int, segment: int,
-                first: int, cc: int, n_grains: int, static_overlap: wp.array2d(dtype=real),
-                contact_constant: wp.array2d(dtype=real), exponent: wp.array(dtype=real),
-                inverse_mass: wp.array2d(dtype=real), has_left: bool, has_right: bool,
-                delta0: contact_vec, a_c: contact_vec, force0: contact_vec, n: real,
-                inv_m: grain_vec, hh: real, contact_bits: int, move_bits: int, h: real,
-                k0: int, amplitude: wp.float64, omega: wp.float64, phase_old: wp.vec2d, phase_new: wp.vec2d,
-                dt: wp.float64, gamma: real) -> state_t:
+    def advance(
+        s: state_t,
+        edges: Any,
+        states: Any,
+        flags: Any,
+        results: Any,
+        lane: int,
+        lane_c: int,
+        segment: int,
+        first: int,
+        cc: int,
+        n_grains: int,
+        static_overlap: wp.array2d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        exponent: wp.array(dtype=real),
+        inverse_mass: wp.array2d(dtype=real),
+        has_left: bool,
+        has_right: bool,
+        delta0: contact_vec,
+        a_c: contact_vec,
+        force0: contact_vec,
+        n: real,
+        inv_m: grain_vec,
+        hh: real,
+        contact_bits: int,
+        move_bits: int,
+        h: real,
+        k0: int,
+        amplitude: wp.float64,
+        omega: wp.float64,
+        phase_old: wp.vec2d,
+        phase_new: wp.vec2d,
+        dt: wp.float64,
+        gamma: real,
+    ) -> state_t:
         # k0: grain 0's index in this lane, or -1 (undriven, or grain 0 elsewhere); phase_old, phase_new:
         # (sin ωt, cos ωt) of the driver at t_n and t_{n+1}
         # 1. predict
@@ -549,8 +649,9 @@ def tile_kernel(features: Features, shape: TileShape):
             wp.tile_assign(edges, wp.tile(edge_t(up[0], up[G - 1], up_lo[0], up_lo[G - 1]), preserve_type=True))
         elif wp.static(DASHPOT):
             rates = lane_rates(s, k0, amplitude, omega, phase_new, dt)
-            wp.tile_assign(edges, wp.tile(edge_t(up[0], up[G - 1], rates[0], rates[G - 1], s[0, 0], s[1, 0]),
-                                          preserve_type=True))
+            wp.tile_assign(
+                edges, wp.tile(edge_t(up[0], up[G - 1], rates[0], rates[G - 1], s[0, 0], s[1, 0]), preserve_type=True)
+            )
         else:
             wp.tile_assign(edges, wp.tile(edge_t(up[0], up[G - 1]), preserve_type=True))
         u_left = real(0)
@@ -619,8 +720,9 @@ def tile_kernel(features: Features, shape: TileShape):
                     driver_above_here = at_driver(c - 1, k0)
                     upper_u = wp.where(driver_above_here, driver_above[0], upper_u)
                     upper_hv = wp.where(driver_above_here, driver_above[1], upper_hv)
-                hit = near_event(delta0[c] + (upper_u - lower_u), delta0[c] + (upper_pred - lower_pred),
-                                 upper_hv - lower_hv, h)
+                hit = near_event(
+                    delta0[c] + (upper_u - lower_u), delta0[c] + (upper_pred - lower_pred), upper_hv - lower_hv, h
+                )
                 contact_flags = contact_flags | ((int(hit) & ((contact_bits >> c) & 1)) << c)
             event_bits = (contact_flags | (contact_flags >> 1)) & ((1 << G) - 1)
             # one vote a step: a block with no flagged grain (most steps) skips the rest; otherwise every lane
@@ -629,8 +731,26 @@ def tile_kernel(features: Features, shape: TileShape):
             if any_event != 0:
                 wp.tile_assign(states, wp.tile(s, preserve_type=True))
                 wp.tile_assign(flags, wp.tile(event_bits))
-                shared_event_steps(states, flags, results, lane_c, segment, first, cc, n_grains, static_overlap,
-                                   contact_constant, exponent, inverse_mass, n, h, amplitude, omega, phase_old, dt)
+                shared_event_steps(
+                    states,
+                    flags,
+                    results,
+                    lane_c,
+                    segment,
+                    first,
+                    cc,
+                    n_grains,
+                    static_overlap,
+                    contact_constant,
+                    exponent,
+                    inverse_mass,
+                    n,
+                    h,
+                    amplitude,
+                    omega,
+                    phase_old,
+                    dt,
+                )
                 s = wp.tile_extract(states, lane)  # (so that the lane's registers need not hold s meanwhile)
         # the contact forces after the event section (which needs only the overlaps), so that with event-aware steps
         # the forces and the corrector are scheduled together, not split by the section's branch
@@ -649,8 +769,18 @@ def tile_kernel(features: Features, shape: TileShape):
                 rate_left = wp.tile_extract(edges, lane - 1, 3)
             if has_right:
                 rate_right = wp.tile_extract(edges, lane + 1, 2)
-            damp = dashpot_forces(up, lane_rates(s, k0, amplitude, omega, phase_new, dt), u_left, rate_left, u_right,
-                                  rate_right, delta0, contact_bits, gamma, h)
+            damp = dashpot_forces(
+                up,
+                lane_rates(s, k0, amplitude, omega, phase_new, dt),
+                u_left,
+                rate_left,
+                u_right,
+                rate_right,
+                delta0,
+                contact_bits,
+                gamma,
+                h,
+            )
             for k in range(G1):
                 force[k] = force[k] + damp[k]
         # 4. corrector. Padding grains have 1/m = 0: at rest they stay exactly 0. A fixed bottom grain is held.
@@ -687,10 +817,24 @@ def tile_kernel(features: Features, shape: TileShape):
         return vec2(real(product_rn(amplitude, phase[0])), real(dt * amplitude * omega * phase[1]))
 
     @wp.func(inline=False)
-    def write_trace_sample(s: state_t, x_in: wp.array3d(dtype=real), frozen: bool, live: bool, cc: int, base: int,
-                           keep_lo: int, keep_hi: int, trace_slot: wp.array(dtype=wp.int32), trace_stride: int,
-                           step_new: int, trace_x: wp.array4d(dtype=real), amplitude: wp.float64, omega: wp.float64,
-                           phase: wp.vec2d, dt: wp.float64) -> int:
+    def write_trace_sample(
+        s: state_t,
+        x_in: wp.array3d(dtype=real),
+        frozen: bool,
+        live: bool,
+        cc: int,
+        base: int,
+        keep_lo: int,
+        keep_hi: int,
+        trace_slot: wp.array(dtype=wp.int32),
+        trace_stride: int,
+        step_new: int,
+        trace_x: wp.array4d(dtype=real),
+        amplitude: wp.float64,
+        omega: wp.float64,
+        phase: wp.vec2d,
+        dt: wp.float64,
+    ) -> int:
         # kernels/step.py's trace sample after step ``step_new`` (a multiple of the stride): (u, dt·v) of the traced
         # grains this lane keeps (a frozen chain: its frozen state; the driven grain 0: its driver_values at
         # ``phase``), ring slot k % length. Out of line: written into the step loop, this code made every step of the
@@ -718,22 +862,58 @@ def tile_kernel(features: Features, shape: TileShape):
         return 0
 
     @wp.func
-    def write_traces(s: state_t, x_in: wp.array3d(dtype=real), frozen: bool, live: bool, cc: int, base: int,
-                     keep_lo: int, keep_hi: int, trace_slot: wp.array(dtype=wp.int32), trace_stride: int,
-                     step_new: int, next_trace: int, trace_x: wp.array4d(dtype=real), amplitude: wp.float64,
-                     omega: wp.float64, phase: wp.vec2d, dt: wp.float64) -> int:
+    def write_traces(
+        s: state_t,
+        x_in: wp.array3d(dtype=real),
+        frozen: bool,
+        live: bool,
+        cc: int,
+        base: int,
+        keep_lo: int,
+        keep_hi: int,
+        trace_slot: wp.array(dtype=wp.int32),
+        trace_stride: int,
+        step_new: int,
+        next_trace: int,
+        trace_x: wp.array4d(dtype=real),
+        amplitude: wp.float64,
+        omega: wp.float64,
+        phase: wp.vec2d,
+        dt: wp.float64,
+    ) -> int:
         # after a step: the trace sample when ``step_new`` reaches ``next_trace``, the first multiple of the stride not
         # yet passed (one comparison a step, not a modulo); returns the next one
         if step_new != next_trace:
             return next_trace
-        write_trace_sample(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride, step_new,
-                           trace_x, amplitude, omega, phase, dt)
+        write_trace_sample(
+            s,
+            x_in,
+            frozen,
+            live,
+            cc,
+            base,
+            keep_lo,
+            keep_hi,
+            trace_slot,
+            trace_stride,
+            step_new,
+            trace_x,
+            amplitude,
+            omega,
+            phase,
+            dt,
+        )
         return next_trace + trace_stride
 
     # the module's block size is the launch's: Warp hashes a module's source for its default block size when the
     # kernel is made and again for each other size it is loaded with (each hash walks every function the kernel calls)
-    @wp.kernel(module="unique", module_options=dict(KERNEL_OPTIONS, block_dim=B, max_unroll=MAX_UNROLL), enable_backward=False,
-               grid_stride=False, cuda_max_registers=shape.max_registers or None)
+    @wp.kernel(
+        module="unique",
+        module_options=dict(KERNEL_OPTIONS, block_dim=B, max_unroll=MAX_UNROLL),
+        enable_backward=False,
+        grid_stride=False,
+        cuda_max_registers=shape.max_registers or None,
+    )
     def fused(
         x_in: wp.array3d(dtype=real),
         clock_in: wp.array(dtype=wp.int32),
@@ -769,8 +949,8 @@ def tile_kernel(features: Features, shape: TileShape):
         segment = lane / L
         lane_c = lane - segment * L
         c = int(0)
-        first = int(0)      # first grain of the window
-        keep_lo = int(0)    # interior written back: [keep_lo, keep_hi)
+        first = int(0)  # first grain of the window
+        keep_lo = int(0)  # interior written back: [keep_lo, keep_hi)
         keep_hi = n_grains
         if wp.static(WINDOWED):
             c = block / blocks_per_chain
@@ -844,7 +1024,7 @@ def tile_kernel(features: Features, shape: TileShape):
         hh = real(0.5) * h * h
         has_left = lane_c > 0
         has_right = lane_c < L - 1
-        k0 = int(-1)            # grain 0's index in this lane (driven surface), else -1
+        k0 = int(-1)  # grain 0's index in this lane (driven surface), else -1
         amplitude = wp.float64(0)
         omega = wp.float64(0)
         step0 = clock_in[0]
@@ -902,16 +1082,83 @@ def tile_kernel(features: Features, shape: TileShape):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
                 s_prev = s
-            s = advance(s, edges_even, states, flags, results, lane, lane_c, segment, first, cc, n_grains,
-                        static_overlap, contact_constant, exponent, inverse_mass, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                        contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
+            s = advance(
+                s,
+                edges_even,
+                states,
+                flags,
+                results,
+                lane,
+                lane_c,
+                segment,
+                first,
+                cc,
+                n_grains,
+                static_overlap,
+                contact_constant,
+                exponent,
+                inverse_mass,
+                has_left,
+                has_right,
+                delta0,
+                a_c,
+                force0,
+                n,
+                inv_m,
+                hh,
+                contact_bits,
+                move_bits,
+                h,
+                k0,
+                amplitude,
+                omega,
+                phase_old,
+                phase_new,
+                dt,
+                gamma,
+            )
             if wp.static(DASHPOT):
-                lost = dashpot_losses(s_prev, lost, edges_even, lane, base, has_left, has_right, delta0, contact_bits,
-                                      move_bits, k0, amplitude, omega, phase_old, phase_new, gamma, h, dt)
+                lost = dashpot_losses(
+                    s_prev,
+                    lost,
+                    edges_even,
+                    lane,
+                    base,
+                    has_left,
+                    has_right,
+                    delta0,
+                    contact_bits,
+                    move_bits,
+                    k0,
+                    amplitude,
+                    omega,
+                    phase_old,
+                    phase_new,
+                    gamma,
+                    h,
+                    dt,
+                )
             phase_old = phase_new
             if wp.static(TRACES):
-                next_trace = write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
-                                          step0 + 2 * _pair + 1, next_trace, trace_x, amplitude, omega, phase_old, dt)
+                next_trace = write_traces(
+                    s,
+                    x_in,
+                    frozen,
+                    live,
+                    cc,
+                    base,
+                    keep_lo,
+                    keep_hi,
+                    trace_slot,
+                    trace_stride,
+                    step0 + 2 * _pair + 1,
+                    next_trace,
+                    trace_x,
+                    amplitude,
+                    omega,
+                    phase_old,
+                    dt,
+                )
             if wp.static(DRIVEN):
                 phase_new = phase_next
                 phase_next = phases[cc, first_row + 2 * _pair + 2 + 1]  # (a row past the launch's last)
@@ -920,16 +1167,83 @@ def tile_kernel(features: Features, shape: TileShape):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
                 s_prev = s
-            s = advance(s, edges_odd, states, flags, results, lane, lane_c, segment, first, cc, n_grains,
-                        static_overlap, contact_constant, exponent, inverse_mass, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                        contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
+            s = advance(
+                s,
+                edges_odd,
+                states,
+                flags,
+                results,
+                lane,
+                lane_c,
+                segment,
+                first,
+                cc,
+                n_grains,
+                static_overlap,
+                contact_constant,
+                exponent,
+                inverse_mass,
+                has_left,
+                has_right,
+                delta0,
+                a_c,
+                force0,
+                n,
+                inv_m,
+                hh,
+                contact_bits,
+                move_bits,
+                h,
+                k0,
+                amplitude,
+                omega,
+                phase_old,
+                phase_new,
+                dt,
+                gamma,
+            )
             if wp.static(DASHPOT):
-                lost = dashpot_losses(s_prev, lost, edges_odd, lane, base, has_left, has_right, delta0, contact_bits,
-                                      move_bits, k0, amplitude, omega, phase_old, phase_new, gamma, h, dt)
+                lost = dashpot_losses(
+                    s_prev,
+                    lost,
+                    edges_odd,
+                    lane,
+                    base,
+                    has_left,
+                    has_right,
+                    delta0,
+                    contact_bits,
+                    move_bits,
+                    k0,
+                    amplitude,
+                    omega,
+                    phase_old,
+                    phase_new,
+                    gamma,
+                    h,
+                    dt,
+                )
             phase_old = phase_new
             if wp.static(TRACES):
-                next_trace = write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
-                                          step0 + 2 * _pair + 2, next_trace, trace_x, amplitude, omega, phase_old, dt)
+                next_trace = write_traces(
+                    s,
+                    x_in,
+                    frozen,
+                    live,
+                    cc,
+                    base,
+                    keep_lo,
+                    keep_hi,
+                    trace_slot,
+                    trace_stride,
+                    step0 + 2 * _pair + 2,
+                    next_trace,
+                    trace_x,
+                    amplitude,
+                    omega,
+                    phase_old,
+                    dt,
+                )
         if steps % 2 == 1:
             if wp.static(DRIVEN):
                 phase_new = phase_next
@@ -938,15 +1252,82 @@ def tile_kernel(features: Features, shape: TileShape):
                 lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
             if wp.static(DASHPOT):
                 s_prev = s
-            s = advance(s, edges_even, states, flags, results, lane, lane_c, segment, first, cc, n_grains,
-                        static_overlap, contact_constant, exponent, inverse_mass, has_left, has_right, delta0, a_c, force0, n, inv_m, hh,
-                        contact_bits, move_bits, h, k0, amplitude, omega, phase_old, phase_new, dt, gamma)
+            s = advance(
+                s,
+                edges_even,
+                states,
+                flags,
+                results,
+                lane,
+                lane_c,
+                segment,
+                first,
+                cc,
+                n_grains,
+                static_overlap,
+                contact_constant,
+                exponent,
+                inverse_mass,
+                has_left,
+                has_right,
+                delta0,
+                a_c,
+                force0,
+                n,
+                inv_m,
+                hh,
+                contact_bits,
+                move_bits,
+                h,
+                k0,
+                amplitude,
+                omega,
+                phase_old,
+                phase_new,
+                dt,
+                gamma,
+            )
             if wp.static(DASHPOT):
-                lost = dashpot_losses(s_prev, lost, edges_even, lane, base, has_left, has_right, delta0, contact_bits,
-                                      move_bits, k0, amplitude, omega, phase_old, phase_new, gamma, h, dt)
+                lost = dashpot_losses(
+                    s_prev,
+                    lost,
+                    edges_even,
+                    lane,
+                    base,
+                    has_left,
+                    has_right,
+                    delta0,
+                    contact_bits,
+                    move_bits,
+                    k0,
+                    amplitude,
+                    omega,
+                    phase_old,
+                    phase_new,
+                    gamma,
+                    h,
+                    dt,
+                )
             if wp.static(TRACES):
-                next_trace = write_traces(s, x_in, frozen, live, cc, base, keep_lo, keep_hi, trace_slot, trace_stride,
-                                          step0 + steps, next_trace, trace_x, amplitude, omega, phase_new, dt)
+                next_trace = write_traces(
+                    s,
+                    x_in,
+                    frozen,
+                    live,
+                    cc,
+                    base,
+                    keep_lo,
+                    keep_hi,
+                    trace_slot,
+                    trace_stride,
+                    step0 + steps,
+                    next_trace,
+                    trace_x,
+                    amplitude,
+                    omega,
+                    phase_new,
+                    dt,
+                )
             phase_old = phase_new
 
         if wp.static(DRIVEN):
@@ -972,8 +1353,18 @@ def tile_kernel(features: Features, shape: TileShape):
                     j = round_first + lane_c
                     power = wp.float64(0)
                     if live and j < steps:
-                        power = driver_power(driver_log[cc, j], phases[cc, first_row + j][1], below0, below_ac,
-                                             below_f0, n, amplitude, omega, dt, gamma)
+                        power = driver_power(
+                            driver_log[cc, j],
+                            phases[cc, first_row + j][1],
+                            below0,
+                            below_ac,
+                            below_f0,
+                            n,
+                            amplitude,
+                            omega,
+                            dt,
+                            gamma,
+                        )
                     powers[lane] = power
                     block_sync(0)
                     if k0 >= 0:
@@ -1026,10 +1417,21 @@ class TilePlan:
         return self.shape.describe(windows) + f" K={self.steps_per_launch}"
 
 
-def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_per_lane: int = 8,
-              lanes_per_chain: int | None = None, chains_per_block: int = 1, steps_per_launch: int = 64,
-              windowed: bool = False, branchless: bool = True, fast_sqrt: bool = True,
-              max_registers: int = 0, inline_event_step: bool = True) -> TilePlan:
+def plan_tile(
+    features: Features,
+    grain_count: int,
+    chain_count: int,
+    *,
+    grains_per_lane: int = 8,
+    lanes_per_chain: int | None = None,
+    chains_per_block: int = 1,
+    steps_per_launch: int = 64,
+    windowed: bool = False,
+    branchless: bool = True,
+    fast_sqrt: bool = True,
+    max_registers: int = 0,
+    inline_event_step: bool = True,
+) -> TilePlan:
     """Lay out a fused launch for ``chain_count`` chains of ``grain_count`` grains.
 
     Whole chains: ``lanes_per_chain = ceil(grain_count / grains_per_lane)`` unless given (it must cover
@@ -1046,25 +1448,51 @@ def plan_tile(features: Features, grain_count: int, chain_count: int, *, grains_
         if lanes_per_chain is None:
             raise ValueError("a windowed plan needs lanes_per_chain")
         windows = plan_windows(n, lanes_per_chain * G, steps_per_launch)
-        shape = TileShape(G, lanes_per_chain, 1, windowed=True, masked=True, branchless=branchless,
-                          fast_sqrt=fast_sqrt, max_registers=max_registers, inline_event_step=inline_event_step)
-        plan = TilePlan(shape, steps_per_launch, windows.interior, windows.ghost, windows.blocks_per_chain,
-                        windows.blocks_per_chain * chain_count)
+        shape = TileShape(
+            G,
+            lanes_per_chain,
+            1,
+            windowed=True,
+            masked=True,
+            branchless=branchless,
+            fast_sqrt=fast_sqrt,
+            max_registers=max_registers,
+            inline_event_step=inline_event_step,
+        )
+        plan = TilePlan(
+            shape,
+            steps_per_launch,
+            windows.interior,
+            windows.ghost,
+            windows.blocks_per_chain,
+            windows.blocks_per_chain * chain_count,
+        )
     else:
         lanes = lanes_per_chain or -(-n // G)
         if lanes * G < n:
             raise ValueError(f"{lanes} lanes x {G} grains do not cover {n} grains")
         masked = lanes * G != n or free_end
-        shape = TileShape(G, lanes, chains_per_block, windowed=False, masked=masked, branchless=branchless,
-                          fast_sqrt=fast_sqrt, max_registers=max_registers, inline_event_step=inline_event_step)
+        shape = TileShape(
+            G,
+            lanes,
+            chains_per_block,
+            windowed=False,
+            masked=masked,
+            branchless=branchless,
+            fast_sqrt=fast_sqrt,
+            max_registers=max_registers,
+            inline_event_step=inline_event_step,
+        )
         plan = TilePlan(shape, steps_per_launch, n, 0, 1, -(-chain_count // chains_per_block))
     plan = with_driver_slot(plan, features)
     if plan.shape.block_dim > 1024:
         raise ValueError(f"block of {plan.shape.block_dim} threads: at most 1024")
     needed = shared_bytes(features, plan.shape)
     if needed > SHARED_BYTES:
-        raise ValueError(f"block of {plan.shape.block_dim} lanes x {G} grains needs {needed} bytes of shared memory "
-                         f"(event steps keep the block's state there): at most {SHARED_BYTES}")
+        raise ValueError(
+            f"block of {plan.shape.block_dim} lanes x {G} grains needs {needed} bytes of shared memory "
+            f"(event steps keep the block's state there): at most {SHARED_BYTES}"
+        )
     cap = launchable_register_cap(plan.shape.block_dim)
     if cap and (max_registers == 0 or max_registers > cap):
         plan = replace(plan, shape=replace(plan.shape, max_registers=cap))
@@ -1084,11 +1512,16 @@ def with_driver_slot(plan: TilePlan, features: Features) -> TilePlan:
             slot = 0
         else:
             span = plan.shape.lanes_per_chain * G
-            slots = {(plan.ghost - p * plan.interior) % G for p in range(plan.blocks_per_chain)
-                     if p * plan.interior - plan.ghost <= 0 < p * plan.interior - plan.ghost + span}
+            slots = {
+                (plan.ghost - p * plan.interior) % G
+                for p in range(plan.blocks_per_chain)
+                if p * plan.interior - plan.ghost <= 0 < p * plan.interior - plan.ghost + span
+            }
             if G - 1 in slots:
-                raise ValueError(f"a driven windowed plan needs grains 0 and 1 in one lane (ghost {plan.ghost}, "
-                                 f"interior {plan.interior}: grain 0 is the last of a lane's {G})")
+                raise ValueError(
+                    f"a driven windowed plan needs grains 0 and 1 in one lane (ghost {plan.ghost}, "
+                    f"interior {plan.interior}: grain 0 is the last of a lane's {G})"
+                )
             slot = slots.pop() if len(slots) == 1 else -1
     if plan.shape.driver_slot == slot:
         return plan
@@ -1140,8 +1573,13 @@ def launchable_register_cap(block_dim: int) -> int:
 
 
 @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
-def drive_table(clock: wp.array(dtype=wp.int32), drive: wp.array2d(dtype=wp.float64), dt: wp.float64,
-                phases: wp.array2d(dtype=wp.vec2d), phase_first: wp.array(dtype=wp.int32)):
+def drive_table(
+    clock: wp.array(dtype=wp.int32),
+    drive: wp.array2d(dtype=wp.float64),
+    dt: wp.float64,
+    phases: wp.array2d(dtype=wp.vec2d),
+    phase_first: wp.array(dtype=wp.int32),
+):
     # the driver's (sin ωt, cos ωt) of chain c at step clock + row, with the per-step kernel's argument ω·(n·dt)
     # (the same bits); phase_first: the step of row 0
     c, row = wp.tid()
@@ -1158,14 +1596,46 @@ def launch_drive_table(*, clock, drive, dt: float, phases, phase_first, device, 
     clock … clock + rows − 1 (the clock read on the device, so a captured graph replays it at any clock); driven
     fused launches of n steps in all from that clock read rows 0 … n + 1 (each loads the next step's row ahead)."""
     rows = phases.shape[1] if rows is None else min(rows, phases.shape[1])
-    wp.launch(drive_table, dim=(phases.shape[0], rows), inputs=[clock, drive, dt], outputs=[phases, phase_first],
-              device=device)
+    wp.launch(
+        drive_table,
+        dim=(phases.shape[0], rows),
+        inputs=[clock, drive, dt],
+        outputs=[phases, phase_first],
+        device=device,
+    )
 
 
-def launch_tile(plan: TilePlan, kernel, *, x_in, clock_in, inverse_mass, contact_constant, static_overlap,
-                exponent, status, dt: float, steps: int, x_out, clock_out, device, drive, work_in, power_in,
-                work_out, power_out, trace_slot=None, trace_stride: int = 1, trace_x=None, damping=None,
-                dissipated=None, phases=None, phase_first=None, driver_log=None, record_cmd: bool = False):
+def launch_tile(
+    plan: TilePlan,
+    kernel,
+    *,
+    x_in,
+    clock_in,
+    inverse_mass,
+    contact_constant,
+    static_overlap,
+    exponent,
+    status,
+    dt: float,
+    steps: int,
+    x_out,
+    clock_out,
+    device,
+    drive,
+    work_in,
+    power_in,
+    work_out,
+    power_out,
+    trace_slot=None,
+    trace_stride: int = 1,
+    trace_x=None,
+    damping=None,
+    dissipated=None,
+    phases=None,
+    phase_first=None,
+    driver_log=None,
+    record_cmd: bool = False,
+):
     """Launch ``steps`` fused steps (``steps ≤ plan.steps_per_launch`` when windowed); x_in and x_out differ.
 
     ``drive`` (chains, 2), ``work_*``/``power_*`` (chains,): the model's and states' arrays (size 0 undriven);
@@ -1192,9 +1662,40 @@ def launch_tile(plan: TilePlan, kernel, *, x_in, clock_in, inverse_mass, contact
         phase_first = wp.empty(0, dtype=wp.int32, device=device)
         driver_log = wp.empty((0, 0), dtype=wp.vec2d, device=device)
     return wp.launch_tiled(
-        kernel, dim=[plan.block_count],
-        inputs=[x_in, clock_in, inverse_mass, contact_constant, static_overlap, exponent, status, dt, steps,
-                plan.interior, plan.ghost, plan.blocks_per_chain, drive, work_in, power_in],
-        outputs=[x_out, clock_out, work_out, power_out, trace_slot, trace_stride, trace_x, damping, dissipated, phases,
-                 phase_first, driver_log],
-        block_dim=plan.shape.block_dim, device=device, record_cmd=record_cmd)
+        kernel,
+        dim=[plan.block_count],
+        inputs=[
+            x_in,
+            clock_in,
+            inverse_mass,
+            contact_constant,
+            static_overlap,
+            exponent,
+            status,
+            dt,
+            steps,
+            plan.interior,
+            plan.ghost,
+            plan.blocks_per_chain,
+            drive,
+            work_in,
+            power_in,
+        ],
+        outputs=[
+            x_out,
+            clock_out,
+            work_out,
+            power_out,
+            trace_slot,
+            trace_stride,
+            trace_x,
+            damping,
+            dissipated,
+            phases,
+            phase_first,
+            driver_log,
+        ],
+        block_dim=plan.shape.block_dim,
+        device=device,
+        record_cmd=record_cmd,
+    )

@@ -10,9 +10,8 @@ import json
 import math
 from pathlib import Path
 
-from typer.testing import CliRunner
-
 from hertzian.ensemble.cli import app
+from typer.testing import CliRunner
 
 
 def toml_value(value) -> str:

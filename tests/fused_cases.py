@@ -8,7 +8,6 @@ so no test imports another test file.
 from __future__ import annotations
 
 import numpy as np
-
 from hertzian.ensemble.runner import Runner
 from hertzian.ensemble.scene import scene_from_dict
 from hertzian.kernels.features import KERNEL_OPTIONS
@@ -52,8 +51,7 @@ def chains(n_chains: int, **sections) -> list:
     data.setdefault("integrator", {}).setdefault("duration", 10.0)
     data.setdefault("excitation", {}).setdefault("impact", 1e-2)
     base = scene_from_dict(data)
-    return [base.with_overrides({"excitation.impact": base.excitation.impact * (1 + 0.3 * c)})
-            for c in range(n_chains)]
+    return [base.with_overrides({"excitation.impact": base.excitation.impact * (1 + 0.3 * c)}) for c in range(n_chains)]
 
 
 def per_step(model, steps: int, status=None) -> np.ndarray:
@@ -87,49 +85,96 @@ CASES = {
     # name: (scene sections, chain count, plan keywords, steps); steps: until the pulse has reached the
     # bottom of every chain (asserted by the tests), odd so the last fused launch is a partial one
     "walls, padded lanes": (
-        dict(chain={"grains": 37, "l0": 1e-4}, integrator={"dt": 5e-4}), 2,
-        dict(grains_per_lane=4), 4501),
+        dict(chain={"grains": 37, "l0": 1e-4}, integrator={"dt": 5e-4}),
+        2,
+        dict(grains_per_lane=4),
+        4501,
+    ),
     "free ends, 2 chains per block": (
-        dict(chain={"grains": 12}, boundary={"surface": "free", "bottom": "free"},
-             integrator={"dt": 5e-4}), 5,
-        dict(grains_per_lane=4, chains_per_block=2), 2501),
+        dict(chain={"grains": 12}, boundary={"surface": "free", "bottom": "free"}, integrator={"dt": 5e-4}),
+        5,
+        dict(grains_per_lane=4, chains_per_block=2),
+        2501,
+    ),
     "windows, fixed bottom, impurities, gravity": (
-        dict(chain={"grains": 50, "gravity": 1.0, "l0": 1e-4}, boundary={"bottom": "fixed"},
-             impurities=[{"grains": [10, 11, 30], "mass": 0.5, "a": 3000.0}], integrator={"dt": 5e-4}), 2,
-        dict(grains_per_lane=4, lanes_per_chain=8, steps_per_launch=6, windowed=True), 2501),
+        dict(
+            chain={"grains": 50, "gravity": 1.0, "l0": 1e-4},
+            boundary={"bottom": "fixed"},
+            impurities=[{"grains": [10, 11, 30], "mass": 0.5, "a": 3000.0}],
+            integrator={"dt": 5e-4},
+        ),
+        2,
+        dict(grains_per_lane=4, lanes_per_chain=8, steps_per_launch=6, windowed=True),
+        2501,
+    ),
     "verlet, exponent 2, surface load": (
-        dict(chain={"grains": 20, "exponent": 2.0, "l0": 1e-4}, boundary={"surface": "load"},
-             integrator={"method": "verlet", "dt": 2e-4}), 2,
-        dict(grains_per_lane=8), 1501),
+        dict(
+            chain={"grains": 20, "exponent": 2.0, "l0": 1e-4},
+            boundary={"surface": "load"},
+            integrator={"method": "verlet", "dt": 2e-4},
+        ),
+        2,
+        dict(grains_per_lane=8),
+        1501,
+    ),
     "gear6, full lanes": (
-        dict(chain={"grains": 16, "l0": 1e-4}, integrator={"method": "gear6", "dt": 5e-4}), 3,
-        dict(grains_per_lane=8), 2501),
+        dict(chain={"grains": 16, "l0": 1e-4}, integrator={"method": "gear6", "dt": 5e-4}),
+        3,
+        dict(grains_per_lane=8),
+        2501,
+    ),
     # compensated float32 (kernels/gear.py): the low parts of u and dt·v are state rows, compared too;
     # gear4 takes event steps here (the struck grain leaves the wall)
     "float32, walls, padded lanes, events": (
-        dict(chain={"grains": 37, "l0": 1e-4}, integrator={"dt": 5e-4, "precision": "float32"}), 2,
-        dict(grains_per_lane=4), 4501),
+        dict(chain={"grains": 37, "l0": 1e-4}, integrator={"dt": 5e-4, "precision": "float32"}),
+        2,
+        dict(grains_per_lane=4),
+        4501,
+    ),
     "float32, verlet, windows, fixed bottom, impurities, gravity": (
-        dict(chain={"grains": 50, "gravity": 1.0, "l0": 1e-4}, boundary={"bottom": "fixed"},
-             impurities=[{"grains": [10, 11, 30], "mass": 0.5, "a": 3000.0}],
-             integrator={"method": "verlet", "dt": 5e-4, "precision": "float32"}), 2,
-        dict(grains_per_lane=4, lanes_per_chain=8, steps_per_launch=6, windowed=True), 2501),
+        dict(
+            chain={"grains": 50, "gravity": 1.0, "l0": 1e-4},
+            boundary={"bottom": "fixed"},
+            impurities=[{"grains": [10, 11, 30], "mass": 0.5, "a": 3000.0}],
+            integrator={"method": "verlet", "dt": 5e-4, "precision": "float32"},
+        ),
+        2,
+        dict(grains_per_lane=4, lanes_per_chain=8, steps_per_launch=6, windowed=True),
+        2501,
+    ),
 }
 
 COMPOSED_CASES = {
     # yoshida4 (three velocity-Verlet substeps per step) on the kernels that implement it (per-step, CPU
     # sweep); not in CASES because the CUDA tile/window kernels do not implement it. Steps: until the pulse
     # has reached the bottom of every chain (asserted by the tests), odd.
-    "yoshida4, walls": (
-        dict(chain={"grains": 25, "l0": 1e-4}, integrator={"method": "yoshida4", "dt": 5e-4}), 2, 3001),
+    "yoshida4, walls": (dict(chain={"grains": 25, "l0": 1e-4}, integrator={"method": "yoshida4", "dt": 5e-4}), 2, 3001),
     "yoshida4, fixed bottom, impurities, gravity": (
-        dict(chain={"grains": 30, "gravity": 1.0, "l0": 1e-4}, boundary={"bottom": "fixed"},
-             impurities=[{"grains": [10, 11, 20], "mass": 0.5, "a": 3000.0}],
-             integrator={"method": "yoshida4", "dt": 5e-4}), 2, 2501),
+        dict(
+            chain={"grains": 30, "gravity": 1.0, "l0": 1e-4},
+            boundary={"bottom": "fixed"},
+            impurities=[{"grains": [10, 11, 20], "mass": 0.5, "a": 3000.0}],
+            integrator={"method": "yoshida4", "dt": 5e-4},
+        ),
+        2,
+        2501,
+    ),
     "yoshida4, free ends, exponent 2": (
-        dict(chain={"grains": 12, "exponent": 2.0}, boundary={"surface": "free", "bottom": "free"},
-             integrator={"method": "yoshida4", "dt": 5e-4}), 3, 2501),
+        dict(
+            chain={"grains": 12, "exponent": 2.0},
+            boundary={"surface": "free", "bottom": "free"},
+            integrator={"method": "yoshida4", "dt": 5e-4},
+        ),
+        3,
+        2501,
+    ),
     "yoshida4, float32, walls, impurities": (
-        dict(chain={"grains": 25, "l0": 1e-4}, impurities=[{"grains": [7], "mass": 2.0}],
-             integrator={"method": "yoshida4", "dt": 5e-4, "precision": "float32"}), 2, 3001),
+        dict(
+            chain={"grains": 25, "l0": 1e-4},
+            impurities=[{"grains": [7], "mass": 2.0}],
+            integrator={"method": "yoshida4", "dt": 5e-4, "precision": "float32"},
+        ),
+        2,
+        3001,
+    ),
 }

@@ -34,7 +34,7 @@ def function_body(source: str, name: str) -> str:
     if match is None:
         raise LookupError(f"no generated function {name!r}")
     end = source.index("\n}", match.end())
-    return source[match.start():end + 2]
+    return source[match.start() : end + 2]
 
 
 def call_count(source: str, name: str) -> int:

@@ -65,6 +65,7 @@ BOTTOMS = ("wall", "fixed", "free")
 # contact law
 # --------------------------------------------------------------------------
 
+
 def contact_force(delta, a, n):
     """Repulsive force magnitude ``n a max(delta,0)^(n-1)`` (no tension)."""
     d = np.maximum(np.asarray(delta, dtype=np.float64), 0.0)
@@ -74,12 +75,13 @@ def contact_force(delta, a, n):
 def potential(delta, a, n):
     """Contact energy ``a max(delta,0)^n``."""
     d = np.maximum(np.asarray(delta, dtype=np.float64), 0.0)
-    return np.asarray(a, dtype=np.float64) * d ** n
+    return np.asarray(a, dtype=np.float64) * d**n
 
 
 # --------------------------------------------------------------------------
 # scene -> per-grain / per-contact parameters
 # --------------------------------------------------------------------------
+
 
 def _grain_params(scene):
     """Per-grain mass, self-constant a and 'own contact rule' flag."""
@@ -160,7 +162,7 @@ def static_overlaps(scene):
     F0 = _F0(scene)
     m, _, _ = _grain_params(scene)
     a_sw, a_in, a_bw = contact_constants(scene)
-    carried_in = F0 + g * np.cumsum(m)[:-1]          # contact (k-1, k) carries F0 + g sum_{j<k} m_j
+    carried_in = F0 + g * np.cumsum(m)[:-1]  # contact (k-1, k) carries F0 + g sum_{j<k} m_j
     d_in = _overlap_from_force(carried_in, a_in, n)
     d_sw = float(_overlap_from_force(F0, a_sw, n)) if surface == "wall" else None
     d_bw = float(_overlap_from_force(F0 + g * m.sum(), a_bw, n)) if bottom == "wall" else None
@@ -170,6 +172,7 @@ def static_overlaps(scene):
 # --------------------------------------------------------------------------
 # the model: forces and energy
 # --------------------------------------------------------------------------
+
 
 class _Chain:
     """Everything needed to evaluate accelerations and energy of one scene."""
@@ -220,11 +223,11 @@ class _Chain:
     def accel(self, u, t):
         """Acceleration of every grain at positions u (constraints already imposed)."""
         n = self.n
-        f = self.m * self.g                          # gravity, +m g (u grows downward)
-        F = self.inner_force(u)                      # F[i]: contact (i, i+1)
+        f = self.m * self.g  # gravity, +m g (u grows downward)
+        F = self.inner_force(u)  # F[i]: contact (i, i+1)
         f = f.copy()
-        f[1:] += F                                   # contact above pushes down (+)
-        f[:-1] -= F                                  # contact below pushes up (-)
+        f[1:] += F  # contact above pushes down (+)
+        f[:-1] -= F  # contact below pushes up (-)
         if self.surface == "wall":
             f[0] += contact_force(self.d_sw - u[0], self.a_sw, n)
         elif self.surface == "load":
@@ -268,6 +271,7 @@ class _Chain:
 # exact Taylor start for the Nordsieck vector
 # --------------------------------------------------------------------------
 
+
 def _force_derivs(d0, a_c, n):
     """F', F'', F''' of F(delta) = n a_c delta^(n-1) at the static overlap d0.
 
@@ -278,7 +282,7 @@ def _force_derivs(d0, a_c, n):
     d0 = np.asarray(d0, dtype=np.float64)
     a_c = np.asarray(a_c, dtype=np.float64)
     pos = d0 > 0.0
-    d = np.where(pos, d0, 1.0)                       # dummy 1.0 where unloaded
+    d = np.where(pos, d0, 1.0)  # dummy 1.0 where unloaded
     F1 = np.where(pos, n * (n - 1.0) * a_c * d ** (n - 2.0), 0.0)
     F2 = np.where(pos, n * (n - 1.0) * (n - 2.0) * a_c * d ** (n - 3.0), 0.0)
     F3 = np.where(pos, n * (n - 1.0) * (n - 2.0) * (n - 3.0) * a_c * d ** (n - 4.0), 0.0)
@@ -314,8 +318,8 @@ def _taylor_derivatives(ch, u, v, acc):
     def net(t_in, t_sw, t_bw):
         """M^-1 times the signed sum of per-contact force derivatives."""
         f = np.zeros(ch.N)
-        f[1:] += t_in                                # contact above pushes down (+)
-        f[:-1] -= t_in                               # contact below pushes up (-)
+        f[1:] += t_in  # contact above pushes down (+)
+        f[:-1] -= t_in  # contact below pushes up (-)
         if sw:
             f[0] += t_sw
         if bw:
@@ -326,7 +330,7 @@ def _taylor_derivatives(ch, u, v, acc):
         """Impose the prescribed k-th derivative on driven / fixed grains."""
         if ch.driven:
             # d^k/dt^k [A sin(w t)] at t = 0 is A w^k sin(k pi / 2)
-            x[0] = ch.A * ch.w ** k * (0.0, 1.0, 0.0, -1.0)[k % 4]
+            x[0] = ch.A * ch.w**k * (0.0, 1.0, 0.0, -1.0)[k % 4]
         if ch.fixed:
             x[-1] = 0.0
         return x
@@ -334,13 +338,18 @@ def _taylor_derivatives(ch, u, v, acc):
     d1_in, d1_sw, d1_bw = ddelta(v)
     a1 = constrain(net(F1_in * d1_in, F1_sw * d1_sw, F1_bw * d1_bw), 3)
     d2_in, d2_sw, d2_bw = ddelta(acc)
-    a2 = constrain(net(F2_in * d1_in ** 2 + F1_in * d2_in,
-                       F2_sw * d1_sw ** 2 + F1_sw * d2_sw,
-                       F2_bw * d1_bw ** 2 + F1_bw * d2_bw), 4)
+    a2 = constrain(
+        net(F2_in * d1_in**2 + F1_in * d2_in, F2_sw * d1_sw**2 + F1_sw * d2_sw, F2_bw * d1_bw**2 + F1_bw * d2_bw), 4
+    )
     d3_in, d3_sw, d3_bw = ddelta(a1)
-    a3 = constrain(net(F3_in * d1_in ** 3 + 3.0 * F2_in * d1_in * d2_in + F1_in * d3_in,
-                       F3_sw * d1_sw ** 3 + 3.0 * F2_sw * d1_sw * d2_sw + F1_sw * d3_sw,
-                       F3_bw * d1_bw ** 3 + 3.0 * F2_bw * d1_bw * d2_bw + F1_bw * d3_bw), 5)
+    a3 = constrain(
+        net(
+            F3_in * d1_in**3 + 3.0 * F2_in * d1_in * d2_in + F1_in * d3_in,
+            F3_sw * d1_sw**3 + 3.0 * F2_sw * d1_sw * d2_sw + F1_sw * d3_sw,
+            F3_bw * d1_bw**3 + 3.0 * F2_bw * d1_bw * d2_bw + F1_bw * d3_bw,
+        ),
+        5,
+    )
     return [u.copy(), v.copy(), acc.copy(), a1, a2, a3]
 
 
@@ -353,6 +362,7 @@ def total_energy(scene, u, v):
 # stepping schedule
 # --------------------------------------------------------------------------
 
+
 def _schedule(scene):
     integ = scene["integrator"]
     rec = scene.get("record") or {}
@@ -364,8 +374,8 @@ def _schedule(scene):
         raise ValueError(f"integrator.duration = {duration}: must be > 0")
     every = rec.get("every")
     every = duration if every is None else float(every)
-    k = max(1, int(round(every / dt)))               # steps per record
-    n_int = max(1, int(round(duration / every)))     # record intervals
+    k = max(1, int(round(every / dt)))  # steps per record
+    n_int = max(1, int(round(duration / every)))  # record intervals
     total = n_int * k
     te = rec.get("trace_every")
     s = 1 if te is None else max(1, int(round(float(te) / dt)))
@@ -375,6 +385,7 @@ def _schedule(scene):
 # --------------------------------------------------------------------------
 # main entry point
 # --------------------------------------------------------------------------
+
 
 def reference_run(scene: dict, exact_start: bool = True) -> dict:
     """Integrate one scene; return snapshots, energy, drive work and traces (float64).
@@ -474,27 +485,26 @@ def reference_run(scene: dict, exact_start: bool = True) -> dict:
             record(step, u, v)
     else:
         C = np.asarray(GEAR_COEFFS[method], dtype=np.float64)
-        q = C.size                                   # number of Nordsieck values
+        q = C.size  # number of Nordsieck values
         # Nordsieck vector x_j = dt^j / j! * d^j u / dt^j
         X = np.zeros((q, N))
         if exact_start:
             derivs = _taylor_derivatives(ch, u, v, acc)
             fact = 1.0
             for j in range(q):
-                fact *= max(j, 1)                   # j!
-                X[j] = dt ** j / fact * derivs[j]
+                fact *= max(j, 1)  # j!
+                X[j] = dt**j / fact * derivs[j]
         else:
             X[0] = u
             X[1] = dt * v
             X[2] = 0.5 * dt * dt * acc
         # Pascal-triangle predictor: x_j <- sum_{l>=j} binom(l, j) x_l
-        P = np.array([[comb(l, j) if l >= j else 0 for l in range(q)] for j in range(q)],
-                     dtype=np.float64)
+        P = np.array([[comb(l, j) if l >= j else 0 for l in range(q)] for j in range(q)], dtype=np.float64)
         half_dt2 = 0.5 * dt * dt
         for step in range(1, total + 1):
             t1 = step * dt
             Xp = P @ X
-            ch.enforce(Xp[0], t1)                   # driven grain 0 exact, fixed grain 0
+            ch.enforce(Xp[0], t1)  # driven grain 0 exact, fixed grain 0
             a_p = ch.accel(Xp[0], t1)
             delta = half_dt2 * a_p - Xp[2]
             X = Xp + C[:, None] * delta[None, :]
@@ -529,14 +539,21 @@ def default_scene(**overrides) -> dict:
     """A fully filled scene dict (SPEC section 8 defaults); ``overrides`` are
     ``section=dict`` updates, e.g. ``default_scene(chain={"grains": 20})``."""
     scene = {
-        "chain": {"grains": 1000, "mass": 1.0, "a": 5657.0, "exponent": 2.5, "diameter": 100.0,
-                  "l0": 0.0, "load": None, "gravity": 0.0},
+        "chain": {
+            "grains": 1000,
+            "mass": 1.0,
+            "a": 5657.0,
+            "exponent": 2.5,
+            "diameter": 100.0,
+            "l0": 0.0,
+            "load": None,
+            "gravity": 0.0,
+        },
         "boundary": {"surface": "wall", "bottom": "wall"},
         "impurities": [],
         "excitation": {"impact": 0.0, "drive_amplitude": 0.0, "drive_period": 10.0},
         "integrator": {"method": "gear4", "dt": 1.25e-5, "duration": 1.0, "precision": "float64"},
-        "record": {"every": None, "fields": ["u", "v"], "traces": [], "trace_every": None,
-                   "energy": True},
+        "record": {"every": None, "fields": ["u", "v"], "traces": [], "trace_every": None, "energy": True},
     }
     for key, val in overrides.items():
         if isinstance(val, dict):

@@ -5,19 +5,16 @@ next to its run time (store and summarize)."""
 import json
 import subprocess
 import sys
-from fractions import Fraction
-
 import time
+from fractions import Fraction
 
 import numpy as np
 import pytest
-
+from conftest import make_scene
 from hertzian.ensemble.accuracy import common_record_interval, relative_error, richardson_estimate, work_precision
 from hertzian.ensemble.runner import run_scene
 from hertzian.ensemble.scene import SceneError
 from hertzian.ensemble.store import summary_records, write_result
-
-from conftest import make_scene
 
 
 def test_record_interval_is_a_common_multiple():
@@ -25,9 +22,9 @@ def test_record_interval_is_a_common_multiple():
     every = common_record_interval(dts, 20.0)
     for dt in dts:
         assert Fraction(repr(every)) / Fraction(repr(dt)) == round(every / dt)
-    assert 20.0 / every == round(20.0 / every)          # divides the duration when it can
+    assert 20.0 / every == round(20.0 / every)  # divides the duration when it can
     assert common_record_interval([1e-4, 5e-5], 1.0, preferred=0.3) == 0.3
-    assert common_record_interval([1e-4, 3e-5], 1.0, preferred=0.25) != 0.25   # 3e-5 does not divide 0.25
+    assert common_record_interval([1e-4, 3e-5], 1.0, preferred=0.25) != 0.25  # 3e-5 does not divide 0.25
     with pytest.raises(SceneError, match="no common multiple"):
         common_record_interval([3e-3, 7e-3], 0.01)
 
@@ -60,15 +57,20 @@ def test_richardson_estimate_recovers_a_known_error(order):
 
 def smooth_scene():
     """A strongly precompressed chain: no contact opens, the force is smooth, methods show their order."""
-    return make_scene(chain={"grains": 20, "l0": 1e-2}, excitation={"impact": 1e-4},
-                      integrator={"dt": 1e-3, "duration": 1.0}, record={"every": 0.25})
+    return make_scene(
+        chain={"grains": 20, "l0": 1e-2},
+        excitation={"impact": 1e-4},
+        integrator={"dt": 1e-3, "duration": 1.0},
+        record={"every": 0.25},
+    )
 
 
 def test_small_study_shows_the_orders():
     dts = [2e-3, 1e-3, 5e-4]
     started = time.perf_counter()
-    records, reference, every = work_precision(smooth_scene(), ["gear4", "verlet"], dts, ["float64", "float32"],
-                                               device="cpu")
+    records, reference, every = work_precision(
+        smooth_scene(), ["gear4", "verlet"], dts, ["float64", "float32"], device="cpu"
+    )
     elapsed = time.perf_counter() - started
     assert every == 0.25
     assert len(records) == 2 * 2 * 3
@@ -77,7 +79,7 @@ def test_small_study_shows_the_orders():
         errors = [by[method, "float64", dt].error for dt in dts]
         slope = np.polyfit(np.log(dts), np.log(errors), 1)[0]
         assert abs(slope - order) < 0.3, (method, errors)
-        assert min(errors) > 100 * reference.error_estimate     # the reference resolves them
+        assert min(errors) > 100 * reference.error_estimate  # the reference resolves them
     assert not any(r.reference_limited for r in records if r.precision == "float64")
     assert 4 < reference.observed_order < 7
     for r in records:
@@ -91,8 +93,12 @@ def test_small_study_shows_the_orders():
 
 def test_run_reports_energy_error_next_to_wall_seconds(tmp_path):
     """Store and summarize carry the energy error (SPEC §5, recomputed here from the stored energy) and seconds."""
-    scene = make_scene(chain={"grains": 10, "l0": 1e-4}, excitation={"impact": 1e-2},
-                       integrator={"dt": 2e-4, "duration": 0.2}, record={"every": 0.02})
+    scene = make_scene(
+        chain={"grains": 10, "l0": 1e-4},
+        excitation={"impact": 1e-2},
+        integrator={"dt": 2e-4, "duration": 0.2},
+        record={"every": 0.02},
+    )
     result = run_scene(scene, "cpu")
     write_result(tmp_path / "r.zarr", result)
     [record] = summary_records(tmp_path / "r.zarr")
@@ -108,37 +114,67 @@ def test_run_reports_energy_error_next_to_wall_seconds(tmp_path):
 
 
 def hertzian(*args, cwd):
-    return subprocess.run([sys.executable, "-c", "from hertzian.ensemble.cli import main; main()", *args],
-                          capture_output=True, text=True, cwd=cwd)
+    return subprocess.run(
+        [sys.executable, "-c", "from hertzian.ensemble.cli import main; main()", *args],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+    )
 
 
 def test_cli_accuracy(tmp_path):
     scene = tmp_path / "s.toml"
-    scene.write_text("[chain]\ngrains = 10\nl0 = 1e-4\n[excitation]\nimpact = 1e-2\n"
-                     "[integrator]\nduration = 0.1\n")
-    out = hertzian("accuracy", str(scene), "--methods", "gear4,verlet", "--dt", "4e-4,2e-4", "--precision", "both",
-                   "--json", "--plot", str(tmp_path / "wp.png"), "--device", "cpu", cwd=tmp_path)
+    scene.write_text("[chain]\ngrains = 10\nl0 = 1e-4\n[excitation]\nimpact = 1e-2\n[integrator]\nduration = 0.1\n")
+    out = hertzian(
+        "accuracy",
+        str(scene),
+        "--methods",
+        "gear4,verlet",
+        "--dt",
+        "4e-4,2e-4",
+        "--precision",
+        "both",
+        "--json",
+        "--plot",
+        str(tmp_path / "wp.png"),
+        "--device",
+        "cpu",
+        cwd=tmp_path,
+    )
     assert out.returncode == 0, out.stderr
     records = json.loads(out.stdout)
-    assert {(r["method"], r["precision"]) for r in records} == {(m, p) for m in ("gear4", "verlet")
-                                                                for p in ("float64", "float32")}
+    assert {(r["method"], r["precision"]) for r in records} == {
+        (m, p) for m in ("gear4", "verlet") for p in ("float64", "float32")
+    }
     for r in records:
-        assert {"method", "dt", "precision", "error", "energy_error", "seconds", "grain_steps_per_second",
-                "reference_error"} <= set(r)
+        assert {
+            "method",
+            "dt",
+            "precision",
+            "error",
+            "energy_error",
+            "seconds",
+            "grain_steps_per_second",
+            "reference_error",
+        } <= set(r)
     assert (tmp_path / "wp.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    table = hertzian("accuracy", str(scene), "--methods", "gear5,yoshida4", "--dt", "2e-4", "--device", "cpu",
-                     cwd=tmp_path)
+    table = hertzian(
+        "accuracy", str(scene), "--methods", "gear5,yoshida4", "--dt", "2e-4", "--device", "cpu", cwd=tmp_path
+    )
     assert table.returncode == 0 and "reference: gear6" in table.stdout, table.stderr
     assert "gear5" in table.stdout and "yoshida4" in table.stdout
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--methods", "gear7"], "error: --methods = 'gear7': allowed: gear4, gear5, gear6, verlet"),
-    (["--dt", "abc"], "error: --dt = 'abc': must be a number"),
-    (["--dt", "-1e-4"], "error: --dt = '-1e-4': must be > 0"),
-    (["--dt", "3e-2,7e-2"], "no common multiple"),
-    (["--precision", "float16"], "error: --precision = 'float16'"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--methods", "gear7"], "error: --methods = 'gear7': allowed: gear4, gear5, gear6, verlet"),
+        (["--dt", "abc"], "error: --dt = 'abc': must be a number"),
+        (["--dt", "-1e-4"], "error: --dt = '-1e-4': must be > 0"),
+        (["--dt", "3e-2,7e-2"], "no common multiple"),
+        (["--precision", "float16"], "error: --precision = 'float16'"),
+    ],
+)
 def test_cli_accuracy_bad_input(tmp_path, args, message):
     scene = tmp_path / "s.toml"
     scene.write_text("[chain]\ngrains = 4\n[excitation]\nimpact = 1e-2\n[integrator]\nduration = 0.1\n")
@@ -151,8 +187,7 @@ def test_cli_accuracy_bad_input(tmp_path, args, message):
 
 # --- time to accuracy: `hertzian accuracy --target` ------------------------------------------------------------
 
-TARGET_SCENE = ("[chain]\ngrains = 20\nl0 = 1e-4\n[excitation]\nimpact = 1e-2\n"
-                "[integrator]\nduration = 0.5\n")
+TARGET_SCENE = "[chain]\ngrains = 20\nl0 = 1e-4\n[excitation]\nimpact = 1e-2\n[integrator]\nduration = 0.5\n"
 TARGETS = (1e-6, 1e-8, 1e-30)
 
 
@@ -171,8 +206,24 @@ def test_cli_accuracy_target_picks_the_largest_dt_meeting_it(tmp_path):
 
     scene = tmp_path / "s.toml"
     scene.write_text(TARGET_SCENE)
-    out = invoke("accuracy", scene, "--methods", "gear4,verlet", "--dt", "4e-4,2e-4,1e-4", "--precision", "both",
-                 "--target", "1e-6,1e-8", "--target", "1e-30", "--json", "--quiet", "--device", "cpu")
+    out = invoke(
+        "accuracy",
+        scene,
+        "--methods",
+        "gear4,verlet",
+        "--dt",
+        "4e-4,2e-4,1e-4",
+        "--precision",
+        "both",
+        "--target",
+        "1e-6,1e-8",
+        "--target",
+        "1e-30",
+        "--json",
+        "--quiet",
+        "--device",
+        "cpu",
+    )
     assert out.exit_code == 0, out.output
     data = json.loads(out.stdout)
     records, targets = data["records"], data["targets"]
@@ -190,7 +241,11 @@ def test_cli_accuracy_target_picks_the_largest_dt_meeting_it(tmp_path):
                 assert row["dt"] is None and row["seconds"] is None
             else:
                 assert (row["dt"], row["seconds"], row["error"], row["energy_error"]) == (
-                    best["dt"], best["seconds"], best["error"], best["energy_error"])
+                    best["dt"],
+                    best["seconds"],
+                    best["error"],
+                    best["energy_error"],
+                )
                 chosen.append(row["dt"])
         # ranked by the run's own seconds, rows that meet nothing last
         rows = [t for t in targets if t["target"] == target]
@@ -199,16 +254,20 @@ def test_cli_accuracy_target_picks_the_largest_dt_meeting_it(tmp_path):
         assert [t["seconds"] is None for t in rows] == sorted(t["seconds"] is None for t in rows)
     # the case discriminates: at 1e-6 some group meets it only at a smaller dt, another at several dts
     assert 4e-4 in chosen and min(chosen) < 4e-4
-    assert any(len([r for r in records if r["method"] == m and r["precision"] == p
-                    and r["energy_error"] <= 1e-6]) > 1 for m, p in groups)
+    assert any(
+        len([r for r in records if r["method"] == m and r["precision"] == p and r["energy_error"] <= 1e-6]) > 1
+        for m, p in groups
+    )
     # no run reaches 1e-30: "none" for every method and precision
     assert all(by[1e-30, m, p]["dt"] is None for m, p in groups)
 
     # the position error as the measure, on the same records
     from hertzian.ensemble.accuracy import AccuracyRecord, time_to_target
 
-    runs = [AccuracyRecord(**{k: v for k, v in r.items() if not k.startswith("reference_") or
-                              k == "reference_limited"}) for r in records]
+    runs = [
+        AccuracyRecord(**{k: v for k, v in r.items() if not k.startswith("reference_") or k == "reference_limited"})
+        for r in records
+    ]
     for row in time_to_target(runs, [1e-6, 1e-9], "error"):
         best = largest_meeting(records, row.method, row.precision, row.target, "error")
         assert row.dt == (best["dt"] if best else None) and row.measure == "error"
@@ -219,24 +278,38 @@ def test_time_to_target_skips_failed_runs():
     from hertzian.ensemble.accuracy import AccuracyRecord, time_to_target
 
     def record(dt, energy_error, status=0):
-        return AccuracyRecord(method="gear4", dt=dt, precision="float64", error=1e-9, energy_error=energy_error,
-                              seconds=1.0 / dt, grain_steps_per_second=1.0, steps=1, steps_per_contact_time=1.0,
-                              status=status, status_name="X", reference_limited=False)
+        return AccuracyRecord(
+            method="gear4",
+            dt=dt,
+            precision="float64",
+            error=1e-9,
+            energy_error=energy_error,
+            seconds=1.0 / dt,
+            grain_steps_per_second=1.0,
+            steps=1,
+            steps_per_contact_time=1.0,
+            status=status,
+            status_name="X",
+            reference_limited=False,
+        )
 
     runs = [record(4e-4, 0.0, status=1), record(2e-4, float("nan")), record(1e-4, 5e-7), record(5e-5, 1e-9)]
     [row] = time_to_target(runs, [1e-6])
     assert (row.dt, row.seconds) == (1e-4, 1e4)
 
 
-@pytest.mark.parametrize("args, key", [
-    (["--target", "0"], "--target = '0'"),
-    (["--target", "-1e-6"], "--target = '-1e-6'"),
-    (["--target", "1e-6,nan"], "--target = 'nan'"),
-    (["--target", "inf"], "--target = 'inf'"),
-    (["--target", "abc"], "--target = 'abc'"),
-    (["--target", ","], "--target = ','"),
-    (["--target", "1e-6", "--measure", "position"], "--measure = 'position': allowed: energy, error"),
-])
+@pytest.mark.parametrize(
+    "args, key",
+    [
+        (["--target", "0"], "--target = '0'"),
+        (["--target", "-1e-6"], "--target = '-1e-6'"),
+        (["--target", "1e-6,nan"], "--target = 'nan'"),
+        (["--target", "inf"], "--target = 'inf'"),
+        (["--target", "abc"], "--target = 'abc'"),
+        (["--target", ","], "--target = ','"),
+        (["--target", "1e-6", "--measure", "position"], "--measure = 'position': allowed: energy, error"),
+    ],
+)
 def test_cli_accuracy_target_refusals(tmp_path, args, key):
     from cli_cases import assert_refused, invoke
 

@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 import pytest
-
 from hertzian.ensemble import analysis as an
 
 
@@ -67,7 +66,7 @@ def test_pulse_head_subgrain_and_deepest_strong_maximum():
 def test_pulse_speed_stops_before_reflection():
     t = np.linspace(0.0, 10.0, 41)
     head = 20.0 * t
-    head[t > 6] = 240.0 - 20.0 * (t[t > 6] - 6.0)     # reflected at grain 120: would bend the line
+    head[t > 6] = 240.0 - 20.0 * (t[t > 6] - 6.0)  # reflected at grain 120: would bend the line
     fit = an.pulse_speed(t, head, first_grain=10.0, last_grain=100.0)
     assert fit.slope == pytest.approx(20.0, abs=1e-10)
     centres, speeds = an.speed_history(t[:20], 20.0 * t[:20], window=5)
@@ -89,7 +88,7 @@ def test_front_position_and_shock_width_of_a_rectangle():
 def test_plateau_tilt():
     flat = np.r_[np.zeros(10), np.ones(30), np.zeros(10)]
     assert an.plateau_tilt(flat) == pytest.approx(0.0, abs=1e-12)
-    sloped = np.r_[np.zeros(10), np.linspace(1.0, 0.9, 30), np.zeros(10)]   # higher at the shallow end
+    sloped = np.r_[np.zeros(10), np.linspace(1.0, 0.9, 30), np.zeros(10)]  # higher at the shallow end
     assert an.plateau_tilt(sloped) == pytest.approx(0.1, rel=1e-9)
 
 
@@ -105,7 +104,7 @@ def test_tail_decay_recovers_decay_length_through_oscillations():
     head = 300.0
     z = head - grains
     envelope = 2e-4 * np.exp(-z / 60.0)
-    u = np.where(z >= 0, envelope * np.cos(2.4 * z) ** 2, 0.0)   # oscillating tail, compressive envelope
+    u = np.where(z >= 0, envelope * np.cos(2.4 * z) ** 2, 0.0)  # oscillating tail, compressive envelope
     fit = an.tail_decay(u, head, envelope=11)
     assert fit.decay_length == pytest.approx(60.0, rel=0.05)
     assert fit.r_squared > 0.99
@@ -116,8 +115,8 @@ def test_tail_decay_recovers_decay_length_through_oscillations():
 
 def test_backscatter_sign_amplitude_arrival():
     t = np.linspace(0.0, 20.0, 2001)
-    reference = np.exp(-((t - 2.0) / 0.2) ** 2)                 # incident pulse, same in both chains
-    echo = 0.3 * np.exp(-((t - 12.0) / 0.2) ** 2) - 0.5 * np.exp(-((t - 12.6) / 0.2) ** 2)
+    reference = np.exp(-(((t - 2.0) / 0.2) ** 2))  # incident pulse, same in both chains
+    echo = 0.3 * np.exp(-(((t - 12.0) / 0.2) ** 2)) - 0.5 * np.exp(-(((t - 12.6) / 0.2) ** 2))
     b = an.backscatter(t, reference + echo, reference, after=5.0)
     assert b.leading_sign == 1 and b.peak_sign == -1
     assert b.amplitude == pytest.approx(0.5, rel=1e-3)
@@ -148,7 +147,7 @@ def test_depth_law_on_a_synthetic_head():
 
 def test_window_average():
     t = np.arange(0.0, 10.0, 0.1)
-    field = np.stack([np.full(3, x) for x in t])            # (record, grain)
+    field = np.stack([np.full(3, x) for x in t])  # (record, grain)
     avg = an.window_average(t, field, [2.0, 5.0], 1.0)
     assert avg.shape == (2, 3)
     assert np.allclose(avg[:, 0], [2.0, 5.0])
@@ -212,11 +211,11 @@ def test_linear_chain_modes_closed_forms():
     omega, shapes = an.linear_chain_modes(masses, np.full(n + 1, stiffness))
     assert omega[-1] == pytest.approx(math.sqrt(4 * stiffness / (0.5 * 1.5)), rel=1e-10)
     assert omega[-2] < 2 * math.sqrt(stiffness)
-    assert shapes[100, -1] ** 2 > 0.5                      # localised at the light mass
+    assert shapes[100, -1] ** 2 > 0.5  # localised at the light mass
     # two unequal masses between walls, three unequal springs: the 2×2 closed form
     k0, k1, k2, m0, m1 = 3.0, 5.0, 7.0, 2.0, 0.5
-    trace, det = (k0 + k1) / m0 + (k1 + k2) / m1, ((k0 + k1) * (k1 + k2) - k1 ** 2) / (m0 * m1)
-    roots = np.sqrt([(trace - math.sqrt(trace ** 2 - 4 * det)) / 2, (trace + math.sqrt(trace ** 2 - 4 * det)) / 2])
+    trace, det = (k0 + k1) / m0 + (k1 + k2) / m1, ((k0 + k1) * (k1 + k2) - k1**2) / (m0 * m1)
+    roots = np.sqrt([(trace - math.sqrt(trace**2 - 4 * det)) / 2, (trace + math.sqrt(trace**2 - 4 * det)) / 2])
     np.testing.assert_allclose(an.linear_chain_modes([m0, m1], [k0, k1, k2])[0], roots, rtol=1e-12)
     assert an.hertz_stiffness(5657.0, 2.5 * 5657.0 * 1e-6) == pytest.approx(3.75 * 5657.0 * 1e-2, rel=1e-12)
 
@@ -224,7 +223,7 @@ def test_linear_chain_modes_closed_forms():
 def test_echo_contrast_and_power_spectrum():
     t = np.linspace(0.0, 10.0, 1001)
     reference = np.sin(t)
-    echo = np.exp(-((t - 5.0) / 0.3) ** 2)
+    echo = np.exp(-(((t - 5.0) / 0.3) ** 2))
     assert an.echo_contrast(t, reference + echo, reference + echo, reference) == 0.0
     assert an.echo_contrast(t, reference + echo, reference - echo, reference) == pytest.approx(1.0, rel=1e-12)
     assert an.echo_contrast(t, reference + echo, reference - echo, reference, after=6.0) < 1.0 + 1e-12
@@ -234,16 +233,20 @@ def test_echo_contrast_and_power_spectrum():
 
 def test_overlap_behind_head_and_rear_level():
     u = np.zeros(300)
-    u[:200] = np.linspace(2e-3, 1e-3, 200)      # displaced region, SPEC sign (+ into the chain)
+    u[:200] = np.linspace(2e-3, 1e-3, 200)  # displaced region, SPEC sign (+ into the chain)
     u[195:200] = np.linspace(1e-3 + 8e-4, 1e-3, 5)  # a step at the head: overlap 2e-4 per contact there
     u[200:] = 0.0
     assert an.overlaps(u, 1e-4)[199] == pytest.approx(1e-4 + 1e-3, rel=1e-12)
     # behind the head the dynamic overlap is the ramp's 5e-6 per contact; at the head 1e-3
     assert an.overlap_behind_head(u, 199.5, l0=1e-4) == pytest.approx(5.025e-6 / 1e-3, rel=1e-2)
-    u[50] += 5e-3                                  # one strongly compressed contact far behind the head
+    u[50] += 5e-3  # one strongly compressed contact far behind the head
     assert an.overlap_behind_head(u, 199.5) > 1.0
     assert math.isnan(an.overlap_behind_head(u, math.nan))
     assert an.rear_level(np.r_[np.full(10, 3e-5), np.zeros(20)]) == pytest.approx(3e-5)
-    fit = an.tail_decay(3e-5 + np.where(np.arange(300) <= 250, 1e-4 * np.exp(-(250 - np.arange(300)) / 40.0), 0.0),
-                        250.0, envelope=1, baseline=3e-5)
+    fit = an.tail_decay(
+        3e-5 + np.where(np.arange(300) <= 250, 1e-4 * np.exp(-(250 - np.arange(300)) / 40.0), 0.0),
+        250.0,
+        envelope=1,
+        baseline=3e-5,
+    )
     assert fit.decay_length == pytest.approx(40.0, rel=1e-6)

@@ -8,13 +8,12 @@ from datetime import datetime, timezone
 
 import numpy as np
 import pytest
-from typer.testing import CliRunner
-
+from fused_cases import per_step
 from hertzian.ensemble.bench import bench_scenes
 from hertzian.ensemble.cli import app
 from hertzian.ensemble.model import build_model
 from hertzian.ensemble.peers import NumpyGear4, problem_from_model
-from fused_cases import per_step
+from typer.testing import CliRunner
 
 
 def plain_gear(scenes):
@@ -29,8 +28,9 @@ def invoke(*args):
 def test_bench_json_records():
     days = {datetime.now(timezone.utc).date().isoformat()}
     started = time.perf_counter()
-    result = invoke("--device", "cpu", "--chains", "3,1", "--grains", "40,60", "--steps", "20", "--repeats", "1",
-                    "--json")
+    result = invoke(
+        "--device", "cpu", "--chains", "3,1", "--grains", "40,60", "--steps", "20", "--repeats", "1", "--json"
+    )
     elapsed = time.perf_counter() - started
     days.add(datetime.now(timezone.utc).date().isoformat())
     assert result.exit_code == 0, result.output
@@ -40,7 +40,10 @@ def test_bench_json_records():
     for r in records:
         assert r["grain_steps_per_second"] > 0
         # the timed steps ran inside this call: the rate cannot be slower than the whole call allows
-        assert 0 < r["seconds"] < elapsed and r["grain_steps_per_second"] > r["chains"] * r["grains"] * r["steps"] / elapsed
+        assert (
+            0 < r["seconds"] < elapsed
+            and r["grain_steps_per_second"] > r["chains"] * r["grains"] * r["steps"] / elapsed
+        )
         assert r["date"] in days  # the measurement's own date, not a constant
         assert 0 < r["ratio_to_best"] <= 1
         assert r["max_relative_difference"] <= 1e-10
@@ -57,9 +60,13 @@ def test_numpy_peer_matches_per_step_kernel():
 
 
 def test_bench_bad_input():
-    for args, key in ((["--chains", "0"], "--chains"), (["--grains", "x"], "--grains"),
-                      (["--kernel", "fastest"], "--kernel"), (["--device", "cpu", "--kernel", "tile"], "--kernel"),
-                      (["--chains", "1,2", "--grains", "5,6,7"], "--grains")):
+    for args, key in (
+        (["--chains", "0"], "--chains"),
+        (["--grains", "x"], "--grains"),
+        (["--kernel", "fastest"], "--kernel"),
+        (["--device", "cpu", "--kernel", "tile"], "--kernel"),
+        (["--chains", "1,2", "--grains", "5,6,7"], "--grains"),
+    ):
         result = invoke(*args)
         assert result.exit_code == 2, (args, result.output)
         assert result.output.strip().startswith(f"error: {key} = ")
@@ -81,9 +88,11 @@ def test_jax_peer_matches_per_step_kernel():
 
 def test_end_to_end_scene_json(tmp_path):
     scene = tmp_path / "traced.toml"
-    scene.write_text('[chain]\ngrains = 30\nl0 = 1e-4\n[excitation]\nimpact = 1e-2\n'
-                     '[integrator]\ndt = 5e-4\nduration = 0.4\n'
-                     '[record]\nevery = 0.1\nfields = ["u"]\ntraces = [0, 29]\ntrace_every = 0.002\n')
+    scene.write_text(
+        "[chain]\ngrains = 30\nl0 = 1e-4\n[excitation]\nimpact = 1e-2\n"
+        "[integrator]\ndt = 5e-4\nduration = 0.4\n"
+        '[record]\nevery = 0.1\nfields = ["u"]\ntraces = [0, 29]\ntrace_every = 0.002\n'
+    )
     started = time.perf_counter()
     result = invoke("--device", "cpu", "--scene", str(scene), "--kernel", "sweep", "--json")
     elapsed = time.perf_counter() - started
@@ -99,9 +108,11 @@ def test_end_to_end_scene_json(tmp_path):
 
 def test_end_to_end_sweep_json(tmp_path):
     sweep = tmp_path / "sweep.toml"
-    sweep.write_text('[scene.chain]\ngrains = 20\nl0 = 1e-4\n[scene.excitation]\nimpact = 1e-2\n'
-                     '[scene.integrator]\ndt = 5e-4\nduration = 0.2\n[scene.record]\nevery = 0.1\nfields = ["u"]\n'
-                     '[[axis]]\nname = "v_imp"\nkey = "excitation.impact"\nvalues = [1e-3, 1e-2, 2e-2]\n')
+    sweep.write_text(
+        "[scene.chain]\ngrains = 20\nl0 = 1e-4\n[scene.excitation]\nimpact = 1e-2\n"
+        '[scene.integrator]\ndt = 5e-4\nduration = 0.2\n[scene.record]\nevery = 0.1\nfields = ["u"]\n'
+        '[[axis]]\nname = "v_imp"\nkey = "excitation.impact"\nvalues = [1e-3, 1e-2, 2e-2]\n'
+    )
     result = invoke("--device", "cpu", "--sweep", str(sweep), "--kernel", "sweep", "--json")
     assert result.exit_code == 0, result.output
     (record,) = json.loads(result.stdout)
@@ -112,8 +123,10 @@ def test_end_to_end_sweep_json(tmp_path):
 
 
 def test_end_to_end_bad_input(tmp_path):
-    for args, key in ((["--scene", str(tmp_path / "none.toml")], "--scene"),
-                      (["--scene", "a.toml", "--sweep", "b.toml"], "--sweep")):
+    for args, key in (
+        (["--scene", str(tmp_path / "none.toml")], "--scene"),
+        (["--scene", "a.toml", "--sweep", "b.toml"], "--sweep"),
+    ):
         (tmp_path / "a.toml").write_text("")
         result = invoke(*args)
         assert result.exit_code == 2, (args, result.output)

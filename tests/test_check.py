@@ -13,14 +13,19 @@ import sys
 
 import numpy as np
 import pytest
-
-from hertzian.ensemble.check import (STABLE_OMEGA_DT, amplification_matrix, check_scene, dt_warning, excess_potential,
-                            growth_per_period, overlap_reach)
+from conftest import make_scene
+from hertzian.ensemble.check import (
+    STABLE_OMEGA_DT,
+    amplification_matrix,
+    check_scene,
+    dt_warning,
+    excess_potential,
+    growth_per_period,
+    overlap_reach,
+)
 from hertzian.ensemble.model import build_model
 from hertzian.ensemble.runner import Runner, run_scene
 from hertzian.ensemble.static import static_state
-
-from conftest import make_scene
 
 A = 5657.0
 METHODS = ["gear4", "gear5", "gear6", "verlet", "yoshida4"]
@@ -32,8 +37,12 @@ def linear_pair(method: str, omega_dt: float, steps: int):
     Normal modes: (1, 1) at ω² = k and (1, −1) at ω² = 3k; ``omega_dt`` is the fast mode's ω·dt.
     """
     dt = omega_dt / math.sqrt(3 * 2 * A)
-    return make_scene(chain={"grains": 2, "exponent": 2.0, "l0": 1.0}, excitation={"impact": 1e-5},
-                      integrator={"method": method, "dt": dt, "duration": dt * steps}, record={"every": dt})
+    return make_scene(
+        chain={"grains": 2, "exponent": 2.0, "l0": 1.0},
+        excitation={"impact": 1e-5},
+        integrator={"method": method, "dt": dt, "duration": dt * steps},
+        record={"every": dt},
+    )
 
 
 @pytest.mark.parametrize("method", METHODS)
@@ -75,6 +84,7 @@ def test_stability_limits(method):
 @pytest.mark.parametrize("method", METHODS)
 def test_run_beyond_the_limit_blows_up_and_below_stays_bounded(method):
     """End to end on the linear pair: 30 periods at 0.7× the limit stay bounded, at 1.3× they explode."""
+
     def amplitude_growth(fraction):
         omega_dt = fraction * STABLE_OMEGA_DT[method]
         steps = int(30 * 2 * math.pi / omega_dt)
@@ -89,9 +99,11 @@ def test_run_beyond_the_limit_blows_up_and_below_stays_bounded(method):
 
 def test_highest_frequency_bounds_the_chain_spectrum():
     """Gershgorin's ω_max ≥ the largest eigenfrequency of the linearised chain (dense eigvalsh), and is tight."""
-    scene = make_scene(chain={"grains": 12, "l0": 1e-3, "gravity": 2.0},
-                       impurities=[{"grains": [3], "mass": 0.1, "a": 2e4}, {"grains": [7, 8], "mass": 5.0}],
-                       excitation={"impact": 1e-2})
+    scene = make_scene(
+        chain={"grains": 12, "l0": 1e-3, "gravity": 2.0},
+        impurities=[{"grains": [3], "mass": 0.1, "a": 2e4}, {"grains": [7, 8], "mass": 5.0}],
+        excitation={"impact": 1e-2},
+    )
     result = check_scene(scene)
     st = static_state(scene)
     # rebuild the stiffness matrix independently from the per-contact largest overlaps
@@ -125,16 +137,23 @@ def test_overlap_bound_solves_the_energy_equation():
     assert np.allclose(excess_potential(np.ones(2), r, np.full(2, A), 2.5), direct, rtol=1e-6)
 
 
-@pytest.mark.parametrize("case", [
-    {"chain": {"grains": 30, "l0": 1e-4}},
-    {"chain": {"grains": 30}},
-    {"chain": {"grains": 30, "gravity": 5.0}, "impurities": [{"grains": [2], "mass": 0.05}]},
-    {"chain": {"grains": 30, "exponent": 3.0, "l0": 1e-3}},
-])
+@pytest.mark.parametrize(
+    "case",
+    [
+        {"chain": {"grains": 30, "l0": 1e-4}},
+        {"chain": {"grains": 30}},
+        {"chain": {"grains": 30, "gravity": 5.0}, "impurities": [{"grains": [2], "mass": 0.05}]},
+        {"chain": {"grains": 30, "exponent": 3.0, "l0": 1e-3}},
+    ],
+)
 def test_overlap_bound_holds_in_real_runs(case):
     """The largest overlap a run reaches (recorded often) never exceeds the bound, and the bound is not loose."""
-    scene = make_scene(**case, excitation={"impact": 1e-2},
-                       integrator={"dt": 5e-5, "duration": 1.5}, record={"every": 5e-4, "fields": ["u"]})
+    scene = make_scene(
+        **case,
+        excitation={"impact": 1e-2},
+        integrator={"dt": 5e-5, "duration": 1.5},
+        record={"every": 5e-4, "fields": ["u"]},
+    )
     reached = float(run_scene(scene, "cpu").max_overlap[0])
     bound = check_scene(scene).largest_overlap
     assert reached <= bound
@@ -164,8 +183,11 @@ def test_gravity_and_validity():
 
 @pytest.mark.parametrize("method", METHODS)
 def test_suggested_dt_passes_its_own_check(method):
-    scene = make_scene(chain={"grains": 50, "l0": 1e-4}, excitation={"impact": 1e-2},
-                       integrator={"method": method, "dt": 0.05, "duration": 1.0})
+    scene = make_scene(
+        chain={"grains": 50, "l0": 1e-4},
+        excitation={"impact": 1e-2},
+        integrator={"method": method, "dt": 0.05, "duration": 1.0},
+    )
     first = check_scene(scene)
     assert first.verdict == "unstable" and dt_warning(scene) is not None
     fixed = scene.with_overrides({"integrator.dt": first.suggested_dt})
@@ -175,14 +197,20 @@ def test_suggested_dt_passes_its_own_check(method):
 def hertzian(*args, cwd):
     """The ``hertzian`` entry point in a subprocess (``python -m hertzian.ensemble.cli`` would miss commands that
     register from other modules: they register on the imported ``hertzian.ensemble.cli``, not on ``__main__``)."""
-    return subprocess.run([sys.executable, "-c", "from hertzian.ensemble.cli import main; main()", *args],
-                          capture_output=True, text=True, cwd=cwd)
+    return subprocess.run(
+        [sys.executable, "-c", "from hertzian.ensemble.cli import main; main()", *args],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+    )
 
 
 def test_cli_check_and_strict_run(tmp_path):
     scene = tmp_path / "s.toml"
-    scene.write_text("[chain]\ngrains = 10\nl0 = 1e-4\n[excitation]\nimpact = 1e-2\n"
-                     "[integrator]\ndt = 0.02\nduration = 0.2\nmethod = \"gear6\"\n")
+    scene.write_text(
+        "[chain]\ngrains = 10\nl0 = 1e-4\n[excitation]\nimpact = 1e-2\n"
+        '[integrator]\ndt = 0.02\nduration = 0.2\nmethod = "gear6"\n'
+    )
     out = hertzian("check", str(scene), "--json", cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     data = json.loads(out.stdout)
@@ -194,6 +222,15 @@ def test_cli_check_and_strict_run(tmp_path):
     warned = hertzian("run", str(scene), "--out", str(tmp_path / "x.zarr"), "--quiet", cwd=tmp_path)
     assert warned.returncode == 0, warned.stderr
     assert "warning: integrator.dt = 0.02" in warned.stderr and (tmp_path / "x.zarr").exists()
-    safe = hertzian("run", str(scene), "--out", str(tmp_path / "y.zarr"), "--strict", "--quiet",
-                    "--set", f"integrator.dt={data['suggested_dt']}", cwd=tmp_path)
+    safe = hertzian(
+        "run",
+        str(scene),
+        "--out",
+        str(tmp_path / "y.zarr"),
+        "--strict",
+        "--quiet",
+        "--set",
+        f"integrator.dt={data['suggested_dt']}",
+        cwd=tmp_path,
+    )
     assert safe.returncode == 0 and "warning: integrator.dt" not in safe.stderr

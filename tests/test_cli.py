@@ -33,9 +33,9 @@ BAD = [
     ("--set boundary.surface=free", "a free surface cannot carry a load"),
     ("--set boundary.bottom=free", "a free bottom cannot hold a load"),
     ("--set boundary.surface=flying", "boundary.surface = 'flying': must be one of"),
-    ("--set excitation.drive_amplitude=2", "a drive needs boundary.surface = \"driven\""),
+    ("--set excitation.drive_amplitude=2", 'a drive needs boundary.surface = "driven"'),
     ("--set record.traces=[0,99]", "record.traces = 99: grain index outside the chain"),
-    ("--set record.fields=[\"w\"]", "record.fields = 'w'"),
+    ('--set record.fields=["w"]', "record.fields = 'w'"),
     ("--set chain.l0=1e-4 --set chain.load=1", "give either chain.l0 or chain.load"),
     ("--set nonsense=1", "nonsense: unknown key"),
     ("--set chain.l0", "must be written key=value"),
@@ -45,7 +45,9 @@ BAD = [
 
 
 def hertzian(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "hertzian.ensemble.cli", *args], capture_output=True, text=True, cwd=cwd)
+    return subprocess.run(
+        [sys.executable, "-m", "hertzian.ensemble.cli", *args], capture_output=True, text=True, cwd=cwd
+    )
 
 
 @pytest.fixture
@@ -105,8 +107,18 @@ def test_run_writes_store_that_xarray_and_summarize_read(tmp_path, scene_file):
     np.testing.assert_allclose(ds.t.values, np.arange(6) * 0.01, rtol=1e-12)
     assert int(ds.status) == 0
     prov = ds.attrs["provenance"]
-    for key in ("package_version", "warp_version", "device", "precision", "method", "dt", "steps", "wall_seconds",
-                "grain_steps_per_second", "energy_error_max"):
+    for key in (
+        "package_version",
+        "warp_version",
+        "device",
+        "precision",
+        "method",
+        "dt",
+        "steps",
+        "wall_seconds",
+        "grain_steps_per_second",
+        "energy_error_max",
+    ):
         assert key in prov
     assert json.loads(ds.attrs["scene"])["chain"]["grains"] == 20
     summary = hertzian("summarize", str(out), "--json")

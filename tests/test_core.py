@@ -1,25 +1,26 @@
 """Core simulator checks that need no reference implementation: determinism, ensembles,
 the contact law, float64 precision, the static state, specialisation, energy conservation."""
 
-
 import numpy as np
 import pytest
 import warp as wp
-
-from hertzian.ensemble.model import build_model, features_of
+from conftest import make_scene
+from hertzian.ensemble.model import build_model
 from hertzian.ensemble.runner import Runner, run_ensemble, run_scene
 from hertzian.ensemble.static import static_state
 from hertzian.kernels.features import EVENT_WINDOW, Features
 from hertzian.kernels.physics import contact_functions, contact_potential, excess_potential
 from hertzian.kernels.step import step_kernel
-
 from kernel_source import accessed_arrays, generated_source
-from conftest import make_scene
 
 
 def impact_scene(**over):
-    base = dict(chain={"grains": 40, "l0": 1e-4}, excitation={"impact": 1e-2},
-                integrator={"duration": 0.2, "dt": 1e-4}, record={"every": 0.05, "traces": [0, 7]})
+    base = dict(
+        chain={"grains": 40, "l0": 1e-4},
+        excitation={"impact": 1e-2},
+        integrator={"duration": 0.2, "dt": 1e-4},
+        record={"every": 0.05, "traces": [0, 7]},
+    )
     for k, v in over.items():
         base.setdefault(k, {}).update(v)
     return make_scene(**base)
@@ -38,8 +39,13 @@ def test_two_identical_runs_are_bitwise_equal(device):
 def test_ensemble_member_equals_same_chain_alone(device, kind):
     imp = [{"grains": [10, 11], "mass": 0.5, "a": 2000.0}] if kind == "impurities" else []
     scenes = [
-        make_scene(chain={"grains": 30, "l0": l0, "gravity": g}, impurities=imp, excitation={"impact": v},
-                   integrator={"duration": 0.1, "dt": 1e-4}, record={"every": 0.05})
+        make_scene(
+            chain={"grains": 30, "l0": l0, "gravity": g},
+            impurities=imp,
+            excitation={"impact": v},
+            integrator={"duration": 0.1, "dt": 1e-4},
+            record={"every": 0.05},
+        )
         for l0, g, v in [(1e-4, 0.0, 1e-2), (1e-5, 1.0, 1e-1), (0.0, 0.5, 1e-3)]
     ]
     together = run_ensemble(scenes, device)
@@ -52,10 +58,16 @@ def test_ensemble_member_equals_same_chain_alone(device, kind):
 
 
 def test_driven_ensemble_members_differ_in_amplitude_and_period(device):
-    scenes = [make_scene(chain={"grains": 25, "gravity": g}, boundary={"surface": "driven", "bottom": "fixed"},
-                         excitation={"drive_amplitude": amp, "drive_period": period},
-                         integrator={"duration": 0.1, "dt": 1e-4}, record={"every": 0.05, "traces": [0, 3]})
-              for amp, period, g in [(1e-3, 0.05, 1.0), (3e-3, 0.02, 0.0), (2e-3, 0.1, 5.0)]]
+    scenes = [
+        make_scene(
+            chain={"grains": 25, "gravity": g},
+            boundary={"surface": "driven", "bottom": "fixed"},
+            excitation={"drive_amplitude": amp, "drive_period": period},
+            integrator={"duration": 0.1, "dt": 1e-4},
+            record={"every": 0.05, "traces": [0, 3]},
+        )
+        for amp, period, g in [(1e-3, 0.05, 1.0), (3e-3, 0.02, 0.0), (2e-3, 0.1, 5.0)]
+    ]
     together = run_ensemble(scenes, device)
     for c, scene in enumerate(scenes):
         alone = Runner(build_model([scene], device, features=together.features)).run()
@@ -64,7 +76,9 @@ def test_driven_ensemble_members_differ_in_amplitude_and_period(device):
         np.testing.assert_array_equal(together.traces["v"][c], alone.traces["v"][0])
     # the surface grain follows the drive exactly
     t = together.trace_t
-    np.testing.assert_allclose(together.traces["u"][1, :, 0], 3e-3 * np.sin(2 * np.pi * t / 0.02), rtol=0, atol=1e-13 * 3e-3)
+    np.testing.assert_allclose(
+        together.traces["u"][1, :, 0], 3e-3 * np.sin(2 * np.pi * t / 0.02), rtol=0, atol=1e-13 * 3e-3
+    )
 
 
 def test_member_alone_with_its_own_smaller_kernel_agrees(device):
@@ -85,8 +99,9 @@ def test_force_is_minus_potential_gradient(precision, exponent):
     real = wp.float64 if precision == "float64" else wp.float32
 
     @wp.kernel(module="unique")
-    def evaluate(delta: wp.array(dtype=real), out_f: wp.array(dtype=real), out_v: wp.array(dtype=wp.float64),
-                 a: real, n: real):
+    def evaluate(
+        delta: wp.array(dtype=real), out_f: wp.array(dtype=real), out_v: wp.array(dtype=wp.float64), a: real, n: real
+    ):
         i = wp.tid()
         out_f[i] = force(delta[i], a, n)
         out_v[i] = contact_potential(wp.float64(delta[i]), wp.float64(a), wp.float64(n))
@@ -121,8 +136,8 @@ def test_excess_potential_matches_naive_form_where_that_is_accurate():
     d = np.array([1e-7, -3e-5, 2e-3, -5e-4, 1e-3, 1e-9])
     out = wp.zeros(len(d), dtype=wp.float64)
     wp.launch(evaluate, dim=len(d), inputs=[wp.array(d0, dtype=wp.float64), wp.array(d, dtype=wp.float64), out])
-    from fractions import Fraction  # exact reference in high precision via mpmath-free rationals
     import decimal
+
     decimal.getcontext().prec = 50
     ref = []
     for x0, x in zip(d0, d):
@@ -136,17 +151,24 @@ def test_excess_potential_matches_naive_form_where_that_is_accurate():
 def test_float64_kernels_hold_float64_accuracy(device):
     """A Verlet step from a known state against the same arithmetic in NumPy float64 (a float32
     constant anywhere in the kernel would show up as a ~1e-8 relative error)."""
-    scene = make_scene(chain={"grains": 3, "l0": 1e-4}, boundary={"surface": "free", "bottom": "free"} if False else {},
-                       excitation={"impact": 0.0123456789}, integrator={"duration": 1e-4, "dt": 1e-4,
-                                                                        "method": "verlet"})
+    scene = make_scene(
+        chain={"grains": 3, "l0": 1e-4},
+        boundary={"surface": "free", "bottom": "free"} if False else {},
+        excitation={"impact": 0.0123456789},
+        integrator={"duration": 1e-4, "dt": 1e-4, "method": "verlet"},
+    )
     result = run_scene(scene, device)
     st = static_state(scene)
-    a, n, dt, v0 = 5657.0, 2.5, 1e-4, 0.0123456789
+    a, dt, v0 = 5657.0, 1e-4, 0.0123456789
     u = np.array([dt * v0, 0.0, 0.0])  # positions after one step (a = 0 initially)
     d0 = st.static_overlap
     F = lambda x: 2.5 * a * np.maximum(x, 0) ** 1.5  # noqa: E731
-    excess = [F(d0[0] - u[0]) - F(d0[0]), F(d0[1] + u[0] - u[1]) - F(d0[1]),
-              F(d0[2] + u[1] - u[2]) - F(d0[2]), F(d0[3] + u[2]) - F(d0[3])]
+    excess = [
+        F(d0[0] - u[0]) - F(d0[0]),
+        F(d0[1] + u[0] - u[1]) - F(d0[1]),
+        F(d0[2] + u[1] - u[2]) - F(d0[2]),
+        F(d0[3] + u[2]) - F(d0[3]),
+    ]
     acc = np.array([excess[0] - excess[1], excess[1] - excess[2], excess[2] - excess[3]])
     v1 = np.array([v0, 0, 0]) + 0.5 * dt * acc
     np.testing.assert_allclose(result.u[0, -1], u, rtol=1e-15, atol=0)
@@ -155,8 +177,12 @@ def test_float64_kernels_hold_float64_accuracy(device):
 
 
 def test_scene_without_excitation_stays_at_rest_in_a_2000_grain_column():
-    scene = make_scene(chain={"grains": 2000, "gravity": 10.0}, boundary={"surface": "free", "bottom": "wall"},
-                       integrator={"duration": 10_000 * 1.25e-5}, record={"every": 2_500 * 1.25e-5})
+    scene = make_scene(
+        chain={"grains": 2000, "gravity": 10.0},
+        boundary={"surface": "free", "bottom": "wall"},
+        integrator={"duration": 10_000 * 1.25e-5},
+        record={"every": 2_500 * 1.25e-5},
+    )
     result = run_scene(scene, "cpu")
     assert result.steps == 10_000
     assert np.max(np.abs(result.v)) <= 1e-12
@@ -178,15 +204,22 @@ def linear_chain_motion(scene, times: np.ndarray, *, overlap_factor: float = 1.0
     a_c = np.zeros(N + 1)
     for k in range(1, N):
         i, j = k - 1, k
-        a_c[k] = (a[i] if own[i] and not own[j] else a[j] if own[j] and not own[i]
-                  else a[i] if a[i] == a[j] else 2 * a[i] * a[j] / (a[i] + a[j]))
+        a_c[k] = (
+            a[i]
+            if own[i] and not own[j]
+            else a[j]
+            if own[j] and not own[i]
+            else a[i]
+            if a[i] == a[j]
+            else 2 * a[i] * a[j] / (a[i] + a[j])
+        )
     walls = {0: scene.boundary.surface == "wall", N: scene.boundary.bottom == "wall"}
     a_c[0], a_c[N] = (a[0] if walls[0] else 0.0), (a[-1] if walls[N] else 0.0)
     carried = c.surface_force + c.gravity * np.concatenate([[0.0], np.cumsum(mass)])
     overlap = overlap_factor * (carried / (n * np.where(a_c > 0, a_c, 1.0))) ** (1 / (n - 1))
     stiffness = np.where(a_c > 0, n * (n - 1) * a_c * overlap ** (n - 2), 0.0)
     moving = N - 1 if scene.boundary.bottom == "fixed" else N
-    K = np.zeros((N + 1, N + 1))                    # grain N stands for anything held
+    K = np.zeros((N + 1, N + 1))  # grain N stands for anything held
     for k in range(N + 1):
         above, below = (k - 1 if k >= 1 else N), (k if k < moving else N)
         for x, y in ((above, above), (below, below)):
@@ -207,11 +240,16 @@ def linear_chain_motion(scene, times: np.ndarray, *, overlap_factor: float = 1.0
 
 LINEAR_CASES = {
     "walls, uniform precompression": dict(chain={"l0": 1e-4}),
-    "fixed bottom, gravity, harmonic impurity": dict(chain={"l0": 1e-4, "gravity": 2.0}, boundary={"bottom": "fixed"},
-                                                     impurities=[{"grains": [3], "mass": 0.5, "a": 2000.0}]),
-    "load surface, own-rule impurities, n = 3": dict(chain={"l0": 1e-3, "exponent": 3.0}, boundary={"surface": "load"},
-                                                     impurities=[{"grains": [2, 3], "mass": 2.0, "a": 1e4,
-                                                                  "contact": "own"}]),
+    "fixed bottom, gravity, harmonic impurity": dict(
+        chain={"l0": 1e-4, "gravity": 2.0},
+        boundary={"bottom": "fixed"},
+        impurities=[{"grains": [3], "mass": 0.5, "a": 2000.0}],
+    ),
+    "load surface, own-rule impurities, n = 3": dict(
+        chain={"l0": 1e-3, "exponent": 3.0},
+        boundary={"surface": "load"},
+        impurities=[{"grains": [2, 3], "mass": 2.0, "a": 1e4, "contact": "own"}],
+    ),
     "free surface held by gravity": dict(chain={"gravity": 1.0}, boundary={"surface": "free"}),
 }
 
@@ -223,8 +261,9 @@ def test_small_motion_about_the_static_state_follows_linear_theory(case):
     frequencies; 0.1 % in δ0 is 50× beyond the tolerance (asserted below)."""
     sections = {k: dict(v) if isinstance(v, dict) else v for k, v in LINEAR_CASES[case].items()}
     sections["chain"]["grains"] = 8
-    scene = make_scene(**sections, excitation={"impact": 1e-10}, integrator={"duration": 1.0, "dt": 1e-4},
-                       record={"every": 0.05})
+    scene = make_scene(
+        **sections, excitation={"impact": 1e-10}, integrator={"duration": 1.0, "dt": 1e-4}, record={"every": 0.05}
+    )
     result = run_scene(scene, "cpu")
     predicted = linear_chain_motion(scene, result.t)
     scale = np.abs(predicted).max(axis=0)
@@ -237,8 +276,9 @@ def test_small_motion_about_the_static_state_follows_linear_theory(case):
 
 def test_static_sum_rule():
     """Paper eq. 4 (+ load): contact k carries F0 + g Σ_{j<k} m_j = n a_c δ0^(n−1)."""
-    scene = make_scene(chain={"grains": 100, "gravity": 2.0, "l0": 1e-4},
-                       impurities=[{"grains": [30, 31], "mass": 0.5, "a": 2000.0}])
+    scene = make_scene(
+        chain={"grains": 100, "gravity": 2.0, "l0": 1e-4}, impurities=[{"grains": [30, 31], "mass": 0.5, "a": 2000.0}]
+    )
     st = static_state(scene)
     m = np.ones(100)
     m[[30, 31]] = 0.5
@@ -261,8 +301,12 @@ def test_harmonic_and_own_contact_rules():
 def test_energy_conservation_gear4_paper_impact():
     """gear4, dt = 1.25e-4, impact chain: energy error ≤ 1e-6 of the injected energy."""
     for l0 in (0.0, 1e-4):
-        scene = make_scene(chain={"grains": 200, "l0": l0}, excitation={"impact": 1e-2},
-                           integrator={"duration": 5.0, "dt": 1.25e-4}, record={"every": 0.25})
+        scene = make_scene(
+            chain={"grains": 200, "l0": l0},
+            excitation={"impact": 1e-2},
+            integrator={"duration": 5.0, "dt": 1.25e-4},
+            record={"every": 0.25},
+        )
         result = run_scene(scene, "cpu")
         assert result.energy_error[0] <= 1e-6, (l0, result.energy_error[0])
         assert result.energy_error[0] > 0  # a real measurement, not a stored zero
@@ -272,11 +316,21 @@ def test_unused_features_generate_no_code():
     """Gravity and load need no kernel code at all (absorbed in the static state); drive, traces,
     static overlaps, per-grain masses and a general exponent appear only when a chain needs them."""
     lean = Features(method="gear4", surface="free", bottom="free", static="none")
-    full = Features(method="gear4", surface="driven", bottom="wall", static="profile", heterogeneous=True,
-                    hertz=False, traces=True)
+    full = Features(
+        method="gear4", surface="driven", bottom="wall", static="profile", heterogeneous=True, hertz=False, traces=True
+    )
     lean_src, full_src = generated_source(step_kernel(lean)), generated_source(step_kernel(full))
-    optional = {"static_overlap", "drive", "trace_slot", "trace_x", "exponent", "work_in", "work_out",
-                "power_in", "power_out"}
+    optional = {
+        "static_overlap",
+        "drive",
+        "trace_slot",
+        "trace_x",
+        "exponent",
+        "work_in",
+        "work_out",
+        "power_in",
+        "power_out",
+    }
     assert optional <= accessed_arrays(full_src)
     assert not optional & accessed_arrays(lean_src)
     for call in ("wp::sin(", "wp::cos(", "wp::pow("):
@@ -298,8 +352,9 @@ def test_energy_error_is_checked_between_records():
     """With records only at t = 0 and the end, the device-side checks every 512 steps must give the
     same energy error and largest overlap as a run that records every 512 steps (computed on the host
     from the stored energies)."""
-    base = dict(chain={"grains": 30, "l0": 1e-4}, excitation={"impact": 1e-2},
-                integrator={"duration": 4096 * 2e-4, "dt": 2e-4})
+    base = dict(
+        chain={"grains": 30, "l0": 1e-4}, excitation={"impact": 1e-2}, integrator={"duration": 4096 * 2e-4, "dt": 2e-4}
+    )
     sparse = run_scene(make_scene(**base), "cpu")
     dense = run_scene(make_scene(**base, record={"every": 512 * 2e-4}), "cpu")
     assert sparse.t.size == 2 and dense.t.size == 9

@@ -8,11 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
+from fused_cases import CASES, chains, per_step
 from hertzian.ensemble.model import build_model
 from hertzian.ensemble.runner import Runner
 from hertzian.ensemble.solvers import STEP, SWEEP, SolverConfig, SweepSolver, choose_config
-from fused_cases import CASES, chains, per_step
 
 
 def sweep(model, steps: int, status=None, steps_per_launch: int = 1 << 30) -> np.ndarray:
@@ -44,8 +43,9 @@ def test_sweep_freezes_non_finite_chains():
 
 
 def test_runner_sweep_run_equals_per_step_run():
-    scenes = chains(3, chain={"grains": 30, "l0": 1e-4}, integrator={"dt": 5e-4, "duration": 0.05},
-                    record={"every": 0.01})
+    scenes = chains(
+        3, chain={"grains": 30, "l0": 1e-4}, integrator={"dt": 5e-4, "duration": 0.05}, record={"every": 0.01}
+    )
     model = build_model(scenes, "cpu")
     reference = Runner(model, kernel="step").run()
     runner = Runner(model, kernel="sweep")
@@ -60,16 +60,18 @@ def test_runner_sweep_run_equals_per_step_run():
 def test_kernel_choice():
     model = build_model(chains(2, chain={"grains": 10}), "cpu")
     assert choose_config(model, "step") == STEP
-    assert choose_config(model, "auto", run_steps=10) == STEP            # too short to repay a compile
+    assert choose_config(model, "auto", run_steps=10) == STEP  # too short to repay a compile
     assert choose_config(model, "auto", run_steps=10**8) == SWEEP
     traced = build_model(chains(2, chain={"grains": 10}, record={"traces": [0]}), "cpu")
-    assert choose_config(traced, "auto", run_steps=10**8) == SWEEP       # traces are sampled between launches
+    assert choose_config(traced, "auto", run_steps=10**8) == SWEEP  # traces are sampled between launches
     with pytest.raises(ValueError):
         choose_config(model, "fastest")
 
 
-@pytest.mark.parametrize("case", ["walls, padded lanes", "windows, fixed bottom, impurities, gravity",
-                                  "float32, walls, padded lanes, events"])
+@pytest.mark.parametrize(
+    "case",
+    ["walls, padded lanes", "windows, fixed bottom, impurities, gravity", "float32, walls, padded lanes, events"],
+)
 def test_sweep_split_over_threads_changes_no_bit(case, monkeypatch):
     """The CPU sweep launches contiguous chain ranges from several Python threads at once
     (ensemble/solvers/sweep.py); each chain is still one kernel thread's, so any split gives the same bits."""
@@ -94,10 +96,9 @@ def test_sweep_split_over_threads_changes_no_bit(case, monkeypatch):
 
 
 def test_cpu_thread_count_comes_from_the_environment(monkeypatch):
-    from typer.testing import CliRunner
-
     from hertzian.ensemble.cli import app
     from hertzian.ensemble.solvers.sweep import cpu_threads
+    from typer.testing import CliRunner
 
     monkeypatch.setenv("HERTZIAN_CPU_THREADS", "3")
     assert cpu_threads() == 3
@@ -110,10 +111,13 @@ def test_cpu_thread_count_comes_from_the_environment(monkeypatch):
 def test_sweep_writes_trace_samples_inside_the_launch_as_the_per_step_kernel():
     """The sweep kernel writes the trace ring itself (one launch per advance, several ranges of chains):
     the ring after an advance is the per-step kernel's bit for bit, a frozen chain's samples included."""
-    from hertzian.ensemble.solvers.sweep import chain_ranges
 
-    scenes = chains(3, chain={"grains": 30, "l0": 1e-4}, integrator={"dt": 5e-4, "duration": 0.2},
-                    record={"every": 0.1, "traces": [0, 13, 29], "trace_every": 4e-3})
+    scenes = chains(
+        3,
+        chain={"grains": 30, "l0": 1e-4},
+        integrator={"dt": 5e-4, "duration": 0.2},
+        record={"every": 0.1, "traces": [0, 13, 29], "trace_every": 4e-3},
+    )
     model = build_model(scenes, "cpu")
     status = np.array([0, 1, 0], dtype=np.int32)  # chain 1 is frozen (non-finite status)
     steps = 200

@@ -9,19 +9,24 @@ import json
 import math
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
-
-from hertzian.ensemble.detect import (Quadratic, detect, forward_scene, log_normal_mass, read_signal, signal_from_arrays,
-                             write_signal_csv)
+from hertzian.ensemble.detect import (
+    Quadratic,
+    detect,
+    forward_scene,
+    log_normal_mass,
+    read_signal,
+    signal_from_arrays,
+    write_signal_csv,
+)
 from hertzian.ensemble.runner import run_scene
 from hertzian.ensemble.scene import SceneError, scene_from_dict
 
 GRAINS = 40
 SPACING = 0.01
-SAMPLES = 551          # t = 0 … 5.5: past the return of the bottom reflection (≈ 4.6)
+SAMPLES = 551  # t = 0 … 5.5: past the return of the bottom reflection (≈ 4.6)
 SNR_DB = 26.0
 BASE = {
     "chain": {"grains": GRAINS, "l0": 1e-4},
@@ -43,8 +48,11 @@ duration = 1.0
 
 def truth_velocity(impurity: dict | None) -> np.ndarray:
     """Grain 0's velocity from an independent run: scene written from scratch, step dt/2."""
-    data = {**BASE, "integrator": {"method": "gear4", "dt": 5e-4, "duration": SPACING * (SAMPLES - 1)},
-            "record": {"traces": [0], "trace_every": SPACING}}
+    data = {
+        **BASE,
+        "integrator": {"method": "gear4", "dt": 5e-4, "duration": SPACING * (SAMPLES - 1)},
+        "record": {"traces": [0], "trace_every": SPACING},
+    }
     if impurity is not None:
         data["impurities"] = [impurity]
     result = run_scene(scene_from_dict(data), "cpu")
@@ -95,9 +103,9 @@ def test_recovers_a_planted_impurity(cache, clean_velocity, depth, block, mass_r
     lo, hi = result.mass_ratio_interval
     centre, half = 0.5 * math.log(hi * lo), 0.5 * math.log(hi / lo)
     assert abs(math.log(mass_ratio) - centre) <= 3.0 / 1.96 * half, result.to_dict()
-    assert hi / lo < 1.5                      # an interval that says something
+    assert hi / lo < 1.5  # an interval that says something
     assert result.depth_interval[0] <= depth <= result.depth_interval[1]
-    assert 0.7 < result.noise / sigma < 1.3   # the noise estimate is the noise that was added
+    assert 0.7 < result.noise / sigma < 1.3  # the noise estimate is the noise that was added
 
 
 def test_clean_chain_is_none(cache, clean_velocity):
@@ -138,9 +146,11 @@ def test_gaussian_integrals_match_quadrature():
     assert log_normal_mass(-41.0, -40.0) == pytest.approx(expected, abs=2e-3)
     assert log_normal_mass(40.0, 41.0) == pytest.approx(expected, abs=2e-3)
     sigma = 0.3
-    for q, lo, hi in [(Quadratic(x0=-0.4, rss0=5.0, g=0.6, H=4.0), -1.4, 0.0),
-                      (Quadratic(x0=0.2, rss0=2.0, g=-3.0, H=9.0), 0.0, 1.4),      # optimum outside the range
-                      (Quadratic(x0=-0.1, rss0=1.0, g=0.0, H=0.0), -1.0, 0.0)]:     # flat: no sensitivity
+    for q, lo, hi in [
+        (Quadratic(x0=-0.4, rss0=5.0, g=0.6, H=4.0), -1.4, 0.0),
+        (Quadratic(x0=0.2, rss0=2.0, g=-3.0, H=9.0), 0.0, 1.4),  # optimum outside the range
+        (Quadratic(x0=-0.1, rss0=1.0, g=0.0, H=0.0), -1.0, 0.0),
+    ]:  # flat: no sensitivity
         x = np.linspace(lo, hi, 200001)
         rss = q.rss0 - 2 * q.g * (x - q.x0) + q.H * (x - q.x0) ** 2
         f = np.exp(-rss / (2 * sigma**2))
@@ -166,7 +176,9 @@ def test_signal_checks(tmp_path):
 
 
 def hertzian(*args, env=None):
-    return subprocess.run([sys.executable, "-m", "hertzian.ensemble.cli", *args], capture_output=True, text=True, env=env)
+    return subprocess.run(
+        [sys.executable, "-m", "hertzian.ensemble.cli", *args], capture_output=True, text=True, env=env
+    )
 
 
 def write_csv(path, rows, header="t,v"):
@@ -179,10 +191,16 @@ def test_cli_bad_signals_exit_2_one_line(tmp_path):
     good = [(k * SPACING, 0.0) for k in range(SAMPLES)]
     cases = {
         "no_header.csv": (good, None, "the first line must be the header t,v"),
-        "nonuniform.csv": ([(t + (0.003 if k > 100 else 0.0), v) for k, (t, v) in enumerate(good)], "t,v",
-                           "samples must be uniform"),
-        "nan.csv": ([(t, math.nan if k == 7 else v) for k, (t, v) in enumerate(good)], "t,v",
-                    "v[7] = nan: values must be finite"),
+        "nonuniform.csv": (
+            [(t + (0.003 if k > 100 else 0.0), v) for k, (t, v) in enumerate(good)],
+            "t,v",
+            "samples must be uniform",
+        ),
+        "nan.csv": (
+            [(t, math.nan if k == 7 else v) for k, (t, v) in enumerate(good)],
+            "t,v",
+            "v[7] = nan: values must be finite",
+        ),
         "short.csv": ([(k * SPACING, 0.0) for k in range(5)], "t,v", "shorter than one echo"),
     }
     for name, (rows, header, message) in cases.items():
@@ -205,8 +223,10 @@ def test_cli_bad_signals_exit_2_one_line(tmp_path):
 def test_cli_reads_a_store_and_prints_json(tmp_path, cache):
     """`hertzian run` writes the signal (a store with grain 0 traced); `detect --json` finds the impurity."""
     scene = tmp_path / "planted.toml"
-    scene.write_text(BASE_TOML.replace("duration = 1.0", f"duration = {SPACING * (SAMPLES - 1)!r}")
-                     + f"[record]\ntraces = [0]\ntrace_every = {SPACING}\n[[impurities]]\ngrains = [18]\nmass = 0.4\n")
+    scene.write_text(
+        BASE_TOML.replace("duration = 1.0", f"duration = {SPACING * (SAMPLES - 1)!r}")
+        + f"[record]\ntraces = [0]\ntrace_every = {SPACING}\n[[impurities]]\ngrains = [18]\nmass = 0.4\n"
+    )
     store = tmp_path / "planted.zarr"
     assert hertzian("run", str(scene), "--out", str(store), "--device", "cpu").returncode == 0
     base = tmp_path / "base.toml"
@@ -215,8 +235,20 @@ def test_cli_reads_a_store_and_prints_json(tmp_path, cache):
 
     env = {**os.environ, "HERTZIAN_DETECT_CACHE": str(cache)}
     plot = tmp_path / "fit.png"
-    out = hertzian("detect", str(store), "--scene", str(base), "--json", "--device", "cpu", "--noise", "1e-5",
-                   "--plot", str(plot), env=env)
+    out = hertzian(
+        "detect",
+        str(store),
+        "--scene",
+        str(base),
+        "--json",
+        "--device",
+        "cpu",
+        "--noise",
+        "1e-5",
+        "--plot",
+        str(plot),
+        env=env,
+    )
     assert out.returncode == 0, out.stderr
     result = json.loads(out.stdout)
     assert result["class"] == "light" and result["depth"] == 18
@@ -226,7 +258,7 @@ def test_cli_reads_a_store_and_prints_json(tmp_path, cache):
 
 def test_forward_scene_samples_on_steps():
     """A sample spacing that the BASE step does not divide: the step shrinks so that samples fall on steps."""
-    scene = forward_scene(scene_from_dict(BASE), 0.0125, 101)   # 12.5 steps of 1e-3 → 13 steps of 0.0125/13
+    scene = forward_scene(scene_from_dict(BASE), 0.0125, 101)  # 12.5 steps of 1e-3 → 13 steps of 0.0125/13
     assert scene.trace_stride == 13 and scene.integrator.dt == pytest.approx(0.0125 / 13, rel=1e-15)
     assert scene.integrator.duration == pytest.approx(1.25, rel=1e-15)
     assert scene.step_count == 100 * 13
@@ -237,19 +269,31 @@ def test_study_summary_counts():
     from hertzian.ensemble.detect_study import summarize
 
     def record(true_class, kind, true_depth, depth, covered):
-        return {"host": "h", "snr_db": 26.0, "true_class": true_class, "class": kind, "true_depth": true_depth,
-                "depth": depth, "true_mass_ratio": 0.5 if true_class == "light" else 2.0,
-                "depth_fraction": None if true_depth is None else true_depth / 100,
-                "class_correct": true_class == kind,
-                "depth_error": None if true_depth is None or depth is None else depth - true_depth,
-                "mass_ratio_covered": covered, "seconds": {"total": 1.0}}
+        return {
+            "host": "h",
+            "snr_db": 26.0,
+            "true_class": true_class,
+            "class": kind,
+            "true_depth": true_depth,
+            "depth": depth,
+            "true_mass_ratio": 0.5 if true_class == "light" else 2.0,
+            "depth_fraction": None if true_depth is None else true_depth / 100,
+            "class_correct": true_class == kind,
+            "depth_error": None if true_depth is None or depth is None else depth - true_depth,
+            "mass_ratio_covered": covered,
+            "seconds": {"total": 1.0},
+        }
 
-    rows = [record("light", "light", 10, 10, True), record("light", "light", 10, 12, False),
-            record("heavy", "light", 50, 50, False), record("heavy", "none", 50, None, None),
-            record("none", "none", None, None, None)]
+    rows = [
+        record("light", "light", 10, 10, True),
+        record("light", "light", 10, 12, False),
+        record("heavy", "light", 50, 50, False),
+        record("heavy", "none", 50, None, None),
+        record("none", "none", None, None, None),
+    ]
     table = summarize(rows)["h"]["26.0"]
     assert table["class_accuracy"] == pytest.approx(3 / 5)
-    assert table["depth_within_1"] == pytest.approx(1 / 4)     # 4 impure; the heavy-as-light at d=50 does not count
+    assert table["depth_within_1"] == pytest.approx(1 / 4)  # 4 impure; the heavy-as-light at d=50 does not count
     assert table["depth_exact"] == pytest.approx(1 / 4)
     assert table["mass_ratio_interval_coverage"] == pytest.approx(1 / 3)
     assert table["confusion"]["heavy"] == {"none": 1, "light": 1, "heavy": 0}
@@ -271,10 +315,10 @@ def test_binomial_lower_bound_closed_forms():
 
 # ---- --fit-a: the impurity's self-constant a as well as its mass -----------------------------------------
 
-FIT_A_TRUTH = (12, 0.5, 3.0)   # depth, mass ratio, a / a_host: off both grids (μ: 7 log steps; a: 9 over 0.25…4)
+FIT_A_TRUTH = (12, 0.5, 3.0)  # depth, mass ratio, a / a_host: off both grids (μ: 7 log steps; a: 9 over 0.25…4)
 FIT_A_CASES = [  # (depth, mass ratio, a / a_host, noise seed); as docs/logs/detection/fit_a_cpu.py
     (*FIT_A_TRUTH, 11),
-    (25, 2.0, 0.4, 12),   # with a = a_host the best depth is 26: --fit-a also tries the neighbouring depths
+    (25, 2.0, 0.4, 12),  # with a = a_host the best depth is 26: --fit-a also tries the neighbouring depths
 ]
 
 
@@ -293,14 +337,14 @@ def test_fit_a_recovers_the_contact_constant(cache, clean_velocity, depth, mass_
     signal, sigma = planted_with_a(clean_velocity, depth, mass_ratio, a_ratio, seed)
     plain, _ = detect(signal, scene_from_dict(BASE), device="cpu")
     fitted, _ = detect(signal, scene_from_dict(BASE), device="cpu", fit_a=True)
-    assert "a_ratio" not in plain.to_dict()                       # without --fit-a the answer is unchanged
+    assert "a_ratio" not in plain.to_dict()  # without --fit-a the answer is unchanged
     assert fitted.kind == ("light" if mass_ratio < 1 else "heavy") and fitted.depth == depth, fitted.to_dict()
-    assert fitted.fit_a["a_ratio_interval"] is not None, fitted.fit_a     # None: no better than a = a_host
+    assert fitted.fit_a["a_ratio_interval"] is not None, fitted.fit_a  # None: no better than a = a_host
     lo, hi = fitted.fit_a["a_ratio_interval"]
     assert lo <= a_ratio <= hi and hi / lo < 1.5, fitted.fit_a
     mlo, mhi = fitted.mass_ratio_interval
     assert mlo <= mass_ratio <= mhi, fitted.to_dict()
-    if (depth, mass_ratio, a_ratio) == FIT_A_TRUTH:     # a fixed: biased μ, the truth outside its interval
+    if (depth, mass_ratio, a_ratio) == FIT_A_TRUTH:  # a fixed: biased μ, the truth outside its interval
         assert not plain.mass_ratio_interval[0] <= mass_ratio <= plain.mass_ratio_interval[1], plain.to_dict()
     n = fitted.best_fit.size
     rss_plain = float(np.sum((signal.v[:n] - plain.best_fit) ** 2))
@@ -321,9 +365,11 @@ def test_cli_fit_a_json_and_bad_a_range(tmp_path, cache, clean_velocity):
     base = tmp_path / "base.toml"
     base.write_text(BASE_TOML)
     env = {**os.environ, "HERTZIAN_DETECT_CACHE": str(cache)}
-    for args, message in [(["--fit-a", "--a-range", "2,4"], "--a-range = '2.0,4.0': must be two numbers a_min < 1 < a_max"),
-                          (["--fit-a", "--a-range", "0.5"], "--a-range = '0.5': must be written A,B"),
-                          (["--a-range", "0.5,2"], "--a-range = '0.5,2': only used with --fit-a")]:
+    for args, message in [
+        (["--fit-a", "--a-range", "2,4"], "--a-range = '2.0,4.0': must be two numbers a_min < 1 < a_max"),
+        (["--fit-a", "--a-range", "0.5"], "--a-range = '0.5': must be written A,B"),
+        (["--a-range", "0.5,2"], "--a-range = '0.5,2': only used with --fit-a"),
+    ]:
         out = hertzian("detect", str(path), "--scene", str(base), "--device", "cpu", *args, env=env)
         assert out.returncode == 2, (args, out.stderr)
         lines = [line for line in out.stderr.splitlines() if line.strip()]
@@ -349,8 +395,7 @@ def test_interpolated_rss_equals_the_direct_residuals():
     signal = clean + 1e-3 * -0.7 * np.cos(3 * t) + 1e-5 * rng.normal(size=samples)
     W, _ = lagrange_weights(nodes, np.linspace(nodes[0], nodes[-1], 57))
     direct = np.array([np.sum((signal - w @ models) ** 2) for w in W])
-    np.testing.assert_allclose(interpolated_rss(signal, models, clean, W), direct, rtol=1e-9,
-                               atol=1e-12 * direct.max())
+    np.testing.assert_allclose(interpolated_rss(signal, models, clean, W), direct, rtol=1e-9, atol=1e-12 * direct.max())
     assert direct.max() > 10 * direct.min()  # the rows differ: the test can tell them apart
 
 
@@ -365,16 +410,20 @@ def test_fine_scan_finds_the_needle_of_a_shallow_light_grain(cache, monkeypatch)
     samples = 875
 
     def planted(impurity):
-        data = {**base, "integrator": {"method": "gear4", "dt": 5e-4, "duration": SPACING * (samples - 1)},
-                "record": {"traces": [0], "trace_every": SPACING}}
+        data = {
+            **base,
+            "integrator": {"method": "gear4", "dt": 5e-4, "duration": SPACING * (samples - 1)},
+            "record": {"traces": [0], "trace_every": SPACING},
+        }
         if impurity:
             data["impurities"] = [impurity]
         return run_scene(scene_from_dict(data), "cpu").traces["v"][0, :, 0]
 
     velocity, clean = planted({"grains": [4], "mass": 0.3}), planted(None)
     sigma = float(np.max(np.abs(velocity - clean))) / 10 ** (SNR_DB / 20)
-    signal = signal_from_arrays(np.arange(samples) * SPACING,
-                                velocity + np.random.default_rng(5).normal(scale=sigma, size=samples))
+    signal = signal_from_arrays(
+        np.arange(samples) * SPACING, velocity + np.random.default_rng(5).normal(scale=sigma, size=samples)
+    )
     found, _ = detect(signal, scene_from_dict(base), device="cpu", depth_range=(3, 6))
     assert found.kind == "light" and found.depth == 4, found.to_dict()
     assert found.fine_scan["improved"] and found.fine_scan["misfit_before"] > detect_module.FINE_SCAN_MISFIT
@@ -388,6 +437,7 @@ def test_fine_scan_finds_the_needle_of_a_shallow_light_grain(cache, monkeypatch)
 
 
 # ---- the library's scores, vectorised over depths, and its cache ------------------------------------------
+
 
 def small_library(seed=4):
     """A synthetic library on the 40-grain BASE, no simulation: depths 3 … 27 × 3 ratios a side, 551 samples.
@@ -410,7 +460,7 @@ def small_library(seed=4):
 
     def echo(depth, x):
         delay = 0.12 * depth + 0.4
-        return 1e-3 * (x + 0.3 * x**2) * np.exp(-((t - delay) / 0.3) ** 2) * np.cos(9 * (t - delay))
+        return 1e-3 * (x + 0.3 * x**2) * np.exp(-(((t - delay) / 0.3) ** 2)) * np.cos(9 * (t - delay))
 
     traces = np.array([[clean + echo(d, x) for x in grid.log_mass_ratio] for d in grid.depths])
     traces += 1e-6 * rng.normal(size=traces.shape)
@@ -560,8 +610,8 @@ def test_library_cache_round_trips_and_refuses_a_damaged_copy(tmp_path, monkeypa
 def test_gpu_note_names_the_event_steps_of_the_candidate_runs(monkeypatch):
     """On a GPU, a BASE whose contacts can open and which keeps event-aware steps gets one note naming
     integrator.events = "off"; plain steps or a CPU get none. (The CUDA check is made on a CPU-built model.)"""
-    from hertzian.ensemble.cli import detect as cli_detect
     from hertzian.ensemble import model as model_module
+    from hertzian.ensemble.cli import detect as cli_detect
 
     real_build = model_module.build_model
     monkeypatch.setattr(model_module, "build_model", lambda scenes, dev: real_build(scenes, "cpu"))
@@ -582,24 +632,31 @@ def test_cli_detect_study_takes_its_options_and_refuses_a_bad_study(tmp_path):
     help_text = invoke("detect-study", "--help")
     assert help_text.exit_code == 0 and "--out" in help_text.stdout and "STUDY" in help_text.stdout.upper()
     study = tmp_path / "study.toml"
-    study.write_text('[scene]\nchain = { grains = 20, l0 = 1e-4 }\nexcitation = { impact = 1e-2 }\n\n[study]\n')
+    study.write_text("[scene]\nchain = { grains = 20, l0 = 1e-4 }\nexcitation = { impact = 1e-2 }\n\n[study]\n")
     out = tmp_path / "out.json"
     assert_refused(invoke("detect-study", str(study), "--out", str(out), "--device", "cpu"), out)
 
 
-@pytest.mark.parametrize("study, host, key", [("window_past_bottom = 3.0", "", "study.window_past_bottom"),
-                                              ("windw = 1.1", "", "study"),
-                                              ("", "noise_trials = 0", "hosts[0].noise_trials"),
-                                              ("", "noise_trials = 2.5", "hosts[0].noise_trials")])
+@pytest.mark.parametrize(
+    "study, host, key",
+    [
+        ("window_past_bottom = 3.0", "", "study.window_past_bottom"),
+        ("windw = 1.1", "", "study"),
+        ("", "noise_trials = 0", "hosts[0].noise_trials"),
+        ("", "noise_trials = 2.5", "hosts[0].noise_trials"),
+    ],
+)
 def test_cli_detect_study_refuses_bad_study_keys(tmp_path, study, host, key):
     """[study] and [[hosts]] keys are checked: an unknown key, a window past the bottom outside [1, 2] or noise
     trials that are not a whole number ≥ 1 is one line, exit 2."""
     from cli_cases import assert_refused, invoke
 
     path = tmp_path / "study.toml"
-    path.write_text('[scene]\nchain = { grains = 20, l0 = 1e-4 }\nexcitation = { impact = 1e-2 }\n\n'
-                    f'[study]\n{study}\n\n[[hosts]]\nsnr_db = [26]\nmass_ratios = [0.5]\ndepth_fractions = [0.5]\n'
-                    f'{host}\n')
+    path.write_text(
+        "[scene]\nchain = { grains = 20, l0 = 1e-4 }\nexcitation = { impact = 1e-2 }\n\n"
+        f"[study]\n{study}\n\n[[hosts]]\nsnr_db = [26]\nmass_ratios = [0.5]\ndepth_fractions = [0.5]\n"
+        f"{host}\n"
+    )
     out = tmp_path / "out.json"
     assert_refused(invoke("detect-study", str(path), "--out", str(out), "--device", "cpu"), out, key)
 
@@ -618,11 +675,22 @@ def test_library_runs_equal_one_scene_per_candidate(gravity, block):
     from hertzian.ensemble.scene import apply_overrides
 
     forward = forward_scene(scene_from_dict(apply_overrides(BASE, {"chain.gravity": gravity})), SPACING, 301)
-    candidates = [(20, 3.0), (-1, 1.0), (3, 0.5), (10, 1.0, 2.0), (3, 2.0), (10, 0.7), (25, 0.3), (2, 1.4),
-                  (10, 0.9, 2.0)]
+    candidates = [
+        (20, 3.0),
+        (-1, 1.0),
+        (3, 0.5),
+        (10, 1.0, 2.0),
+        (3, 2.0),
+        (10, 0.7),
+        (25, 0.3),
+        (2, 1.4),
+        (10, 0.9, 2.0),
+    ]
     traces, ok = run_candidates(forward, candidates, block, "cpu", batch_size=4)
-    scenes = [forward if depth < 0 else impurity_scene(forward, depth, mu, block, (*rest, 1.0)[0])
-              for depth, mu, *rest in candidates]
+    scenes = [
+        forward if depth < 0 else impurity_scene(forward, depth, mu, block, (*rest, 1.0)[0])
+        for depth, mu, *rest in candidates
+    ]
     reference = Runner(build_model(scenes, "cpu"), kernel="fused").run()
     assert ok.all() and (reference.status == 0).all()
     expected = reference.traces["v"][:, :, 0]
@@ -684,12 +752,14 @@ def test_study_draws_noise_trials_per_planted_case(tmp_path):
     from hertzian.ensemble.detect_study import run_study
 
     path = tmp_path / "study.toml"
-    path.write_text('[scene]\nchain = { grains = 30, l0 = 1e-4 }\nexcitation = { impact = 1e-2 }\n'
-                    'integrator = { method = "gear4", dt = 1e-3, duration = 1.0, events = "off" }\n\n'
-                    '[study]\nspacing = 0.01\nseed = 7\nmass_steps = 2\nrefine = 1\niterations = 1\n'
-                    'probe_duration = 10.0\n\n'
-                    '[[hosts]]\nsnr_db = [26]\nmass_ratios = [0.4]\ndepth_fractions = [0.3]\nclean_trials = 1\n'
-                    'noise_trials = 2\n')
+    path.write_text(
+        "[scene]\nchain = { grains = 30, l0 = 1e-4 }\nexcitation = { impact = 1e-2 }\n"
+        'integrator = { method = "gear4", dt = 1e-3, duration = 1.0, events = "off" }\n\n'
+        "[study]\nspacing = 0.01\nseed = 7\nmass_steps = 2\nrefine = 1\niterations = 1\n"
+        "probe_duration = 10.0\n\n"
+        "[[hosts]]\nsnr_db = [26]\nmass_ratios = [0.4]\ndepth_fractions = [0.3]\nclean_trials = 1\n"
+        "noise_trials = 2\n"
+    )
     result = run_study(path, "cpu")
     records = result["records"]
     assert [r["true_class"] for r in records] == ["light", "light", "none"]

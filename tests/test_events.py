@@ -11,17 +11,16 @@ import re
 
 import numpy as np
 import pytest
-
 from conftest import make_scene
+from fused_cases import assert_every_window_moved, assert_kernels_agree
 from hertzian.ensemble.accuracy import work_precision
 from hertzian.ensemble.model import build_model, features_of
 from hertzian.kernels.features import Features
 from hertzian.kernels.step import step_kernel
 from hertzian.kernels.tile import TileShape, plan_tile, tile_kernel
-from fused_cases import assert_every_window_moved
 from kernel_source import call_count, function_body, generated_source
+
 from tests.test_cpu_kernel import sweep
-from fused_cases import assert_kernels_agree
 from tests.test_tile import chains, fused, per_step
 
 DTS = [2e-3, 1e-3, 5e-4]
@@ -34,8 +33,12 @@ def slope(dts, errors):
 def test_l0_zero_keeps_gear4_order():
     """l0 = 0: every contact closes ahead of the solitary wave and opens behind it. Plain Gear steps
     fall to order ≈ 2; event-aware steps give gear4 its order 4 back (slope ≥ 3.5)."""
-    scene = make_scene(chain={"grains": 20, "l0": 0.0}, excitation={"impact": 1e-2},
-                       integrator={"duration": 1.0}, record={"every": 0.25, "fields": ["u"]})
+    scene = make_scene(
+        chain={"grains": 20, "l0": 0.0},
+        excitation={"impact": 1e-2},
+        integrator={"duration": 1.0},
+        record={"every": 0.25, "fields": ["u"]},
+    )
     records, reference, _ = work_precision(scene, ["gear4"], DTS, ["float64"], device="cpu", events=["auto", "off"])
     errors = {e: [r.error for r in records if r.events == e] for e in ("auto", "off")}
     assert not any(r.reference_limited for r in records), records
@@ -60,17 +63,26 @@ def test_scenes_without_possible_events_compile_no_event_code():
 EVENT_CASES = {
     # name: (scene sections, chain count, tile plan keywords); kept to two variants (compile time)
     "l0 = 0, gear4, free ends, 2 chains per block": (
-        dict(chain={"grains": 30, "l0": 0.0}, boundary={"surface": "free", "bottom": "free"},
-             integrator={"dt": 5e-4}), 3, dict(grains_per_lane=4, chains_per_block=2)),
+        dict(chain={"grains": 30, "l0": 0.0}, boundary={"surface": "free", "bottom": "free"}, integrator={"dt": 5e-4}),
+        3,
+        dict(grains_per_lane=4, chains_per_block=2),
+    ),
     "wall, light impurity, fixed bottom, gear5, windows": (
-        dict(chain={"grains": 40, "l0": 0.0}, boundary={"bottom": "fixed"},
-             impurities=[{"grains": [5], "mass": 0.3}], integrator={"method": "gear5", "dt": 5e-4}), 2,
-        dict(grains_per_lane=4, lanes_per_chain=8, steps_per_launch=6, windowed=True)),
+        dict(
+            chain={"grains": 40, "l0": 0.0},
+            boundary={"bottom": "fixed"},
+            impurities=[{"grains": [5], "mass": 0.3}],
+            integrator={"method": "gear5", "dt": 5e-4},
+        ),
+        2,
+        dict(grains_per_lane=4, lanes_per_chain=8, steps_per_launch=6, windowed=True),
+    ),
 }
 
 
-@pytest.mark.parametrize("case", [pytest.param(case, marks=[pytest.mark.slow] if "windows" in case else [])
-                                  for case in EVENT_CASES])
+@pytest.mark.parametrize(
+    "case", [pytest.param(case, marks=[pytest.mark.slow] if "windows" in case else []) for case in EVENT_CASES]
+)
 def test_every_kernel_takes_the_same_event_steps(case):
     sections, n_chains, plan_keywords = EVENT_CASES[case]
     steps = 300
@@ -115,9 +127,10 @@ def test_tile_kernel_writes_the_event_step_once():
     """The fused kernel tests every contact of a lane once (unrolled: G + 1 calls of the contact test) but
     writes the event step once, in the loop over rounds of the chain's shared event steps, whatever G: inlined
     per grain it made the CUDA code G times larger (kernels/tile.py). Generated C++ only, nothing compiled."""
-    for features in (Features(method="gear4", surface="wall", bottom="wall", static="none", event_window=0.5),
-                     Features(method="gear5", surface="driven", bottom="fixed", static="uniform",
-                              event_window=0.5)):
+    for features in (
+        Features(method="gear4", surface="wall", bottom="wall", static="none", event_window=0.5),
+        Features(method="gear5", surface="driven", bottom="fixed", static="uniform", event_window=0.5),
+    ):
         for grains_per_lane in (4, 16):
             shape = TileShape(grains_per_lane, 4, inline_event_step=True)
             source = generated_source(tile_kernel(features, shape), block_dim=shape.block_dim)
@@ -125,8 +138,10 @@ def test_tile_kernel_writes_the_event_step_once():
             assert call_count(advance, "near_event") == grains_per_lane + 1, (features, grains_per_lane)
             assert call_count(advance, "event_step") == 0, (features, grains_per_lane)
             assert call_count(advance, "shared_event_steps") == 1, (features, grains_per_lane)
-            assert call_count(function_body(source, "shared_event_steps"), "event_step") == 1, (features,
-                                                                                                 grains_per_lane)
+            assert call_count(function_body(source, "shared_event_steps"), "event_step") == 1, (
+                features,
+                grains_per_lane,
+            )
     # out of line: the one call site calls a function the compiler must not inline
     shape = TileShape(8, 4, inline_event_step=False)
     source = generated_source(tile_kernel(features, shape), block_dim=shape.block_dim)
@@ -146,12 +161,13 @@ def test_out_of_line_event_step_takes_the_same_steps():
 
 
 def test_bad_event_modes_are_one_line_errors():
+    from hertzian.ensemble.cli import app
     from typer.testing import CliRunner
 
-    from hertzian.ensemble.cli import app
-
-    for args, key in ((["accuracy", "--events", "maybe", "--dt", "2e-4"], "--events"),
-                      (["check", "--set", "integrator.events=maybe"], "integrator.events")):
+    for args, key in (
+        (["accuracy", "--events", "maybe", "--dt", "2e-4"], "--events"),
+        (["check", "--set", "integrator.events=maybe"], "integrator.events"),
+    ):
         result = CliRunner().invoke(app, args)
         assert result.exit_code == 2, result.output
         assert key in result.output and "Traceback" not in result.output
@@ -164,11 +180,11 @@ def test_wall_struck_chain_converges_like_the_smooth_case():
     the same chain's error with a load surface (no contact opens) at dt = 2e-4 and 1e-4. Without them
     (docs/accuracy/wall.json) the error at 1e-4 is 3× the one at 2e-4 and 30× the load surface's."""
     dts = [4e-4, 2e-4, 1e-4, 5e-5]
-    scene = make_scene(chain={"grains": 200, "l0": 1e-4}, excitation={"impact": 1e-2},
-                       integrator={"duration": 8.0})
+    scene = make_scene(chain={"grains": 200, "l0": 1e-4}, excitation={"impact": 1e-2}, integrator={"duration": 8.0})
     wall, _, _ = work_precision(scene, ["gear4"], dts, ["float64"], device="cpu", events=["auto"])
-    load, _, _ = work_precision(scene.with_overrides({"boundary.surface": "load"}), ["gear4"], dts, ["float64"],
-                                device="cpu", events=["off"])
+    load, _, _ = work_precision(
+        scene.with_overrides({"boundary.surface": "load"}), ["gear4"], dts, ["float64"], device="cpu", events=["off"]
+    )
     errors = [r.error for r in wall]
     smooth = [r.error for r in load]
     assert all(a > b for a, b in zip(errors, errors[1:])), errors
@@ -179,8 +195,9 @@ def test_cuda_runs_with_event_steps_say_what_they_cost():
     from hertzian.ensemble.solvers.calibrate import event_cost_note
 
     loose = features_of([make_scene(chain={"grains": 20, "l0": 0.0}, excitation={"impact": 1e-2})])
-    plain = features_of([make_scene(chain={"grains": 20, "l0": 0.0}, excitation={"impact": 1e-2},
-                                    integrator={"events": "off"})])
+    plain = features_of(
+        [make_scene(chain={"grains": 20, "l0": 0.0}, excitation={"impact": 1e-2}, integrator={"events": "off"})]
+    )
     assert 'integrator.events = "off"' in event_cost_note(loose, is_cpu=False)
     assert event_cost_note(loose, is_cpu=True) is None and event_cost_note(plain, is_cpu=False) is None
 
@@ -190,8 +207,11 @@ def test_event_kernels_calibrate_only_shapes_that_do_not_spill():
     its event code spills on sm_90), and still G = 16 and the capped G = 8 for plain steps."""
     from hertzian.ensemble.solvers.calibrate import whole_chain_configs
 
-    sections = {"chain": {"grains": 200, "l0": 0.0}, "excitation": {"impact": 1e-2},
-                "integrator": {"method": "gear4", "dt": 1e-3, "duration": 1.0}}
+    sections = {
+        "chain": {"grains": 200, "l0": 0.0},
+        "excitation": {"impact": 1e-2},
+        "integrator": {"method": "gear4", "dt": 1e-3, "duration": 1.0},
+    }
     events = build_model(chains(4, **sections), "cpu")
     plain = build_model(chains(4, **{**sections, "integrator": {**sections["integrator"], "events": "off"}}), "cpu")
     assert events.features.event_window > 0 and plain.features.event_window == 0

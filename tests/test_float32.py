@@ -24,7 +24,6 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-
 from hertzian.ensemble.model import build_model, features_of
 from hertzian.ensemble.runner import Runner
 from hertzian.ensemble.scene import scene_from_dict
@@ -35,10 +34,14 @@ PLAIN_FACTOR = 100.0
 
 
 def run(method: str, precision: str, compensated: bool):
-    scene = scene_from_dict({
-        "chain": {"grains": 100, "l0": 1e-4}, "excitation": {"impact": 1e-2},
-        "integrator": {"method": method, "dt": 2.5e-5, "duration": 4.0, "precision": precision},
-        "record": {"every": 0.25, "fields": ["u"]}})
+    scene = scene_from_dict(
+        {
+            "chain": {"grains": 100, "l0": 1e-4},
+            "excitation": {"impact": 1e-2},
+            "integrator": {"method": method, "dt": 2.5e-5, "duration": 4.0, "precision": precision},
+            "record": {"every": 0.25, "fields": ["u"]},
+        }
+    )
     features = replace(features_of([scene]), compensated=compensated)
     model = build_model([scene], "cpu", features=features)
     assert model.features.values == features.nordsieck_values + (2 if precision == "float32" and compensated else 0)
@@ -63,9 +66,14 @@ def test_compensated_float32_keeps_float64_accuracy(method):
 
 def test_compensated_state_carries_the_low_parts():
     """The state rows Q, Q + 1 hold what float32 rounding of u and dt·v left out (|lo| ≤ half an ulp of hi)."""
-    scene = scene_from_dict({"chain": {"grains": 30, "l0": 1e-4}, "excitation": {"impact": 1e-2},
-                             "integrator": {"dt": 2.5e-5, "duration": 0.05, "precision": "float32"},
-                             "record": {"every": 0.05}})
+    scene = scene_from_dict(
+        {
+            "chain": {"grains": 30, "l0": 1e-4},
+            "excitation": {"impact": 1e-2},
+            "integrator": {"dt": 2.5e-5, "duration": 0.05, "precision": "float32"},
+            "record": {"every": 0.05},
+        }
+    )
     model = build_model([scene], "cpu")
     assert model.features.compensation and model.features.values == 6
     runner = Runner(model, kernel="sweep")

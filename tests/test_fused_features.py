@@ -16,14 +16,12 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-
+from fused_cases import MOVED, assert_every_window_moved, assert_kernels_agree, chains, window_ranges
 from hertzian.ensemble.model import build_model
 from hertzian.ensemble.runner import Runner
-from hertzian.ensemble.solvers import SWEEP, SolverConfig, choose_config, config_of
+from hertzian.ensemble.solvers import SWEEP, choose_config, config_of
 from hertzian.ensemble.solvers.calibrate import step_reason
 from hertzian.kernels.tile import plan_tile
-
-from fused_cases import MOVED, assert_every_window_moved, assert_kernels_agree, chains, window_ranges
 
 TRACED = {"grains": 30, "l0": 1e-4}
 TRACE_RECORD = {"every": 0.1, "traces": [0, 13, 28], "trace_every": 4e-3, "fields": ["u", "v"]}
@@ -31,8 +29,7 @@ TRACE_RECORD = {"every": 0.1, "traces": [0, 13, 28], "trace_every": 4e-3, "field
 
 
 def traced_scenes(**extra):
-    return chains(2, chain=dict(TRACED), integrator={"dt": 5e-4, "duration": 2.0}, record=dict(TRACE_RECORD),
-                  **extra)
+    return chains(2, chain=dict(TRACED), integrator={"dt": 5e-4, "duration": 2.0}, record=dict(TRACE_RECORD), **extra)
 
 
 def run(model, kernel, monitor_every=11):
@@ -66,8 +63,11 @@ def test_sweep_traces_equal_per_step():
 def test_tile_traces_equal_per_step(windowed, device):
     model = build_model(traced_scenes(), device)
     f = replace(model.features, traces=False)
-    keywords = dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=5, windowed=True) if windowed else \
-        dict(grains_per_lane=4)
+    keywords = (
+        dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=5, windowed=True)
+        if windowed
+        else dict(grains_per_lane=4)
+    )
     config = config_of(plan_tile(f, model.grain_count, model.chain_count, **keywords))
     want = run(model, "step")
     got = run(model, config)
@@ -85,10 +85,13 @@ def driven_scenes(*, traces: bool, **sections):
     """Two driven chains (amplitudes differ) that open and close contacts at the surface."""
     from hertzian.ensemble.scene import scene_from_dict
 
-    data = {"chain": {"grains": 24, "l0": 1e-4}, "boundary": {"surface": "driven"},
-            "excitation": {"drive_amplitude": 2e-4, "drive_period": 0.5},
-            "integrator": {"dt": 5e-4, "duration": 2.0},
-            "record": dict(TRACE_RECORD, traces=[0, 1, 12, 22]) if traces else {"every": 0.1, "fields": ["u", "v"]}}
+    data = {
+        "chain": {"grains": 24, "l0": 1e-4},
+        "boundary": {"surface": "driven"},
+        "excitation": {"drive_amplitude": 2e-4, "drive_period": 0.5},
+        "integrator": {"dt": 5e-4, "duration": 2.0},
+        "record": dict(TRACE_RECORD, traces=[0, 1, 12, 22]) if traces else {"every": 0.1, "fields": ["u", "v"]},
+    }
     for key, value in sections.items():
         data.setdefault(key, {}).update(value)
     base = scene_from_dict(data)
@@ -99,8 +102,9 @@ DRIVEN_CASES = {
     "traces, events auto, bottom wall": dict(traces=True),
     # traces of a driven chain with plain steps (no event section in the fused kernels' step loop)
     "traces, events off, bottom wall": dict(traces=True, integrator={"events": "off"}),
-    "no traces, events off, fixed bottom, gear5": dict(traces=False, boundary={"bottom": "fixed"},
-                                                      integrator={"events": "off", "method": "gear5"}),
+    "no traces, events off, fixed bottom, gear5": dict(
+        traces=False, boundary={"bottom": "fixed"}, integrator={"events": "off", "method": "gear5"}
+    ),
     "float32 (compensated), events auto": dict(traces=False, integrator={"precision": "float32"}),
 }
 
@@ -125,8 +129,9 @@ def test_sweep_drive_equals_per_step(case):
     assert np.all(np.max(np.abs(want.work), axis=1) > 0)
 
 
-TILE_DRIVE = [(case, windowed) for case in DRIVEN_CASES for windowed in (False, True)
-              if windowed or case.startswith("traces")] + [("traces, events auto, bottom wall", "G=2")]
+TILE_DRIVE = [
+    (case, windowed) for case in DRIVEN_CASES for windowed in (False, True) if windowed or case.startswith("traces")
+] + [("traces, events auto, bottom wall", "G=2")]
 """Whole-chain and windowed shapes for the traced case, the windowed shape for the other (compile time), and
 windows of 2 grains per lane (the calibration's one-warp shape at G = 2)."""
 SHAPE_KEYWORDS = {
@@ -148,8 +153,11 @@ def test_tile_drive_equals_per_step(case, windowed, device):
     got = run(model, config_of(plan))
     held = "boundary" in sections
     # every window (and its ghost exchange) saw the drive's motion before comparing
-    assert_every_window_moved(np.stack([np.abs(want.u).max(axis=1), np.abs(want.v).max(axis=1)]),
-                              window_ranges(plan, model.grain_count), held_bottom=held)
+    assert_every_window_moved(
+        np.stack([np.abs(want.u).max(axis=1), np.abs(want.v).max(axis=1)]),
+        window_ranges(plan, model.grain_count),
+        held_bottom=held,
+    )
     for name in ("u", "v"):
         assert_kernels_agree(got.fields[name], want.fields[name], device)
         if want.traces:
@@ -168,8 +176,9 @@ def test_drive_table_refilled_within_an_advance_equals_per_step(launches_per_tab
 
     sections = DRIVEN_CASES["traces, events auto, bottom wall"]
     model = build_model(driven_scenes(**sections), device)
-    plan = plan_tile(replace(model.features, traces=False), model.grain_count, model.chain_count,
-                     **SHAPE_KEYWORDS[True])
+    plan = plan_tile(
+        replace(model.features, traces=False), model.grain_count, model.chain_count, **SHAPE_KEYWORDS[True]
+    )
     k = plan.steps_per_launch
     monkeypatch.setattr(tile_solver, "DRIVE_TABLE_BYTES", 16 * model.chain_count * (launches_per_table * k + 2))
     assert tile_solver.TileSolver(model, config_of(plan)).table_steps == launches_per_table * k
@@ -187,18 +196,39 @@ def test_drive_table_refilled_within_an_advance_equals_per_step(launches_per_tab
 def test_driven_window_needs_grains_0_and_1_in_one_lane():
     model = build_model(driven_scenes(traces=False), "cpu")
     with pytest.raises(ValueError, match="grains 0 and 1"):
-        plan_tile(model.features, model.grain_count, model.chain_count, grains_per_lane=4, lanes_per_chain=4,
-                  steps_per_launch=3, windowed=True)
+        plan_tile(
+            model.features,
+            model.grain_count,
+            model.chain_count,
+            grains_per_lane=4,
+            lanes_per_chain=4,
+            steps_per_launch=3,
+            windowed=True,
+        )
     # also where grain 0 is the last of a lane in the second window that holds it (its interior is short of its ghost)
     with pytest.raises(ValueError, match="grains 0 and 1"):
-        plan_tile(model.features, model.grain_count, model.chain_count, grains_per_lane=4, lanes_per_chain=3,
-                  steps_per_launch=5, windowed=True)
+        plan_tile(
+            model.features,
+            model.grain_count,
+            model.chain_count,
+            grains_per_lane=4,
+            lanes_per_chain=3,
+            steps_per_launch=5,
+            windowed=True,
+        )
 
 
-@pytest.mark.parametrize("keywords", [dict(grains_per_lane=4), dict(grains_per_lane=8, lanes_per_chain=4),
-                                      SHAPE_KEYWORDS[True], SHAPE_KEYWORDS["G=2"],
-                                      dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=4, windowed=True),
-                                      dict(grains_per_lane=8, lanes_per_chain=3, steps_per_launch=6, windowed=True)])
+@pytest.mark.parametrize(
+    "keywords",
+    [
+        dict(grains_per_lane=4),
+        dict(grains_per_lane=8, lanes_per_chain=4),
+        SHAPE_KEYWORDS[True],
+        SHAPE_KEYWORDS["G=2"],
+        dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=4, windowed=True),
+        dict(grains_per_lane=8, lanes_per_chain=3, steps_per_launch=6, windowed=True),
+    ],
+)
 def test_driver_slot_is_grain_0s_place_in_every_block_that_holds_it(keywords):
     # the fused kernel reads the driven grain at a fixed register (shape.driver_slot) when every block holding grain 0
     # has it at the same place in a lane: here found by listing every block's grains, lane by lane
@@ -255,15 +285,22 @@ def test_response_windows_on_the_fused_kernels_equal_per_step(kernel, device):
     the fused kernels (sampled between launches) give the per-step kernel's sums."""
     if kernel == "sweep" and device != "cpu":
         pytest.skip("the sweep kernel is a CPU kernel")
-    record = {"every": 0.5, "fields": ["v"], "response_start": 0.5, "response_periods": 1,
-              "response_windows": 3, "harmonics": 2}
+    record = {
+        "every": 0.5,
+        "fields": ["v"],
+        "response_start": 0.5,
+        "response_periods": 1,
+        "response_windows": 3,
+        "harmonics": 2,
+    }
     model = build_model(driven_scenes(traces=False, record=record), device)
     want = run(model, "step")
     if kernel == "sweep":
         config = "sweep"
     else:
-        config = config_of(plan_tile(replace(model.features, traces=False), model.grain_count, model.chain_count,
-                                     grains_per_lane=4))
+        config = config_of(
+            plan_tile(replace(model.features, traces=False), model.grain_count, model.chain_count, grains_per_lane=4)
+        )
     got = run(model, config)
     assert got.kernel != "step"
     assert np.all(np.abs(want.response["response"][..., 1, -1]) > 0)  # the drive's harmonic reached the bottom grain
@@ -281,8 +318,11 @@ def test_tile_writes_trace_samples_inside_the_launch_frozen_chains_included(wind
 
     model = build_model(traced_scenes(), "cpu")
     f = replace(model.features, traces=False)
-    keywords = dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=5, windowed=True) if windowed else \
-        dict(grains_per_lane=4)
+    keywords = (
+        dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=5, windowed=True)
+        if windowed
+        else dict(grains_per_lane=4)
+    )
     solver = TileSolver(model, config_of(plan_tile(f, model.grain_count, model.chain_count, **keywords)))
     assert solver.kernel_features.traces
     status = np.array([1, 0], dtype=np.int32)
@@ -304,21 +344,23 @@ def test_driven_kernel_never_indexes_registers_by_the_driven_grain():
     # grain 0's position in its lane (k0) is known only at run time; an array or matrix index of k0 makes CUDA keep
     # the lane's whole state in local memory, for every lane and step (on an H100 the driven 10 000-grain column
     # stepped ~3x slower than an undriven one until the drive used selects over the static positions)
-    from kernel_source import generated_source
-
     from hertzian.kernels.tile import tile_kernel
+    from kernel_source import generated_source
 
     model = build_model(driven_scenes(traces=False), "cpu")
     f = replace(model.features, traces=False)
-    plan = plan_tile(f, model.grain_count, model.chain_count, grains_per_lane=4, lanes_per_chain=4,
-                     steps_per_launch=5, windowed=True)
+    plan = plan_tile(
+        f, model.grain_count, model.chain_count, grains_per_lane=4, lanes_per_chain=4, steps_per_launch=5, windowed=True
+    )
     source = generated_source(tile_kernel(f, plan.shape), "cuda", block_dim=plan.shape.block_dim)
     # per generated function (variable names are local to each): k0 and k0 + 1 appear in comparisons and sums only
     functions = re.findall(r"^\S[^\n]*\n(?:[^\n]*\n)*?}\n", source, re.MULTILINE)
     uses = 0
     for body in functions:
         lines = [line.strip() for line in body.splitlines() if not line.lstrip().startswith("//")]
-        names = {"var_k0"} | {m for line in lines for m in re.findall(r"^(var_\d+) = wp::add\(var_k0, var_\d+\);$", line)}
+        names = {"var_k0"} | {
+            m for line in lines for m in re.findall(r"^(var_\d+) = wp::add\(var_k0, var_\d+\);$", line)
+        }
         for line in lines:
             if any(re.search(rf"\b{name}\b", line) for name in names):
                 uses += 1
@@ -329,7 +371,7 @@ def test_driven_kernel_never_indexes_registers_by_the_driven_grain():
 def _entry_uses_local_memory(ptx: str) -> bool:
     """Whether the kernel entry of a PTX module declares local memory (register arrays indexed at run time,
     or spills the front end already decided); helper functions (the trig slow path) are not counted."""
-    entry = ptx[ptx.index(".entry"):]
+    entry = ptx[ptx.index(".entry") :]
     end = entry.find("\n.func")
     return ".local" in (entry if end < 0 else entry[:end])
 
@@ -339,18 +381,20 @@ def test_fused_kernel_keeps_its_state_in_registers(driven, tmp_path):
     # the CUDA C++ of a windowed kernel compiled to PTX for sm_90 by NVRTC (no GPU needed): a loop Warp does not
     # unroll (e.g. range(G - 1)) or an index known only at run time puts the lane's matrices in local memory —
     # on an H100 that made the driven 10 000-grain column step 2.7-5x slower than an undriven one
+    from hertzian.kernels.tile import tile_kernel
     from kernel_source import generated_source
-
     from warp._src import build
 
-    from hertzian.kernels.tile import tile_kernel
-
-    scenes = driven_scenes(traces=False, boundary={"bottom": "fixed"}, integrator={"events": "off"}) if driven else \
-        chains(2, chain={"grains": 40}, integrator={"events": "off"})
+    scenes = (
+        driven_scenes(traces=False, boundary={"bottom": "fixed"}, integrator={"events": "off"})
+        if driven
+        else chains(2, chain={"grains": 40}, integrator={"events": "off"})
+    )
     model = build_model(scenes, "cpu")
     f = replace(model.features, traces=False)
-    plan = plan_tile(f, model.grain_count, model.chain_count, grains_per_lane=4, lanes_per_chain=8,
-                     steps_per_launch=8, windowed=True)
+    plan = plan_tile(
+        f, model.grain_count, model.chain_count, grains_per_lane=4, lanes_per_chain=8, steps_per_launch=8, windowed=True
+    )
     cu = tmp_path / "fused.cu"
     cu.write_text(generated_source(tile_kernel(f, plan.shape), "cuda", block_dim=plan.shape.block_dim))
     try:
@@ -371,35 +415,45 @@ def test_auto_takes_a_calibrated_fused_kernel_for_short_gpu_runs(tmp_path, monke
     monkeypatch.setenv("HERTZIAN_CACHE", str(tmp_path / "calibration.json"))
     real = build_model(chains(2, chain={"grains": 40}), "cpu")
     gpu = SimpleNamespace(name="cuda:0", is_cpu=False, is_cuda=True, sm_count=132)
-    model = SimpleNamespace(features=real.features, device=gpu, grain_count=real.grain_count,
-                            chain_count=real.chain_count)
+    model = SimpleNamespace(
+        features=real.features, device=gpu, grain_count=real.grain_count, chain_count=real.chain_count
+    )
     reason = calibrate.step_reason(model, run_steps=100)
     assert reason is not None and "short run" in reason
     (tmp_path / "calibration.json").write_text(json.dumps({calibrate._cache_key(model): {"kind": "tile"}}))
     assert calibrate.is_calibrated(model)
     assert calibrate.step_reason(model, run_steps=100) is None
     # features no fused kernel has keep the per-step kernel, calibrated or not
-    damped = SimpleNamespace(**{**vars(model), "features": replace(real.features, damping="contact",
-                                                                   precision="float32")})
+    damped = SimpleNamespace(
+        **{**vars(model), "features": replace(real.features, damping="contact", precision="float32")}
+    )
     (tmp_path / "calibration.json").write_text(json.dumps({calibrate._cache_key(damped): {"kind": "tile"}}))
     assert "damping" in calibrate.step_reason(damped, run_steps=100)
 
 
 DAMPED_CASES = {
     # driven, the driver's contact opening and closing: 2 chains of different γ
-    "viscous, driven, fixed bottom": dict(damping={"model": "viscous"}, boundary={"bottom": "fixed"},
-                                          integrator={"events": "off"}),
-    "viscous, driven, bottom wall, gear5": dict(damping={"model": "viscous"}, integrator={"events": "off",
-                                                                                          "method": "gear5"}),
+    "viscous, driven, fixed bottom": dict(
+        damping={"model": "viscous"}, boundary={"bottom": "fixed"}, integrator={"events": "off"}
+    ),
+    "viscous, driven, bottom wall, gear5": dict(
+        damping={"model": "viscous"}, integrator={"events": "off", "method": "gear5"}
+    ),
     "viscous, driven, fixed bottom, float32 (compensated)": dict(
-        damping={"model": "viscous"}, boundary={"bottom": "fixed"}, integrator={"events": "off", "precision": "float32"}),
-    "dashpot, driven, fixed bottom": dict(damping={"model": "contact"}, boundary={"bottom": "fixed"},
-                                          integrator={"events": "off"}),
-    "dashpot, driven, bottom wall, gear5": dict(damping={"model": "contact"}, integrator={"events": "off",
-                                                                                          "method": "gear5"}),
-    "dashpot, driven, free bottom (l0 = 0), gear6": dict(damping={"model": "contact"}, chain={"l0": 0.0},
-                                                         boundary={"bottom": "free"},
-                                                         integrator={"events": "off", "method": "gear6"}),
+        damping={"model": "viscous"}, boundary={"bottom": "fixed"}, integrator={"events": "off", "precision": "float32"}
+    ),
+    "dashpot, driven, fixed bottom": dict(
+        damping={"model": "contact"}, boundary={"bottom": "fixed"}, integrator={"events": "off"}
+    ),
+    "dashpot, driven, bottom wall, gear5": dict(
+        damping={"model": "contact"}, integrator={"events": "off", "method": "gear5"}
+    ),
+    "dashpot, driven, free bottom (l0 = 0), gear6": dict(
+        damping={"model": "contact"},
+        chain={"l0": 0.0},
+        boundary={"bottom": "free"},
+        integrator={"events": "off", "method": "gear6"},
+    ),
 }
 
 
@@ -416,8 +470,11 @@ def test_damping_on_the_fused_kernels_equals_per_step(case, windowed, device):
     scenes[1] = scenes[1].with_overrides({"damping.gamma": 3.0})
     model = build_model(scenes, device)
     want = run(model, "step")
-    keywords = dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=4, windowed=True) if windowed else \
-        dict(grains_per_lane=4)
+    keywords = (
+        dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=4, windowed=True)
+        if windowed
+        else dict(grains_per_lane=4)
+    )
     config = config_of(plan_tile(model.features, model.grain_count, model.chain_count, **keywords))
     got = run(model, config)
     assert got.kernel.startswith("window" if windowed else "tile"), got.kernel
@@ -425,7 +482,7 @@ def test_damping_on_the_fused_kernels_equals_per_step(case, windowed, device):
     v = np.abs(want.fields["v"])
     assert np.all(v[:, :, moving].max(axis=1) > MOVED * v.max(axis=(1, 2))), "motion never reached the bottom"
     assert np.all(want.dissipated[:, -1] > 0) and np.all(np.diff(want.dissipated, axis=1) >= 0)
-    assert want.dissipated[1, -1] > want.dissipated[0, -1]          # the larger γ dissipates more here
+    assert want.dissipated[1, -1] > want.dissipated[0, -1]  # the larger γ dissipates more here
     for name in ("u", "v"):
         assert_kernels_agree(got.fields[name], want.fields[name], device)
     for name in ("energy", "work", "dissipated"):
@@ -438,17 +495,25 @@ def test_dashpot_between_walls_on_the_fused_kernels_equals_per_step():
     window kernels: an impact between walls, per-step kernel bit for bit; the impact reaches the bottom wall."""
     from hertzian.ensemble.scene import scene_from_dict
 
-    scene = scene_from_dict({"chain": {"grains": 24, "l0": 1e-4}, "excitation": {"impact": 1e-2},
-                             "boundary": {"surface": "wall", "bottom": "wall"},
-                             "integrator": {"duration": 2.0, "dt": 1e-3, "events": "off"},
-                             "damping": {"model": "contact", "gamma": 0.5}, "record": {"every": 0.25, "fields": ["u", "v"]}})
+    scene = scene_from_dict(
+        {
+            "chain": {"grains": 24, "l0": 1e-4},
+            "excitation": {"impact": 1e-2},
+            "boundary": {"surface": "wall", "bottom": "wall"},
+            "integrator": {"duration": 2.0, "dt": 1e-3, "events": "off"},
+            "damping": {"model": "contact", "gamma": 0.5},
+            "record": {"every": 0.25, "fields": ["u", "v"]},
+        }
+    )
     model = build_model([scene, scene.with_overrides({"excitation.impact": 2e-2})], "cpu")
     want = run(model, "step")
     v = np.abs(want.fields["v"])
     assert np.all(v[..., -1].max(axis=1) > MOVED * v.max(axis=(1, 2))), "motion never reached the bottom"
     assert np.all(want.dissipated[:, -1] > 0)
-    for keywords in (dict(grains_per_lane=4), dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=4,
-                                                   windowed=True)):
+    for keywords in (
+        dict(grains_per_lane=4),
+        dict(grains_per_lane=4, lanes_per_chain=4, steps_per_launch=4, windowed=True),
+    ):
         got = run(model, config_of(plan_tile(model.features, model.grain_count, model.chain_count, **keywords)))
         for name in ("u", "v"):
             np.testing.assert_array_equal(got.fields[name], want.fields[name])
@@ -459,8 +524,8 @@ def test_dashpot_between_walls_on_the_fused_kernels_equals_per_step():
 def test_undamped_fused_kernels_hold_no_damping_code():
     """Leave out what a scene does not need: without damping the tile kernel's generated code reads neither γ
     nor the dissipated energy; with viscous damping it reads and writes both."""
-    from kernel_source import accessed_arrays, generated_source
     from hertzian.kernels.tile import tile_kernel
+    from kernel_source import accessed_arrays, generated_source
 
     scenes = driven_scenes(traces=False, integrator={"events": "off"})
     plain = build_model(scenes, "cpu").features
@@ -477,12 +542,19 @@ def test_fused_kernels_refuse_the_dashpot_in_compensated_float32():
     refuses it (one line), and a forced tile kernel on such a scene is refused before anything runs."""
     from hertzian.kernels.tile import tile_kernel
 
-    model = build_model(driven_scenes(traces=False, damping={"model": "contact", "gamma": 0.5},
-                                      integrator={"events": "off", "precision": "float32"}), "cpu")
+    model = build_model(
+        driven_scenes(
+            traces=False,
+            damping={"model": "contact", "gamma": 0.5},
+            integrator={"events": "off", "precision": "float32"},
+        ),
+        "cpu",
+    )
     assert model.features.compensation
     with pytest.raises(ValueError, match="damping"):
-        tile_kernel(model.features, plan_tile(model.features, model.grain_count, model.chain_count,
-                                              grains_per_lane=4).shape)
+        tile_kernel(
+            model.features, plan_tile(model.features, model.grain_count, model.chain_count, grains_per_lane=4).shape
+        )
     with pytest.raises(ValueError, match="damping"):
         choose_config(model, "tile", calibrate_now=False)
 

@@ -33,15 +33,20 @@ STORED = np.load(GOLDEN)
 def numpy_power_is_libm() -> bool:
     """Whether this process's NumPy float64 power gives the C library's bits on a probe of 4096 values."""
     probe = np.linspace(1e-9, 3.0, 4096)
-    return all(np.power(probe, p).tolist() == [math.pow(x, p) for x in probe.tolist()]
-               for p in (1.5, 2.0 / 3.0, 2.5, 0.4))
+    return all(
+        np.power(probe, p).tolist() == [math.pow(x, p) for x in probe.tolist()] for p in (1.5, 2.0 / 3.0, 2.5, 0.4)
+    )
 
 
 def simd_features_to_disable() -> str:
     """The AVX-512 features NumPy dispatches to on this CPU (names for ``NPY_DISABLE_CPU_FEATURES``)."""
     from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
-    return " ".join(name for name in __cpu_dispatch__
-                    if __cpu_features__.get(name) and (name.startswith("AVX512") or name == "X86_V4"))
+
+    return " ".join(
+        name
+        for name in __cpu_dispatch__
+        if __cpu_features__.get(name) and (name.startswith("AVX512") or name == "X86_V4")
+    )
 
 
 @pytest.fixture(scope="module")
@@ -51,13 +56,16 @@ def computed(tmp_path_factory):
         return None
     out = tmp_path_factory.mktemp("golden") / "golden_here.npz"
     env = dict(os.environ, NPY_DISABLE_CPU_FEATURES=simd_features_to_disable())
-    code = ("import sys, numpy as np; sys.path.insert(0, sys.argv[1]); "
-            "from make_golden import CASES, arrays_of, run_case; "
-            "np.savez(sys.argv[2], **{f'{n}/{k}': v for n, c in CASES.items() for k, v in arrays_of(run_case(c)).items()})")
+    code = (
+        "import sys, numpy as np; sys.path.insert(0, sys.argv[1]); "
+        "from make_golden import CASES, arrays_of, run_case; "
+        "np.savez(sys.argv[2], **{f'{n}/{k}': v for n, c in CASES.items() for k, v in arrays_of(run_case(c)).items()})"
+    )
     subprocess.run([sys.executable, "-c", code, str(GOLDEN_DIR), str(out)], env=env, check=True, timeout=600)
     here = np.load(out)
-    return {name: {key.split("/", 1)[1]: here[key] for key in here.files if key.split("/", 1)[0] == name}
-            for name in CASES}
+    return {
+        name: {key.split("/", 1)[1]: here[key] for key in here.files if key.split("/", 1)[0] == name} for name in CASES
+    }
 
 
 @pytest.mark.parametrize("name", list(CASES))
@@ -75,8 +83,10 @@ def test_power_probe_tells_the_simd_power_apart():
     """The probe above is what decides where the golden cases run: with AVX-512 dispatch switched off NumPy's
     power must be libm's (otherwise the subprocess would not help)."""
     env = dict(os.environ, NPY_DISABLE_CPU_FEATURES=simd_features_to_disable())
-    code = f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); import test_golden as t; " \
-           "sys.exit(0 if t.numpy_power_is_libm() else 1)"
+    code = (
+        f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); import test_golden as t; "
+        "sys.exit(0 if t.numpy_power_is_libm() else 1)"
+    )
     if simd_features_to_disable():
         subprocess.run([sys.executable, "-c", code], env=env, check=True, timeout=300)
     else:

@@ -11,7 +11,6 @@
 
 import numpy as np
 import pytest
-
 from hertzian.ensemble.chains import ChainSet
 from hertzian.ensemble.distributed import jobs_for, run_serial
 from hertzian.ensemble.model import build_model, prepare_model
@@ -80,7 +79,6 @@ def test_overlapped_preparation_writes_the_same_store(tmp_path):
 
 def test_records_written_while_the_batch_runs_give_the_same_store(tmp_path, monkeypatch):
     import zarr
-
     from hertzian.ensemble import sweep_store
 
     # 5 records, 5 trace samples between two: the traces' shards hold 5 samples, u's and v's one record
@@ -130,8 +128,9 @@ def test_store_created_by_the_store_thread_while_the_first_batch_runs(tmp_path):
         raise OSError("no space left on device")
 
     with pytest.raises(OSError, match="no space left"):  # its own error, not that of the writes queued after it
-        run_serial(jobs_for(tmp_path / "never.zarr", plan, points, plan.batches), "cpu", overlap=True,
-                   create_store=fails)
+        run_serial(
+            jobs_for(tmp_path / "never.zarr", plan, points, plan.batches), "cpu", overlap=True, create_store=fails
+        )
 
 
 def test_a_serial_sweep_warms_the_stepping_kernel_its_batches_use(monkeypatch):
@@ -141,7 +140,6 @@ def test_a_serial_sweep_warms_the_stepping_kernel_its_batches_use(monkeypatch):
     from types import SimpleNamespace
 
     import warp as wp
-
     from hertzian.ensemble import distributed
     from hertzian.ensemble.solvers import calibrate
     from hertzian.ensemble.solvers.calibrate import _cache_key, whole_chain_configs
@@ -184,15 +182,19 @@ def test_a_serial_sweep_warms_the_stepping_kernel_its_batches_use(monkeypatch):
     loaded.clear()
     distributed.warm_kernels([f], "cpu", runs=[(f, 4096, 2, 10**9)])  # long chains: the two-stage reductions only
     long_records = record_kernels(f)
-    assert set(loaded) == {long_records.grains.module, long_records.parts_of_grains.module,
-                           long_records.record_long.module}
+    assert set(loaded) == {
+        long_records.grains.module,
+        long_records.parts_of_grains.module,
+        long_records.record_long.module,
+    }
 
 
 def test_overlapped_preparation_of_batches_spanning_templates(tmp_path):
     # the impurity's contact rule changes no kernel: one launch group whose batches join two templates
     # (run as one scene per point, nothing prepared)
-    sweep = dict(SWEEP, axis=SWEEP["axis"][:2] + [{"name": "rule", "key": "impurities.0.contact",
-                                                  "values": ["harmonic", "own"]}])
+    sweep = dict(
+        SWEEP, axis=SWEEP["axis"][:2] + [{"name": "rule", "key": "impurities.0.contact", "values": ["harmonic", "own"]}]
+    )
     stores = []
     for overlap in (False, True):
         definition = sweep_from_dict(sweep)
@@ -232,7 +234,6 @@ def test_reused_staging_buffers_give_the_same_records():
     assert not {id(buf) for buf in other.recorder.staging} & set(kept)
     other.run()
     assert STAGING._key == other.recorder.staging_key
-
 
 
 def test_the_collector_is_frozen_during_a_run_and_unfrozen_after():

@@ -5,11 +5,9 @@ step 4x smaller than the finest tested. The Gear methods start from exact Taylor
 
 import numpy as np
 import pytest
-
+from conftest import make_scene
 from hertzian.ensemble.model import build_model
 from hertzian.ensemble.runner import Runner, run_scene
-
-from conftest import make_scene
 
 DTS = np.array([2e-3, 1e-3, 5e-4])
 # Expected orders: velocity Verlet is second order; the q-value Gear methods (A&T coefficients)
@@ -20,8 +18,12 @@ EXPECTED = {"verlet": 2.0, "gear4": 4.0, "gear5": 5.0, "gear6": 6.0, "yoshida4":
 
 
 def smooth_scene(method, dt):
-    return make_scene(chain={"grains": 20, "l0": 1e-2}, excitation={"impact": 1e-4},
-                      integrator={"method": method, "dt": dt, "duration": 1.0}, record={"every": 0.25})
+    return make_scene(
+        chain={"grains": 20, "l0": 1e-2},
+        excitation={"impact": 1e-4},
+        integrator={"method": method, "dt": dt, "duration": 1.0},
+        record={"every": 0.25},
+    )
 
 
 @pytest.fixture(scope="module")
@@ -35,8 +37,10 @@ def slope(errors):
 
 @pytest.mark.parametrize("method", list(EXPECTED))
 def test_order_of_accuracy(method, reference_u):
-    errors = [np.abs(run_scene(smooth_scene(method, dt), "cpu").u[0] - reference_u).max() / np.abs(reference_u).max()
-              for dt in DTS]
+    errors = [
+        np.abs(run_scene(smooth_scene(method, dt), "cpu").u[0] - reference_u).max() / np.abs(reference_u).max()
+        for dt in DTS
+    ]
     assert abs(slope(errors) - EXPECTED[method]) < 0.25, (method, errors, slope(errors))
 
 

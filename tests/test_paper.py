@@ -13,7 +13,6 @@ import math
 
 import numpy as np
 import pytest
-
 from hertzian.ensemble import analysis as an
 from hertzian.ensemble.runner import run_ensemble
 from hertzian.ensemble.scene import scene_from_dict
@@ -42,14 +41,29 @@ def _scene(**sections):
 
 # ---- Sec. III A: shock-like regime --------------------------------------------------------
 
-HORIZONTAL = [(0.0, 1e-3), (0.0, 1e-2), (0.0, 1e-1), (1e-6, 1e-3), (1e-6, 1e-2), (1e-6, 1e-1), (1e-4, 1e-3),
-              (1e-4, 1e-1)]
+HORIZONTAL = [
+    (0.0, 1e-3),
+    (0.0, 1e-2),
+    (0.0, 1e-1),
+    (1e-6, 1e-3),
+    (1e-6, 1e-2),
+    (1e-6, 1e-1),
+    (1e-4, 1e-3),
+    (1e-4, 1e-1),
+]
 """(l0, v_imp) of the 200-grain horizontal chains."""
 
 
 def _horizontal(device):
-    scenes = [_scene(chain={"grains": 200, "l0": l0}, excitation={"impact": v},
-                     integrator={"duration": 16.0}, record={"every": 0.25}) for l0, v in HORIZONTAL]
+    scenes = [
+        _scene(
+            chain={"grains": 200, "l0": l0},
+            excitation={"impact": v},
+            integrator={"duration": 16.0},
+            record={"every": 0.25},
+        )
+        for l0, v in HORIZONTAL
+    ]
     return _run("horizontal", device, scenes)
 
 
@@ -98,8 +112,12 @@ def test_shock_width_grows_linearly(device):
 def test_nesterenko_soliton_speed_and_width(device):
     """The pulse at l0 = 0 against Nesterenko's long-wave solitary wave: speed (2a/m)^(2/5) v_m^(1/5)
     within 2 % (the discrete chain's is ~0.8 % slower), full width at half maximum within 20 %."""
-    scene = _scene(chain={"grains": 80}, excitation={"impact": 1e-2}, integrator={"duration": 5.0},
-                   record={"every": 1.0, "traces": [30, 60]})
+    scene = _scene(
+        chain={"grains": 80},
+        excitation={"impact": 1e-2},
+        integrator={"duration": 5.0},
+        record={"every": 1.0, "traces": [30, 60]},
+    )
     result = _run("nesterenko", device, [scene])
     t, v = result.trace_t, result.traces["v"][0]
     peak_times = []
@@ -119,8 +137,12 @@ def test_nesterenko_soliton_speed_and_width(device):
 def test_compressive_tail_is_exponential_and_stretches_with_time(device):
     """l0 = 1e-3, v_imp = 1e-2 (Fig. 3(b)): the compressive tail behind the head is exponential in depth
     (R² > 0.8 on its envelope) with a decay length that grows about linearly in t."""
-    scene = _scene(chain={"grains": 300, "l0": 1e-3}, excitation={"impact": 1e-2}, integrator={"duration": 10.0},
-                   record={"every": 0.5})
+    scene = _scene(
+        chain={"grains": 300, "l0": 1e-3},
+        excitation={"impact": 1e-2},
+        integrator={"duration": 10.0},
+        record={"every": 0.5},
+    )
     result = _run("tail", device, [scene])
     heads = an.head_positions(result.v[0])
     fits = {}
@@ -140,8 +162,13 @@ def test_compressive_tail_is_exponential_and_stretches_with_time(device):
 def test_pulse_speed_grows_as_depth_to_the_one_sixth(device):
     """c(z) ∝ z^(1/6) in a column compacted by gravity, and equal (within 2 %) to the closed-form long-wave
     speed √(K(z)/m) of the static overlaps of paper eq. 4."""
-    scene = _scene(chain={"grains": 300, "gravity": 1.0}, boundary={"surface": "free"},
-                   excitation={"impact": 1e-2}, integrator={"duration": 4.5}, record={"every": 0.05})
+    scene = _scene(
+        chain={"grains": 300, "gravity": 1.0},
+        boundary={"surface": "free"},
+        excitation={"impact": 1e-2},
+        integrator={"duration": 4.5},
+        record={"every": 0.05},
+    )
     result = _run("depth", device, [scene])
     heads = an.head_positions(result.v[0])
     fit = an.depth_law(result.t, heads, first_grain=30, last_grain=270)
@@ -156,9 +183,16 @@ def test_pulse_speed_grows_as_depth_to_the_one_sixth(device):
 def test_more_tail_bumps_and_smaller_displacements_at_larger_gravity(device):
     """Fig. 6: after the same time, the pulse at g = 10 has more bumps and smaller displacements than at
     g = 0.1 (the paper's claim; counted by count_bumps, largest displacement below the surface grains)."""
-    scenes = [_scene(chain={"grains": 200, "gravity": g}, boundary={"surface": "free"},
-                     excitation={"impact": 0.1}, integrator={"duration": 1.6}, record={"every": 0.4})
-              for g in (0.1, 10.0)]
+    scenes = [
+        _scene(
+            chain={"grains": 200, "gravity": g},
+            boundary={"surface": "free"},
+            excitation={"impact": 0.1},
+            integrator={"duration": 1.6},
+            record={"every": 0.4},
+        )
+        for g in (0.1, 10.0)
+    ]
     result = _run("gravity", device, scenes)
     bumps, largest = [], []
     for k in range(2):
@@ -171,14 +205,23 @@ def test_more_tail_bumps_and_smaller_displacements_at_larger_gravity(device):
 
 def _column_with_impurities(device):
     """300-grain g = 1 column struck with v_imp = 0.1; five impurities around grain 150; surface trace."""
-    blocks = [("light", 0.5, 2000.0, "harmonic"), ("light", 0.5, 2000.0, "own"), ("heavy", 2.0, 1e4, "harmonic"),
-              ("heavy", 2.0, 1e4, "own"), ("clean", 1.0, A, "harmonic")]
+    blocks = [
+        ("light", 0.5, 2000.0, "harmonic"),
+        ("light", 0.5, 2000.0, "own"),
+        ("heavy", 2.0, 1e4, "harmonic"),
+        ("heavy", 2.0, 1e4, "own"),
+        ("clean", 1.0, A, "harmonic"),
+    ]
     scenes = []
     for _, mass, a, contact in blocks:
-        data = {"chain": {"grains": 300, "gravity": 1.0}, "boundary": {"surface": "free"},
-                "impurities": [{"grains": [148, 149, 150, 151, 152], "mass": mass, "a": a, "contact": contact}],
-                "excitation": {"impact": 0.1}, "integrator": {"dt": DT, "duration": 6.5},
-                "record": {"every": 0.5, "traces": [0, 50], "trace_every": 0.005}}
+        data = {
+            "chain": {"grains": 300, "gravity": 1.0},
+            "boundary": {"surface": "free"},
+            "impurities": [{"grains": [148, 149, 150, 151, 152], "mass": mass, "a": a, "contact": contact}],
+            "excitation": {"impact": 0.1},
+            "integrator": {"dt": DT, "duration": 6.5},
+            "record": {"every": 0.5, "traces": [0, 50], "trace_every": 0.005},
+        }
         scenes.append(scene_from_dict(data))
     return blocks, _run("column_impurities", device, scenes)
 
@@ -193,7 +236,7 @@ def test_backscatter_leading_sign_light_vs_heavy_in_a_column(device):
     blocks, result = _column_with_impurities(device)
     t = result.trace_t
     clean = result.traces["v"][-1]
-    overlap = (1.0 * 150 / (2.5 * A)) ** (2 / 3)          # static overlap at depth 150 (g m z = 2.5 a δ^1.5)
+    overlap = (1.0 * 150 / (2.5 * A)) ** (2 / 3)  # static overlap at depth 150 (g m z = 2.5 a δ^1.5)
     z_host = math.sqrt(3.75 * A * math.sqrt(overlap) * 1.0)
     amplitudes = {}
     for k, (kind, mass, a, contact) in enumerate(blocks[:-1]):
@@ -203,8 +246,9 @@ def test_backscatter_leading_sign_light_vs_heavy_in_a_column(device):
         predicted = int(np.sign(z_host - math.sqrt(stiffness * mass)))
         for column in range(2):
             for fraction in (0.05, 0.1, 0.2, 0.3):
-                echo = an.backscatter(t, result.traces["v"][k][:, column], clean[:, column], after=2.5,
-                                      fraction=fraction)
+                echo = an.backscatter(
+                    t, result.traces["v"][k][:, column], clean[:, column], after=2.5, fraction=fraction
+                )
                 assert echo.leading_sign == predicted, (kind, contact, column, fraction, echo)
         amplitudes[kind, contact] = echo.amplitude
     for contact in ("harmonic", "own"):
@@ -217,10 +261,13 @@ def test_backscatter_in_a_weakly_loaded_chain_is_compressive(device):
     surface grain toward the surface (sign −1); the heavy block answers earlier."""
     scenes = []
     for mass, a in ((0.5, 2000.0), (2.0, 1e4), (1.0, A)):
-        data = {"chain": {"grains": 160, "l0": 1e-4},
-                "impurities": [{"grains": [78, 79, 80, 81, 82], "mass": mass, "a": a}],
-                "excitation": {"impact": 1e-2}, "integrator": {"dt": DT, "duration": 12.0},
-                "record": {"every": 0.5, "traces": [0], "trace_every": 0.01}}
+        data = {
+            "chain": {"grains": 160, "l0": 1e-4},
+            "impurities": [{"grains": [78, 79, 80, 81, 82], "mass": mass, "a": a}],
+            "excitation": {"impact": 1e-2},
+            "integrator": {"dt": DT, "duration": 12.0},
+            "record": {"every": 0.5, "traces": [0], "trace_every": 0.01},
+        }
         scenes.append(scene_from_dict(data))
     result = _run("horizontal_impurities", device, scenes)
     t, v = result.trace_t, result.traces["v"]
@@ -236,14 +283,20 @@ def test_backscatter_in_a_weakly_loaded_chain_is_compressive(device):
 def test_plot_cli_draws_a_figure_and_refuses_bad_input(tmp_path):
     """`hertzian plot` writes a PNG from a store shaped like paper_fig1.toml's, and answers bad input
     with one line and exit code 2."""
-    from typer.testing import CliRunner
-
     from hertzian.ensemble.cli import app
     from hertzian.ensemble.store import write_result
+    from typer.testing import CliRunner
 
     speeds = [1e-3, 1e-2, 1e-1]
-    scenes = [_scene(chain={"grains": 40, "l0": 1e-6}, excitation={"impact": v}, integrator={"duration": 2.0},
-                     record={"every": 0.25}) for v in speeds]
+    scenes = [
+        _scene(
+            chain={"grains": 40, "l0": 1e-6},
+            excitation={"impact": v},
+            integrator={"duration": 2.0},
+            record={"every": 0.25},
+        )
+        for v in speeds
+    ]
     store = write_result(tmp_path / "fig1.zarr", run_ensemble(scenes, "cpu"), axes={"v_imp": np.array(speeds)})
     runner = CliRunner()
     out = tmp_path / "fig1.png"

@@ -5,11 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import xarray as xr
-from typer.testing import CliRunner
-
 from hertzian.ensemble.analysis import energy_drift
 from hertzian.ensemble.cli import app
 from hertzian.ensemble.plot import PlotError, select_point
+from typer.testing import CliRunner
 
 cli = CliRunner()
 
@@ -18,8 +17,23 @@ cli = CliRunner()
 def impact_store(tmp_path_factory):
     """The built-in example, 100 grains for 1 time unit (records every 0.25, grain 0 traced)."""
     out = tmp_path_factory.mktemp("plot") / "impact.zarr"
-    result = cli.invoke(app, ["run", "--device", "cpu", "--quiet", "--set", "chain.grains=100", "--set",
-                              "integrator.duration=1.0", "--set", "record.every=0.25", "--out", str(out)])
+    result = cli.invoke(
+        app,
+        [
+            "run",
+            "--device",
+            "cpu",
+            "--quiet",
+            "--set",
+            "chain.grains=100",
+            "--set",
+            "integrator.duration=1.0",
+            "--set",
+            "record.every=0.25",
+            "--out",
+            str(out),
+        ],
+    )
     assert result.exit_code == 0, result.output
     return out
 
@@ -34,13 +48,16 @@ def test_plot_any_store_writes_a_png(impact_store, tmp_path, monkeypatch):
     assert result.exit_code == 0, result.output
 
 
-@pytest.mark.parametrize("args,message", [
-    (["--field", "w"], "--field = 'w': u or v"),
-    (["--at", "v_imp"], "--at = 'v_imp': must be written axis=number"),
-    (["--at", "v_imp=0.1"], "no sweep axis v_imp"),
-    (["--figure", "fig42"], "--figure = 'fig42'"),
-    (["--out", "x.svg"], "must end in .png"),
-])
+@pytest.mark.parametrize(
+    "args,message",
+    [
+        (["--field", "w"], "--field = 'w': u or v"),
+        (["--at", "v_imp"], "--at = 'v_imp': must be written axis=number"),
+        (["--at", "v_imp=0.1"], "no sweep axis v_imp"),
+        (["--figure", "fig42"], "--figure = 'fig42'"),
+        (["--out", "x.svg"], "must end in .png"),
+    ],
+)
 def test_plot_bad_input_is_one_line_exit_2(impact_store, tmp_path, monkeypatch, args, message):
     monkeypatch.chdir(tmp_path)
     result = cli.invoke(app, ["plot", str(impact_store), *args])
@@ -50,9 +67,13 @@ def test_plot_bad_input_is_one_line_exit_2(impact_store, tmp_path, monkeypatch, 
 
 
 def test_select_point_takes_the_nearest_coordinate():
-    ds = xr.Dataset({"status": (("v_imp",), np.zeros(3, dtype=np.int32)),
-                     "u": (("v_imp", "record", "grain"), np.arange(3 * 2 * 4, dtype=float).reshape(3, 2, 4))},
-                    coords={"v_imp": [0.01, 0.02, 0.04]})
+    ds = xr.Dataset(
+        {
+            "status": (("v_imp",), np.zeros(3, dtype=np.int32)),
+            "u": (("v_imp", "record", "grain"), np.arange(3 * 2 * 4, dtype=float).reshape(3, 2, 4)),
+        },
+        coords={"v_imp": [0.01, 0.02, 0.04]},
+    )
     assert float(select_point(ds, {"v_imp": 0.021}).v_imp) == 0.02
     assert float(select_point(ds).v_imp) == 0.01
     with pytest.raises(PlotError, match="no sweep axis l0"):

@@ -8,19 +8,19 @@ overlap and non-finite grain sit in the later parts (a reduction that dropped or
 
 import numpy as np
 import warp as wp
-
+from conftest import make_scene
 from hertzian.ensemble.model import build_model
 from hertzian.ensemble.recorder import Recorder
 from hertzian.ensemble.status import Status
 from hertzian.kernels.records import PART_TILE, RECORD_PART, record_part_count
-
-from conftest import make_scene
 from reference import static_overlaps, total_energy
 
 GRAINS = 2 * RECORD_PART + 44
-SECTIONS = dict(chain={"grains": GRAINS, "l0": 1e-4},
-                impurities=[{"grains": [RECORD_PART + 3], "mass": 0.5}, {"grains": [GRAINS - 7], "mass": 3.0}],
-                excitation={"impact": 1e-2})
+SECTIONS = dict(
+    chain={"grains": GRAINS, "l0": 1e-4},
+    impurities=[{"grains": [RECORD_PART + 3], "mass": 0.5}, {"grains": [GRAINS - 7], "mass": 3.0}],
+    excitation={"impact": 1e-2},
+)
 
 
 def _set_state(model, state, u, v):
@@ -77,12 +77,17 @@ def test_record_flags_a_non_finite_grain_in_a_later_part(device):
 STAGED_CASES = {
     "impact, walls, impurities": SECTIONS,
     "driven, gravity, fixed bottom, viscous": dict(  # 3 grains more: a last part of 47, not a multiple of 4
-        chain={"grains": GRAINS + 3, "gravity": 1.0}, boundary={"surface": "driven", "bottom": "fixed"},
-        excitation={"drive_amplitude": 0.5, "drive_period": 3.0}, damping={"model": "viscous", "gamma": 0.1}),
+        chain={"grains": GRAINS + 3, "gravity": 1.0},
+        boundary={"surface": "driven", "bottom": "fixed"},
+        excitation={"drive_amplitude": 0.5, "drive_period": 3.0},
+        damping={"model": "viscous", "gamma": 0.1},
+    ),
     # more parts than record_long copies to shared memory at once: its second copy holds the last 4 parts
     "driven column of 36 parts": dict(
         chain={"grains": (PART_TILE + 3) * RECORD_PART + 17, "gravity": 1.0},
-        boundary={"surface": "driven", "bottom": "fixed"}, excitation={"drive_amplitude": 0.5, "drive_period": 3.0}),
+        boundary={"surface": "driven", "bottom": "fixed"},
+        excitation={"drive_amplitude": 0.5, "drive_period": 3.0},
+    ),
 }
 
 
@@ -119,8 +124,16 @@ def test_long_chains_two_stage_reduction_equals_the_parts(device, monkeypatch):
                 status = state.status.numpy().copy()
                 recorder.check(state, 40)
                 wp.synchronize_device(model.device)
-                got.append([recorder.energy_now.numpy(), recorder.work_now.numpy(), recorder.max_overlap_now.numpy(),
-                            recorder.dissipated_now.numpy(), recorder.parts.numpy(), state.status.numpy().copy()])
+                got.append(
+                    [
+                        recorder.energy_now.numpy(),
+                        recorder.work_now.numpy(),
+                        recorder.max_overlap_now.numpy(),
+                        recorder.dissipated_now.numpy(),
+                        recorder.parts.numpy(),
+                        state.status.numpy().copy(),
+                    ]
+                )
                 state.status.assign(status)
             assert got[1][5].tolist() == ([Status.OK, Status.NON_FINITE] if trial == 2 else [Status.OK] * 2), name
             for a, b in zip(*got):
@@ -134,24 +147,27 @@ def test_traces_of_one_value_equal_those_of_both(device):
     """``trace_values=("v",)`` (a detection library) copies and unpacks only the velocity half of the trace ring:
     the velocity traces equal those of a run keeping both, bit for bit, with several records (ring slots reused,
     wrapping) and with one record after t = 0 (the whole trace in one ring); a bad value is refused."""
-    import pytest
-
     from dataclasses import replace
 
+    import pytest
     from hertzian.ensemble.runner import Runner
 
     for every in (0.014, 0.05):
-        scene = make_scene(chain={"grains": 30, "l0": 1e-4}, excitation={"impact": 1e-2},
-                           integrator={"method": "gear4", "dt": 1e-3, "duration": 0.07 if every < 0.05 else 0.05},
-                           record={"every": every, "traces": [0, 7, 29], "trace_every": 0.002})
+        scene = make_scene(
+            chain={"grains": 30, "l0": 1e-4},
+            excitation={"impact": 1e-2},
+            integrator={"method": "gear4", "dt": 1e-3, "duration": 0.07 if every < 0.05 else 0.05},
+            record={"every": every, "traces": [0, 7, 29], "trace_every": 0.002},
+        )
         both = Runner(build_model([scene, scene], device)).run()
         only_v = Runner(build_model([scene, scene], device), trace_values=("v",)).run()
         assert set(only_v.traces) == {"v"}
         # independent of the ring's unpacking: the samples at record times are the snapshots of those grains
         stride = round(0.002 / 1e-3)
         at_records = (np.asarray(scene.record_steps) // stride).astype(int)
-        fields = Runner(build_model([replace(scene, record=replace(scene.record, fields=("u", "v")))] * 2,
-                                    device)).run()
+        fields = Runner(
+            build_model([replace(scene, record=replace(scene.record, fields=("u", "v")))] * 2, device)
+        ).run()
         for name in ("u", "v"):
             np.testing.assert_array_equal(both.traces[name][:, at_records], fields.fields[name][:, :, [0, 7, 29]])
         assert np.max(np.abs(both.traces["v"][:, -1, 0])) > 1e-4  # the surface grain moved
@@ -168,9 +184,12 @@ def test_staging_depth_keeps_every_record_in_order(device, monkeypatch):
     import hertzian.ensemble.recorder as recorder_module
     from hertzian.ensemble.runner import Runner
 
-    scene = make_scene(chain={"grains": 30, "l0": 1e-4}, excitation={"impact": 1e-2},
-                       integrator={"method": "gear4", "dt": 1e-3, "duration": 0.2},
-                       record={"every": 0.01, "fields": ["v"], "traces": [0, 29], "trace_every": 0.002})
+    scene = make_scene(
+        chain={"grains": 30, "l0": 1e-4},
+        excitation={"impact": 1e-2},
+        integrator={"method": "gear4", "dt": 1e-3, "duration": 0.2},
+        record={"every": 0.01, "fields": ["v"], "traces": [0, 29], "trace_every": 0.002},
+    )
     assert len(scene.record_steps) == 21
     results, orders = {}, {}
     for staging_bytes in (recorder_module.STAGING_BYTES, 0):
@@ -205,9 +224,12 @@ def test_host_pages_mapped_in_the_background_keep_every_record(device, monkeypat
     from hertzian.ensemble import recorder as recorder_module
     from hertzian.ensemble import runner as runner_module
 
-    scene = make_scene(chain={"grains": 30, "l0": 1e-4}, excitation={"impact": 1e-2},
-                       integrator={"method": "gear4", "dt": 1e-3, "duration": 0.05},
-                       record={"every": 0.01, "fields": ["u", "v"], "traces": [0, 29], "trace_every": 0.002})
+    scene = make_scene(
+        chain={"grains": 30, "l0": 1e-4},
+        excitation={"impact": 1e-2},
+        integrator={"method": "gear4", "dt": 1e-3, "duration": 0.05},
+        record={"every": 0.01, "fields": ["u", "v"], "traces": [0, 29], "trace_every": 0.002},
+    )
     model = build_model([scene, scene], device)
     runs, mapped_at_first_unpack = [], []
 
@@ -218,8 +240,11 @@ def test_host_pages_mapped_in_the_background_keep_every_record(device, monkeypat
     for background in (False, True):
         if background:
             slow = recorder_module._map_block
-            monkeypatch.setattr(recorder_module, "_map_block", lambda arrays, block: (
-                time.sleep(0.6 / recorder_module.MAP_BLOCKS), slow(arrays, block)))
+            monkeypatch.setattr(
+                recorder_module,
+                "_map_block",
+                lambda arrays, block: (time.sleep(0.6 / recorder_module.MAP_BLOCKS), slow(arrays, block)),
+            )
         rec = Recorder(model, map_in_background=background, on_unpacked=first_unpack)
         monkeypatch.setattr(runner_module, "Recorder", lambda m, **kw: rec)
         runs.append(runner_module.Runner(model).run())

@@ -10,11 +10,9 @@ that grain's own largest displacement and speed.
 
 import numpy as np
 import pytest
-
+from conftest import make_scene
 from hertzian.ensemble.runner import run_scene
 from reference import reference_run
-
-from conftest import make_scene
 
 GRAINS = 12
 IMPURITIES = [{"grains": [3, 4], "mass": 0.5, "a": 2000.0}, {"grains": [8], "mass": 2.0, "a": 1e4}]
@@ -26,27 +24,58 @@ MOVING = 1e-2
 CASES = {
     "impact, precompressed, walls": (dict(chain={"l0": 1e-4}, excitation={"impact": 1e-2}), 1.5),
     "impurities, harmonic rule": (dict(chain={"l0": 1e-4}, impurities=IMPURITIES, excitation={"impact": 1e-2}), 1.5),
-    "impurities, own rule": (dict(chain={"l0": 1e-4}, impurities=[{**imp, "contact": "own"} for imp in IMPURITIES],
-                                  excitation={"impact": 1e-2}), 1.5),
-    "gravity column, free surface": (dict(chain={"gravity": 1.0}, boundary={"surface": "free"},
-                                          excitation={"impact": 1e-1}), 1.0),
-    "gravity + impurities + fixed bottom": (dict(chain={"gravity": 10.0},
-                                                 boundary={"surface": "free", "bottom": "fixed"},
-                                                 impurities=IMPURITIES, excitation={"impact": 1e-1}), 1.0),
-    "load surface, wall bottom": (dict(chain={"l0": 1e-3}, boundary={"surface": "load"},
-                                       excitation={"impact": 1e-2}), 1.0),
-    "load given as a force, gravity": (dict(chain={"load": 0.5, "gravity": 1.0}, boundary={"surface": "load"},
-                                            excitation={"impact": 1e-2}), 1.0),
+    "impurities, own rule": (
+        dict(
+            chain={"l0": 1e-4},
+            impurities=[{**imp, "contact": "own"} for imp in IMPURITIES],
+            excitation={"impact": 1e-2},
+        ),
+        1.5,
+    ),
+    "gravity column, free surface": (
+        dict(chain={"gravity": 1.0}, boundary={"surface": "free"}, excitation={"impact": 1e-1}),
+        1.0,
+    ),
+    "gravity + impurities + fixed bottom": (
+        dict(
+            chain={"gravity": 10.0},
+            boundary={"surface": "free", "bottom": "fixed"},
+            impurities=IMPURITIES,
+            excitation={"impact": 1e-1},
+        ),
+        1.0,
+    ),
+    "load surface, wall bottom": (
+        dict(chain={"l0": 1e-3}, boundary={"surface": "load"}, excitation={"impact": 1e-2}),
+        1.0,
+    ),
+    "load given as a force, gravity": (
+        dict(chain={"load": 0.5, "gravity": 1.0}, boundary={"surface": "load"}, excitation={"impact": 1e-2}),
+        1.0,
+    ),
     "unloaded chain: contacts open and close": (dict(excitation={"impact": 1e-1}), 1.5),
     "free ends": (dict(boundary={"surface": "free", "bottom": "free"}, excitation={"impact": 1e-1}), 1.5),
-    "driven surface, fixed bottom, gravity": (dict(chain={"gravity": 1.0},
-                                                   boundary={"surface": "driven", "bottom": "fixed"},
-                                                   excitation={"drive_amplitude": 2e-3, "drive_period": 0.1}), 1.0),
-    "driven surface, precompressed": (dict(chain={"l0": 1e-4}, boundary={"surface": "driven", "bottom": "wall"},
-                                           excitation={"drive_amplitude": 1e-4, "drive_period": 0.1}), 2.0),
+    "driven surface, fixed bottom, gravity": (
+        dict(
+            chain={"gravity": 1.0},
+            boundary={"surface": "driven", "bottom": "fixed"},
+            excitation={"drive_amplitude": 2e-3, "drive_period": 0.1},
+        ),
+        1.0,
+    ),
+    "driven surface, precompressed": (
+        dict(
+            chain={"l0": 1e-4},
+            boundary={"surface": "driven", "bottom": "wall"},
+            excitation={"drive_amplitude": 1e-4, "drive_period": 0.1},
+        ),
+        2.0,
+    ),
     "non-Hertz exponent n = 2": (dict(chain={"l0": 1e-3, "exponent": 2.0}, excitation={"impact": 1e-2}), 1.0),
-    "exponent n = 3, impurities": (dict(chain={"l0": 1e-3, "exponent": 3.0}, impurities=IMPURITIES,
-                                        excitation={"impact": 1e-2}), 3.5),
+    "exponent n = 3, impurities": (
+        dict(chain={"l0": 1e-3, "exponent": 3.0}, impurities=IMPURITIES, excitation={"impact": 1e-2}),
+        3.5,
+    ),
 }
 
 
@@ -82,14 +111,21 @@ def compare(result, ref, rtol=1e-10):
     u, v = result.u[0], result.v[0]
     for grain in range(u.shape[1]):
         scale_u, scale_v = np.abs(ref["u"][:, grain]).max(), np.abs(ref["v"][:, grain]).max()
-        np.testing.assert_allclose(u[:, grain], ref["u"][:, grain], rtol=0, atol=rtol * scale_u,
-                                   err_msg=f"u of grain {grain}")
-        np.testing.assert_allclose(v[:, grain], ref["v"][:, grain], rtol=0, atol=rtol * scale_v,
-                                   err_msg=f"v of grain {grain}")
+        np.testing.assert_allclose(
+            u[:, grain], ref["u"][:, grain], rtol=0, atol=rtol * scale_u, err_msg=f"u of grain {grain}"
+        )
+        np.testing.assert_allclose(
+            v[:, grain], ref["v"][:, grain], rtol=0, atol=rtol * scale_v, err_msg=f"v of grain {grain}"
+        )
     for column in range(ref["trace_u"].shape[1]):
         scale = np.abs(ref["trace_u"][:, column]).max()
-        np.testing.assert_allclose(result.traces["u"][0][:, column], ref["trace_u"][:, column], rtol=0,
-                                   atol=rtol * scale, err_msg=f"trace column {column}")
+        np.testing.assert_allclose(
+            result.traces["u"][0][:, column],
+            ref["trace_u"][:, column],
+            rtol=0,
+            atol=rtol * scale,
+            err_msg=f"trace column {column}",
+        )
     np.testing.assert_allclose(result.trace_t, ref["trace_t"], rtol=1e-14)
     # energies differ by a constant (ours is relative to the static state): compare changes
     de, de_ref = result.energy[0] - result.energy[0, 0], ref["energy"] - ref["energy"][0]
@@ -115,14 +151,23 @@ def test_gear4_matches_reference(name):
 
 
 @pytest.mark.parametrize("method", ["gear5", "gear6", "verlet"])
-@pytest.mark.parametrize("name", ["impurities, harmonic rule", "gravity + impurities + fixed bottom",
-                                  "driven surface, fixed bottom, gravity"])
+@pytest.mark.parametrize(
+    "name",
+    ["impurities, harmonic rule", "gravity + impurities + fixed bottom", "driven surface, fixed bottom, gravity"],
+)
 def test_other_methods_match_reference(method, name):
     check(build(name, method=method))
 
 
-@pytest.mark.parametrize("name", ["impurities, harmonic rule", "gravity + impurities + fixed bottom",
-                                  "unloaded chain: contacts open and close", "free ends"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "impurities, harmonic rule",
+        "gravity + impurities + fixed bottom",
+        "unloaded chain: contacts open and close",
+        "free ends",
+    ],
+)
 def test_yoshida4_matches_reference(name):
     """yoshida4's substeps in the kernels' scaled Nordsieck form against the reference's kick–drift–kick in (u, v)."""
     check(build(name, method="yoshida4"))

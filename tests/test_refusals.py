@@ -9,23 +9,23 @@ from __future__ import annotations
 
 import math
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, event, given, settings
-from hypothesis import strategies as st
-
-from hertzian.ensemble.cli import app
+from cli_cases import assert_refused, invoke, toml_text, toml_value  # noqa: F401
+from conftest import make_scene
 from hertzian.ensemble.runner import run_scene
 from hertzian.ensemble.scene import MAX_STEPS, SceneError, load_scene
 from hertzian.ensemble.sweep import MAX_POINTS, load_sweep, sweep_scenes
+from hypothesis import HealthCheck, event, given, settings
+from hypothesis import strategies as st
 
-from cli_cases import assert_refused, invoke, toml_text, toml_value  # noqa: F401
-from conftest import make_scene
-
-BASE = {"chain": {"grains": 8, "l0": 1e-4}, "excitation": {"impact": 1e-2},
-        "integrator": {"duration": 0.01, "dt": 2.5e-4}, "record": {"every": 0.005}}
+BASE = {
+    "chain": {"grains": 8, "l0": 1e-4},
+    "excitation": {"impact": 1e-2},
+    "integrator": {"duration": 0.01, "dt": 2.5e-4},
+    "record": {"every": 0.005},
+}
 
 
 # ---- the specific refusals of issue 9 --------------------------------------------------------------
@@ -64,18 +64,25 @@ def test_step_counter_limit_is_the_int32_clock():
 def test_sweep_size_is_refused_before_expanding(tmp_path):
     sweep = tmp_path / "big.toml"
     out = tmp_path / "big.zarr"
-    sweep.write_text(toml_text({"scene": BASE}) + "\n[[axis]]\nname = \"v_imp\"\nkey = \"excitation.impact\"\n"
-                     "linspace = [1e-3, 1e-2, 1e10]\n")
+    sweep.write_text(
+        toml_text({"scene": BASE}) + '\n[[axis]]\nname = "v_imp"\nkey = "excitation.impact"\n'
+        "linspace = [1e-3, 1e-2, 1e10]\n"
+    )
     started = time.perf_counter()
     assert_refused(invoke("sweep", sweep, "--out", out, "--device", "cpu"), out, "axis[0].linspace = 10000000000")
     # three axes of 10^3: 10^9 points, each axis small; counted from the axis lengths
-    axes = "".join(f"\n[[axis]]\nname = \"a{k}\"\nkey = \"{key}\"\nlinspace = [1.0, 2.0, 1000]\n"
-                   for k, key in enumerate(("chain.mass", "chain.a", "chain.diameter")))
+    axes = "".join(
+        f'\n[[axis]]\nname = "a{k}"\nkey = "{key}"\nlinspace = [1.0, 2.0, 1000]\n'
+        for k, key in enumerate(("chain.mass", "chain.a", "chain.diameter"))
+    )
     sweep.write_text(toml_text({"scene": BASE}) + axes)
-    assert_refused(invoke("sweep", sweep, "--out", out, "--device", "cpu"), out,
-                   f"sweep points = 1000000000: more than {MAX_POINTS}")
+    assert_refused(
+        invoke("sweep", sweep, "--out", out, "--device", "cpu"),
+        out,
+        f"sweep points = 1000000000: more than {MAX_POINTS}",
+    )
     assert time.perf_counter() - started < 2.0
-    assert load_sweep(sweep, max_points=None).point_count == 10**9   # --allow-large lets it through
+    assert load_sweep(sweep, max_points=None).point_count == 10**9  # --allow-large lets it through
 
 
 def test_kernel_option(tmp_path):
@@ -83,8 +90,14 @@ def test_kernel_option(tmp_path):
     scene.write_text(toml_text(BASE))
     out = tmp_path / "out.zarr"
     assert_refused(invoke("run", scene, "--out", out, "--kernel", "fastest"), out, "--kernel = 'fastest'")
-    driven = ["--set", "boundary.surface=driven", "--set", "excitation.impact=0",
-              "--set", "excitation.drive_amplitude=1e-3"]
+    driven = [
+        "--set",
+        "boundary.surface=driven",
+        "--set",
+        "excitation.impact=0",
+        "--set",
+        "excitation.drive_amplitude=1e-3",
+    ]
     # a drive runs on the sweep kernel (issue 11; bitwise equality: tests/test_fused_features.py)
     driven_out = tmp_path / "driven.zarr"
     done = invoke("run", scene, "--out", driven_out, "--device", "cpu", "--kernel", "sweep", "--quiet", *driven)
@@ -95,11 +108,16 @@ def test_kernel_option(tmp_path):
 
 # ---- duration honoured -------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("dt, every, duration", [(1e-3, 0.3, 1.0), (3e-3, 0.01, 1.0), (1e-3, 0.25, 0.6)])
 def test_run_ends_at_the_duration(dt, every, duration):
     """Issue 9's examples: records on the steps nearest r·every, the last at the duration (to a step)."""
-    scene = make_scene(chain={"grains": 6, "l0": 1e-4}, excitation={"impact": 1e-2},
-                       integrator={"duration": duration, "dt": dt}, record={"every": every, "traces": [5]})
+    scene = make_scene(
+        chain={"grains": 6, "l0": 1e-4},
+        excitation={"impact": 1e-2},
+        integrator={"duration": duration, "dt": dt},
+        record={"every": every, "traces": [5]},
+    )
     result = run_scene(scene, "cpu")
     assert abs(result.t[-1] - duration) <= dt / 2
     assert result.steps == round(duration / dt)
@@ -121,17 +139,39 @@ def test_whole_schedules_are_unchanged():
 # ---- fuzzing ---------------------------------------------------------------------------------------------
 
 SCENE_KEYS = [f"chain.{k}" for k in ("grains", "mass", "a", "exponent", "diameter", "l0", "load", "gravity")] + [
-    "boundary.surface", "boundary.bottom", "excitation.impact", "excitation.drive_amplitude",
-    "excitation.drive_period", "integrator.duration", "integrator.method", "integrator.dt",
-    "integrator.precision", "record.every", "record.fields", "record.traces", "record.trace_every",
-    "record.energy", "chain.grain", "record.evry", "nosuch.key", "impurities"]
+    "boundary.surface",
+    "boundary.bottom",
+    "excitation.impact",
+    "excitation.drive_amplitude",
+    "excitation.drive_period",
+    "integrator.duration",
+    "integrator.method",
+    "integrator.dt",
+    "integrator.precision",
+    "record.every",
+    "record.fields",
+    "record.traces",
+    "record.trace_every",
+    "record.energy",
+    "chain.grain",
+    "record.evry",
+    "nosuch.key",
+    "impurities",
+]
 
-BAD_NUMBERS = st.sampled_from([math.nan, math.inf, -math.inf, 0.0, -1.0, 1e-320, 1e308, -1e308, 1e12,
-                               2**63 - 1, -(2**63)])
-VALUES = st.one_of(BAD_NUMBERS, st.floats(allow_nan=True, allow_infinity=True),
-                   st.integers(min_value=-(2**63), max_value=2**63 - 1), st.booleans(),
-                   st.text(max_size=8), st.lists(st.one_of(BAD_NUMBERS, st.integers(-5, 50)), max_size=3),
-                   st.just({"x": 1}), st.just([{"grains": [1], "mass": -1.0}]))
+BAD_NUMBERS = st.sampled_from(
+    [math.nan, math.inf, -math.inf, 0.0, -1.0, 1e-320, 1e308, -1e308, 1e12, 2**63 - 1, -(2**63)]
+)
+VALUES = st.one_of(
+    BAD_NUMBERS,
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.integers(min_value=-(2**63), max_value=2**63 - 1),
+    st.booleans(),
+    st.text(max_size=8),
+    st.lists(st.one_of(BAD_NUMBERS, st.integers(-5, 50)), max_size=3),
+    st.just({"x": 1}),
+    st.just([{"grains": [1], "mass": -1.0}]),
+)
 
 
 def set_key(data: dict, dotted: str, value) -> None:
@@ -159,8 +199,10 @@ FUZZ = settings(max_examples=120, deadline=None, suppress_health_check=[HealthCh
 
 
 @FUZZ
-@given(edits=st.lists(st.tuples(st.sampled_from(SCENE_KEYS), VALUES), min_size=1, max_size=3),
-       broken=st.sampled_from([False, False, False, True]))
+@given(
+    edits=st.lists(st.tuples(st.sampled_from(SCENE_KEYS), VALUES), min_size=1, max_size=3),
+    broken=st.sampled_from([False, False, False, True]),
+)
 def test_fuzzed_scene_files_are_refused_cleanly(tmp_path, edits, broken):
     data = {k: dict(v) for k, v in BASE.items()}
     for key, value in edits:
@@ -188,20 +230,25 @@ def test_fuzzed_scene_files_are_refused_cleanly(tmp_path, edits, broken):
     assert_refused(invoke("check", scene), out)
 
 
-AXIS_EDITS = st.fixed_dictionaries({}, optional={
-    "name": st.one_of(st.sampled_from(["v", "t", "1x", "", "u"]), VALUES),
-    "key": st.one_of(st.sampled_from(SCENE_KEYS + ["impurities.0.mass", "impurities.5.a"]), VALUES),
-    "values": st.one_of(st.lists(VALUES, max_size=3), VALUES),
-    "linspace": st.one_of(st.lists(st.one_of(BAD_NUMBERS, st.floats(0, 2)), min_size=0, max_size=4), VALUES),
-    "logspace": st.lists(st.one_of(BAD_NUMBERS, st.integers(-3, 12)), min_size=3, max_size=3),
-    "step": VALUES,
-})
+AXIS_EDITS = st.fixed_dictionaries(
+    {},
+    optional={
+        "name": st.one_of(st.sampled_from(["v", "t", "1x", "", "u"]), VALUES),
+        "key": st.one_of(st.sampled_from(SCENE_KEYS + ["impurities.0.mass", "impurities.5.a"]), VALUES),
+        "values": st.one_of(st.lists(VALUES, max_size=3), VALUES),
+        "linspace": st.one_of(st.lists(st.one_of(BAD_NUMBERS, st.floats(0, 2)), min_size=0, max_size=4), VALUES),
+        "logspace": st.lists(st.one_of(BAD_NUMBERS, st.integers(-3, 12)), min_size=3, max_size=3),
+        "step": VALUES,
+    },
+)
 
 
 @FUZZ
-@given(axes=st.lists(AXIS_EDITS, min_size=1, max_size=3),
-       zipped=st.one_of(st.none(), st.lists(st.sampled_from(["v", "w", "a0", "a1"]), max_size=3)),
-       scene_edit=st.one_of(st.none(), st.tuples(st.sampled_from(SCENE_KEYS), VALUES)))
+@given(
+    axes=st.lists(AXIS_EDITS, min_size=1, max_size=3),
+    zipped=st.one_of(st.none(), st.lists(st.sampled_from(["v", "w", "a0", "a1"]), max_size=3)),
+    scene_edit=st.one_of(st.none(), st.tuples(st.sampled_from(SCENE_KEYS), VALUES)),
+)
 def test_fuzzed_sweep_files_are_refused_cleanly(tmp_path, axes, zipped, scene_edit):
     base = {k: dict(v) for k, v in BASE.items()}
     if scene_edit is not None:
@@ -226,8 +273,10 @@ def test_sweep_ends_at_the_duration(tmp_path):
     the point run alone."""
     import xarray as xr
 
-    text = (toml_text({"scene": {**BASE, "integrator": {"duration": 0.1, "dt": 1e-3}, "record": {"every": 0.03}}})
-            + '\n[[axis]]\nname = "v_imp"\nkey = "excitation.impact"\nvalues = [1e-2, 2e-2]\n')
+    text = (
+        toml_text({"scene": {**BASE, "integrator": {"duration": 0.1, "dt": 1e-3}, "record": {"every": 0.03}}})
+        + '\n[[axis]]\nname = "v_imp"\nkey = "excitation.impact"\nvalues = [1e-2, 2e-2]\n'
+    )
     path = tmp_path / "sweep.toml"
     path.write_text(text)
     out = tmp_path / "sweep.zarr"
@@ -242,8 +291,10 @@ def test_sweep_ends_at_the_duration(tmp_path):
 def test_sweep_points_with_different_record_times_are_refused(tmp_path):
     """dt = 1e-3 records at 0.01, 0.02, …; dt = 3e-3 at the nearest steps 0.009, 0.021, …: one store
     cannot hold both, so the sweep is refused before anything is written."""
-    text = (toml_text({"scene": {**BASE, "integrator": {"duration": 0.1, "dt": 1e-3}, "record": {"every": 0.01}}})
-            + '\n[[axis]]\nname = "step"\nkey = "integrator.dt"\nvalues = [1e-3, 3e-3]\n')
+    text = (
+        toml_text({"scene": {**BASE, "integrator": {"duration": 0.1, "dt": 1e-3}, "record": {"every": 0.01}}})
+        + '\n[[axis]]\nname = "step"\nkey = "integrator.dt"\nvalues = [1e-3, 3e-3]\n'
+    )
     path = tmp_path / "sweep.toml"
     path.write_text(text)
     out = tmp_path / "sweep.zarr"
@@ -255,8 +306,9 @@ def test_check_takes_precision(tmp_path):
     scene.write_text(toml_text(BASE))
     shown = invoke("check", scene, "--precision", "float32")
     assert shown.exit_code == 0 and "(gear4, float32)" in shown.stdout, shown.output
-    assert_refused(invoke("check", scene, "--precision", "float16"), tmp_path / "none",
-                   "integrator.precision = 'float16'")
+    assert_refused(
+        invoke("check", scene, "--precision", "float16"), tmp_path / "none", "integrator.precision = 'float16'"
+    )
 
 
 def test_sweep_kernel_option(tmp_path):
@@ -265,10 +317,11 @@ def test_sweep_kernel_option(tmp_path):
     path.write_text(text)
     out = tmp_path / "sweep.zarr"
     # traces run on the sweep kernel too (issue 11)
-    done = invoke("sweep", path, "--out", out, "--device", "cpu", "--kernel", "sweep", "--quiet",
-                  "--set", "record.traces=[0]")
+    done = invoke(
+        "sweep", path, "--out", out, "--device", "cpu", "--kernel", "sweep", "--quiet", "--set", "record.traces=[0]"
+    )
     assert done.exit_code == 0, done.output
     import xarray as xr
 
-    alone = run_scene(load_sweep(path).scene_at((1,)), "cpu")   # per-step kernel: the same bits
+    alone = run_scene(load_sweep(path).scene_at((1,)), "cpu")  # per-step kernel: the same bits
     np.testing.assert_array_equal(xr.open_zarr(out).u.sel(v_imp=2e-2).values, alone.u[0])

@@ -6,10 +6,9 @@ import json
 
 import pytest
 import xarray as xr
-from typer.testing import CliRunner
-
 from hertzian.ensemble.cli import app
 from hertzian.ensemble.reproduce import GROUPS, default_sweeps_dir, group_of
+from typer.testing import CliRunner
 
 cli = CliRunner()
 
@@ -30,7 +29,6 @@ def test_paper_groups_take_plain_gear_steps_on_the_fused_kernels_of_a_gpu(monkey
     import types
 
     import warp as wp
-
     from hertzian.ensemble.reproduce import group_kernel
     from hertzian.ensemble.sweep import expand, load_sweep
 
@@ -52,7 +50,7 @@ def test_quick_group_writes_store_png_and_log(tmp_path):
     assert run["name"] == "fig6" and run["figures"] == {"fig6": "fig6.png"}
     assert run["wall_seconds"] > 0 and run["grain_steps_per_second"] > 0
     assert run["grain_steps"] == run["points"] * run["grains"] * run["steps"]
-    assert 0 < run["energy_error_max"] < 1e-6        # SPEC's bound for a gear4 run at this step
+    assert 0 < run["energy_error_max"] < 1e-6  # SPEC's bound for a gear4 run at this step
     assert run["status_counts"] == {"0": run["points"]}
     assert (out / "fig6.png").read_bytes()[:4] == b"\x89PNG"
     with xr.open_zarr(out / "fig6.zarr") as ds:
@@ -65,8 +63,10 @@ def test_kernel_option_and_the_split_of_each_runs_seconds(tmp_path):
     logs = {}
     for kernel in ("auto", "fused"):
         out = tmp_path / kernel
-        result = cli.invoke(app, ["reproduce", "--quick", "--figure", "fig6", "--kernel", kernel, "--out-dir", str(out),
-                                  "--device", "cpu"])
+        result = cli.invoke(
+            app,
+            ["reproduce", "--quick", "--figure", "fig6", "--kernel", kernel, "--out-dir", str(out), "--device", "cpu"],
+        )
         assert result.exit_code == 0, result.output
         logs[kernel] = json.loads((out / "log.json").read_text())
         assert f"--kernel {kernel}" in logs[kernel]["command"]
@@ -82,8 +82,9 @@ def test_kernel_option_and_the_split_of_each_runs_seconds(tmp_path):
 def test_events_option_sets_every_group(tmp_path):
     # --events off: plain Gear steps in every group (the GPU's fast choice), recorded in the log and the store
     out = tmp_path / "off"
-    result = cli.invoke(app, ["reproduce", "--quick", "--figure", "fig6", "--events", "off", "--out-dir", str(out),
-                              "--device", "cpu"])
+    result = cli.invoke(
+        app, ["reproduce", "--quick", "--figure", "fig6", "--events", "off", "--out-dir", str(out), "--device", "cpu"]
+    )
     assert result.exit_code == 0, result.output
     log = json.loads((out / "log.json").read_text())
     assert log["events"] == "off" and "--events off" in log["command"]
@@ -93,14 +94,17 @@ def test_events_option_sets_every_group(tmp_path):
         assert json.loads(ds.attrs["sweep"])["scene"]["integrator"]["events"] == "off"
 
 
-@pytest.mark.parametrize("args,message", [
-    (["--figure", "fig42"], "--figure = 'fig42': allowed:"),
-    (["--events", "sometimes"], "--events = 'sometimes': auto or off"),
-    (["--sweeps", "nowhere"], "--sweeps = 'nowhere': no paper_fig1.toml there"),
-    (["--out-dir", "missing/deeper"], "--out-dir = 'missing/deeper': parent directory does not exist"),
-    (["--kernel", "fastest"], "--kernel = 'fastest': one of auto, fused, step, tile, window, sweep"),
-    (["--kernel", "tile", "--device", "cpu"], "--kernel = 'tile': CUDA kernels; on --device cpu use"),
-])
+@pytest.mark.parametrize(
+    "args,message",
+    [
+        (["--figure", "fig42"], "--figure = 'fig42': allowed:"),
+        (["--events", "sometimes"], "--events = 'sometimes': auto or off"),
+        (["--sweeps", "nowhere"], "--sweeps = 'nowhere': no paper_fig1.toml there"),
+        (["--out-dir", "missing/deeper"], "--out-dir = 'missing/deeper': parent directory does not exist"),
+        (["--kernel", "fastest"], "--kernel = 'fastest': one of auto, fused, step, tile, window, sweep"),
+        (["--kernel", "tile", "--device", "cpu"], "--kernel = 'tile': CUDA kernels; on --device cpu use"),
+    ],
+)
 def test_reproduce_bad_input_is_one_line_exit_2(tmp_path, monkeypatch, args, message):
     monkeypatch.chdir(tmp_path)
     result = cli.invoke(app, ["reproduce", "--quick", *args])
@@ -118,9 +122,10 @@ def test_quick_reproduces_every_group_on_the_cpu(tmp_path):
     assert [r["name"] for r in log["runs"]] == list(GROUPS)
     for run in log["runs"]:
         assert all(not str(v).startswith("failed") for v in run["figures"].values()), run
-        assert run["energy_error_max"] < 1e-5, run   # driven columns: |E − E0 − W| / max|W| at dt = 1.25e-4
+        assert run["energy_error_max"] < 1e-5, run  # driven columns: |E − E0 − W| / max|W| at dt = 1.25e-4
     assert sorted(p.name for p in out.glob("*.png")) == sorted(
-        {f"{n}.png" for n, g in GROUPS.items() if len(g.figures) == 1} | {"fig9.png", "fig10.png"})
+        {f"{n}.png" for n, g in GROUPS.items() if len(g.figures) == 1} | {"fig9.png", "fig10.png"}
+    )
 
 
 def test_driven_windows_summed_on_the_device_equal_a_host_loop(device):
@@ -128,14 +133,13 @@ def test_driven_windows_summed_on_the_device_equal_a_host_loop(device):
     copy v to the host, sum with NumPy) over the same marks gives the same numbers: bit for bit on the CPU, to
     rounding on CUDA (where the compiler may fuse ½ m v² + sum into one multiply-add)."""
     import numpy as np
-
     from hertzian.ensemble import analysis as an
     from hertzian.ensemble.model import build_model
     from hertzian.ensemble.reproduce import DRIVE_DT, drive_scenes, read_marks, run_driven
     from hertzian.ensemble.runner import Runner
 
     path = default_sweeps_dir() / GROUPS["fig9_10"].sweep
-    centres = np.array([1.0, 2.5, 4.0])            # overlapping edges: a step can sample two windows
+    centres = np.array([1.0, 2.5, 4.0])  # overlapping edges: a step can sample two windows
     _, scenes = drive_scenes(path, 24, 5.0, DRIVE_DT)
     result = run_driven(scenes, device, centres, coarse_every=0.5)
 
@@ -184,14 +188,20 @@ def test_figures_drawn_in_worker_processes_equal_those_drawn_inline(tmp_path):
     logs = {}
     for background in (False, True):
         out = tmp_path / str(background)
-        logs[background] = reproduce(out, groups=["fig6", "depth", "fig9_10"], quick=True, device="cpu",
-                                     background=background, say=lambda line: None)
+        logs[background] = reproduce(
+            out,
+            groups=["fig6", "depth", "fig9_10"],
+            quick=True,
+            device="cpu",
+            background=background,
+            say=lambda line: None,
+        )
         assert [run["name"] for run in logs[background]["runs"]] == ["fig6", "depth", "fig9_10"]
         assert logs[background]["figures_in_background"] is background
         assert logs[background]["figure_failures"] == 0
     for inline, pooled in zip(logs[False]["runs"], logs[True]["runs"]):
         assert pooled["name"] == inline["name"] and pooled["figures"] == inline["figures"]
-        if pooled["name"] == "fig9_10":     # run first when in the background; no measurements
+        if pooled["name"] == "fig9_10":  # run first when in the background; no measurements
             assert pooled["standing_wave"] and finite(pooled["standing_wave"]) == finite(inline["standing_wave"])
             assert pooled["figures"] == inline["figures"] == {"fig9": "fig9.png", "fig10": "fig10.png"}
             continue

@@ -8,11 +8,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from hertzian.ensemble.model import build_model
 from hertzian.ensemble.solvers import STEP, SWEEP, SolverConfig, config_of, make_solver
 from hertzian.kernels.features import STATUS_NON_FINITE
 from hertzian.kernels.tile import plan_tile
+
 from tests.test_tile import chains
 
 
@@ -22,8 +22,9 @@ def configs(model):
         "step": STEP,
         "sweep": SolverConfig("sweep", steps_per_launch=5),
         "tile": config_of(plan_tile(f, n, c, grains_per_lane=4, steps_per_launch=4)),
-        "window": config_of(plan_tile(f, n, c, grains_per_lane=4, lanes_per_chain=6, steps_per_launch=3,
-                                      windowed=True)),
+        "window": config_of(
+            plan_tile(f, n, c, grains_per_lane=4, lanes_per_chain=6, steps_per_launch=3, windowed=True)
+        ),
     }
 
 
@@ -41,7 +42,7 @@ def test_advance_in_pieces_equals_one_advance(kind):
     assert np.max(np.abs(want - model.initial_state().x.numpy())) > 0  # it moved
     pair = model.state_pair()
     current = pair[0]
-    for piece in (7, 1, 10, 5):           # odd and even pieces: the result lands in either half
+    for piece in (7, 1, 10, 5):  # odd and even pieces: the result lands in either half
         current = solver.advance(current, pair[1] if current is pair[0] else pair[0], piece)
     assert current.clock.numpy()[0] == 23
     np.testing.assert_array_equal(current.x.numpy(), want)
@@ -85,15 +86,17 @@ def test_a_long_fused_advance_replays_graphs_of_a_fixed_length():
 
     lengths = []
     graphs = SimpleNamespace(run=lambda launches, a, b, n: lengths.append(n) or b)
-    fused = SimpleNamespace(use_graph=True, config=SimpleNamespace(graph_steps=None), steps_per_launch=32, launches=None,
-                            graphs=graphs)
+    fused = SimpleNamespace(
+        use_graph=True, config=SimpleNamespace(graph_steps=None), steps_per_launch=32, launches=None, graphs=graphs
+    )
     a, b = object(), object()
     Solver._advance(fused, a, b, 32 * 100_000 + 5)
     piece = 32 * FUSED_GRAPH_LAUNCHES
     assert lengths == [piece] * ((32 * 100_000 + 5) // piece) + [(32 * 100_000 + 5) % piece]
     lengths.clear()
-    per_step = SimpleNamespace(use_graph=True, config=SimpleNamespace(graph_steps=512), steps_per_launch=1, launches=None,
-                               graphs=graphs)
+    per_step = SimpleNamespace(
+        use_graph=True, config=SimpleNamespace(graph_steps=512), steps_per_launch=1, launches=None, graphs=graphs
+    )
     Solver._advance(per_step, a, b, 2000)
     assert lengths == [512, 512, 512, 464]
 
@@ -102,9 +105,13 @@ def test_fused_choice_is_auto_without_the_short_run_rule():
     from hertzian.ensemble.solvers import choose_config
 
     model = build_model(chains(2, chain={"grains": 30, "l0": 1e-4}, integrator={"dt": 5e-4}), "cpu")
-    assert choose_config(model, "auto", run_steps=100) == STEP       # too short to repay a compile
+    assert choose_config(model, "auto", run_steps=100) == STEP  # too short to repay a compile
     assert choose_config(model, "fused", run_steps=100) == SWEEP
     assert choose_config(model, "auto", run_steps=10**9) == SWEEP
-    damped = build_model(chains(2, chain={"grains": 30, "l0": 1e-4}, integrator={"dt": 5e-4},
-                                damping={"model": "viscous", "gamma": 0.1}), "cpu")
+    damped = build_model(
+        chains(
+            2, chain={"grains": 30, "l0": 1e-4}, integrator={"dt": 5e-4}, damping={"model": "viscous", "gamma": 0.1}
+        ),
+        "cpu",
+    )
     assert choose_config(damped, "fused", run_steps=100).kind in ("sweep", "step")

@@ -15,7 +15,7 @@ import math
 import numpy as np
 import pytest
 import zarr
-
+from conftest import DEVICES, make_scene
 from hertzian.ensemble.accuracy import work_precision
 from hertzian.ensemble.check import check_scene
 from hertzian.ensemble.model import build_model
@@ -24,15 +24,17 @@ from hertzian.ensemble.static import static_state
 from hertzian.ensemble.status import Status
 from hertzian.ensemble.store import write_result
 
-from conftest import DEVICES, make_scene
-
 PAPER_DT = 1.25e-5
 
 
 def member(**chain):
     v = chain.pop("impact", 1e-2)
-    return make_scene(chain={"grains": 20, "l0": 1e-4, **chain}, excitation={"impact": v},
-                      integrator={"dt": 2e-4, "duration": 0.2}, record={"every": 0.01})
+    return make_scene(
+        chain={"grains": 20, "l0": 1e-4, **chain},
+        excitation={"impact": v},
+        integrator={"dt": 2e-4, "duration": 0.2},
+        record={"every": 0.01},
+    )
 
 
 KERNELS = [("cpu", "step"), ("cpu", "sweep")] + [(d, "auto") for d in DEVICES if d != "cpu"]
@@ -77,22 +79,30 @@ def test_gravity_100_on_ten_thousand_grains():
 
     A short run at the step check suggests: the energy of the impact is still conserved.
     """
-    scene = make_scene(chain={"grains": 10_000, "l0": 1e-4, "gravity": 100.0}, excitation={"impact": 1e-2},
-                       integrator={"duration": 0.05}, record={"every": 0.01, "fields": ["u"]})
+    scene = make_scene(
+        chain={"grains": 10_000, "l0": 1e-4, "gravity": 100.0},
+        excitation={"impact": 1e-2},
+        integrator={"duration": 0.05},
+        record={"every": 0.01, "fields": ["u"]},
+    )
     check = check_scene(scene)
     assert check.beyond_validity
     scene = scene.with_overrides({"integrator.dt": 0.01 / math.ceil(0.01 / check.suggested_dt - 1e-9)})
     result = run_scene(scene, "cpu")
     assert result.status[0] == Status.OVERLAP_BEYOND_VALIDITY
     bottom = static_state(scene).static_overlap.max()
-    assert bottom <= result.max_overlap[0] <= check.largest_overlap   # the static bottom, within the bound
+    assert bottom <= result.max_overlap[0] <= check.largest_overlap  # the static bottom, within the bound
     assert 0 < result.energy_error[0] <= 1e-6  # what check's accuracy threshold promises
 
 
 def test_energy_drift_is_flagged():
     """Verlet at ω_max·dt ≈ 1.5 (stable, below 2, but coarse) drifts by more than 1e-2 of E_inj: ENERGY_DRIFT."""
-    scene = make_scene(chain={"grains": 30, "l0": 1e-4}, excitation={"impact": 1e-2},
-                       integrator={"method": "verlet", "dt": 0.032, "duration": 2.048}, record={"every": 0.064})
+    scene = make_scene(
+        chain={"grains": 30, "l0": 1e-4},
+        excitation={"impact": 1e-2},
+        integrator={"method": "verlet", "dt": 0.032, "duration": 2.048},
+        record={"every": 0.064},
+    )
     assert check_scene(scene).omega_dt == pytest.approx(1.48, abs=0.01)
     result = run_scene(scene, "cpu")
     assert result.status[0] == Status.ENERGY_DRIFT
@@ -120,8 +130,13 @@ def extreme(case: str, method: str):
     spec = json.loads(json.dumps(EXTREMES[case]))
     chain = {"grains": 30, "l0": 1e-4, **spec.pop("chain", {})}
     excitation = spec.pop("excitation", {"impact": 1e-2})
-    scene = make_scene(chain=chain, excitation=excitation, **spec,
-                       integrator={"method": method, "duration": 0.3}, record={"every": 0.01, "fields": ["u"]})
+    scene = make_scene(
+        chain=chain,
+        excitation=excitation,
+        **spec,
+        integrator={"method": method, "duration": 0.3},
+        record={"every": 0.01, "fields": ["u"]},
+    )
     step = check_scene(scene).suggested_dt
     return scene.with_overrides({"integrator.dt": 0.01 / math.ceil(0.01 / step - 1e-9)})
 
@@ -142,9 +157,12 @@ def test_extreme_case_at_the_suggested_step_conserves_energy(case, method):
 def test_paper_step_times_ten_and_times_a_hundredth(factor, tolerance):
     """dt = 10× and 0.01× the paper's on its chain: both stable, and the energy error shrinks with dt."""
     dt = PAPER_DT * factor
-    scene = make_scene(chain={"grains": 30, "l0": 1e-4}, excitation={"impact": 1e-2},
-                       integrator={"dt": dt, "duration": 0.02 if factor < 1 else 0.5},
-                       record={"every": 0.01, "fields": ["u"]})
+    scene = make_scene(
+        chain={"grains": 30, "l0": 1e-4},
+        excitation={"impact": 1e-2},
+        integrator={"dt": dt, "duration": 0.02 if factor < 1 else 0.5},
+        record={"every": 0.01, "fields": ["u"]},
+    )
     result = Runner(build_model([scene], "cpu"), kernel="sweep").run()
     assert result.status[0] == Status.OK
     assert result.energy_error[0] < tolerance
@@ -161,8 +179,12 @@ def test_order_loss_where_contacts_open():
     dts = [2e-3, 1e-3, 5e-4]
     orders = {}
     for l0, impact in ((0.0, 1e-2), (1e-2, 1e-4)):
-        scene = make_scene(chain={"grains": 20, "l0": l0}, excitation={"impact": impact},
-                           integrator={"duration": 1.0, "events": "off"}, record={"every": 0.25, "fields": ["u"]})
+        scene = make_scene(
+            chain={"grains": 20, "l0": l0},
+            excitation={"impact": impact},
+            integrator={"duration": 1.0, "events": "off"},
+            record={"every": 0.25, "fields": ["u"]},
+        )
         records, _, _ = work_precision(scene, ["gear4", "gear6", "verlet"], dts, ["float64"], device="cpu")
         for method in ("gear4", "gear6", "verlet"):
             orders[l0, method] = slope(dts, [r.error for r in records if r.method == method])

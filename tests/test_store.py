@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 import xarray as xr
 import zarr
-
 from hertzian.ensemble.chains import ChainSet
 from hertzian.ensemble.model import build_model
 from hertzian.ensemble.runner import Runner, run_ensemble, run_scene
@@ -15,8 +14,12 @@ from hertzian.ensemble.scene import scene_from_dict
 from hertzian.ensemble.store import summary_records, write_result
 from hertzian.ensemble.sweep_store import batch_records, completed_batches
 
-SCENE = {"chain": {"grains": 8, "l0": 1e-4}, "excitation": {"impact": 1e-2},
-         "integrator": {"dt": 1e-4, "duration": 0.01}, "record": {"every": 0.005, "traces": [0, 7]}}
+SCENE = {
+    "chain": {"grains": 8, "l0": 1e-4},
+    "excitation": {"impact": 1e-2},
+    "integrator": {"dt": 1e-4, "duration": 0.01},
+    "record": {"every": 0.005, "traces": [0, 7]},
+}
 
 
 def test_a_run_store_is_a_sweep_store_with_no_axes(tmp_path):

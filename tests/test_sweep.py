@@ -8,8 +8,6 @@ import numpy as np
 import pytest
 import xarray as xr
 import zarr
-from typer.testing import CliRunner
-
 from hertzian.ensemble.cli import app
 from hertzian.ensemble.model import build_model
 from hertzian.ensemble.planner import batches_for, block_for, plan_sweep
@@ -18,6 +16,7 @@ from hertzian.ensemble.scene import SceneError
 from hertzian.ensemble.store import summary_records, write_result
 from hertzian.ensemble.sweep import load_sweep, sweep_from_dict, sweep_scenes
 from hertzian.ensemble.sweep_store import batch_records, chunk_layout, create_sweep_store, differing_arrays
+from typer.testing import CliRunner
 
 SWEEP = """
 [scene.chain]
@@ -68,6 +67,7 @@ def run_store(tmp_path, text=SWEEP, *flags, name="out.zarr"):
 
 # ---- file format -----------------------------------------------------------------------
 
+
 def test_grid_points_in_c_order_with_exact_axis_values(tmp_path):
     sweep = load_sweep(write(tmp_path))
     assert sweep.dims == ("v_imp", "l0") and sweep.shape == (3, 2) and sweep.point_count == 6
@@ -82,8 +82,9 @@ def test_linspace_and_scene_file_relative_to_the_sweep_file(tmp_path):
     (tmp_path / "scenes" / "base.toml").write_text("[chain]\ngrains = 12\n[integrator]\nduration = 0.01\n")
     (tmp_path / "sweeps").mkdir()
     path = tmp_path / "sweeps" / "s.toml"
-    path.write_text('scene = "../scenes/base.toml"\n[[axis]]\nname = "g"\nkey = "chain.gravity"\n'
-                    "linspace = [0.0, 1.0, 5]\n")
+    path.write_text(
+        'scene = "../scenes/base.toml"\n[[axis]]\nname = "g"\nkey = "chain.gravity"\nlinspace = [0.0, 1.0, 5]\n'
+    )
     sweep = load_sweep(path)
     np.testing.assert_array_equal(sweep.dimensions[0].axes[0].coordinate(), np.linspace(0.0, 1.0, 5))
     assert sweep.base.chain.grains == 12
@@ -93,8 +94,7 @@ def test_zipped_axes_share_one_dimension(tmp_path):
     text = SWEEP.replace("values = [0.0, 1e-4]", "values = [0.0, 1e-5, 1e-4]") + '[[zip]]\naxes = ["v_imp", "l0"]\n'
     sweep = load_sweep(write(tmp_path, text))
     assert sweep.dims == ("v_imp",) and sweep.shape == (3,)
-    assert [(s.excitation.impact, s.chain.l0) for s in sweep_scenes(sweep)] == [(1e-3, 0.0), (1e-2, 1e-5),
-                                                                              (1e-1, 1e-4)]
+    assert [(s.excitation.impact, s.chain.l0) for s in sweep_scenes(sweep)] == [(1e-3, 0.0), (1e-2, 1e-5), (1e-1, 1e-4)]
     out = run_store(tmp_path, text)
     ds = xr.open_zarr(out)
     assert ds.u.dims == ("v_imp", "record", "grain") and ds.l0.dims == ("v_imp",)
@@ -106,8 +106,9 @@ def test_zipped_axes_share_one_dimension(tmp_path):
 
 def test_fingerprint_is_the_meaning_not_the_spelling(tmp_path):
     a = load_sweep(write(tmp_path))
-    b = load_sweep(write(tmp_path, SWEEP.replace("values = [0.0, 1e-4]", "linspace = [0, 1e-4, 2]") + "# comment\n",
-                         name="b.toml"))
+    b = load_sweep(
+        write(tmp_path, SWEEP.replace("values = [0.0, 1e-4]", "linspace = [0, 1e-4, 2]") + "# comment\n", name="b.toml")
+    )
     c = load_sweep(write(tmp_path, SWEEP.replace("1e-4]", "2e-4]"), name="c.toml"))
     assert a.fingerprint() == b.fingerprint() != c.fingerprint()
     assert sweep_from_dict(a.to_dict()).fingerprint() == a.fingerprint()
@@ -118,19 +119,31 @@ BAD = [
     ("no scene", "[[axis]]" + SWEEP.split("[[axis]]", 1)[1], "scene = None: is required"),
     ("scene section at top", SWEEP.replace("[scene.chain]", "[chain]"), "chain: unknown key"),
     ("missing scene file", 'scene = "nope.toml"\n', "scene = 'nope.toml': no such scene file"),
-    ("no values", SWEEP.replace('logspace = [-3, -1, 3]', ""), "axis[0] = 'v_imp': give exactly one of values"),
-    ("two spacings", SWEEP.replace('logspace = [-3, -1, 3]', "logspace = [-3, -1, 3]\nvalues = [1.0]"),
-     "give exactly one of"),
-    ("bad count", SWEEP.replace('logspace = [-3, -1, 3]', "logspace = [-3, -1, 2.5]"), "count must be an integer"),
-    ("bad linspace", SWEEP.replace('logspace = [-3, -1, 3]', "linspace = [1, 2]"),
-     "axis[0].linspace = [1, 2]: must be [first, last, count]"),
+    ("no values", SWEEP.replace("logspace = [-3, -1, 3]", ""), "axis[0] = 'v_imp': give exactly one of values"),
+    (
+        "two spacings",
+        SWEEP.replace("logspace = [-3, -1, 3]", "logspace = [-3, -1, 3]\nvalues = [1.0]"),
+        "give exactly one of",
+    ),
+    ("bad count", SWEEP.replace("logspace = [-3, -1, 3]", "logspace = [-3, -1, 2.5]"), "count must be an integer"),
+    (
+        "bad linspace",
+        SWEEP.replace("logspace = [-3, -1, 3]", "linspace = [1, 2]"),
+        "axis[0].linspace = [1, 2]: must be [first, last, count]",
+    ),
     ("repeated values", SWEEP.replace("[0.0, 1e-4]", "[1e-4, 1e-4]"), "must not repeat"),
     ("mixed values", SWEEP.replace("[0.0, 1e-4]", '[0.0, "x"]'), "must all be numbers, all strings"),
-    ("unknown axis key", SWEEP.replace('key = "chain.l0"', 'key = "chain.gravty"'),
-     "axis[1].key = 'chain.gravty': not a scene key (chain.gravty: unknown key (did you mean 'gravity'?)"),
+    (
+        "unknown axis key",
+        SWEEP.replace('key = "chain.l0"', 'key = "chain.gravty"'),
+        "axis[1].key = 'chain.gravty': not a scene key (chain.gravty: unknown key (did you mean 'gravity'?)",
+    ),
     ("unknown section", SWEEP.replace('key = "chain.l0"', 'key = "chian.l0"'), "axis[1].key = 'chian.l0'"),
-    ("missing impurity block", SWEEP.replace('key = "chain.l0"', 'key = "impurities.0.mass"'),
-     "there are 0 impurity blocks"),
+    (
+        "missing impurity block",
+        SWEEP.replace('key = "chain.l0"', 'key = "impurities.0.mass"'),
+        "there are 0 impurity blocks",
+    ),
     ("duplicate name", SWEEP.replace('name = "l0"', 'name = "v_imp"'), "axis[1].name = 'v_imp': already used"),
     ("duplicate key", SWEEP.replace('key = "chain.l0"', 'key = "excitation.impact"'), "already swept by axis[0]"),
     ("reserved name", SWEEP.replace('name = "l0"', 'name = "energy"'), "is a store variable name"),
@@ -139,10 +152,16 @@ BAD = [
     ("zip lengths", SWEEP + '[[zip]]\naxes = ["v_imp", "l0"]\n', "zipped axes need equal lengths"),
     ("zip unknown axis", SWEEP + '[[zip]]\naxes = ["v_imp", "l1"]\n', "zip[0].axes = 'l1': no such axis"),
     ("zip single axis", SWEEP + '[[zip]]\naxes = ["v_imp"]\n', "must list at least two axis names"),
-    ("bad point", SWEEP.replace("[0.0, 1e-4]", "[0.0, -1e-4]"), "chain.l0 = -0.0001: must be ≥ 0 (at sweep point "
-     "v_imp=0.001, l0=-0.0001)"),
-    ("layout axis", SWEEP.replace('key = "chain.l0"', 'key = "chain.grains"').replace("[0.0, 1e-4]", "[12, 20]"),
-     "chain.grains = ['12', '20']: every point of a sweep shares the store's record/grain layout"),
+    (
+        "bad point",
+        SWEEP.replace("[0.0, 1e-4]", "[0.0, -1e-4]"),
+        "chain.l0 = -0.0001: must be ≥ 0 (at sweep point v_imp=0.001, l0=-0.0001)",
+    ),
+    (
+        "layout axis",
+        SWEEP.replace('key = "chain.l0"', 'key = "chain.grains"').replace("[0.0, 1e-4]", "[12, 20]"),
+        "chain.grains = ['12', '20']: every point of a sweep shares the store's record/grain layout",
+    ),
     ("bad base scene", SWEEP.replace("grains = 12", "grains = 1"), "chain.grains = 1: must be an integer ≥ 2"),
     ("not toml", "[[axis]\n", "is not valid TOML"),
 ]
@@ -159,14 +178,17 @@ def test_bad_sweep_is_one_line_exit_2_nothing_written(tmp_path, name, text, expe
     assert not out.exists() and [p.name for p in tmp_path.iterdir()] == ["sweep.toml"]
 
 
-@pytest.mark.parametrize("flags,expected", [
-    ("--batch-size 0", "--batch-size = 0: must be ≥ 1"),
-    ("--workers 0", "--workers = 0: must be ≥ 1"),
-    ("--workers 2 --scheduler tcp://x:1", "give either --workers"),
-    ("--resume --overwrite", "--resume continues a store"),
-    ("--set chain.grainz=3", "chain.grainz: unknown key"),
-    ("--precision float16", "integrator.precision = 'float16'"),
-])
+@pytest.mark.parametrize(
+    "flags,expected",
+    [
+        ("--batch-size 0", "--batch-size = 0: must be ≥ 1"),
+        ("--workers 0", "--workers = 0: must be ≥ 1"),
+        ("--workers 2 --scheduler tcp://x:1", "give either --workers"),
+        ("--resume --overwrite", "--resume continues a store"),
+        ("--set chain.grainz=3", "chain.grainz: unknown key"),
+        ("--precision float16", "integrator.precision = 'float16'"),
+    ],
+)
 def test_bad_flags(tmp_path, flags, expected):
     result = sweep_cli(write(tmp_path), "--out", tmp_path / "o.zarr", *flags.split())
     assert result.exit_code == 2 and expected in result.stderr, result.stderr
@@ -182,8 +204,9 @@ def test_existing_store_needs_resume_or_overwrite(tmp_path):
 
 
 def test_dry_run_prints_the_plan_and_writes_nothing(tmp_path):
-    result = sweep_cli(write(tmp_path), "--out", tmp_path / "o.zarr", "--dry-run", "--batch-size", "2",
-                       "--device", "cpu")
+    result = sweep_cli(
+        write(tmp_path), "--out", tmp_path / "o.zarr", "--dry-run", "--batch-size", "2", "--device", "cpu"
+    )
     assert result.exit_code == 0, result.stderr
     text = result.stdout
     assert "points: 6 over v_imp (3) × l0 (2)" in text
@@ -194,14 +217,18 @@ def test_dry_run_prints_the_plan_and_writes_nothing(tmp_path):
 
 # ---- planner -----------------------------------------------------------------------------
 
-@pytest.mark.parametrize("shape,splitting,target,block", [
-    ((100, 100), [False, False], 250, (2, 100)),
-    ((100, 100), [False, False], 10**6, (100, 100)),
-    ((3, 7), [False, False], 5, (1, 4)),  # 7 cut into near-equal parts 4 + 3
-    ((4, 3), [True, False], 100, (1, 3)),
-    ((4, 3, 5), [False, True, False], 12, (2, 1, 5)),
-    ((), [], 10, ()),
-])
+
+@pytest.mark.parametrize(
+    "shape,splitting,target,block",
+    [
+        ((100, 100), [False, False], 250, (2, 100)),
+        ((100, 100), [False, False], 10**6, (100, 100)),
+        ((3, 7), [False, False], 5, (1, 4)),  # 7 cut into near-equal parts 4 + 3
+        ((4, 3), [True, False], 100, (1, 3)),
+        ((4, 3, 5), [False, True, False], 12, (2, 1, 5)),
+        ((), [], 10, ()),
+    ],
+)
 def test_block_shapes(shape, splitting, target, block):
     assert block_for(shape, splitting, target) == block
     assert math.prod(block) <= max(target, 1)
@@ -210,8 +237,10 @@ def test_block_shapes(shape, splitting, target, block):
     assert points == list(range(math.prod(shape)))  # every point exactly once
 
 
-METHOD_SWEEP = SWEEP.replace('values = [0.0, 1e-4]', 'values = [0.0, 1e-4]\n\n[[axis]]\nname = "method"\n'
-                             'key = "integrator.method"\nvalues = ["gear4", "verlet"]')
+METHOD_SWEEP = SWEEP.replace(
+    "values = [0.0, 1e-4]",
+    'values = [0.0, 1e-4]\n\n[[axis]]\nname = "method"\nkey = "integrator.method"\nvalues = ["gear4", "verlet"]',
+)
 
 
 def test_method_axis_splits_launch_groups(tmp_path):
@@ -263,6 +292,7 @@ def test_differing_arrays_sees_one_changed_value(tmp_path):
 
 
 # ---- store ----------------------------------------------------------------------------------
+
 
 def test_store_has_a_runs_variables_with_the_sweep_dims_first(tmp_path):
     out = run_store(tmp_path)
@@ -326,29 +356,35 @@ def test_chunks_are_the_batch_blocks(tmp_path, monkeypatch):
 def test_records_per_shard_reach_the_shard_bytes():
     from hertzian.ensemble.sweep_store import ROW_SHARD_BYTES, records_per_shard
 
-    assert records_per_shard(5000, 500 * 8) == 1                    # gpu_10k: 20 MB a record
-    assert records_per_shard(2, 10000 * 8) == 53                    # the driven columns: 160 kB a record
+    assert records_per_shard(5000, 500 * 8) == 1  # gpu_10k: 20 MB a record
+    assert records_per_shard(2, 10000 * 8) == 53  # the driven columns: 160 kB a record
     assert records_per_shard(1, 1) == ROW_SHARD_BYTES and records_per_shard(0, 0) == ROW_SHARD_BYTES
 
 
-@pytest.mark.parametrize("block,trailing,chunks,shards", [
-    ((50, 100), (3, 500), (1, 50, 3, 500), (50, 100, 3, 500)),  # ~1 MiB inner chunks of 50 points
-    ((2, 3), (5, 20), (2, 3, 5, 20), None),  # a small batch is one plain chunk
-    ((1, 1), (100001, 2), (1, 1, 65536, 2), (1, 1, 131072, 2)),  # a long trace is cut along samples
-    ((4, 7), (), (4, 7), None),  # per-point values: one chunk per batch
-])
+@pytest.mark.parametrize(
+    "block,trailing,chunks,shards",
+    [
+        ((50, 100), (3, 500), (1, 50, 3, 500), (50, 100, 3, 500)),  # ~1 MiB inner chunks of 50 points
+        ((2, 3), (5, 20), (2, 3, 5, 20), None),  # a small batch is one plain chunk
+        ((1, 1), (100001, 2), (1, 1, 65536, 2), (1, 1, 131072, 2)),  # a long trace is cut along samples
+        ((4, 7), (), (4, 7), None),  # per-point values: one chunk per batch
+    ],
+)
 def test_chunk_layout(block, trailing, chunks, shards):
     assert chunk_layout(block, trailing, 8) == (chunks, shards)
 
 
-@pytest.mark.parametrize("block,trailing,rows,chunks,shards", [
-    ((50, 100), (11, 500), 1, (2, 100, 1, 500), (50, 100, 1, 500)),  # a shard per record, ~1 MiB inner chunks
-    ((50, 100), (501, 2), 50, (10, 100, 50, 2), (50, 100, 50, 2)),  # trace samples: a shard per record interval
-    ((2, 3), (4, 5), 4, (2, 3, 4, 5), None),  # a shard holding every row: the plain layout
-    ((4,), (6, 200000), 3, (1, 1, 200000), (4, 3, 200000)),  # rows over 1 MiB: one point and row per inner chunk
-    ((2,), (2001, 10000), 53, (1, 13, 10000), (2, 65, 10000)),  # shards of whole ~1 MiB chunks: 53 rounded up to 65
-    ((2,), (60, 10000), 53, (1, 13, 10000), (2, 65, 10000)),  # past every row: the plain layout, one shard
-])
+@pytest.mark.parametrize(
+    "block,trailing,rows,chunks,shards",
+    [
+        ((50, 100), (11, 500), 1, (2, 100, 1, 500), (50, 100, 1, 500)),  # a shard per record, ~1 MiB inner chunks
+        ((50, 100), (501, 2), 50, (10, 100, 50, 2), (50, 100, 50, 2)),  # trace samples: a shard per record interval
+        ((2, 3), (4, 5), 4, (2, 3, 4, 5), None),  # a shard holding every row: the plain layout
+        ((4,), (6, 200000), 3, (1, 1, 200000), (4, 3, 200000)),  # rows over 1 MiB: one point and row per inner chunk
+        ((2,), (2001, 10000), 53, (1, 13, 10000), (2, 65, 10000)),  # shards of whole ~1 MiB chunks: 53 rounded up to 65
+        ((2,), (60, 10000), 53, (1, 13, 10000), (2, 65, 10000)),  # past every row: the plain layout, one shard
+    ],
+)
 def test_chunk_layout_with_rows_per_shard(block, trailing, rows, chunks, shards):
     assert chunk_layout(block, trailing, 8, rows) == (chunks, shards)
 

@@ -1,14 +1,11 @@
 """Scale-out: two Dask worker processes (CPU, one thread each) fill one store, equal bitwise to the
 serial run; each worker writes its own batches."""
 
-
 import distributed  # a hard dependency (dask[distributed]): a missing one must fail, not skip
-import pytest
-from typer.testing import CliRunner
-
 from hertzian.ensemble.cli import app
 from hertzian.ensemble.distributed import worker_device
 from hertzian.ensemble.sweep_store import batch_records, differing_arrays
+from typer.testing import CliRunner
 
 SWEEP = """
 [scene.chain]
@@ -54,8 +51,9 @@ def test_two_workers_write_one_store_equal_to_the_serial_run(tmp_path):
     assert result.exit_code == 0, result.stderr
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         parallel = tmp_path / "parallel.zarr"
-        result = cli.invoke(app, ["sweep", str(sweep), "--out", str(parallel), "--scheduler",
-                                  cluster.scheduler_address, *flags])
+        result = cli.invoke(
+            app, ["sweep", str(sweep), "--out", str(parallel), "--scheduler", cluster.scheduler_address, *flags]
+        )
         assert result.exit_code == 0, result.stderr
     assert differing_arrays(parallel, serial) == []
     records = batch_records(parallel)

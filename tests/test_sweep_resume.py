@@ -11,13 +11,12 @@ import numpy as np
 import pytest
 import xarray as xr
 import zarr
-from typer.testing import CliRunner
-
 from hertzian.ensemble.cli import app
-from hertzian.ensemble.store import write_result
 from hertzian.ensemble.runner import run_scene
+from hertzian.ensemble.store import write_result
 from hertzian.ensemble.sweep import load_sweep, sweep_scenes
 from hertzian.ensemble.sweep_store import batch_records, completed_batches, differing_arrays
+from typer.testing import CliRunner
 
 SWEEP = """
 [scene.chain]
@@ -102,8 +101,9 @@ def records(out):
 
 
 MOMENTS = {
-    "while the store is created": lambda tmp, out: out.exists() or any(p.name.startswith(".out.zarr.")
-                                                                       for p in tmp.iterdir()),
+    "while the store is created": lambda tmp, out: (
+        out.exists() or any(p.name.startswith(".out.zarr.") for p in tmp.iterdir())
+    ),
     "after the first batch": lambda tmp, out: records(out) >= 1,
     "in the middle": lambda tmp, out: records(out) >= 4,
 }
@@ -112,8 +112,11 @@ MOMENTS = {
 @pytest.mark.parametrize("moment", list(MOMENTS))
 def test_sigkill_then_resume_equals_an_uninterrupted_run(tmp_path, sweep_file, reference, moment):
     out = tmp_path / "out.zarr"
-    proc = subprocess.Popen([*HERTZIAN, "sweep", str(sweep_file), "--out", str(out), *FLAGS],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    proc = subprocess.Popen(
+        [*HERTZIAN, "sweep", str(sweep_file), "--out", str(out), *FLAGS],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
     was_running = kill_when(proc, lambda: MOMENTS[moment](tmp_path, out))
     assert was_running, f"the sweep ended before it could be killed: {proc.stderr.read().decode()}"
     assert proc.returncode == -signal.SIGKILL
@@ -176,8 +179,10 @@ def test_resume_refuses_a_store_of_another_sweep(tmp_path, sweep_file):
     other = tmp_path / "other.toml"
     other.write_text(SWEEP.replace("1e-4]", "2e-4]"))
     _refused(sweep_cli(other, "--out", out, "--resume", *FLAGS), "was made from a different sweep")
-    _refused(sweep_cli(sweep_file, "--out", out, "--resume", "--set", "chain.mass=2", *FLAGS),
-             "was made from a different sweep")
+    _refused(
+        sweep_cli(sweep_file, "--out", out, "--resume", "--set", "chain.mass=2", *FLAGS),
+        "was made from a different sweep",
+    )
     assert (out / "zarr.json").read_text() == before
 
 

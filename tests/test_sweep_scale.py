@@ -13,14 +13,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
-from typer.testing import CliRunner
-
 from hertzian.ensemble.cli import app
 from hertzian.ensemble.model import build_model
 from hertzian.ensemble.planner import plan_sweep
 from hertzian.ensemble.runner import Runner
 from hertzian.ensemble.store import summary_columns
 from hertzian.ensemble.sweep import expand, load_sweep
+from typer.testing import CliRunner
 
 SWEEPS = Path(__file__).parent.parent / "sweeps"
 cli = CliRunner()
@@ -62,8 +61,9 @@ def test_hundred_thousand_point_sweep_on_the_cpu(tmp_path):
     """10⁵ points of 10-grain chains (2·10⁸ grain-steps): every point OK, and sampled points equal,
     bit for bit, the same chain built scene by scene and run alone with the sweep's kernel."""
     out = tmp_path / "cpu_100k.zarr"
-    result = cli.invoke(app, ["sweep", str(SWEEPS / "cpu_100k.toml"), "--out", str(out), "--device", "cpu",
-                              "--quiet", "--json"])
+    result = cli.invoke(
+        app, ["sweep", str(SWEEPS / "cpu_100k.toml"), "--out", str(out), "--device", "cpu", "--quiet", "--json"]
+    )
     assert result.exit_code == 0, result.stderr
     report = json.loads(result.stdout)
     assert report["points"] == 10**5 and report["status_counts"] == {"0": 10**5}
@@ -97,6 +97,6 @@ def test_summarize_a_large_store_lists_the_worst_points_and_counts(tmp_path):
     assert table.exit_code == 0, table.stderr
     assert "3 of 1000 points" in table.stdout and "status: OK 1000" in table.stdout
     records = json.loads(cli.invoke(app, ["summarize", str(out), "--json"]).stdout)
-    assert len(records) == 1000 and records[1]["impurity_mass"] == pytest.approx(10**-0.5 * 10**(1 / 9))
+    assert len(records) == 1000 and records[1]["impurity_mass"] == pytest.approx(10**-0.5 * 10 ** (1 / 9))
     worst = max(records, key=lambda r: r["energy_error"])
     assert f"{worst['energy_error']:.3g}" in table.stdout

@@ -12,16 +12,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import warp as wp
-
+from fused_cases import CASES, assert_every_window_moved, assert_kernels_agree, chains, per_step, window_ranges
 from hertzian.ensemble.model import build_model
 from hertzian.ensemble.runner import Runner
 from hertzian.ensemble.solvers import TileSolver, config_of
 from hertzian.kernels.features import STATUS_NON_FINITE
 from hertzian.kernels.ghost import plan_windows
 from hertzian.kernels.tile import fusable, plan_tile
-
-from fused_cases import CASES, assert_every_window_moved, assert_kernels_agree, chains, per_step, window_ranges
 
 
 def fused(model, plan, steps: int, status=None) -> np.ndarray:
@@ -48,8 +45,9 @@ def test_fused_equals_per_step(device, case):
     assert fusable(model.features)
     plan = plan_tile(model.features, model.grain_count, model.chain_count, **plan_keywords)
     want = per_step(model, steps)
-    assert_every_window_moved(want, window_ranges(plan, model.grain_count),
-                              held_bottom=model.scenes[0].boundary.bottom == "fixed")
+    assert_every_window_moved(
+        want, window_ranges(plan, model.grain_count), held_bottom=model.scenes[0].boundary.bottom == "fixed"
+    )
     assert_same(fused(model, plan, steps), want, device)
 
 
@@ -66,12 +64,12 @@ def test_runner_with_fused_kernel_records_the_same(device):
     # the whole run (records, energy, fields) through Runner's dispatch, windows on a GPU, tile on a CPU
     # records at uneven steps (every = 0.3 is 599.99… steps of dt; duration 1.5 not a multiple) and a
     # run long enough for the pulse to reach the last window and the bottom
-    scenes = chains(2, chain={"grains": 40, "l0": 1e-3}, integrator={"dt": 5e-4, "duration": 1.5},
-                    record={"every": 0.29997})
+    scenes = chains(
+        2, chain={"grains": 40, "l0": 1e-3}, integrator={"dt": 5e-4, "duration": 1.5}, record={"every": 0.29997}
+    )
     model = build_model(scenes, device)
     reference = Runner(model, kernel="step").run()
-    plan = plan_tile(model.features, 40, 2, grains_per_lane=4, lanes_per_chain=8, steps_per_launch=8,
-                     windowed=True)
+    plan = plan_tile(model.features, 40, 2, grains_per_lane=4, lanes_per_chain=8, steps_per_launch=8, windowed=True)
     last_record = np.stack([reference.fields["u"][:, -1], reference.fields["v"][:, -1]])
     assert_every_window_moved(last_record, window_ranges(plan, 40), held_bottom=False)
     runner = Runner(model, kernel=config_of(plan))

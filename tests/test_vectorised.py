@@ -12,7 +12,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from hertzian.ensemble.chains import ChainSet
 from hertzian.ensemble.model import build_model, features_of
 from hertzian.ensemble.planner import plan_sweep
@@ -43,7 +42,8 @@ INLINE = {
     # the planner takes an impact-only dimension at its fastest impact (only that one opens a contact
     # here: l0 = 1e-3 holds the contacts closed below v_imp ≈ 0.02), values not sorted; and a dimension
     # zipping the impact with l0, which is scanned at every index
-    "impact_opens_only_at_the_fastest": IMPACT_HOST + """
+    "impact_opens_only_at_the_fastest": IMPACT_HOST
+    + """
 [[axis]]
 name = "v_imp"
 key = "excitation.impact"
@@ -53,7 +53,8 @@ name = "imp_mass"
 key = "impurities.0.mass"
 values = [0.5, 2.0]
 """,
-    "impact_never_opens": IMPACT_HOST + """
+    "impact_never_opens": IMPACT_HOST
+    + """
 [[axis]]
 name = "v_imp"
 key = "excitation.impact"
@@ -63,7 +64,8 @@ name = "l0"
 key = "chain.l0"
 values = [1e-3, 3e-3]
 """,
-    "impact_zipped_with_l0": IMPACT_HOST + """
+    "impact_zipped_with_l0": IMPACT_HOST
+    + """
 [[axis]]
 name = "v_imp"
 key = "excitation.impact"
@@ -194,10 +196,14 @@ def load_case(case, tmp_path):
 
 def model_arrays(model):
     return {
-        "inverse_mass": model.inverse_mass.numpy(), "contact_constant": model.contact_constant.numpy(),
-        "static_overlap": model.static_overlap.numpy(), "exponent": model.exponent.numpy(),
-        "drive": model.drive.numpy(), "trace_slot": model.trace_slot.numpy(),
-        "validity_overlap": model.validity_overlap.numpy(), "injected_energy": model.injected_energy,
+        "inverse_mass": model.inverse_mass.numpy(),
+        "contact_constant": model.contact_constant.numpy(),
+        "static_overlap": model.static_overlap.numpy(),
+        "exponent": model.exponent.numpy(),
+        "drive": model.drive.numpy(),
+        "trace_slot": model.trace_slot.numpy(),
+        "validity_overlap": model.validity_overlap.numpy(),
+        "injected_energy": model.injected_energy,
         "initial_nordsieck": model.initial_state().x.numpy(),
     }
 
@@ -216,8 +222,10 @@ def test_vectorised_model_equals_per_scene_model_bitwise(case, tmp_path):
     for template in np.unique(templates):
         members = points[templates == template]
         chains = expanded.chains(members)
-        scenes = [sweep.scene_at(tuple(int(i) for i in np.unravel_index(p, sweep.shape))) if sweep.shape
-                  else sweep.base for p in members]
+        scenes = [
+            sweep.scene_at(tuple(int(i) for i in np.unravel_index(p, sweep.shape))) if sweep.shape else sweep.base
+            for p in members
+        ]
         # the ChainSet's scenes are the sweep's scenes
         assert [chains[i] for i in range(len(chains))] == scenes
         # static state and Taylor start, chain by chain
@@ -232,12 +240,15 @@ def test_vectorised_model_equals_per_scene_model_bitwise(case, tmp_path):
             for name in ("mass", "self_constant"):
                 assert_bitwise(getattr(part, name), getattr(st, name)[:, :window], f"{name}[:{window}]")
             for name in ("contact_constant", "carried_force", "static_overlap"):
-                assert_bitwise(getattr(part, name), getattr(st, name)[:, :window + 1], f"{name}[:{window + 1}]")
+                assert_bitwise(getattr(part, name), getattr(st, name)[:, : window + 1], f"{name}[:{window + 1}]")
         for values in (3, 5, 6, 7):
             vec = initial_nordsieck_of(chains, values, scenes[0].integrator.dt)
             for c, scene in enumerate(scenes):
-                assert_bitwise(vec[:, c], initial_nordsieck(scene, values, scene.integrator.dt),
-                               f"Nordsieck ({values} values) of chain {c}")
+                assert_bitwise(
+                    vec[:, c],
+                    initial_nordsieck(scene, values, scene.integrator.dt),
+                    f"Nordsieck ({values} values) of chain {c}",
+                )
         # the whole model, with the features each path derives itself
         reference, vectorised = build_model(scenes, "cpu"), build_model(chains, "cpu")
         assert vectorised.features == reference.features == features_of(scenes)
@@ -251,16 +262,20 @@ def test_planner_groups_and_features_equal_per_scene_features(case, tmp_path):
     sweep = load_case(case, tmp_path)
     expanded = expand(sweep)
     plan = plan_sweep(sweep, expanded, "cpu")
-    scenes = [sweep.scene_at(tuple(int(i) for i in np.unravel_index(p, sweep.shape))) if sweep.shape
-              else sweep.base for p in range(sweep.point_count)]
+    scenes = [
+        sweep.scene_at(tuple(int(i) for i in np.unravel_index(p, sweep.shape))) if sweep.shape else sweep.base
+        for p in range(sweep.point_count)
+    ]
     flat_groups = plan.point_group.reshape(-1)
     for g, group in enumerate(plan.groups):
         members = [s for s, pg in zip(scenes, flat_groups) if pg == g]
         assert group.point_count == len(members)
         assert group.features == features_of(members)
     # points with equal launch keys share a group, others do not
-    keys = [tuple(get(s) for _, get in __import__("hertzian.ensemble.model", fromlist=["SHARED_KEYS"]).SHARED_KEYS)
-            for s in scenes]
+    keys = [
+        tuple(get(s) for _, get in __import__("hertzian.ensemble.model", fromlist=["SHARED_KEYS"]).SHARED_KEYS)
+        for s in scenes
+    ]
     for p in range(len(scenes)):
         for q in range(len(scenes)):
             assert (keys[p] == keys[q]) == (flat_groups[p] == flat_groups[q])
@@ -273,29 +288,36 @@ def test_chain_set_refuses_keys_that_are_not_per_chain(tmp_path):
 
 
 def test_a_bad_value_inside_a_parameter_axis_is_refused_naming_the_point():
-    data = {"scene": {"chain": {"grains": 5}, "integrator": {"duration": 0.01, "dt": 1e-4}},
-            "axis": [{"name": "v_imp", "key": "excitation.impact", "values": [1e-3, -1.0, 1e-2]},
-                     {"name": "l0", "key": "chain.l0", "values": [0.0, 1e-4]}]}
+    data = {
+        "scene": {"chain": {"grains": 5}, "integrator": {"duration": 0.01, "dt": 1e-4}},
+        "axis": [
+            {"name": "v_imp", "key": "excitation.impact", "values": [1e-3, -1.0, 1e-2]},
+            {"name": "l0", "key": "chain.l0", "values": [0.0, 1e-4]},
+        ],
+    }
     with pytest.raises(SceneError, match=r"excitation.impact = -1.0.*at sweep point v_imp=-1.0"):
         expand(sweep_from_dict(data))
 
 
 def test_zipped_axes_are_checked_at_each_axis_extremes_not_only_the_leading_ones():
     # the leading axis is fine everywhere; the companion exponent is ≤ 1 at point 1 only (same signs)
-    data = {"scene": {"chain": {"grains": 5}, "integrator": {"duration": 0.01, "dt": 1e-4}},
-            "axis": [{"name": "v_imp", "key": "excitation.impact", "values": [1e-3, 2e-3, 3e-3]},
-                     {"name": "exponent", "key": "chain.exponent", "values": [2.5, 1.0, 3.0]}],
-            "zip": [{"axes": ["v_imp", "exponent"]}]}
+    data = {
+        "scene": {"chain": {"grains": 5}, "integrator": {"duration": 0.01, "dt": 1e-4}},
+        "axis": [
+            {"name": "v_imp", "key": "excitation.impact", "values": [1e-3, 2e-3, 3e-3]},
+            {"name": "exponent", "key": "chain.exponent", "values": [2.5, 1.0, 3.0]},
+        ],
+        "zip": [{"axes": ["v_imp", "exponent"]}],
+    }
     with pytest.raises(SceneError, match=r"chain.exponent = 1.0.*at sweep point v_imp=0.002, exponent=1.0"):
         expand(sweep_from_dict(data))
 
 
 # ---- validation by corners equals validation of every point --------------------------------------
 
+from hertzian.ensemble.sweep import sweep_scenes  # noqa: E402
 from hypothesis import HealthCheck, example, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
-
-from hertzian.ensemble.sweep import sweep_scenes  # noqa: E402
 
 PARAMETER_VALUES = {
     "chain.l0": [0.0, 1e-4, -1e-5, 2e-4],
@@ -325,13 +347,17 @@ def small_sweeps(draw):
     else:
         # the zip's first axis labels the dimension (distinct values); the others pair up with it
         axes.insert(0, {"name": "lead", "key": "chain.diameter", "values": [100.0 + i for i in range(size)]})
-    surfaces = draw(st.lists(st.sampled_from(["wall", "free", "driven", "load"]), min_size=1, max_size=2,
-                             unique=True))
+    surfaces = draw(st.lists(st.sampled_from(["wall", "free", "driven", "load"]), min_size=1, max_size=2, unique=True))
     axes.append({"name": "surface", "key": "boundary.surface", "values": surfaces})
-    data = {"scene": {"chain": {"grains": 6}, "impurities": [{"grains": [2], "mass": 1.0}],
-                      "excitation": {"drive_period": 5.0},
-                      "integrator": {"duration": 0.01, "dt": 1e-4}},
-            "axis": axes}
+    data = {
+        "scene": {
+            "chain": {"grains": 6},
+            "impurities": [{"grains": [2], "mass": 1.0}],
+            "excitation": {"drive_period": 5.0},
+            "integrator": {"duration": 0.01, "dt": 1e-4},
+        },
+        "axis": axes,
+    }
     if zip_them:
         data["zip"] = [{"axes": [a["name"] for a in axes[:-1]]}]
     return data
@@ -339,9 +365,12 @@ def small_sweeps(draw):
 
 ZIP_WITH_A_BAD_MIDDLE = {
     "scene": {"chain": {"grains": 6}, "integrator": {"duration": 0.01, "dt": 1e-4}},
-    "axis": [{"name": "lead", "key": "chain.diameter", "values": [100.0, 101.0, 102.0]},
-             {"name": "a0", "key": "excitation.impact", "values": [0.0, -1e-3, 0.0]}],
-    "zip": [{"axes": ["lead", "a0"]}]}
+    "axis": [
+        {"name": "lead", "key": "chain.diameter", "values": [100.0, 101.0, 102.0]},
+        {"name": "a0", "key": "excitation.impact", "values": [0.0, -1e-3, 0.0]},
+    ],
+    "zip": [{"axes": ["lead", "a0"]}],
+}
 
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])

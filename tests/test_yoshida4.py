@@ -21,7 +21,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
+from cli_cases import assert_refused, invoke, toml_text
+from conftest import make_scene
+from fused_cases import COMPOSED_CASES, assert_every_window_moved, chains, per_step
 from hertzian.ensemble.check import STABLE_OMEGA_DT, amplification_matrix
 from hertzian.ensemble.model import build_model
 from hertzian.ensemble.runner import Runner
@@ -30,12 +32,8 @@ from hertzian.ensemble.solvers import SolverConfig, SweepSolver, choose_config
 from hertzian.ensemble.solvers.calibrate import fused_lacks
 from hertzian.kernels.features import SUBSTEP_WEIGHTS
 
-from cli_cases import assert_refused, invoke, toml_text
-from conftest import make_scene
-from fused_cases import COMPOSED_CASES, assert_every_window_moved, chains, per_step
-
-
 # ---- (a) the CPU sweep kernel equals the per-step kernel, bit for bit ----------------------------------
+
 
 @pytest.mark.parametrize("case", list(COMPOSED_CASES))
 def test_sweep_equals_per_step(case):
@@ -55,14 +53,23 @@ def test_sweep_equals_per_step(case):
 def test_runner_records_and_traces_agree_across_kernels():
     """Through the runner: records, energy and traces (per-step: written by the last substep in the kernel;
     sweep: sampled between launches) are the same bits, and fall on whole steps."""
-    scenes = chains(2, chain={"grains": 20, "l0": 1e-4}, integrator={"method": "yoshida4", "dt": 5e-4, "duration": 1.2},
-                    record={"every": 0.1, "traces": [0, 7, 19], "trace_every": 0.005})
+    scenes = chains(
+        2,
+        chain={"grains": 20, "l0": 1e-4},
+        integrator={"method": "yoshida4", "dt": 5e-4, "duration": 1.2},
+        record={"every": 0.1, "traces": [0, 7, 19], "trace_every": 0.005},
+    )
     model = build_model(scenes, "cpu")
     step = Runner(model, kernel="step").run()
     sweep = Runner(model, kernel="sweep").run()
     assert step.steps == sweep.steps == 2400
-    for got, want in ((sweep.u, step.u), (sweep.v, step.v), (sweep.energy, step.energy),
-                      (sweep.traces["u"], step.traces["u"]), (sweep.traces["v"], step.traces["v"])):
+    for got, want in (
+        (sweep.u, step.u),
+        (sweep.v, step.v),
+        (sweep.energy, step.energy),
+        (sweep.traces["u"], step.traces["u"]),
+        (sweep.traces["v"], step.traces["v"]),
+    ):
         np.testing.assert_array_equal(got, want)
     moved = np.abs(step.traces["u"][:, -1, 2]) / np.abs(step.traces["u"]).max(axis=(1, 2))
     assert np.all(moved > 1e-3), moved  # the pulse reached the bottom grain
@@ -71,8 +78,7 @@ def test_runner_records_and_traces_agree_across_kernels():
     record_steps = np.rint(step.t / 5e-4).astype(int)
     at_records = np.isin(sample_steps, record_steps)
     assert at_records.sum() >= 10
-    np.testing.assert_array_equal(step.traces["u"][:, at_records, 1],
-                                  step.u[:, np.isin(record_steps, sample_steps), 7])
+    np.testing.assert_array_equal(step.traces["u"][:, at_records, 1], step.u[:, np.isin(record_steps, sample_steps), 7])
 
 
 def test_plain_launches_equal_the_recorded_ones():
@@ -80,8 +86,9 @@ def test_plain_launches_equal_the_recorded_ones():
     (StepSolver.launches) give the same bits, and a step from a ends in b with the clock one step on."""
     from hertzian.ensemble.solvers import StepSolver
 
-    model = build_model(chains(2, chain={"grains": 15, "l0": 1e-4},
-                               integrator={"method": "yoshida4", "dt": 5e-4}), "cpu")
+    model = build_model(
+        chains(2, chain={"grains": 15, "l0": 1e-4}, integrator={"method": "yoshida4", "dt": 5e-4}), "cpu"
+    )
     solver = StepSolver(model)
     assert solver.substeps == 3
     recorded = solver.advance(*model.state_pair(), 301).x.numpy()
@@ -97,11 +104,15 @@ def test_plain_launches_equal_the_recorded_ones():
 
 # ---- (b) energy: bounded, no drift -----------------------------------------------------------------------
 
+
 def energy_history(method: str) -> np.ndarray:
     """(E(t) − E(0))/E_inj at records every 0.4 over 400 time units (1e5 steps at T/dt ≈ 24) on the smooth chain."""
-    scene = make_scene(chain={"grains": 20, "l0": 1e-2}, excitation={"impact": 1e-4},
-                       integrator={"method": method, "dt": 4e-3, "duration": 400.0},
-                       record={"every": 0.4, "fields": ["u"]})
+    scene = make_scene(
+        chain={"grains": 20, "l0": 1e-2},
+        excitation={"impact": 1e-4},
+        integrator={"method": method, "dt": 4e-3, "duration": 400.0},
+        record={"every": 0.4, "fields": ["u"]},
+    )
     result = Runner(build_model([scene], "cpu"), kernel="sweep", monitor_every=0).run()
     return (result.energy[0] - result.energy[0, 0]) / scene.injected_energy
 
@@ -127,6 +138,7 @@ def test_energy_error_is_bounded_without_drift():
 
 # ---- (d) the stability limit -----------------------------------------------------------------------------
 
+
 def kick_drift_kick(h: float, omega: float) -> np.ndarray:
     """Velocity Verlet of step h on ü = −ω²u, acting on (u, v)."""
     kick = np.array([[1.0, 0.0], [-0.5 * h * omega**2, 1.0]])
@@ -138,7 +150,9 @@ def yoshida_uv(omega_dt: float) -> np.ndarray:
     """yoshida4's one-step (u, v) map at ω = 1, dt = omega_dt, from the composition's definition."""
     w1 = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
     w0 = -(2.0 ** (1.0 / 3.0)) * w1
-    return kick_drift_kick(w1 * omega_dt, 1.0) @ kick_drift_kick(w0 * omega_dt, 1.0) @ kick_drift_kick(w1 * omega_dt, 1.0)
+    return (
+        kick_drift_kick(w1 * omega_dt, 1.0) @ kick_drift_kick(w0 * omega_dt, 1.0) @ kick_drift_kick(w1 * omega_dt, 1.0)
+    )
 
 
 def half_trace(omega_dt: float) -> float:
@@ -160,8 +174,9 @@ def test_stability_limit_is_where_the_half_trace_reaches_one():
     for z in (0.3, 1.0, 1.5, 1.6):
         eig = np.linalg.eigvals(amplification_matrix("yoshida4", z))
         assert np.min(np.abs(eig)) < 1e-12
-        np.testing.assert_allclose(np.sort_complex(eig[np.abs(eig) > 1e-9]),
-                                   np.sort_complex(np.linalg.eigvals(yoshida_uv(z))), atol=1e-12)
+        np.testing.assert_allclose(
+            np.sort_complex(eig[np.abs(eig) > 1e-9]), np.sort_complex(np.linalg.eigvals(yoshida_uv(z))), atol=1e-12
+        )
 
 
 def test_weights_are_yoshidas():
@@ -174,21 +189,38 @@ def test_weights_are_yoshidas():
 
 # ---- (c) refusals ------------------------------------------------------------------------------------------
 
-BASE = {"chain": {"grains": 8, "l0": 1e-4}, "excitation": {"impact": 1e-2},
-        "integrator": {"duration": 0.01, "dt": 2.5e-4, "method": "yoshida4"}, "record": {"every": 0.005}}
-DRIVEN = {**BASE, "boundary": {"surface": "driven"},
-          "excitation": {"impact": 0.0, "drive_amplitude": 1e-3, "drive_period": 1.0}}
+BASE = {
+    "chain": {"grains": 8, "l0": 1e-4},
+    "excitation": {"impact": 1e-2},
+    "integrator": {"duration": 0.01, "dt": 2.5e-4, "method": "yoshida4"},
+    "record": {"every": 0.005},
+}
+DRIVEN = {
+    **BASE,
+    "boundary": {"surface": "driven"},
+    "excitation": {"impact": 0.0, "drive_amplitude": 1e-3, "drive_period": 1.0},
+}
 
 
-@pytest.mark.parametrize("data, message", [
-    (DRIVEN, "integrator.method = 'yoshida4': a driven surface (boundary.surface = \"driven\") is not implemented "
-             "for yoshida4: use one of gear4, gear5, gear6, verlet"),
-    ({**BASE, "damping": {"model": "viscous", "gamma": 0.1}},
-     "integrator.method = 'yoshida4': damping (damping.model = \"viscous\") is not implemented for yoshida4: use one "
-     "of gear4, gear5, gear6, verlet"),
-    ({**BASE, "damping": {"model": "contact", "gamma": 0.1}},
-     "integrator.method = 'yoshida4': damping (damping.model = \"contact\") is not implemented for yoshida4"),
-])
+@pytest.mark.parametrize(
+    "data, message",
+    [
+        (
+            DRIVEN,
+            "integrator.method = 'yoshida4': a driven surface (boundary.surface = \"driven\") is not implemented "
+            "for yoshida4: use one of gear4, gear5, gear6, verlet",
+        ),
+        (
+            {**BASE, "damping": {"model": "viscous", "gamma": 0.1}},
+            "integrator.method = 'yoshida4': damping (damping.model = \"viscous\") is not implemented for yoshida4: use one "
+            "of gear4, gear5, gear6, verlet",
+        ),
+        (
+            {**BASE, "damping": {"model": "contact", "gamma": 0.1}},
+            "integrator.method = 'yoshida4': damping (damping.model = \"contact\") is not implemented for yoshida4",
+        ),
+    ],
+)
 def test_drive_and_damping_are_refused(tmp_path, data, message):
     scene = tmp_path / "s.toml"
     scene.write_text(toml_text(data))
@@ -203,7 +235,7 @@ def test_drive_and_damping_are_refused(tmp_path, data, message):
 def test_fused_cuda_kernels_are_refused(tmp_path):
     model = build_model([make_scene(chain={"grains": 8}, integrator={"method": "yoshida4", "dt": 5e-4})], "cpu")
     assert fused_lacks(model.features, is_cpu=False).startswith("method yoshida4")  # auto: per-step kernel on CUDA
-    assert fused_lacks(model.features, is_cpu=True) is None                        # the CPU sweep has it
+    assert fused_lacks(model.features, is_cpu=True) is None  # the CPU sweep has it
     for kernel in ("tile", "window"):
         with pytest.raises(ValueError, match="not implemented for integrator.method = 'yoshida4'"):
             choose_config(model, kernel)
@@ -217,8 +249,16 @@ def test_fused_cuda_kernels_are_refused(tmp_path):
 
 def test_no_event_steps():
     """Event-aware steps are Gear steps: a yoshida4 scene whose contacts open compiles none."""
-    model = build_model([make_scene(chain={"grains": 8, "l0": 0.0}, excitation={"impact": 1e-2},
-                                    integrator={"method": "yoshida4", "dt": 5e-4})], "cpu")
+    model = build_model(
+        [
+            make_scene(
+                chain={"grains": 8, "l0": 0.0},
+                excitation={"impact": 1e-2},
+                integrator={"method": "yoshida4", "dt": 5e-4},
+            )
+        ],
+        "cpu",
+    )
     assert model.features.event_window == 0.0
 
 

@@ -2,15 +2,12 @@
 
 from __future__ import annotations
 
-
-
 import numpy as np
 
 from .common import PowerLawFit, fit_power_law
 
 
-def column_sound_speed(depth, *, gravity: float, a: float = 5657.0, mass: float = 1.0,
-                       exponent: float = 2.5):
+def column_sound_speed(depth, *, gravity: float, a: float = 5657.0, mass: float = 1.0, exponent: float = 2.5):
     """Long-wave sound speed [grains/time] at contact ``depth`` (grains above it: depth + 1) of a
     column compacted by gravity alone (paper eq. 4): the contact carries F = g m (depth + 1), its
     static overlap is δ0 = (F/(n a))^(1/(n−1)), its stiffness K = n (n−1) a δ0^(n−2), and c = √(K/m).
@@ -60,5 +57,5 @@ def speed_against_depth(t, heads, *, last_grain: float, step: int = 4) -> tuple[
     beyond = np.flatnonzero(heads > last_grain)
     stop = beyond[0] if beyond.size else len(t)
     h = heads[:stop]
-    speed = (h[step:] - h[:-step]) / (t[step:stop] - t[:stop - step])
+    speed = (h[step:] - h[:-step]) / (t[step:stop] - t[: stop - step])
     return 0.5 * (h[step:] + h[:-step]), speed

@@ -64,8 +64,14 @@ def fit_power_law(x, y) -> PowerLawFit:
     x, y = np.asarray(x, dtype=float).ravel(), np.asarray(y, dtype=float).ravel()
     keep = (x > 0) & (y > 0) & np.isfinite(x) & np.isfinite(y)
     line = fit_line(np.log(x[keep]), np.log(y[keep]))
-    return PowerLawFit(line.slope, line.slope_error, math.exp(line.intercept) if math.isfinite(line.intercept)
-                       else math.nan, line.intercept_error, line.r_squared, line.points)
+    return PowerLawFit(
+        line.slope,
+        line.slope_error,
+        math.exp(line.intercept) if math.isfinite(line.intercept) else math.nan,
+        line.intercept_error,
+        line.r_squared,
+        line.points,
+    )
 
 
 def paper_displacement(u):

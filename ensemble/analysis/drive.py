@@ -43,8 +43,8 @@ def profile_nodes(profile, *, smooth: int = 5, depth: float = 0.3) -> np.ndarray
         # the highest points between this minimum and its neighbouring minima bound its lobes
         lo = minima[minima < k]
         hi = minima[minima > k]
-        left = p[(lo[-1] if lo.size else 0):k].max(initial=0.0)
-        right = p[k + 1:(hi[0] if hi.size else p.size)].max(initial=0.0)
+        left = p[(lo[-1] if lo.size else 0) : k].max(initial=0.0)
+        right = p[k + 1 : (hi[0] if hi.size else p.size)].max(initial=0.0)
         if left > 0 and right > 0 and p[k] < depth * 0.5 * (left + right):
             nodes.append(k)
     return np.asarray(nodes, dtype=float)
@@ -66,8 +66,9 @@ class StandingWave:
     of ``node_spacing``, shape (windows,): 0 = the nodes stay put; about 0.25 for unrelated nodes."""
 
 
-def standing_wave_measure(profiles, *, smooth: int = 5, depth: float = 0.3,
-                          grains: slice | None = None) -> StandingWave:
+def standing_wave_measure(
+    profiles, *, smooth: int = 5, depth: float = 0.3, grains: slice | None = None
+) -> StandingWave:
     """Compare time-averaged profiles ``profiles`` (window, grain) — e.g. kinetic energy averaged over
     consecutive windows — with the first one: shape correlation and node displacement. A standing
     wave keeps correlation near 1 and its nodes in place; a travelling or disordered pattern
@@ -78,8 +79,12 @@ def standing_wave_measure(profiles, *, smooth: int = 5, depth: float = 0.3,
     smoothed = np.array([_smooth(row, smooth) for row in p])
     nodes = tuple(profile_nodes(row, smooth=smooth, depth=depth) for row in p)
     first = smoothed[0]
-    corr = np.array([float(np.corrcoef(first, row)[0, 1]) if np.std(first) > 0 and np.std(row) > 0 else math.nan
-                     for row in smoothed])
+    corr = np.array(
+        [
+            float(np.corrcoef(first, row)[0, 1]) if np.std(first) > 0 and np.std(row) > 0 else math.nan
+            for row in smoothed
+        ]
+    )
     spacing = float(np.median(np.diff(nodes[0]))) if nodes[0].size >= 2 else math.nan
     shift = np.full(len(p), math.nan)
     for k, other in enumerate(nodes):
@@ -120,8 +125,7 @@ def driven_windows(ds) -> dict:
         centres = ds.window_t.values[starts]
         ke_all, v_all = ds.ke_window.values, ds.v_window.values
         ke, vel = ke_all[:, starts], v_all[:, starts]
-        persistence = [[standing_wave_measure(ke_all[i, block == block[k]]) for k in starts]
-                       for i in range(len(taus))]
+        persistence = [[standing_wave_measure(ke_all[i, block == block[k]]) for k in starts] for i in range(len(taus))]
     else:
         t = ds.t.values
         centres = drive_times(n)
@@ -142,8 +146,16 @@ def driven_windows(ds) -> dict:
 
 # ---- response maps (docs/drive.md): per-point numbers from response windows -------------------------
 
-MAP_METRICS = ("swr", "node_count", "node_drift", "bottom_ke_fraction", "work_growth", "late_power", "driver_open",
-               "label")
+MAP_METRICS = (
+    "swr",
+    "node_count",
+    "node_drift",
+    "bottom_ke_fraction",
+    "work_growth",
+    "late_power",
+    "driver_open",
+    "label",
+)
 """Per-point numbers of :func:`response_map`, in the order of the table."""
 
 LABELS = ("periodic", "quasi-periodic", "chaotic", "unknown")
@@ -163,8 +175,12 @@ def node_drift(amplitudes, *, smooth: int = 1, depth: float = 0.3) -> tuple[np.n
     (node counts per window, median |shift| of each node to the nearest node of the next window [grains])."""
     nodes = [profile_nodes(np.abs(row)[1:-1], smooth=smooth, depth=depth) + 1 for row in np.asarray(amplitudes)]
     counts = np.array([n.size for n in nodes])
-    drift = np.array([float(np.median(np.abs(a[:, None] - b[None, :]).min(axis=1))) if a.size and b.size
-                      else math.nan for a, b in zip(nodes[:-1], nodes[1:])])
+    drift = np.array(
+        [
+            float(np.median(np.abs(a[:, None] - b[None, :]).min(axis=1))) if a.size and b.size else math.nan
+            for a, b in zip(nodes[:-1], nodes[1:])
+        ]
+    )
     return counts, drift
 
 
@@ -203,7 +219,7 @@ def strobe_label(samples, *, periodic_tol: float = 1e-3, max_period: int = 8, pe
         return 0
     lines = 2 * x.shape[1]
     # a line spreads over ~3 bins under the Hann window
-    top = np.sort(power)[::-1][:3 * lines].sum()
+    top = np.sort(power)[::-1][: 3 * lines].sum()
     return 1 if top / total >= peak_fraction else 2
 
 
@@ -227,11 +243,11 @@ def point_response_numbers(point, *, bottom_fraction: float = 0.1) -> dict:
     steady, ≫ 1 = growing; < 0: W fell in the second half) and that late mean power, the driver-open fraction of the last window, and the stroboscopic label
     (traced grains at t = nτ after the first window's start; needs ``record.traces`` with
     ``trace_every`` dividing τ)."""
-    v1 = point.response.sel(harmonic=1).values          # (window, grain)
+    v1 = point.response.sel(harmonic=1).values  # (window, grain)
     counts, drift = node_drift(v1)
     ke = point.window_ke.values[-1]
     n = ke.size
-    bottom = float(ke[n - max(1, int(round(bottom_fraction * n))):].sum() / ke.sum()) if ke.sum() > 0 else math.nan
+    bottom = float(ke[n - max(1, int(round(bottom_fraction * n))) :].sum() / ke.sum()) if ke.sum() > 0 else math.nan
     t, work = point.t.values, point.work.values
     half = len(t) // 2
     growth = second = math.nan
@@ -244,14 +260,23 @@ def point_response_numbers(point, *, bottom_fraction: float = 0.1) -> dict:
         period = point_scene_value(point, "excitation.drive_period")
         if period is not None:
             since = float(point.window_start.values[0])
-            samples = strobe_samples(point.trace_t.values,
-                                     np.concatenate([point.trace_u.values, point.trace_v.values], axis=-1),
-                                     period, since=since)
+            samples = strobe_samples(
+                point.trace_t.values,
+                np.concatenate([point.trace_u.values, point.trace_v.values], axis=-1),
+                period,
+                since=since,
+            )
             label = strobe_label(samples)
-    return {"swr": standing_wave_ratio(v1[-1]), "node_count": int(counts[-1]),
-            "node_drift": float(np.nanmax(drift)) if drift.size and np.any(np.isfinite(drift)) else math.nan,
-            "bottom_ke_fraction": bottom, "work_growth": growth, "late_power": second,
-            "driver_open": float(point.driver_open.values[-1]), "label": int(label)}
+    return {
+        "swr": standing_wave_ratio(v1[-1]),
+        "node_count": int(counts[-1]),
+        "node_drift": float(np.nanmax(drift)) if drift.size and np.any(np.isfinite(drift)) else math.nan,
+        "bottom_ke_fraction": bottom,
+        "work_growth": growth,
+        "late_power": second,
+        "driver_open": float(point.driver_open.values[-1]),
+        "label": int(label),
+    }
 
 
 def response_map(ds) -> dict:

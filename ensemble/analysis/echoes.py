@@ -28,8 +28,9 @@ class Backscatter:
     """Sign of the largest lobe."""
 
 
-def backscatter(t, signal, reference=None, *, after: float = 0.0, until: float = math.inf,
-                fraction: float = 0.2) -> Backscatter:
+def backscatter(
+    t, signal, reference=None, *, after: float = 0.0, until: float = math.inf, fraction: float = 0.2
+) -> Backscatter:
     """Arrival, amplitude and leading sign of the backscattered signal at one grain.
 
     ``signal`` and ``reference`` are one grain's velocity traces (sample,) in the chain with and
@@ -47,12 +48,14 @@ def backscatter(t, signal, reference=None, *, after: float = 0.0, until: float =
     magnitude = np.abs(ew)
     peak = int(np.argmax(magnitude))
     first = int(np.flatnonzero(magnitude >= fraction * magnitude[peak])[0])
-    return Backscatter(float(tw[first]), float(magnitude[peak]), float(tw[peak]), int(np.sign(ew[first])),
-                       int(np.sign(ew[peak])))
+    return Backscatter(
+        float(tw[first]), float(magnitude[peak]), float(tw[peak]), int(np.sign(ew[first])), int(np.sign(ew[peak]))
+    )
 
 
-def first_lobe(t, signal, reference=None, *, after: float = 0.0, until: float = math.inf,
-               fraction: float = 0.05) -> tuple[int, float]:
+def first_lobe(
+    t, signal, reference=None, *, after: float = 0.0, until: float = math.inf, fraction: float = 0.05
+) -> tuple[int, float]:
     """The echo's first lobe: its sign and its largest |echo| divided by the echo's largest, the lobe
     starting where |echo| first reaches ``fraction`` of the largest and ending at the next sign change."""
     t = np.asarray(t, dtype=float)
@@ -90,8 +93,11 @@ def echo_window(ds, traced_grain: int) -> tuple[float, float]:
     reflection arriving (clean chain's speed, from its snapshots)."""
     _, _, clean = impurity_points(ds)
     depth = float(np.mean(impurity_grains(ds)))
-    clean_v = ds.v.isel(impurity_mass=clean, contact=0).values if "contact" in ds.dims else \
-        ds.v.isel(impurity_mass=clean).values
+    clean_v = (
+        ds.v.isel(impurity_mass=clean, contact=0).values
+        if "contact" in ds.dims
+        else ds.v.isel(impurity_mass=clean).values
+    )
     speed = pulse_speed(ds.t.values, head_positions(clean_v), first_grain=20, last_grain=depth - 20).slope
     n = int(ds.sizes["grain"])
     after = (depth - 10 + (depth - 10 - traced_grain)) / speed if speed > 0 else 0.0
@@ -99,8 +105,9 @@ def echo_window(ds, traced_grain: int) -> tuple[float, float]:
     return after, until
 
 
-def echo_table(ds, *, contact: str | None = None, traced: int | None = None,
-               fraction: float = 0.2) -> dict[str, Backscatter]:
+def echo_table(
+    ds, *, contact: str | None = None, traced: int | None = None, fraction: float = 0.2
+) -> dict[str, Backscatter]:
     """Backscatter at a traced grain (default: the shallowest) for light and heavy impurities, against
     the clean chain of the same store; keys 'light/harmonic', 'heavy/own', … ``fraction``: the leading
     sign's threshold (see :func:`backscatter`)."""
@@ -144,10 +151,14 @@ def contrast_table(ds, *, traced: int | None = None) -> dict[str, float]:
     reference = ds.trace_v.isel(impurity_mass=clean, contact=0).values[:, column]
     out = {}
     for rule in [str(c) for c in ds.contact.values]:
-        out[rule] = echo_contrast(ds.trace_t.values,
-                                  ds.trace_v.isel(impurity_mass=light).sel(contact=rule).values[:, column],
-                                  ds.trace_v.isel(impurity_mass=heavy).sel(contact=rule).values[:, column],
-                                  reference, after=after, until=until)
+        out[rule] = echo_contrast(
+            ds.trace_t.values,
+            ds.trace_v.isel(impurity_mass=light).sel(contact=rule).values[:, column],
+            ds.trace_v.isel(impurity_mass=heavy).sel(contact=rule).values[:, column],
+            reference,
+            after=after,
+            until=until,
+        )
     return out
 
 

@@ -84,9 +84,13 @@ def speed_history(t, head, *, window: int = 5) -> tuple[np.ndarray, np.ndarray]:
     count = t.size - window + 1
     if count < 1:
         return np.empty(0), np.empty(0)
-    centres = np.array([t[k:k + window].mean() for k in range(count)])
-    speeds = np.array([fit_line(t[k:k + window], h[k:k + window]).slope if np.all(np.isfinite(h[k:k + window]))
-                       else math.nan for k in range(count)])
+    centres = np.array([t[k : k + window].mean() for k in range(count)])
+    speeds = np.array(
+        [
+            fit_line(t[k : k + window], h[k : k + window]).slope if np.all(np.isfinite(h[k : k + window])) else math.nan
+            for k in range(count)
+        ]
+    )
     return centres, speeds
 
 
@@ -132,7 +136,7 @@ def plateau_tilt(profile, *, fraction: float = 0.8) -> float:
     if hi - lo < 2:
         return math.nan
     grains = np.arange(lo, hi + 1)
-    line = fit_line(grains, p[lo:hi + 1])
+    line = fit_line(grains, p[lo : hi + 1])
     return float(-line.slope * (hi - lo) / top)
 
 
@@ -152,8 +156,8 @@ def overlap_behind_head(u, head: float, *, l0: float = 0.0, near: int = 5, behin
         return math.nan
     dynamic = overlaps(u, l0) - l0
     k = int(round(head))
-    at_head = dynamic[max(k - near, 0):min(k + near + 1, dynamic.size)]
-    rear = dynamic[:max(k - behind, 0)]
+    at_head = dynamic[max(k - near, 0) : min(k + near + 1, dynamic.size)]
+    rear = dynamic[: max(k - behind, 0)]
     if at_head.size == 0 or rear.size == 0 or not np.max(at_head) > 0:
         return math.nan
     return float(np.max(rear) / np.max(at_head))
@@ -192,8 +196,9 @@ def running_max(profile, grains: int):
     return windows.max(axis=-1)
 
 
-def tail_decay(u, head: float, *, skip: int = 10, span: float | None = None, envelope: int = 11,
-               baseline: float = 0.0) -> TailFit:
+def tail_decay(
+    u, head: float, *, skip: int = 10, span: float | None = None, envelope: int = 11, baseline: float = 0.0
+) -> TailFit:
     """Fit ln u = ln A − z/λ over the grains behind the head where the displacement is along the
     compression (u > 0 in SPEC's sign; the paper's negative side of the y axis).
 
@@ -217,8 +222,7 @@ def tail_decay(u, head: float, *, skip: int = 10, span: float | None = None, env
     if not (line.slope < 0):
         return TailFit(math.nan, math.nan, math.nan, line.r_squared, line.points, head)
     decay = -1.0 / line.slope
-    return TailFit(decay, line.slope_error / line.slope**2, math.exp(line.intercept), line.r_squared,
-                   line.points, head)
+    return TailFit(decay, line.slope_error / line.slope**2, math.exp(line.intercept), line.r_squared, line.points, head)
 
 
 def rear_level(u, *, grains: int = 10) -> float:
@@ -232,7 +236,7 @@ NESTERENKO_SUPPORT = math.pi * math.sqrt(2.5)
 """Full width [grains] of Nesterenko's solitary wave, ψ ∝ cos⁴(√(2/5)·s) on |√(2/5)·s| ≤ π/2: π√(5/2) ≈ 4.97."""
 
 
-NESTERENKO_FWHM = 2.0 * math.acos(2.0 ** -0.25) / math.sqrt(0.4)
+NESTERENKO_FWHM = 2.0 * math.acos(2.0**-0.25) / math.sqrt(0.4)
 """Full width at half maximum [grains] of the cos⁴ profile (overlap or grain velocity): ≈ 1.81."""
 
 
@@ -269,8 +273,7 @@ def full_width_half_maximum(x, y) -> float:
     return float(xr - xl)
 
 
-def times_in_flight(t: np.ndarray, heads: np.ndarray, grain_count: int, count: int, *,
-                     reach: float = 0.9) -> list[int]:
+def times_in_flight(t: np.ndarray, heads: np.ndarray, grain_count: int, count: int, *, reach: float = 0.9) -> list[int]:
     """Record indices of ``count`` snapshots evenly spread while the head goes from 10 % to
     ``reach`` of the chain (before it meets the far end)."""
     beyond = np.flatnonzero(heads > reach * grain_count)

@@ -14,19 +14,38 @@ import typer
 
 from ..scene import SceneError, load_scene, parse_overrides
 
-app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
-                  help="Simulate many Hertzian granular chains at once (Warp kernels on GPU or CPU).")
+app = typer.Typer(
+    add_completion=False,
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    help="Simulate many Hertzian granular chains at once (Warp kernels on GPU or CPU).",
+)
 
 EXIT_BAD_INPUT = 2
 
-DeviceOption = Annotated[Optional[str], typer.Option("--device", help="cpu | cuda | cuda:N (default: cuda if present, else cpu).")]
-SetOption = Annotated[Optional[list[str]], typer.Option("--set", help="Override a scene key, e.g. --set chain.l0=1e-4 (repeatable).")]
-SceneArgument = Annotated[Optional[Path], typer.Argument(help="Scene TOML (SPEC §8). Default: the built-in "
-                                                          "example.")]
-PrecisionOption = Annotated[Optional[str], typer.Option("--precision", help="float64 | float32 (compensated float32, docs/stability.md §2b; overrides integrator.precision).")]
-KernelOption = Annotated[str, typer.Option("--kernel", help="auto | fused | step | tile | window | sweep: which "
-                                           "solver steps the chains (ensemble/solvers; fused = auto, short runs "
-                                           "included); results are the same.")]
+DeviceOption = Annotated[
+    Optional[str], typer.Option("--device", help="cpu | cuda | cuda:N (default: cuda if present, else cpu).")
+]
+SetOption = Annotated[
+    Optional[list[str]], typer.Option("--set", help="Override a scene key, e.g. --set chain.l0=1e-4 (repeatable).")
+]
+SceneArgument = Annotated[Optional[Path], typer.Argument(help="Scene TOML (SPEC §8). Default: the built-in example.")]
+PrecisionOption = Annotated[
+    Optional[str],
+    typer.Option(
+        "--precision",
+        help="float64 | float32 (compensated float32, docs/stability.md §2b; overrides integrator.precision).",
+    ),
+]
+KernelOption = Annotated[
+    str,
+    typer.Option(
+        "--kernel",
+        help="auto | fused | step | tile | window | sweep: which "
+        "solver steps the chains (ensemble/solvers; fused = auto, short runs "
+        "included); results are the same.",
+    ),
+]
 
 
 def fail(message: str) -> None:
@@ -44,7 +63,6 @@ def resolve_device(device: str | None) -> str:
     import warp as wp
 
     from ..devices import init_warp
-
     from ..solvers.sweep import cpu_threads
 
     init_warp()

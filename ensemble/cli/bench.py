@@ -26,22 +26,46 @@ def _counts(text: str, flag: str) -> list[int]:
 @app.command()
 def bench(
     device: DeviceOption = None,
-    chains: Annotated[str, typer.Option("--chains", help="Chain counts, comma-separated; zipped with --grains "
-                                        "(a single value repeats).")] = "64",
+    chains: Annotated[
+        str,
+        typer.Option("--chains", help="Chain counts, comma-separated; zipped with --grains (a single value repeats)."),
+    ] = "64",
     grains: Annotated[str, typer.Option("--grains", help="Grains per chain, comma-separated.")] = "1000",
-    steps: Annotated[Optional[int], typer.Option("--steps", help="Steps per timed run (default: enough for "
-                                                 "~0.3 s on a GPU, ~0.5 s on a CPU).")] = None,
-    kernel: Annotated[str, typer.Option("--kernel", help="all | auto | step | tile | window | sweep: the "
-                                        "project kernels to time (peers are always timed).")] = "all",
+    steps: Annotated[
+        Optional[int],
+        typer.Option("--steps", help="Steps per timed run (default: enough for ~0.3 s on a GPU, ~0.5 s on a CPU)."),
+    ] = None,
+    kernel: Annotated[
+        str,
+        typer.Option(
+            "--kernel",
+            help="all | auto | step | tile | window | sweep: the project kernels to time (peers are always timed).",
+        ),
+    ] = "all",
     repeats: Annotated[int, typer.Option("--repeats", help="Timed runs per implementation; the median counts.")] = 5,
     peers: Annotated[bool, typer.Option("--peers/--no-peers", help="Time the NumPy (and JAX) peers.")] = True,
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list of records.")] = False,
-    scene: Annotated[Optional[Path], typer.Option("--scene", help="End to end: time `hertzian run` of this scene "
-                                                  "file (records and store writes included).")] = None,
-    sweep: Annotated[Optional[Path], typer.Option("--sweep", help="End to end: time `hertzian sweep` of this "
-                                                  "sweep file (serial, store in a temporary directory).")] = None,
-    cold: Annotated[bool, typer.Option("--cold", help="End to end with empty Warp kernel and calibration caches "
-                                       "(a fresh temporary directory): what compile and calibration cost.")] = False,
+    scene: Annotated[
+        Optional[Path],
+        typer.Option(
+            "--scene", help="End to end: time `hertzian run` of this scene file (records and store writes included)."
+        ),
+    ] = None,
+    sweep: Annotated[
+        Optional[Path],
+        typer.Option(
+            "--sweep",
+            help="End to end: time `hertzian sweep` of this sweep file (serial, store in a temporary directory).",
+        ),
+    ] = None,
+    cold: Annotated[
+        bool,
+        typer.Option(
+            "--cold",
+            help="End to end with empty Warp kernel and calibration caches "
+            "(a fresh temporary directory): what compile and calibration cost.",
+        ),
+    ] = False,
     set_: SetOption = None,
 ):
     """Grain-steps per second of every implementation, gear4 float64, the paper's chain (program units).
@@ -59,8 +83,9 @@ def bench(
     if len(chain_list) > 1 and len(grain_list) > 1 and len(chain_list) != len(grain_list):
         fail(f"--grains = {grains!r}: as many values as --chains ({len(chain_list)}), or one")
     count = max(len(chain_list), len(grain_list))
-    sizes = [(chain_list[i if len(chain_list) > 1 else 0], grain_list[i if len(grain_list) > 1 else 0])
-             for i in range(count)]
+    sizes = [
+        (chain_list[i if len(chain_list) > 1 else 0], grain_list[i if len(grain_list) > 1 else 0]) for i in range(count)
+    ]
     if kernel not in KERNEL_CHOICES:
         fail(f"--kernel = {kernel!r}: one of {', '.join(KERNEL_CHOICES)}")
     if steps is not None and steps < 1:
@@ -86,14 +111,32 @@ def bench(
     from rich.table import Table
 
     table = Table(title=f"hertzian bench on {records[0]['device_name'] if records else dev}")
-    for column in ("implementation", "kernel", "chains", "grains", "steps", "GS/s", "steps/s", "x wall",
-                   "x best", "rel. diff"):
+    for column in (
+        "implementation",
+        "kernel",
+        "chains",
+        "grains",
+        "steps",
+        "GS/s",
+        "steps/s",
+        "x wall",
+        "x best",
+        "rel. diff",
+    ):
         table.add_column(column)
     for r in records:
-        table.add_row(r["implementation"], r["kernel"], str(r["chains"]), str(r["grains"]), str(r["steps"]),
-                      f"{r['grain_steps_per_second']:.3g}", f"{r['steps_per_second']:.3g}",
-                      f"{r['ratio_to_memory_wall']:.2f}", f"{r['ratio_to_best']:.2f}",
-                      f"{r['max_relative_difference']:.1e}")
+        table.add_row(
+            r["implementation"],
+            r["kernel"],
+            str(r["chains"]),
+            str(r["grains"]),
+            str(r["steps"]),
+            f"{r['grain_steps_per_second']:.3g}",
+            f"{r['steps_per_second']:.3g}",
+            f"{r['ratio_to_memory_wall']:.2f}",
+            f"{r['ratio_to_best']:.2f}",
+            f"{r['max_relative_difference']:.1e}",
+        )
     Console(width=200).print(table)
 
 
@@ -140,8 +183,10 @@ def _end_to_end(scene: Path | None, sweep: Path | None, device, kernel: str, col
         typer.echo(json.dumps([record], indent=1))
         return
     s = record["seconds"]
-    typer.echo(f"{record['workload']} on {record['device_name']} ({record['kernel']}; {'cold' if cold else 'warm'} "
-               f"caches): {s['total']:.2f} s end to end = build {s['build']:.2f} + compile {s['compile']:.2f} + "
-               f"kernel {s['kernel']:.2f} + record {s['record']:.2f} + store {s['store']:.2f} s; "
-               f"{record['grain_steps_per_second']:.3g} GS/s end to end, {record['kernel_grain_steps_per_second']:.3g} "
-               f"in the kernel; device busy {record['device_busy']:.0%}")
+    typer.echo(
+        f"{record['workload']} on {record['device_name']} ({record['kernel']}; {'cold' if cold else 'warm'} "
+        f"caches): {s['total']:.2f} s end to end = build {s['build']:.2f} + compile {s['compile']:.2f} + "
+        f"kernel {s['kernel']:.2f} + record {s['record']:.2f} + store {s['store']:.2f} s; "
+        f"{record['grain_steps_per_second']:.3g} GS/s end to end, {record['kernel_grain_steps_per_second']:.3g} "
+        f"in the kernel; device busy {record['device_busy']:.0%}"
+    )

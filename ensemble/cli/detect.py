@@ -28,40 +28,89 @@ def _pair(key: str, text: str, sep: str, kind):
 
 @app.command()
 def detect(
-    signal: Annotated[Path, typer.Argument(help="CSV with the header line t,v (grain 0's velocity sampled "
-                                           "uniformly from the impact at t = 0, program units), or a hertzian "
-                                           "store with a trace of grain 0.")],
-    scene: Annotated[Optional[Path], typer.Option("--scene", help="BASE scene TOML: the host chain without "
-                                                  "impurities (grains, l0, gravity, boundaries, impact, "
-                                                  "integrator); its duration and record are replaced.")] = None,
-    block: Annotated[int, typer.Option("--block", help="Impurity block length in grains (depth = its first "
-                                       "grain).")] = 1,
-    noise: Annotated[Optional[float], typer.Option("--noise", help="σ of the i.i.d. Gaussian noise [program "
-                                                   "velocity]; default: estimated (see docs/detection.md).")] = None,
-    depths: Annotated[Optional[str], typer.Option("--depths", help="Depths searched, A:B (default: ⌈N/20⌉ to "
-                                                  "the deepest whose echo can start within the signal).")] = None,
-    mass_range: Annotated[str, typer.Option("--mass-range", help="Prior range of the mass ratio μ_min,μ_max "
-                                            "(μ_min < 1 < μ_max).")] = "0.25,4",
-    mass_steps: Annotated[int, typer.Option("--mass-steps", help="Library mass ratios on each side of 1 "
-                                            "(log-spaced).")] = 7,
-    refine: Annotated[int, typer.Option("--refine", help="Depths per class refined by Gauss–Newton in ln μ "
-                                        "(0: the library grid only).")] = 3,
-    iterations: Annotated[int, typer.Option("--iterations", help="Gauss–Newton iterations (one ensemble run "
-                                            "each).")] = 2,
-    window: Annotated[Optional[float], typer.Option("--window", help="Analyse the samples with t ≤ this "
-                                                    "[program time] (default: until the pulse reflected by the "
-                                                    "bottom returns to the surface).")] = None,
-    fit_a: Annotated[bool, typer.Option("--fit-a", help="Also fit the impurity's self-constant a (as a/a_host; "
-                                        "contacts by the scene's impurity rule, the harmonic mean) at the depth "
-                                        "found; reports a_ratio with a 95 % interval.")] = False,
-    a_range: Annotated[Optional[str], typer.Option("--a-range", help="With --fit-a: prior range of a/a_host, "
-                                                   "a_min,a_max (a_min < 1 < a_max; default 0.25,4).")] = None,
+    signal: Annotated[
+        Path,
+        typer.Argument(
+            help="CSV with the header line t,v (grain 0's velocity sampled "
+            "uniformly from the impact at t = 0, program units), or a hertzian "
+            "store with a trace of grain 0."
+        ),
+    ],
+    scene: Annotated[
+        Optional[Path],
+        typer.Option(
+            "--scene",
+            help="BASE scene TOML: the host chain without "
+            "impurities (grains, l0, gravity, boundaries, impact, "
+            "integrator); its duration and record are replaced.",
+        ),
+    ] = None,
+    block: Annotated[
+        int, typer.Option("--block", help="Impurity block length in grains (depth = its first grain).")
+    ] = 1,
+    noise: Annotated[
+        Optional[float],
+        typer.Option(
+            "--noise",
+            help="σ of the i.i.d. Gaussian noise [program velocity]; default: estimated (see docs/detection.md).",
+        ),
+    ] = None,
+    depths: Annotated[
+        Optional[str],
+        typer.Option(
+            "--depths",
+            help="Depths searched, A:B (default: ⌈N/20⌉ to the deepest whose echo can start within the signal).",
+        ),
+    ] = None,
+    mass_range: Annotated[
+        str, typer.Option("--mass-range", help="Prior range of the mass ratio μ_min,μ_max (μ_min < 1 < μ_max).")
+    ] = "0.25,4",
+    mass_steps: Annotated[
+        int, typer.Option("--mass-steps", help="Library mass ratios on each side of 1 (log-spaced).")
+    ] = 7,
+    refine: Annotated[
+        int,
+        typer.Option("--refine", help="Depths per class refined by Gauss–Newton in ln μ (0: the library grid only)."),
+    ] = 3,
+    iterations: Annotated[
+        int, typer.Option("--iterations", help="Gauss–Newton iterations (one ensemble run each).")
+    ] = 2,
+    window: Annotated[
+        Optional[float],
+        typer.Option(
+            "--window",
+            help="Analyse the samples with t ≤ this "
+            "[program time] (default: until the pulse reflected by the "
+            "bottom returns to the surface).",
+        ),
+    ] = None,
+    fit_a: Annotated[
+        bool,
+        typer.Option(
+            "--fit-a",
+            help="Also fit the impurity's self-constant a (as a/a_host; "
+            "contacts by the scene's impurity rule, the harmonic mean) at the depth "
+            "found; reports a_ratio with a 95 % interval.",
+        ),
+    ] = False,
+    a_range: Annotated[
+        Optional[str],
+        typer.Option(
+            "--a-range", help="With --fit-a: prior range of a/a_host, a_min,a_max (a_min < 1 < a_max; default 0.25,4)."
+        ),
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the result as a JSON object.")] = False,
-    plot: Annotated[Optional[Path], typer.Option("--plot", help="Draw signal, best fit, residual and the "
-                                                 "posterior over depth into this PNG.")] = None,
+    plot: Annotated[
+        Optional[Path],
+        typer.Option("--plot", help="Draw signal, best fit, residual and the posterior over depth into this PNG."),
+    ] = None,
     no_cache: Annotated[bool, typer.Option("--no-cache", help="Neither read nor write the library cache.")] = False,
-    batch_size: Annotated[Optional[int], typer.Option("--batch-size", help="Chains per ensemble run of the library "
-                                                      "(default 4096 on the CPU, 16384 on a GPU).")] = None,
+    batch_size: Annotated[
+        Optional[int],
+        typer.Option(
+            "--batch-size", help="Chains per ensemble run of the library (default 4096 on the CPU, 16384 on a GPU)."
+        ),
+    ] = None,
     device: DeviceOption = None,
     set_: SetOption = None,
 ):
@@ -104,10 +153,23 @@ def detect(
     if note:
         typer.echo(f"note: {note}", err=True)
     try:
-        result, library = run_detection(measured, base, block=block, noise=noise, device=dev, depth_range=depth_range,
-                                        mass_ratio_range=(low, high), mass_steps=mass_steps, refine=refine,
-                                        iterations=iterations, window=window, use_cache=not no_cache, batch_size=batch_size,
-                                        fit_a=fit_a, a_ratio_range=(a_low, a_high))
+        result, library = run_detection(
+            measured,
+            base,
+            block=block,
+            noise=noise,
+            device=dev,
+            depth_range=depth_range,
+            mass_ratio_range=(low, high),
+            mass_steps=mass_steps,
+            refine=refine,
+            iterations=iterations,
+            window=window,
+            use_cache=not no_cache,
+            batch_size=batch_size,
+            fit_a=fit_a,
+            a_ratio_range=(a_low, a_high),
+        )
     except SceneError as err:
         fail(str(err))
     if plot is not None:
@@ -116,8 +178,9 @@ def detect(
         typer.echo(json.dumps(result.to_dict(), indent=1))
     else:
         p = result.class_probability
-        typer.echo(f"class        {result.kind}  (p: none {p['none']:.3g}, light {p['light']:.3g}, "
-                   f"heavy {p['heavy']:.3g})")
+        typer.echo(
+            f"class        {result.kind}  (p: none {p['none']:.3g}, light {p['light']:.3g}, heavy {p['heavy']:.3g})"
+        )
         if result.kind != "none":
             lo, hi = result.depth_interval
             mlo, mhi = result.mass_ratio_interval
@@ -125,21 +188,31 @@ def detect(
             typer.echo(f"mass ratio   {result.mass_ratio:.4g}  (95 %: {mlo:.4g} … {mhi:.4g})")
             if result.fit_a is not None:
                 fa = result.fit_a
-                interval = (f"95 %: {fa['a_ratio_interval'][0]:.4g} … {fa['a_ratio_interval'][1]:.4g}"
-                            if fa["a_ratio_interval"] else "no better than a = a_host")
-                typer.echo(f"a / a_host   {fa['a_ratio']:.4g}  ({interval}; RSS {fa['rss']:.4g}, with a = a_host "
-                           f"{fa['rss_a_host']:.4g})")
+                interval = (
+                    f"95 %: {fa['a_ratio_interval'][0]:.4g} … {fa['a_ratio_interval'][1]:.4g}"
+                    if fa["a_ratio_interval"]
+                    else "no better than a = a_host"
+                )
+                typer.echo(
+                    f"a / a_host   {fa['a_ratio']:.4g}  ({interval}; RSS {fa['rss']:.4g}, with a = a_host "
+                    f"{fa['rss_a_host']:.4g})"
+                )
         typer.echo(f"noise σ      {result.noise:.4g}  ({result.noise_source})")
         a, b = result.depths_searched
         s = result.seconds
         library_text = "cached" if result.library_from_cache else f"{s['library']:.2f} s"
-        typer.echo(f"searched     depths {a} … {b}, mass ratio {low:g} … {high:g}, t ≤ {result.window:g}; forward dt {result.dt:g} on {dev}; "
-                   f"library {library_text}, "
-                   f"refinement {s['refinement']:.2f} s, total {s['total']:.2f} s")
+        typer.echo(
+            f"searched     depths {a} … {b}, mass ratio {low:g} … {high:g}, t ≤ {result.window:g}; forward dt {result.dt:g} on {dev}; "
+            f"library {library_text}, "
+            f"refinement {s['refinement']:.2f} s, total {s['total']:.2f} s"
+        )
     if result.misfit_ratio is not None and result.misfit_ratio > MISFIT_WARNING:
-        typer.echo(f"warning: the best fit leaves σ = {result.noise:.3g}, {result.misfit_ratio:.1f}× the noise before "
-                   "the earliest echo: the model misses part of the signal (a local minimum, an impurity outside "
-                   "the search, or model error); the intervals are not to be trusted", err=True)
+        typer.echo(
+            f"warning: the best fit leaves σ = {result.noise:.3g}, {result.misfit_ratio:.1f}× the noise before "
+            "the earliest echo: the model misses part of the signal (a local minimum, an impurity outside "
+            "the search, or model error); the intervals are not to be trusted",
+            err=True,
+        )
     if plot is not None:
         typer.echo(f"wrote {plot}", err=True)
 
@@ -160,8 +233,9 @@ def candidate_events_note(base, dev: str) -> str | None:
 @app.command("detect-study")
 def detect_study(
     study: Annotated[Path, typer.Argument(help="Study TOML (e.g. sweeps/detect_study.toml).")],
-    out: Annotated[Path, typer.Option("--out", help="JSON file to write (records and summary).")] =
-        Path("detect-study.json"),
+    out: Annotated[Path, typer.Option("--out", help="JSON file to write (records and summary).")] = Path(
+        "detect-study.json"
+    ),
     overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing --out.")] = False,
     device: DeviceOption = None,
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress lines on stderr.")] = False,
@@ -183,9 +257,12 @@ def detect_study(
 
     def progress(record: dict) -> None:
         if not quiet:
-            typer.echo(f"{record['host']} snr {record['snr_db']:g} true {record['true_class']} d={record['true_depth']} "
-                       f"μ={record['true_mass_ratio']:g} → {record['class']} d={record['depth']} "
-                       f"μ={record['mass_ratio']:.3g} ({record['seconds']['total']:.2f} s)", err=True)
+            typer.echo(
+                f"{record['host']} snr {record['snr_db']:g} true {record['true_class']} d={record['true_depth']} "
+                f"μ={record['true_mass_ratio']:g} → {record['class']} d={record['depth']} "
+                f"μ={record['mass_ratio']:.3g} ({record['seconds']['total']:.2f} s)",
+                err=True,
+            )
 
     try:
         result = run_study(study, dev, progress=progress)
@@ -194,8 +271,10 @@ def detect_study(
     write_study(result, out)
     for host, per_snr in result["summary"].items():
         for snr, row in per_snr.items():
-            typer.echo(f"{host} SNR {float(snr):g} dB: class {row['class_accuracy']:.3f}, depth ±1 "
-                       f"{row['depth_within_1'] if row['depth_within_1'] is None else round(row['depth_within_1'], 3)}, "
-                       f"μ coverage {row['mass_ratio_interval_coverage']}, "
-                       f"{row['seconds_per_detection_median']:.2f} s/detection")
+            typer.echo(
+                f"{host} SNR {float(snr):g} dB: class {row['class_accuracy']:.3f}, depth ±1 "
+                f"{row['depth_within_1'] if row['depth_within_1'] is None else round(row['depth_within_1'], 3)}, "
+                f"μ coverage {row['mass_ratio_interval_coverage']}, "
+                f"{row['seconds_per_detection_median']:.2f} s/detection"
+            )
     typer.echo(f"wrote {out} ({result['meta']['wall_seconds']:.0f} s)")

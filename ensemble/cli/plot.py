@@ -25,18 +25,31 @@ def _parse_at(items: list[str] | None) -> dict[str, float]:
 
 @app.command()
 def plot(
-    store: Annotated[Path, typer.Argument(help="A store written by `hertzian run`, `hertzian sweep` or "
-                                          "`hertzian reproduce`.")],
-    figure: Annotated[Optional[str], typer.Option(
-        "--figure", help="A paper figure group instead of the store picture: fig1 | fig1d | fig2 | fig3 | fig4 | "
-        "fig5 | modes | fig6 | depth | fig7_8 | fig9 | fig10 (the store must hold that figure's sweep); drive_map: the "
-        "response map of a drive sweep (docs/drive.md), its numbers also written as JSON next to the PNG.")] = None,
+    store: Annotated[
+        Path, typer.Argument(help="A store written by `hertzian run`, `hertzian sweep` or `hertzian reproduce`.")
+    ],
+    figure: Annotated[
+        Optional[str],
+        typer.Option(
+            "--figure",
+            help="A paper figure group instead of the store picture: fig1 | fig1d | fig2 | fig3 | fig4 | "
+            "fig5 | modes | fig6 | depth | fig7_8 | fig9 | fig10 (the store must hold that figure's sweep); drive_map: the "
+            "response map of a drive sweep (docs/drive.md), its numbers also written as JSON next to the PNG.",
+        ),
+    ] = None,
     field: Annotated[str, typer.Option("--field", help="u | v: the field of the depth–time picture.")] = "v",
-    at: Annotated[Optional[list[str]], typer.Option(
-        "--at", help="Which point of a sweep store: axis=value, nearest coordinate (repeatable; default: the "
-        "first along each axis).")] = None,
-    out: Annotated[Optional[Path], typer.Option("--out", help="PNG file to write (default: STORE's name "
-                                                "with .png, or FIGURE.png).")] = None,
+    at: Annotated[
+        Optional[list[str]],
+        typer.Option(
+            "--at",
+            help="Which point of a sweep store: axis=value, nearest coordinate (repeatable; default: the "
+            "first along each axis).",
+        ),
+    ] = None,
+    out: Annotated[
+        Optional[Path],
+        typer.Option("--out", help="PNG file to write (default: STORE's name with .png, or FIGURE.png)."),
+    ] = None,
 ):
     """Draw a store: the depth–time picture of u or v, the traced grains and the energy error of one point
     (program units: length 1e-5 m, time 1.0102e-3 s; the store's sign, + into the chain). With --figure,
@@ -70,11 +83,16 @@ def plot(
             from .. import analysis as an
 
             numbers = an.response_map(dataset)
-            rows = [{**{d: float(numbers["coords"][d][i]) for d, i in zip(numbers["dims"], index)},
-                     **{m: float(numbers[m][index]) for m in an.MAP_METRICS},
-                     "label_name": an.LABELS[int(numbers["label"][index])] if numbers["label"][index] == numbers[
-                         "label"][index] else None}
-                    for index in __import__("numpy").ndindex(*numbers["label"].shape)]
+            rows = [
+                {
+                    **{d: float(numbers["coords"][d][i]) for d, i in zip(numbers["dims"], index)},
+                    **{m: float(numbers[m][index]) for m in an.MAP_METRICS},
+                    "label_name": an.LABELS[int(numbers["label"][index])]
+                    if numbers["label"][index] == numbers["label"][index]
+                    else None,
+                }
+                for index in __import__("numpy").ndindex(*numbers["label"].shape)
+            ]
             out.with_suffix(".json").write_text(json.dumps({"store": str(store), "points": rows}, indent=1))
         if figure:
             plot_figure(dataset, figure, out)

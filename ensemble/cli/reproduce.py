@@ -12,34 +12,67 @@ from .app import DeviceOption, app, fail, resolve_device
 
 @app.command()
 def reproduce(
-    figure: Annotated[Optional[list[str]], typer.Option(
-        "--figure", help="A figure group or figure (fig1, fig1d, fig2, fig3, fig3_load, fig4, fig5, fig5_single, "
-        "fig5_modes or modes, fig6, depth, fig7_8, fig7_8_single, fig7_8_slow, fig9_10 or fig9/fig10); repeatable. "
-        "Default: every group.")] = None,
-    quick: Annotated[bool, typer.Option("--quick", help="Short chains and times: the whole paper in minutes on a "
-                                        "CPU (a test of the pipeline, not the paper's numbers).")] = False,
+    figure: Annotated[
+        Optional[list[str]],
+        typer.Option(
+            "--figure",
+            help="A figure group or figure (fig1, fig1d, fig2, fig3, fig3_load, fig4, fig5, fig5_single, "
+            "fig5_modes or modes, fig6, depth, fig7_8, fig7_8_single, fig7_8_slow, fig9_10 or fig9/fig10); repeatable. "
+            "Default: every group.",
+        ),
+    ] = None,
+    quick: Annotated[
+        bool,
+        typer.Option(
+            "--quick",
+            help="Short chains and times: the whole paper in minutes on a "
+            "CPU (a test of the pipeline, not the paper's numbers).",
+        ),
+    ] = False,
     out_dir: Annotated[Path, typer.Option("--out-dir", help="Folder for the stores, PNGs and log.json.")] = Path(
-        "reproduce_out"),
-    sweeps: Annotated[Optional[Path], typer.Option("--sweeps", help="Folder of the paper_*.toml sweep files "
-                                                   "(default: the repository's sweeps/).")] = None,
-    drive_grains: Annotated[Optional[int], typer.Option("--drive-grains", help="Length of the driven column of "
-                                                        "Figs. 9-10 (default 10000; 300 with --quick); the paper's "
-                                                        "times scale with the travel time, N^(5/6).")] = None,
-    events: Annotated[Optional[str], typer.Option("--events", help="auto | off: integrator.events for every group "
-                                                  "(default: as each sweep file says, plain Gear steps; auto = "
-                                                  "event-aware steps, a smaller energy error at 2-27x the GPU time, "
-                                                  "docs/reproduction.md).")] = None,
-    kernel: Annotated[Optional[str], typer.Option("--kernel", help="auto | fused | step | tile | window | sweep for "
-                                                  "every figure group's sweep (default, per group: fused on a GPU "
-                                                  "where the group takes plain Gear steps, so the short groups run "
-                                                  "on the calibrated fused kernels, cached after the first run; "
-                                                  "else auto).")] = None,
+        "reproduce_out"
+    ),
+    sweeps: Annotated[
+        Optional[Path],
+        typer.Option("--sweeps", help="Folder of the paper_*.toml sweep files (default: the repository's sweeps/)."),
+    ] = None,
+    drive_grains: Annotated[
+        Optional[int],
+        typer.Option(
+            "--drive-grains",
+            help="Length of the driven column of "
+            "Figs. 9-10 (default 10000; 300 with --quick); the paper's "
+            "times scale with the travel time, N^(5/6).",
+        ),
+    ] = None,
+    events: Annotated[
+        Optional[str],
+        typer.Option(
+            "--events",
+            help="auto | off: integrator.events for every group "
+            "(default: as each sweep file says, plain Gear steps; auto = "
+            "event-aware steps, a smaller energy error at 2-27x the GPU time, "
+            "docs/reproduction.md).",
+        ),
+    ] = None,
+    kernel: Annotated[
+        Optional[str],
+        typer.Option(
+            "--kernel",
+            help="auto | fused | step | tile | window | sweep for "
+            "every figure group's sweep (default, per group: fused on a GPU "
+            "where the group takes plain Gear steps, so the short groups run "
+            "on the calibrated fused kernels, cached after the first run; "
+            "else auto).",
+        ),
+    ] = None,
     device: DeviceOption = None,
 ):
     """Run Sen, Manciu & Wright (1998)'s figure groups: per group a Zarr store, its figures as PNGs, and in
     OUT_DIR/log.json the device, wall seconds, grain-steps per second and largest energy error of every run.
     Full size needs a GPU for Figs. 9–10 (8e10 grain-steps); --quick runs everything small on a CPU."""
-    from ..reproduce import GROUPS, default_sweeps_dir, group_of, reproduce as run_all
+    from ..reproduce import GROUPS, default_sweeps_dir, group_of
+    from ..reproduce import reproduce as run_all
 
     groups = []
     for name in figure or []:
@@ -52,8 +85,10 @@ def reproduce(
     sweeps_dir = sweeps or default_sweeps_dir()
     missing = [g for g in (groups or GROUPS) if not (sweeps_dir / GROUPS[g].sweep).is_file()]
     if missing:
-        fail(f"--sweeps = {str(sweeps_dir)!r}: no {GROUPS[missing[0]].sweep} there (a folder of the paper_*.toml "
-             "sweep files)")
+        fail(
+            f"--sweeps = {str(sweeps_dir)!r}: no {GROUPS[missing[0]].sweep} there (a folder of the paper_*.toml "
+            "sweep files)"
+        )
     if out_dir.exists() and not out_dir.is_dir():
         fail(f"--out-dir = {str(out_dir)!r}: exists and is not a folder")
     if not out_dir.parent.exists():
@@ -71,8 +106,17 @@ def reproduce(
         fail(f"--kernel = 'sweep': a CPU kernel; --device = {dev!r}")
     if kernel in ("tile", "window") and dev == "cpu":
         fail(f"--kernel = {kernel!r}: CUDA kernels; on --device cpu use auto, fused, step or sweep")
-    log = run_all(out_dir, groups=[g for g in GROUPS if g in groups] or None, quick=quick, device=dev,
-                  sweeps_dir=sweeps_dir, drive_grains=drive_grains, events=events, kernel=kernel, say=typer.echo)
+    log = run_all(
+        out_dir,
+        groups=[g for g in GROUPS if g in groups] or None,
+        quick=quick,
+        device=dev,
+        sweeps_dir=sweeps_dir,
+        drive_grains=drive_grains,
+        events=events,
+        kernel=kernel,
+        say=typer.echo,
+    )
     typer.echo(f"wrote {out_dir}/log.json ({len(log['runs'])} runs, {log['total_seconds']:.0f} s)")
     if log["figure_failures"]:
         typer.echo(f"error: {log['figure_failures']} figure(s) could not be drawn (see log.json)", err=True)

@@ -13,16 +13,25 @@ from .app import DeviceOption, KernelOption, PrecisionOption, SetOption, app, fa
 
 @app.command()
 def run(
-    scene: Annotated[Optional[Path], typer.Argument(help="Scene TOML (SPEC §8). Default: the built-in example "
-                                                   "(1000-grain impact, l0 = 1e-4, v_imp = 1e-2).")] = None,
+    scene: Annotated[
+        Optional[Path],
+        typer.Argument(
+            help="Scene TOML (SPEC §8). Default: the built-in example (1000-grain impact, l0 = 1e-4, v_imp = 1e-2)."
+        ),
+    ] = None,
     out: Annotated[Path, typer.Option("--out", help="Zarr store to write.")] = Path("hertzian-run.zarr"),
     device: DeviceOption = None,
     precision: PrecisionOption = None,
     set_: SetOption = None,
     overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing store.")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
-    strict: Annotated[bool, typer.Option("--strict", help="Refuse (exit 2) when dt looks unstable or "
-                                         "inaccurate (see hertzian check) instead of warning.")] = False,
+    strict: Annotated[
+        bool,
+        typer.Option(
+            "--strict",
+            help="Refuse (exit 2) when dt looks unstable or inaccurate (see hertzian check) instead of warning.",
+        ),
+    ] = False,
     kernel: KernelOption = "auto",
 ):
     """Run one scene and store it as Zarr (times in program units of 1.0102e-3 s)."""
@@ -70,8 +79,13 @@ def run(
     if not quiet and sys.stderr.isatty():
         from rich.progress import BarColumn, Progress, TimeRemainingColumn
 
-        bar = Progress("[progress.description]{task.description}", BarColumn(), "{task.completed}/{task.total} records",
-                       TimeRemainingColumn(), transient=True)
+        bar = Progress(
+            "[progress.description]{task.description}",
+            BarColumn(),
+            "{task.completed}/{task.total} records",
+            TimeRemainingColumn(),
+            transient=True,
+        )
         bar.start()
         task = bar.add_task("integrating", total=loaded.record_count)
         progress = lambda done, total: bar.update(task, completed=done)  # noqa: E731
@@ -86,5 +100,6 @@ def run(
         f"{loaded.chain.grains} grains, {result.steps} steps of {loaded.integrator.method} "
         f"dt={loaded.integrator.dt:g} on {result.device} ({runner.solver.describe()} kernel): {result.wall_seconds:.2f} s, "
         f"{result.grain_steps_per_second:.3g} grain-steps/s, energy error {result.energy_error[0]:.2e}, "
-        f"status {status}")
+        f"status {status}"
+    )
     typer.echo(f"wrote {out}")

@@ -15,8 +15,14 @@ from .app import app, fail
 def summarize(
     store: Annotated[Path, typer.Argument(help="A store written by run or sweep.")],
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list of records (one per point).")] = False,
-    rows: Annotated[int, typer.Option("--rows", help="Most points listed in the table; a larger store shows "
-                                      "its status counts and the points with the largest energy error.")] = 40,
+    rows: Annotated[
+        int,
+        typer.Option(
+            "--rows",
+            help="Most points listed in the table; a larger store shows "
+            "its status counts and the points with the largest energy error.",
+        ),
+    ] = 40,
 ):
     """Per point: status, energy error [relative], max overlap [length], wall seconds, grain-steps per second.
 
@@ -36,8 +42,12 @@ def summarize(
     if as_json:
         names = list(columns)
         # indented for reading; a large store's list unindented (json's C encoder, ~10× faster)
-        typer.echo(json.dumps([dict(zip(names, row)) for row in zip(*[columns[n].tolist() for n in names])],
-                              indent=1 if count <= 1000 else None))
+        typer.echo(
+            json.dumps(
+                [dict(zip(names, row)) for row in zip(*[columns[n].tolist() for n in names])],
+                indent=1 if count <= 1000 else None,
+            )
+        )
         return
     from rich.console import Console
     from rich.table import Table
@@ -59,14 +69,23 @@ def summarize(
     for k in keys:
         table.add_column(k)
     for p in shown:
-        table.add_row(*[f"{v:.3g}" if isinstance(v, float) else str(v) for v in (columns[k][p].item()
-                        if hasattr(columns[k][p], "item") else columns[k][p] for k in keys)])
+        table.add_row(
+            *[
+                f"{v:.3g}" if isinstance(v, float) else str(v)
+                for v in (columns[k][p].item() if hasattr(columns[k][p], "item") else columns[k][p] for k in keys)
+            ]
+        )
     console = Console(width=160)
     console.print(table)
     codes, counts = np.unique(columns["status_name"].astype(str), return_counts=True)
     finite = columns["energy_error"][np.isfinite(columns["energy_error"])]
-    console.print(f"{count} point(s); {columns['grains'][0]} grains, {columns['steps'][0]} steps of "
-                  f"{columns['method'][0]} dt={columns['dt'][0]:g} ({columns['precision'][0]}) on "
-                  f"{columns['device'][0]}")
-    console.print("status: " + ", ".join(f"{c} {k}" for c, k in zip(codes, counts))
-                  + (f"; energy error max {finite.max():.3g}, median {np.median(finite):.3g}" if finite.size else ""))
+    console.print(
+        f"{count} point(s); {columns['grains'][0]} grains, {columns['steps'][0]} steps of "
+        f"{columns['method'][0]} dt={columns['dt'][0]:g} ({columns['precision'][0]}) on "
+        f"{columns['device'][0]}"
+    )
+    console.print(
+        "status: "
+        + ", ".join(f"{c} {k}" for c, k in zip(codes, counts))
+        + (f"; energy error max {finite.max():.3g}, median {np.median(finite):.3g}" if finite.size else "")
+    )

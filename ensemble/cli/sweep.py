@@ -14,8 +14,8 @@ from typing import Annotated, Optional
 
 import typer
 
-from .app import DeviceOption, KernelOption, PrecisionOption, SetOption, app, fail, resolve_device
 from ..scene import SceneError, parse_overrides
+from .app import DeviceOption, KernelOption, PrecisionOption, SetOption, app, fail, resolve_device
 
 
 class _Progress:
@@ -37,9 +37,17 @@ class _Progress:
                 speed = task.finished_speed or task.speed
                 return Text(f"{speed:.3g} grain-steps/s" if speed else "… grain-steps/s")
 
-        self.bar = Progress(TextColumn("sweep"), BarColumn(bar_width=20), TextColumn("{task.fields[batches]} batches"),
-                            TextColumn("t={task.fields[sim]}"), RateColumn(), TextColumn("ETA"),
-                            TimeRemainingColumn(), console=Console(stderr=True), transient=True)
+        self.bar = Progress(
+            TextColumn("sweep"),
+            BarColumn(bar_width=20),
+            TextColumn("{task.fields[batches]} batches"),
+            TextColumn("t={task.fields[sim]}"),
+            RateColumn(),
+            TextColumn("ETA"),
+            TimeRemainingColumn(),
+            console=Console(stderr=True),
+            transient=True,
+        )
         self.bar.start()
         self.task = self.bar.add_task("sweep", total=max(grain_steps, 1), batches=self._batches(), sim="–")
 
@@ -52,8 +60,11 @@ class _Progress:
         scene = job.chains.template
         fraction = (done - 1) / max(total - 1, 1)
         t = float(scene.record_times[done - 1])
-        self.bar.update(self.task, completed=self.finished_steps + fraction * job.grain_steps,
-                        sim=f"{t:.4g}/{scene.integrator.duration:g}")
+        self.bar.update(
+            self.task,
+            completed=self.finished_steps + fraction * job.grain_steps,
+            sim=f"{t:.4g}/{scene.integrator.duration:g}",
+        )
 
     def batch_done(self, job, record) -> None:
         self.done_batches += 1
@@ -98,30 +109,61 @@ def corner_dt_warnings(definition, scenes=None) -> list[str]:
 @app.command()
 def sweep(
     sweep_file: Annotated[Path, typer.Argument(help="Sweep TOML: a base scene and [[axis]] tables (docs/sweeps.md).")],
-    out: Annotated[Optional[Path], typer.Option("--out", help="Zarr store to write (default: the sweep file's "
-                                                "name with .zarr, in the current directory).")] = None,
-    resume: Annotated[bool, typer.Option("--resume", help="Continue an interrupted store: skip finished "
-                                         "batches (refused for a different sweep or package version).")] = False,
+    out: Annotated[
+        Optional[Path],
+        typer.Option(
+            "--out", help="Zarr store to write (default: the sweep file's name with .zarr, in the current directory)."
+        ),
+    ] = None,
+    resume: Annotated[
+        bool,
+        typer.Option(
+            "--resume",
+            help="Continue an interrupted store: skip finished "
+            "batches (refused for a different sweep or package version).",
+        ),
+    ] = False,
     overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing store.")] = False,
-    dry_run: Annotated[bool, typer.Option("--dry-run", help="Print the plan (points, batches, memory, "
-                                          "grain-steps) and write nothing.")] = False,
-    batch_size: Annotated[Optional[int], typer.Option("--batch-size", help="Points per ensemble launch "
-                                                      "(default: as many as fit the device's memory).")] = None,
-    workers: Annotated[Optional[int], typer.Option("--workers", help="Run batches on N local Dask worker "
-                                                   "processes (one device each: worker i uses cuda:i).")] = None,
-    scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="Run batches on an existing Dask "
-                                                     "cluster, e.g. tcp://host:8786.")] = None,
+    dry_run: Annotated[
+        bool, typer.Option("--dry-run", help="Print the plan (points, batches, memory, grain-steps) and write nothing.")
+    ] = False,
+    batch_size: Annotated[
+        Optional[int],
+        typer.Option("--batch-size", help="Points per ensemble launch (default: as many as fit the device's memory)."),
+    ] = None,
+    workers: Annotated[
+        Optional[int],
+        typer.Option(
+            "--workers", help="Run batches on N local Dask worker processes (one device each: worker i uses cuda:i)."
+        ),
+    ] = None,
+    scheduler: Annotated[
+        Optional[str],
+        typer.Option("--scheduler", help="Run batches on an existing Dask cluster, e.g. tcp://host:8786."),
+    ] = None,
     device: DeviceOption = None,
     precision: PrecisionOption = None,
     set_: SetOption = None,
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
-    strict: Annotated[bool, typer.Option("--strict", help="Refuse (exit 2) when dt looks unstable or "
-                                         "inaccurate at a corner of the grid (see hertzian check).")] = False,
-    as_json: Annotated[bool, typer.Option("--json", help="Print a JSON summary with the time split (load, "
-                                          "expand, plan, store creation, model build, kernel, store writes) on "
-                                          "stdout.")] = False,
-    allow_large: Annotated[bool, typer.Option("--allow-large", help="Run sweeps of more than 10^7 points "
-                                              "(refused by default).")] = False,
+    strict: Annotated[
+        bool,
+        typer.Option(
+            "--strict",
+            help="Refuse (exit 2) when dt looks unstable or inaccurate at a corner of the grid (see hertzian check).",
+        ),
+    ] = False,
+    as_json: Annotated[
+        bool,
+        typer.Option(
+            "--json",
+            help="Print a JSON summary with the time split (load, "
+            "expand, plan, store creation, model build, kernel, store writes) on "
+            "stdout.",
+        ),
+    ] = False,
+    allow_large: Annotated[
+        bool, typer.Option("--allow-large", help="Run sweeps of more than 10^7 points (refused by default).")
+    ] = False,
     kernel: KernelOption = "auto",
 ):
     """Run a parameter sweep (SPEC §8) as batched ensembles into one Zarr store with one dimension per axis.
@@ -195,17 +237,44 @@ def sweep(
     if dry_run:
         if as_json:
             typer.echo(describe(plan, definition), err=True)
-            typer.echo(json.dumps({"points": plan.point_count, "batches": len(plan.batches),
-                                   "batch_size": plan.batch_size, "grain_steps": plan.grain_steps,
-                                   "device": dev, "seconds": timing}, indent=1))
+            typer.echo(
+                json.dumps(
+                    {
+                        "points": plan.point_count,
+                        "batches": len(plan.batches),
+                        "batch_size": plan.batch_size,
+                        "grain_steps": plan.grain_steps,
+                        "device": dev,
+                        "seconds": timing,
+                    },
+                    indent=1,
+                )
+            )
         else:
             typer.echo(describe(plan, definition))
         return
     if resuming and batch_size is not None and plan.batch_size != batch_size:
-        typer.echo(f"note: --batch-size {batch_size} ignored: {out} was planned with batches of up to "
-                   f"{plan.batch_size} points", err=True)
-    _run(definition, points, plan, out, dev, resuming=resuming, overwrite=overwrite, workers=workers,
-         scheduler=scheduler, requested_device=device, quiet=quiet, timing=timing, as_json=as_json, kernel=kernel)
+        typer.echo(
+            f"note: --batch-size {batch_size} ignored: {out} was planned with batches of up to "
+            f"{plan.batch_size} points",
+            err=True,
+        )
+    _run(
+        definition,
+        points,
+        plan,
+        out,
+        dev,
+        resuming=resuming,
+        overwrite=overwrite,
+        workers=workers,
+        scheduler=scheduler,
+        requested_device=device,
+        quiet=quiet,
+        timing=timing,
+        as_json=as_json,
+        kernel=kernel,
+    )
 
 
 def _per_step_notes(plan, dev: str) -> None:
@@ -257,28 +326,60 @@ def _connect(workers, scheduler, stack: contextlib.ExitStack):
         fail(f"--scheduler = {scheduler!r}: cannot connect ({type(err).__name__}: {err})")
 
 
-def _run(definition, points, plan, out: Path, dev: str, *, resuming: bool, overwrite: bool, workers, scheduler,
-         requested_device, quiet: bool, timing: dict, as_json: bool, kernel: str = "auto") -> None:
+def _run(
+    definition,
+    points,
+    plan,
+    out: Path,
+    dev: str,
+    *,
+    resuming: bool,
+    overwrite: bool,
+    workers,
+    scheduler,
+    requested_device,
+    quiet: bool,
+    timing: dict,
+    as_json: bool,
+    kernel: str = "auto",
+) -> None:
+    from concurrent.futures import ThreadPoolExecutor
+
     import numpy as np
     import zarr
 
-    from concurrent.futures import ThreadPoolExecutor
-
     from ..distributed import jobs_for, run_distributed, run_serial, runs_of, warm_kernels, warm_workers
     from ..planner import format_bytes
-    from ..sweep_store import (batch_records, completed_batches, create_sweep_store, finalize, remove_partial_files,
-                              status_codes, store_bytes)
+    from ..sweep_store import (
+        batch_records,
+        completed_batches,
+        create_sweep_store,
+        finalize,
+        remove_partial_files,
+        status_codes,
+        store_bytes,
+    )
 
     distributed = workers is not None or scheduler is not None
-    label = (f"{workers} local Dask workers" if workers is not None else
-             f"Dask cluster {scheduler}" if scheduler is not None else dev)
+    label = (
+        f"{workers} local Dask workers"
+        if workers is not None
+        else f"Dask cluster {scheduler}"
+        if scheduler is not None
+        else dev
+    )
     features = [g.features for g in plan.groups]
     with contextlib.ExitStack() as stack:
         client = _connect(workers, scheduler, stack) if distributed else None
         # the kernels load (from Warp's cache, or compile) in a thread
         # (a serial run warms the stepping kernels its batches will use; Dask workers find every variant in the cache)
-        runs = None if client is not None else runs_of(plan, points, [b for b in plan.batches if b.index not in
-                                                                       (completed_batches(out) if resuming else ())])
+        runs = (
+            None
+            if client is not None
+            else runs_of(
+                plan, points, [b for b in plan.batches if b.index not in (completed_batches(out) if resuming else ())]
+            )
+        )
         warming = stack.enter_context(ThreadPoolExecutor(max_workers=1)).submit(warm_kernels, features, dev, runs=runs)
         create = None
         if resuming:
@@ -286,9 +387,13 @@ def _run(definition, points, plan, out: Path, dev: str, *, resuming: bool, overw
             done = completed_batches(out)
             earlier = {r["device"].split(":")[0] for r in batch_records(out)}
             if earlier - {dev.split(":")[0]}:
-                typer.echo(f"note: earlier batches ran on {', '.join(sorted(earlier))}, these run on {dev}: "
-                           "results agree to rounding, not bit for bit, across device kinds", err=True)
+                typer.echo(
+                    f"note: earlier batches ran on {', '.join(sorted(earlier))}, these run on {dev}: "
+                    "results agree to rounding, not bit for bit, across device kinds",
+                    err=True,
+                )
         else:
+
             def create():
                 create_sweep_store(out, definition, points.templates[0], plan, device=label, overwrite=overwrite)
 
@@ -309,19 +414,32 @@ def _run(definition, points, plan, out: Path, dev: str, *, resuming: bool, overw
         if client is not None:
             warm_workers(client, features, requested_device)
         timing["warm_kernels"] = time.perf_counter() - clock
-        progress = _Progress(not quiet and sys.stderr.isatty(), total_batches=len(plan.batches),
-                             done_batches=len(done), grain_steps=sum(j.grain_steps for j in jobs))
+        progress = _Progress(
+            not quiet and sys.stderr.isatty(),
+            total_batches=len(plan.batches),
+            done_batches=len(done),
+            grain_steps=sum(j.grain_steps for j in jobs),
+        )
         start = time.perf_counter()
         try:
             if client is None:
-                run_serial(jobs, dev, on_record=progress.record, on_done=progress.batch_done, create_store=create,
-                           timing=timing)
+                run_serial(
+                    jobs,
+                    dev,
+                    on_record=progress.record,
+                    on_done=progress.batch_done,
+                    create_store=create,
+                    timing=timing,
+                )
             else:
                 run_distributed(jobs, client, requested_device, on_done=progress.batch_done)
         except KeyboardInterrupt:
             progress.stop()
-            typer.echo(f"interrupted after {progress.done_batches}/{len(plan.batches)} batches; continue with: "
-                       f"hertzian sweep {definition.source} --out {out} --resume", err=True)
+            typer.echo(
+                f"interrupted after {progress.done_batches}/{len(plan.batches)} batches; continue with: "
+                f"hertzian sweep {definition.source} --out {out} --resume",
+                err=True,
+            )
             raise typer.Exit(130) from None
         finally:
             progress.stop()
@@ -341,21 +459,35 @@ def _run(definition, points, plan, out: Path, dev: str, *, resuming: bool, overw
     names = status_codes()
     status_text = ", ".join(f"{names[str(int(c))].split(':')[0]} {int(k)}" for c, k in zip(codes, counts))
     ran = f"ran {len(jobs)} of {len(plan.batches)} batches" if resuming else f"{len(plan.batches)} batches"
-    typer.echo(f"{plan.point_count} points, {ran} on {label}: {session:.2f} s, "
-               f"{session_steps / max(session, 1e-12):.3g} grain-steps/s (per device "
-               f"{prov['grain_steps_per_second']:.3g}); status: {status_text}; store {format_bytes(store_bytes(out))}",
-               err=as_json)
+    typer.echo(
+        f"{plan.point_count} points, {ran} on {label}: {session:.2f} s, "
+        f"{session_steps / max(session, 1e-12):.3g} grain-steps/s (per device "
+        f"{prov['grain_steps_per_second']:.3g}); status: {status_text}; store {format_bytes(store_bytes(out))}",
+        err=as_json,
+    )
     typer.echo(f"wrote {out}", err=as_json)
     if as_json:
-        typer.echo(json.dumps({
-            "points": plan.point_count, "batches": len(plan.batches), "batches_run": len(jobs), "device": label,
-            "grain_steps": session_steps, "grain_steps_per_second": session_steps / max(session, 1e-12),
-            "status_counts": {str(int(c)): int(k) for c, k in zip(codes, counts)}, "store": str(out),
-            "store_bytes": store_bytes(out),
-            "seconds": timing,
-            # host time of this command outside the integration (interpreter start-up and imports excluded)
-            "seconds_outside_kernel": sum(timing.get(k, 0.0) for k in ("load", "expand", "plan", "jobs",
-                                                                        "warm_kernels", "finalize"))
-                                      + (timing.get("create_store", 0.0) if distributed else 0.0)
-                                      + timing["batches"] - timing["kernel"],
-        }, indent=1))
+        typer.echo(
+            json.dumps(
+                {
+                    "points": plan.point_count,
+                    "batches": len(plan.batches),
+                    "batches_run": len(jobs),
+                    "device": label,
+                    "grain_steps": session_steps,
+                    "grain_steps_per_second": session_steps / max(session, 1e-12),
+                    "status_counts": {str(int(c)): int(k) for c, k in zip(codes, counts)},
+                    "store": str(out),
+                    "store_bytes": store_bytes(out),
+                    "seconds": timing,
+                    # host time of this command outside the integration (interpreter start-up and imports excluded)
+                    "seconds_outside_kernel": sum(
+                        timing.get(k, 0.0) for k in ("load", "expand", "plan", "jobs", "warm_kernels", "finalize")
+                    )
+                    + (timing.get("create_store", 0.0) if distributed else 0.0)
+                    + timing["batches"]
+                    - timing["kernel"],
+                },
+                indent=1,
+            )
+        )

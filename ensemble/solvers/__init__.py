@@ -31,5 +31,20 @@ def make_solver(model: Model, config: SolverConfig = STEP) -> Solver:
     return SOLVERS[config.kind](model, config)
 
 
-__all__ = ["GRAPH_STEPS", "KERNELS", "SOLVERS", "SOLVER_KINDS", "STEP", "SWEEP", "Solver", "SolverConfig",
-           "StepSolver", "SweepSolver", "TileSolver", "choose_config", "config_of", "make_solver", "tile_plan"]
+__all__ = [
+    "GRAPH_STEPS",
+    "KERNELS",
+    "SOLVERS",
+    "SOLVER_KINDS",
+    "STEP",
+    "SWEEP",
+    "Solver",
+    "SolverConfig",
+    "StepSolver",
+    "SweepSolver",
+    "TileSolver",
+    "choose_config",
+    "config_of",
+    "make_solver",
+    "tile_plan",
+]

@@ -10,7 +10,6 @@ and never synchronises with the host.
 from __future__ import annotations
 
 import warp as wp
-
 from hertzian.kernels.features import Features
 
 from ..model import Model, State

@@ -33,7 +33,6 @@ from pathlib import Path
 
 import numpy as np
 import warp as wp
-
 from hertzian.kernels.cpu import sweepable
 from hertzian.kernels.features import SUBSTEP_WEIGHTS
 from hertzian.kernels.tile import fusable, plan_tile
@@ -63,8 +62,7 @@ def fused_lacks(features, is_cpu: bool) -> str | None:
     """The feature the device's fused kernel (CPU sweep, CUDA tile/window) lacks, or None."""
     f = stepping_features(features)
     if f.damping == "contact" and f.compensation and not is_cpu:
-        return ("damping (damping.model = 'contact' in compensated float32; only the per-step kernel carries it on "
-                "CUDA)")
+        return "damping (damping.model = 'contact' in compensated float32; only the per-step kernel carries it on CUDA)"
     if f.method in SUBSTEP_WEIGHTS and not is_cpu:
         return f"method {f.method} (its substeps are in the per-step and CPU sweep kernels only)"
     if is_cpu:
@@ -80,11 +78,15 @@ def step_reason_of(features, is_cpu: bool, grain_steps: float) -> str | None:
     limit = AUTO_MIN_GRAIN_STEPS_CPU if is_cpu else AUTO_MIN_GRAIN_STEPS_GPU
     if grain_steps < limit:
         if is_cpu:
-            return (f"a short run ({grain_steps:.3g} grain-steps < {limit:.0e}) does not repay a fused kernel's "
-                    "compile; --kernel sweep forces one")
-        return (f"a short run ({grain_steps:.3g} grain-steps < {limit:.0e}) does not repay a fused kernel's first "
-                "calibration and compile (a shape calibrated before on this device is taken); --kernel tile/window "
-                "forces one")
+            return (
+                f"a short run ({grain_steps:.3g} grain-steps < {limit:.0e}) does not repay a fused kernel's "
+                "compile; --kernel sweep forces one"
+            )
+        return (
+            f"a short run ({grain_steps:.3g} grain-steps < {limit:.0e}) does not repay a fused kernel's first "
+            "calibration and compile (a shape calibrated before on this device is taken); --kernel tile/window "
+            "forces one"
+        )
     return None
 
 
@@ -94,9 +96,11 @@ def event_cost_note(features, is_cpu: bool) -> str | None:
     (docs/benchmarks.md, seventh session); None otherwise."""
     if is_cpu or features.event_window <= 0:
         return None
-    return ('event-aware steps are compiled in (a contact can open; integrator.events = "auto"): on CUDA they '
-            'cost the fused kernel 1.7-11x the time of plain steps, the more contacts open (docs/benchmarks.md, '
-            'docs/stability.md 6c, 7c); integrator.events = "off" takes plain Gear steps')
+    return (
+        'event-aware steps are compiled in (a contact can open; integrator.events = "auto"): on CUDA they '
+        "cost the fused kernel 1.7-11x the time of plain steps, the more contacts open (docs/benchmarks.md, "
+        'docs/stability.md 6c, 7c); integrator.events = "off" takes plain Gear steps'
+    )
 
 
 def step_reason(model: Model, run_steps: int | None = None) -> str | None:
@@ -147,11 +151,16 @@ def whole_chain_configs(model: Model) -> list[SolverConfig]:
             continue
         per_block = 1
         while per_block * 2 * lanes <= 128 and per_block * 2 <= c:
-            per_block *= 2          # short chains: several per block, blocks of ≥ 64–128 threads
+            per_block *= 2  # short chains: several per block, blocks of ≥ 64–128 threads
         for cpb in sorted({1, per_block}):
             try:
-                plans.append(config_of(plan_tile(f, n, c, grains_per_lane=G, chains_per_block=cpb,
-                                                 steps_per_launch=64, max_registers=regs)))
+                plans.append(
+                    config_of(
+                        plan_tile(
+                            f, n, c, grains_per_lane=G, chains_per_block=cpb, steps_per_launch=64, max_registers=regs
+                        )
+                    )
+                )
             except ValueError:
                 pass
     return plans
@@ -170,9 +179,9 @@ def window_configs(model: Model) -> list[SolverConfig]:
     sms = _sm_count(model)
     plans = []
     many = c >= sms
-    for G in ((8, 4) if many else (4,)):
-        for K in ((32, 64) if many else (16, 32)):
-            b_max = n // (2 * K)          # keep the interior at least twice the ghost zone
+    for G in (8, 4) if many else (4,):
+        for K in (32, 64) if many else (16, 32):
+            b_max = n // (2 * K)  # keep the interior at least twice the ghost zone
             b_min = 2
             while b_min <= b_max and not _fits(-(-(-(-n // b_min) + 2 * K) // G), G):
                 b_min += 1
@@ -180,7 +189,7 @@ def window_configs(model: Model) -> list[SolverConfig]:
                 continue
             b_fill = min(b_max, max(b_min, -(-2 * sms // c)))
             b_mid = max(b_min, min(b_fill, round(math.sqrt(b_min * b_fill))))
-            b_two = b_min                 # two blocks per SM: half an SM's registers per block
+            b_two = b_min  # two blocks per SM: half an SM's registers per block
             while b_two < b_max and not _fits(-(-(-(-n // b_two) + 2 * K) // G), G, 32768):
                 b_two += 1
             few_blocks = {b_mid, b_fill} | ({b_two} if b_two * c >= sms else set())  # two blocks an SM, if they fill it
@@ -188,16 +197,26 @@ def window_configs(model: Model) -> list[SolverConfig]:
                 interior = -(-n // b)
                 lanes = -(-(interior + 2 * K) // G)
                 try:
-                    plans.append(config_of(plan_tile(f, n, c, grains_per_lane=G, lanes_per_chain=lanes,
-                                                     steps_per_launch=K, windowed=True)))
+                    plans.append(
+                        config_of(
+                            plan_tile(
+                                f, n, c, grains_per_lane=G, lanes_per_chain=lanes, steps_per_launch=K, windowed=True
+                            )
+                        )
+                    )
                 except ValueError:
                     pass
     if not many:
         for G, K in ONE_WARP_WINDOWS:
-            if 32 * G - 2 * K >= K and 32 * G < n:   # an interior of at least the ghost zone; a chain too long for one warp
+            if (
+                32 * G - 2 * K >= K and 32 * G < n
+            ):  # an interior of at least the ghost zone; a chain too long for one warp
                 try:
-                    plans.append(config_of(plan_tile(f, n, c, grains_per_lane=G, lanes_per_chain=32,
-                                                     steps_per_launch=K, windowed=True)))
+                    plans.append(
+                        config_of(
+                            plan_tile(f, n, c, grains_per_lane=G, lanes_per_chain=32, steps_per_launch=K, windowed=True)
+                        )
+                    )
                 except ValueError:
                     pass
     return list(dict.fromkeys(plans))
@@ -218,6 +237,7 @@ def default_config(model: Model) -> SolverConfig:
 
 # ---- measuring --------------------------------------------------------------------------------------
 
+
 def time_solver(solver, *, steps: int, repeats: int = 3, states: tuple[State, State] | None = None) -> float:
     """Median seconds per step of ``solver`` (warm-up excluded), on ``states`` or a scratch pair made from the
     model's initial state (the content is overwritten)."""
@@ -228,7 +248,7 @@ def time_solver(solver, *, steps: int, repeats: int = 3, states: tuple[State, St
     def advance(current: State) -> State:
         return solver.advance(current, pair[1] if current is pair[0] else pair[0], steps)
 
-    current = advance(pair[0])   # warm-up (and graph capture)
+    current = advance(pair[0])  # warm-up (and graph capture)
     wp.synchronize_device(m.device)
     times = []
     for _ in range(repeats):
@@ -246,9 +266,10 @@ def cache_path() -> Path:
 
 def _cache_key(model: Model) -> str:
     c = model.chain_count
-    bucket = 1 << max(0, math.ceil(math.log2(c)))       # chain counts within a factor 2 share a choice
-    return json.dumps([CALIBRATION_VERSION, wp.__version__, model.device.name, asdict(model.features),
-                       model.grain_count, bucket])
+    bucket = 1 << max(0, math.ceil(math.log2(c)))  # chain counts within a factor 2 share a choice
+    return json.dumps(
+        [CALIBRATION_VERSION, wp.__version__, model.device.name, asdict(model.features), model.grain_count, bucket]
+    )
 
 
 def _read_cache() -> dict:
@@ -269,9 +290,14 @@ def _write_cache(entries: dict) -> None:
         pass  # a read-only home only costs a re-calibration
 
 
-def calibrate(model: Model, *, configs: list[SolverConfig] | None = None, steps: int | None = None,
-              states: tuple[State, State] | None = None,
-              log=None) -> tuple[SolverConfig, list[tuple[SolverConfig, float]]]:
+def calibrate(
+    model: Model,
+    *,
+    configs: list[SolverConfig] | None = None,
+    steps: int | None = None,
+    states: tuple[State, State] | None = None,
+    log=None,
+) -> tuple[SolverConfig, list[tuple[SolverConfig, float]]]:
     """Time candidate fused shapes on ``model`` and return (fastest config, [(config, seconds per step)]).
 
     ``states``: a state pair to time on (overwritten); default: a fresh pair from the initial state.
@@ -318,8 +344,15 @@ def calibrated_config(model: Model, *, states: tuple[State, State] | None = None
     return best
 
 
-def choose_config(model: Model, kernel: str = "auto", *, run_steps: int | None = None, calibrate_now: bool = True,
-                  states: tuple[State, State] | None = None, log=None) -> SolverConfig:
+def choose_config(
+    model: Model,
+    kernel: str = "auto",
+    *,
+    run_steps: int | None = None,
+    calibrate_now: bool = True,
+    states: tuple[State, State] | None = None,
+    log=None,
+) -> SolverConfig:
     """The SolverConfig to use for ``model``.
 
     ``kernel`` is one of KERNELS; a forced kind that cannot run these features raises ValueError.
@@ -335,12 +368,16 @@ def choose_config(model: Model, kernel: str = "auto", *, run_steps: int | None =
         # the contact dashpot in compensated float32 exists in the per-step kernel and the CPU sweep kernel only
         if model.device.is_cpu:
             if kernel in ("tile", "window"):
-                raise ValueError(f"kernel = {kernel!r}: damping (damping.model = 'contact' in compensated float32) runs "
-                                 "only on the per-step and sweep solvers; use --kernel step, sweep or auto")
+                raise ValueError(
+                    f"kernel = {kernel!r}: damping (damping.model = 'contact' in compensated float32) runs "
+                    "only on the per-step and sweep solvers; use --kernel step, sweep or auto"
+                )
         else:
             if kernel not in ("auto", "fused"):
-                raise ValueError(f"kernel = {kernel!r}: damping (damping.model = 'contact' in compensated float32) runs "
-                                 "only on the per-step solver; use --kernel step or auto")
+                raise ValueError(
+                    f"kernel = {kernel!r}: damping (damping.model = 'contact' in compensated float32) runs "
+                    "only on the per-step solver; use --kernel step or auto"
+                )
             return STEP
     if kernel == "sweep":
         if not model.device.is_cpu:
@@ -350,8 +387,10 @@ def choose_config(model: Model, kernel: str = "auto", *, run_steps: int | None =
         return SWEEP
     if kernel in ("tile", "window"):
         if f.method in SUBSTEP_WEIGHTS:
-            raise ValueError(f"kernel = {kernel!r}: not implemented for integrator.method = {f.method!r}; use "
-                             f"--kernel step{', sweep' if model.device.is_cpu else ''} or auto")
+            raise ValueError(
+                f"kernel = {kernel!r}: not implemented for integrator.method = {f.method!r}; use "
+                f"--kernel step{', sweep' if model.device.is_cpu else ''} or auto"
+            )
         if not fusable(stepping_features(f)):
             raise ValueError(f"kernel = {kernel!r}: not implemented for surface = {f.surface!r} (features {f})")
         configs = whole_chain_configs(model) if kernel == "tile" else window_configs(model)

@@ -23,8 +23,14 @@ class GraphCache:
         self.device = device
         self.graphs: dict[tuple[int, int, int], tuple[object, bool]] = {}
 
-    def run(self, launches: Callable[[State, State, int], State], state_in: State, state_out: State,
-            n_steps: int, tag: tuple = ()) -> State:
+    def run(
+        self,
+        launches: Callable[[State, State, int], State],
+        state_in: State,
+        state_out: State,
+        n_steps: int,
+        tag: tuple = (),
+    ) -> State:
         """Replay (capturing on first use) ``launches(state_in, state_out, n_steps)``; returns the result's half.
         ``tag`` tells apart graphs of other launch sequences of the same step count (steps with samples)."""
         key = (n_steps, state_in.x.ptr, state_out.x.ptr, *tag)

@@ -8,7 +8,6 @@ substep, ping-ponging a → b → a → b: a step from ``state_in`` ends in ``st
 from __future__ import annotations
 
 import warp as wp
-
 from hertzian.kernels.step import step_kernel
 
 from ..model import Model, State
@@ -30,11 +29,31 @@ class StepSolver(Solver):
 
     def _args(self, state_in: State, state_out: State, substep: int = 0):
         m = self.model
-        inputs = [state_in.x, state_in.clock, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent,
-                  m.drive, state_in.status, m.trace_slot, m.scenes[0].trace_stride, state_in.work, state_in.power,
-                  m.dt, substep]
-        outputs = [state_out.x, state_out.clock, state_out.traces, state_out.work, state_out.power,
-                   m.damping, state_in.dissipated]
+        inputs = [
+            state_in.x,
+            state_in.clock,
+            m.inverse_mass,
+            m.contact_constant,
+            m.static_overlap,
+            m.exponent,
+            m.drive,
+            state_in.status,
+            m.trace_slot,
+            m.scenes[0].trace_stride,
+            state_in.work,
+            state_in.power,
+            m.dt,
+            substep,
+        ]
+        outputs = [
+            state_out.x,
+            state_out.clock,
+            state_out.traces,
+            state_out.work,
+            state_out.power,
+            m.damping,
+            state_in.dissipated,
+        ]
         return inputs, outputs
 
     def _pairs(self, state_in: State, state_out: State):
@@ -45,16 +64,26 @@ class StepSolver(Solver):
     def launch(self, state_in: State, state_out: State, steps: int = 1) -> None:
         for source, destination, substep in self._pairs(state_in, state_out):
             inputs, outputs = self._args(source, destination, substep)
-            wp.launch(self.kernel, dim=(self.model.chain_count, self.model.grain_count), inputs=inputs,
-                      outputs=outputs, device=self.model.device)
+            wp.launch(
+                self.kernel,
+                dim=(self.model.chain_count, self.model.grain_count),
+                inputs=inputs,
+                outputs=outputs,
+                device=self.model.device,
+            )
 
     def _command(self, state_in: State, state_out: State, substep: int = 0):
         key = (state_in.x.ptr, state_out.x.ptr, substep)
         if key not in self.commands:
             inputs, outputs = self._args(state_in, state_out, substep)
-            self.commands[key] = wp.launch(self.kernel, dim=(self.model.chain_count, self.model.grain_count),
-                                           inputs=inputs, outputs=outputs, device=self.model.device,
-                                           record_cmd=True)
+            self.commands[key] = wp.launch(
+                self.kernel,
+                dim=(self.model.chain_count, self.model.grain_count),
+                inputs=inputs,
+                outputs=outputs,
+                device=self.model.device,
+                record_cmd=True,
+            )
         return self.commands[key]
 
     def launches(self, state_in: State, state_out: State, n_steps: int) -> State:
@@ -63,6 +92,6 @@ class StepSolver(Solver):
         forward = [self._command(*launch) for launch in self._pairs(state_in, state_out)]
         backward = [self._command(*launch) for launch in self._pairs(state_out, state_in)]
         for k in range(n_steps):
-            for command in (forward if k % 2 == 0 else backward):
+            for command in forward if k % 2 == 0 else backward:
                 command.launch()
         return state_out if n_steps % 2 else state_in

@@ -14,7 +14,6 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import warp as wp
-
 from hertzian.kernels.cpu import launch_sweep, sweep_kernel
 
 from ..model import Model, State
@@ -66,6 +65,7 @@ class SweepSolver(Solver):
     the launch (an advance is one launch per range of chains)."""
 
     kind = "sweep"
+
     def __init__(self, model: Model, config: SolverConfig = SWEEP, *, threads: int | None = None):
         super().__init__(model, config)
         self.kernel = sweep_kernel(self.kernel_features)
@@ -80,19 +80,37 @@ class SweepSolver(Solver):
         m = self.model
 
         def run(chains: tuple[int, int]) -> None:
-            launch_sweep(self.kernel, x_in=state_in.x, clock_in=state_in.clock, inverse_mass=m.inverse_mass,
-                         contact_constant=m.contact_constant, static_overlap=m.static_overlap, exponent=m.exponent,
-                         status=state_in.status, dt=m.dt, steps=steps, x_out=state_out.x, clock_out=state_out.clock,
-                         device=m.device, drive=m.drive, work_in=state_in.work, power_in=state_in.power,
-                         work_out=state_out.work, power_out=state_out.power, damping=m.damping,
-                         dissipated=state_in.dissipated, traced_grain=self.traced_grain,
-                         trace_stride=self.trace_stride, trace_x=state_in.traces, chains=chains)
+            launch_sweep(
+                self.kernel,
+                x_in=state_in.x,
+                clock_in=state_in.clock,
+                inverse_mass=m.inverse_mass,
+                contact_constant=m.contact_constant,
+                static_overlap=m.static_overlap,
+                exponent=m.exponent,
+                status=state_in.status,
+                dt=m.dt,
+                steps=steps,
+                x_out=state_out.x,
+                clock_out=state_out.clock,
+                device=m.device,
+                drive=m.drive,
+                work_in=state_in.work,
+                power_in=state_in.power,
+                work_out=state_out.work,
+                power_out=state_out.power,
+                damping=m.damping,
+                dissipated=state_in.dissipated,
+                traced_grain=self.traced_grain,
+                trace_stride=self.trace_stride,
+                trace_x=state_in.traces,
+                chains=chains,
+            )
 
         if self.pool is None or m.chain_count * m.grain_count * steps < MIN_GRAIN_STEPS_TO_SPLIT:
             run((0, m.chain_count))
             return
         others = [self.pool.submit(run, chains) for chains in self.ranges[1:]]
-        run(self.ranges[0])          # this thread takes the first range
+        run(self.ranges[0])  # this thread takes the first range
         for future in others:
             future.result()
-

@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 import warp as wp
-
 from hertzian.kernels.ghost import plan_windows
-from hertzian.kernels.tile import (TilePlan, drive_table, launch_drive_table, launch_tile, tile_kernel,
-                                   with_driver_slot)
+from hertzian.kernels.tile import TilePlan, drive_table, launch_drive_table, launch_tile, tile_kernel, with_driver_slot
 
 from ..model import Model, State
 from .base import Solver
@@ -24,8 +22,9 @@ def tile_plan(config: SolverConfig, grain_count: int, chain_count: int) -> TileP
         w = plan_windows(grain_count, shape.window, k)
         return TilePlan(shape, k, w.interior, w.ghost, w.blocks_per_chain, w.blocks_per_chain * chain_count)
     if shape.window < grain_count:
-        raise ValueError(f"{shape.lanes_per_chain} lanes x {shape.grains_per_lane} grains do not cover "
-                         f"{grain_count} grains")
+        raise ValueError(
+            f"{shape.lanes_per_chain} lanes x {shape.grains_per_lane} grains do not cover {grain_count} grains"
+        )
     return TilePlan(shape, k, grain_count, 0, 1, -(-chain_count // shape.chains_per_block))
 
 
@@ -37,8 +36,9 @@ def solver_plan(config: SolverConfig, features, grain_count: int, chain_count: i
 
 def config_of(plan: TilePlan) -> SolverConfig:
     """The SolverConfig of a hertzian.kernels.tile.TilePlan (e.g. from ``plan_tile``)."""
-    return SolverConfig("window" if plan.shape.windowed else "tile", shape=plan.shape,
-                        steps_per_launch=plan.steps_per_launch)
+    return SolverConfig(
+        "window" if plan.shape.windowed else "tile", shape=plan.shape, steps_per_launch=plan.steps_per_launch
+    )
 
 
 class TileSolver(Solver):
@@ -65,8 +65,9 @@ class TileSolver(Solver):
             self.phases = wp.empty((model.chain_count, self.table_steps + 2), dtype=wp.vec2d, device=model.device)
             self.phase_first = wp.zeros(1, dtype=wp.int32, device=model.device)
             # one row per chain, then one scratch row per block (kernels/tile.py: the log's store has no branch)
-            self.driver_log = wp.empty((model.chain_count + self.plan.block_count, k), dtype=wp.vec2d,
-                                       device=model.device)
+            self.driver_log = wp.empty(
+                (model.chain_count + self.plan.block_count, k), dtype=wp.vec2d, device=model.device
+            )
 
     def launches(self, state_in: State, state_out: State, n_steps: int) -> State:
         """Ping-pong launches; a driven model's phase table is filled first, and again every ``table_steps``."""
@@ -77,8 +78,15 @@ class TileSolver(Solver):
         while n_steps > 0:
             steps = min(n_steps, self.table_steps)
             # only the rows these steps read (an advance between response samples may be a few steps)
-            launch_drive_table(clock=a.clock, drive=m.drive, dt=m.dt, phases=self.phases,
-                               phase_first=self.phase_first, device=m.device, rows=steps + 2)
+            launch_drive_table(
+                clock=a.clock,
+                drive=m.drive,
+                dt=m.dt,
+                phases=self.phases,
+                phase_first=self.phase_first,
+                device=m.device,
+                rows=steps + 2,
+            )
             end = super().launches(a, b, steps)
             a, b = (end, b if end is a else a)
             n_steps -= steps
@@ -91,14 +99,35 @@ class TileSolver(Solver):
 
     def launch(self, state_in: State, state_out: State, steps: int) -> None:
         m = self.model
-        launch_tile(self.plan, self.kernel, x_in=state_in.x, clock_in=state_in.clock, inverse_mass=m.inverse_mass,
-                    contact_constant=m.contact_constant, static_overlap=m.static_overlap, exponent=m.exponent,
-                    status=state_in.status, dt=m.dt, steps=steps, x_out=state_out.x, clock_out=state_out.clock,
-                    device=m.device, drive=m.drive, work_in=state_in.work, power_in=state_in.power,
-                    work_out=state_out.work, power_out=state_out.power, trace_slot=m.trace_slot,
-                    trace_stride=self.trace_stride_in_kernel, trace_x=state_in.traces,
-                    damping=m.damping if self.damped else None, dissipated=state_in.dissipated if self.damped else None,
-                    phases=self.phases, phase_first=self.phase_first, driver_log=self.driver_log)
+        launch_tile(
+            self.plan,
+            self.kernel,
+            x_in=state_in.x,
+            clock_in=state_in.clock,
+            inverse_mass=m.inverse_mass,
+            contact_constant=m.contact_constant,
+            static_overlap=m.static_overlap,
+            exponent=m.exponent,
+            status=state_in.status,
+            dt=m.dt,
+            steps=steps,
+            x_out=state_out.x,
+            clock_out=state_out.clock,
+            device=m.device,
+            drive=m.drive,
+            work_in=state_in.work,
+            power_in=state_in.power,
+            work_out=state_out.work,
+            power_out=state_out.power,
+            trace_slot=m.trace_slot,
+            trace_stride=self.trace_stride_in_kernel,
+            trace_x=state_in.traces,
+            damping=m.damping if self.damped else None,
+            dissipated=state_in.dissipated if self.damped else None,
+            phases=self.phases,
+            phase_first=self.phase_first,
+            driver_log=self.driver_log,
+        )
 
     def describe(self) -> str:
         return f"{self.kind} ({self.plan.describe()})"
