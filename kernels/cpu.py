@@ -1,4 +1,4 @@
-"""CPU sweep kernel: one thread per chain, many steps per launch, neighbours carried in registers.
+"""CPU chain kernel: one thread per chain, many steps per launch, neighbours carried in registers.
 
 Warp runs a CPU launch on one thread, so the per-step kernel (a thread per grain, a launch per
 step) spends its time on launch and index overhead and re-reads each neighbour three times. Here
@@ -25,25 +25,24 @@ is the same per substep).
 import functools
 
 import warp as wp
+from hertzian.kernels.events import event_functions
+from hertzian.kernels.features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
+from hertzian.kernels.gear import nordsieck_functions, refuse_composed_extras, substep_weight_function
+from hertzian.kernels.physics import contact_functions, contact_parameters, damping_functions, product_rn
 
-from .events import event_functions
-from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
-from .gear import nordsieck_functions, refuse_composed_extras, substep_weight_function
-from .physics import contact_functions, contact_parameters, damping_functions, product_rn
 
-
-def sweepable(features: Features) -> bool:
-    """True when the sweep kernel implements every feature of this set (every feature now: traces are
+def chain_kernel_supports(features: Features) -> bool:
+    """True when the chain kernel implements every feature of this set (every feature now: traces are
     sampled inside the launch)."""
     return True
 
 
 @functools.cache
-def sweep_kernel(features: Features):
-    """The chain-per-thread sweep kernel for one feature set (cached)."""
+def chain_kernel(features: Features):
+    """The chain-per-thread kernel for one feature set (cached)."""
     f = features
-    if not sweepable(f):
-        raise ValueError(f"the sweep kernel does not implement traces={f.traces} / damping={f.damping!r}")
+    if not chain_kernel_supports(f):
+        raise ValueError(f"the chain kernel does not implement traces={f.traces} / damping={f.damping!r}")
     real = wp.float64 if f.precision == "float64" else wp.float32
     Q = f.values
     SURFACE_WALL = f.surface == "wall"
@@ -124,7 +123,7 @@ def sweep_kernel(features: Features):
                 trace_x[1, c, sample, slot] = x[1, c, i]
 
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
-    def sweep(
+    def chain_steps(
         x_in: wp.array3d(dtype=real),
         clock_in: wp.array(dtype=wp.int32),
         inverse_mass: wp.array2d(dtype=real),
@@ -440,10 +439,10 @@ def sweep_kernel(features: Features):
             work_out[c] = work
             power_out[c] = power_prev
 
-    return sweep
+    return chain_steps
 
 
-def launch_sweep(
+def launch_chain(
     kernel,
     *,
     x_in,
@@ -470,11 +469,11 @@ def launch_sweep(
     trace_x,
     chains: tuple[int, int] | None = None,
 ):
-    """Launch ``steps`` steps of the sweep kernel for chains ``chains = (first, end)`` (default: all), one
+    """Launch ``steps`` steps of the chain kernel for chains ``chains = (first, end)`` (default: all), one
     kernel thread per chain.
 
     Warp runs a CPU launch on one OS thread and releases Python's GIL while it runs, so launches over
-    disjoint chain ranges may run at once from several Python threads (ensemble/solvers/sweep.py): each
+    disjoint chain ranges may run at once from several Python threads (ensemble/core/solvers/chain.py): each
     chain is integrated by one thread with the same arithmetic, so the split changes no bit.
     ``drive`` (chains, 2), ``work_*``/``power_*`` (chains,): the model's and states' arrays (size 0 undriven);
     ``damping`` (chains,) γ and ``dissipated`` (chains, grains), updated in place (size 0 undamped);

@@ -28,10 +28,9 @@ no ordering between threads).
 import functools
 
 import warp as wp
-
-from .features import GEAR_VALUES, Features
-from .gear import two_sum_function
-from .physics import contact_derivatives, contact_forces, contact_functions
+from hertzian.kernels.features import GEAR_VALUES, Features
+from hertzian.kernels.gear import two_sum_function
+from hertzian.kernels.physics import contact_derivatives, contact_forces, contact_functions
 
 SUBSTEPS = 8
 """Runge–Kutta substeps over a step near an event (the error of the event step falls as SUBSTEPS^-3.5)."""

@@ -32,7 +32,7 @@ EVENT_WINDOW = 1e-2
 """Default event window [time] (kernels/events.py): a fixed time, so that the treatment keeps the
 method's order as dt shrinks; about 1/20 of a contact time at v_imp = 1e-2 (program units)."""
 
-# Per-chain status codes, defined here only (kernels write them; hertzian.ensemble.status.Status names them).
+# Per-chain status codes, defined here only (kernels write them; hertzian.core.status.Status names them).
 KERNEL_OPTIONS = {"fuse_fp": os.environ.get("HERTZIAN_FUSE_FP", "1") != "0"}
 """Warp module options of every kernel factory. ``HERTZIAN_FUSE_FP=0`` forbids the compiler to contract
 ``a·b + c`` into fused multiply-adds: CUDA then rounds every operation as written, the same in every kernel

@@ -25,8 +25,7 @@ import functools
 from typing import NamedTuple
 
 import warp as wp
-
-from .features import GEAR_CORRECTOR, GEAR_VALUES, SUBSTEP_WEIGHTS
+from hertzian.kernels.features import GEAR_CORRECTOR, GEAR_VALUES, SUBSTEP_WEIGHTS
 
 
 class Nordsieck(NamedTuple):

@@ -1,4 +1,4 @@
-"""A detection library assembled on the device (ensemble/detect.py): the candidates' surface echoes and their Gram
+"""A detection library assembled on the device (ensemble/studies/detect.py): the candidates' surface echoes and their Gram
 matrices, from the trace ring the library's run leaves on the device.
 
 ``library_echoes`` (one thread per chain and sample) reads sample k of a chain's traced grain 0 (velocity: the
@@ -13,8 +13,7 @@ first-echo window in sample order (the host's BLAS sums in another order: the Gr
 import functools
 
 import warp as wp
-
-from .features import KERNEL_OPTIONS
+from hertzian.kernels.features import KERNEL_OPTIONS
 
 
 @functools.cache

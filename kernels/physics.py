@@ -130,7 +130,7 @@ def contact_forces(precision: str, hertz: bool, count: int, *, branchless: bool,
 
 @functools.cache
 def damping_functions(precision: str, order: int):
-    """``(predicted_rate, dashpot)`` ``@wp.func``s of the damped kernels (per-step and CPU sweep), cached.
+    """``(predicted_rate, dashpot)`` ``@wp.func``s of the damped kernels (per-step and CPU chain kernel), cached.
 
     ``predicted_rate(x, c, j)``: dt·v of grain j predicted at t + dt from its Nordsieck vector of ``order``
     rows, Σ_q q·x_q (Verlet: x1 + 2·x2). ``dashpot(delta0, d, rate, gamma, h)``: the dashpot force γ·δ̇ of a

@@ -17,10 +17,15 @@ import functools
 from typing import Any, NamedTuple
 
 import warp as wp
-
-from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, STATUS_OK, STATUS_OVERLAP_BEYOND_VALIDITY, Features
-from .physics import contact_functions, contact_parameters, excess_potential
-from .tile import block_sync
+from hertzian.kernels.features import (
+    KERNEL_OPTIONS,
+    STATUS_NON_FINITE,
+    STATUS_OK,
+    STATUS_OVERLAP_BEYOND_VALIDITY,
+    Features,
+)
+from hertzian.kernels.physics import contact_functions, contact_parameters, excess_potential
+from hertzian.kernels.tile import block_sync
 
 RECORD_PART = 128
 """Grains per thread of ``record_parts`` (fixed, so the sums' order does not depend on the device)."""

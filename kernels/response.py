@@ -15,9 +15,8 @@ bitwise reproducible, no atomics.
 import functools
 
 import warp as wp
-
-from .features import KERNEL_OPTIONS, Features
-from .physics import contact_parameters
+from hertzian.kernels.features import KERNEL_OPTIONS, Features
+from hertzian.kernels.physics import contact_parameters
 
 
 @wp.func

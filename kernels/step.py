@@ -13,11 +13,10 @@ step, so records and checks between launches of whole steps see whole steps only
 import functools
 
 import warp as wp
-
-from .events import event_functions
-from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
-from .gear import nordsieck_functions, refuse_composed_extras, substep_weight_function
-from .physics import contact_functions, contact_parameters, damping_functions, product_rn
+from hertzian.kernels.events import event_functions
+from hertzian.kernels.features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
+from hertzian.kernels.gear import nordsieck_functions, refuse_composed_extras, substep_weight_function
+from hertzian.kernels.physics import contact_functions, contact_parameters, damping_functions, product_rn
 
 
 @functools.cache

@@ -60,11 +60,16 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import warp as wp
-
-from .events import event_functions
-from .features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
-from .gear import nordsieck_functions
-from .physics import contact_forces, contact_functions, contact_parameters, damping_functions, product_rn
+from hertzian.kernels.events import event_functions
+from hertzian.kernels.features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
+from hertzian.kernels.gear import nordsieck_functions
+from hertzian.kernels.physics import (
+    contact_forces,
+    contact_functions,
+    contact_parameters,
+    damping_functions,
+    product_rn,
+)
 
 
 def fusable(features: Features) -> bool:
@@ -180,7 +185,7 @@ def tile_kernel(features: Features, shape: TileShape):
     if f.damping == "contact" and f.compensation:
         raise ValueError(
             "fused kernels do not implement damping='contact' in compensated float32 (the per-step and CPU "
-            "sweep kernels do)"
+            "chain kernels do)"
         )
     if not fusable(f):
         raise ValueError(f"fused kernels do not implement method={f.method!r}")
@@ -1439,7 +1444,7 @@ def plan_tile(
     its ghost zones are ``steps_per_launch`` grains (see hertzian.kernels.ghost). Raises ValueError for shapes
     that cannot work (a block over 1024 threads, a window without interior).
     """
-    from .ghost import plan_windows
+    from hertzian.kernels.ghost import plan_windows
 
     n = grain_count
     G = grains_per_lane

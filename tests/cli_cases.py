@@ -10,7 +10,7 @@ import json
 import math
 from pathlib import Path
 
-from hertzian.ensemble.cli import app
+from hertzian.cli import app
 from typer.testing import CliRunner
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 import warp as wp
-from hertzian.ensemble.scene import scene_from_dict
+from hertzian.core.scene import scene_from_dict
 
 wp.config.log_level = wp.LOG_WARNING
 wp.init()

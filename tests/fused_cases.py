@@ -8,8 +8,8 @@ so no test imports another test file.
 from __future__ import annotations
 
 import numpy as np
-from hertzian.ensemble.runner import Runner
-from hertzian.ensemble.scene import scene_from_dict
+from hertzian.core.runner import Runner
+from hertzian.core.scene import scene_from_dict
 from hertzian.kernels.features import KERNEL_OPTIONS
 
 MOVED = 1e-3

@@ -11,10 +11,10 @@ from fractions import Fraction
 import numpy as np
 import pytest
 from conftest import make_scene
-from hertzian.ensemble.accuracy import common_record_interval, relative_error, richardson_estimate, work_precision
-from hertzian.ensemble.runner import run_scene
-from hertzian.ensemble.scene import SceneError
-from hertzian.ensemble.store import summary_records, write_result
+from hertzian.core.runner import run_scene
+from hertzian.core.scene import SceneError
+from hertzian.studies.accuracy import common_record_interval, relative_error, richardson_estimate, work_precision
+from hertzian.sweeping.store import summary_records, write_result
 
 
 def test_record_interval_is_a_common_multiple():
@@ -115,7 +115,7 @@ def test_run_reports_energy_error_next_to_wall_seconds(tmp_path):
 
 def hertzian(*args, cwd):
     return subprocess.run(
-        [sys.executable, "-c", "from hertzian.ensemble.cli import main; main()", *args],
+        [sys.executable, "-c", "from hertzian.cli import main; main()", *args],
         capture_output=True,
         text=True,
         cwd=cwd,
@@ -262,7 +262,7 @@ def test_cli_accuracy_target_picks_the_largest_dt_meeting_it(tmp_path):
     assert all(by[1e-30, m, p]["dt"] is None for m, p in groups)
 
     # the position error as the measure, on the same records
-    from hertzian.ensemble.accuracy import AccuracyRecord, time_to_target
+    from hertzian.studies.accuracy import AccuracyRecord, time_to_target
 
     runs = [
         AccuracyRecord(**{k: v for k, v in r.items() if not k.startswith("reference_") or k == "reference_limited"})
@@ -275,7 +275,7 @@ def test_cli_accuracy_target_picks_the_largest_dt_meeting_it(tmp_path):
 
 def test_time_to_target_skips_failed_runs():
     """A run that did not end OK (or is not finite) never meets a target, however small its numbers."""
-    from hertzian.ensemble.accuracy import AccuracyRecord, time_to_target
+    from hertzian.studies.accuracy import AccuracyRecord, time_to_target
 
     def record(dt, energy_error, status=0):
         return AccuracyRecord(

@@ -1,4 +1,4 @@
-"""hertzian.ensemble.analysis on synthetic profiles with known answers (no simulation)."""
+"""hertzian.studies.analysis on synthetic profiles with known answers (no simulation)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from hertzian.ensemble import analysis as an
+from hertzian.studies import analysis as an
 
 
 def test_fit_line_exact_and_noisy():

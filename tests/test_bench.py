@@ -9,10 +9,10 @@ from datetime import datetime, timezone
 import numpy as np
 import pytest
 from fused_cases import per_step
-from hertzian.ensemble.bench import bench_scenes
-from hertzian.ensemble.cli import app
-from hertzian.ensemble.model import build_model
-from hertzian.ensemble.peers import NumpyGear4, problem_from_model
+from hertzian.cli import app
+from hertzian.core.model import build_model
+from hertzian.studies.bench import bench_scenes
+from hertzian.studies.peers import NumpyGear4, problem_from_model
 from typer.testing import CliRunner
 
 
@@ -36,7 +36,7 @@ def test_bench_json_records():
     assert result.exit_code == 0, result.output
     records = json.loads(result.stdout)
     names = {(r["implementation"], r["chains"], r["grains"]) for r in records}
-    assert {("warp-step", 3, 40), ("warp-sweep", 3, 40), ("numpy", 3, 40), ("warp-step", 1, 60)} <= names
+    assert {("warp-step", 3, 40), ("warp-chain", 3, 40), ("numpy", 3, 40), ("warp-step", 1, 60)} <= names
     for r in records:
         assert r["grain_steps_per_second"] > 0
         # the timed steps ran inside this call: the rate cannot be slower than the whole call allows
@@ -76,7 +76,7 @@ def test_bench_bad_input():
 def test_jax_peer_matches_per_step_kernel():
     # tuple carry, scalar constants, searched unroll: still the same equations (skipped without JAX)
     pytest.importorskip("jax")
-    from hertzian.ensemble.peers import JaxGear4
+    from hertzian.studies.peers import JaxGear4
 
     model = build_model(plain_gear(bench_scenes(3, 20)), "cpu")
     peer = JaxGear4(problem_from_model(model), "cpu")
@@ -94,11 +94,11 @@ def test_end_to_end_scene_json(tmp_path):
         '[record]\nevery = 0.1\nfields = ["u"]\ntraces = [0, 29]\ntrace_every = 0.002\n'
     )
     started = time.perf_counter()
-    result = invoke("--device", "cpu", "--scene", str(scene), "--kernel", "sweep", "--json")
+    result = invoke("--device", "cpu", "--scene", str(scene), "--kernel", "chain", "--json")
     elapsed = time.perf_counter() - started
     assert result.exit_code == 0, result.output
     (record,) = json.loads(result.stdout)
-    assert record["kernel"] == "sweep" and record["steps"] == 800 and record["grain_steps"] == 30 * 800
+    assert record["kernel"] == "chain" and record["steps"] == 800 and record["grain_steps"] == 30 * 800
     s = record["seconds"]
     parts = s["build"] + s["compile"] + s["kernel"] + s["record"] + s["store"]
     assert 0 < s["kernel"] and 0 < s["store"] and parts <= s["total"] < elapsed
@@ -113,10 +113,10 @@ def test_end_to_end_sweep_json(tmp_path):
         '[scene.integrator]\ndt = 5e-4\nduration = 0.2\n[scene.record]\nevery = 0.1\nfields = ["u"]\n'
         '[[axis]]\nname = "v_imp"\nkey = "excitation.impact"\nvalues = [1e-3, 1e-2, 2e-2]\n'
     )
-    result = invoke("--device", "cpu", "--sweep", str(sweep), "--kernel", "sweep", "--json")
+    result = invoke("--device", "cpu", "--sweep", str(sweep), "--kernel", "chain", "--json")
     assert result.exit_code == 0, result.output
     (record,) = json.loads(result.stdout)
-    assert record["kernel"] == "sweep" and record["grain_steps"] == 3 * 20 * 400
+    assert record["kernel"] == "chain" and record["grain_steps"] == 3 * 20 * 400
     s = record["seconds"]
     assert 0 < s["kernel"] and 0 < s["store"] and s["build"] + s["kernel"] + s["store"] <= s["total"]
     assert 0 < s["startup"]

@@ -1,6 +1,6 @@
 """`hertzian check`: the contact-time estimate and the stability limits, against independent references.
 
-* The one-step amplification matrices (ensemble/check.py) are checked against the Warp kernels on
+* The one-step amplification matrices (ensemble/core/check.py) are checked against the Warp kernels on
   a linear chain (n = 2: springs), where a normal mode evolves exactly by the matrix.
 * The highest-frequency bound is checked against dense eigenvalues of the linearised chain.
 * The overlap bound is checked against the largest overlap real runs reach.
@@ -14,7 +14,7 @@ import sys
 import numpy as np
 import pytest
 from conftest import make_scene
-from hertzian.ensemble.check import (
+from hertzian.core.check import (
     STABLE_OMEGA_DT,
     amplification_matrix,
     check_scene,
@@ -23,9 +23,9 @@ from hertzian.ensemble.check import (
     growth_per_period,
     overlap_reach,
 )
-from hertzian.ensemble.model import build_model
-from hertzian.ensemble.runner import Runner, run_scene
-from hertzian.ensemble.static import static_state
+from hertzian.core.model import build_model
+from hertzian.core.runner import Runner, run_scene
+from hertzian.core.static import static_state
 
 A = 5657.0
 METHODS = ["gear4", "gear5", "gear6", "verlet", "yoshida4"]
@@ -195,10 +195,10 @@ def test_suggested_dt_passes_its_own_check(method):
 
 
 def hertzian(*args, cwd):
-    """The ``hertzian`` entry point in a subprocess (``python -m hertzian.ensemble.cli`` would miss commands that
-    register from other modules: they register on the imported ``hertzian.ensemble.cli``, not on ``__main__``)."""
+    """The ``hertzian`` entry point in a subprocess (``python -m hertzian.cli`` would miss commands that
+    register from other modules: they register on the imported ``hertzian.cli``, not on ``__main__``)."""
     return subprocess.run(
-        [sys.executable, "-c", "from hertzian.ensemble.cli import main; main()", *args],
+        [sys.executable, "-c", "from hertzian.cli import main; main()", *args],
         capture_output=True,
         text=True,
         cwd=cwd,

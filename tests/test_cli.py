@@ -45,9 +45,7 @@ BAD = [
 
 
 def hertzian(*args, cwd=None):
-    return subprocess.run(
-        [sys.executable, "-m", "hertzian.ensemble.cli", *args], capture_output=True, text=True, cwd=cwd
-    )
+    return subprocess.run([sys.executable, "-m", "hertzian.cli", *args], capture_output=True, text=True, cwd=cwd)
 
 
 @pytest.fixture

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 import warp as wp
 from conftest import make_scene
-from hertzian.ensemble.model import build_model
-from hertzian.ensemble.runner import Runner, run_ensemble, run_scene
-from hertzian.ensemble.static import static_state
+from hertzian.core.model import build_model
+from hertzian.core.runner import Runner, run_ensemble, run_scene
+from hertzian.core.static import static_state
 from hertzian.kernels.features import EVENT_WINDOW, Features
 from hertzian.kernels.physics import contact_functions, contact_potential, excess_potential
 from hertzian.kernels.step import step_kernel
@@ -358,7 +358,7 @@ def test_energy_error_is_checked_between_records():
     sparse = run_scene(make_scene(**base), "cpu")
     dense = run_scene(make_scene(**base, record={"every": 512 * 2e-4}), "cpu")
     assert sparse.t.size == 2 and dense.t.size == 9
-    from hertzian.ensemble.runner import energy_errors
+    from hertzian.core.runner import energy_errors
 
     from_records = energy_errors(dense.energy, None, dense.scenes[0].injected_energy * np.ones(1))
     np.testing.assert_allclose(sparse.energy_error, from_records, rtol=1e-12)

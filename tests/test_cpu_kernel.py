@@ -1,4 +1,4 @@
-"""The CPU sweep kernel (kernels/cpu.py) against the per-step kernel, and the runner's kernel choice.
+"""The CPU chain kernel (kernels/cpu.py) against the per-step kernel, and the runner's kernel choice.
 
 The sweep integrates a chain in place with its neighbours in registers; it performs the per-step
 kernel's operations in the same order, so on the CPU the states must agree bit for bit.
@@ -9,13 +9,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from fused_cases import CASES, chains, per_step
-from hertzian.ensemble.model import build_model
-from hertzian.ensemble.runner import Runner
-from hertzian.ensemble.solvers import STEP, SWEEP, SolverConfig, SweepSolver, choose_config
+from hertzian.core.model import build_model
+from hertzian.core.runner import Runner
+from hertzian.core.solvers import CHAIN, STEP, ChainSolver, SolverConfig, choose_config
 
 
 def sweep(model, steps: int, status=None, steps_per_launch: int = 1 << 30) -> np.ndarray:
-    solver = SweepSolver(model, SolverConfig("sweep", steps_per_launch=steps_per_launch))
+    solver = ChainSolver(model, SolverConfig("chain", steps_per_launch=steps_per_launch))
     start, scratch = model.state_pair()
     if status is not None:
         start.status.assign(status)
@@ -48,8 +48,8 @@ def test_runner_sweep_run_equals_per_step_run():
     )
     model = build_model(scenes, "cpu")
     reference = Runner(model, kernel="step").run()
-    runner = Runner(model, kernel="sweep")
-    assert isinstance(runner.solver, SweepSolver)
+    runner = Runner(model, kernel="chain")
+    assert isinstance(runner.solver, ChainSolver)
     result = runner.run()
     np.testing.assert_array_equal(result.u, reference.u)
     np.testing.assert_array_equal(result.v, reference.v)
@@ -61,9 +61,9 @@ def test_kernel_choice():
     model = build_model(chains(2, chain={"grains": 10}), "cpu")
     assert choose_config(model, "step") == STEP
     assert choose_config(model, "auto", run_steps=10) == STEP  # too short to repay a compile
-    assert choose_config(model, "auto", run_steps=10**8) == SWEEP
+    assert choose_config(model, "auto", run_steps=10**8) == CHAIN
     traced = build_model(chains(2, chain={"grains": 10}, record={"traces": [0]}), "cpu")
-    assert choose_config(traced, "auto", run_steps=10**8) == SWEEP  # traces are sampled between launches
+    assert choose_config(traced, "auto", run_steps=10**8) == CHAIN  # traces are sampled between launches
     with pytest.raises(ValueError):
         choose_config(model, "fastest")
 
@@ -72,18 +72,18 @@ def test_kernel_choice():
     "case",
     ["walls, padded lanes", "windows, fixed bottom, impurities, gravity", "float32, walls, padded lanes, events"],
 )
-def test_sweep_split_over_threads_changes_no_bit(case, monkeypatch):
-    """The CPU sweep launches contiguous chain ranges from several Python threads at once
-    (ensemble/solvers/sweep.py); each chain is still one kernel thread's, so any split gives the same bits."""
-    from hertzian.ensemble.solvers import sweep as sweep_module
-    from hertzian.ensemble.solvers.sweep import chain_ranges
+def test_chain_split_over_threads_changes_no_bit(case, monkeypatch):
+    """The CPU chain kernel launches contiguous chain ranges from several Python threads at once
+    (ensemble/core/solvers/chain.py); each chain is still one kernel thread's, so any split gives the same bits."""
+    from hertzian.core.solvers import chain as chain_module
+    from hertzian.core.solvers.chain import chain_ranges
 
-    monkeypatch.setattr(sweep_module, "MIN_GRAIN_STEPS_TO_SPLIT", 0)  # these launches are small: split anyway
+    monkeypatch.setattr(chain_module, "MIN_GRAIN_STEPS_TO_SPLIT", 0)  # these launches are small: split anyway
     sections, _, _, steps = CASES[case]
     model = build_model(chains(5, **sections), "cpu")
     results = []
     for threads in (1, 2, 3, 5):
-        solver = SweepSolver(model, SolverConfig("sweep", steps_per_launch=7), threads=threads)
+        solver = ChainSolver(model, SolverConfig("chain", steps_per_launch=7), threads=threads)
         assert len(solver.ranges) == min(threads, 5) and solver.ranges == chain_ranges(5, threads)
         start, scratch = model.state_pair()
         end = solver.advance(start, scratch, steps)
@@ -96,8 +96,8 @@ def test_sweep_split_over_threads_changes_no_bit(case, monkeypatch):
 
 
 def test_cpu_thread_count_comes_from_the_environment(monkeypatch):
-    from hertzian.ensemble.cli import app
-    from hertzian.ensemble.solvers.sweep import cpu_threads
+    from hertzian.cli import app
+    from hertzian.core.solvers.chain import cpu_threads
     from typer.testing import CliRunner
 
     monkeypatch.setenv("HERTZIAN_CPU_THREADS", "3")
@@ -109,7 +109,7 @@ def test_cpu_thread_count_comes_from_the_environment(monkeypatch):
 
 
 def test_sweep_writes_trace_samples_inside_the_launch_as_the_per_step_kernel():
-    """The sweep kernel writes the trace ring itself (one launch per advance, several ranges of chains):
+    """The chain kernel writes the trace ring itself (one launch per advance, several ranges of chains):
     the ring after an advance is the per-step kernel's bit for bit, a frozen chain's samples included."""
 
     scenes = chains(
@@ -124,7 +124,7 @@ def test_sweep_writes_trace_samples_inside_the_launch_as_the_per_step_kernel():
     reference = Runner(model, kernel="step", use_graph=False)
     reference.current.status.assign(status)
     reference.advance(steps)
-    solver = SweepSolver(model, threads=2)
+    solver = ChainSolver(model, threads=2)
     assert solver.kernel_features.traces and len(solver.ranges) == 2
     start, scratch = model.state_pair()
     start.status.assign(status)

@@ -12,7 +12,9 @@ import sys
 
 import numpy as np
 import pytest
-from hertzian.ensemble.detect import (
+from hertzian.core.runner import run_scene
+from hertzian.core.scene import SceneError, scene_from_dict
+from hertzian.studies.detect import (
     Quadratic,
     detect,
     forward_scene,
@@ -21,8 +23,6 @@ from hertzian.ensemble.detect import (
     signal_from_arrays,
     write_signal_csv,
 )
-from hertzian.ensemble.runner import run_scene
-from hertzian.ensemble.scene import SceneError, scene_from_dict
 
 GRAINS = 40
 SPACING = 0.01
@@ -176,9 +176,7 @@ def test_signal_checks(tmp_path):
 
 
 def hertzian(*args, env=None):
-    return subprocess.run(
-        [sys.executable, "-m", "hertzian.ensemble.cli", *args], capture_output=True, text=True, env=env
-    )
+    return subprocess.run([sys.executable, "-m", "hertzian.cli", *args], capture_output=True, text=True, env=env)
 
 
 def write_csv(path, rows, header="t,v"):
@@ -266,7 +264,7 @@ def test_forward_scene_samples_on_steps():
 
 def test_study_summary_counts():
     """The study's tables from hand-made records: accuracy, depth within ±1 (class right too), coverage."""
-    from hertzian.ensemble.detect_study import summarize
+    from hertzian.studies.detect_study import summarize
 
     def record(true_class, kind, true_depth, depth, covered):
         return {
@@ -305,7 +303,7 @@ def test_study_summary_counts():
 
 def test_binomial_lower_bound_closed_forms():
     """All successes: (α/2)^(1/n); none: 0; half of 10: 0.1871 (tabulated Clopper–Pearson)."""
-    from hertzian.ensemble.detect_study import binomial_lower_bound
+    from hertzian.studies.detect_study import binomial_lower_bound
 
     for n in (1, 28, 384):
         assert binomial_lower_bound(n, n) == pytest.approx(0.025 ** (1 / n), rel=1e-9)
@@ -384,7 +382,7 @@ def test_cli_fit_a_json_and_bad_a_range(tmp_path, cache, clean_velocity):
 def test_interpolated_rss_equals_the_direct_residuals():
     """detect.interpolated_rss (Gram form, clean chain subtracted) against |s − W m|² formed sample by sample,
     on traces that differ from a clean one by small echoes, as a library's do."""
-    from hertzian.ensemble.detect import interpolated_rss, lagrange_weights
+    from hertzian.studies.detect import interpolated_rss, lagrange_weights
 
     rng = np.random.default_rng(3)
     samples = 2000
@@ -404,7 +402,7 @@ def test_fine_scan_finds_the_needle_of_a_shallow_light_grain(cache, monkeypatch)
     one at μ ≈ 0.34, where the library and Gauss–Newton land, leaving σ ≈ 4× the noise. When the best fit's σ is
     above FINE_SCAN_MISFIT × the noise before the echo, a scan of ln μ every 0.4 % at that depth finds the needle:
     the interval then holds 0.3 and σ is the noise added. Without the scan the same signal gives μ ≈ 0.34."""
-    import hertzian.ensemble.detect as detect_module
+    import hertzian.studies.detect as detect_module
 
     base = {**BASE, "chain": {"grains": 80, "l0": 1e-4}}
     samples = 875
@@ -447,7 +445,7 @@ def small_library(seed=4):
     at depth 15 (where the heavy class's first echo fits best there), the end ratio of the heavy class. Returns
     (forward, grid, clean, traces, ok, fronts, signal v): the signal is an echo from depth 12 at μ = 0.6 (off the
     grid) with noise σ = 2e-5."""
-    from hertzian.ensemble.detect import make_grid
+    from hertzian.studies.detect import make_grid
 
     rng = np.random.default_rng(seed)
     samples = 551
@@ -476,7 +474,7 @@ def reference_library_scores(signal, t, clean, traces, ok, fronts, grid):
     """The library's scores computed depth by depth from the traces, as detect did before they were vectorised
     (kept here as the reference): per class, the quadratic of each depth (x0, rss0, g, H; None if no point is
     usable) and the first-echo gain and best x; and the RSS of every candidate (inf where it did not run)."""
-    from hertzian.ensemble.detect import FIRST_ECHO_GRAINS, INTERPOLATION_POINTS, lagrange_weights, quadratic_at
+    from hertzian.studies.detect import FIRST_ECHO_GRAINS, INTERPOLATION_POINTS, lagrange_weights, quadratic_at
 
     def rss_of(s, models, c, W):
         e, D = s - c, models - c[None]
@@ -519,7 +517,7 @@ def test_vectorised_library_scores_equal_the_per_depth_formulas():
     the echoes' projections on the signal and the library's Gram matrices, against the per-depth formulas on the
     traces (reference_library_scores). Same interpolated point (x0, best x: equal); rss0, H, the gain and the
     candidates' RSS to rtol 1e-10; g (J·r, which can be near 0) to 1e-10 of its Cauchy–Schwarz bound √(H rss0)."""
-    import hertzian.ensemble.detect as detect_module
+    import hertzian.studies.detect as detect_module
 
     forward, grid, clean, traces, ok, fronts, signal = small_library()
     library = detect_module.assemble_library("test", grid, forward, clean, traces, ok, fronts)
@@ -557,7 +555,7 @@ def test_library_cache_round_trips_and_refuses_a_damaged_copy(tmp_path, monkeypa
     call maps the same arrays back without simulating. A damaged copy (a truncated or missing file, an array of the
     wrong shape, first-echo windows that differ from FIRST_ECHO_GRAINS's) is not used: a warning, then the library
     is simulated again and saved whole."""
-    import hertzian.ensemble.detect as detect_module
+    import hertzian.studies.detect as detect_module
 
     monkeypatch.setenv("HERTZIAN_DETECT_CACHE", str(tmp_path))
     forward, grid, clean, traces, ok, fronts, _ = small_library()
@@ -610,8 +608,8 @@ def test_library_cache_round_trips_and_refuses_a_damaged_copy(tmp_path, monkeypa
 def test_gpu_note_names_the_event_steps_of_the_candidate_runs(monkeypatch):
     """On a GPU, a BASE whose contacts can open and which keeps event-aware steps gets one note naming
     integrator.events = "off"; plain steps or a CPU get none. (The CUDA check is made on a CPU-built model.)"""
-    from hertzian.ensemble import model as model_module
-    from hertzian.ensemble.cli import detect as cli_detect
+    from hertzian.cli import detect as cli_detect
+    from hertzian.core import model as model_module
 
     real_build = model_module.build_model
     monkeypatch.setattr(model_module, "build_model", lambda scenes, dev: real_build(scenes, "cpu"))
@@ -669,10 +667,10 @@ def test_library_runs_equal_one_scene_per_candidate(gravity, block):
     impurity_scene per candidate, bit for bit, in the caller's order, across batches (here of 4 chains). Without
     gravity a group below the grains that move at t = 0 reuses another such group's arrays with its impurity moved
     (depths 10 → 25 here); depth 2 is above them, and gravity or a ≠ a_host forbids the move."""
-    from hertzian.ensemble.detect import impurity_scene, run_candidates
-    from hertzian.ensemble.model import build_model
-    from hertzian.ensemble.runner import Runner
-    from hertzian.ensemble.scene import apply_overrides
+    from hertzian.core.model import build_model
+    from hertzian.core.runner import Runner
+    from hertzian.core.scene import apply_overrides
+    from hertzian.studies.detect import impurity_scene, run_candidates
 
     forward = forward_scene(scene_from_dict(apply_overrides(BASE, {"chain.gravity": gravity})), SPACING, 301)
     candidates = [
@@ -703,9 +701,9 @@ def test_library_assembled_on_the_device_equals_the_host_path(monkeypatch):
     matrices; only the echoes come back. Forced here on the CPU device, that path must give the host path's clean
     trace, echoes and OK flags bit for bit (a candidate marked as failed included: its echo is −clean) and its Gram
     matrices to rounding."""
-    from hertzian.ensemble import detect as detect_module
-    from hertzian.ensemble import runner as runner_module
-    from hertzian.ensemble.detect import build_library, front_times, make_grid
+    from hertzian.core import runner as runner_module
+    from hertzian.studies import detect as detect_module
+    from hertzian.studies.detect import build_library, front_times, make_grid
 
     forward = forward_scene(scene_from_dict(BASE), SPACING, 301)
     fronts = front_times(forward, "cpu")
@@ -735,7 +733,7 @@ def test_library_assembled_on_the_device_equals_the_host_path(monkeypatch):
 def test_large_library_arrays_are_saved_by_threads_as_np_save_would(tmp_path, monkeypatch):
     """A library array over SAVE_PIECE_BYTES is copied into its .npy file's memory map by several threads: the file
     must be byte for byte the one np.save writes (here with pieces of 1 KiB, so 7 threads share 3 × 5 × 101 rows)."""
-    from hertzian.ensemble import detect as detect_module
+    from hertzian.studies import detect as detect_module
 
     monkeypatch.setattr(detect_module, "SAVE_PIECE_BYTES", 1024)
     array = np.random.default_rng(3).standard_normal((21, 5, 101))
@@ -749,7 +747,7 @@ def test_large_library_arrays_are_saved_by_threads_as_np_save_would(tmp_path, mo
 def test_study_draws_noise_trials_per_planted_case(tmp_path):
     """`noise_trials = 2`: each planted case is detected twice, with independent noise of the same σ (a small study
     on a 30-grain host, run on the CPU)."""
-    from hertzian.ensemble.detect_study import run_study
+    from hertzian.studies.detect_study import run_study
 
     path = tmp_path / "study.toml"
     path.write_text(
@@ -772,7 +770,7 @@ def test_wide_scan_finds_the_other_class_a_few_grains_off():
     """:func:`wide_scan` from a depth 3 grains off (where a heavy grain at 10 had been taken for a light one at 13):
     scanning both classes at the depths around finds the heavy class at depth 10, its best point within a scan step
     of μ = 2 (a noise-free planted signal on a 40-grain host)."""
-    from hertzian.ensemble.detect import _class_bounds, forward_scene, make_grid, run_candidates, wide_scan
+    from hertzian.studies.detect import _class_bounds, forward_scene, make_grid, run_candidates, wide_scan
 
     forward = forward_scene(scene_from_dict(BASE), SPACING, 301)
     truth, _ = run_candidates(forward, [(10, 2.0)], 1, "cpu")

@@ -7,12 +7,12 @@ import math
 
 import numpy as np
 import pytest
-from hertzian.ensemble.model import build_model
-from hertzian.ensemble.response import ResponseAccumulator
-from hertzian.ensemble.runner import Runner, run_scene
-from hertzian.ensemble.scene import RESPONSE_MIN_SAMPLES_PER_PERIOD, SceneError, response_stride_of, scene_from_dict
-from hertzian.ensemble.solvers import choose_config
-from hertzian.ensemble.solvers.calibrate import fused_lacks, step_reason
+from hertzian.core.model import build_model
+from hertzian.core.response import ResponseAccumulator
+from hertzian.core.runner import Runner, run_scene
+from hertzian.core.scene import RESPONSE_MIN_SAMPLES_PER_PERIOD, SceneError, response_stride_of, scene_from_dict
+from hertzian.core.solvers import choose_config
+from hertzian.core.solvers.calibrate import fused_lacks, step_reason
 from kernel_source import accessed_arrays, generated_source  # noqa: F401  (helpers of the lean-kernel test)
 
 L0 = 1e-3
@@ -178,9 +178,9 @@ def test_damping_generates_no_code_when_unused_and_runs_on_the_cpu_sweep():
     )
     model = build_model([impact], "cpu")
     assert model.features.event_window == 0.0  # event steps carry no damping
-    # on the CPU the sweep kernel carries damping (test_sweep_damping_equals_per_step)
-    assert choose_config(model, "auto").kind == "sweep"
-    assert choose_config(model, "sweep").kind == "sweep"
+    # on the CPU the chain kernel carries damping (test_sweep_damping_equals_per_step)
+    assert choose_config(model, "auto").kind == "chain"
+    assert choose_config(model, "chain").kind == "chain"
     assert step_reason(model) is None
     # both damping models are in the fused kernels too (test_fused_features.py; 8 grains fit no window)
     dashpot = build_model([impact.with_overrides({"damping.model": "contact"})], "cpu")
@@ -195,12 +195,12 @@ def test_damping_generates_no_code_when_unused_and_runs_on_the_cpu_sweep():
         with pytest.raises(ValueError, match="damping"):
             choose_config(dashpot32, fused)
     assert "damping" in fused_lacks(dashpot32.features, is_cpu=False)  # CUDA: the per-step kernel only
-    from hertzian.kernels.cpu import sweep_kernel
+    from hertzian.kernels.cpu import chain_kernel
 
     sweep_damped = generated_source(
-        sweep_kernel(Features(surface="driven", bottom="fixed", static="uniform", damping="contact"))
+        chain_kernel(Features(surface="driven", bottom="fixed", static="uniform", damping="contact"))
     )
-    sweep_plain = generated_source(sweep_kernel(Features(surface="driven", bottom="fixed", static="uniform")))
+    sweep_plain = generated_source(chain_kernel(Features(surface="driven", bottom="fixed", static="uniform")))
     assert "dissipated" in accessed_arrays(sweep_damped) and "damping" in accessed_arrays(sweep_damped)
     assert not {"dissipated", "damping"} & accessed_arrays(sweep_plain)
 
@@ -209,7 +209,7 @@ def test_damping_generates_no_code_when_unused_and_runs_on_the_cpu_sweep():
     "model, bottom", [("viscous", "fixed"), ("viscous", "wall"), ("contact", "fixed"), ("contact", "wall")]
 )
 def test_sweep_damping_equals_per_step(model, bottom):
-    """Damping in the CPU sweep kernel is the per-step kernel's, bit for bit: fields, energy, the driver's
+    """Damping in the CPU chain kernel is the per-step kernel's, bit for bit: fields, energy, the driver's
     work, the dissipated energy D and the response windows. A = 3e-3 > l0 opens the driver's contact;
     motion must reach the bottom grain that moves, and D must grow."""
     scene = driven(
@@ -230,8 +230,8 @@ def test_sweep_damping_equals_per_step(model, bottom):
     )
     chains = build_model([scene], "cpu")
     want = Runner(chains, kernel="step", use_graph=False, monitor_every=7).run()
-    got = Runner(chains, kernel="sweep", use_graph=False, monitor_every=7).run()
-    assert want.kernel.startswith("step") and got.kernel == "sweep"
+    got = Runner(chains, kernel="chain", use_graph=False, monitor_every=7).run()
+    assert want.kernel.startswith("step") and got.kernel == "chain"
     bottom_moving = -2 if bottom == "fixed" else -1
     v = np.abs(want.fields["v"])
     assert v[..., bottom_moving].max() > 1e-3 * v.max(), "motion never reached the bottom"
@@ -262,8 +262,8 @@ def test_sweep_damping_equals_per_step_between_walls(model):
     )
     chains = build_model([scene], "cpu")
     want = Runner(chains, kernel="step", use_graph=False, monitor_every=7).run()
-    got = Runner(chains, kernel="sweep", use_graph=False, monitor_every=7).run()
-    assert got.kernel == "sweep"
+    got = Runner(chains, kernel="chain", use_graph=False, monitor_every=7).run()
+    assert got.kernel == "chain"
     v = np.abs(want.fields["v"])
     assert v[..., -1].max() > 1e-3 * v.max(), "motion never reached the bottom"
     assert want.dissipated[0, -1] > 0
@@ -328,7 +328,7 @@ def test_cli_refuses_bad_response_key(tmp_path):
 
 def test_map_numbers_on_closed_forms():
     """Standing-wave ratio and labels on signals whose answer is known."""
-    from hertzian.ensemble import analysis as an
+    from hertzian.studies import analysis as an
 
     z = np.arange(50)
     k = 2 * math.pi / 40
@@ -354,7 +354,7 @@ def test_map_numbers_on_closed_forms():
 
 def test_response_store_is_readable_by_xarray(tmp_path):
     import xarray as xr
-    from hertzian.ensemble.store import write_result
+    from hertzian.sweeping.store import write_result
 
     scene = driven(
         grains=8,
@@ -457,7 +457,7 @@ def test_response_of_a_chain_is_the_same_alone_and_in_an_ensemble_of_other_perio
     """Each chain samples its windows at its own stride (Scene.response_stride): τ = 1 (1000 steps: stride 2)
     and τ = 1.5 (1500 steps: stride 5) in one ensemble give each chain's sums bit for bit as run alone (a
     stride shared by the ensemble, 2 here, gave the τ = 1.5 chain other samples than alone)."""
-    from hertzian.ensemble.runner import run_ensemble
+    from hertzian.core.runner import run_ensemble
 
     base = scene_from_dict(
         {
@@ -561,8 +561,8 @@ def test_response_sampled_in_runs_equals_one_sample_at_a_time(monkeypatch, piece
     """Runner._advance_sampled takes runs of equally spaced samples in one piece (one CUDA graph on a GPU);
     with device checks interleaved (monitor_every = 37 steps) every sum, energy and trace equals runs of one
     sample each, the order the samples were taken in before (on CUDA: replayed graphs against single pieces)."""
-    from hertzian.ensemble import runner as runner_module
-    from hertzian.ensemble.model import build_model
+    from hertzian.core import runner as runner_module
+    from hertzian.core.model import build_model
 
     scene = driven(
         grains=12,

@@ -1,7 +1,7 @@
 """Event-aware Gear steps (kernels/events.py): contacts that open or close keep the method's order.
 
 Checked against independent things: the order of accuracy as the log-error/log-dt slope against a
-gear6 reference at dt/4 (Richardson-checked by ensemble/accuracy.py), the same study with the
+gear6 reference at dt/4 (Richardson-checked by ensemble/studies/accuracy.py), the same study with the
 treatment switched off (the order it repairs), and bitwise equality of every kernel on the CPU.
 """
 
@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 from conftest import make_scene
 from fused_cases import assert_every_window_moved, assert_kernels_agree
-from hertzian.ensemble.accuracy import work_precision
-from hertzian.ensemble.model import build_model, features_of
+from hertzian.core.model import build_model, features_of
 from hertzian.kernels.features import Features
 from hertzian.kernels.step import step_kernel
 from hertzian.kernels.tile import TileShape, plan_tile, tile_kernel
+from hertzian.studies.accuracy import work_precision
 from kernel_source import call_count, function_body, generated_source
 
 from tests.test_cpu_kernel import sweep
@@ -161,7 +161,7 @@ def test_out_of_line_event_step_takes_the_same_steps():
 
 
 def test_bad_event_modes_are_one_line_errors():
-    from hertzian.ensemble.cli import app
+    from hertzian.cli import app
     from typer.testing import CliRunner
 
     for args, key in (
@@ -192,7 +192,7 @@ def test_wall_struck_chain_converges_like_the_smooth_case():
 
 
 def test_cuda_runs_with_event_steps_say_what_they_cost():
-    from hertzian.ensemble.solvers.calibrate import event_cost_note
+    from hertzian.core.solvers.calibrate import event_cost_note
 
     loose = features_of([make_scene(chain={"grains": 20, "l0": 0.0}, excitation={"impact": 1e-2})])
     plain = features_of(
@@ -205,7 +205,7 @@ def test_cuda_runs_with_event_steps_say_what_they_cost():
 def test_event_kernels_calibrate_only_shapes_that_do_not_spill():
     """The calibration times G = 8 and 4 for a kernel with event-aware steps (at G = 16 or under a 168-register cap
     its event code spills on sm_90), and still G = 16 and the capped G = 8 for plain steps."""
-    from hertzian.ensemble.solvers.calibrate import whole_chain_configs
+    from hertzian.core.solvers.calibrate import whole_chain_configs
 
     sections = {
         "chain": {"grains": 200, "l0": 0.0},

@@ -24,9 +24,9 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from hertzian.ensemble.model import build_model, features_of
-from hertzian.ensemble.runner import Runner
-from hertzian.ensemble.scene import scene_from_dict
+from hertzian.core.model import build_model, features_of
+from hertzian.core.runner import Runner
+from hertzian.core.scene import scene_from_dict
 
 ENERGY_BOUND = 2e-7
 POSITION_BOUND = 2e-6
@@ -45,7 +45,7 @@ def run(method: str, precision: str, compensated: bool):
     features = replace(features_of([scene]), compensated=compensated)
     model = build_model([scene], "cpu", features=features)
     assert model.features.values == features.nordsieck_values + (2 if precision == "float32" and compensated else 0)
-    result = Runner(model, kernel="sweep").run()
+    result = Runner(model, kernel="chain").run()
     return float(result.energy_error[0]), np.asarray(result.fields["u"][0], dtype=np.float64)
 
 
@@ -76,7 +76,7 @@ def test_compensated_state_carries_the_low_parts():
     )
     model = build_model([scene], "cpu")
     assert model.features.compensation and model.features.values == 6
-    runner = Runner(model, kernel="sweep")
+    runner = Runner(model, kernel="chain")
     runner.advance(2000)
     x = runner.current.x.numpy()
     hi, lo = x[[0, 1]], x[[4, 5]]

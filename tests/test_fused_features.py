@@ -1,8 +1,8 @@
-"""Traces and drive on the fused solvers (CPU sweep, tile, window) against the per-step kernel.
+"""Traces and drive on the fused solvers (CPU chain kernel, tile, window) against the per-step kernel.
 
 The per-step kernel writes trace samples inside the step and integrates the driven surface grain
 itself (kernels/step.py); the fused solvers sample the ring between stride-aligned pieces and the
-sweep kernel copies the driven path expression for expression. On the CPU every record, every trace
+chain kernel copies the driven path expression for expression. On the CPU every record, every trace
 sample and the driver's work must agree bit for bit (on CUDA too with HERTZIAN_FUSE_FP=0; by default to
 rounding there, fused_cases.assert_kernels_agree). Each case asserts that motion reached the
 last traced grain / the bottom of the chain before comparing (a test of zeros against zeros
@@ -17,10 +17,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from fused_cases import MOVED, assert_every_window_moved, assert_kernels_agree, chains, window_ranges
-from hertzian.ensemble.model import build_model
-from hertzian.ensemble.runner import Runner
-from hertzian.ensemble.solvers import SWEEP, choose_config, config_of
-from hertzian.ensemble.solvers.calibrate import step_reason
+from hertzian.core.model import build_model
+from hertzian.core.runner import Runner
+from hertzian.core.solvers import CHAIN, choose_config, config_of
+from hertzian.core.solvers.calibrate import step_reason
 from hertzian.kernels.tile import plan_tile
 
 TRACED = {"grains": 30, "l0": 1e-4}
@@ -54,8 +54,8 @@ def assert_same_run(got, want, *, last_traced_moved=True, device="cpu"):
 def test_sweep_traces_equal_per_step():
     model = build_model(traced_scenes(), "cpu")
     want = run(model, "step")
-    got = run(model, "sweep")
-    assert got.kernel == "sweep"
+    got = run(model, "chain")
+    assert got.kernel == "chain"
     assert_same_run(got, want)
 
 
@@ -76,14 +76,14 @@ def test_tile_traces_equal_per_step(windowed, device):
 
 def test_auto_picks_sweep_for_traces():
     model = build_model(traced_scenes(), "cpu")
-    assert choose_config(model, "auto", run_steps=10**8) == SWEEP
+    assert choose_config(model, "auto", run_steps=10**8) == CHAIN
     assert step_reason(model, 10**8) is None
     assert "short run" in step_reason(model, 10)
 
 
 def driven_scenes(*, traces: bool, **sections):
     """Two driven chains (amplitudes differ) that open and close contacts at the surface."""
-    from hertzian.ensemble.scene import scene_from_dict
+    from hertzian.core.scene import scene_from_dict
 
     data = {
         "chain": {"grains": 24, "l0": 1e-4},
@@ -113,8 +113,8 @@ DRIVEN_CASES = {
 def test_sweep_drive_equals_per_step(case):
     model = build_model(driven_scenes(**DRIVEN_CASES[case]), "cpu")
     want = run(model, "step")
-    got = run(model, "sweep")
-    assert got.kernel == "sweep"
+    got = run(model, "chain")
+    assert got.kernel == "chain"
     if want.traces:
         assert_same_run(got, want)
     else:
@@ -172,7 +172,7 @@ def test_drive_table_refilled_within_an_advance_equals_per_step(launches_per_tab
     """The driver's phases come from a device table that TileSolver fills before its launches (kernels/tile.py
     drive_table); with the table covering one launch, or three, it is refilled within every advance between
     records, and the fused run still equals the per-step kernel."""
-    import hertzian.ensemble.solvers.tile as tile_solver
+    import hertzian.core.solvers.tile as tile_solver
 
     sections = DRIVEN_CASES["traces, events auto, bottom wall"]
     model = build_model(driven_scenes(**sections), device)
@@ -251,7 +251,7 @@ def test_records_reach_the_host_arrays():
     # records are staged (two alternating buffers) and unpacked at the end: the last two records must
     # be the final state, and the trace rows of the last record the ring's last samples
     model = build_model(traced_scenes(), "cpu")
-    runner = Runner(model, kernel="sweep", use_graph=False)
+    runner = Runner(model, kernel="chain", use_graph=False)
     result = runner.run()
     x = runner.current.x.numpy()
     np.testing.assert_array_equal(result.u[:, -1], x[0])
@@ -264,13 +264,13 @@ def test_records_reach_the_host_arrays():
 
 def test_traces_of_advances_that_end_between_trace_steps():
     # advances of 13 and 40 steps (not multiples of the stride 8): the kernel writes its samples by the clock
-    from hertzian.ensemble.solvers import SweepSolver
+    from hertzian.core.solvers import ChainSolver
 
     model = build_model(traced_scenes(), "cpu")
     reference = Runner(model, kernel="step", use_graph=False, monitor_every=0)
     reference.advance(13)
     reference.advance(40)
-    solver = SweepSolver(model)
+    solver = ChainSolver(model)
     first, second = model.state_pair()
     a = solver.advance(first, second, 13)
     a = solver.advance(a, second if a is first else first, 40)
@@ -279,12 +279,12 @@ def test_traces_of_advances_that_end_between_trace_steps():
     assert np.max(np.abs(a.traces.numpy())) > 0
 
 
-@pytest.mark.parametrize("kernel", ["sweep", "tile"])
+@pytest.mark.parametrize("kernel", ["chain", "tile"])
 def test_response_windows_on_the_fused_kernels_equal_per_step(kernel, device):
     """Response windows (V_k, window KE, driver-open fraction) of a driven chain whose surface contact opens:
     the fused kernels (sampled between launches) give the per-step kernel's sums."""
-    if kernel == "sweep" and device != "cpu":
-        pytest.skip("the sweep kernel is a CPU kernel")
+    if kernel == "chain" and device != "cpu":
+        pytest.skip("the chain kernel is a CPU kernel")
     record = {
         "every": 0.5,
         "fields": ["v"],
@@ -295,8 +295,8 @@ def test_response_windows_on_the_fused_kernels_equal_per_step(kernel, device):
     }
     model = build_model(driven_scenes(traces=False, record=record), device)
     want = run(model, "step")
-    if kernel == "sweep":
-        config = "sweep"
+    if kernel == "chain":
+        config = "chain"
     else:
         config = config_of(
             plan_tile(replace(model.features, traces=False), model.grain_count, model.chain_count, grains_per_lane=4)
@@ -314,7 +314,7 @@ def test_tile_writes_trace_samples_inside_the_launch_frozen_chains_included(wind
     """The tile/window kernels write the trace ring themselves (one launch per K steps, the traced grains
     written by the lanes that keep them): after an advance the ring is the per-step kernel's bit for bit, a
     frozen (non-finite) chain's samples included."""
-    from hertzian.ensemble.solvers import TileSolver
+    from hertzian.core.solvers import TileSolver
 
     model = build_model(traced_scenes(), "cpu")
     f = replace(model.features, traces=False)
@@ -410,7 +410,7 @@ def test_auto_takes_a_calibrated_fused_kernel_for_short_gpu_runs(tmp_path, monke
     import json
     from types import SimpleNamespace
 
-    from hertzian.ensemble.solvers import calibrate
+    from hertzian.core.solvers import calibrate
 
     monkeypatch.setenv("HERTZIAN_CACHE", str(tmp_path / "calibration.json"))
     real = build_model(chains(2, chain={"grains": 40}), "cpu")
@@ -493,7 +493,7 @@ def test_damping_on_the_fused_kernels_equals_per_step(case, windowed, device):
 def test_dashpot_between_walls_on_the_fused_kernels_equals_per_step():
     """The surface wall's dashpot (the contact above grain 0, which no integrated grain owns) in the tile and
     window kernels: an impact between walls, per-step kernel bit for bit; the impact reaches the bottom wall."""
-    from hertzian.ensemble.scene import scene_from_dict
+    from hertzian.core.scene import scene_from_dict
 
     scene = scene_from_dict(
         {
@@ -538,7 +538,7 @@ def test_undamped_fused_kernels_hold_no_damping_code():
 
 
 def test_fused_kernels_refuse_the_dashpot_in_compensated_float32():
-    """The contact dashpot in compensated float32 is left to the per-step and CPU sweep kernels: the tile kernel
+    """The contact dashpot in compensated float32 is left to the per-step and CPU chain kernels: the tile kernel
     refuses it (one line), and a forced tile kernel on such a scene is refused before anything runs."""
     from hertzian.kernels.tile import tile_kernel
 

@@ -11,16 +11,16 @@
 
 import numpy as np
 import pytest
-from hertzian.ensemble.chains import ChainSet
-from hertzian.ensemble.distributed import jobs_for, run_serial
-from hertzian.ensemble.model import build_model, prepare_model
-from hertzian.ensemble.planner import plan_sweep
-from hertzian.ensemble.recorder import STAGING
-from hertzian.ensemble.runner import Runner
-from hertzian.ensemble.scene import scene_from_dict
-from hertzian.ensemble.static import distinct_static_rows, static_arrays, static_state
-from hertzian.ensemble.sweep import expand, sweep_from_dict
-from hertzian.ensemble.sweep_store import create_sweep_store, differing_arrays
+from hertzian.core.chains import ChainSet
+from hertzian.core.model import build_model, prepare_model
+from hertzian.core.recorder import STAGING
+from hertzian.core.runner import Runner
+from hertzian.core.scene import scene_from_dict
+from hertzian.core.static import distinct_static_rows, static_arrays, static_state
+from hertzian.sweeping.distributed import jobs_for, run_serial
+from hertzian.sweeping.planner import plan_sweep
+from hertzian.sweeping.spec import expand, sweep_from_dict
+from hertzian.sweeping.sweep_store import create_sweep_store, differing_arrays
 
 BASE = {
     "chain": {"grains": 12, "l0": 1e-4},
@@ -79,7 +79,7 @@ def test_overlapped_preparation_writes_the_same_store(tmp_path):
 
 def test_records_written_while_the_batch_runs_give_the_same_store(tmp_path, monkeypatch):
     import zarr
-    from hertzian.ensemble import sweep_store
+    from hertzian.sweeping import sweep_store
 
     # 5 records, 5 trace samples between two: the traces' shards hold 5 samples, u's and v's one record
     sweep = dict(SWEEP, scene={**SWEEP["scene"], "integrator": {**BASE["integrator"], "duration": 0.04}})
@@ -140,12 +140,12 @@ def test_a_serial_sweep_warms_the_stepping_kernel_its_batches_use(monkeypatch):
     from types import SimpleNamespace
 
     import warp as wp
-    from hertzian.ensemble import distributed
-    from hertzian.ensemble.solvers import calibrate
-    from hertzian.ensemble.solvers.calibrate import _cache_key, whole_chain_configs
+    from hertzian.core.solvers import calibrate
+    from hertzian.core.solvers.calibrate import _cache_key, whole_chain_configs
     from hertzian.kernels.records import record_kernels
     from hertzian.kernels.step import step_kernel
     from hertzian.kernels.tile import tile_kernel
+    from hertzian.sweeping import distributed
 
     sweep = sweep_from_dict(SWEEP)
     points = expand(sweep)
@@ -241,7 +241,7 @@ def test_the_collector_is_frozen_during_a_run_and_unfrozen_after():
     unfreezes them after, also when the run raises."""
     import gc
 
-    from hertzian.ensemble.runner import frozen_collector
+    from hertzian.core.runner import frozen_collector
 
     assert gc.get_freeze_count() == 0
     with pytest.raises(RuntimeError):

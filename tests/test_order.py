@@ -1,13 +1,13 @@
 """Order of accuracy from the slope of log(error) against log(dt), on a smooth problem (a strongly
 precompressed chain: no contact ever opens, so the force is smooth). The reference is gear6 at a
 step 4x smaller than the finest tested. The Gear methods start from exact Taylor derivatives
-(ensemble/startup.py); with a zero start they all fall to order 2 (see test_zero_start_loses_order)."""
+(ensemble/core/startup.py); with a zero start they all fall to order 2 (see test_zero_start_loses_order)."""
 
 import numpy as np
 import pytest
 from conftest import make_scene
-from hertzian.ensemble.model import build_model
-from hertzian.ensemble.runner import Runner, run_scene
+from hertzian.core.model import build_model
+from hertzian.core.runner import Runner, run_scene
 
 DTS = np.array([2e-3, 1e-3, 5e-4])
 # Expected orders: velocity Verlet is second order; the q-value Gear methods (A&T coefficients)

@@ -2,7 +2,7 @@
 
 Each test runs short chains at the paper's parameters (program units, gear4, dt = 1.25e-4 — ten
 times the paper's step; the energy error of every run is checked) and compares what
-hertzian.ensemble.analysis measures with something independent: an exact scaling law, a closed form
+hertzian.studies.analysis measures with something independent: an exact scaling law, a closed form
 (sound speed of a compressed chain or column, Nesterenko's soliton), linear acoustics, or the
 paper's claim where no theory exists. docs/reproduction.md has the full-size numbers.
 """
@@ -13,9 +13,9 @@ import math
 
 import numpy as np
 import pytest
-from hertzian.ensemble import analysis as an
-from hertzian.ensemble.runner import run_ensemble
-from hertzian.ensemble.scene import scene_from_dict
+from hertzian.core.runner import run_ensemble
+from hertzian.core.scene import scene_from_dict
+from hertzian.studies import analysis as an
 
 DT = 1.25e-4
 A = 5657.0
@@ -283,8 +283,8 @@ def test_backscatter_in_a_weakly_loaded_chain_is_compressive(device):
 def test_plot_cli_draws_a_figure_and_refuses_bad_input(tmp_path):
     """`hertzian plot` writes a PNG from a store shaped like paper_fig1.toml's, and answers bad input
     with one line and exit code 2."""
-    from hertzian.ensemble.cli import app
-    from hertzian.ensemble.store import write_result
+    from hertzian.cli import app
+    from hertzian.sweeping.store import write_result
     from typer.testing import CliRunner
 
     speeds = [1e-3, 1e-2, 1e-1]

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import xarray as xr
-from hertzian.ensemble.analysis import energy_drift
-from hertzian.ensemble.cli import app
-from hertzian.ensemble.plot import PlotError, select_point
+from hertzian.cli import app
+from hertzian.plotting.figures import PlotError, select_point
+from hertzian.studies.analysis import energy_drift
 from typer.testing import CliRunner
 
 cli = CliRunner()

@@ -9,9 +9,9 @@ overlap and non-finite grain sit in the later parts (a reduction that dropped or
 import numpy as np
 import warp as wp
 from conftest import make_scene
-from hertzian.ensemble.model import build_model
-from hertzian.ensemble.recorder import Recorder
-from hertzian.ensemble.status import Status
+from hertzian.core.model import build_model
+from hertzian.core.recorder import Recorder
+from hertzian.core.status import Status
 from hertzian.kernels.records import PART_TILE, RECORD_PART, record_part_count
 from reference import static_overlaps, total_energy
 
@@ -96,7 +96,7 @@ def test_long_chains_two_stage_reduction_equals_the_parts(device, monkeypatch):
     part in the same order (kernels/records.py): energy, work, largest overlap, dissipated energy and status equal
     the one-stage parts' bit for bit on the CPU, to rounding on CUDA (where each kernel contracts as its compiler
     chooses), on states whose largest overlap lies in the last part, with a non-finite grain there too."""
-    import hertzian.ensemble.recorder as recorder_module
+    import hertzian.core.recorder as recorder_module
 
     for name, sections in STAGED_CASES.items():
         model = build_model([make_scene(**sections)] * 2, device)
@@ -150,7 +150,7 @@ def test_traces_of_one_value_equal_those_of_both(device):
     from dataclasses import replace
 
     import pytest
-    from hertzian.ensemble.runner import Runner
+    from hertzian.core.runner import Runner
 
     for every in (0.014, 0.05):
         scene = make_scene(
@@ -181,8 +181,8 @@ def test_staging_depth_keeps_every_record_in_order(device, monkeypatch):
     device), large ones two (STAGING_BYTES); each record copies only the state rows the scene keeps. A run of more
     records than buffers, with snapshots of v only and traces, gives the same result with 8 buffers as with 2, bit
     for bit, and hands its records to ``on_unpacked`` in order."""
-    import hertzian.ensemble.recorder as recorder_module
-    from hertzian.ensemble.runner import Runner
+    import hertzian.core.recorder as recorder_module
+    from hertzian.core.runner import Runner
 
     scene = make_scene(
         chain={"grains": 30, "l0": 1e-4},
@@ -221,8 +221,8 @@ def test_host_pages_mapped_in_the_background_keep_every_record(device, monkeypat
     maps nothing in the background, bit for bit."""
     import time
 
-    from hertzian.ensemble import recorder as recorder_module
-    from hertzian.ensemble import runner as runner_module
+    from hertzian.core import recorder as recorder_module
+    from hertzian.core import runner as runner_module
 
     scene = make_scene(
         chain={"grains": 30, "l0": 1e-4},
@@ -263,7 +263,7 @@ def test_a_failed_page_mapping_is_raised_at_the_unpack_that_waits_for_it(monkeyp
     import threading
     import time
 
-    from hertzian.ensemble import recorder as recorder_module
+    from hertzian.core import recorder as recorder_module
 
     release = threading.Event()
 

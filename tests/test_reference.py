@@ -11,7 +11,7 @@ that grain's own largest displacement and speed.
 import numpy as np
 import pytest
 from conftest import make_scene
-from hertzian.ensemble.runner import run_scene
+from hertzian.core.runner import run_scene
 from reference import reference_run
 
 GRAINS = 12

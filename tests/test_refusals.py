@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 from cli_cases import assert_refused, invoke, toml_text, toml_value  # noqa: F401
 from conftest import make_scene
-from hertzian.ensemble.runner import run_scene
-from hertzian.ensemble.scene import MAX_STEPS, SceneError, load_scene
-from hertzian.ensemble.sweep import MAX_POINTS, load_sweep, sweep_scenes
+from hertzian.core.runner import run_scene
+from hertzian.core.scene import MAX_STEPS, SceneError, load_scene
+from hertzian.sweeping.spec import MAX_POINTS, load_sweep, sweep_scenes
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
@@ -98,12 +98,12 @@ def test_kernel_option(tmp_path):
         "--set",
         "excitation.drive_amplitude=1e-3",
     ]
-    # a drive runs on the sweep kernel (issue 11; bitwise equality: tests/test_fused_features.py)
+    # a drive runs on the chain kernel (issue 11; bitwise equality: tests/test_fused_features.py)
     driven_out = tmp_path / "driven.zarr"
-    done = invoke("run", scene, "--out", driven_out, "--device", "cpu", "--kernel", "sweep", "--quiet", *driven)
-    assert done.exit_code == 0 and "(sweep kernel)" in done.stdout, done.output
-    done = invoke("run", scene, "--out", out, "--device", "cpu", "--kernel", "sweep", "--quiet")
-    assert done.exit_code == 0 and "(sweep kernel)" in done.stdout, done.output
+    done = invoke("run", scene, "--out", driven_out, "--device", "cpu", "--kernel", "chain", "--quiet", *driven)
+    assert done.exit_code == 0 and "(chain kernel)" in done.stdout, done.output
+    done = invoke("run", scene, "--out", out, "--device", "cpu", "--kernel", "chain", "--quiet")
+    assert done.exit_code == 0 and "(chain kernel)" in done.stdout, done.output
 
 
 # ---- duration honoured -------------------------------------------------------------------------------
@@ -218,7 +218,7 @@ def test_fuzzed_scene_files_are_refused_cleanly(tmp_path, edits, broken):
     out = tmp_path / "fuzz.zarr"
 
     def load():
-        from hertzian.ensemble.check import memory_refusal
+        from hertzian.core.check import memory_refusal
 
         loaded = load_scene(scene)
         if memory_refusal(loaded):
@@ -311,14 +311,14 @@ def test_check_takes_precision(tmp_path):
     )
 
 
-def test_sweep_kernel_option(tmp_path):
+def test_chain_kernel_option(tmp_path):
     text = toml_text({"scene": BASE}) + '\n[[axis]]\nname = "v_imp"\nkey = "excitation.impact"\nvalues = [1e-2, 2e-2]\n'
     path = tmp_path / "sweep.toml"
     path.write_text(text)
     out = tmp_path / "sweep.zarr"
-    # traces run on the sweep kernel too (issue 11)
+    # traces run on the chain kernel too (issue 11)
     done = invoke(
-        "sweep", path, "--out", out, "--device", "cpu", "--kernel", "sweep", "--quiet", "--set", "record.traces=[0]"
+        "sweep", path, "--out", out, "--device", "cpu", "--kernel", "chain", "--quiet", "--set", "record.traces=[0]"
     )
     assert done.exit_code == 0, done.output
     import xarray as xr

@@ -6,15 +6,15 @@ import json
 
 import pytest
 import xarray as xr
-from hertzian.ensemble.cli import app
-from hertzian.ensemble.reproduce import GROUPS, default_sweeps_dir, group_of
+from hertzian.cli import app
+from hertzian.studies.reproduce import GROUPS, default_sweeps_dir, group_of
 from typer.testing import CliRunner
 
 cli = CliRunner()
 
 
 def test_every_group_has_its_sweep_file_and_figures_known_to_plot():
-    from hertzian.ensemble.plot import FIGURES
+    from hertzian.plotting.figures import FIGURES
 
     for name, group in GROUPS.items():
         assert (default_sweeps_dir() / group.sweep).is_file(), name
@@ -29,8 +29,8 @@ def test_paper_groups_take_plain_gear_steps_on_the_fused_kernels_of_a_gpu(monkey
     import types
 
     import warp as wp
-    from hertzian.ensemble.reproduce import group_kernel
-    from hertzian.ensemble.sweep import expand, load_sweep
+    from hertzian.studies.reproduce import group_kernel
+    from hertzian.sweeping.spec import expand, load_sweep
 
     for name, group in GROUPS.items():
         scene = expand(load_sweep(default_sweeps_dir() / group.sweep, {})).scene(0)
@@ -59,7 +59,7 @@ def test_quick_group_writes_store_png_and_log(tmp_path):
 
 
 def test_kernel_option_and_the_split_of_each_runs_seconds(tmp_path):
-    # --kernel fused: the short group takes the CPU sweep kernel, which auto leaves for the per-step one
+    # --kernel fused: the short group takes the CPU chain kernel, which auto leaves for the per-step one
     logs = {}
     for kernel in ("auto", "fused"):
         out = tmp_path / kernel
@@ -133,10 +133,10 @@ def test_driven_windows_summed_on_the_device_equal_a_host_loop(device):
     copy v to the host, sum with NumPy) over the same marks gives the same numbers: bit for bit on the CPU, to
     rounding on CUDA (where the compiler may fuse ½ m v² + sum into one multiply-add)."""
     import numpy as np
-    from hertzian.ensemble import analysis as an
-    from hertzian.ensemble.model import build_model
-    from hertzian.ensemble.reproduce import DRIVE_DT, drive_scenes, read_marks, run_driven
-    from hertzian.ensemble.runner import Runner
+    from hertzian.core.model import build_model
+    from hertzian.core.runner import Runner
+    from hertzian.studies import analysis as an
+    from hertzian.studies.reproduce import DRIVE_DT, drive_scenes, read_marks, run_driven
 
     path = default_sweeps_dir() / GROUPS["fig9_10"].sweep
     centres = np.array([1.0, 2.5, 4.0])  # overlapping edges: a step can sample two windows
@@ -183,7 +183,7 @@ def test_driven_windows_summed_on_the_device_equal_a_host_loop(device):
 def test_figures_drawn_in_worker_processes_equal_those_drawn_inline(tmp_path):
     """On a GPU the figures and measurements of a group are made in worker processes while the next group
     integrates: the log's numbers and the PNGs are the same as when they are made in line."""
-    from hertzian.ensemble.reproduce import finite, reproduce
+    from hertzian.studies.reproduce import finite, reproduce
 
     logs = {}
     for background in (False, True):

@@ -1,4 +1,4 @@
-"""The solver protocol (ensemble/solvers): ``advance(state_in, state_out, n) -> State`` for every kind.
+"""The solver protocol (ensemble/core/solvers): ``advance(state_in, state_out, n) -> State`` for every kind.
 
 Pieces of an advance must compose (n = a + b gives the same bits as a then b, whichever half each
 piece ends in), the shared status must freeze a chain on both halves, and configs are validated.
@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hertzian.ensemble.model import build_model
-from hertzian.ensemble.solvers import STEP, SWEEP, SolverConfig, config_of, make_solver
+from hertzian.core.model import build_model
+from hertzian.core.solvers import CHAIN, STEP, SolverConfig, config_of, make_solver
 from hertzian.kernels.features import STATUS_NON_FINITE
 from hertzian.kernels.tile import plan_tile
 
@@ -70,7 +70,7 @@ def test_config_is_validated():
         SolverConfig("tile")
     with pytest.raises(ValueError, match="steps_per_launch"):
         SolverConfig("sweep", steps_per_launch=0)
-    assert SolverConfig.from_dict(SWEEP.to_dict()) == SWEEP
+    assert SolverConfig.from_dict(CHAIN.to_dict()) == CHAIN
     model = build_model(chains(1, chain={"grains": 30}), "cpu")
     window = configs(model)["window"]
     assert SolverConfig.from_dict(window.to_dict()) == window
@@ -81,8 +81,8 @@ def test_a_long_fused_advance_replays_graphs_of_a_fixed_length():
     advance (10⁵ launches) is not one graph of every launch, which costs seconds to capture and instantiate."""
     from types import SimpleNamespace
 
-    from hertzian.ensemble.solvers.base import Solver
-    from hertzian.ensemble.solvers.config import FUSED_GRAPH_LAUNCHES
+    from hertzian.core.solvers.base import Solver
+    from hertzian.core.solvers.config import FUSED_GRAPH_LAUNCHES
 
     lengths = []
     graphs = SimpleNamespace(run=lambda launches, a, b, n: lengths.append(n) or b)
@@ -102,12 +102,12 @@ def test_a_long_fused_advance_replays_graphs_of_a_fixed_length():
 
 
 def test_fused_choice_is_auto_without_the_short_run_rule():
-    from hertzian.ensemble.solvers import choose_config
+    from hertzian.core.solvers import choose_config
 
     model = build_model(chains(2, chain={"grains": 30, "l0": 1e-4}, integrator={"dt": 5e-4}), "cpu")
     assert choose_config(model, "auto", run_steps=100) == STEP  # too short to repay a compile
-    assert choose_config(model, "fused", run_steps=100) == SWEEP
-    assert choose_config(model, "auto", run_steps=10**9) == SWEEP
+    assert choose_config(model, "fused", run_steps=100) == CHAIN
+    assert choose_config(model, "auto", run_steps=10**9) == CHAIN
     damped = build_model(
         chains(
             2, chain={"grains": 30, "l0": 1e-4}, integrator={"dt": 5e-4}, damping={"model": "viscous", "gamma": 0.1}

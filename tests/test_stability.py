@@ -16,13 +16,13 @@ import numpy as np
 import pytest
 import zarr
 from conftest import DEVICES, make_scene
-from hertzian.ensemble.accuracy import work_precision
-from hertzian.ensemble.check import check_scene
-from hertzian.ensemble.model import build_model
-from hertzian.ensemble.runner import Runner, run_ensemble, run_scene
-from hertzian.ensemble.static import static_state
-from hertzian.ensemble.status import Status
-from hertzian.ensemble.store import write_result
+from hertzian.core.check import check_scene
+from hertzian.core.model import build_model
+from hertzian.core.runner import Runner, run_ensemble, run_scene
+from hertzian.core.static import static_state
+from hertzian.core.status import Status
+from hertzian.studies.accuracy import work_precision
+from hertzian.sweeping.store import write_result
 
 PAPER_DT = 1.25e-5
 
@@ -37,7 +37,7 @@ def member(**chain):
     )
 
 
-KERNELS = [("cpu", "step"), ("cpu", "sweep")] + [(d, "auto") for d in DEVICES if d != "cpu"]
+KERNELS = [("cpu", "step"), ("cpu", "chain")] + [(d, "auto") for d in DEVICES if d != "cpu"]
 
 
 @pytest.mark.parametrize("device, kernel", KERNELS)
@@ -163,7 +163,7 @@ def test_paper_step_times_ten_and_times_a_hundredth(factor, tolerance):
         integrator={"dt": dt, "duration": 0.02 if factor < 1 else 0.5},
         record={"every": 0.01, "fields": ["u"]},
     )
-    result = Runner(build_model([scene], "cpu"), kernel="sweep").run()
+    result = Runner(build_model([scene], "cpu"), kernel="chain").run()
     assert result.status[0] == Status.OK
     assert result.energy_error[0] < tolerance
 

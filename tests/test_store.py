@@ -1,5 +1,5 @@
 """The one store writer: a run (or an ensemble written from code) is a sweep with no axes (or with the
-caller's axes), written by ``hertzian.ensemble.sweep_store`` through ``write_result``."""
+caller's axes), written by ``hertzian.sweeping.sweep_store`` through ``write_result``."""
 
 import json
 
@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 import xarray as xr
 import zarr
-from hertzian.ensemble.chains import ChainSet
-from hertzian.ensemble.model import build_model
-from hertzian.ensemble.runner import Runner, run_ensemble, run_scene
-from hertzian.ensemble.scene import scene_from_dict
-from hertzian.ensemble.store import summary_records, write_result
-from hertzian.ensemble.sweep_store import batch_records, completed_batches
+from hertzian.core.chains import ChainSet
+from hertzian.core.model import build_model
+from hertzian.core.runner import Runner, run_ensemble, run_scene
+from hertzian.core.scene import scene_from_dict
+from hertzian.sweeping.store import summary_records, write_result
+from hertzian.sweeping.sweep_store import batch_records, completed_batches
 
 SCENE = {
     "chain": {"grains": 8, "l0": 1e-4},

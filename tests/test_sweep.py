@@ -8,14 +8,14 @@ import numpy as np
 import pytest
 import xarray as xr
 import zarr
-from hertzian.ensemble.cli import app
-from hertzian.ensemble.model import build_model
-from hertzian.ensemble.planner import batches_for, block_for, plan_sweep
-from hertzian.ensemble.runner import Runner, run_scene
-from hertzian.ensemble.scene import SceneError
-from hertzian.ensemble.store import summary_records, write_result
-from hertzian.ensemble.sweep import load_sweep, sweep_from_dict, sweep_scenes
-from hertzian.ensemble.sweep_store import batch_records, chunk_layout, create_sweep_store, differing_arrays
+from hertzian.cli import app
+from hertzian.core.model import build_model
+from hertzian.core.runner import Runner, run_scene
+from hertzian.core.scene import SceneError
+from hertzian.sweeping.planner import batches_for, block_for, plan_sweep
+from hertzian.sweeping.spec import load_sweep, sweep_from_dict, sweep_scenes
+from hertzian.sweeping.store import summary_records, write_result
+from hertzian.sweeping.sweep_store import batch_records, chunk_layout, create_sweep_store, differing_arrays
 from typer.testing import CliRunner
 
 SWEEP = """
@@ -316,7 +316,7 @@ def test_store_has_a_runs_variables_with_the_sweep_dims_first(tmp_path):
 
 
 def test_chunks_are_the_batch_blocks(tmp_path, monkeypatch):
-    from hertzian.ensemble import sweep_store
+    from hertzian.sweeping import sweep_store
 
     # shards of one record of u and v (of one record interval of the traces) however small: the default groups
     # records into shards of ROW_SHARD_BYTES, which this small sweep's records do not reach (checked below)
@@ -354,7 +354,7 @@ def test_chunks_are_the_batch_blocks(tmp_path, monkeypatch):
 
 
 def test_records_per_shard_reach_the_shard_bytes():
-    from hertzian.ensemble.sweep_store import ROW_SHARD_BYTES, records_per_shard
+    from hertzian.sweeping.sweep_store import ROW_SHARD_BYTES, records_per_shard
 
     assert records_per_shard(5000, 500 * 8) == 1  # gpu_10k: 20 MB a record
     assert records_per_shard(2, 10000 * 8) == 53  # the driven columns: 160 kB a record
@@ -427,7 +427,7 @@ def test_scene_error_from_planner_is_a_scene_error(tmp_path):
 
 def test_non_leading_zip_axis_may_repeat_values():
     """Only the first axis of a [[zip]] group labels the store dimension; the others are coordinates."""
-    from hertzian.ensemble.sweep import sweep_from_dict
+    from hertzian.sweeping.spec import sweep_from_dict
 
     data = {
         "scene": {"chain": {"grains": 10}, "excitation": {"impact": 1e-2}, "integrator": {"duration": 0.01}},

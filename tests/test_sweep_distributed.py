@@ -2,9 +2,9 @@
 serial run; each worker writes its own batches."""
 
 import distributed  # a hard dependency (dask[distributed]): a missing one must fail, not skip
-from hertzian.ensemble.cli import app
-from hertzian.ensemble.distributed import worker_device
-from hertzian.ensemble.sweep_store import batch_records, differing_arrays
+from hertzian.cli import app
+from hertzian.sweeping.distributed import worker_device
+from hertzian.sweeping.sweep_store import batch_records, differing_arrays
 from typer.testing import CliRunner
 
 SWEEP = """

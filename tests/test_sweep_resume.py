@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 import xarray as xr
 import zarr
-from hertzian.ensemble.cli import app
-from hertzian.ensemble.runner import run_scene
-from hertzian.ensemble.store import write_result
-from hertzian.ensemble.sweep import load_sweep, sweep_scenes
-from hertzian.ensemble.sweep_store import batch_records, completed_batches, differing_arrays
+from hertzian.cli import app
+from hertzian.core.runner import run_scene
+from hertzian.sweeping.spec import load_sweep, sweep_scenes
+from hertzian.sweeping.store import write_result
+from hertzian.sweeping.sweep_store import batch_records, completed_batches, differing_arrays
 from typer.testing import CliRunner
 
 SWEEP = """
@@ -45,8 +45,8 @@ key = "chain.l0"
 values = [0.0, 1e-5, 1e-4]
 """
 FLAGS = ("--batch-size", "1", "--device", "cpu", "--quiet")
-HERTZIAN = (sys.executable, "-c", "from hertzian.ensemble.cli import main; main()")
-"""The ``hertzian`` script (``python -m hertzian.ensemble.cli`` would not see commands registered by other modules)."""
+HERTZIAN = (sys.executable, "-c", "from hertzian.cli import main; main()")
+"""The ``hertzian`` script (``python -m hertzian.cli`` would not see commands registered by other modules)."""
 BATCHES = 9
 
 cli = CliRunner()
@@ -191,7 +191,7 @@ def test_resume_refuses_a_store_of_another_package_version(tmp_path, sweep_file)
     assert sweep_cli(sweep_file, "--out", out, *FLAGS).exit_code == 0
     root = zarr.open_group(str(out), mode="r+")
     root.attrs["provenance"] = {**root.attrs["provenance"], "package_version": "0.0.1"}
-    from hertzian.ensemble.store import consolidate
+    from hertzian.sweeping.store import consolidate
 
     consolidate(out)
     _refused(sweep_cli(sweep_file, "--out", out, "--resume", *FLAGS), "package version 0.0.1")

@@ -13,12 +13,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
-from hertzian.ensemble.cli import app
-from hertzian.ensemble.model import build_model
-from hertzian.ensemble.planner import plan_sweep
-from hertzian.ensemble.runner import Runner
-from hertzian.ensemble.store import summary_columns
-from hertzian.ensemble.sweep import expand, load_sweep
+from hertzian.cli import app
+from hertzian.core.model import build_model
+from hertzian.core.runner import Runner
+from hertzian.sweeping.planner import plan_sweep
+from hertzian.sweeping.spec import expand, load_sweep
+from hertzian.sweeping.store import summary_columns
 from typer.testing import CliRunner
 
 SWEEPS = Path(__file__).parent.parent / "sweeps"

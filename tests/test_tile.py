@@ -13,9 +13,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from fused_cases import CASES, assert_every_window_moved, assert_kernels_agree, chains, per_step, window_ranges
-from hertzian.ensemble.model import build_model
-from hertzian.ensemble.runner import Runner
-from hertzian.ensemble.solvers import TileSolver, config_of
+from hertzian.core.model import build_model
+from hertzian.core.runner import Runner
+from hertzian.core.solvers import TileSolver, config_of
 from hertzian.kernels.features import STATUS_NON_FINITE
 from hertzian.kernels.ghost import plan_windows
 from hertzian.kernels.tile import fusable, plan_tile

@@ -12,13 +12,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hertzian.ensemble.chains import ChainSet
-from hertzian.ensemble.model import build_model, features_of
-from hertzian.ensemble.planner import plan_sweep
-from hertzian.ensemble.scene import SceneError
-from hertzian.ensemble.startup import initial_nordsieck, initial_nordsieck_of
-from hertzian.ensemble.static import static_arrays, static_state
-from hertzian.ensemble.sweep import Dimension, expand, load_sweep, sweep_from_dict
+from hertzian.core.chains import ChainSet
+from hertzian.core.model import build_model, features_of
+from hertzian.core.scene import SceneError
+from hertzian.core.startup import initial_nordsieck, initial_nordsieck_of
+from hertzian.core.static import static_arrays, static_state
+from hertzian.sweeping.planner import plan_sweep
+from hertzian.sweeping.spec import Dimension, expand, load_sweep, sweep_from_dict
 
 SWEEPS = sorted((Path(__file__).parent.parent / "sweeps").glob("*.toml"))
 
@@ -273,7 +273,7 @@ def test_planner_groups_and_features_equal_per_scene_features(case, tmp_path):
         assert group.features == features_of(members)
     # points with equal launch keys share a group, others do not
     keys = [
-        tuple(get(s) for _, get in __import__("hertzian.ensemble.model", fromlist=["SHARED_KEYS"]).SHARED_KEYS)
+        tuple(get(s) for _, get in __import__("hertzian.core.model", fromlist=["SHARED_KEYS"]).SHARED_KEYS)
         for s in scenes
     ]
     for p in range(len(scenes)):
@@ -315,7 +315,7 @@ def test_zipped_axes_are_checked_at_each_axis_extremes_not_only_the_leading_ones
 
 # ---- validation by corners equals validation of every point --------------------------------------
 
-from hertzian.ensemble.sweep import sweep_scenes  # noqa: E402
+from hertzian.sweeping.spec import sweep_scenes  # noqa: E402
 from hypothesis import HealthCheck, example, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 

@@ -3,7 +3,7 @@ w0 = 1 − 2·w1), a symplectic method of order 4 (Yoshida 1990; Forest & Ruth 1
 
 Claims checked here, each against something independent of the kernels' own output:
 
-* the CPU sweep kernel performs the per-step kernel's substeps in the same order: bit for bit equal states
+* the CPU chain kernel performs the per-step kernel's substeps in the same order: bit for bit equal states
   (walls, impurities + gravity + a fixed bottom, free ends, compensated float32), and equal records and
   traces through the runner (traces are written only at step boundaries);
 * order 4 on a smooth (precompressed, no contact opens) chain against a gear6 reference at a much smaller
@@ -24,15 +24,15 @@ import pytest
 from cli_cases import assert_refused, invoke, toml_text
 from conftest import make_scene
 from fused_cases import COMPOSED_CASES, assert_every_window_moved, chains, per_step
-from hertzian.ensemble.check import STABLE_OMEGA_DT, amplification_matrix
-from hertzian.ensemble.model import build_model
-from hertzian.ensemble.runner import Runner
-from hertzian.ensemble.scene import SceneError
-from hertzian.ensemble.solvers import SolverConfig, SweepSolver, choose_config
-from hertzian.ensemble.solvers.calibrate import fused_lacks
+from hertzian.core.check import STABLE_OMEGA_DT, amplification_matrix
+from hertzian.core.model import build_model
+from hertzian.core.runner import Runner
+from hertzian.core.scene import SceneError
+from hertzian.core.solvers import ChainSolver, SolverConfig, choose_config
+from hertzian.core.solvers.calibrate import fused_lacks
 from hertzian.kernels.features import SUBSTEP_WEIGHTS
 
-# ---- (a) the CPU sweep kernel equals the per-step kernel, bit for bit ----------------------------------
+# ---- (a) the CPU chain kernel equals the per-step kernel, bit for bit ----------------------------------
 
 
 @pytest.mark.parametrize("case", list(COMPOSED_CASES))
@@ -43,7 +43,7 @@ def test_sweep_equals_per_step(case):
     want = per_step(model, steps)
     held = sections.get("boundary", {}).get("bottom") == "fixed"
     assert_every_window_moved(want, [(0, want.shape[2])], held_bottom=held)  # the pulse reached the bottom
-    solver = SweepSolver(model, SolverConfig("sweep", steps_per_launch=7))  # several launches, an odd one last
+    solver = ChainSolver(model, SolverConfig("chain", steps_per_launch=7))  # several launches, an odd one last
     start, scratch = model.state_pair()
     end = solver.advance(start, scratch, steps)
     assert end.clock.numpy()[0] == steps  # the clock counts steps, not substeps
@@ -61,7 +61,7 @@ def test_runner_records_and_traces_agree_across_kernels():
     )
     model = build_model(scenes, "cpu")
     step = Runner(model, kernel="step").run()
-    sweep = Runner(model, kernel="sweep").run()
+    sweep = Runner(model, kernel="chain").run()
     assert step.steps == sweep.steps == 2400
     for got, want in (
         (sweep.u, step.u),
@@ -84,7 +84,7 @@ def test_runner_records_and_traces_agree_across_kernels():
 def test_plain_launches_equal_the_recorded_ones():
     """StepSolver.launch (the three substep launches a CUDA graph captures) and the CPU's recorded commands
     (StepSolver.launches) give the same bits, and a step from a ends in b with the clock one step on."""
-    from hertzian.ensemble.solvers import StepSolver
+    from hertzian.core.solvers import StepSolver
 
     model = build_model(
         chains(2, chain={"grains": 15, "l0": 1e-4}, integrator={"method": "yoshida4", "dt": 5e-4}), "cpu"
@@ -113,7 +113,7 @@ def energy_history(method: str) -> np.ndarray:
         integrator={"method": method, "dt": 4e-3, "duration": 400.0},
         record={"every": 0.4, "fields": ["u"]},
     )
-    result = Runner(build_model([scene], "cpu"), kernel="sweep", monitor_every=0).run()
+    result = Runner(build_model([scene], "cpu"), kernel="chain", monitor_every=0).run()
     return (result.energy[0] - result.energy[0, 0]) / scene.injected_energy
 
 
@@ -235,7 +235,7 @@ def test_drive_and_damping_are_refused(tmp_path, data, message):
 def test_fused_cuda_kernels_are_refused(tmp_path):
     model = build_model([make_scene(chain={"grains": 8}, integrator={"method": "yoshida4", "dt": 5e-4})], "cpu")
     assert fused_lacks(model.features, is_cpu=False).startswith("method yoshida4")  # auto: per-step kernel on CUDA
-    assert fused_lacks(model.features, is_cpu=True) is None  # the CPU sweep has it
+    assert fused_lacks(model.features, is_cpu=True) is None  # the CPU chain kernel has it
     for kernel in ("tile", "window"):
         with pytest.raises(ValueError, match="not implemented for integrator.method = 'yoshida4'"):
             choose_config(model, kernel)

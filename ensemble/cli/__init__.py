@@ -13,14 +13,14 @@ from __future__ import annotations
 
 from importlib import import_module
 
-from .app import EXIT_BAD_INPUT, app, fail, resolve_device
+from hertzian.cli.app import EXIT_BAD_INPUT, app, fail, resolve_device
 
 COMMANDS = ("run", "summarize", "check", "accuracy", "sweep", "bench", "plot", "reproduce", "detect")
 """Command modules of this package, in help order."""
 
 
 def register(module: str) -> None:
-    """Import a command module (a dotted name, e.g. 'hertzian.ensemble.cli_detect') so its commands register."""
+    """Import a command module (a dotted name, e.g. 'hertzian.cli_detect') so its commands register."""
     import_module(module)
 
 

@@ -1,5 +1,5 @@
-"""``python -m hertzian.ensemble.cli``: the same commands as the ``hertzian`` script."""
+"""``python -m hertzian.cli``: the same commands as the ``hertzian`` script."""
 
-from . import main
+from hertzian.cli import main
 
 main()

@@ -1,4 +1,4 @@
-"""``hertzian accuracy``: the work–precision study of one scene (see ensemble/accuracy.py; numbers in
+"""``hertzian accuracy``: the work–precision study of one scene (see ensemble/studies/accuracy.py; numbers in
 docs/stability.md)."""
 
 from __future__ import annotations
@@ -9,9 +9,8 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-
-from ..scene import METHODS, SceneError
-from .app import DeviceOption, SceneArgument, SetOption, app, fail, load_scene_or_fail, resolve_device
+from hertzian.cli.app import DeviceOption, SceneArgument, SetOption, app, fail, load_scene_or_fail, resolve_device
+from hertzian.core.scene import METHODS, SceneError
 
 
 def _number(value: float) -> str:
@@ -133,7 +132,7 @@ def accuracy(
     ended OK with its --measure (default: energy error) at or below each target, and that run's wall
     seconds — time to accuracy, cheapest first; 'none' where no studied step meets the target.
     """
-    from ..accuracy import (
+    from hertzian.studies.accuracy import (
         TARGET_MEASURES,
         parse_list,
         parse_steps,
@@ -170,7 +169,7 @@ def accuracy(
             raise SceneError("--reference-factor", reference_factor, "must be an integer ≥ 1")
         if records < 1:
             raise SceneError("--records", records, "must be ≥ 1")
-        from ..solvers import KERNELS
+        from hertzian.core.solvers import KERNELS
 
         if kernel is not None and kernel not in KERNELS:
             raise SceneError("--kernel", kernel, f"allowed: {', '.join(KERNELS)}")

@@ -11,8 +11,7 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-
-from ..scene import SceneError, load_scene, parse_overrides
+from hertzian.core.scene import SceneError, load_scene, parse_overrides
 
 app = typer.Typer(
     add_completion=False,
@@ -42,7 +41,7 @@ KernelOption = Annotated[
     typer.Option(
         "--kernel",
         help="auto | fused | step | tile | window | sweep: which "
-        "solver steps the chains (ensemble/solvers; fused = auto, short runs "
+        "solver steps the chains (ensemble/core/solvers; fused = auto, short runs "
         "included); results are the same.",
     ),
 ]
@@ -56,18 +55,17 @@ def fail(message: str) -> None:
 
 def example_path(name: str = "impact") -> Path:
     """A built-in example scene shipped with the package."""
-    return Path(str(resources.files("hertzian.ensemble.examples") / f"{name}.toml"))
+    return Path(str(resources.files("hertzian.examples") / f"{name}.toml"))
 
 
 def resolve_device(device: str | None) -> str:
     import warp as wp
-
-    from ..devices import init_warp
-    from ..solvers.sweep import cpu_threads
+    from hertzian.core.devices import init_warp
+    from hertzian.core.solvers.chain import cpu_threads
 
     init_warp()
     try:
-        cpu_threads()  # the CPU sweep's thread count (an environment variable): refused before anything runs
+        cpu_threads()  # the CPU chain kernel's thread count (an environment variable): refused before anything runs
     except ValueError as err:
         fail(str(err))
     if device is None:

@@ -1,4 +1,4 @@
-"""``hertzian bench``: time the project's kernels against NumPy and JAX peers (see ensemble/bench.py)."""
+"""``hertzian bench``: time the project's kernels against NumPy and JAX peers (see ensemble/studies/bench.py)."""
 
 from __future__ import annotations
 
@@ -9,8 +9,7 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-
-from .app import DeviceOption, SetOption, app, fail, resolve_device
+from hertzian.cli.app import DeviceOption, SetOption, app, fail, resolve_device
 
 
 def _counts(text: str, flag: str) -> list[int]:
@@ -74,7 +73,7 @@ def bench(
     warmed up and timed; rates are medians. Ratios: to the memory wall (measured copy bandwidth over
     64 bytes per grain-step) and to the best implementation of the size.
     """
-    from ..bench import KERNEL_CHOICES, run_bench
+    from hertzian.studies.bench import KERNEL_CHOICES, run_bench
 
     if scene is not None or sweep is not None:
         _end_to_end(scene, sweep, device, kernel, cold, set_, as_json)
@@ -95,7 +94,7 @@ def bench(
     dev = resolve_device(device)
     if kernel in ("tile", "window") and not dev.startswith("cuda"):
         fail(f"--kernel = {kernel!r}: a CUDA kernel; use --device cuda (or sweep on a CPU)")
-    if kernel == "sweep" and dev != "cpu":
+    if kernel == "chain" and dev != "cpu":
         fail(f"--kernel = {kernel!r}: a CPU kernel; use --device cpu")
 
     log = lambda message: typer.echo(message, err=True)  # noqa: E731  (progress on stderr; --json on stdout)
@@ -142,14 +141,14 @@ def bench(
 
 def _end_to_end(scene: Path | None, sweep: Path | None, device, kernel: str, cold: bool, set_, as_json: bool) -> None:
     """``--scene`` / ``--sweep``: one whole run or sweep, split into build/compile/kernel/record/store seconds."""
-    from ..scene import SceneError, parse_overrides
-    from ..solvers import KERNELS
+    from hertzian.core.scene import SceneError, parse_overrides
+    from hertzian.core.solvers import KERNELS
 
     if scene is not None and sweep is not None:
         fail(f"--sweep = {str(sweep)!r}: give --scene or --sweep, not both")
     path = scene if scene is not None else sweep
     if not path.is_file():
-        fail(f"--{'scene' if scene is not None else 'sweep'} = {str(path)!r}: no such file")
+        fail(f"--{'scene' if scene is not None else 'chain'} = {str(path)!r}: no such file")
     kernel = "auto" if kernel == "all" else kernel
     if kernel not in KERNELS:
         fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)} (end to end)")
@@ -164,7 +163,7 @@ def _end_to_end(scene: Path | None, sweep: Path | None, device, kernel: str, col
         wp.config.kernel_cache_dir = os.path.join(cache, "warp")
         os.environ["HERTZIAN_CACHE"] = os.path.join(cache, "calibration.json")
     dev = resolve_device(device)
-    from ..endtoend import bench_scene, bench_sweep
+    from hertzian.studies.endtoend import bench_scene, bench_sweep
 
     log = lambda message: typer.echo(message, err=True)  # noqa: E731
     try:

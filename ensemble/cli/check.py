@@ -6,8 +6,7 @@ import json
 from typing import Annotated
 
 import typer
-
-from .app import PrecisionOption, SceneArgument, SetOption, app, fail, load_scene_or_fail
+from hertzian.cli.app import PrecisionOption, SceneArgument, SetOption, app, fail, load_scene_or_fail
 
 
 @app.command()
@@ -24,8 +23,8 @@ def check(
     and compares dt with each method's stability limit (ω_max·dt) and with the steps per
     contact time measured to keep the energy error below 1e-6 (docs/stability.md). Program units.
     """
-    from ..check import ACCURATE_STEPS_PER_CONTACT_TIME, STABLE_OMEGA_DT, check_scene, memory_refusal
-    from ..scene import VALIDITY_FRACTION
+    from hertzian.core.check import ACCURATE_STEPS_PER_CONTACT_TIME, STABLE_OMEGA_DT, check_scene, memory_refusal
+    from hertzian.core.scene import VALIDITY_FRACTION
 
     loaded = load_scene_or_fail(scene, set_, precision)
     too_big = memory_refusal(loaded)

@@ -1,5 +1,5 @@
 """``hertzian detect`` (locate and identify a buried impurity from the surface signal) and
-``hertzian detect-study`` (its accuracy study). See ensemble/detect.py and docs/detection.md."""
+``hertzian detect-study`` (its accuracy study). See ensemble/studies/detect.py and docs/detection.md."""
 
 from __future__ import annotations
 
@@ -8,9 +8,8 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-
-from ..scene import SceneError
-from .app import DeviceOption, SetOption, app, fail, load_scene_or_fail, resolve_device
+from hertzian.cli.app import DeviceOption, SetOption, app, fail, load_scene_or_fail, resolve_device
+from hertzian.core.scene import SceneError
 
 MISFIT_WARNING = 3.0
 """Warn when the best fit's σ exceeds the σ before the earliest echo by more than this factor."""
@@ -124,8 +123,8 @@ def detect(
     and its neighbours (grid, then Gauss–Newton). Noise: i.i.d. Gaussian; posterior with equal class odds, uniform depth and
     uniform ln μ priors; intervals are central 95 %. Program units (time 1.0102e-3 s, length 1e-5 m).
     """
-    from ..detect import detect as run_detection
-    from ..detect import plot_detection, read_signal
+    from hertzian.studies.detect import detect as run_detection
+    from hertzian.studies.detect import plot_detection, read_signal
 
     if scene is None:
         fail("--scene: required: the BASE scene TOML (the host chain without impurities)")
@@ -142,7 +141,7 @@ def detect(
     if iterations < 1:
         fail(f"--iterations = {iterations}: must be an integer ≥ 1")
     try:
-        from ..detect import check_base
+        from hertzian.studies.detect import check_base
 
         check_base(base)
         measured = read_signal(signal)
@@ -223,8 +222,8 @@ def candidate_events_note(base, dev: str) -> str | None:
     with them and 0.44 s with plain steps (docs/detection.md); None on a CPU or without event steps."""
     if dev.startswith("cpu"):
         return None
-    from ..model import build_model
-    from ..solvers.calibrate import event_cost_note
+    from hertzian.core.model import build_model
+    from hertzian.core.solvers.calibrate import event_cost_note
 
     cost = event_cost_note(build_model([base], dev).features, is_cpu=False)
     return None if cost is None else f"candidate runs: {cost} in BASE"
@@ -243,7 +242,7 @@ def detect_study(
     """Accuracy study of detect: planted impurities (independent runs at half the step), seeded noise at
     given SNRs (relative to the echo peak), detection; class accuracy, depth error, interval coverage,
     confusion matrices and seconds per detection, written as JSON."""
-    from ..detect_study import load_study, run_study, write_study
+    from hertzian.studies.detect_study import load_study, run_study, write_study
 
     if out.exists() and not overwrite:
         fail(f"--out = {str(out)!r}: exists; choose another path or pass --overwrite")

@@ -6,8 +6,7 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-
-from .app import app, fail
+from hertzian.cli.app import app, fail
 
 
 def _parse_at(items: list[str] | None) -> dict[str, float]:
@@ -54,7 +53,7 @@ def plot(
     """Draw a store: the depth–time picture of u or v, the traced grains and the energy error of one point
     (program units: length 1e-5 m, time 1.0102e-3 s; the store's sign, + into the chain). With --figure,
     a paper figure group in the paper's representation (profiles in the paper's sign, + toward the surface)."""
-    from ..plot import FIGURES, PlotError, plot_figure, plot_store
+    from hertzian.plotting.figures import FIGURES, PlotError, plot_figure, plot_store
 
     if figure is not None and figure not in FIGURES:
         fail(f"--figure = {figure!r}: allowed: {', '.join(FIGURES)}")
@@ -80,7 +79,7 @@ def plot(
         if figure == "drive_map":
             import json
 
-            from .. import analysis as an
+            from hertzian.studies import analysis as an
 
             numbers = an.response_map(dataset)
             rows = [

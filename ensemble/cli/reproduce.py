@@ -6,8 +6,7 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-
-from .app import DeviceOption, app, fail, resolve_device
+from hertzian.cli.app import DeviceOption, app, fail, resolve_device
 
 
 @app.command()
@@ -71,8 +70,8 @@ def reproduce(
     """Run Sen, Manciu & Wright (1998)'s figure groups: per group a Zarr store, its figures as PNGs, and in
     OUT_DIR/log.json the device, wall seconds, grain-steps per second and largest energy error of every run.
     Full size needs a GPU for Figs. 9–10 (8e10 grain-steps); --quick runs everything small on a CPU."""
-    from ..reproduce import GROUPS, default_sweeps_dir, group_of
-    from ..reproduce import reproduce as run_all
+    from hertzian.studies.reproduce import GROUPS, default_sweeps_dir, group_of
+    from hertzian.studies.reproduce import reproduce as run_all
 
     groups = []
     for name in figure or []:
@@ -97,13 +96,13 @@ def reproduce(
         fail(f"--drive-grains = {drive_grains}: at least 10 grains")
     if events is not None and events not in ("auto", "off"):
         fail(f"--events = {events!r}: auto or off")
-    from ..solvers import KERNELS
+    from hertzian.core.solvers import KERNELS
 
     if kernel is not None and kernel not in KERNELS:
         fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)}")
     dev = resolve_device(device)
-    if kernel == "sweep" and dev != "cpu":
-        fail(f"--kernel = 'sweep': a CPU kernel; --device = {dev!r}")
+    if kernel == "chain" and dev != "cpu":
+        fail(f"--kernel = 'chain': a CPU kernel; --device = {dev!r}")
     if kernel in ("tile", "window") and dev == "cpu":
         fail(f"--kernel = {kernel!r}: CUDA kernels; on --device cpu use auto, fused, step or sweep")
     log = run_all(

@@ -7,8 +7,16 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-
-from .app import DeviceOption, KernelOption, PrecisionOption, SetOption, app, fail, load_scene_or_fail, resolve_device
+from hertzian.cli.app import (
+    DeviceOption,
+    KernelOption,
+    PrecisionOption,
+    SetOption,
+    app,
+    fail,
+    load_scene_or_fail,
+    resolve_device,
+)
 
 
 @app.command()
@@ -35,12 +43,12 @@ def run(
     kernel: KernelOption = "auto",
 ):
     """Run one scene and store it as Zarr (times in program units of 1.0102e-3 s)."""
-    from ..solvers import KERNELS
+    from hertzian.core.solvers import KERNELS
 
     if kernel not in KERNELS:
         fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)}")
     loaded = load_scene_or_fail(scene, set_, precision)
-    from ..check import dt_warning, memory_refusal
+    from hertzian.core.check import dt_warning, memory_refusal
 
     too_big = memory_refusal(loaded)  # the host first, before Warp starts
     if too_big:
@@ -60,10 +68,10 @@ def run(
     if too_big:
         fail(too_big)
 
-    from ..model import build_model
-    from ..runner import Runner
-    from ..solvers.calibrate import event_cost_note
-    from ..store import write_result
+    from hertzian.core.model import build_model
+    from hertzian.core.runner import Runner
+    from hertzian.core.solvers.calibrate import event_cost_note
+    from hertzian.sweeping.store import write_result
 
     try:
         runner = Runner(build_model([loaded], dev), kernel=kernel)

@@ -7,8 +7,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-
-from .app import app, fail
+from hertzian.cli.app import app, fail
 
 
 @app.command()
@@ -29,8 +28,7 @@ def summarize(
     Reads only the per-point variables (never u, v or traces), vectorised over the points.
     """
     import numpy as np
-
-    from ..store import summary_columns
+    from hertzian.sweeping.store import summary_columns
 
     if rows < 1:
         fail(f"--rows = {rows}: must be ≥ 1")

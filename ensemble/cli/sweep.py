@@ -13,9 +13,8 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-
-from ..scene import SceneError, parse_overrides
-from .app import DeviceOption, KernelOption, PrecisionOption, SetOption, app, fail, resolve_device
+from hertzian.cli.app import DeviceOption, KernelOption, PrecisionOption, SetOption, app, fail, resolve_device
+from hertzian.core.scene import SceneError, parse_overrides
 
 
 class _Progress:
@@ -86,8 +85,7 @@ def corner_dt_warnings(definition, scenes=None) -> list[str]:
     import itertools
 
     import numpy as np
-
-    from ..check import dt_warning
+    from hertzian.core.check import dt_warning
 
     shape = list(definition.shape)
     if shape:
@@ -178,9 +176,9 @@ def sweep(
         fail(f"--scheduler = {scheduler!r}: give either --workers (a local cluster) or --scheduler, not both")
     if resume and overwrite:
         fail("--resume = true: --resume continues a store, --overwrite replaces it; give one")
-    from ..check import memory_refusal
-    from ..solvers import KERNELS
-    from ..sweep import MAX_POINTS, expand, load_sweep
+    from hertzian.core.check import memory_refusal
+    from hertzian.core.solvers import KERNELS
+    from hertzian.sweeping.spec import MAX_POINTS, expand, load_sweep
 
     if kernel not in KERNELS:
         fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)}")
@@ -214,8 +212,8 @@ def sweep(
             fail(f"--out = {str(out)!r}: parent directory does not exist")
     dev = resolve_device(device)
 
-    from ..planner import describe, plan_sweep
-    from ..sweep_store import SweepStoreError, check_resumable
+    from hertzian.sweeping.planner import describe, plan_sweep
+    from hertzian.sweeping.sweep_store import SweepStoreError, check_resumable
 
     block = None
     resuming = resume and out.exists()
@@ -281,8 +279,7 @@ def _per_step_notes(plan, dev: str) -> None:
     """One line on stderr for each launch group that ``auto`` leaves on the per-step kernel, and why; one
     for each CUDA launch group that carries event-aware steps (their cost)."""
     import warp as wp
-
-    from ..solvers.calibrate import event_cost_note, step_reason_of
+    from hertzian.core.solvers.calibrate import event_cost_note, step_reason_of
 
     is_cpu = wp.get_device(dev).is_cpu
     for index, group in enumerate(plan.groups):
@@ -299,8 +296,8 @@ def _per_step_notes(plan, dev: str) -> None:
 
 def _check_kernel(kernel: str, plan, points, dev: str) -> None:
     """Refuse (exit 2) a forced ``--kernel`` that cannot run some launch group, before anything is written."""
-    from ..model import build_model
-    from ..solvers import choose_config
+    from hertzian.core.model import build_model
+    from hertzian.core.solvers import choose_config
 
     for index, group in enumerate(plan.groups):
         batch = next(b for b in plan.batches if b.group == index)
@@ -314,8 +311,7 @@ def _check_kernel(kernel: str, plan, points, dev: str) -> None:
 def _connect(workers, scheduler, stack: contextlib.ExitStack):
     """A Dask client (starting a LocalCluster for --workers), closed with ``stack``; bad address → exit 2."""
     from distributed import Client
-
-    from ..distributed import local_cluster
+    from hertzian.sweeping.distributed import local_cluster
 
     if workers is not None:
         cluster = stack.enter_context(local_cluster(workers))
@@ -347,10 +343,9 @@ def _run(
 
     import numpy as np
     import zarr
-
-    from ..distributed import jobs_for, run_distributed, run_serial, runs_of, warm_kernels, warm_workers
-    from ..planner import format_bytes
-    from ..sweep_store import (
+    from hertzian.sweeping.distributed import jobs_for, run_distributed, run_serial, runs_of, warm_kernels, warm_workers
+    from hertzian.sweeping.planner import format_bytes
+    from hertzian.sweeping.sweep_store import (
         batch_records,
         completed_batches,
         create_sweep_store,

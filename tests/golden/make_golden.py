@@ -127,7 +127,7 @@ CASES: dict[str, dict] = {
             _impact(grains=16, integrator={"duration": 0.6, "dt": 5e-2}, record={"every": 0.2}),
         ],
     },
-    # CPU sweep kernel
+    # CPU chain kernel
     "sweep_walls_gear4": {"solver": "sweep", "scenes": _three()},
     "sweep_impurities_gravity_fixed_gear5": {
         "solver": "sweep",
@@ -224,10 +224,10 @@ FIELDS = ("u", "v", "energy", "work", "trace_u", "trace_v", "status", "max_overl
 def run_case(case: dict):
     """Run one golden case on the CPU and return its RunResult."""
     import warp as wp
-    from hertzian.ensemble.model import build_model
-    from hertzian.ensemble.runner import Runner
-    from hertzian.ensemble.scene import scene_from_dict
-    from hertzian.ensemble.solvers import config_of
+    from hertzian.core.model import build_model
+    from hertzian.core.runner import Runner
+    from hertzian.core.scene import scene_from_dict
+    from hertzian.core.solvers import config_of
     from hertzian.kernels.tile import plan_tile
 
     wp.init()
@@ -240,7 +240,7 @@ def run_case(case: dict):
     # update, which the kernels keep bit for bit (features.compensated = False)
     from dataclasses import replace
 
-    from hertzian.ensemble.model import features_of
+    from hertzian.core.model import features_of
 
     features = features_of(scenes)
     model = build_model(scenes, "cpu", features=replace(features, compensated=False))

@@ -1,0 +1,1 @@
+"""The core: scene → model → state → solver, and the runner that records an ensemble's run."""

@@ -1,0 +1,553 @@
+"""Scenes → an immutable ensemble *model* on a device → *state* buffers.
+
+``build_model(scenes, device)`` checks that the scenes can share one launch (same grain
+count, boundaries, integrator, dt and record layout), derives the kernel
+:class:`~hertzian.kernels.features.Features` from what the chains actually use, and uploads only the
+arrays those features need. ``model.state_pair()`` allocates the two state buffers a solver
+ping-pongs between (they share one ``status`` and one trace ring).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import warp as wp
+from hertzian.core.chains import ChainSet, ChainStack, per_unique
+from hertzian.core.scene import VALIDITY_FRACTION, Scene, SceneError
+from hertzian.core.static import StaticState, static_state
+from hertzian.kernels.features import EVENT_WINDOW, GEAR_CORRECTOR, GEAR_VALUES, Features
+
+SHARED_KEYS = (
+    ("chain.grains", lambda s: s.chain.grains),
+    ("boundary.surface", lambda s: s.boundary.surface),
+    ("boundary.bottom", lambda s: s.boundary.bottom),
+    ("integrator.method", lambda s: s.integrator.method),
+    ("integrator.precision", lambda s: s.integrator.precision),
+    ("integrator.dt", lambda s: s.integrator.dt),
+    ("integrator.events", lambda s: s.integrator.events),
+    ("steps per record", lambda s: s.steps_per_record),
+    ("record count", lambda s: s.record_count),
+    ("record steps", lambda s: s.record_steps.tobytes()),
+    ("trace stride", lambda s: s.trace_stride),
+    ("record.traces", lambda s: s.record.traces),
+    ("record.fields", lambda s: s.record.fields),
+    ("damping.model", lambda s: s.damping.model),
+    ("response windows", lambda s: (s.record.response_start, s.record.response_windows, s.record.harmonics)),
+)
+
+
+def features_of(scenes: list[Scene], statics: list[StaticState] | None = None) -> Features:
+    """The smallest feature set that covers every scene (they must share the SHARED_KEYS)."""
+    first = scenes[0]
+    for key, get in SHARED_KEYS:
+        values = {get(s) for s in scenes}
+        if len(values) > 1:
+            raise SceneError(key, sorted(map(str, values)), "chains in one ensemble must share this")
+    statics = statics or [static_state(s) for s in scenes]
+    return _features(
+        first,
+        any_static=any(np.any(st.static_overlap > 0) for st in statics),
+        heterogeneous=any(s.impurities for s in scenes),
+        gravity=any(s.chain.gravity > 0 for s in scenes),
+        hertz=all(s.chain.exponent == 2.5 for s in scenes),
+        can_open=lambda: any(contact_can_open(s, st) for s, st in zip(scenes, statics)),
+    )
+
+
+def _features(first: Scene, *, any_static: bool, heterogeneous: bool, gravity: bool, hertz: bool, can_open) -> Features:
+    """The feature set from what the chains use (``can_open()`` is asked only where events may apply)."""
+    if not any_static:
+        static = "none"
+    elif heterogeneous or gravity:
+        static = "profile"
+    else:
+        static = "uniform"
+    # event steps carry no damping: a damped scene takes plain steps (docs/drive.md); they are Gear steps
+    # (Verlet and its composition yoshida4 take none)
+    events = (
+        first.integrator.events == "auto"
+        and first.integrator.method in GEAR_CORRECTOR
+        and first.damping.model == "none"
+        and can_open()
+    )
+    return Features(
+        method=first.integrator.method,
+        precision=first.integrator.precision,
+        surface=first.boundary.surface,
+        bottom=first.boundary.bottom,
+        static=static,
+        heterogeneous=heterogeneous,
+        hertz=hertz,
+        traces=bool(first.record.traces),
+        event_window=EVENT_WINDOW if events else 0.0,
+        damping=first.damping.model,
+    )
+
+
+def contact_can_open(scene: Scene, static: StaticState) -> bool:
+    """Whether some contact of the scene may open (or close) during the run, by an energy bound.
+
+    Opening contact k from its static overlap δ0 > 0 stores at least the excess potential
+    V(0) − V(δ0) + V'(δ0)·δ0 = (n − 1)·a_c·δ0^n in it; every contact's excess potential is ≥ 0 and
+    their sum is at most the injected energy (energy is conserved), so if that exceeds the injected
+    energy for every contact, none can open. A drive (energy not bounded) or a contact without static
+    overlap may always open.
+    """
+    if scene.boundary.surface == "driven":
+        return True
+    present = static.contact_constant > 0
+    if not np.any(present):
+        return False
+    delta0 = static.static_overlap[present]
+    a_c = static.contact_constant[present]
+    n = static.exponent
+    if np.any(delta0 <= 0):
+        return True
+    return bool(np.any((n - 1) * a_c * delta0**n <= scene.injected_energy))
+
+
+@dataclass(frozen=True)
+class State:
+    """One state buffer of an ensemble."""
+
+    x: wp.array
+    """Scaled Nordsieck values, shape (values, chains, grains): u, dt·v, dt²/2·a, …"""
+    clock: wp.array
+    """Steps taken, shape (1,), int32."""
+    work: wp.array
+    """Driver's work up to the previous step, shape (chains,) or (0,) without a drive."""
+    power: wp.array
+    """Driver's power at the previous step, shape (chains,) or (0,)."""
+    status: wp.array
+    """Per-chain status code (hertzian.core.status.Status), shape (chains,), int32. Both halves of a ping-pong
+    pair hold the *same* array: kernels read it to freeze a non-finite chain and the record kernel writes it."""
+    traces: wp.array
+    """Trace ring, shape (2, chains, samples per record, traced grains) [u and dt·v], or (2, 0, 0, 0);
+    shared by both halves like ``status``; the record step reads it back once per record."""
+    dissipated: wp.array = None
+    """Energy dissipated by damping up to now per grain (its own viscous loss, or the dashpot of the
+    contact above it), shape (chains, grains) float64, or (0, 0) without damping; shared by both
+    halves (each thread updates only its own grain)."""
+
+
+@dataclass(frozen=True)
+class Model:
+    """An ensemble of chains ready to integrate on one device. Arrays a feature doesn't use have size 0."""
+
+    scenes: "tuple[Scene, ...] | ChainSet | ChainStack"
+    """The chains' scenes: a tuple, or a ChainSet (template + per-chain arrays) or ChainStack indexed like one."""
+    features: Features
+    device: wp.context.Device
+    chain_count: int
+    grain_count: int
+    dt: float
+    inverse_mass: wp.array
+    """1/m, shape (chains, grains) with impurities, else (chains, 1)."""
+    contact_constant: wp.array
+    """a_c per padded contact, shape (chains, grains + 1) with impurities, else (chains, 1)."""
+    static_overlap: wp.array
+    """δ0 per padded contact (chains, grains + 1) ('profile'), (chains, 1) ('uniform') or (0, 0)."""
+    exponent: wp.array
+    """n per chain, shape (chains,), or (0,) for Hertz (n = 5/2 compiled in)."""
+    drive: wp.array
+    """(amplitude, angular frequency) per chain, shape (chains, 2), float64, or (0, 2)."""
+    trace_slot: wp.array
+    """For each grain its column in the trace buffer, or -1; shape (grains,) or (0,)."""
+    validity_overlap: wp.array
+    """Overlap beyond which the Hertz law is not trusted (ChainSpec.validity_overlap), shape (chains,), float64."""
+    injected_energy: np.ndarray
+    """½ m_0 v_imp² per chain (0 without an impact), float64."""
+    _static: object = None
+    """StaticArrays of a ChainSet model (reused by the Taylor start), else None."""
+    damping: wp.array = None
+    """γ per chain, shape (chains,), or (0,) without damping (damping.model in ``features``)."""
+    _start: tuple | None = None
+    """(features, initial state's leading grains in those features' layout) of a ChainSet model (prepare_model)."""
+
+    @property
+    def real(self):
+        return wp.float64 if self.features.precision == "float64" else wp.float32
+
+    @property
+    def trace_capacity(self) -> int:
+        """Trace samples kept between two records (the ring's length)."""
+        scene = self.scenes[0]
+        if not scene.record.traces:
+            return 0
+        # the most samples taken between two records (samples at steps k·stride, records at record_steps)
+        per_gap = np.diff(np.asarray(scene.record_steps) // scene.trace_stride)
+        return max(1, int(per_gap.max())) if per_gap.size else 1
+
+    def state(self, *, like: State | None = None) -> State:
+        """A zeroed state buffer (all grains at their static positions, at rest, clock 0).
+
+        ``like``: the other half of a ping-pong pair, whose ``status`` and trace ring this one shares.
+        """
+        c, n = self.chain_count, self.grain_count
+        driven = self.features.surface == "driven"
+        if like is None:
+            traced = len(self.scenes[0].record.traces)
+            shape = (2, c, self.trace_capacity, traced) if traced else (2, 0, 0, 0)
+            status = wp.zeros(c, dtype=wp.int32, device=self.device)
+            traces = wp.zeros(shape, dtype=self.real, device=self.device)
+            damped = self.features.damping != "none"
+            dissipated = wp.zeros((c, n) if damped else (0, 0), dtype=wp.float64, device=self.device)
+        else:
+            status, traces, dissipated = like.status, like.traces, like.dissipated
+        return State(
+            x=wp.zeros((self.features.values, c, n), dtype=self.real, device=self.device),
+            clock=wp.zeros(1, dtype=wp.int32, device=self.device),
+            work=wp.zeros(c if driven else 0, dtype=wp.float64, device=self.device),
+            power=wp.zeros(c if driven else 0, dtype=wp.float64, device=self.device),
+            status=status,
+            traces=traces,
+            dissipated=dissipated,
+        )
+
+    def state_pair(self) -> tuple[State, State]:
+        """(state at t = 0, a zeroed second half) sharing one ``status`` and one trace ring."""
+        first = self.initial_state()
+        return first, self.state(like=first)
+
+    def initial_state(self, *, like: State | None = None) -> State:
+        """State at t = 0: static positions, v_0 = v_imp (impact) or the drive's, exact higher derivatives."""
+        from hertzian.core.startup import initial_nordsieck
+
+        state = self.state(like=like)
+        order = self.features.nordsieck_values
+        # prepared for these features (a model copied with other features computes its own)
+        start = self._start[1] if self._start is not None and self._start[0] == self.features else None
+        if start is not None or isinstance(self.scenes, ChainSet):
+            from hertzian.core.startup import initial_nordsieck_of
+
+            # only the first grains move at t = 0 (startup.taylor_window): upload those into the zeroed
+            # buffer (a copy of the window, not of every grain)
+            if start is None:
+                start = state_layout(
+                    initial_nordsieck_of(self.scenes, order, self.dt, self._static, whole=False), self.features
+                )
+            width = start.shape[2]
+            (state.x if width == self.grain_count else state.x[:, :, :width]).assign(start)
+            return state
+        else:
+            x = np.zeros((order, self.chain_count, self.grain_count))
+            for c, scene in enumerate(self.scenes):
+                # exact Taylor start: keeps each Gear method at its own order (see ensemble/core/startup.py)
+                x[:, c, :] = initial_nordsieck(scene, order, self.dt)
+        state.x.assign(state_layout(x, self.features))
+        return state
+
+
+def state_layout(nordsieck: np.ndarray, features: Features) -> np.ndarray:
+    """Scaled Nordsieck vectors in float64, shape (Q, chains, grains), as the kernels of ``features`` keep them:
+    float64 as they are; float32 rounded, and (compensated, kernels/gear.py) rows Q and Q + 1 holding what
+    the rounding of u and dt·v left out, so that hi + lo carries u and dt·v to about twice float32's digits."""
+    if features.precision == "float64":
+        return np.ascontiguousarray(nordsieck, dtype=np.float64)
+    rounded = nordsieck.astype(np.float32)
+    if not features.compensation:
+        return rounded
+    low = (nordsieck[:2] - rounded[:2].astype(np.float64)).astype(np.float32)
+    return np.ascontiguousarray(np.concatenate([rounded, low]))
+
+
+STATIC_LEVELS = ("none", "uniform", "profile")
+
+
+def covers(wider: Features, needed: Features) -> bool:
+    """Whether a kernel variant ``wider`` can run scenes that need ``needed``."""
+    # event-aware steps may run chains that cannot open a contact (they then step as plain Gear would
+    # wherever no contact comes near opening), not the other way round; ``compensated`` is not compared:
+    # a forced plain float32 variant runs float32 scenes, less accurately (kept for comparison)
+    return (
+        (wider.method, wider.precision, wider.surface, wider.bottom, wider.traces, wider.damping)
+        == (needed.method, needed.precision, needed.surface, needed.bottom, needed.traces, needed.damping)
+        and (wider.event_window == needed.event_window or needed.event_window == 0.0)
+        and (
+            STATIC_LEVELS.index(wider.static) >= STATIC_LEVELS.index(needed.static)
+            and wider.heterogeneous >= needed.heterogeneous
+            and (needed.hertz or not wider.hertz)
+        )
+    )
+
+
+def build_model(
+    scenes: "list[Scene] | ChainSet",
+    device: str | None = None,
+    *,
+    features: Features | None = None,
+    prepared: "HostModel | None" = None,
+) -> Model:
+    """Upload an ensemble of compatible scenes to ``device`` (default: CUDA if present, else CPU).
+
+    ``scenes``: a list of scenes, or a :class:`~hertzian.core.chains.ChainSet` (a template scene and
+    per-chain parameter arrays; built with numpy, no scene per chain, same bits as the list of its
+    scenes). ``features`` forces a wider kernel variant than the scenes need (e.g. to run one member
+    of an ensemble alone with the ensemble's kernel). ``prepared``: :func:`prepare_model` of the same
+    ChainSet and ``features``, computed earlier (e.g. in a background thread): only the uploads remain.
+    """
+    device = wp.get_device(device)
+    if isinstance(scenes, (ChainSet, ChainStack)):
+        return _build_model_of(scenes, device, features, prepared)
+    if not scenes:
+        raise SceneError("scenes", [], "an ensemble needs at least one scene")
+    statics = [static_state(s) for s in scenes]
+    f = features_of(scenes, statics)
+    if features is not None:
+        if not covers(features, f):
+            raise ValueError(f"kernel features {features} cannot run scenes that need {f}")
+        f = features
+    np_real = np.float64 if f.precision == "float64" else np.float32
+    real = wp.float64 if f.precision == "float64" else wp.float32
+    c_count, n = len(scenes), scenes[0].chain.grains
+
+    def upload(array, dtype=real):
+        return wp.array(np.ascontiguousarray(array), dtype=dtype, device=device)
+
+    if f.heterogeneous:
+        inverse_mass = np.stack([1.0 / st.mass for st in statics])
+        contact_constant = np.stack([st.contact_constant for st in statics])
+    else:
+        inverse_mass = np.array([[1.0 / s.chain.mass] for s in scenes])
+        contact_constant = np.array([[s.chain.a] for s in scenes])
+    if f.static == "profile":
+        static_overlap = np.stack([st.static_overlap for st in statics])
+    elif f.static == "uniform":
+        static_overlap = np.array([[st.static_overlap.max()] for st in statics])
+    else:
+        static_overlap = np.zeros((0, 0))
+    exponent = np.zeros(0) if f.hertz else np.array([s.chain.exponent for s in scenes])
+    if f.surface == "driven":
+        drive = np.array([[s.excitation.drive_amplitude, 2.0 * math.pi / s.excitation.drive_period] for s in scenes])
+    else:
+        drive = np.zeros((0, 2))
+    trace_slot = np.full(n if f.traces else 0, -1, dtype=np.int32)
+    for slot, grain in enumerate(scenes[0].record.traces):
+        trace_slot[grain] = slot
+
+    return Model(
+        scenes=tuple(scenes),
+        features=f,
+        device=device,
+        chain_count=c_count,
+        grain_count=n,
+        dt=scenes[0].integrator.dt,
+        inverse_mass=upload(inverse_mass.astype(np_real, copy=False)),
+        contact_constant=upload(contact_constant.astype(np_real, copy=False)),
+        static_overlap=upload(static_overlap.astype(np_real, copy=False)),
+        exponent=upload(exponent.astype(np_real, copy=False)),
+        drive=upload(drive, wp.float64),
+        trace_slot=upload(trace_slot, wp.int32),
+        validity_overlap=upload(np.array([s.chain.validity_overlap for s in scenes]), wp.float64),
+        injected_energy=np.array([s.injected_energy for s in scenes]),
+        damping=upload(np.array([s.damping.gamma for s in scenes] if f.damping != "none" else [], dtype=np_real)),
+    )
+
+
+def chain_set_features(chains: ChainSet, static) -> Features:
+    """features_of for a ChainSet, from its static arrays (no scene per chain)."""
+    return _features(
+        chains.template,
+        any_static=bool(np.any(static.static_overlap > 0)),
+        heterogeneous=bool(chains.template.impurities),
+        gravity=bool(np.any(chains.column("chain.gravity") > 0)),
+        hertz=bool(np.all(chains.column("chain.exponent") == 2.5)),
+        can_open=lambda: chain_set_can_open(chains, static),
+    )
+
+
+def chain_set_can_open(chains: ChainSet, static) -> bool:
+    """:func:`contact_can_open` for any chain of a ChainSet, vectorised over its static arrays."""
+    if chains.template.boundary.surface == "driven":
+        return True
+    present = static.contact_constant > 0
+    impact = chains.column("excitation.impact")
+    impact = np.zeros(len(chains)) if impact is None else impact
+    injected = 0.5 * static.mass[:, 0] * impact**2
+    delta0 = np.where(present, static.static_overlap, 1.0)
+    bound = (static.exponent[:, None] - 1) * static.contact_constant * delta0 ** static.exponent[:, None]
+    return bool(np.any(present & ((static.static_overlap <= 0) | (bound <= injected[:, None]))))
+
+
+@dataclass(frozen=True, eq=False)
+class HostModel:
+    """Everything :func:`build_model` computes on the host for a ChainSet, before any upload: the kernel
+    variant, the static arrays, the per-chain arrays in the kernels' precision and the initial state's
+    first grains (:func:`prepare_model`; a sweep computes the next batch's while the current one runs)."""
+
+    chains: ChainSet
+    features: Features
+    static: object
+    """StaticArrays of the chains."""
+    arrays: dict
+    """Name → numpy array to upload (``inverse_mass``, ``contact_constant``, …)."""
+    injected_energy: np.ndarray
+    start: np.ndarray
+    """The initial state's leading grains in the kernels' layout, shape (values, chains, window)."""
+    seconds: float = 0.0
+    """Host seconds it took."""
+
+
+def prepare_model(chains: ChainSet, *, features: Features | None = None) -> HostModel:
+    """The host half of ``build_model(chains, …)``: numpy only, no device (safe in a background thread)."""
+    from hertzian.core.startup import initial_nordsieck_of, taylor_window
+    from hertzian.core.static import static_arrays
+
+    clock = time.perf_counter()
+    if len(chains) == 0:
+        raise SceneError("scenes", [], "an ensemble needs at least one scene")
+    scene = chains.template
+    # Homogeneous chains without gravity carry the same static force on every contact, so their
+    # static state (all a uniform or absent static overlap needs) and the Taylor start come from the
+    # first grains alone; impurities or gravity need every grain's.
+    window = None
+    if not scene.impurities and not np.any(chains.column("chain.gravity") > 0):
+        window = taylor_window(scene.chain.grains, GEAR_VALUES[scene.integrator.method] - 1)
+    st = static_arrays(chains, grains=window)
+    f = chain_set_features(chains, st)
+    if features is not None:
+        if not covers(features, f):
+            raise ValueError(f"kernel features {features} cannot run scenes that need {f}")
+        f = features
+    if window is not None and (f.static == "profile" or f.heterogeneous):
+        st = static_arrays(chains)  # a wider variant was asked for: it reads every contact
+    np_real = np.float64 if f.precision == "float64" else np.float32
+    n = scene.chain.grains
+
+    if f.heterogeneous:
+        inverse_mass = 1.0 / st.mass
+        contact_constant = st.contact_constant
+    else:
+        inverse_mass = (1.0 / chains.column("chain.mass"))[:, None]
+        contact_constant = chains.column("chain.a")[:, None]
+    if f.static == "profile":
+        static_overlap = st.static_overlap
+    elif f.static == "uniform":
+        static_overlap = st.static_overlap.max(axis=1)[:, None]
+    else:
+        static_overlap = np.zeros((0, 0))
+    exponent = np.zeros(0) if f.hertz else st.exponent
+    if f.surface == "driven":
+        drive = np.stack(
+            [
+                chains.column("excitation.drive_amplitude"),
+                per_unique(lambda p: 2.0 * math.pi / p, chains.column("excitation.drive_period")),
+            ],
+            axis=1,
+        )
+    else:
+        drive = np.zeros((0, 2))
+    trace_slot = np.full(n if f.traces else 0, -1, dtype=np.int32)
+    for slot, grain in enumerate(scene.record.traces):
+        trace_slot[grain] = slot
+    impact = chains.column("excitation.impact")
+    injected = per_unique(lambda m0, v: 0.5 * m0 * v**2, st.mass[:, 0], impact)
+    arrays = {
+        "inverse_mass": inverse_mass.astype(np_real, copy=False),
+        "contact_constant": contact_constant.astype(np_real, copy=False),
+        "static_overlap": static_overlap.astype(np_real, copy=False),
+        "exponent": exponent.astype(np_real, copy=False),
+        "drive": drive,
+        "trace_slot": trace_slot,
+        "validity_overlap": per_unique(lambda d: VALIDITY_FRACTION * d, chains.column("chain.diameter")),
+        "damping": (chains.column("damping.gamma") if f.damping != "none" else np.zeros(0)).astype(np_real, copy=False),
+    }
+    # only the first grains move at t = 0 (startup.taylor_window); the others start at zero
+    start = state_layout(initial_nordsieck_of(chains, f.nordsieck_values, scene.integrator.dt, st, whole=False), f)
+    return HostModel(
+        chains=chains,
+        features=f,
+        static=st,
+        arrays=arrays,
+        injected_energy=injected,
+        start=start,
+        seconds=time.perf_counter() - clock,
+    )
+
+
+def stack_prepared(parts: list[HostModel]) -> HostModel:
+    """One HostModel of several ChainSets' (:func:`prepare_model` of each, run with one kernel): their
+    per-chain arrays and initial states concatenated, chains a :class:`ChainStack`. Every part must have
+    the same features (give each ``prepare_model`` the same ``features``) and the same record layout;
+    per-grain arrays of a part that needs none (shape (chains, 1)) are not widened, so the parts must agree
+    in shape too. Each chain's arrays are its own part's, so a chain runs as it would in its own set."""
+    if not parts:
+        raise ValueError("stack_prepared needs at least one HostModel")
+    first = parts[0]
+    for part in parts[1:]:
+        if part.features != first.features:
+            raise ValueError(f"stacked chain sets need one kernel: {part.features} differs from {first.features}")
+        template, other = first.chains.template, part.chains.template
+        if (other.chain.grains, other.integrator, other.record, other.boundary) != (
+            template.chain.grains,
+            template.integrator,
+            template.record,
+            template.boundary,
+        ):
+            raise ValueError("stacked chain sets must share grains, integrator, record and boundaries")
+    arrays = {}
+    for name, array in first.arrays.items():
+        if name == "trace_slot":  # per grain, shared
+            arrays[name] = array
+            continue
+        pieces = [part.arrays[name] for part in parts]
+        if array.size == 0 or array.ndim == 0:
+            arrays[name] = array
+            continue
+        if any(p.shape[1:] != array.shape[1:] for p in pieces):
+            raise ValueError(f"stacked chain sets disagree in the shape of {name}")
+        arrays[name] = np.concatenate(pieces, axis=0)
+    width = max(part.start.shape[2] for part in parts)
+    start = np.zeros((first.start.shape[0], sum(len(p.chains) for p in parts), width), dtype=first.start.dtype)
+    row = 0
+    for part in parts:
+        start[:, row : row + len(part.chains), : part.start.shape[2]] = part.start
+        row += len(part.chains)
+    return HostModel(
+        chains=ChainStack([p.chains for p in parts]),
+        features=first.features,
+        static=None,
+        arrays=arrays,
+        injected_energy=np.concatenate([p.injected_energy for p in parts]),
+        start=start,
+        seconds=sum(p.seconds for p in parts),
+    )
+
+
+def _build_model_of(chains: ChainSet, device, features: Features | None, prepared: HostModel | None = None) -> Model:
+    """build_model for a ChainSet: every per-chain array from numpy over the set (bitwise equal to the
+    per-scene path, checked by tests/test_vectorised.py), then uploaded."""
+    if prepared is None:
+        if isinstance(chains, ChainStack):
+            raise ValueError("a ChainStack model is built from stack_prepared(...) of its sets' prepare_model")
+        prepared = prepare_model(chains, features=features)
+    elif prepared.chains is not chains or (features is not None and prepared.features != features):
+        raise ValueError("prepare_model was given other chains or features than build_model")
+    f, a = prepared.features, prepared.arrays
+    real = wp.float64 if f.precision == "float64" else wp.float32
+
+    def upload(array, dtype=real):
+        return wp.array(np.ascontiguousarray(array), dtype=dtype, device=device)
+
+    return Model(
+        scenes=chains,
+        features=f,
+        device=device,
+        chain_count=len(chains),
+        grain_count=chains.template.chain.grains,
+        dt=chains.template.integrator.dt,
+        inverse_mass=upload(a["inverse_mass"]),
+        contact_constant=upload(a["contact_constant"]),
+        static_overlap=upload(a["static_overlap"]),
+        exponent=upload(a["exponent"]),
+        drive=upload(a["drive"], wp.float64),
+        trace_slot=upload(a["trace_slot"], wp.int32),
+        validity_overlap=upload(a["validity_overlap"], wp.float64),
+        injected_energy=prepared.injected_energy,
+        _static=prepared.static,
+        damping=upload(a["damping"]),
+        _start=(f, prepared.start),
+    )

@@ -1,0 +1,375 @@
+"""Running a sweep's batches: in this process, or on Dask distributed workers (one device each).
+
+Each batch runs as one ensemble (``build_model`` with its launch group's kernel variant, then
+``Runner``) and writes its own block of the store, then its completion record. Workers share
+nothing but the store path, so a batch can run on any worker, on any host that sees the store.
+
+Device of a worker: ``cpu`` or an explicit ``cuda:N`` when one is named; otherwise (``cuda`` or
+none) the worker's own GPU — ``cuda:i`` for the i-th worker of a ``LocalCluster`` (workers are
+named 0 … N-1), ``cuda:0`` for a worker started with one GPU visible
+(``CUDA_VISIBLE_DEVICES=i dask worker --nworkers 1 …``) — or the CPU when it has none.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from hertzian.core.chains import ChainSet
+from hertzian.kernels.features import Features
+from hertzian.sweeping.planner import Batch, Plan
+from hertzian.sweeping.spec import SweepPoints
+
+
+@dataclass(frozen=True)
+class BatchJob:
+    """Everything a worker needs to run one batch and write it."""
+
+    store: str
+    batch: Batch
+    chains: ChainSet
+    """The batch's chains (a template scene and per-chain parameter arrays), in the order of
+    ``batch.points``."""
+    features: Features
+    """Kernel variant of the batch's launch group."""
+    grain_steps: int
+    kernel: str = "auto"
+    """Which solver steps the batch (``--kernel``: auto | step | tile | window | sweep)."""
+
+
+def jobs_for(
+    store: str | Path, plan: Plan, points: SweepPoints, batches: Iterable[Batch], *, kernel: str = "auto"
+) -> list[BatchJob]:
+    """One job per batch (``points``: the sweep expanded by ``hertzian.sweeping.spec.expand``)."""
+    return [
+        BatchJob(
+            store=str(store),
+            batch=b,
+            chains=points.chains(b.points),
+            features=plan.groups[b.group].features,
+            grain_steps=plan.batch_grain_steps(b),
+            kernel=kernel,
+        )
+        for b in batches
+    ]
+
+
+def _quiet_warp():
+    import warp as wp
+
+    wp.config.log_level = wp.LOG_WARNING
+    wp.init()
+    return wp
+
+
+def warm_kernels(features: Iterable[Features], device: str, *, runs: Iterable[tuple] | None = None) -> None:
+    """Build and load every kernel variant on ``device`` once, so workers find them in Warp's cache.
+
+    ``runs``: (features, grains, chains, steps) of the batches this process will run (a serial sweep); then the
+    stepping kernel warmed is the one each will use — on a GPU the fused kernel of the shape the calibration cache
+    holds for it (none when not yet calibrated: the run calibrates), the per-step kernel only where ``auto`` takes
+    it — instead of the per-step kernel of every feature set."""
+    from hertzian.kernels.records import STAGED_GRAINS, load_record_kernels, record_kernels
+    from hertzian.kernels.step import step_kernel
+
+    wp = _quiet_warp()
+    dev = wp.get_device(device)
+    runs = None if runs is None else list(runs)
+    for f in set(features):
+        # the record reductions of the chain lengths the runs have (unknown runs: the one-stage ones; a long chain's
+        # recorder loads its own)
+        lengths = {run[1] >= STAGED_GRAINS for run in runs if run[0] == f} if runs is not None else set()
+        for long_chains in lengths or {False}:
+            load_record_kernels(record_kernels(f), long_chains=long_chains, device=device)
+    if runs is None:
+        for f in set(features):
+            wp.load_module(step_kernel(f).module, device=device)
+        return
+    from types import SimpleNamespace
+
+    from hertzian.core.solvers.calibrate import _cache_key, _read_cache, step_reason_of
+    from hertzian.core.solvers.config import SolverConfig
+    from hertzian.core.solvers.tile import solver_plan
+    from hertzian.kernels.tile import drive_table, tile_kernel
+
+    cache = _read_cache()  # (only GPUs calibrate: empty for a CPU)
+    for f, grains, chains, steps in set(runs):
+        shape_of = SimpleNamespace(device=dev, features=f, grain_count=grains, chain_count=chains)
+        entry = cache.get(_cache_key(shape_of))
+        if entry is not None:
+            try:
+                config = SolverConfig.from_dict(entry)
+            except (KeyError, TypeError, ValueError):
+                continue
+            if config.kind in ("tile", "window"):  # compiled for its launch's block size, as TileSolver.load does
+                block_dim = config.shape.block_dim
+                if dev.is_cpu and block_dim > 1:
+                    wp.config.enable_cpu_blocks = True
+                shape = solver_plan(config, f, grains, chains).shape  # as TileSolver compiles it
+                wp.load_module(tile_kernel(f, shape).module, device=device, block_dim=block_dim)
+                if f.surface == "driven":  # its phase table (TileSolver)
+                    wp.load_module(drive_table.module, device=device)
+        elif step_reason_of(f, dev.is_cpu, float(grains) * chains * steps):
+            wp.load_module(step_kernel(f).module, device=device)
+
+
+def runs_of(plan, points, batches) -> list[tuple]:
+    """(features, grains, chains, steps) of each distinct launch group and batch size among ``batches``
+    (:func:`warm_kernels`' ``runs``)."""
+    out, seen = [], set()
+    for batch in batches:
+        if (batch.group, batch.size) in seen:
+            continue
+        seen.add((batch.group, batch.size))
+        scene = points.scene(int(batch.points[0])) if hasattr(points, "scene") else points[int(batch.points[0])]
+        out.append((plan.groups[batch.group].features, scene.chain.grains, batch.size, scene.step_count))
+    return out
+
+
+def run_job(
+    job: BatchJob, device: str, progress: Callable[[int, int], None] | None = None, *, worker: str = ""
+) -> dict[str, Any]:
+    """Run one batch on ``device`` and write it into the store; return its completion record."""
+    return write_job(job, *integrate_job(job, device, progress), worker=worker)
+
+
+def prepare_job(job: BatchJob):
+    """The host half of a batch's build (``hertzian.core.model.prepare_model``): numpy only, so a
+    background thread can compute the next batch's while the current one runs."""
+    from hertzian.core.model import prepare_model
+
+    if not isinstance(job.chains, ChainSet):
+        return None  # a batch spanning templates runs as one scene per point: nothing to prepare
+    return prepare_model(job.chains, features=job.features)
+
+
+def integrate_job(
+    job: BatchJob, device: str, progress: Callable[[int, int], None] | None = None, *, prepared=None, on_unpacked=None
+):
+    """Build and run one batch on ``device``; returns (RunResult, build seconds). Writes nothing itself.
+
+    ``prepared``: :func:`prepare_job` of this job, computed earlier (the build seconds are then what
+    remained: uploads, state buffers, solver and recorder). ``on_unpacked``: the recorder's hook (a
+    ``RowWriter.submit``, which writes records while the batch runs)."""
+    from hertzian.core.model import build_model
+    from hertzian.core.runner import Runner
+
+    _quiet_warp()
+    start = time.perf_counter()
+    runner = Runner(
+        build_model(job.chains, device, features=job.features, prepared=prepared),
+        kernel=job.kernel,
+        on_unpacked=on_unpacked,
+    )
+    build = time.perf_counter() - start
+    return runner.run(progress), build
+
+
+def overlap_default(device: str) -> bool:
+    """Whether a serial sweep prepares batch b + 1 on the host while batch b runs: on CUDA (the host is
+    otherwise idle while the GPU integrates), not on a CPU (whose kernels use every core)."""
+    wp = _quiet_warp()
+    return wp.get_device(device).is_cuda
+
+
+def write_job(job: BatchJob, result, build: float, *, worker: str = "", rows=None) -> dict[str, Any]:
+    """Write a finished batch into the store (its completion flag last); returns its completion record.
+    ``rows``: the batch's RowWriter (what it wrote while the batch ran is not written again)."""
+    from hertzian.sweeping.sweep_store import write_batch
+
+    return write_batch(
+        job.store, job.batch, result, grain_steps=job.grain_steps, worker=worker, build_seconds=build, rows=rows
+    )
+
+
+def worker_device(requested: str | None, worker_name: Any = None) -> str:
+    """The device a (Dask worker) process should use; see the module docstring."""
+    wp = _quiet_warp()
+    if requested and requested != "cuda":
+        return requested
+    if not wp.is_cuda_available():
+        return "cpu"
+    try:
+        index = int(worker_name)
+    except (ValueError, TypeError):
+        index = 0
+    return f"cuda:{index % wp.get_cuda_device_count()}"
+
+
+def _prepare_worker(features: list[Features], requested_device: str | None, dask_worker=None) -> str:
+    from hertzian.core import runner  # noqa: F401
+    from hertzian.sweeping import sweep_store  # noqa: F401  (imports paid before the clock starts)
+
+    device = worker_device(requested_device, getattr(dask_worker, "name", None))
+    warm_kernels(features, device)
+    return device
+
+
+def warm_workers(client, features: Iterable[Features], requested_device: str | None) -> dict[str, str]:
+    """Initialise Warp and load every kernel variant on each worker's device (from the cache the parent
+    filled); returns worker address → device."""
+    return client.run(_prepare_worker, list(set(features)), requested_device)
+
+
+def run_job_on_worker(job: BatchJob, requested_device: str | None) -> dict[str, Any]:
+    """Dask task: run one batch on this worker's device."""
+    from distributed import get_worker
+
+    worker = get_worker()
+    return run_job(job, worker_device(requested_device, worker.name), worker=str(worker.name))
+
+
+def take_prepared(ahead, builder, jobs, index: int, timing: dict):
+    """The host arrays prepared ahead for ``jobs[index]`` (None when batches are not overlapped) and the future
+    now preparing the next job; ``timing`` gains the preparation's seconds ("prepare") and the wait for it
+    ("prepare_wait")."""
+    if ahead is None:
+        return None, None
+    clock = time.perf_counter()
+    prepared = ahead.result()
+    timing["prepare_wait"] += time.perf_counter() - clock
+    timing["prepare"] += prepared.seconds if prepared is not None else 0.0
+    return prepared, (builder.submit(prepare_job, jobs[index + 1]) if index + 1 < len(jobs) else None)
+
+
+def run_serial(
+    jobs: list[BatchJob],
+    device: str,
+    *,
+    on_record: Callable[[BatchJob, int, int], None] | None = None,
+    on_done: Callable[[BatchJob, dict], None] | None = None,
+    overlap: bool | None = None,
+    rows_while_running: bool | None = None,
+    on_result: Callable | None = None,
+    create_store: Callable[[], Any] | None = None,
+    timing: dict | None = None,
+) -> None:
+    """Run jobs one after the other in this process; each batch's store write runs in a background thread
+    while the next batch integrates (writes stay in batch order; ``on_done`` follows each write).
+
+    ``overlap`` (default :func:`overlap_default`): a second background thread prepares batch b + 1's
+    host arrays (:func:`prepare_job`) while batch b runs; same results, bit for bit.
+    ``rows_while_running`` (default: as ``overlap``): the store thread also writes each batch's records (and
+    trace samples) as they reach the host (sweep_store.RowWriter), so the batch's own end leaves only its last
+    records to write; the same store, bit for bit. ``on_result(job, result, build_seconds)`` is called on this
+    thread after each batch's integration. ``create_store``: a call that creates the store, run by the store
+    thread once the first batch's first records are queued on the device (so it overlaps the integration; every
+    write comes after it). ``timing``, if given, gets ``prepare`` (host seconds of those preparations,
+    overlapped), ``prepare_wait`` (the part the main thread waited for), ``store`` (seconds of the store
+    thread's writes) and, with ``create_store``, ``create_store`` (its seconds, overlapped)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from hertzian.sweeping.sweep_store import RowWriter
+
+    overlap = overlap_default(device) if overlap is None else overlap
+    rows_while_running = overlap if rows_while_running is None else rows_while_running
+    timing = {} if timing is None else timing
+    for key in ("prepare", "prepare_wait", "store"):
+        timing.setdefault(key, 0.0)
+
+    def timed_write(job, result, build, rows):
+        clock = time.perf_counter()
+        record = write_job(job, result, build, rows=rows)
+        timing["store"] += time.perf_counter() - clock + (rows.seconds if rows is not None else 0.0)
+        return record
+
+    def timed_create():
+        clock = time.perf_counter()
+        create_store()
+        timing["create_store"] = time.perf_counter() - clock
+
+    with (
+        ThreadPoolExecutor(max_workers=1, thread_name_prefix="hertzian-store") as writer,
+        ThreadPoolExecutor(max_workers=1, thread_name_prefix="hertzian-build") as builder,
+    ):
+        pending = None
+        creating = [None] if create_store is not None else []
+        ahead = builder.submit(prepare_job, jobs[0]) if overlap and jobs else None
+
+        def created() -> None:
+            """Queue the store's creation (once), ahead of any write."""
+            if creating and creating[0] is None:
+                creating[0] = writer.submit(timed_create)
+
+        def settle():
+            job, future = pending
+            if creating:
+                creating[0].result()  # a failed creation raises its own error, not the writes' after it
+            record = future.result()
+            if on_done:
+                on_done(job, record)
+
+        for index, job in enumerate(jobs):
+            prepared, ahead = take_prepared(ahead, builder, jobs, index, timing)
+
+            def progress(done, total, job=job):
+                if done >= 2:  # record 1 is queued behind the first launches: the device is busy
+                    created()
+                if on_record:
+                    on_record(job, done, total)
+
+            rows = RowWriter(job.store, job.batch, writer) if rows_while_running else None
+
+            def on_unpacked(recorder, r, rows=rows):
+                created()
+                rows.submit(recorder, r)
+
+            result, build = integrate_job(
+                job,
+                device,
+                progress if (on_record or creating) else None,
+                prepared=prepared,
+                on_unpacked=on_unpacked if rows is not None else None,
+            )
+            if on_result is not None:
+                on_result(job, result, build)
+            created()
+            if pending is not None:
+                settle()
+            pending = (job, writer.submit(timed_write, job, result, build, rows))
+        created()
+        if pending is not None:
+            settle()
+        if creating:
+            creating[0].result()
+
+
+def local_cluster(workers: int):
+    """A LocalCluster of ``workers`` processes with one thread each (one device per worker)."""
+    from distributed import LocalCluster
+
+    return LocalCluster(
+        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR
+    )
+
+
+def run_distributed(
+    jobs: list[BatchJob],
+    client,
+    requested_device: str | None,
+    *,
+    on_done: Callable[[BatchJob, dict], None] | None = None,
+) -> None:
+    """Run jobs on a Dask client's workers; each worker writes its batches into the store."""
+    from distributed import as_completed
+
+    token = f"{time.time_ns():x}"
+    futures = {
+        client.submit(
+            run_job_on_worker,
+            job,
+            requested_device,
+            pure=False,
+            key=f"hertzian-batch-{job.batch.index}-{token}",
+            priority=-job.batch.index,
+        ): job
+        for job in jobs
+    }
+    for future in as_completed(futures):
+        record = future.result()
+        if on_done:
+            on_done(futures[future], record)

@@ -1,0 +1,888 @@
+"""A sweep's Zarr v3 store (SPEC §6): one group, sweep dimensions first, filled batch by batch.
+
+Layout, as ``hertzian.sweeping.store.write_result`` writes a run, with the sweep dimensions in front:
+``u``/``v`` (*dims, record, grain), ``energy`` (*dims, record), ``trace_u``/``trace_v``
+(*dims, sample, traced), per point ``status``, ``energy_error``, ``max_overlap``,
+``wall_seconds``, ``grain_steps_per_second`` and ``launch_group``; coordinates for every axis
+(zipped axes are coordinates along their group's dimension), ``t``, ``grain``, ``trace_t``,
+``traced_grain``.
+
+Crash safety:
+
+1. :func:`create_sweep_store` writes every array's metadata, the coordinates and the
+   attributes into a temporary directory and renames it into place: a store at the path is
+   always complete, and its data arrays read as fill values (NaN, status −1 = not run) until
+   filled.
+2. A batch is one hyper-rectangular block of the sweep grid, and the store chunks the sweep
+   dimensions by exactly that block (big variables are sharded: one shard = one batch, inner
+   chunks of about 1 MiB, a few points each). So a batch writes whole chunks only, no two batches (or workers) ever
+   write one file, and zarr's LocalStore writes each file atomically (temporary file + rename).
+3. :func:`write_batch` writes the batch's data, then its completion record: one row of the
+   small arrays in the ``batches`` group — ``batches/record`` (float64: wall seconds,
+   grain-steps, throughput, energy error, finish time, …), ``batches/where`` (device, host,
+   worker, kernel) — and last its flag in ``batches/done`` (int8, 1 = finished). Every array
+   there is chunked one batch per chunk, so workers never write one file, and a store of 10⁶
+   points has a few hundred bytes of metadata for them however many batches it has. Resuming
+   skips batches whose flag is set and reruns the others, which rewrites the same chunks with
+   the same bits.
+4. :func:`finalize` sums the records into the ``provenance`` attribute and re-consolidates.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import platform
+import shutil
+import tempfile
+import time
+import warnings
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import zarr
+import zarr.errors
+from hertzian.core.model import SHARED_KEYS
+from hertzian.core.runner import RunResult
+from hertzian.core.scene import Scene
+from hertzian.core.status import status_attrs
+from hertzian.sweeping.planner import Batch, Plan
+from hertzian.sweeping.spec import Sweep, record_times, trace_times
+from hertzian.sweeping.store import SCHEMA_VERSION, consolidate, package_version
+
+NOT_RUN = -1
+"""``status`` of a point whose batch has not finished."""
+BATCHES = "batches"
+"""Group holding the completion records: arrays ``done``, ``record`` and ``where`` over batches."""
+RECORD_COLUMNS = (
+    "points",
+    "wall_seconds",
+    "grain_steps",
+    "grain_steps_per_second",
+    "energy_error_max",
+    "finished",
+    "build_seconds",
+    "write_seconds",
+)
+"""Columns of ``batches/record`` (float64; ``finished`` in seconds since 1970-01-01 UTC)."""
+WHERE_COLUMNS = ("device", "host", "worker", "kernel")
+"""Columns of ``batches/where`` (strings)."""
+INNER_CHUNK_BYTES = 1 << 20
+"""Target size of an inner chunk (what reading one point costs at least): about 1 MiB."""
+TIMING_VARIABLES = ("wall_seconds", "grain_steps_per_second")
+"""Per-point variables that measure the machine, not the physics (they differ between runs)."""
+
+FIELD_ATTRS = {
+    "u": {
+        "coordinates": "t",
+        "units": "program length (1e-5 m)",
+        "long_name": "displacement from static equilibrium, positive toward the bottom",
+    },
+    "v": {
+        "coordinates": "t",
+        "units": "program velocity (1e-5 m / 1.0102e-3 s)",
+        "long_name": "velocity, positive toward the bottom",
+    },
+}
+
+
+class SweepStoreError(ValueError):
+    """A store that cannot take this sweep (different sweep, package version, layout)."""
+
+
+def warp_version() -> str:
+    import warp as wp
+
+    return wp.config.version
+
+
+def status_codes() -> dict[str, str]:
+    """Status codes of a run plus ``-1: NOT_RUN``."""
+    return {
+        str(NOT_RUN): "NOT_RUN: the point's batch has not finished (interrupted sweep; use --resume)",
+        **status_attrs(),
+    }
+
+
+# ---- variables ---------------------------------------------------------------------------
+
+ROW_SHARD_BYTES = 8 << 20
+"""A batch's snapshots (and traces) are sharded along the record dim in groups of records of at least about this
+many bytes: one record each for gpu_10k.toml (20 MB a record), 53 (rounded up to whole inner chunks: 65) for the
+driven 10 000-grain columns of paper_fig9_10.toml (160 kB a record), whose 2001 one-record shards cost the store thread
+≈ 2 ms each, 4 s in all."""
+
+
+def records_per_shard(block_points: int, record_bytes_per_point: int) -> int:
+    """Records per shard of a batch block of ``block_points`` points: enough for ROW_SHARD_BYTES."""
+    return max(1, -(-ROW_SHARD_BYTES // max(1, block_points * record_bytes_per_point)))
+
+
+def trace_rows_per_record(scene: Scene) -> int | None:
+    """Trace samples between two records when every record interval holds the same whole number of them
+    (the traces' shards are then cut there, so they can be written record by record), else None."""
+    steps = np.diff(scene.record_steps)
+    stride = scene.trace_stride
+    if len(steps) < 2 or np.any(steps[:-1] != steps[0]) or steps[0] % stride:
+        return None
+    return int(steps[0] // stride)
+
+
+def _store_real(plan: Plan) -> np.dtype:
+    precisions = {dict(zip([k for k, _ in SHARED_KEYS], g.key))["integrator.precision"] for g in plan.groups}
+    return np.dtype(np.float64 if "float64" in precisions else np.float32)
+
+
+def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
+    """Every data variable of the store: name, dims, trailing shape, dtype, fill value, attributes."""
+    dims = sweep.dims
+    companions = [a.name for d in sweep.dimensions for a in d.axes[1:]]
+    real = _store_real(plan)
+    records = scene.record_count
+    n = scene.chain.grains
+    block_points = math.prod(plan.block) if plan.block else 1
+
+    def coords(*names: str) -> dict:
+        joined = " ".join(list(names) + companions)
+        return {"coordinates": joined} if joined else {}
+
+    out = []
+    for name in scene.record.fields:
+        out.append(
+            dict(
+                name=name,
+                dims=dims + ("record", "grain"),
+                trailing=(records, n),
+                dtype=real,
+                fill=np.nan,
+                attrs={**FIELD_ATTRS[name], **coords("t")},
+                rows_per_shard=records_per_shard(block_points, n * real.itemsize),
+            )
+        )
+    if scene.record.energy:
+        out.append(
+            dict(
+                name="energy",
+                dims=dims + ("record",),
+                trailing=(records,),
+                dtype=np.dtype(np.float64),
+                fill=np.nan,
+                attrs={
+                    **coords("t"),
+                    "long_name": "total energy relative to the static state (SPEC §5 E minus a constant)",
+                },
+            )
+        )
+        if scene.boundary.surface == "driven":
+            out.append(
+                dict(
+                    name="work",
+                    dims=dims + ("record",),
+                    trailing=(records,),
+                    dtype=np.dtype(np.float64),
+                    fill=np.nan,
+                    attrs={**coords("t"), "long_name": "work done by the driver on the chain"},
+                )
+            )
+    if scene.damping.model != "none" and scene.record.energy:
+        out.append(
+            dict(
+                name="dissipated",
+                dims=dims + ("record",),
+                trailing=(records,),
+                dtype=np.dtype(np.float64),
+                fill=np.nan,
+                attrs={**coords("t"), "long_name": "energy dissipated by damping up to the record"},
+            )
+        )
+    if scene.has_response:
+        windows, harmonics = scene.record.response_windows, scene.record.harmonics + 1
+        out += [
+            dict(
+                name="response",
+                dims=dims + ("window", "harmonic", "grain"),
+                trailing=(windows, harmonics, n),
+                dtype=np.dtype(np.complex128),
+                fill=complex(np.nan, np.nan),
+                attrs={
+                    **coords("window_start"),
+                    "long_name": "V_k = (c_k/T_w) ∫ v e^{-ikωt} dt over the "
+                    "window (c_0 = 1, c_k = 2), t absolute [length/time]",
+                },
+            ),
+            dict(
+                name="window_ke",
+                dims=dims + ("window", "grain"),
+                trailing=(windows, n),
+                dtype=np.dtype(np.float64),
+                fill=np.nan,
+                attrs={**coords("window_start"), "long_name": "window-averaged kinetic energy ½ m v²"},
+            ),
+            dict(
+                name="driver_open",
+                dims=dims + ("window",),
+                trailing=(windows,),
+                dtype=np.dtype(np.float64),
+                fill=np.nan,
+                attrs={
+                    **coords("window_start"),
+                    "long_name": "fraction of the window during which the driver–grain-1 contact is open",
+                },
+            ),
+            dict(
+                name="window_start",
+                dims=dims + ("window",),
+                trailing=(windows,),
+                dtype=np.dtype(np.float64),
+                fill=np.nan,
+                attrs={"long_name": "start time of the window (depends on the point's period)"},
+            ),
+        ]
+    tt = trace_times(scene)
+    if tt is not None:
+        per_record = trace_rows_per_record(scene)
+        trace_rows = (
+            None
+            if per_record is None
+            else per_record * records_per_shard(block_points, per_record * len(scene.record.traces) * real.itemsize)
+        )
+        for name in ("u", "v"):
+            out.append(
+                dict(
+                    name=f"trace_{name}",
+                    dims=dims + ("sample", "traced"),
+                    trailing=(len(tt), len(scene.record.traces)),
+                    dtype=real,
+                    fill=np.nan,
+                    attrs=coords("trace_t", "traced_grain"),
+                    rows_per_shard=trace_rows,
+                )
+            )
+    out += [
+        dict(
+            name="status",
+            dims=dims,
+            trailing=(),
+            dtype=np.dtype(np.int32),
+            fill=NOT_RUN,
+            attrs={**coords(), "flag_values": [int(k) for k in status_codes()], "flag_meanings": status_codes()},
+        ),
+        dict(
+            name="energy_error",
+            dims=dims,
+            trailing=(),
+            dtype=np.dtype(np.float64),
+            fill=np.nan,
+            attrs={**coords(), "long_name": "max_t |E(t) - E(0) [- W(t)]| / E_inj (absolute when nothing is injected)"},
+        ),
+        dict(name="max_overlap", dims=dims, trailing=(), dtype=np.dtype(np.float64), fill=np.nan, attrs=coords()),
+        dict(
+            name="wall_seconds",
+            dims=dims,
+            trailing=(),
+            dtype=np.dtype(np.float64),
+            fill=np.nan,
+            attrs={**coords(), "long_name": "wall seconds of the ensemble, shared evenly among its chains"},
+        ),
+        dict(
+            name="grain_steps_per_second",
+            dims=dims,
+            trailing=(),
+            dtype=np.dtype(np.float64),
+            fill=np.nan,
+            attrs={**coords(), "long_name": "throughput of the point's batch (all its chains)"},
+        ),
+    ]
+    return out
+
+
+def _trailing_chunks(trailing: tuple[int, ...], itemsize: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """(inner chunk, shard extent) along the trailing dims of one point: whole rows, at most about
+    INNER_CHUNK_BYTES per chunk; the shard covers the whole extent (rounded up to whole chunks)."""
+    if not trailing:
+        return (), ()
+    row = int(np.prod(trailing[1:])) * itemsize
+    first = max(1, min(trailing[0], INNER_CHUNK_BYTES // max(row, 1)))
+    shard_first = math.ceil(trailing[0] / first) * first
+    return (first,) + trailing[1:], (shard_first,) + trailing[1:]
+
+
+def _sub_block(block: tuple[int, ...], points: int) -> tuple[int, ...]:
+    """A block of at most ``points`` points that tiles ``block`` (whole trailing dims, then a divisor)."""
+    sub = [1] * len(block)
+    room = max(1, points)
+    for d in reversed(range(len(block))):
+        if block[d] <= room:
+            sub[d] = block[d]
+            room //= block[d]
+            continue
+        sub[d] = max(k for k in range(1, room + 1) if block[d] % k == 0)
+        break
+    return tuple(sub)
+
+
+def chunk_layout(block: tuple[int, ...], trailing: tuple[int, ...], itemsize: int, rows_per_shard: int | None = None):
+    """(chunks, shards or None) of a variable: one shard (or chunk) per batch block along the sweep
+    dims; inner chunks of about INNER_CHUNK_BYTES (a few points), so reading one point stays cheap.
+
+    ``rows_per_shard``: cut the shards along the first trailing dim (records, trace samples) every that many rows,
+    so a batch's early records can be written while it still runs (:class:`RowWriter`); the inner chunks then hold
+    a divisor of it (whole rows) and more points."""
+    block = tuple(block)
+    if not trailing:
+        return block, None
+    trailing = tuple(trailing)
+    if rows_per_shard is not None and 0 < rows_per_shard < trailing[0]:
+        row = int(np.prod(trailing[1:])) * itemsize
+        first = max(1, min(rows_per_shard, INNER_CHUNK_BYTES // max(row, 1)))
+        # the shard holds whole inner chunks of ~INNER_CHUNK_BYTES: its rows rounded up to a multiple of theirs (53
+        # records of 80 kB had made 53 one-record chunks a shard, 53 being prime)
+        rows = -(-rows_per_shard // first) * first
+        if rows >= trailing[0]:
+            return chunk_layout(block, trailing, itemsize)
+        inner, shard = (first,) + trailing[1:], (rows,) + trailing[1:]
+    else:
+        inner, shard = _trailing_chunks(trailing, itemsize)
+    point_bytes = int(np.prod(inner)) * itemsize
+    chunks = _sub_block(block, INNER_CHUNK_BYTES // max(point_bytes, 1)) + inner
+    shards = block + shard
+    return (chunks, None) if chunks == shards else (chunks, shards)
+
+
+RESULT_ZSTD_LEVEL = 1
+"""zstd level of the per-point result arrays: simulated floats barely compress (122 of 220 MB at zstd's default
+level 3, 121 MB at level 1), and level 1 encodes them 1.8x faster (docs/logs/store/store_codec_bench_cpu.txt); the
+last batch's write is the sweep's tail, which nothing overlaps."""
+
+
+def _create(group, name: str, shape, dtype, dims, block, trailing, fill, attrs, rows_per_shard=None):
+    chunks, shards = chunk_layout(tuple(block), tuple(trailing), np.dtype(dtype).itemsize, rows_per_shard)
+    return group.create_array(
+        name,
+        shape=tuple(shape),
+        dtype=dtype,
+        chunks=chunks,
+        shards=shards,
+        dimension_names=list(dims),
+        fill_value=fill,
+        attributes=attrs,
+        compressors=zarr.codecs.ZstdCodec(level=RESULT_ZSTD_LEVEL),
+    )
+
+
+def _small(group, name: str, data: np.ndarray, dims: tuple[str, ...], attrs: dict | None = None):
+    data = np.asarray(data)
+    arr = group.create_array(
+        name,
+        shape=data.shape,
+        dtype=data.dtype if data.dtype.kind != "U" else str,
+        chunks=data.shape or (),
+        dimension_names=list(dims),
+        fill_value="" if data.dtype.kind == "U" else 0,
+        attributes=attrs or {},
+    )
+    arr[...] = data
+    return arr
+
+
+def launch_groups_attr(plan: Plan) -> list[dict[str, Any]]:
+    names = [k for k, _ in SHARED_KEYS]
+    out = []
+    for g in plan.groups:
+        shared = dict(zip(names, g.key))
+        out.append(
+            {
+                "grains": shared["chain.grains"],
+                "method": shared["integrator.method"],
+                "precision": shared["integrator.precision"],
+                "dt": shared["integrator.dt"],
+                "steps": g.grain_steps_per_chain // shared["chain.grains"],
+                "points": g.point_count,
+                "kernel_features": {k: getattr(g.features, k) for k in g.features.__dataclass_fields__},
+            }
+        )
+    return out
+
+
+def _provenance(plan: Plan, device: str) -> dict[str, Any]:
+    import warp as wp
+
+    first = launch_groups_attr(plan)[0]
+    return {
+        "package": "hertzian",
+        "package_version": package_version(),
+        "warp_version": wp.config.version,
+        "python_version": platform.python_version(),
+        "device": device,
+        "precision": first["precision"],
+        "method": first["method"],
+        "dt": first["dt"],
+        "steps": first["steps"],
+        "chains": plan.point_count,
+        "grains": first["grains"],
+        "wall_seconds": 0.0,
+        "grain_steps_per_second": 0.0,
+        "energy_error_max": 0.0,
+        "kernel_features": first["kernel_features"],
+        "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "complete": False,
+        "batches": len(plan.batches),
+        "batches_done": 0,
+        "grain_steps": plan.grain_steps,
+    }
+
+
+def create_sweep_store(
+    path: str | Path,
+    sweep: Sweep,
+    scene: "Scene | list[Scene]",
+    plan: Plan,
+    *,
+    device: str,
+    overwrite: bool = False,
+    attributes: dict[str, Any] | None = None,
+) -> Path:
+    """Create the whole store (metadata, coordinates, attributes) with no batch written; atomic.
+
+    ``scene``: any point's scene (they share the layout), e.g. ``SweepPoints.templates[0]``;
+    ``attributes`` are added to the root group's.
+    """
+    path = Path(path)
+    if path.exists() and not overwrite:
+        raise FileExistsError(f"{path} exists")
+    if not isinstance(scene, Scene):
+        scene = scene[0]
+    dims = sweep.dims
+    shape = sweep.shape
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent if path.parent.exists() else None))
+    try:
+        target = tmp / "store.zarr"
+        root = zarr.open_group(store=str(target), mode="w", zarr_format=3)
+        for dimension in sweep.dimensions:
+            for axis in dimension.axes:
+                _small(
+                    root,
+                    axis.name,
+                    axis.coordinate(),
+                    (dimension.name,),
+                    {"scene_key": axis.key, "long_name": f"scene key {axis.key}"},
+                )
+        _small(root, "t", record_times(scene), ("record",), {"units": "program time (1.0102e-3 s)"})
+        _small(
+            root,
+            "grain",
+            np.arange(scene.chain.grains, dtype=np.int32),
+            ("grain",),
+            {"long_name": "grain index from the surface"},
+        )
+        if scene.has_response:
+            _small(
+                root,
+                "harmonic",
+                np.arange(scene.record.harmonics + 1, dtype=np.int32),
+                ("harmonic",),
+                {"long_name": "harmonic k of the drive frequency"},
+            )
+        tt = trace_times(scene)
+        if tt is not None:
+            _small(root, "trace_t", tt, ("sample",))
+            _small(root, "traced_grain", np.asarray(scene.record.traces, dtype=np.int32), ("traced",))
+        for var in variables(sweep, scene, plan):
+            _create(
+                root,
+                var["name"],
+                shape + var["trailing"],
+                var["dtype"],
+                var["dims"],
+                plan.block,
+                var["trailing"],
+                var["fill"],
+                var["attrs"],
+                var.get("rows_per_shard"),
+            )
+        group_attrs = {"long_name": "launch group of the point (index into the launch_groups attribute)"}
+        companions = " ".join(a.name for d in sweep.dimensions for a in d.axes[1:])
+        if companions:
+            group_attrs["coordinates"] = companions
+        lg = root.create_array(
+            "launch_group",
+            shape=shape,
+            dtype=np.int32,
+            chunks=plan.block or (),
+            dimension_names=list(dims),
+            fill_value=-1,
+            attributes=group_attrs,
+        )
+        lg[...] = plan.point_group.astype(np.int32)
+        batches = root.create_group(BATCHES, attributes={"long_name": "completion records, one row per batch"})
+        count = len(plan.batches)
+        batches.create_array(
+            "done",
+            shape=(count,),
+            dtype=np.int8,
+            chunks=(1,),
+            fill_value=0,
+            dimension_names=["batch"],
+            attributes={"long_name": "1 once the batch is written"},
+        )
+        batches.create_array(
+            "record",
+            shape=(count, len(RECORD_COLUMNS)),
+            dtype=np.float64,
+            chunks=(1, len(RECORD_COLUMNS)),
+            fill_value=np.nan,
+            dimension_names=["batch", "column"],
+            attributes={"columns": list(RECORD_COLUMNS)},
+        )
+        batches.create_array(
+            "where",
+            shape=(count, len(WHERE_COLUMNS)),
+            dtype=str,
+            chunks=(1, len(WHERE_COLUMNS)),
+            fill_value="",
+            dimension_names=["batch", "column"],
+            attributes={"columns": list(WHERE_COLUMNS)},
+        )
+        root.attrs.update(
+            {
+                "schema_version": SCHEMA_VERSION,
+                "scene": json.dumps(sweep.base.to_dict()),
+                "scenes_differ_along": list(dims),
+                "sweep": json.dumps({**sweep.to_dict(), "source": sweep.source}),
+                "sweep_fingerprint": sweep.fingerprint(),
+                "sweep_axes": {a.name: {"dim": d.name, "key": a.key} for d in sweep.dimensions for a in d.axes},
+                "sweep_block": list(plan.block),
+                "launch_groups": launch_groups_attr(plan),
+                "status_codes": status_codes(),
+                "provenance": _provenance(plan, device),
+                **(attributes or {}),
+            }
+        )
+        consolidate(target)
+        if path.exists():
+            shutil.rmtree(path)
+        target.rename(path)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return path
+
+
+# ---- resume -----------------------------------------------------------------------------
+
+
+def check_resumable(path: str | Path, sweep: Sweep) -> tuple[int, ...]:
+    """Raise SweepStoreError unless ``path`` was made from this sweep by this package; return its block."""
+    path = Path(path)
+    try:
+        root = zarr.open_group(store=str(path), mode="r")
+        attrs = dict(root.attrs)
+    except Exception as err:  # noqa: BLE001 - any unreadable store is refused the same way
+        raise SweepStoreError(f"{path}: not a readable Zarr store ({type(err).__name__})") from None
+    if "sweep_fingerprint" not in attrs:
+        raise SweepStoreError(f"{path}: not a hertzian sweep store (no sweep_fingerprint attribute)")
+    if attrs.get("schema_version") != SCHEMA_VERSION:
+        raise SweepStoreError(
+            f"{path}: schema version {attrs.get('schema_version')} differs from this package's {SCHEMA_VERSION}"
+        )
+    if attrs["sweep_fingerprint"] != sweep.fingerprint():
+        raise SweepStoreError(
+            f"{path} was made from a different sweep (scene or axes differ); resume with the "
+            "sweep file it was made from, or write a new store"
+        )
+    prov = attrs.get("provenance", {})
+    for key, current in (("package_version", package_version()), ("warp_version", warp_version())):
+        if prov.get(key) != current:
+            raise SweepStoreError(
+                f"{path} was written by {key.replace('_', ' ')} {prov.get(key)}, this is "
+                f"{current}; a resumed store must come from one version (start a new store)"
+            )
+    return tuple(attrs["sweep_block"])
+
+
+def completed_batches(path: str | Path) -> set[int]:
+    """Indices of batches whose completion flag is set."""
+    try:
+        done = zarr.open_array(store=str(path), path=f"{BATCHES}/done", mode="r")
+    except (FileNotFoundError, KeyError, zarr.errors.NodeNotFoundError):
+        return set()
+    return {int(i) for i in np.flatnonzero(np.asarray(done[...]) == 1)}
+
+
+def remove_partial_files(path: str | Path) -> int:
+    """Delete temporary files a killed write left behind (zarr writes ``*.partial`` then renames)."""
+    count = 0
+    for p in Path(path).rglob("*.partial"):
+        p.unlink(missing_ok=True)
+        count += 1
+    return count
+
+
+# ---- filling -----------------------------------------------------------------------------
+
+
+def _open_for_writing(path: Path, name: str):
+    # write_empty_chunks: skip comparing every inner chunk with the fill value before writing it (a batch's
+    # chunks are written whatever they hold; 0.5 s of 1.6 s for a 220 MB shard here, docs/logs/store/)
+    return zarr.open_array(store=str(path), path=name, mode="r+").with_config({"write_empty_chunks": True})
+
+
+class RowWriter:
+    """Writes a running batch's records (and its trace samples up to them) into the store as the recorder
+    unpacks them, in whole shards along the record (sample) dim, so that at the batch's end only its last
+    records are left to write (:func:`write_batch` with ``rows=`` writes the rest).
+
+    ``submit`` is the recorder's ``on_unpacked`` hook (main thread); the writes run in ``executor`` (one
+    thread: they stay in order, before the batch's final write submitted to the same executor). A variable
+    whose shards hold all its rows (a store made before records had shards of their own) is left to the
+    final write."""
+
+    def __init__(self, path: str | Path, batch: Batch, executor):
+        self.path, self.batch, self.executor = Path(path), batch, executor
+        self.written: dict[str, int] = {}
+        """Rows (records, trace samples) of each variable written so far (writer thread)."""
+        self.seconds = 0.0
+        """Seconds spent in these writes (writer thread)."""
+        self._arrays: dict[str, tuple[Any, int | None]] = {}
+        self._opened: dict[str, Any] = {}
+        self._futures: list = []
+
+    def submit(self, recorder, r: int) -> None:
+        """Queue the rows that record ``r``'s unpacking completed (records 0…r; trace samples to its step)."""
+        available = {name: (data, r + 1) for name, data in recorder.fields.items()}
+        if recorder.traced:
+            samples = int(recorder.record_steps[r]) // recorder.stride + 1
+            available.update({f"trace_{name}": (data, samples) for name, data in recorder.traces.items()})
+        if not self._futures and r == 0:
+            # the store's other per-point arrays opened while the batch runs, not after it (write_batch)
+            self._futures.append(self.executor.submit(self._open_all))
+        self._futures.append(self.executor.submit(self._write, available))
+
+    def array(self, name: str):
+        """The store's array ``name`` opened for writing, once per batch (writer thread)."""
+        if name not in self._opened:
+            self._opened[name] = _open_for_writing(self.path, name)
+        return self._opened[name]
+
+    def _open_all(self) -> None:
+        for name in zarr.open_group(store=str(self.path), mode="r").array_keys():
+            self.array(name)
+
+    def _rows_per_shard(self, name: str):
+        if name not in self._arrays:
+            arr = self.array(name)
+            dim = len(self.batch.shape)
+            outer = arr.shards or arr.chunks
+            rows = outer[dim] if outer[dim] < arr.shape[dim] else None
+            self._arrays[name] = (arr, rows)
+        return self._arrays[name]
+
+    def _write(self, available: dict[str, tuple[np.ndarray, int]]) -> None:
+        start = time.perf_counter()
+        for name, (data, count) in available.items():
+            arr, rows = self._rows_per_shard(name)
+            done = self.written.get(name, 0)
+            upto = count // rows * rows if rows else 0
+            if upto > done:
+                piece = np.asarray(data[:, done:upto], dtype=arr.dtype)
+                arr[self.batch.slices + (slice(done, upto),)] = piece.reshape(self.batch.shape + piece.shape[1:])
+                self.written[name] = upto
+        self.seconds += time.perf_counter() - start
+
+    def settle(self) -> None:
+        """Wait for the queued writes; raise the first one's error."""
+        for future in self._futures:
+            future.result()
+        self._futures = []
+
+
+def write_batch(
+    path: str | Path,
+    batch: Batch,
+    result: RunResult,
+    *,
+    grain_steps: int,
+    worker: str = "",
+    build_seconds: float = 0.0,
+    rows: RowWriter | None = None,
+) -> dict[str, Any]:
+    """Write one batch's results into its block, then its completion record; return the record.
+
+    ``build_seconds``: host time spent building the batch's model and initial state (recorded). ``rows``: the
+    batch's :class:`RowWriter`, whose rows are already written (only the rest is).
+    """
+    write_start = time.perf_counter()
+    path = Path(path)
+    region = batch.slices
+    shape = batch.shape
+    if rows is not None:
+        rows.settle()
+    written = rows.written if rows is not None else {}
+
+    def put(name: str, data: np.ndarray) -> None:
+        arr = rows.array(name) if rows is not None else _open_for_writing(path, name)
+        done = written.get(name, 0)
+        if done:
+            if done >= data.shape[1]:
+                return
+            region_left = region + (slice(done, None),)
+            data = data[:, done:]
+        else:
+            region_left = region
+        arr[region_left] = np.asarray(data, dtype=arr.dtype).reshape(shape + data.shape[1:])
+
+    scene = result.scenes[0]
+    chains = result.chain_count
+    wall = float(result.wall_seconds)
+    rate = grain_steps / max(wall, 1e-12)
+    arrays = dict(result.fields)
+    if scene.record.energy:
+        arrays["energy"] = result.energy
+        if result.work is not None:
+            arrays["work"] = result.work
+    if scene.record.energy and result.dissipated is not None:
+        arrays["dissipated"] = result.dissipated
+    arrays.update(result.response)
+    arrays.update({f"trace_{name}": data for name, data in result.traces.items()})
+    arrays.update(
+        {
+            "status": result.status.astype(np.int32),
+            "energy_error": result.energy_error,
+            "max_overlap": result.max_overlap,
+            "wall_seconds": np.full(chains, wall / chains),
+            "grain_steps_per_second": np.full(chains, rate),
+        }
+    )
+    for name, data in arrays.items():
+        put(name, data)
+    finished = datetime.now(timezone.utc)
+    record = {
+        "points": chains,
+        "wall_seconds": wall,
+        "grain_steps": int(grain_steps),
+        "grain_steps_per_second": rate,
+        "energy_error_max": float(np.max(result.energy_error)) if chains else 0.0,
+        "finished": finished.timestamp(),
+        "build_seconds": float(build_seconds),
+        "write_seconds": time.perf_counter() - write_start + (rows.seconds if rows is not None else 0.0),
+    }
+    where = {
+        "device": result.device,
+        "host": platform.node(),
+        "worker": worker,
+        "kernel": str(getattr(result, "kernel", "")),
+    }
+    batches = zarr.open_group(store=str(path), path=BATCHES, mode="r+")
+    batches["record"][batch.index] = np.array([record[c] for c in RECORD_COLUMNS], dtype=np.float64)
+    batches["where"][batch.index] = np.array([where[c] for c in WHERE_COLUMNS], dtype=object)
+    # the completion flag comes last: a batch without it is rerun on --resume
+    batches["done"][batch.index] = 1
+    codes, counts = np.unique(result.status, return_counts=True)
+    return {
+        "batch": batch.index,
+        **record,
+        "grain_steps": int(grain_steps),
+        **where,
+        "status_counts": {str(int(c)): int(k) for c, k in zip(codes, counts)},
+        "finished": finished.isoformat(timespec="seconds"),
+    }
+
+
+def batch_records(path: str | Path, *, status_counts: bool = False) -> list[dict[str, Any]]:
+    """Every finished batch's completion record, by batch index (``status_counts`` reads the batch's
+    status block too)."""
+    done = sorted(completed_batches(path))
+    if not done:
+        return []
+    batches = zarr.open_group(store=str(path), path=BATCHES, mode="r")
+    record = np.asarray(batches["record"][...])
+    where = np.asarray(batches["where"][...])
+    status = None
+    if status_counts:
+        status = np.asarray(zarr.open_array(store=str(path), path="status", mode="r")[...])
+        block = tuple(zarr.open_group(store=str(path), mode="r").attrs["sweep_block"])
+    out = []
+    for index in done:
+        rec = {
+            "batch": index,
+            **dict(zip(RECORD_COLUMNS, record[index].tolist())),
+            **dict(zip(WHERE_COLUMNS, [str(x) for x in where[index]])),
+        }
+        rec["points"], rec["grain_steps"] = int(rec["points"]), int(rec["grain_steps"])
+        rec["finished"] = datetime.fromtimestamp(rec["finished"], timezone.utc).isoformat(timespec="seconds")
+        if status is not None:
+            counts_shape = [math.ceil(n / b) for n, b in zip(status.shape, block)]
+            corner = np.unravel_index(index, counts_shape) if counts_shape else ()
+            region = tuple(slice(c * b, (c + 1) * b) for c, b in zip(corner, block))
+            codes, counts = np.unique(status[region], return_counts=True)
+            rec["status_counts"] = {str(int(c)): int(k) for c, k in zip(codes, counts)}
+        out.append(rec)
+    return out
+
+
+def finalize(path: str | Path, *, session_seconds: float | None = None, session_grain_steps: int = 0) -> dict:
+    """Sum the completion records into ``provenance``; re-consolidate. Returns the provenance."""
+    path = Path(path)
+    records = batch_records(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        root = zarr.open_group(store=str(path), mode="r+")
+        prov = dict(root.attrs["provenance"])
+        wall = sum(r["wall_seconds"] for r in records)
+        steps = sum(r["grain_steps"] for r in records)
+        devices = sorted({r["device"] for r in records})
+        kernels = sorted({r["kernel"] for r in records if r["kernel"]})
+        prov.update(
+            {
+                "kernel": ",".join(kernels),
+                "build_seconds": sum(r["build_seconds"] for r in records),
+                "write_seconds": sum(r["write_seconds"] for r in records),
+                "device": ",".join(devices) if devices else prov["device"],
+                "hosts": sorted({r["host"] for r in records}),
+                "wall_seconds": wall,
+                "grain_steps_per_second": steps / wall if wall > 0 else 0.0,
+                "energy_error_max": max((r["energy_error_max"] for r in records), default=0.0),
+                "batches_done": len(records),
+                "complete": len(records) == prov["batches"],
+                "finished": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            }
+        )
+        if session_seconds is not None:
+            prov["session_wall_seconds"] = session_seconds
+            prov["session_grain_steps_per_second"] = session_grain_steps / max(session_seconds, 1e-12)
+        root.attrs["provenance"] = prov
+    consolidate(path)
+    return prov
+
+
+def store_bytes(path: str | Path) -> int:
+    """Bytes on disk under ``path``."""
+    return sum(p.stat().st_size for p in Path(path).rglob("*") if p.is_file())
+
+
+def sweep_attrs(path: str | Path) -> dict[str, Any]:
+    root = zarr.open_group(store=str(path), mode="r")
+    return dict(root.attrs)
+
+
+def differing_arrays(a: str | Path, b: str | Path, *, skip: tuple[str, ...] = TIMING_VARIABLES) -> list[str]:
+    """Names of arrays whose values (bytes, NaN included) or shape differ between two stores; the
+    machine-timing variables are skipped. An empty list means the stores hold the same results."""
+    ga, gb = zarr.open_group(store=str(a), mode="r"), zarr.open_group(store=str(b), mode="r")
+    names = sorted(set(ga.array_keys()) | set(gb.array_keys()))
+    out = []
+    for name in names:
+        if name in skip:
+            continue
+        if name not in ga or name not in gb:
+            out.append(name)
+            continue
+        x, y = np.asarray(ga[name][...]), np.asarray(gb[name][...])
+        if (
+            x.shape != y.shape
+            or x.dtype != y.dtype
+            or (x.tobytes() != y.tobytes() if x.dtype.kind not in "OTU" else not np.array_equal(x, y))
+        ):
+            out.append(name)
+    return out
