@@ -641,6 +641,43 @@ def fig10(ds, out: Path) -> Path:
     return _fig_driven(ds, out, "fig10")
 
 
+def sec6_lag(ds, out: Path) -> Path:
+    """Sec. VI at the paper's timescale: shape correlation of the driven column's kinetic-energy and velocity
+    profiles with the one at t0, against the lag (80 to 12 000 steps at the paper's dt), instantaneous and
+    averaged over the paper's 1.5-unit window; solid at dt, dashed at dt/2. One column of panels per τ."""
+    _require(ds, "instantaneous_ke", "averaged_ke", figure="sec6_lag")
+    plt = _pyplot()
+    taus, t0s = ds.tau.values, ds.t0.values
+    steps = ds.lag.values / float(ds.dt.values[0])
+    fig, axes = plt.subplots(2, len(taus), figsize=(5.2 * len(taus), 6.4), squeeze=False, sharex=True)
+    colors = {"instantaneous": "tab:red", "averaged": "tab:blue"}
+    for row, quantity in enumerate(("ke", "v")):
+        for col, tau in enumerate(taus):
+            ax = axes[row, col]
+            for kind, color in colors.items():
+                for k, t0 in enumerate(t0s):
+                    for d, style in zip(range(ds.sizes["dt"]), ("-", "--")):
+                        curve = ds[f"{kind}_{quantity}"].values[d, col, k]
+                        label = f"{kind}, t0 = {t0:g}" if d == 0 else None
+                        ax.plot(steps[1:], curve[1:], style, color=color, alpha=1.0 - 0.45 * k, lw=1.1, label=label)
+            ax.set_xscale("log")
+            ax.set_ylim(-1.05, 1.05)
+            ax.axhline(0.0, color="0.6", lw=0.5)
+            ax.grid(alpha=0.3, which="both")
+            what = "kinetic energy ½v²" if quantity == "ke" else "velocity v"
+            ax.set_title(f"τ = {tau:g}: {what}", loc="left", fontsize=9)
+            ax.set_ylabel("correlation with t0", fontsize=8)
+    axes[-1, 0].legend(fontsize=7, loc="lower left")
+    for ax in axes[-1]:
+        ax.set_xlabel(f"lag [steps of dt = {float(ds.dt.values[0]):g}] (80 steps = 0.01 t.u.)")
+    fig.suptitle(
+        f"Shape correlation against lag, {int(ds.attrs['grains'])}-grain column, A = {float(ds.attrs['amplitude']):g}: "
+        f"instantaneous profiles vs averaged over {float(ds.attrs['window']):g} t.u.",
+        fontsize=9,
+    )
+    return _finish(fig, out, note="Solid: dt; dashed: dt/2 (same lag in time units). 5-grain smoothing.")
+
+
 # ---- any store ---------------------------------------------------------------------------------
 
 
@@ -819,6 +856,7 @@ FIGURES: dict[str, Callable] = {
     "fig7_8": fig7_8,
     "fig9": fig9,
     "fig10": fig10,
+    "sec6_lag": sec6_lag,
     "modes": modes,
     "drive_map": drive_map,
 }

@@ -76,15 +76,8 @@ def standing_wave_measure(
     p = np.asarray(profiles, dtype=float)
     if grains is not None:
         p = p[:, grains]
-    smoothed = np.array([_smooth(row, smooth) for row in p])
     nodes = tuple(profile_nodes(row, smooth=smooth, depth=depth) for row in p)
-    first = smoothed[0]
-    corr = np.array(
-        [
-            float(np.corrcoef(first, row)[0, 1]) if np.std(first) > 0 and np.std(row) > 0 else math.nan
-            for row in smoothed
-        ]
-    )
+    corr = profile_correlation(p, smooth=smooth)
     spacing = float(np.median(np.diff(nodes[0]))) if nodes[0].size >= 2 else math.nan
     shift = np.full(len(p), math.nan)
     for k, other in enumerate(nodes):
@@ -292,3 +285,82 @@ def response_map(ds) -> dict:
         for key, value in point_response_numbers(point).items():
             out[key][index] = value
     return {"dims": dims, "coords": {d: ds[d].values for d in dims}, **out}
+
+
+# ---- Sec. VI at the paper's own timescale: lag correlation and the standing fraction ----------------
+
+
+def profile_correlation(profiles, *, smooth: int = 5) -> np.ndarray:
+    """Pearson correlation of each profile of ``profiles`` (lag, grain) with the first, after smoothing
+    each over ``smooth`` grains, shape (lag,): 1 = the same shape (amplitude does not count), ~0 =
+    unrelated. NaN where a profile is constant."""
+    smoothed = np.array([_smooth(np.asarray(row, dtype=float), smooth) for row in profiles])
+    first = smoothed[0]
+    return np.array(
+        [
+            float(np.corrcoef(first, row)[0, 1]) if np.std(first) > 0 and np.std(row) > 0 else math.nan
+            for row in smoothed
+        ]
+    )
+
+
+def column_wave_phase(omega: float, grains: int, *, gravity: float, a: float = 5657.0, mass: float = 1.0):
+    """Accumulated phase φ(z) = Σ_{j<z} k_j [radians] of a linear wave of angular frequency ``omega``
+    [1/time] from the surface to grain z of a column compacted by gravity, with the local wavenumber of
+    the discrete chain's dispersion ω = 2 c sin(k/2), c = √(K/m) of the contact below the grain
+    (:func:`column_sound_speed`). NaN where ω exceeds the band edge 2c (only a top layer can: the
+    column is softest at the surface)."""
+    from hertzian.studies.analysis.columns import column_sound_speed
+
+    c = column_sound_speed(np.arange(grains), gravity=gravity, a=a, mass=mass)
+    ratio = omega / (2.0 * c)
+    k = np.where(ratio < 1.0, 2.0 * np.arcsin(np.minimum(ratio, 1.0)), math.nan)
+    phase = np.cumsum(np.nan_to_num(k))
+    return np.where(np.isnan(k), math.nan, phase - phase[0])
+
+
+@dataclass(frozen=True)
+class TwoWaves:
+    """Forward and backward waves at one frequency, fitted per stretch of one local wavelength."""
+
+    centre: np.ndarray
+    """Mean grain of each stretch [grains]."""
+    forward: np.ndarray
+    """|F|: amplitude of the wave moving into the column (away from the driver) [velocity]."""
+    backward: np.ndarray
+    """|B|: amplitude of the wave moving toward the surface [velocity]."""
+    residual: np.ndarray
+    """‖V − fit‖ / ‖V‖ per stretch: 0 = two waves describe the stretch exactly."""
+
+    @property
+    def standing_fraction(self) -> np.ndarray:
+        """s = 2 min(|F|, |B|) / (|F| + |B|) = 1 − 1/SWR: 1 = a pure standing wave, 0 = a pure travelling
+        wave, 2r/(1 + r) for a reflection of amplitude ratio r ≤ 1."""
+        total = self.forward + self.backward
+        return np.where(total > 0, 2.0 * np.minimum(self.forward, self.backward) / np.where(total > 0, total, 1.0), math.nan)
+
+
+def fit_two_waves(amplitude, phase, *, first_grain: int = 1) -> TwoWaves:
+    """Fit V(z) = F e^{−iφ(z)} + B e^{iφ(z)} by least squares on each stretch of grains over which the
+    phase ``phase`` (:func:`column_wave_phase`) advances by 2π, from ``first_grain`` on.
+
+    ``amplitude`` is the complex velocity amplitude at the drive frequency per grain (a response window's
+    ``response`` at harmonic 1, v = Re(V e^{iωt})), so e^{−iφ} travels toward larger z. F and B may vary
+    from stretch to stretch (a WKB description of a column whose sound speed grows with depth)."""
+    v = np.asarray(amplitude, dtype=complex)
+    phi = np.asarray(phase, dtype=float)
+    usable = np.flatnonzero(np.isfinite(phi))
+    usable = usable[usable >= first_grain]
+    if usable.size == 0:
+        empty = np.zeros(0)
+        return TwoWaves(empty, empty, empty, empty)
+    turn = np.floor((phi[usable] - phi[usable[0]]) / (2.0 * math.pi)).astype(int)
+    rows = []
+    for n in range(turn[-1] + (1 if np.count_nonzero(turn == turn[-1]) >= 4 else 0)):
+        z = usable[turn == n]
+        basis = np.stack([np.exp(-1j * phi[z]), np.exp(1j * phi[z])], axis=1)
+        (f, b), *_ = np.linalg.lstsq(basis, v[z], rcond=None)
+        norm = np.linalg.norm(v[z])
+        rows.append((z.mean(), abs(f), abs(b), np.linalg.norm(v[z] - basis @ (f, b)) / norm if norm else math.nan))
+    centre, forward, backward, residual = (np.array(col) for col in zip(*rows)) if rows else [np.zeros(0)] * 4
+    return TwoWaves(centre, forward, backward, residual)
