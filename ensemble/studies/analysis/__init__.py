@@ -37,7 +37,7 @@ What is here, by paper section:
   :func:`count_bumps` (tail bumps, Fig. 6).
 * VI — :func:`window_average`, :func:`standing_wave_measure`, :func:`profile_correlation` (shape
   correlation against lag); :func:`column_wave_phase`, :func:`fit_two_waves` (forward and backward waves
-  at the drive frequency, the standing fraction); response maps (docs/drive.md):
+  at the drive frequency, the standing fraction), :func:`standing_fractions` (per point of a drive sweep); response maps (docs/drive.md):
   :func:`standing_wave_ratio`, :func:`node_drift`, :func:`strobe_label`, :func:`point_response_numbers`,
   :func:`response_map`.
 * Nesterenko's long-wave soliton — :func:`nesterenko_speed`, :data:`NESTERENKO_SUPPORT`,
@@ -71,6 +71,7 @@ from hertzian.studies.analysis.drive import (
     point_response_numbers,
     profile_nodes,
     response_map,
+    standing_fractions,
     standing_wave_measure,
     standing_wave_ratio,
     strobe_label,
@@ -172,6 +173,7 @@ __all__ = [
     "speed_exponent",
     "speed_history",
     "speeds_table",
+    "standing_fractions",
     "standing_wave_measure",
     "tail_decay",
     "times_in_flight",

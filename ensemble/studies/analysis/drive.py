@@ -342,7 +342,8 @@ class TwoWaves:
 
 def fit_two_waves(amplitude, phase, *, first_grain: int = 1) -> TwoWaves:
     """Fit V(z) = F e^{−iφ(z)} + B e^{iφ(z)} by least squares on each stretch of grains over which the
-    phase ``phase`` (:func:`column_wave_phase`) advances by 2π, from ``first_grain`` on.
+    phase ``phase`` (:func:`column_wave_phase`) advances by 2π, from ``first_grain`` on (a last, shorter
+    stretch only if it spans at least π).
 
     ``amplitude`` is the complex velocity amplitude at the drive frequency per grain (a response window's
     ``response`` at harmonic 1, v = Re(V e^{iωt})), so e^{−iφ} travels toward larger z. F and B may vary
@@ -355,8 +356,10 @@ def fit_two_waves(amplitude, phase, *, first_grain: int = 1) -> TwoWaves:
         empty = np.zeros(0)
         return TwoWaves(empty, empty, empty, empty)
     turn = np.floor((phi[usable] - phi[usable[0]]) / (2.0 * math.pi)).astype(int)
+    last = usable[turn == turn[-1]]
     rows = []
-    for n in range(turn[-1] + (1 if np.count_nonzero(turn == turn[-1]) >= 4 else 0)):
+    # the last, partial stretch counts if it spans half a wavelength (else F and B are ill-determined)
+    for n in range(turn[-1] + (1 if phi[last[-1]] - phi[last[0]] >= math.pi else 0)):
         z = usable[turn == n]
         basis = np.stack([np.exp(-1j * phi[z]), np.exp(1j * phi[z])], axis=1)
         (f, b), *_ = np.linalg.lstsq(basis, v[z], rcond=None)
@@ -364,3 +367,41 @@ def fit_two_waves(amplitude, phase, *, first_grain: int = 1) -> TwoWaves:
         rows.append((z.mean(), abs(f), abs(b), np.linalg.norm(v[z] - basis @ (f, b)) / norm if norm else math.nan))
     centre, forward, backward, residual = (np.array(col) for col in zip(*rows)) if rows else [np.zeros(0)] * 4
     return TwoWaves(centre, forward, backward, residual)
+
+
+def point_standing_fraction(point) -> dict:
+    """The two-wave fit (:func:`fit_two_waves`) of every response window of one point (an xarray Dataset of
+    one point with ``response``): per window the median standing fraction over the column's stretches and
+    the median fit residual; the depth profile (stretch centres, median standing fraction over the second
+    half of the windows, after the drive has filled the column); and that median over depth."""
+    tau = point_scene_value(point, "excitation.drive_period")
+    gravity = point_scene_value(point, "chain.gravity")
+    v1 = point.response.sel(harmonic=1).values  # (window, grain)
+    phase = column_wave_phase(2.0 * math.pi / tau, v1.shape[-1], gravity=gravity)
+    fits = [fit_two_waves(row, phase) for row in v1]
+    fraction = np.array([f.standing_fraction for f in fits])  # (window, stretch)
+    if fraction.shape[1] == 0:
+        return {"window_start": point.window_start.values.tolist(), "fraction": math.nan, "note": "under π of phase"}
+    late = fraction[len(fits) // 2 :]
+    return {
+        "window_start": point.window_start.values.tolist(),
+        "window_fraction": np.nanmedian(fraction, axis=1).tolist(),
+        "window_residual": [float(np.nanmedian(f.residual)) for f in fits],
+        "depth": fits[0].centre.tolist(),
+        "depth_fraction": np.nanmedian(late, axis=0).tolist(),
+        "fraction": float(np.nanmedian(late)),
+        "fraction_quartiles": np.nanpercentile(late, [25, 75]).tolist(),
+        "residual": float(np.nanmedian([f.residual for f in fits[len(fits) // 2 :]])),
+    }
+
+
+def standing_fractions(ds) -> list[dict]:
+    """:func:`point_standing_fraction` at every point of a sweep store with response windows, each with its
+    sweep coordinates."""
+    dims = [str(d) for d in ds.status.dims]
+    rows = []
+    for index in np.ndindex(*(int(ds.sizes[d]) for d in dims)):
+        point = ds.isel(dict(zip(dims, index)))
+        coords = {d: float(ds[d].values[i]) for d, i in zip(dims, index)}
+        rows.append({**coords, **(point_standing_fraction(point) if int(point.status) >= 0 else {})})
+    return rows
