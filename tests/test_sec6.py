@@ -67,7 +67,9 @@ def test_lag_correlation_of_a_travelling_pulse_instantaneous_and_averaged():
     window = np.arange(-0.5 * width, 0.5 * width + 0.5 * dt, dt)
     averaged = an.profile_correlation([np.mean([pulse(L + s) for s in window], axis=0) for L in lags], smooth=1)
     gauss = np.exp(-((c * lags) ** 2) / (4.0 * sigma**2))
-    share = c * width / grains  # Pearson subtracts the mean: two boxes overlapping by f correlate as (f − share)/(1 − share)
+    share = (
+        c * width / grains
+    )  # Pearson subtracts the mean: two boxes overlapping by f correlate as (f − share)/(1 − share)
     box = (1.0 - lags / width - share) / (1.0 - share)
     assert np.allclose(inst, gauss, atol=0.02)
     assert np.allclose(averaged, box, atol=0.02)

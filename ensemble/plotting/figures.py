@@ -808,7 +808,7 @@ def standing(ds, out: Path) -> Path:
     taus = sorted({row["tau"] for row in rows}, reverse=True)
     fig, axes = plt.subplots(2, len(taus), figsize=(5.2 * len(taus), 6.4), squeeze=False)
     for col, tau in enumerate(taus):
-        for row in (r for r in rows if r["tau"] == tau and "fraction" in r):
+        for row in (r for r in rows if r["tau"] == tau and "residual" in r):
             label = f"A = {row.get('A', float('nan')):g}: s = {row['fraction']:.2f}, residual {row['residual']:.2f}"
             axes[0, col].plot(row["window_start"], row["window_fraction"], ".-", lw=0.8, label=label)
             axes[1, col].plot(row["depth"], row["depth_fraction"], ".-", lw=0.8, label=f"A = {row.get('A', 0):g}")
@@ -820,7 +820,10 @@ def standing(ds, out: Path) -> Path:
             ax.set_ylim(-0.02, 1.02)
             ax.set_ylabel("s (1 standing, 0 travelling)", fontsize=8)
             ax.grid(alpha=0.3)
-            ax.legend(fontsize=7)
+            if ax.lines:
+                ax.legend(fontsize=7)
+            else:
+                ax.text(0.5, 0.5, "column shorter than half a wavelength", ha="center", transform=ax.transAxes)
     fig.suptitle(f"Forward and backward waves at the drive frequency, {_grains(ds)}-grain column", fontsize=9)
     return _finish(fig, out, note="Fit per stretch of one local wavelength; residual = unexplained fraction of |V1|.")
 

@@ -337,7 +337,9 @@ class TwoWaves:
         """s = 2 min(|F|, |B|) / (|F| + |B|) = 1 − 1/SWR: 1 = a pure standing wave, 0 = a pure travelling
         wave, 2r/(1 + r) for a reflection of amplitude ratio r ≤ 1."""
         total = self.forward + self.backward
-        return np.where(total > 0, 2.0 * np.minimum(self.forward, self.backward) / np.where(total > 0, total, 1.0), math.nan)
+        return np.where(
+            total > 0, 2.0 * np.minimum(self.forward, self.backward) / np.where(total > 0, total, 1.0), math.nan
+        )
 
 
 def fit_two_waves(amplitude, phase, *, first_grain: int = 1) -> TwoWaves:
