@@ -33,7 +33,8 @@ def plot(
             "--figure",
             help="A paper figure group instead of the store picture: fig1 | fig1d | fig2 | fig3 | fig4 | "
             "fig5 | modes | fig6 | depth | fig7_8 | fig9 | fig10 (the store must hold that figure's sweep); drive_map: the "
-            "response map of a drive sweep (docs/drive.md), its numbers also written as JSON next to the PNG.",
+            "response map of a drive sweep (docs/drive.md), its numbers also written as JSON next to the PNG; standing: "
+            "the standing fraction of a drive sweep (forward and backward waves at the drive frequency), also as JSON.",
         ),
     ] = None,
     field: Annotated[str, typer.Option("--field", help="u | v: the field of the depth–time picture.")] = "v",
@@ -93,6 +94,13 @@ def plot(
                 for index in __import__("numpy").ndindex(*numbers["label"].shape)
             ]
             out.with_suffix(".json").write_text(json.dumps({"store": str(store), "points": rows}, indent=1))
+        if figure == "standing":
+            import json
+
+            from hertzian.studies import analysis as an
+
+            numbers = {"store": str(store), "points": an.standing_fractions(dataset)}
+            out.with_suffix(".json").write_text(json.dumps(numbers, indent=1))
         if figure:
             plot_figure(dataset, figure, out)
         else:

@@ -409,25 +409,27 @@ def fig7_8(ds, out: Path) -> Path:
     records = [int(np.argmin(np.abs(t - x))) for x in times]
     has_traces = "trace_v" in ds.variables and clean is not None
     rows = len(records) + (1 if has_traces else 0)
+    # each profile panel about 2 in tall: a pulse a few grains wide and its echo stay readable
     fig, axes = plt.subplots(
         rows,
         2,
-        figsize=(9.0, 1.45 * rows + 1.6),
+        figsize=(11.0, 2.0 * len(records) + (4.4 if has_traces else 0.0) + 1.0),
         sharex=False,
-        gridspec_kw={"height_ratios": [1] * len(records) + ([2.6] if has_traces else [])},
+        gridspec_kw={"height_ratios": [1] * len(records) + ([2.0] if has_traces else [])},
     )
     z = np.arange(n)
     for col, (index, name) in enumerate(((light, "Fig. 7: light"), (heavy, "Fig. 8: heavy"))):
         v = ds.v.isel(impurity_mass=index).sel(contact="harmonic").values
         for row, r in enumerate(records):
             ax = axes[row, col]
-            ax.plot(z, -v[r], color="k")
+            ax.plot(z, -v[r], color="k", lw=0.9)
             ax.axvspan(min(an.impurity_grains(ds)) - 0.5, max(an.impurity_grains(ds)) + 0.5, color="0.85")
-            ax.set_title(f"{name} ({'abcdef'[row]}) t = {t[r]:g}", loc="left", fontsize=8)
+            ax.set_title(f"{name} ({'abcdef'[row]}) t = {t[r]:g}", loc="left", fontsize=9)
             ax.set_xlim(0, n)
-            if col == 0:
-                ax.set_ylabel("−v [9.9 mm/s]", fontsize=7.5)
-        axes[len(records) - 1, col].set_xlabel("depth z [grain diameters]")
+            ax.grid(alpha=0.25)
+            ax.tick_params(labelsize=8, labelbottom=row == len(records) - 1)
+            ax.set_ylabel("−v [9.9 mm/s]", fontsize=8)
+        axes[len(records) - 1, col].set_xlabel("depth z [grain diameters] (surface = 0)")
     if has_traces:
         ax = axes[-1, 0]
         gs = ax.get_gridspec()
@@ -435,13 +437,12 @@ def fig7_8(ds, out: Path) -> Path:
             a.remove()
         ax = fig.add_subplot(gs[-1, :])
         _echo_panel(ax, ds, "(g)", legend="below")
-    fig.suptitle(
-        f"g = {_scene_value(ds, 'chain', 'gravity'):g} column, v_imp = "
-        f"{_scene_value(ds, 'excitation', 'impact'):g}; −v [1e-5 m / 1.0102 ms] ({PAPER_SIGN}); "
-        "contact rule harmonic",
-        fontsize=8,
+    # the scene goes into the note: tight_layout leaves no room for a suptitle above the first titles
+    scene = (
+        f"{n}-grain column, g = {_scene_value(ds, 'chain', 'gravity'):g}, v_imp = "
+        f"{_scene_value(ds, 'excitation', 'impact'):g}, impurities shaded, contact rule harmonic (panels a–f). "
     )
-    return _finish(fig, out, note=SIGN_NOTE)
+    return _finish(fig, out, note=scene + SIGN_NOTE)
 
 
 def modes(ds, out: Path) -> Path:
@@ -641,6 +642,43 @@ def fig10(ds, out: Path) -> Path:
     return _fig_driven(ds, out, "fig10")
 
 
+def sec6_lag(ds, out: Path) -> Path:
+    """Sec. VI at the paper's timescale: shape correlation of the driven column's kinetic-energy and velocity
+    profiles with the one at t0, against the lag (80 to 12 000 steps at the paper's dt), instantaneous and
+    averaged over the paper's 1.5-unit window; solid at dt, dashed at dt/2. One column of panels per τ."""
+    _require(ds, "instantaneous_ke", "averaged_ke", figure="sec6_lag")
+    plt = _pyplot()
+    taus, t0s = ds.tau.values, ds.t0.values
+    steps = ds.lag.values / float(ds.dt.values[0])
+    fig, axes = plt.subplots(2, len(taus), figsize=(5.2 * len(taus), 6.4), squeeze=False, sharex=True)
+    colors = {"instantaneous": "tab:red", "averaged": "tab:blue"}
+    for row, quantity in enumerate(("ke", "v")):
+        for col, tau in enumerate(taus):
+            ax = axes[row, col]
+            for kind, color in colors.items():
+                for k, t0 in enumerate(t0s):
+                    for d, style in zip(range(ds.sizes["dt"]), ("-", "--")):
+                        curve = ds[f"{kind}_{quantity}"].values[d, col, k]
+                        label = f"{kind}, t0 = {t0:g}" if d == 0 else None
+                        ax.plot(steps[1:], curve[1:], style, color=color, alpha=1.0 - 0.45 * k, lw=1.1, label=label)
+            ax.set_xscale("log")
+            ax.set_ylim(-1.05, 1.05)
+            ax.axhline(0.0, color="0.6", lw=0.5)
+            ax.grid(alpha=0.3, which="both")
+            what = "kinetic energy ½v²" if quantity == "ke" else "velocity v"
+            ax.set_title(f"τ = {tau:g}: {what}", loc="left", fontsize=9)
+            ax.set_ylabel("correlation with t0", fontsize=8)
+    axes[-1, 0].legend(fontsize=7, loc="lower left")
+    for ax in axes[-1]:
+        ax.set_xlabel(f"lag [steps of dt = {float(ds.dt.values[0]):g}] (80 steps = 0.01 t.u.)")
+    fig.suptitle(
+        f"Shape correlation against lag, {int(ds.attrs['grains'])}-grain column, A = {float(ds.attrs['amplitude']):g}: "
+        f"instantaneous profiles vs averaged over {float(ds.attrs['window']):g} t.u.",
+        fontsize=9,
+    )
+    return _finish(fig, out, note="Solid: dt; dashed: dt/2 (same lag in time units). 5-grain smoothing.")
+
+
 # ---- any store ---------------------------------------------------------------------------------
 
 
@@ -760,6 +798,36 @@ def drive_map(ds, out: Path) -> Path:
     return _finish(fig, out)
 
 
+def standing(ds, out: Path) -> Path:
+    """Sec. VI: standing fraction s = 2 min(|F|, |B|)/(|F| + |B|) of the two-wave fit at the drive frequency
+    (``analysis.standing_fractions``) per response window (top) and against depth over the second half of the
+    windows (bottom), one column per τ, one line per drive amplitude A."""
+    _require(ds, "response", figure="standing")
+    rows = an.standing_fractions(ds)
+    plt = _pyplot()
+    taus = sorted({row["tau"] for row in rows}, reverse=True)
+    fig, axes = plt.subplots(2, len(taus), figsize=(5.2 * len(taus), 6.4), squeeze=False)
+    for col, tau in enumerate(taus):
+        for row in (r for r in rows if r["tau"] == tau and "residual" in r):
+            label = f"A = {row.get('A', float('nan')):g}: s = {row['fraction']:.2f}, residual {row['residual']:.2f}"
+            axes[0, col].plot(row["window_start"], row["window_fraction"], ".-", lw=0.8, label=label)
+            axes[1, col].plot(row["depth"], row["depth_fraction"], ".-", lw=0.8, label=f"A = {row.get('A', 0):g}")
+        axes[0, col].set_title(f"τ = {tau:g}: median standing fraction per window", loc="left", fontsize=9)
+        axes[0, col].set_xlabel("window start [time units]")
+        axes[1, col].set_title(f"τ = {tau:g}: against depth, second half of the windows", loc="left", fontsize=9)
+        axes[1, col].set_xlabel("depth z [grain diameters] (surface = 0)")
+        for ax in axes[:, col]:
+            ax.set_ylim(-0.02, 1.02)
+            ax.set_ylabel("s (1 standing, 0 travelling)", fontsize=8)
+            ax.grid(alpha=0.3)
+            if ax.lines:
+                ax.legend(fontsize=7)
+            else:
+                ax.text(0.5, 0.5, "column shorter than half a wavelength", ha="center", transform=ax.transAxes)
+    fig.suptitle(f"Forward and backward waves at the drive frequency, {_grains(ds)}-grain column", fontsize=9)
+    return _finish(fig, out, note="Fit per stretch of one local wavelength; residual = unexplained fraction of |V1|.")
+
+
 def plot_response_point(point, out: Path) -> Path:
     """One point with response windows: |V_1(z)| and its phase per window, window_ke (window × grain) and
     the depth–time picture of v from the snapshots."""
@@ -819,8 +887,10 @@ FIGURES: dict[str, Callable] = {
     "fig7_8": fig7_8,
     "fig9": fig9,
     "fig10": fig10,
+    "sec6_lag": sec6_lag,
     "modes": modes,
     "drive_map": drive_map,
+    "standing": standing,
 }
 """Figure name → drawing function (dataset, output path)."""
 

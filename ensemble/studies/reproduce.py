@@ -122,6 +122,7 @@ GROUPS: dict[str, Group] = {
         },
     ),
     "fig9_10": Group("paper_fig9_10.toml", ("fig9", "fig10"), {"chain.grains": 300}),
+    "sec6_lag": Group("paper_fig9_10.toml", ("sec6_lag",), {"chain.grains": 300}),
 }
 """Figure group → its sweep and figures, in the paper's order."""
 
@@ -517,6 +518,102 @@ def run_drive_group(
     )
     say(f"fig9_10 dt check: {fine['wall_seconds']:.1f} s, relative KE-profile difference {difference.tolist()}")
     return runs
+
+
+LAG_TIMES = slice(3, None)
+"""Paper times whose patterns the lag study follows: t = 276 and 492 (panels (d), (e), the "standing-wave-like
+patterns"), scaled by the column's travel time."""
+
+
+def lag_correlations(result: dict[str, Any], t0s: np.ndarray, lags: np.ndarray) -> dict[str, Any]:
+    """Shape correlation (:func:`analysis.profile_correlation`, 5-grain smoothing, the driven grain left out)
+    of each profile at t0 + lag with the one at t0, per chain and t0: instantaneous (the velocity at that
+    instant, and ½ m v² with m = 1) and averaged over WINDOW (the paper's window, centred there)."""
+    kinds = {
+        ("instantaneous", "ke"): an.kinetic_energy(result["v_centre"]),
+        ("instantaneous", "v"): result["v_centre"],
+        ("averaged", "ke"): result["ke_window"],
+        ("averaged", "v"): result["v_window"],
+    }
+    out: dict[str, Any] = {}
+    for (kind, quantity), profiles in kinds.items():
+        blocks = profiles[:, :, 1:].reshape(profiles.shape[0], len(t0s), len(lags), -1)
+        out[f"{kind}_{quantity}"] = [[an.profile_correlation(b).tolist() for b in chain] for chain in blocks]
+    return out
+
+
+def run_lag_group(
+    path: Path,
+    out_dir: Path,
+    device: str,
+    *,
+    quick: bool,
+    grains: int | None = None,
+    events: str | None = None,
+    say: Callable[[str], None] = print,
+) -> list[dict[str, Any]]:
+    """Sec. VI at the paper's own timescale: the driven columns of Figs. 9–10, profiles every SAMPLE_EVERY
+    (80 steps) from t0 to t0 + WINDOW (12 000 steps) at the late paper times, instantaneous and WINDOW-averaged,
+    each correlated with the one at t0 (:func:`lag_correlations`); at DRIVE_DT and DRIVE_DT/2 (the chaotic-drive
+    rule: what differs between the two is a statistic, not a pattern). Writes no store: the numbers are the
+    log's, ``hertzian plot LOG.json --figure sec6_lag`` draws them."""
+    grains = grains or (GROUPS["sec6_lag"].quick["chain.grains"] if quick else 10000)
+    t0s = np.round(an.drive_times(grains)[LAG_TIMES], 2)
+    lags = np.round(np.arange(0.0, WINDOW + 1e-9, SAMPLE_EVERY), 6)
+    centres = (t0s[:, None] + lags[None, :]).ravel()
+    duration = float(centres[-1] + WINDOW)
+    runs = []
+    for dt in (DRIVE_DT, 0.5 * DRIVE_DT):
+        sweep, scenes = drive_scenes(path, grains, duration, dt, events)
+        result = run_driven(scenes, device, centres, coarse_every=duration)
+        runs.append(
+            {
+                "name": "sec6_lag" if dt == DRIVE_DT else "sec6_lag_dt_check",
+                "store": None,
+                "points": len(scenes),
+                "grains": grains,
+                "dt": dt,
+                "duration": duration,
+                "steps": result["steps"],
+                "taus": [s.excitation.drive_period for s in scenes],
+                "amplitude": scenes[0].excitation.drive_amplitude,
+                "device": result["device"],
+                "kernel": result["kernel"],
+                "wall_seconds": result["wall_seconds"],
+                "grain_steps_per_second": result["grain_steps_per_second"],
+                "energy_error": result["energy_error"].tolist(),
+                "energy_error_max": float(np.max(result["energy_error"])),
+                "status": result["status"].tolist(),
+                "t0": t0s.tolist(),
+                "lag": lags.tolist(),
+                "lag_steps_at_paper_dt": np.rint(lags / DRIVE_DT).astype(int).tolist(),
+                "correlation": lag_correlations(result, t0s, lags),
+            }
+        )
+        say(f"sec6_lag dt = {dt:g}: {result['wall_seconds']:.1f} s, energy error {np.max(result['energy_error']):.2e}")
+    runs[0]["store"] = "sec6_lag.zarr"
+    write_lag_store(out_dir / "sec6_lag.zarr", runs)
+    return runs
+
+
+def write_lag_store(path: Path, runs: list[dict[str, Any]]) -> None:
+    """The lag correlations of ``run_lag_group`` as a Zarr store (dims dt, tau, t0, lag; one variable per
+    profile kind) for ``hertzian plot --figure sec6_lag``."""
+    import xarray as xr
+
+    first = runs[0]
+    dims = ("dt", "tau", "t0", "lag")
+    ds = xr.Dataset(
+        {name: (dims, np.array([run["correlation"][name] for run in runs])) for name in first["correlation"]},
+        coords={"dt": [run["dt"] for run in runs], "tau": first["taus"], "t0": first["t0"], "lag": first["lag"]},
+        attrs={"grains": first["grains"], "window": WINDOW, "amplitude": first["amplitude"]},
+    )
+    ds["energy_error"] = (("dt", "tau"), np.array([run["energy_error"] for run in runs]))
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", category=UserWarning)  # zarr 3: consolidated metadata has no spec yet
+        ds.to_zarr(path, mode="w", consolidated=True)
 
 
 # ---- measurements behind docs/reproduction.md ------------------------------------------------------
@@ -1063,8 +1160,9 @@ def reproduce(
     for name in order:
         group = GROUPS[name]
         path = sweeps_dir / group.sweep
-        if name == "fig9_10":
-            runs = run_drive_group(path, out_dir, device, quick=quick, grains=drive_grains, events=events, say=say)
+        if name in ("fig9_10", "sec6_lag"):
+            run_group = run_drive_group if name == "fig9_10" else run_lag_group
+            runs = run_group(path, out_dir, device, quick=quick, grains=drive_grains, events=events, say=say)
         else:
             store = out_dir / f"{name}.zarr"
             overrides = {**(group.quick if quick else {}), **({"integrator.events": events} if events else {})}
@@ -1112,7 +1210,7 @@ def draw_and_measure(out_dir: str, name: str, store: str) -> dict[str, Any]:
                 drawn["figures"][figure] = f"failed: {type(err).__name__}: {err}"
                 drawn["failures"].append(f"{name}: figure {figure} failed: {err}")
         drawn["seconds"]["figures"] = time.perf_counter() - clock
-        if name != "fig9_10":
+        if name not in ("fig9_10", "sec6_lag"):
             clock = time.perf_counter()
             drawn["measurements"] = measure(name, dataset)
             drawn["seconds"]["measure"] = time.perf_counter() - clock

@@ -35,7 +35,9 @@ What is here, by paper section:
   :func:`linear_chain_modes`, :func:`hertz_stiffness` (oscillations at an impurity site, linear theory).
 * V — :func:`depth_law` (c ∝ z^β, the paper's β = 1/6), :func:`column_sound_speed` (closed form),
   :func:`count_bumps` (tail bumps, Fig. 6).
-* VI — :func:`window_average`, :func:`standing_wave_measure`; response maps (docs/drive.md):
+* VI — :func:`window_average`, :func:`standing_wave_measure`, :func:`profile_correlation` (shape
+  correlation against lag); :func:`column_wave_phase`, :func:`fit_two_waves` (forward and backward waves
+  at the drive frequency, the standing fraction), :func:`standing_fractions` (per point of a drive sweep); response maps (docs/drive.md):
   :func:`standing_wave_ratio`, :func:`node_drift`, :func:`strobe_label`, :func:`point_response_numbers`,
   :func:`response_map`.
 * Nesterenko's long-wave soliton — :func:`nesterenko_speed`, :data:`NESTERENKO_SUPPORT`,
@@ -59,13 +61,17 @@ from hertzian.studies.analysis.drive import (
     PAPER_WINDOW,
     PERSISTENCE_LAGS,
     StandingWave,
+    column_wave_phase,
     drive_times,
     driven_windows,
+    fit_two_waves,
     kinetic_energy,
     node_drift,
     point_response_numbers,
+    profile_correlation,
     profile_nodes,
     response_map,
+    standing_fractions,
     standing_wave_measure,
     standing_wave_ratio,
     strobe_label,
@@ -129,7 +135,10 @@ __all__ = [
     "contrast_table",
     "count_bumps",
     "depth_law",
+    "column_wave_phase",
     "drive_times",
+    "fit_two_waves",
+    "profile_correlation",
     "driven_windows",
     "echo_contrast",
     "echo_table",
@@ -164,6 +173,7 @@ __all__ = [
     "speed_exponent",
     "speed_history",
     "speeds_table",
+    "standing_fractions",
     "standing_wave_measure",
     "tail_decay",
     "times_in_flight",

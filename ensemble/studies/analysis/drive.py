@@ -76,15 +76,8 @@ def standing_wave_measure(
     p = np.asarray(profiles, dtype=float)
     if grains is not None:
         p = p[:, grains]
-    smoothed = np.array([_smooth(row, smooth) for row in p])
     nodes = tuple(profile_nodes(row, smooth=smooth, depth=depth) for row in p)
-    first = smoothed[0]
-    corr = np.array(
-        [
-            float(np.corrcoef(first, row)[0, 1]) if np.std(first) > 0 and np.std(row) > 0 else math.nan
-            for row in smoothed
-        ]
-    )
+    corr = profile_correlation(p, smooth=smooth)
     spacing = float(np.median(np.diff(nodes[0]))) if nodes[0].size >= 2 else math.nan
     shift = np.full(len(p), math.nan)
     for k, other in enumerate(nodes):
@@ -292,3 +285,125 @@ def response_map(ds) -> dict:
         for key, value in point_response_numbers(point).items():
             out[key][index] = value
     return {"dims": dims, "coords": {d: ds[d].values for d in dims}, **out}
+
+
+# ---- Sec. VI at the paper's own timescale: lag correlation and the standing fraction ----------------
+
+
+def profile_correlation(profiles, *, smooth: int = 5) -> np.ndarray:
+    """Pearson correlation of each profile of ``profiles`` (lag, grain) with the first, after smoothing
+    each over ``smooth`` grains, shape (lag,): 1 = the same shape (amplitude does not count), ~0 =
+    unrelated. NaN where a profile is constant."""
+    smoothed = np.array([_smooth(np.asarray(row, dtype=float), smooth) for row in profiles])
+    first = smoothed[0]
+    return np.array(
+        [
+            float(np.corrcoef(first, row)[0, 1]) if np.std(first) > 0 and np.std(row) > 0 else math.nan
+            for row in smoothed
+        ]
+    )
+
+
+def column_wave_phase(omega: float, grains: int, *, gravity: float, a: float = 5657.0, mass: float = 1.0):
+    """Accumulated phase φ(z) = Σ_{j<z} k_j [radians] of a linear wave of angular frequency ``omega``
+    [1/time] from the surface to grain z of a column compacted by gravity, with the local wavenumber of
+    the discrete chain's dispersion ω = 2 c sin(k/2), c = √(K/m) of the contact below the grain
+    (:func:`column_sound_speed`). NaN where ω exceeds the band edge 2c (only a top layer can: the
+    column is softest at the surface)."""
+    from hertzian.studies.analysis.columns import column_sound_speed
+
+    c = column_sound_speed(np.arange(grains), gravity=gravity, a=a, mass=mass)
+    ratio = omega / (2.0 * c)
+    k = np.where(ratio < 1.0, 2.0 * np.arcsin(np.minimum(ratio, 1.0)), math.nan)
+    phase = np.cumsum(np.nan_to_num(k))
+    return np.where(np.isnan(k), math.nan, phase - phase[0])
+
+
+@dataclass(frozen=True)
+class TwoWaves:
+    """Forward and backward waves at one frequency, fitted per stretch of one local wavelength."""
+
+    centre: np.ndarray
+    """Mean grain of each stretch [grains]."""
+    forward: np.ndarray
+    """|F|: amplitude of the wave moving into the column (away from the driver) [velocity]."""
+    backward: np.ndarray
+    """|B|: amplitude of the wave moving toward the surface [velocity]."""
+    residual: np.ndarray
+    """‖V − fit‖ / ‖V‖ per stretch: 0 = two waves describe the stretch exactly."""
+
+    @property
+    def standing_fraction(self) -> np.ndarray:
+        """s = 2 min(|F|, |B|) / (|F| + |B|) = 1 − 1/SWR: 1 = a pure standing wave, 0 = a pure travelling
+        wave, 2r/(1 + r) for a reflection of amplitude ratio r ≤ 1."""
+        total = self.forward + self.backward
+        return np.where(
+            total > 0, 2.0 * np.minimum(self.forward, self.backward) / np.where(total > 0, total, 1.0), math.nan
+        )
+
+
+def fit_two_waves(amplitude, phase, *, first_grain: int = 1) -> TwoWaves:
+    """Fit V(z) = F e^{−iφ(z)} + B e^{iφ(z)} by least squares on each stretch of grains over which the
+    phase ``phase`` (:func:`column_wave_phase`) advances by 2π, from ``first_grain`` on (a last, shorter
+    stretch only if it spans at least π).
+
+    ``amplitude`` is the complex velocity amplitude at the drive frequency per grain (a response window's
+    ``response`` at harmonic 1, v = Re(V e^{iωt})), so e^{−iφ} travels toward larger z. F and B may vary
+    from stretch to stretch (a WKB description of a column whose sound speed grows with depth)."""
+    v = np.asarray(amplitude, dtype=complex)
+    phi = np.asarray(phase, dtype=float)
+    usable = np.flatnonzero(np.isfinite(phi))
+    usable = usable[usable >= first_grain]
+    if usable.size == 0:
+        empty = np.zeros(0)
+        return TwoWaves(empty, empty, empty, empty)
+    turn = np.floor((phi[usable] - phi[usable[0]]) / (2.0 * math.pi)).astype(int)
+    last = usable[turn == turn[-1]]
+    rows = []
+    # the last, partial stretch counts if it spans half a wavelength (else F and B are ill-determined)
+    for n in range(turn[-1] + (1 if phi[last[-1]] - phi[last[0]] >= math.pi else 0)):
+        z = usable[turn == n]
+        basis = np.stack([np.exp(-1j * phi[z]), np.exp(1j * phi[z])], axis=1)
+        (f, b), *_ = np.linalg.lstsq(basis, v[z], rcond=None)
+        norm = np.linalg.norm(v[z])
+        rows.append((z.mean(), abs(f), abs(b), np.linalg.norm(v[z] - basis @ (f, b)) / norm if norm else math.nan))
+    centre, forward, backward, residual = (np.array(col) for col in zip(*rows)) if rows else [np.zeros(0)] * 4
+    return TwoWaves(centre, forward, backward, residual)
+
+
+def point_standing_fraction(point) -> dict:
+    """The two-wave fit (:func:`fit_two_waves`) of every response window of one point (an xarray Dataset of
+    one point with ``response``): per window the median standing fraction over the column's stretches and
+    the median fit residual; the depth profile (stretch centres, median standing fraction over the second
+    half of the windows, after the drive has filled the column); and that median over depth."""
+    tau = point_scene_value(point, "excitation.drive_period")
+    gravity = point_scene_value(point, "chain.gravity")
+    v1 = point.response.sel(harmonic=1).values  # (window, grain)
+    phase = column_wave_phase(2.0 * math.pi / tau, v1.shape[-1], gravity=gravity)
+    fits = [fit_two_waves(row, phase) for row in v1]
+    fraction = np.array([f.standing_fraction for f in fits])  # (window, stretch)
+    if fraction.shape[1] == 0:
+        return {"window_start": point.window_start.values.tolist(), "fraction": math.nan, "note": "under π of phase"}
+    late = fraction[len(fits) // 2 :]
+    return {
+        "window_start": point.window_start.values.tolist(),
+        "window_fraction": np.nanmedian(fraction, axis=1).tolist(),
+        "window_residual": [float(np.nanmedian(f.residual)) for f in fits],
+        "depth": fits[0].centre.tolist(),
+        "depth_fraction": np.nanmedian(late, axis=0).tolist(),
+        "fraction": float(np.nanmedian(late)),
+        "fraction_quartiles": np.nanpercentile(late, [25, 75]).tolist(),
+        "residual": float(np.nanmedian([f.residual for f in fits[len(fits) // 2 :]])),
+    }
+
+
+def standing_fractions(ds) -> list[dict]:
+    """:func:`point_standing_fraction` at every point of a sweep store with response windows, each with its
+    sweep coordinates."""
+    dims = [str(d) for d in ds.status.dims]
+    rows = []
+    for index in np.ndindex(*(int(ds.sizes[d]) for d in dims)):
+        point = ds.isel(dict(zip(dims, index)))
+        coords = {d: float(ds[d].values[i]) for d, i in zip(dims, index)}
+        rows.append({**coords, **(point_standing_fraction(point) if int(point.status) >= 0 else {})})
+    return rows

@@ -1,0 +1,76 @@
+"""Sec. VI measures against closed forms: the standing fraction of the two-wave fit (pure standing, pure
+travelling and mixed waves in a column whose sound speed grows with depth) and the lag correlation of a
+travelling pulse, instantaneous against averaged over a window."""
+
+import math
+
+import numpy as np
+import pytest
+from hertzian.studies import analysis as an
+
+
+@pytest.fixture(scope="module")
+def phase():
+    """Phase of a τ = 1 wave down a 3000-grain g = 1 column (wavelength 55–120 grains)."""
+    return an.column_wave_phase(2.0 * math.pi, 3000, gravity=1.0)
+
+
+def test_column_wave_phase_follows_the_discrete_dispersion(phase):
+    c = an.column_sound_speed(np.arange(3000), gravity=1.0)
+    k = np.diff(phase)
+    assert np.allclose(2.0 * c[1:] * np.sin(k / 2.0), 2.0 * math.pi, rtol=1e-12)
+
+
+@pytest.mark.parametrize("r", [0.0, 0.2, 0.5, 1.0])
+def test_standing_fraction_of_a_known_mixture(phase, r):
+    """V = e^{−iφ} + r e^{iφ}: s = 2r/(1 + r), i.e. 0 for a travelling wave, 1 for a standing one."""
+    fit = an.fit_two_waves(np.exp(-1j * phase) + r * np.exp(1j * (phase + 0.7)), phase)
+    assert fit.centre.size > 20
+    assert np.allclose(fit.forward, 1.0, atol=1e-12)
+    assert np.allclose(fit.backward, r, atol=1e-12)
+    assert np.allclose(fit.standing_fraction, 2.0 * r / (1.0 + r), atol=1e-12)
+    assert np.all(fit.residual < 1e-12)
+
+
+def test_standing_fraction_follows_a_reflection_that_changes_with_depth(phase):
+    """A backward wave that grows linearly with depth: each stretch reports its own ratio (WKB)."""
+    z = np.arange(phase.size)
+    r = z / z[-1]
+    fit = an.fit_two_waves(np.exp(-1j * phase) + r * np.exp(1j * phase), phase)
+    expected = 2.0 * (fit.centre / z[-1]) / (1.0 + fit.centre / z[-1])
+    assert np.max(np.abs(fit.standing_fraction - expected)) < 0.01
+
+
+def test_the_max_min_ratio_cannot_tell_a_travelling_wave_whose_amplitude_varies(phase):
+    """Why the standing fraction replaces max|V₁|/min|V₁|: a travelling wave that decays with depth has a large
+    ratio (e^5 = 148) and a standing fraction near 0 (not exactly 0: the amplitude falls by up to 20 % within one
+    stretch, which the constant F and B of a stretch take partly as a backward wave)."""
+    z = np.arange(phase.size)
+    v = np.exp(-z / 600.0) * np.exp(-1j * phase)
+    assert an.standing_wave_ratio(np.abs(v)) > 100.0
+    assert np.nanmax(an.fit_two_waves(v, phase).standing_fraction) < 0.05
+
+
+def test_lag_correlation_of_a_travelling_pulse_instantaneous_and_averaged():
+    """A Gaussian pulse of width σ moving at speed c: the instantaneous profiles correlate as
+    exp(−(c L)²/(4σ²)) at lag L; averaged over a window W ≫ σ/c they are boxes of length cW, which correlate
+    as their overlap 1 − L/W, less the mean Pearson takes out: the average keeps the shape long after the pulse has moved."""
+    grains, c, sigma, width = 4000, 80.0, 1.0, 1.5
+    z = np.arange(grains, dtype=float)
+    dt = 0.001
+
+    def pulse(t):
+        return np.exp(-((z - 1000.0 - c * t) ** 2) / (2.0 * sigma**2))
+
+    lags = np.array([0.0, 0.02, 0.05, 0.3, 0.75, 1.2])
+    inst = an.profile_correlation([pulse(L) for L in lags], smooth=1)
+    window = np.arange(-0.5 * width, 0.5 * width + 0.5 * dt, dt)
+    averaged = an.profile_correlation([np.mean([pulse(L + s) for s in window], axis=0) for L in lags], smooth=1)
+    gauss = np.exp(-((c * lags) ** 2) / (4.0 * sigma**2))
+    share = (
+        c * width / grains
+    )  # Pearson subtracts the mean: two boxes overlapping by f correlate as (f − share)/(1 − share)
+    box = (1.0 - lags / width - share) / (1.0 - share)
+    assert np.allclose(inst, gauss, atol=0.02)
+    assert np.allclose(averaged, box, atol=0.02)
+    assert inst[3] < 0.01 and averaged[3] > 0.75
