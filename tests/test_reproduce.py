@@ -71,7 +71,7 @@ def test_kernel_option_and_the_split_of_each_runs_seconds(tmp_path):
         logs[kernel] = json.loads((out / "log.json").read_text())
         assert f"--kernel {kernel}" in logs[kernel]["command"]
     (auto,), (fused,) = logs["auto"]["runs"], logs["fused"]["runs"]
-    assert auto["kernel"].startswith("step (a short run") and fused["kernel"] == "sweep"
+    assert auto["kernel"].startswith("step (a short run") and fused["kernel"] == "chain"
     assert fused["energy_error_max"] == pytest.approx(auto["energy_error_max"], rel=1e-6)
     for run in (auto, fused):
         assert set(run["seconds"]) == {"setup", "integrate", "finalize", "figures", "measure"}
@@ -101,7 +101,7 @@ def test_events_option_sets_every_group(tmp_path):
         (["--events", "sometimes"], "--events = 'sometimes': auto or off"),
         (["--sweeps", "nowhere"], "--sweeps = 'nowhere': no paper_fig1.toml there"),
         (["--out-dir", "missing/deeper"], "--out-dir = 'missing/deeper': parent directory does not exist"),
-        (["--kernel", "fastest"], "--kernel = 'fastest': one of auto, fused, step, tile, window, sweep"),
+        (["--kernel", "fastest"], "--kernel = 'fastest': one of auto, fused, step, tile, window, chain"),
         (["--kernel", "tile", "--device", "cpu"], "--kernel = 'tile': CUDA kernels; on --device cpu use"),
     ],
 )
@@ -119,7 +119,9 @@ def test_quick_reproduces_every_group_on_the_cpu(tmp_path):
     result = cli.invoke(app, ["reproduce", "--quick", "--out-dir", str(out), "--device", "cpu"])
     assert result.exit_code == 0, result.output
     log = json.loads((out / "log.json").read_text())
-    assert [r["name"] for r in log["runs"]] == list(GROUPS)
+    names = [r["name"] for r in log["runs"]]
+    assert [n for n in names if not n.endswith("_dt_check")] == list(GROUPS)
+    assert "sec6_lag_dt_check" in names  # the lag study's dt/2 rerun (the chaotic-drive rule)
     for run in log["runs"]:
         assert all(not str(v).startswith("failed") for v in run["figures"].values()), run
         assert run["energy_error_max"] < 1e-5, run  # driven columns: |E − E0 − W| / max|W| at dt = 1.25e-4

@@ -20,7 +20,7 @@ def configs(model):
     f, n, c = model.features, model.grain_count, model.chain_count
     return {
         "step": STEP,
-        "sweep": SolverConfig("sweep", steps_per_launch=5),
+        "chain": SolverConfig("chain", steps_per_launch=5),
         "tile": config_of(plan_tile(f, n, c, grains_per_lane=4, steps_per_launch=4)),
         "window": config_of(
             plan_tile(f, n, c, grains_per_lane=4, lanes_per_chain=6, steps_per_launch=3, windowed=True)
@@ -28,7 +28,7 @@ def configs(model):
     }
 
 
-@pytest.mark.parametrize("kind", ["step", "sweep", "tile", "window"])
+@pytest.mark.parametrize("kind", ["step", "chain", "tile", "window"])
 def test_advance_in_pieces_equals_one_advance(kind):
     model = build_model(chains(2, chain={"grains": 30, "l0": 1e-4}, integrator={"dt": 5e-4}), "cpu")
     solver = make_solver(model, configs(model)[kind])
@@ -48,7 +48,7 @@ def test_advance_in_pieces_equals_one_advance(kind):
     np.testing.assert_array_equal(current.x.numpy(), want)
 
 
-@pytest.mark.parametrize("kind", ["step", "sweep", "tile"])
+@pytest.mark.parametrize("kind", ["step", "chain", "tile"])
 def test_status_is_shared_by_both_halves(kind):
     """A chain flagged non-finite stays frozen over many launches, whichever half is read."""
     model = build_model(chains(3, chain={"grains": 16, "l0": 1e-4}, integrator={"dt": 5e-4}), "cpu")
@@ -69,7 +69,7 @@ def test_config_is_validated():
     with pytest.raises(ValueError, match="launch shape"):
         SolverConfig("tile")
     with pytest.raises(ValueError, match="steps_per_launch"):
-        SolverConfig("sweep", steps_per_launch=0)
+        SolverConfig("chain", steps_per_launch=0)
     assert SolverConfig.from_dict(CHAIN.to_dict()) == CHAIN
     model = build_model(chains(1, chain={"grains": 30}), "cpu")
     window = configs(model)["window"]
@@ -114,4 +114,4 @@ def test_fused_choice_is_auto_without_the_short_run_rule():
         ),
         "cpu",
     )
-    assert choose_config(damped, "fused", run_steps=100).kind in ("sweep", "step")
+    assert choose_config(damped, "fused", run_steps=100).kind in ("chain", "step")

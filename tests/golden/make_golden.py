@@ -7,7 +7,7 @@ largest overlap and energy error. ``tests/test_golden.py`` reruns the cases and 
 every array is bitwise equal. A case is a plain dict, so a later kernel option can be pinned here:
 
 * ``scenes``: scene dictionaries (the TOML layout), one per chain of the ensemble;
-* ``solver``: ``step`` (one step per launch), ``sweep`` (CPU chain-per-thread kernel), ``tile``
+* ``solver``: ``step`` (one step per launch), ``chain`` (CPU chain-per-thread kernel), ``tile``
   (whole chains per block) or ``window`` (windows with ghost zones);
 * ``plan``: for ``tile``/``window``, the keywords of ``kernels.tile.plan_tile``.
 
@@ -128,9 +128,9 @@ CASES: dict[str, dict] = {
         ],
     },
     # CPU chain kernel
-    "sweep_walls_gear4": {"solver": "sweep", "scenes": _three()},
-    "sweep_impurities_gravity_fixed_gear5": {
-        "solver": "sweep",
+    "chain_walls_gear4": {"solver": "chain", "scenes": _three()},
+    "chain_impurities_gravity_fixed_gear5": {
+        "solver": "chain",
         "scenes": [
             _impact(
                 chain={"grains": 24, "l0": 1e-4, "gravity": 1.0},
@@ -145,8 +145,8 @@ CASES: dict[str, dict] = {
             ),
         ],
     },
-    "sweep_verlet_exponent_free": {
-        "solver": "sweep",
+    "chain_verlet_exponent_free": {
+        "solver": "chain",
         "scenes": [
             _impact(
                 chain={"grains": 20, "l0": 0.0, "exponent": e},
@@ -156,8 +156,8 @@ CASES: dict[str, dict] = {
             for e in (2.0, 3.0)
         ],
     },
-    "sweep_float32_gear6_load": {
-        "solver": "sweep",
+    "chain_float32_gear6_load": {
+        "solver": "chain",
         "scenes": _three(
             chain={"grains": 24, "l0": 0.0, "load": 0.02},
             boundary={"surface": "load"},
