@@ -702,8 +702,8 @@ def test_library_assembled_on_the_device_equals_the_host_path(monkeypatch):
     trace, echoes and OK flags bit for bit (a candidate marked as failed included: its echo is −clean) and its Gram
     matrices to rounding."""
     from hertzian.core import runner as runner_module
-    from hertzian.studies.detection import library as detect_module
     from hertzian.studies.detection import build_library, front_times, make_grid
+    from hertzian.studies.detection import library as detect_module
 
     forward = forward_scene(scene_from_dict(BASE), SPACING, 301)
     fronts = front_times(forward, "cpu")

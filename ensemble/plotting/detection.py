@@ -12,6 +12,7 @@ from hertzian.studies.detection.signal import Signal
 
 def plot_detection(signal: Signal, detection: Detection, library: Library, path: str | Path) -> None:
     """Signal, best fit and residual (top); posterior over depth of both classes (bottom)."""
+    # matplotlib is heavy and only needed for the figure
     import matplotlib
 
     matplotlib.use("Agg")

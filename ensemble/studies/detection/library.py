@@ -24,7 +24,7 @@ from hertzian.core.runner import Runner
 from hertzian.core.scene import Scene, SceneError
 from hertzian.core.status import Status
 from hertzian.kernels.library import library_kernels
-from hertzian.studies.detection.forward import prepare_candidates, default_batch_size, front_times, run_candidates
+from hertzian.studies.detection.forward import default_batch_size, front_times, prepare_candidates, run_candidates
 
 LIBRARY_VERSION = 2
 """Bumped when the cached library's content or layout changes (2: a directory of ``.npy`` files holding the

@@ -28,8 +28,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
-from hertzian.core.scene import SceneError, apply_overrides, read_toml, scene_from_dict
 from hertzian.core.runner import run_ensemble
+from hertzian.core.scene import SceneError, apply_overrides, read_toml, scene_from_dict
 from hertzian.studies.detection import detect
 from hertzian.studies.detection.forward import forward_scene, impurity_scene
 from hertzian.studies.detection.library import cached_fronts
