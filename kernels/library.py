@@ -1,4 +1,4 @@
-"""A detection library assembled on the device (ensemble/studies/detect.py): the candidates' surface echoes and their Gram
+"""A detection library assembled on the device (ensemble/studies/detection/library.py): the candidates' surface echoes and their Gram
 matrices, from the trace ring the library's run leaves on the device.
 
 ``library_echoes`` (one thread per chain and sample) reads sample k of a chain's traced grain 0 (velocity: the

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from hertzian.core.runner import run_scene
 from hertzian.core.scene import SceneError, scene_from_dict
-from hertzian.studies.detect import (
+from hertzian.studies.detection import (
     Quadratic,
     detect,
     forward_scene,
@@ -264,7 +264,7 @@ def test_forward_scene_samples_on_steps():
 
 def test_study_summary_counts():
     """The study's tables from hand-made records: accuracy, depth within ±1 (class right too), coverage."""
-    from hertzian.studies.detect_study import summarize
+    from hertzian.studies.detection.study import summarize
 
     def record(true_class, kind, true_depth, depth, covered):
         return {
@@ -303,7 +303,7 @@ def test_study_summary_counts():
 
 def test_binomial_lower_bound_closed_forms():
     """All successes: (α/2)^(1/n); none: 0; half of 10: 0.1871 (tabulated Clopper–Pearson)."""
-    from hertzian.studies.detect_study import binomial_lower_bound
+    from hertzian.studies.detection.study import binomial_lower_bound
 
     for n in (1, 28, 384):
         assert binomial_lower_bound(n, n) == pytest.approx(0.025 ** (1 / n), rel=1e-9)
@@ -382,7 +382,7 @@ def test_cli_fit_a_json_and_bad_a_range(tmp_path, cache, clean_velocity):
 def test_interpolated_rss_equals_the_direct_residuals():
     """detect.interpolated_rss (Gram form, clean chain subtracted) against |s − W m|² formed sample by sample,
     on traces that differ from a clean one by small echoes, as a library's do."""
-    from hertzian.studies.detect import interpolated_rss, lagrange_weights
+    from hertzian.studies.detection import interpolated_rss, lagrange_weights
 
     rng = np.random.default_rng(3)
     samples = 2000
@@ -402,7 +402,7 @@ def test_fine_scan_finds_the_needle_of_a_shallow_light_grain(cache, monkeypatch)
     one at μ ≈ 0.34, where the library and Gauss–Newton land, leaving σ ≈ 4× the noise. When the best fit's σ is
     above FINE_SCAN_MISFIT × the noise before the echo, a scan of ln μ every 0.4 % at that depth finds the needle:
     the interval then holds 0.3 and σ is the noise added. Without the scan the same signal gives μ ≈ 0.34."""
-    import hertzian.studies.detect as detect_module
+    from hertzian.studies.detection import refine as detect_module
 
     base = {**BASE, "chain": {"grains": 80, "l0": 1e-4}}
     samples = 875
@@ -445,7 +445,7 @@ def small_library(seed=4):
     at depth 15 (where the heavy class's first echo fits best there), the end ratio of the heavy class. Returns
     (forward, grid, clean, traces, ok, fronts, signal v): the signal is an echo from depth 12 at μ = 0.6 (off the
     grid) with noise σ = 2e-5."""
-    from hertzian.studies.detect import make_grid
+    from hertzian.studies.detection import make_grid
 
     rng = np.random.default_rng(seed)
     samples = 551
@@ -474,7 +474,7 @@ def reference_library_scores(signal, t, clean, traces, ok, fronts, grid):
     """The library's scores computed depth by depth from the traces, as detect did before they were vectorised
     (kept here as the reference): per class, the quadratic of each depth (x0, rss0, g, H; None if no point is
     usable) and the first-echo gain and best x; and the RSS of every candidate (inf where it did not run)."""
-    from hertzian.studies.detect import FIRST_ECHO_GRAINS, INTERPOLATION_POINTS, lagrange_weights, quadratic_at
+    from hertzian.studies.detection import FIRST_ECHO_GRAINS, INTERPOLATION_POINTS, lagrange_weights, quadratic_at
 
     def rss_of(s, models, c, W):
         e, D = s - c, models - c[None]
@@ -517,7 +517,7 @@ def test_vectorised_library_scores_equal_the_per_depth_formulas():
     the echoes' projections on the signal and the library's Gram matrices, against the per-depth formulas on the
     traces (reference_library_scores). Same interpolated point (x0, best x: equal); rss0, H, the gain and the
     candidates' RSS to rtol 1e-10; g (J·r, which can be near 0) to 1e-10 of its Cauchy–Schwarz bound √(H rss0)."""
-    import hertzian.studies.detect as detect_module
+    import hertzian.studies.detection as detect_module
 
     forward, grid, clean, traces, ok, fronts, signal = small_library()
     library = detect_module.assemble_library("test", grid, forward, clean, traces, ok, fronts)
@@ -555,7 +555,7 @@ def test_library_cache_round_trips_and_refuses_a_damaged_copy(tmp_path, monkeypa
     call maps the same arrays back without simulating. A damaged copy (a truncated or missing file, an array of the
     wrong shape, first-echo windows that differ from FIRST_ECHO_GRAINS's) is not used: a warning, then the library
     is simulated again and saved whole."""
-    import hertzian.studies.detect as detect_module
+    from hertzian.studies.detection import library as detect_module
 
     monkeypatch.setenv("HERTZIAN_DETECT_CACHE", str(tmp_path))
     forward, grid, clean, traces, ok, fronts, _ = small_library()
@@ -670,7 +670,7 @@ def test_library_runs_equal_one_scene_per_candidate(gravity, block):
     from hertzian.core.model import build_model
     from hertzian.core.runner import Runner
     from hertzian.core.scene import apply_overrides
-    from hertzian.studies.detect import impurity_scene, run_candidates
+    from hertzian.studies.detection import impurity_scene, run_candidates
 
     forward = forward_scene(scene_from_dict(apply_overrides(BASE, {"chain.gravity": gravity})), SPACING, 301)
     candidates = [
@@ -702,8 +702,8 @@ def test_library_assembled_on_the_device_equals_the_host_path(monkeypatch):
     trace, echoes and OK flags bit for bit (a candidate marked as failed included: its echo is −clean) and its Gram
     matrices to rounding."""
     from hertzian.core import runner as runner_module
-    from hertzian.studies import detect as detect_module
-    from hertzian.studies.detect import build_library, front_times, make_grid
+    from hertzian.studies.detection import build_library, front_times, make_grid
+    from hertzian.studies.detection import library as detect_module
 
     forward = forward_scene(scene_from_dict(BASE), SPACING, 301)
     fronts = front_times(forward, "cpu")
@@ -733,7 +733,7 @@ def test_library_assembled_on_the_device_equals_the_host_path(monkeypatch):
 def test_large_library_arrays_are_saved_by_threads_as_np_save_would(tmp_path, monkeypatch):
     """A library array over SAVE_PIECE_BYTES is copied into its .npy file's memory map by several threads: the file
     must be byte for byte the one np.save writes (here with pieces of 1 KiB, so 7 threads share 3 × 5 × 101 rows)."""
-    from hertzian.studies import detect as detect_module
+    from hertzian.studies.detection import library as detect_module
 
     monkeypatch.setattr(detect_module, "SAVE_PIECE_BYTES", 1024)
     array = np.random.default_rng(3).standard_normal((21, 5, 101))
@@ -747,7 +747,7 @@ def test_large_library_arrays_are_saved_by_threads_as_np_save_would(tmp_path, mo
 def test_study_draws_noise_trials_per_planted_case(tmp_path):
     """`noise_trials = 2`: each planted case is detected twice, with independent noise of the same σ (a small study
     on a 30-grain host, run on the CPU)."""
-    from hertzian.studies.detect_study import run_study
+    from hertzian.studies.detection.study import run_study
 
     path = tmp_path / "study.toml"
     path.write_text(
@@ -770,7 +770,8 @@ def test_wide_scan_finds_the_other_class_a_few_grains_off():
     """:func:`wide_scan` from a depth 3 grains off (where a heavy grain at 10 had been taken for a light one at 13):
     scanning both classes at the depths around finds the heavy class at depth 10, its best point within a scan step
     of μ = 2 (a noise-free planted signal on a 40-grain host)."""
-    from hertzian.studies.detect import _class_bounds, forward_scene, make_grid, run_candidates, wide_scan
+    from hertzian.studies.detection import forward_scene, make_grid, run_candidates, wide_scan
+    from hertzian.studies.detection.scoring import _class_bounds
 
     forward = forward_scene(scene_from_dict(BASE), SPACING, 301)
     truth, _ = run_candidates(forward, [(10, 2.0)], 1, "cpu")

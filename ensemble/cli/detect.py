@@ -1,5 +1,5 @@
 """``hertzian detect`` (locate and identify a buried impurity from the surface signal) and
-``hertzian detect-study`` (its accuracy study). See ensemble/studies/detect.py and docs/detection.md."""
+``hertzian detect-study`` (its accuracy study). See ensemble/studies/detection/ and docs/detection.md."""
 
 from __future__ import annotations
 
@@ -30,18 +30,14 @@ def detect(
     signal: Annotated[
         Path,
         typer.Argument(
-            help="CSV with the header line t,v (grain 0's velocity sampled "
-            "uniformly from the impact at t = 0, program units), or a hertzian "
-            "store with a trace of grain 0."
+            help="CSV with the header line t,v (grain 0's velocity sampled uniformly from the impact at t = 0, program units), or a hertzian store with a trace of grain 0."
         ),
     ],
     scene: Annotated[
         Optional[Path],
         typer.Option(
             "--scene",
-            help="BASE scene TOML: the host chain without "
-            "impurities (grains, l0, gravity, boundaries, impact, "
-            "integrator); its duration and record are replaced.",
+            help="BASE scene TOML: the host chain without impurities (grains, l0, gravity, boundaries, impact, integrator); its duration and record are replaced.",
         ),
     ] = None,
     block: Annotated[
@@ -51,7 +47,7 @@ def detect(
         Optional[float],
         typer.Option(
             "--noise",
-            help="σ of the i.i.d. Gaussian noise [program velocity]; default: estimated (see docs/detection.md).",
+            help="σ of the i.i.d. Gaussian noise (program velocity); default: estimated (see docs/detection.md).",
         ),
     ] = None,
     depths: Annotated[
@@ -78,18 +74,14 @@ def detect(
         Optional[float],
         typer.Option(
             "--window",
-            help="Analyse the samples with t ≤ this "
-            "[program time] (default: until the pulse reflected by the "
-            "bottom returns to the surface).",
+            help="Analyse the samples with t ≤ this, in program time (default: until the pulse reflected by the bottom returns to the surface).",
         ),
     ] = None,
     fit_a: Annotated[
         bool,
         typer.Option(
             "--fit-a",
-            help="Also fit the impurity's self-constant a (as a/a_host; "
-            "contacts by the scene's impurity rule, the harmonic mean) at the depth "
-            "found; reports a_ratio with a 95 % interval.",
+            help="Also fit the impurity's self-constant a (as a/a_host; contacts by the scene's impurity rule, the harmonic mean) at the depth found; reports a_ratio with a 95 % interval.",
         ),
     ] = False,
     a_range: Annotated[
@@ -116,33 +108,18 @@ def detect(
     """Locate and identify a buried impurity (class none | light | heavy, depth, mass ratio) from the
     surface grain's velocity after an impact.
 
-    A library of candidate chains (BASE + one impurity block at every depth × log-spaced mass ratios)
-    is simulated as one ensemble with surface traces at the signal's sample times and cached per BASE
-    (``$HERTZIAN_DETECT_CACHE``, default ~/.cache/hertzian/detect); the best depths are refined by
-    Gauss–Newton in ln μ; with --fit-a, ln μ and ln(a/a_host) are then fitted jointly at the depth found
-    and its neighbours (grid, then Gauss–Newton). Noise: i.i.d. Gaussian; posterior with equal class odds, uniform depth and
-    uniform ln μ priors; intervals are central 95 %. Program units (time 1.0102e-3 s, length 1e-5 m).
+    A library of candidate chains (BASE + one impurity block at every depth × log-spaced mass ratios) is simulated as one ensemble with surface traces at the signal's sample times and cached per BASE ($HERTZIAN_DETECT_CACHE, default ~/.cache/hertzian/detect); the best depths are refined by Gauss–Newton in ln μ; with --fit-a, ln μ and ln(a/a_host) are then fitted jointly at the depth found and its neighbours (grid, then Gauss–Newton). Noise: i.i.d. Gaussian; posterior with equal class odds, uniform depth and uniform ln μ priors; intervals are central 95 %. Program units (time 1.0102e-3 s, length 1e-5 m).
     """
-    from hertzian.studies.detect import detect as run_detection
-    from hertzian.studies.detect import plot_detection, read_signal
+    # the detection modules load Warp and Zarr (≈ 0.7 s): imported here, not at the top, so that the other
+    # commands, which import this module to register, do not pay for them
+    from hertzian.plotting.detection import plot_detection
+    from hertzian.studies.detection import check_base, read_signal
+    from hertzian.studies.detection import detect as run_detection
 
-    if scene is None:
-        fail("--scene: required: the BASE scene TOML (the host chain without impurities)")
-    base = load_scene_or_fail(scene, set_, None)
-    low, high = _pair("--mass-range", mass_range, ",", float)
-    depth_range = _pair("--depths", depths, ":", int) if depths is not None else None
-    if a_range is not None and not fit_a:
-        fail(f"--a-range = {a_range!r}: only used with --fit-a")
-    a_low, a_high = _pair("--a-range", a_range, ",", float) if a_range is not None else (0.25, 4.0)
-    if plot is not None and not plot.parent.exists():
-        fail(f"--plot = {str(plot)!r}: parent directory does not exist")
-    if batch_size is not None and batch_size < 1:
-        fail(f"--batch-size = {batch_size}: must be an integer ≥ 1")
-    if iterations < 1:
-        fail(f"--iterations = {iterations}: must be an integer ≥ 1")
+    base, mass_ratio_range, depth_range, a_ratio_range = _checked_options(
+        scene, set_, mass_range, depths, fit_a, a_range, plot, batch_size, iterations
+    )
     try:
-        from hertzian.studies.detect import check_base
-
         check_base(base)
         measured = read_signal(signal)
     except SceneError as err:
@@ -159,7 +136,7 @@ def detect(
             noise=noise,
             device=dev,
             depth_range=depth_range,
-            mass_ratio_range=(low, high),
+            mass_ratio_range=mass_ratio_range,
             mass_steps=mass_steps,
             refine=refine,
             iterations=iterations,
@@ -167,7 +144,7 @@ def detect(
             use_cache=not no_cache,
             batch_size=batch_size,
             fit_a=fit_a,
-            a_ratio_range=(a_low, a_high),
+            a_ratio_range=a_ratio_range,
         )
     except SceneError as err:
         fail(str(err))
@@ -176,35 +153,65 @@ def detect(
     if as_json:
         typer.echo(json.dumps(result.to_dict(), indent=1))
     else:
-        p = result.class_probability
-        typer.echo(
-            f"class        {result.kind}  (p: none {p['none']:.3g}, light {p['light']:.3g}, heavy {p['heavy']:.3g})"
-        )
-        if result.kind != "none":
-            lo, hi = result.depth_interval
-            mlo, mhi = result.mass_ratio_interval
-            typer.echo(f"depth        {result.depth}  (95 %: {lo} … {hi}; block of {result.block})")
-            typer.echo(f"mass ratio   {result.mass_ratio:.4g}  (95 %: {mlo:.4g} … {mhi:.4g})")
-            if result.fit_a is not None:
-                fa = result.fit_a
-                interval = (
-                    f"95 %: {fa['a_ratio_interval'][0]:.4g} … {fa['a_ratio_interval'][1]:.4g}"
-                    if fa["a_ratio_interval"]
-                    else "no better than a = a_host"
-                )
-                typer.echo(
-                    f"a / a_host   {fa['a_ratio']:.4g}  ({interval}; RSS {fa['rss']:.4g}, with a = a_host "
-                    f"{fa['rss_a_host']:.4g})"
-                )
-        typer.echo(f"noise σ      {result.noise:.4g}  ({result.noise_source})")
-        a, b = result.depths_searched
-        s = result.seconds
-        library_text = "cached" if result.library_from_cache else f"{s['library']:.2f} s"
-        typer.echo(
-            f"searched     depths {a} … {b}, mass ratio {low:g} … {high:g}, t ≤ {result.window:g}; forward dt {result.dt:g} on {dev}; "
-            f"library {library_text}, "
-            f"refinement {s['refinement']:.2f} s, total {s['total']:.2f} s"
-        )
+        _print_detection(result, mass_ratio_range, dev)
+    _warn_if_misfit(result)
+    if plot is not None:
+        typer.echo(f"wrote {plot}", err=True)
+
+
+def _checked_options(scene, set_, mass_range, depths, fit_a, a_range, plot, batch_size, iterations):
+    """``detect``'s options checked (one line and exit 2 on bad input): the BASE scene, the mass ratio range, the
+    depth range (or None), the a/a_host range."""
+    if scene is None:
+        fail("--scene: required: the BASE scene TOML (the host chain without impurities)")
+    base = load_scene_or_fail(scene, set_, None)
+    mass_ratio_range = _pair("--mass-range", mass_range, ",", float)
+    depth_range = _pair("--depths", depths, ":", int) if depths is not None else None
+    if a_range is not None and not fit_a:
+        fail(f"--a-range = {a_range!r}: only used with --fit-a")
+    a_ratio_range = _pair("--a-range", a_range, ",", float) if a_range is not None else (0.25, 4.0)
+    if plot is not None and not plot.parent.exists():
+        fail(f"--plot = {str(plot)!r}: parent directory does not exist")
+    if batch_size is not None and batch_size < 1:
+        fail(f"--batch-size = {batch_size}: must be an integer ≥ 1")
+    if iterations < 1:
+        fail(f"--iterations = {iterations}: must be an integer ≥ 1")
+    return base, mass_ratio_range, depth_range, a_ratio_range
+
+
+def _print_detection(result, mass_ratio_range: tuple[float, float], dev: str) -> None:
+    """The detection as aligned lines: class, depth, mass ratio (and a/a_host), noise, what was searched, seconds."""
+    p = result.class_probability
+    typer.echo(f"class        {result.kind}  (p: none {p['none']:.3g}, light {p['light']:.3g}, heavy {p['heavy']:.3g})")
+    if result.kind != "none":
+        lo, hi = result.depth_interval
+        mlo, mhi = result.mass_ratio_interval
+        typer.echo(f"depth        {result.depth}  (95 %: {lo} … {hi}; block of {result.block})")
+        typer.echo(f"mass ratio   {result.mass_ratio:.4g}  (95 %: {mlo:.4g} … {mhi:.4g})")
+        if result.fit_a is not None:
+            fa = result.fit_a
+            interval = (
+                f"95 %: {fa['a_ratio_interval'][0]:.4g} … {fa['a_ratio_interval'][1]:.4g}"
+                if fa["a_ratio_interval"]
+                else "no better than a = a_host"
+            )
+            typer.echo(
+                f"a / a_host   {fa['a_ratio']:.4g}  ({interval}; RSS {fa['rss']:.4g}, with a = a_host "
+                f"{fa['rss_a_host']:.4g})"
+            )
+    typer.echo(f"noise σ      {result.noise:.4g}  ({result.noise_source})")
+    a, b = result.depths_searched
+    low, high = mass_ratio_range
+    s = result.seconds
+    library_text = "cached" if result.library_from_cache else f"{s['library']:.2f} s"
+    typer.echo(
+        f"searched     depths {a} … {b}, mass ratio {low:g} … {high:g}, t ≤ {result.window:g}; forward dt "
+        f"{result.dt:g} on {dev}; library {library_text}, refinement {s['refinement']:.2f} s, total {s['total']:.2f} s"
+    )
+
+
+def _warn_if_misfit(result) -> None:
+    """A warning on stderr when the best fit's σ exceeds the σ before the earliest echo by MISFIT_WARNING."""
     if result.misfit_ratio is not None and result.misfit_ratio > MISFIT_WARNING:
         typer.echo(
             f"warning: the best fit leaves σ = {result.noise:.3g}, {result.misfit_ratio:.1f}× the noise before "
@@ -212,8 +219,6 @@ def detect(
             "the search, or model error); the intervals are not to be trusted",
             err=True,
         )
-    if plot is not None:
-        typer.echo(f"wrote {plot}", err=True)
 
 
 def candidate_events_note(base, dev: str) -> str | None:
@@ -222,6 +227,7 @@ def candidate_events_note(base, dev: str) -> str | None:
     with them and 0.44 s with plain steps (docs/detection.md); None on a CPU or without event steps."""
     if dev.startswith("cpu"):
         return None
+    # heavy (Warp): imported on use, as in the command above
     from hertzian.core.model import build_model
     from hertzian.core.solvers.calibrate import event_cost_note
 
@@ -242,7 +248,8 @@ def detect_study(
     """Accuracy study of detect: planted impurities (independent runs at half the step), seeded noise at
     given SNRs (relative to the echo peak), detection; class accuracy, depth error, interval coverage,
     confusion matrices and seconds per detection, written as JSON."""
-    from hertzian.studies.detect_study import load_study, run_study, write_study
+    # heavy (Warp, Zarr): imported on use, as in ``detect``
+    from hertzian.studies.detection.study import load_study, run_study, write_study
 
     if out.exists() and not overwrite:
         fail(f"--out = {str(out)!r}: exists; choose another path or pass --overwrite")

@@ -45,11 +45,13 @@ measures it.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
 from hertzian.core.scene import VALIDITY_FRACTION, Scene
 from hertzian.core.static import static_state
+from hertzian.kernels.features import GEAR_CORRECTOR, SUBSTEP_WEIGHTS
 
 STABLE_OMEGA_DT = {"verlet": 2.0, "gear4": math.sqrt(2.0), "gear5": 1.12, "gear6": 0.85, "yoshida4": 1.5734}
 """Largest ω_max·dt for which each method is stable on a linear chain (see the module docstring).
@@ -343,8 +345,6 @@ def amplification_matrix(method: str, omega_dt: float) -> np.ndarray:
     The same predictor–corrector (Allen & Tildesley coefficients) and velocity Verlet the kernels
     run; its spectral radius decides linear stability (STABLE_OMEGA_DT).
     """
-    from hertzian.kernels.features import GEAR_CORRECTOR, SUBSTEP_WEIGHTS
-
     z2 = omega_dt * omega_dt
     if method == "verlet":
         position = np.array([1.0, 1.0, 1.0])
@@ -388,6 +388,7 @@ def memory_needed(scene: Scene, chains: int = 1) -> dict[str, int]:
     device); ``records``: snapshots, energy and work (on the host, float64 at most); ``traces``: trace
     samples (host); ``setup``: host arrays used to build the chain.
     """
+    # kernels.gear loads Warp (≈ 0.6 s), which the other checks do without
     from hertzian.kernels.gear import state_rows
 
     item = 8 if scene.integrator.precision == "float64" else 4
@@ -414,8 +415,6 @@ def available_host_bytes() -> int:
                     return int(line.split()[1]) * 1024
     except OSError:
         pass
-    import os
-
     return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
 
 
@@ -429,6 +428,7 @@ def memory_refusal(scene: Scene, device: str | None = None, chains: int = 1) -> 
     need = memory_needed(scene, chains)
     checks = [("state and results", sum(need.values()), available_host_bytes(), "available on the host")]
     if device is not None and str(device).startswith("cuda"):
+        # Warp only for a CUDA device: the host checks (``hertzian check``) run without loading it
         import warp as wp
 
         checks.append(("state", need["state"], int(wp.get_device(device).free_memory), f"free on {device}"))

@@ -13,6 +13,8 @@ import ctypes
 import os
 import sys
 
+import warp as wp
+
 
 def cuda_driver_present() -> bool:
     """Whether the NVIDIA driver library can be loaded (libcuda.so / libcuda.so.1, nvcuda.dll)."""
@@ -41,8 +43,6 @@ def _stderr_silenced():
 
 def init_warp() -> None:
     """``wp.init()`` at warning log level, without the missing-driver warning on CPU-only machines."""
-    import warp as wp
-
     wp.config.log_level = wp.LOG_WARNING
     if cuda_driver_present():
         wp.init()
@@ -56,7 +56,5 @@ def init_warp() -> None:
 
 def default_device() -> str:
     """'cuda' when a CUDA device is present, else 'cpu'."""
-    import warp as wp
-
     init_warp()
     return "cuda" if wp.is_cuda_available() else "cpu"

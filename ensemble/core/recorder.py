@@ -43,8 +43,6 @@ class StagingPool:
     """
 
     def __init__(self):
-        import threading
-
         self._lock = threading.Lock()
         self._key = None
         self._free: list[dict[str, wp.array]] = []

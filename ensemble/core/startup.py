@@ -17,8 +17,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from hertzian.core.chains import per_unique
 from hertzian.core.scene import Scene
-from hertzian.core.static import StaticState, static_state
+from hertzian.core.static import StaticState, static_arrays, static_state
 
 
 def _power_series(delta: np.ndarray, p: float) -> np.ndarray:
@@ -112,9 +113,6 @@ def taylor_coefficients_of(chains, order: int, static=None, *, whole: bool = Tru
     vectorised over chains with the same arithmetic per element (same bits), computed on the
     :func:`taylor_window` (zeros beyond, as the per-scene recursion gives them; ``whole=False``
     returns only the window's grains)."""
-    from hertzian.core.chains import per_unique
-    from hertzian.core.static import static_arrays
-
     scene = chains.template
     count, n_total = len(chains), scene.chain.grains
     n_grains = taylor_window(n_total, order)

@@ -16,7 +16,9 @@ left); the other figures use the depth i (surface = 0).
 
 from __future__ import annotations
 
+import json
 import math
+import textwrap
 from pathlib import Path
 from typing import Callable
 
@@ -49,6 +51,7 @@ def _require(ds, *names: str, figure: str) -> None:
 
 
 def _pyplot():
+    # matplotlib is heavy and only needed when a figure is drawn
     import matplotlib
 
     matplotlib.use("Agg")
@@ -74,8 +77,6 @@ NOTE_FONTSIZE = 6.5
 def _finish(fig, out: Path, *, note: str | None = None) -> Path:
     bottom = 0.0
     if note:
-        import textwrap
-
         width_pt, height_pt = fig.get_figwidth() * 72, fig.get_figheight() * 72
         # wrapped to the figure's width (an average character is ~0.55 em wide), so no line is cut off
         lines = textwrap.wrap(note, width=max(40, int(0.98 * width_pt / (0.55 * NOTE_FONTSIZE))))
@@ -83,7 +84,7 @@ def _finish(fig, out: Path, *, note: str | None = None) -> Path:
         bottom = (len(lines) * 1.25 * NOTE_FONTSIZE + 4) / height_pt
     fig.tight_layout(rect=(0, bottom, 1, 1))
     fig.savefig(out, dpi=DPI)
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # heavy: loaded by _pyplot when the figure was made
 
     plt.close(fig)
     return out
@@ -138,8 +139,6 @@ def _fig_profiles_by_vimp(ds, out: Path, figure: str, *, label_axis: bool, title
 
 
 def _scene_value(ds, section: str, key: str):
-    import json
-
     scene = json.loads(ds.attrs.get("scene", "{}"))
     return scene.get(section, {}).get(key, math.nan)
 

@@ -33,8 +33,15 @@ from dataclasses import asdict, dataclass
 from fractions import Fraction
 
 import numpy as np
+import warp as wp
+from hertzian.core.check import check_scene
+from hertzian.core.devices import default_device, init_warp
+from hertzian.core.model import build_model, features_of
+from hertzian.core.runner import Runner
 from hertzian.core.scene import EVENT_MODES, METHODS, PRECISIONS, Scene, SceneError
+from hertzian.core.solvers.calibrate import stepping_features
 from hertzian.core.status import Status
+from hertzian.kernels.cpu import chain_kernel_supports
 
 REFERENCE_METHOD = "gear6"
 REFERENCE_ORDER = 6
@@ -183,11 +190,6 @@ def study_kernel(scene: Scene, device: str | None) -> str:
     """The kernel every run of a study uses, so that their times compare (``auto`` would switch kernels with
     the run length): on a CPU the chain-per-thread sweep where it applies, else the per-step kernel; on a
     GPU ``auto`` (ensemble/core/solvers/calibrate.py)."""
-    import warp as wp
-    from hertzian.core.model import features_of
-    from hertzian.core.solvers.calibrate import stepping_features
-    from hertzian.kernels.cpu import chain_kernel_supports
-
     if not wp.get_device(device).is_cpu:
         return "auto"
     return "chain" if chain_kernel_supports(stepping_features(features_of([scene]))) else "step"
@@ -195,10 +197,6 @@ def study_kernel(scene: Scene, device: str | None) -> str:
 
 def _run(scene: Scene, device: str | None, kernel: str = "auto"):
     """(RunResult, name of the kernel that ran)."""
-    from hertzian.core.devices import default_device, init_warp
-    from hertzian.core.model import build_model
-    from hertzian.core.runner import Runner
-
     init_warp()
     result = Runner(build_model([scene], device or default_device()), kernel=kernel).run()
     return result, result.kernel
@@ -369,8 +367,6 @@ def work_precision(
     ``events`` (integrator.events modes, default the scene's): with both, every run is made with and
     without event-aware steps (before/after curves); the reference uses them unless only "off" is asked.
     """
-    from hertzian.core.check import check_scene
-
     for m in methods:
         if m not in METHODS:
             raise SceneError("--methods", m, f"allowed: {', '.join(METHODS)}")
@@ -443,6 +439,7 @@ def plot_work_precision(
 
     Open markers: errors within a factor 10 of the reference's own estimated error (drawn dotted).
     """
+    # matplotlib is heavy and only needed for the figure
     import matplotlib
 
     matplotlib.use("Agg")

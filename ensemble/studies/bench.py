@@ -21,7 +21,7 @@ import math
 import os
 import statistics
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import datetime, timezone
 
 import numpy as np
@@ -186,151 +186,181 @@ def run_bench(
     for chains, grains in sizes:
         scenes = bench_scenes(chains, grains)
         model = build_model(scenes, dev)
-        values = model.features.values
-        bytes_per_grain_step = 2 * values * 8
-        wall = bandwidth / bytes_per_grain_step
-        host_wall = host_bandwidth / bytes_per_grain_step
-        max_steps = 1 << 24
+        size = _SizeBench(
+            dev=dev,
+            grains=grains,
+            bytes_per_grain_step=2 * model.features.values * 8,
+            check_steps=check_steps,
+            steps=steps,
+            repeats=repeats,
+            min_seconds=min_seconds,
+            log=log,
+        )
+        wall = bandwidth / size.bytes_per_grain_step
+        host_wall = host_bandwidth / size.bytes_per_grain_step
         log(
             f"{chains} chains x {grains} grains: memory wall {wall:.3g} grain-steps/s "
-            f"({bytes_per_grain_step} B/grain-step)"
+            f"({size.bytes_per_grain_step} B/grain-step)"
         )
+        initial = _bench_kernels(size, model, chains, kernel, wall)
+        gc.collect()
+        if peers:
+            _bench_peers(size, model, chains, initial, wall, host_wall)
+            gc.collect()
+        best = max(r["grain_steps_per_second"] for r in size.records)
+        for r in size.records:
+            r["ratio_to_best"] = r["grain_steps_per_second"] / best
+        records.extend(size.records)
+        model = size = initial = None
+        gc.collect()
+    return records
 
-        # one runner (one pair of state buffers) serves every project kernel, reset to t = 0 in between
-        runner = Runner(model, kernel="step")
-        initial = runner.buffers[0].x.numpy().copy()
 
-        def reset(solver) -> None:
-            runner.buffers[0].x.assign(initial)
-            runner.buffers[0].clock.zero_()
-            runner.buffers[0].status.zero_()
-            runner.current = runner.buffers[0]
-            runner.solver = solver
+@dataclass
+class _SizeBench:
+    """What the implementations benched at one (chains, grains) share: the reference state, the timing settings and
+    the records so far."""
 
-        # reference: the per-step kernel after check_steps steps
-        runner.advance(check_steps)
-        reference = runner.current.x.numpy().copy()
-        size_records = []
+    dev: object
+    grains: int
+    bytes_per_grain_step: int
+    check_steps: int
+    steps: int | None
+    repeats: int
+    min_seconds: float
+    log: object
+    max_steps: int = 1 << 24
+    reference: np.ndarray | None = None
+    """Positions after check_steps steps of the per-step kernel, shape (grains, chains)."""
+    records: list = field(default_factory=list)
 
-        def bench(impl: Implementation, on_wall: float, real_chains: int):
-            diff = states_equal(impl.state(), reference[:, :real_chains])
-            if not diff <= impl.tolerance:
-                raise RuntimeError(
-                    f"{impl.name} ({impl.kernel}) differs from the per-step kernel by {diff:.3g} "
-                    f"(relative) after {check_steps} steps at {real_chains}x{grains}"
-                )
-            n, seconds = _time(impl, steps, repeats, min_seconds, max_steps)
-            gs = real_chains * grains * n / seconds
-            rec = {
+    def bench(self, impl: Implementation, on_wall: float, real_chains: int) -> None:
+        """Check ``impl``'s state after check_steps steps against the reference, time it, and keep its record."""
+        diff = states_equal(impl.state(), self.reference[:, :real_chains])
+        if not diff <= impl.tolerance:
+            raise RuntimeError(
+                f"{impl.name} ({impl.kernel}) differs from the per-step kernel by {diff:.3g} "
+                f"(relative) after {self.check_steps} steps at {real_chains}x{self.grains}"
+            )
+        n, seconds = _time(impl, self.steps, self.repeats, self.min_seconds, self.max_steps)
+        gs = real_chains * self.grains * n / seconds
+        self.records.append(
+            {
                 "implementation": impl.name,
                 "kernel": impl.kernel,
-                "device": "cpu" if impl.cpu else str(dev),
-                "device_name": "CPU" if impl.cpu else dev.name,
+                "device": "cpu" if impl.cpu else str(self.dev),
+                "device_name": "CPU" if impl.cpu else self.dev.name,
                 "chains": real_chains,
-                "grains": grains,
+                "grains": self.grains,
                 "steps": n,
-                "repeats": repeats,
+                "repeats": self.repeats,
                 "seconds": seconds,
                 "grain_steps_per_second": gs,
                 "steps_per_second": n / seconds,
-                "bytes_per_grain_step": bytes_per_grain_step,
+                "bytes_per_grain_step": self.bytes_per_grain_step,
                 "memory_wall_grain_steps_per_second": on_wall,
                 "ratio_to_memory_wall": gs / on_wall,
                 "max_relative_difference": diff,
                 "date": today(),
             }
-            size_records.append(rec)
-            log(
-                f"  {impl.name:12s} {impl.kernel:44s} {gs:10.3g} GS/s {n / seconds:10.3g} steps/s "
-                f"x{gs / on_wall:5.2f} wall  diff {diff:.1e}"
-            )
-
-        # the project's kernels
-        names = {"all": ["step", "tile", "window"] if dev.is_cuda else ["step", "chain"], "auto": ["auto"]}.get(
-            kernel, [kernel]
         )
-        step_solver = runner.solver
-        for name in names:
-            if (
-                kernel == "all"
-                and name == "window"
-                and chains >= (dev.sm_count or 1)
-                and grains <= 1024
-                and whole_chain_configs(model)
-            ):
-                log("  window: skipped (whole chains fit a block and fill the GPU)")
+        self.log(
+            f"  {impl.name:12s} {impl.kernel:44s} {gs:10.3g} GS/s {n / seconds:10.3g} steps/s "
+            f"x{gs / on_wall:5.2f} wall  diff {diff:.1e}"
+        )
+
+
+def _bench_kernels(size: _SizeBench, model, chains: int, kernel: str, wall: float) -> np.ndarray:
+    """Bench the project's kernels (``kernel``: one, or all of the device's) on ``model``, one runner (one pair of
+    state buffers) reset to t = 0 in between; sets ``size.reference`` from the per-step kernel first. Returns the
+    initial positions, shape (grains, chains)."""
+    dev = size.dev
+    runner = Runner(model, kernel="step")
+    initial = runner.buffers[0].x.numpy().copy()
+
+    def reset(solver) -> None:
+        runner.buffers[0].x.assign(initial)
+        runner.buffers[0].clock.zero_()
+        runner.buffers[0].status.zero_()
+        runner.current = runner.buffers[0]
+        runner.solver = solver
+
+    # reference: the per-step kernel after check_steps steps
+    runner.advance(size.check_steps)
+    size.reference = runner.current.x.numpy().copy()
+    names = {"all": ["step", "tile", "window"] if dev.is_cuda else ["step", "chain"], "auto": ["auto"]}.get(
+        kernel, [kernel]
+    )
+    step_solver = runner.solver
+    for name in names:
+        if (
+            kernel == "all"
+            and name == "window"
+            and chains >= (dev.sm_count or 1)
+            and size.grains <= 1024
+            and whole_chain_configs(model)
+        ):
+            size.log("  window: skipped (whole chains fit a block and fill the GPU)")
+            continue
+        solver = step_solver
+        if name != "step":
+            try:
+                # a bench run is long by design: auto decides as for a long run
+                config = choose_config(model, name, run_steps=None, states=runner.buffers, log=size.log)
+            except ValueError as err:
+                size.log(f"  {name}: skipped ({err})")
                 continue
-            solver = step_solver
-            if name != "step":
-                try:
-                    # a bench run is long by design: auto decides as for a long run
-                    config = choose_config(model, name, run_steps=None, states=runner.buffers, log=log)
-                except ValueError as err:
-                    log(f"  {name}: skipped ({err})")
-                    continue
-                solver = step_solver if config.kind == "step" else make_solver(model, config)
-                solver.load()
-            reset(solver)
-            runner.advance(check_steps)
-            label = name if name != "auto" else solver.kind
-            bench(_warp_impl(f"warp-{label}", runner), wall, chains)
-            del solver
-        runner = None
-        gc.collect()
+            solver = step_solver if config.kind == "step" else make_solver(model, config)
+            solver.load()
+        reset(solver)
+        runner.advance(size.check_steps)
+        label = name if name != "auto" else solver.kind
+        size.bench(_warp_impl(f"warp-{label}", runner), wall, chains)
+        del solver
+    return initial
 
-        # peers
-        if peers:
-            problem = PeerProblem(
-                x=initial,
-                contact_constant=model.contact_constant.numpy().reshape(chains, 1),
-                static_overlap=model.static_overlap.numpy().reshape(chains, 1),
-                inverse_mass=model.inverse_mass.numpy().reshape(chains, 1),
-                dt=model.dt,
-            )
-            numpy_chains = max(1, min(chains, NUMPY_MAX_GRAINS // grains))
-            sub = _first_chains(problem, numpy_chains)
-            peer = NumpyGear4(sub)
-            peer.run(check_steps)
-            bench(
-                Implementation(
-                    name="numpy",
-                    kernel="numpy, 1 core",
-                    chains=numpy_chains,
-                    advance=peer.run,
-                    state=peer.state,
-                    tolerance=PEER_TOLERANCE,
-                    cpu=True,
-                ),
-                host_wall,
-                numpy_chains,
-            )
-            del peer
-            if jax_available():
-                os.environ.setdefault("XLA_PYTHON_CLIENT_PREALLOCATE", "false")
-                peer = JaxGear4(problem, str(dev))
-                peer.run(check_steps)
-                platform = peer.device.platform
-                impl = Implementation(
-                    name="jax",
-                    kernel=f"lax.scan unroll={peer.unroll} ({platform})",
-                    chains=chains,
-                    advance=peer.run,
-                    state=peer.state,
-                    tolerance=PEER_TOLERANCE,
-                    chunk=512 if platform == "gpu" else 1,
-                    cpu=platform == "cpu",
-                )
-                bench(impl, host_wall if platform == "cpu" else wall, chains)
-                del peer
-            gc.collect()
 
-        best = max(r["grain_steps_per_second"] for r in size_records)
-        for r in size_records:
-            r["ratio_to_best"] = r["grain_steps_per_second"] / best
-        records.extend(size_records)
-        model = reference = initial = None
-        gc.collect()
-    return records
+def _bench_peers(size: _SizeBench, model, chains: int, initial: np.ndarray, wall: float, host_wall: float) -> None:
+    """Bench the peers from the same initial state: NumPy (one core, at most NUMPY_MAX_GRAINS grains in all) and,
+    where it is installed, JAX."""
+    grains, check_steps = size.grains, size.check_steps
+    problem = PeerProblem(
+        x=initial,
+        contact_constant=model.contact_constant.numpy().reshape(chains, 1),
+        static_overlap=model.static_overlap.numpy().reshape(chains, 1),
+        inverse_mass=model.inverse_mass.numpy().reshape(chains, 1),
+        dt=model.dt,
+    )
+    numpy_chains = max(1, min(chains, NUMPY_MAX_GRAINS // grains))
+    peer = NumpyGear4(_first_chains(problem, numpy_chains))
+    peer.run(check_steps)
+    impl = Implementation(
+        name="numpy",
+        kernel="numpy, 1 core",
+        chains=numpy_chains,
+        advance=peer.run,
+        state=peer.state,
+        tolerance=PEER_TOLERANCE,
+        cpu=True,
+    )
+    size.bench(impl, host_wall, numpy_chains)
+    del peer, impl
+    if jax_available():
+        os.environ.setdefault("XLA_PYTHON_CLIENT_PREALLOCATE", "false")
+        peer = JaxGear4(problem, str(size.dev))
+        peer.run(check_steps)
+        platform = peer.device.platform
+        impl = Implementation(
+            name="jax",
+            kernel=f"lax.scan unroll={peer.unroll} ({platform})",
+            chains=chains,
+            advance=peer.run,
+            state=peer.state,
+            tolerance=PEER_TOLERANCE,
+            chunk=512 if platform == "gpu" else 1,
+            cpu=platform == "cpu",
+        )
+        size.bench(impl, host_wall if platform == "cpu" else wall, chains)
 
 
 def _first_chains(problem: PeerProblem, chains: int) -> PeerProblem:

@@ -17,6 +17,7 @@ State layout and units follow ``kernels/step.py``: x = (u, dt·v, dt²/2·a, dt�
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -155,7 +156,7 @@ class NumpyGear4:
 def jax_available() -> bool:
     """True when JAX can be imported here."""
     try:
-        import jax  # noqa: F401
+        import jax  # noqa: F401  (optional: probed here, not required by the package)
     except Exception:
         return False
     return True
@@ -175,6 +176,7 @@ class JaxGear4:
     """Candidate ``lax.scan`` unroll factors; the fastest on a short timed run is kept."""
 
     def __init__(self, problem: PeerProblem, device: str | None = None):
+        # optional and heavy: imported only when a JAX peer is benched
         import jax
         import jax.numpy as jnp
 
@@ -229,8 +231,6 @@ class JaxGear4:
         return self._runs[key]
 
     def _search_unroll(self) -> int:
-        import time
-
         steps = 256
         x = self.x
         best, best_time = 1, float("inf")

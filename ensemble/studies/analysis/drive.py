@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass
 
@@ -219,8 +220,6 @@ def strobe_label(samples, *, periodic_tol: float = 1e-3, max_period: int = 8, pe
 def point_scene_value(point, key: str) -> float:
     """A scene key's value at one point of a store: the sweep axis with that ``scene_key``, else the
     store's base scene."""
-    import json
-
     for name, coord in point.coords.items():
         if coord.attrs.get("scene_key") == key and coord.size == 1:
             return float(coord.values)

@@ -22,20 +22,19 @@ from __future__ import annotations
 import json
 import math
 import platform
+import sys
 import time
 from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
+from hertzian.core.runner import run_ensemble
 from hertzian.core.scene import SceneError, apply_overrides, read_toml, scene_from_dict
-from hertzian.studies.detect import (
-    _cached_fronts,
-    bisect_increasing,
-    detect,
-    forward_scene,
-    impurity_scene,
-    signal_from_arrays,
-)
+from hertzian.studies.detection import detect
+from hertzian.studies.detection.forward import forward_scene, impurity_scene
+from hertzian.studies.detection.library import cached_fronts
+from hertzian.studies.detection.scoring import bisect_increasing
+from hertzian.studies.detection.signal import signal_from_arrays
 
 HOST_KEYS = {
     "name",
@@ -91,8 +90,6 @@ def _truth_velocities(forward, cases, block: int, device: str) -> np.ndarray:
     """Grain 0's velocity of each (depth, μ) case (depth None: clean) at half the forward step, with event-aware
     steps wherever a contact can open (``integrator.events = "auto"``) whatever BASE says: the planted signals
     stay the more accurate, independent model when the detector's candidates take plain steps."""
-    from hertzian.core.runner import run_ensemble
-
     fine = forward.with_overrides({"integrator.dt": forward.integrator.dt / 2, "integrator.events": "auto"})
     scenes = [fine if depth is None else impurity_scene(fine, depth, mu, block) for depth, mu in cases]
     result = run_ensemble(scenes, device)
@@ -125,7 +122,7 @@ def run_study(path: str | Path, device: str, *, progress=None) -> dict:
         n = base.chain.grains
         # sample until a little after the bottom reflection returns (the detector stops there)
         probe = forward_scene(base, spacing, int(round(options.get("probe_duration", 60.0) / spacing)) + 1)
-        fronts = _cached_fronts(probe, device, True)
+        fronts = cached_fronts(probe, device, True)
         window = 2 * float(fronts[-1])
         samples = int(math.ceil(max(1.1, past_bottom) * window / spacing)) + 1
         forward = forward_scene(base, spacing, samples)
@@ -353,6 +350,4 @@ def markdown_tables(result: dict) -> str:
 
 
 if __name__ == "__main__":
-    import sys
-
     print(markdown_tables(json.loads(Path(sys.argv[1]).read_text())))
