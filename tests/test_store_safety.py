@@ -191,7 +191,9 @@ def failing_writes(monkeypatch, code, after):
 
 
 @pytest.mark.parametrize("code", [errno.ENOSPC, errno.EACCES, errno.EROFS])
-def test_a_storage_fault_mid_sweep_is_one_line_and_resume_is_bitwise(tmp_path, sweep_file, reference, monkeypatch, code):
+def test_a_storage_fault_mid_sweep_is_one_line_and_resume_is_bitwise(
+    tmp_path, sweep_file, reference, monkeypatch, code
+):
     out = tmp_path / "out.zarr"
     failing_writes(monkeypatch, code, after=3)
     result = sweep_cli(sweep_file, "--out", out, *FLAGS)
@@ -210,7 +212,9 @@ def test_a_storage_fault_mid_sweep_is_one_line_and_resume_is_bitwise(tmp_path, s
 def test_a_vanished_store_is_one_line(tmp_path, sweep_file):
     definition = load_sweep(sweep_file)
     plan = planner.plan_sweep(definition, None, "cpu")
-    out = sweep_store.create_sweep_store(tmp_path / "s.zarr", definition, sweep_scenes(definition)[0], plan, device="cpu")
+    out = sweep_store.create_sweep_store(
+        tmp_path / "s.zarr", definition, sweep_scenes(definition)[0], plan, device="cpu"
+    )
     shutil.rmtree(out)
     with pytest.raises(StorageError, match="finishing the store failed at .*No such file.*removed while the sweep"):
         sweep_store.finalize(out)
