@@ -18,42 +18,10 @@ from hertzian.sweeping.spec import load_sweep, sweep_from_dict, sweep_scenes
 from hertzian.sweeping.storage import StorageError, store_lock
 from hertzian.sweeping.store_format import DAMAGE_ERRORS
 from hertzian.sweeping.sweep_store import completed_batches, differing_arrays, write_result
+from test_sweep_resume import BATCHES, FLAGS, SWEEP, sweep_cli
 from typer.testing import CliRunner
 
-SWEEP = """
-[scene.chain]
-grains = 12
-
-[scene.excitation]
-impact = 1e-2
-
-[scene.integrator]
-dt = 1e-4
-duration = 0.5
-
-[scene.record]
-every = 0.1
-traces = [0, 11]
-trace_every = 0.01
-
-[[axis]]
-name = "v_imp"
-key = "excitation.impact"
-logspace = [-3, -1, 3]
-
-[[axis]]
-name = "l0"
-key = "chain.l0"
-values = [0.0, 1e-5, 1e-4]
-"""
-FLAGS = ("--batch-size", "1", "--device", "cpu", "--quiet")
-BATCHES = 9
-
 cli = CliRunner()
-
-
-def sweep_cli(*args):
-    return cli.invoke(app, ["sweep", *map(str, args)])
 
 
 def one_error_line(result, *expected):
@@ -74,9 +42,9 @@ def sweep_file(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def reference(sweep_file):
+    """The sweep in batches of one point, undisturbed."""
     out = sweep_file.parent / "reference.zarr"
-    result = sweep_cli(sweep_file, "--out", out, *FLAGS)
-    assert result.exit_code == 0, result.stderr
+    assert sweep_cli(sweep_file, "--out", out, *FLAGS).exit_code == 0
     return out
 
 
