@@ -14,7 +14,8 @@ from conftest import make_scene
 from hertzian.core.runner import run_scene
 from hertzian.core.scene import SceneError
 from hertzian.studies.accuracy import common_record_interval, relative_error, richardson_estimate, work_precision
-from hertzian.sweeping.store import summary_records, write_result
+from hertzian.sweeping.store import summary_records
+from hertzian.sweeping.sweep_store import write_result
 
 
 def test_record_interval_is_a_common_multiple():

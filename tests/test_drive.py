@@ -354,7 +354,7 @@ def test_map_numbers_on_closed_forms():
 
 def test_response_store_is_readable_by_xarray(tmp_path):
     import xarray as xr
-    from hertzian.sweeping.store import write_result
+    from hertzian.sweeping.sweep_store import write_result
 
     scene = driven(
         grains=8,

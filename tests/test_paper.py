@@ -284,7 +284,7 @@ def test_plot_cli_draws_a_figure_and_refuses_bad_input(tmp_path):
     """`hertzian plot` writes a PNG from a store shaped like paper_fig1.toml's, and answers bad input
     with one line and exit code 2."""
     from hertzian.cli import app
-    from hertzian.sweeping.store import write_result
+    from hertzian.sweeping.sweep_store import write_result
     from typer.testing import CliRunner
 
     speeds = [1e-3, 1e-2, 1e-1]

@@ -22,7 +22,7 @@ from hertzian.core.runner import Runner, run_ensemble, run_scene
 from hertzian.core.static import static_state
 from hertzian.core.status import Status
 from hertzian.studies.accuracy import work_precision
-from hertzian.sweeping.store import write_result
+from hertzian.sweeping.sweep_store import write_result
 
 PAPER_DT = 1.25e-5
 

@@ -11,8 +11,8 @@ from hertzian.core.chains import ChainSet
 from hertzian.core.model import build_model
 from hertzian.core.runner import Runner, run_ensemble, run_scene
 from hertzian.core.scene import scene_from_dict
-from hertzian.sweeping.store import summary_records, write_result
-from hertzian.sweeping.sweep_store import batch_records, completed_batches
+from hertzian.sweeping.store import summary_records
+from hertzian.sweeping.sweep_store import batch_records, completed_batches, write_result
 
 SCENE = {
     "chain": {"grains": 8, "l0": 1e-4},

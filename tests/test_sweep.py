@@ -14,8 +14,14 @@ from hertzian.core.runner import Runner, run_scene
 from hertzian.core.scene import SceneError
 from hertzian.sweeping.planner import batches_for, block_for, plan_sweep
 from hertzian.sweeping.spec import load_sweep, sweep_from_dict, sweep_scenes
-from hertzian.sweeping.store import summary_records, write_result
-from hertzian.sweeping.sweep_store import batch_records, chunk_layout, create_sweep_store, differing_arrays
+from hertzian.sweeping.store import summary_records
+from hertzian.sweeping.sweep_store import (
+    batch_records,
+    chunk_layout,
+    create_sweep_store,
+    differing_arrays,
+    write_result,
+)
 from typer.testing import CliRunner
 
 SWEEP = """

@@ -14,8 +14,7 @@ import zarr
 from hertzian.cli import app
 from hertzian.core.runner import run_scene
 from hertzian.sweeping.spec import load_sweep, sweep_scenes
-from hertzian.sweeping.store import write_result
-from hertzian.sweeping.sweep_store import batch_records, completed_batches, differing_arrays
+from hertzian.sweeping.sweep_store import batch_records, completed_batches, differing_arrays, write_result
 from typer.testing import CliRunner
 
 SWEEP = """

@@ -71,7 +71,7 @@ def run(
     from hertzian.core.model import build_model
     from hertzian.core.runner import Runner
     from hertzian.core.solvers.calibrate import event_cost_note
-    from hertzian.sweeping.store import write_result
+    from hertzian.sweeping.sweep_store import write_result
 
     try:
         runner = Runner(build_model([loaded], dev), kernel=kernel)

@@ -25,17 +25,25 @@ def summarize(
 ):
     """Per point: status, energy error [relative], max overlap [length], wall seconds, grain-steps per second.
 
-    Reads only the per-point variables (never u, v or traces), vectorised over the points.
+    Reads only the per-point variables (never u, v or traces), vectorised over the points; a damaged chunk among
+    them stops it with one line (exit 1). ``hertzian verify`` checks every chunk.
     """
     import numpy as np
-    from hertzian.sweeping.store import summary_columns
+    from hertzian.sweeping.store import StoreDamagedError, summary_columns, unchecked_note
+    from hertzian.sweeping.store_format import DAMAGED_EXIT_CODE
 
     if rows < 1:
         fail(f"--rows = {rows}: must be ≥ 1")
     try:
+        note = unchecked_note(store)
         columns = summary_columns(store)
+    except StoreDamagedError as err:
+        typer.echo(f"error: {err}", err=True)
+        raise typer.Exit(DAMAGED_EXIT_CODE) from None
     except (FileNotFoundError, ValueError, KeyError) as err:
         fail(f"store = {str(store)!r}: {err}")
+    if note:
+        typer.echo(note, err=True)
     count = len(columns["status"])
     if as_json:
         names = list(columns)

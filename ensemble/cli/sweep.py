@@ -257,22 +257,34 @@ def sweep(
             f"{plan.batch_size} points",
             err=True,
         )
-    _run(
-        definition,
-        points,
-        plan,
-        out,
-        dev,
-        resuming=resuming,
-        overwrite=overwrite,
-        workers=workers,
-        scheduler=scheduler,
-        requested_device=device,
-        quiet=quiet,
-        timing=timing,
-        as_json=as_json,
-        kernel=kernel,
-    )
+    from hertzian.sweeping.storage import NoRoomError, StorageError, StoreLockedError
+    from hertzian.sweeping.sweep_store import writing_session
+
+    try:  # lock, free space, repair on resume; a storage fault is one line, exit 1
+        with writing_session(out, definition, points.templates[0], plan, resuming=resuming) as notes:
+            for line in notes:
+                typer.echo(line, err=True)
+            _run(
+                definition,
+                points,
+                plan,
+                out,
+                dev,
+                resuming=resuming,
+                overwrite=overwrite,
+                workers=workers,
+                scheduler=scheduler,
+                requested_device=device,
+                quiet=quiet,
+                timing=timing,
+                as_json=as_json,
+                kernel=kernel,
+            )
+    except (StoreLockedError, NoRoomError) as err:
+        fail(f"--out = {str(out)!r}: {err}")
+    except StorageError as err:
+        typer.echo(f"error: {err}", err=True)
+        raise typer.Exit(1) from None
 
 
 def _per_step_notes(plan, dev: str) -> None:

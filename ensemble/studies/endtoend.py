@@ -90,7 +90,7 @@ def bench_scene(
     from hertzian.core.model import build_model
     from hertzian.core.runner import Runner
     from hertzian.core.scene import load_scene
-    from hertzian.sweeping.store import write_result
+    from hertzian.sweeping.sweep_store import write_result
 
     startup = start_device(device)
     start = time.perf_counter()

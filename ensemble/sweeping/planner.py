@@ -11,8 +11,9 @@
   sweep dimensions by this block, so a batch writes whole chunks only. Dimensions along which
   the launch group changes get block extent 1, so a block never mixes groups.
 * Batch size: the most points whose device memory fits ``free memory × 0.8`` on CUDA (a
-  fixed 2 GiB on the CPU), whose host copy of the results fits 4 GiB, and that stay under
-  ``MAX_GRAIN_THREADS`` grain-threads per launch; or ``--batch-size N``.
+  fixed 2 GiB on the CPU), whose host copy of the results fits 4 GiB, that stay under
+  ``MAX_GRAIN_THREADS`` grain-threads per launch, and whose work bounds what a kill loses
+  (:func:`work_cap`: about a minute at a conservative rate, or 5 % of the sweep); or ``--batch-size N``.
 """
 
 from __future__ import annotations
@@ -36,6 +37,17 @@ DEVICE_MEMORY_FRACTION = 0.8
 MAX_GRAIN_THREADS = 1 << 22
 """Grain-threads per launch beyond which a GPU gains nothing (an H100 holds ~2.7e5 resident
 threads); capping keeps batches small enough to resume and to spread over workers."""
+LOST_WORK_SECONDS = 60.0
+"""A batch holds at most this many seconds of work at ``SAFE_RATE`` (unless 5 % of the sweep is more): what a
+kill loses, since a batch is written whole or not at all."""
+LOST_WORK_FRACTION = 0.05
+"""…or at most this share of the sweep's grain-steps, whichever is more (a short sweep stays one batch)."""
+SAFE_RATE = {"cpu": 1.0e7, "cuda": 1.0e10}
+"""Conservative grain-steps per second of one batch [grain-steps/s]: the CPU's per-step kernel ran a 16-chain,
+200-grain sweep at 1.5e7 on 2 shared cores; an H100 runs full batches at 1.9e10 (events auto) to 3.8e11."""
+GPU_FILL_GRAIN_THREADS = 1 << 18
+"""A GPU batch keeps at least this many grain-threads (an H100 holds ~2.7e5 resident): a smaller one does not
+finish sooner, so cutting below it would lose speed and save no work."""
 
 
 @dataclass(frozen=True)
@@ -263,7 +275,8 @@ def plan_sweep(
                 grains,
                 f"one chain needs {per_device} bytes, more than the {budget} bytes available on {device}",
             )
-        target = min(fit, batch_size) if batch_size else fit
+        cap = work_cap(groups, "cpu" if cpu else "cuda", grains)
+        target = min(fit, batch_size) if batch_size else min(fit, cap)
         block = block_for(shape, splitting, target)
     else:
         block = tuple(block)
@@ -283,6 +296,17 @@ def plan_sweep(
         device=str(device),
         memory_budget=budget,
     )
+
+
+def work_cap(groups: "list[LaunchGroup] | tuple[LaunchGroup, ...]", kind: str, grains: int) -> int:
+    """Most points of a batch whose work stays under ``LOST_WORK_SECONDS`` at ``SAFE_RATE[kind]`` or under
+    ``LOST_WORK_FRACTION`` of the sweep, whichever is more (at least 1; on a GPU at least
+    ``GPU_FILL_GRAIN_THREADS`` grain-threads)."""
+    total = sum(g.grain_steps_per_chain * g.point_count for g in groups)
+    budget = max(LOST_WORK_SECONDS * SAFE_RATE[kind], LOST_WORK_FRACTION * total)
+    points = int(budget // max(1, max(g.grain_steps_per_chain for g in groups)))
+    floor = GPU_FILL_GRAIN_THREADS // max(1, grains) if kind == "cuda" else 1
+    return max(1, floor, points)
 
 
 def _group_features(points: SweepPoints, templates: list[int]) -> Features:

@@ -1,142 +1,38 @@
-"""Zarr v3 stores (SPEC §6), readable by ``xarray.open_zarr``.
+"""Reading Zarr v3 stores (SPEC §6), as ``xarray.open_zarr`` does: open one, and summarize its points.
 
-One writer (``hertzian.sweeping.sweep_store``): a run is a sweep with no axes. Variables carry the sweep
-axes first (none for a run), then ``record``/``grain`` or ``sample``/``traced``. Each variable
-has ``dimension_names`` and the group has consolidated metadata. :func:`write_result` writes
-into a temporary directory and renames it into place, so a failed write leaves nothing behind
-and never clobbers an existing store. :func:`summary_columns` reads the per-point variables.
+The writer is ``hertzian.sweeping.sweep_store`` (``write_result`` writes a run: a sweep with no axes).
+Variables carry the sweep axes first (none for a run), then ``record``/``grain`` or ``sample``/``traced``; each
+has ``dimension_names`` and the group has consolidated metadata. Every chunk ends with a CRC-32C of its bytes
+(``hertzian.sweeping.store_format``), which zarr checks on every read: a damaged chunk raises
+:class:`StoreDamagedError` here, never a wrong value.
 """
 
 from __future__ import annotations
 
-import json
-import shutil
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import zarr
-from hertzian.core.chains import ChainSet
-from hertzian.core.runner import RunResult
+from hertzian.sweeping.store_format import (
+    DAMAGE_ERRORS,
+    SCHEMA_VERSION,
+    StoreDamagedError,
+    consolidate,
+    has_checksums,
+    package_version,
+)
 
-SCHEMA_VERSION = 1
-
-
-def consolidate(path: str | Path) -> None:
-    """Consolidated metadata (zarr warns that v3 has no spec for it yet; xarray uses it)."""
-    import warnings
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", category=UserWarning)
-        zarr.consolidate_metadata(str(path))
-
-
-def package_version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("hertzian")
-    except PackageNotFoundError:
-        return "0+unknown"
-
-
-def _flat_scene(scene) -> dict[str, Any]:
-    """A scene as dotted keys (``chain.l0``, ``impurities.0.mass``; lists as JSON-ready lists)."""
-    data = scene.to_dict()
-    out = {}
-    for section, values in data.items():
-        if section == "impurities":
-            out["impurities"] = len(values)
-            for k, block in enumerate(values):
-                out.update({f"impurities.{k}.{key}": value for key, value in block.items()})
-            continue
-        out.update({f"{section}.{key}": value for key, value in values.items()})
-    return out
-
-
-def scene_differences(scenes) -> dict[str, list]:
-    """Dotted scene keys whose values differ between ``scenes`` → every scene's value, in order."""
-    flats = [_flat_scene(s) for s in scenes]
-    keys = sorted(set().union(*flats))
-    return {k: [f.get(k) for f in flats] for k in keys if any(f.get(k) != flats[0].get(k) for f in flats)}
-
-
-def _axis_key(name: str, values: np.ndarray, dim: int, shape: tuple[int, ...], differences: dict) -> str:
-    """The scene key that varies exactly like axis ``name`` (its values along dimension ``dim``), or ''."""
-    for key, per_point in differences.items():
-        grid = np.array(per_point, dtype=object).reshape(shape)
-        along = np.moveaxis(grid, dim, 0).reshape(shape[dim], -1)
-        if all(len(set(map(repr, row))) == 1 for row in along) and [row[0] for row in along] == list(values):
-            return key
-    return ""
-
-
-def write_result(
-    path: str | Path,
-    result: RunResult,
-    *,
-    axes: dict[str, np.ndarray] | None = None,
-    sweep: dict | None = None,
-    overwrite: bool = False,
-) -> Path:
-    """Write a run (or an ensemble shaped by ``axes``: name → coordinate values, C order) as a Zarr v3
-    store, through the sweep store's writer: a run is a sweep with no axes, one batch.
-
-    Scenes that differ between points are kept: the ``scene`` attribute holds the first point's,
-    ``scene_overrides`` (JSON) every differing dotted key's value at every point, and an axis whose
-    values are exactly one differing key's gets that key as its ``scene_key``. ``sweep`` (plain
-    data) is stored as the ``sweep`` attribute when given.
-    """
-    from hertzian.sweeping.planner import single_batch_plan
-    from hertzian.sweeping.spec import RESERVED_NAMES, Axis, Dimension, Sweep
-    from hertzian.sweeping.sweep_store import create_sweep_store, finalize, write_batch
-
-    path = Path(path)
-    axes = {name: np.asarray(values) for name, values in (axes or {}).items()}
-    shape = tuple(len(v) for v in axes.values())
-    if int(np.prod(shape)) != result.chain_count:
-        raise ValueError(f"axes {shape} do not match {result.chain_count} chains")
-    clash = sorted(set(axes) & RESERVED_NAMES)
-    if clash:
-        raise ValueError(f"axis names {clash} are store variable names; choose others")
-    if path.exists() and not overwrite:
-        raise FileExistsError(f"{path} exists (pass --overwrite to replace it)")
-    scenes = result.scenes
-    scene = scenes[0]
-    if isinstance(scenes, ChainSet):  # differences straight from the per-chain arrays
-        differences = {k: v.tolist() for k, v in scenes.values.items() if np.any(v != v[0])}
-    else:
-        differences = scene_differences(list(scenes)) if len(scenes) > 1 else {}
-    dimensions = tuple(
-        Dimension(
-            axes=(
-                Axis(
-                    name=name,
-                    key=_axis_key(name, values.tolist(), d, shape, differences),
-                    values=tuple(values.tolist()),
-                ),
-            )
-        )
-        for d, (name, values) in enumerate(axes.items())
-    )
-    definition = Sweep(base=scene, dimensions=dimensions)
-    plan = single_batch_plan(shape, scene, result.features, result.device)
-    attributes = {"scene_overrides": json.dumps(differences)}
-    if sweep is not None:
-        attributes["sweep"] = json.dumps(sweep)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent if path.parent.exists() else None))
-    try:
-        target = tmp / "store.zarr"
-        create_sweep_store(target, definition, scene, plan, device=result.device, attributes=attributes)
-        write_batch(target, plan.batches[0], result, grain_steps=result.grain_count * result.steps * result.chain_count)
-        finalize(target)
-        if path.exists():
-            shutil.rmtree(path)
-        target.rename(path)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-    return path
+__all__ = [
+    "SCHEMA_VERSION",
+    "StoreDamagedError",
+    "consolidate",
+    "open_store",
+    "package_version",
+    "summary_columns",
+    "summary_records",
+    "unchecked_note",
+]
 
 
 def open_store(path: str | Path):
@@ -153,10 +49,32 @@ def open_store(path: str | Path):
 SUMMARY_SCHEME = ("method", "precision", "dt", "steps", "grains")
 
 
+def unchecked_note(path: str | Path) -> str | None:
+    """A note when the store's chunks carry no checksums (a store written before them), else None."""
+    group = open_store(path)
+    if "status" in group and not has_checksums(group["status"]):
+        return f"note: {path} has no chunk checksums (written by an older version): damaged chunks may read silently"
+    return None
+
+
 def summary_columns(path: str | Path) -> dict[str, np.ndarray]:
     """Per point, as columns over the points in C order (vectorised; reads only the per-point
     variables, never u/v/traces): every axis value, status, status name, energy error, max overlap,
-    wall seconds, grain-steps per second, device and the scheme (method, precision, dt, steps, grains)."""
+    wall seconds, grain-steps per second, device and the scheme (method, precision, dt, steps, grains).
+
+    Raises :class:`StoreDamagedError` (one line) if a chunk it reads is damaged."""
+    try:
+        return _summary_columns(path)
+    except DAMAGE_ERRORS as err:
+        if isinstance(err, (StoreDamagedError, KeyError)) or "not a hertzian store" in str(err):
+            raise
+        raise StoreDamagedError(
+            f"{path}: a chunk of its per-point variables is damaged ({type(err).__name__}: "
+            f"{str(err).split('. Stored')[0][:80]}); run hertzian verify {path}"
+        ) from None
+
+
+def _summary_columns(path: str | Path) -> dict[str, np.ndarray]:
     group = open_store(path)
     attrs = group.attrs.asdict() if hasattr(group.attrs, "asdict") else dict(group.attrs)
     prov = dict(attrs["provenance"])

@@ -30,6 +30,7 @@ Crash safety:
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import platform
@@ -44,18 +45,25 @@ from typing import Any
 import numpy as np
 import zarr
 import zarr.errors
+from hertzian.core.chains import ChainSet
 from hertzian.core.model import SHARED_KEYS
 from hertzian.core.runner import RunResult
 from hertzian.core.scene import Scene
 from hertzian.core.status import status_attrs
-from hertzian.sweeping.planner import Batch, Plan
-from hertzian.sweeping.spec import Sweep, record_times, trace_times
-from hertzian.sweeping.store import SCHEMA_VERSION, consolidate, package_version
+from hertzian.sweeping.integrity import BATCHES, Verification, finished_batches, verify_store
+from hertzian.sweeping.planner import Batch, Plan, single_batch_plan
+from hertzian.sweeping.spec import RESERVED_NAMES, Axis, Dimension, Sweep, record_times, trace_times
+from hertzian.sweeping.storage import (
+    StorageError,
+    check_free_space,
+    check_store_present,
+    storage_faults,
+    store_lock,
+)
+from hertzian.sweeping.store_format import SCHEMA_VERSION, chunk_codecs, consolidate, package_version
 
 NOT_RUN = -1
 """``status`` of a point whose batch has not finished."""
-BATCHES = "batches"
-"""Group holding the completion records: arrays ``done``, ``record`` and ``where`` over batches."""
 RECORD_COLUMNS = (
     "points",
     "wall_seconds",
@@ -135,167 +143,165 @@ def _store_real(plan: Plan) -> np.dtype:
     return np.dtype(np.float64 if "float64" in precisions else np.float32)
 
 
+def _variable(name: str, dims: tuple[str, ...], trailing: tuple[int, ...], dtype, fill, attrs: dict, **extra) -> dict:
+    return dict(name=name, dims=dims, trailing=trailing, dtype=np.dtype(dtype), fill=fill, attrs=attrs, **extra)
+
+
+def _record_variables(scene: Scene, dims: tuple[str, ...], coords, real: np.dtype, block_points: int) -> list[dict]:
+    """Snapshots (``u``, ``v``) and the per-record energies (``energy``, ``work``, ``dissipated``)."""
+    records, n = scene.record_count, scene.chain.grains
+    out = [
+        _variable(
+            name,
+            dims + ("record", "grain"),
+            (records, n),
+            real,
+            np.nan,
+            {**FIELD_ATTRS[name], **coords("t")},
+            rows_per_shard=records_per_shard(block_points, n * real.itemsize),
+        )
+        for name in scene.record.fields
+    ]
+    per_record = []
+    if scene.record.energy:
+        per_record.append(("energy", "total energy relative to the static state (SPEC §5 E minus a constant)"))
+        if scene.boundary.surface == "driven":
+            per_record.append(("work", "work done by the driver on the chain"))
+        if scene.damping.model != "none":
+            per_record.append(("dissipated", "energy dissipated by damping up to the record"))
+    for name, long_name in per_record:
+        out.append(
+            _variable(name, dims + ("record",), (records,), np.float64, np.nan, {**coords("t"), "long_name": long_name})
+        )
+    return out
+
+
+def _response_variables(scene: Scene, dims: tuple[str, ...], coords) -> list[dict]:
+    """The drive's response windows (``response``, ``window_ke``, ``driver_open``, ``window_start``)."""
+    if not scene.has_response:
+        return []
+    windows, harmonics, n = scene.record.response_windows, scene.record.harmonics + 1, scene.chain.grains
+    return [
+        _variable(
+            "response",
+            dims + ("window", "harmonic", "grain"),
+            (windows, harmonics, n),
+            np.complex128,
+            complex(np.nan, np.nan),
+            {
+                **coords("window_start"),
+                "long_name": "V_k = (c_k/T_w) ∫ v e^{-ikωt} dt over the "
+                "window (c_0 = 1, c_k = 2), t absolute [length/time]",
+            },
+        ),
+        _variable(
+            "window_ke",
+            dims + ("window", "grain"),
+            (windows, n),
+            np.float64,
+            np.nan,
+            {**coords("window_start"), "long_name": "window-averaged kinetic energy ½ m v²"},
+        ),
+        _variable(
+            "driver_open",
+            dims + ("window",),
+            (windows,),
+            np.float64,
+            np.nan,
+            {
+                **coords("window_start"),
+                "long_name": "fraction of the window during which the driver–grain-1 contact is open",
+            },
+        ),
+        _variable(
+            "window_start",
+            dims + ("window",),
+            (windows,),
+            np.float64,
+            np.nan,
+            {"long_name": "start time of the window (depends on the point's period)"},
+        ),
+    ]
+
+
+def _trace_variables(scene: Scene, dims: tuple[str, ...], coords, real: np.dtype, block_points: int) -> list[dict]:
+    """The traced grains' samples (``trace_u``, ``trace_v``)."""
+    tt = trace_times(scene)
+    if tt is None:
+        return []
+    per_record = trace_rows_per_record(scene)
+    traced = len(scene.record.traces)
+    rows = (
+        None
+        if per_record is None
+        else per_record * records_per_shard(block_points, per_record * traced * real.itemsize)
+    )
+    return [
+        _variable(
+            f"trace_{name}",
+            dims + ("sample", "traced"),
+            (len(tt), traced),
+            real,
+            np.nan,
+            coords("trace_t", "traced_grain"),
+            rows_per_shard=rows,
+        )
+        for name in ("u", "v")
+    ]
+
+
+def _point_variables(dims: tuple[str, ...], coords) -> list[dict]:
+    """One value per point: ``status``, ``energy_error``, ``max_overlap``, ``wall_seconds``,
+    ``grain_steps_per_second``."""
+    codes = status_codes()
+    long_names = {
+        "energy_error": "max_t |E(t) - E(0) [- W(t)]| / E_inj (absolute when nothing is injected)",
+        "max_overlap": None,
+        "wall_seconds": "wall seconds of the ensemble, shared evenly among its chains",
+        "grain_steps_per_second": "throughput of the point's batch (all its chains)",
+    }
+    out = [
+        _variable(
+            "status",
+            dims,
+            (),
+            np.int32,
+            NOT_RUN,
+            {**coords(), "flag_values": [int(k) for k in codes], "flag_meanings": codes},
+        )
+    ]
+    for name, long_name in long_names.items():
+        attrs = {**coords(), "long_name": long_name} if long_name else coords()
+        out.append(_variable(name, dims, (), np.float64, np.nan, attrs))
+    return out
+
+
 def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
-    """Every data variable of the store: name, dims, trailing shape, dtype, fill value, attributes."""
+    """Every data variable of the store: name, dims, trailing shape, dtype, fill value, attributes (and
+    ``rows_per_shard`` where records are sharded on their own)."""
     dims = sweep.dims
     companions = [a.name for d in sweep.dimensions for a in d.axes[1:]]
     real = _store_real(plan)
-    records = scene.record_count
-    n = scene.chain.grains
     block_points = math.prod(plan.block) if plan.block else 1
 
     def coords(*names: str) -> dict:
         joined = " ".join(list(names) + companions)
         return {"coordinates": joined} if joined else {}
 
-    out = []
-    for name in scene.record.fields:
-        out.append(
-            dict(
-                name=name,
-                dims=dims + ("record", "grain"),
-                trailing=(records, n),
-                dtype=real,
-                fill=np.nan,
-                attrs={**FIELD_ATTRS[name], **coords("t")},
-                rows_per_shard=records_per_shard(block_points, n * real.itemsize),
-            )
-        )
-    if scene.record.energy:
-        out.append(
-            dict(
-                name="energy",
-                dims=dims + ("record",),
-                trailing=(records,),
-                dtype=np.dtype(np.float64),
-                fill=np.nan,
-                attrs={
-                    **coords("t"),
-                    "long_name": "total energy relative to the static state (SPEC §5 E minus a constant)",
-                },
-            )
-        )
-        if scene.boundary.surface == "driven":
-            out.append(
-                dict(
-                    name="work",
-                    dims=dims + ("record",),
-                    trailing=(records,),
-                    dtype=np.dtype(np.float64),
-                    fill=np.nan,
-                    attrs={**coords("t"), "long_name": "work done by the driver on the chain"},
-                )
-            )
-    if scene.damping.model != "none" and scene.record.energy:
-        out.append(
-            dict(
-                name="dissipated",
-                dims=dims + ("record",),
-                trailing=(records,),
-                dtype=np.dtype(np.float64),
-                fill=np.nan,
-                attrs={**coords("t"), "long_name": "energy dissipated by damping up to the record"},
-            )
-        )
-    if scene.has_response:
-        windows, harmonics = scene.record.response_windows, scene.record.harmonics + 1
-        out += [
-            dict(
-                name="response",
-                dims=dims + ("window", "harmonic", "grain"),
-                trailing=(windows, harmonics, n),
-                dtype=np.dtype(np.complex128),
-                fill=complex(np.nan, np.nan),
-                attrs={
-                    **coords("window_start"),
-                    "long_name": "V_k = (c_k/T_w) ∫ v e^{-ikωt} dt over the "
-                    "window (c_0 = 1, c_k = 2), t absolute [length/time]",
-                },
-            ),
-            dict(
-                name="window_ke",
-                dims=dims + ("window", "grain"),
-                trailing=(windows, n),
-                dtype=np.dtype(np.float64),
-                fill=np.nan,
-                attrs={**coords("window_start"), "long_name": "window-averaged kinetic energy ½ m v²"},
-            ),
-            dict(
-                name="driver_open",
-                dims=dims + ("window",),
-                trailing=(windows,),
-                dtype=np.dtype(np.float64),
-                fill=np.nan,
-                attrs={
-                    **coords("window_start"),
-                    "long_name": "fraction of the window during which the driver–grain-1 contact is open",
-                },
-            ),
-            dict(
-                name="window_start",
-                dims=dims + ("window",),
-                trailing=(windows,),
-                dtype=np.dtype(np.float64),
-                fill=np.nan,
-                attrs={"long_name": "start time of the window (depends on the point's period)"},
-            ),
-        ]
-    tt = trace_times(scene)
-    if tt is not None:
-        per_record = trace_rows_per_record(scene)
-        trace_rows = (
-            None
-            if per_record is None
-            else per_record * records_per_shard(block_points, per_record * len(scene.record.traces) * real.itemsize)
-        )
-        for name in ("u", "v"):
-            out.append(
-                dict(
-                    name=f"trace_{name}",
-                    dims=dims + ("sample", "traced"),
-                    trailing=(len(tt), len(scene.record.traces)),
-                    dtype=real,
-                    fill=np.nan,
-                    attrs=coords("trace_t", "traced_grain"),
-                    rows_per_shard=trace_rows,
-                )
-            )
-    out += [
-        dict(
-            name="status",
-            dims=dims,
-            trailing=(),
-            dtype=np.dtype(np.int32),
-            fill=NOT_RUN,
-            attrs={**coords(), "flag_values": [int(k) for k in status_codes()], "flag_meanings": status_codes()},
-        ),
-        dict(
-            name="energy_error",
-            dims=dims,
-            trailing=(),
-            dtype=np.dtype(np.float64),
-            fill=np.nan,
-            attrs={**coords(), "long_name": "max_t |E(t) - E(0) [- W(t)]| / E_inj (absolute when nothing is injected)"},
-        ),
-        dict(name="max_overlap", dims=dims, trailing=(), dtype=np.dtype(np.float64), fill=np.nan, attrs=coords()),
-        dict(
-            name="wall_seconds",
-            dims=dims,
-            trailing=(),
-            dtype=np.dtype(np.float64),
-            fill=np.nan,
-            attrs={**coords(), "long_name": "wall seconds of the ensemble, shared evenly among its chains"},
-        ),
-        dict(
-            name="grain_steps_per_second",
-            dims=dims,
-            trailing=(),
-            dtype=np.dtype(np.float64),
-            fill=np.nan,
-            attrs={**coords(), "long_name": "throughput of the point's batch (all its chains)"},
-        ),
-    ]
-    return out
+    return (
+        _record_variables(scene, dims, coords, real, block_points)
+        + _response_variables(scene, dims, coords)
+        + _trace_variables(scene, dims, coords, real, block_points)
+        + _point_variables(dims, coords)
+    )
+
+
+def store_estimate(sweep: Sweep, scene: Scene, plan: Plan) -> int:
+    """Bytes the finished store takes at most [bytes]: every variable uncompressed (simulated floats barely
+    compress), plus 1 MiB of metadata and coordinates."""
+    points = max(1, plan.point_count)
+    data = sum(math.prod(v["trailing"]) * v["dtype"].itemsize for v in variables(sweep, scene, plan))
+    return points * data + (1 << 20)
 
 
 def _trailing_chunks(trailing: tuple[int, ...], itemsize: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
@@ -351,12 +357,6 @@ def chunk_layout(block: tuple[int, ...], trailing: tuple[int, ...], itemsize: in
     return (chunks, None) if chunks == shards else (chunks, shards)
 
 
-RESULT_ZSTD_LEVEL = 1
-"""zstd level of the per-point result arrays: simulated floats barely compress (122 of 220 MB at zstd's default
-level 3, 121 MB at level 1), and level 1 encodes them 1.8x faster (docs/logs/store/store_codec_bench_cpu.txt); the
-last batch's write is the sweep's tail, which nothing overlaps."""
-
-
 def _create(group, name: str, shape, dtype, dims, block, trailing, fill, attrs, rows_per_shard=None):
     chunks, shards = chunk_layout(tuple(block), tuple(trailing), np.dtype(dtype).itemsize, rows_per_shard)
     return group.create_array(
@@ -368,20 +368,23 @@ def _create(group, name: str, shape, dtype, dims, block, trailing, fill, attrs, 
         dimension_names=list(dims),
         fill_value=fill,
         attributes=attrs,
-        compressors=zarr.codecs.ZstdCodec(level=RESULT_ZSTD_LEVEL),
+        compressors=chunk_codecs(),
     )
 
 
-def _small(group, name: str, data: np.ndarray, dims: tuple[str, ...], attrs: dict | None = None):
+def _small(
+    group, name: str, data: np.ndarray, dims: tuple[str, ...], attrs: dict | None = None, chunks=None, fill=None
+):
     data = np.asarray(data)
     arr = group.create_array(
         name,
         shape=data.shape,
         dtype=data.dtype if data.dtype.kind != "U" else str,
-        chunks=data.shape or (),
+        chunks=tuple(chunks) if chunks else data.shape or (),
         dimension_names=list(dims),
-        fill_value="" if data.dtype.kind == "U" else 0,
+        fill_value=fill if fill is not None else "" if data.dtype.kind == "U" else 0,
         attributes=attrs or {},
+        compressors=chunk_codecs(),
     )
     arr[...] = data
     return arr
@@ -434,6 +437,74 @@ def _provenance(plan: Plan, device: str) -> dict[str, Any]:
     }
 
 
+def fixed_arrays(sweep: Sweep, scene: Scene, plan: Plan) -> list[tuple[str, np.ndarray, tuple[str, ...], dict]]:
+    """The arrays a store holds from its creation on, never written by a batch: (name, data, dims, attributes) of
+    every axis coordinate, ``t``, ``grain``, ``harmonic``, ``trace_t``, ``traced_grain`` and ``launch_group``."""
+    out = [
+        (axis.name, axis.coordinate(), (d.name,), {"scene_key": axis.key, "long_name": f"scene key {axis.key}"})
+        for d in sweep.dimensions
+        for axis in d.axes
+    ]
+    out.append(("t", record_times(scene), ("record",), {"units": "program time (1.0102e-3 s)"}))
+    grains = np.arange(scene.chain.grains, dtype=np.int32)
+    out.append(("grain", grains, ("grain",), {"long_name": "grain index from the surface"}))
+    if scene.has_response:
+        harmonics = np.arange(scene.record.harmonics + 1, dtype=np.int32)
+        out.append(("harmonic", harmonics, ("harmonic",), {"long_name": "harmonic k of the drive frequency"}))
+    tt = trace_times(scene)
+    if tt is not None:
+        out.append(("trace_t", tt, ("sample",), {}))
+        out.append(("traced_grain", np.asarray(scene.record.traces, dtype=np.int32), ("traced",), {}))
+    group_attrs = {"long_name": "launch group of the point (index into the launch_groups attribute)"}
+    companions = " ".join(a.name for d in sweep.dimensions for a in d.axes[1:])
+    if companions:
+        group_attrs["coordinates"] = companions
+    out.append(("launch_group", plan.point_group.astype(np.int32), sweep.dims, group_attrs))
+    return out
+
+
+def _create_batches_group(root, count: int) -> None:
+    """The ``batches`` group: ``done``, ``record`` and ``where``, one chunk per batch."""
+    batches = root.create_group(BATCHES, attributes={"long_name": "completion records, one row per batch"})
+    columns = {"record": (RECORD_COLUMNS, np.float64, np.nan), "where": (WHERE_COLUMNS, str, "")}
+    batches.create_array(
+        "done",
+        shape=(count,),
+        dtype=np.int8,
+        chunks=(1,),
+        fill_value=0,
+        dimension_names=["batch"],
+        attributes={"long_name": "1 once the batch is written"},
+        compressors=chunk_codecs(),
+    )
+    for name, (names, dtype, fill) in columns.items():
+        batches.create_array(
+            name,
+            shape=(count, len(names)),
+            dtype=dtype,
+            chunks=(1, len(names)),
+            fill_value=fill,
+            dimension_names=["batch", "column"],
+            attributes={"columns": list(names)},
+            compressors=chunk_codecs(),
+        )
+
+
+def _store_attributes(sweep: Sweep, plan: Plan, device: str) -> dict[str, Any]:
+    return {
+        "schema_version": SCHEMA_VERSION,
+        "scene": json.dumps(sweep.base.to_dict()),
+        "scenes_differ_along": list(sweep.dims),
+        "sweep": json.dumps({**sweep.to_dict(), "source": sweep.source}),
+        "sweep_fingerprint": sweep.fingerprint(),
+        "sweep_axes": {a.name: {"dim": d.name, "key": a.key} for d in sweep.dimensions for a in d.axes},
+        "sweep_block": list(plan.block),
+        "launch_groups": launch_groups_attr(plan),
+        "status_codes": status_codes(),
+        "provenance": _provenance(plan, device),
+    }
+
+
 def create_sweep_store(
     path: str | Path,
     sweep: Sweep,
@@ -447,123 +518,41 @@ def create_sweep_store(
     """Create the whole store (metadata, coordinates, attributes) with no batch written; atomic.
 
     ``scene``: any point's scene (they share the layout), e.g. ``SweepPoints.templates[0]``;
-    ``attributes`` are added to the root group's.
+    ``attributes`` are added to the root group's. A failed write raises :class:`StorageError` (one line).
     """
     path = Path(path)
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path} exists")
     if not isinstance(scene, Scene):
         scene = scene[0]
-    dims = sweep.dims
-    shape = sweep.shape
-    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent if path.parent.exists() else None))
+    with storage_faults("creating the store", path):
+        tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent if path.parent.exists() else None))
     try:
-        target = tmp / "store.zarr"
-        root = zarr.open_group(store=str(target), mode="w", zarr_format=3)
-        for dimension in sweep.dimensions:
-            for axis in dimension.axes:
-                _small(
+        with storage_faults("creating the store", path):
+            target = tmp / "store.zarr"
+            root = zarr.open_group(store=str(target), mode="w", zarr_format=3)
+            for name, data, dims, attrs in fixed_arrays(sweep, scene, plan):
+                lg = name == "launch_group"
+                _small(root, name, data, dims, attrs, chunks=plan.block if lg else None, fill=-1 if lg else None)
+            for var in variables(sweep, scene, plan):
+                _create(
                     root,
-                    axis.name,
-                    axis.coordinate(),
-                    (dimension.name,),
-                    {"scene_key": axis.key, "long_name": f"scene key {axis.key}"},
+                    var["name"],
+                    sweep.shape + var["trailing"],
+                    var["dtype"],
+                    var["dims"],
+                    plan.block,
+                    var["trailing"],
+                    var["fill"],
+                    var["attrs"],
+                    var.get("rows_per_shard"),
                 )
-        _small(root, "t", record_times(scene), ("record",), {"units": "program time (1.0102e-3 s)"})
-        _small(
-            root,
-            "grain",
-            np.arange(scene.chain.grains, dtype=np.int32),
-            ("grain",),
-            {"long_name": "grain index from the surface"},
-        )
-        if scene.has_response:
-            _small(
-                root,
-                "harmonic",
-                np.arange(scene.record.harmonics + 1, dtype=np.int32),
-                ("harmonic",),
-                {"long_name": "harmonic k of the drive frequency"},
-            )
-        tt = trace_times(scene)
-        if tt is not None:
-            _small(root, "trace_t", tt, ("sample",))
-            _small(root, "traced_grain", np.asarray(scene.record.traces, dtype=np.int32), ("traced",))
-        for var in variables(sweep, scene, plan):
-            _create(
-                root,
-                var["name"],
-                shape + var["trailing"],
-                var["dtype"],
-                var["dims"],
-                plan.block,
-                var["trailing"],
-                var["fill"],
-                var["attrs"],
-                var.get("rows_per_shard"),
-            )
-        group_attrs = {"long_name": "launch group of the point (index into the launch_groups attribute)"}
-        companions = " ".join(a.name for d in sweep.dimensions for a in d.axes[1:])
-        if companions:
-            group_attrs["coordinates"] = companions
-        lg = root.create_array(
-            "launch_group",
-            shape=shape,
-            dtype=np.int32,
-            chunks=plan.block or (),
-            dimension_names=list(dims),
-            fill_value=-1,
-            attributes=group_attrs,
-        )
-        lg[...] = plan.point_group.astype(np.int32)
-        batches = root.create_group(BATCHES, attributes={"long_name": "completion records, one row per batch"})
-        count = len(plan.batches)
-        batches.create_array(
-            "done",
-            shape=(count,),
-            dtype=np.int8,
-            chunks=(1,),
-            fill_value=0,
-            dimension_names=["batch"],
-            attributes={"long_name": "1 once the batch is written"},
-        )
-        batches.create_array(
-            "record",
-            shape=(count, len(RECORD_COLUMNS)),
-            dtype=np.float64,
-            chunks=(1, len(RECORD_COLUMNS)),
-            fill_value=np.nan,
-            dimension_names=["batch", "column"],
-            attributes={"columns": list(RECORD_COLUMNS)},
-        )
-        batches.create_array(
-            "where",
-            shape=(count, len(WHERE_COLUMNS)),
-            dtype=str,
-            chunks=(1, len(WHERE_COLUMNS)),
-            fill_value="",
-            dimension_names=["batch", "column"],
-            attributes={"columns": list(WHERE_COLUMNS)},
-        )
-        root.attrs.update(
-            {
-                "schema_version": SCHEMA_VERSION,
-                "scene": json.dumps(sweep.base.to_dict()),
-                "scenes_differ_along": list(dims),
-                "sweep": json.dumps({**sweep.to_dict(), "source": sweep.source}),
-                "sweep_fingerprint": sweep.fingerprint(),
-                "sweep_axes": {a.name: {"dim": d.name, "key": a.key} for d in sweep.dimensions for a in d.axes},
-                "sweep_block": list(plan.block),
-                "launch_groups": launch_groups_attr(plan),
-                "status_codes": status_codes(),
-                "provenance": _provenance(plan, device),
-                **(attributes or {}),
-            }
-        )
-        consolidate(target)
-        if path.exists():
-            shutil.rmtree(path)
-        target.rename(path)
+            _create_batches_group(root, len(plan.batches))
+            root.attrs.update({**_store_attributes(sweep, plan, device), **(attributes or {})})
+            consolidate(target)
+            if path.exists():
+                shutil.rmtree(path)
+            target.rename(path)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return path
@@ -602,12 +591,90 @@ def check_resumable(path: str | Path, sweep: Sweep) -> tuple[int, ...]:
 
 
 def completed_batches(path: str | Path) -> set[int]:
-    """Indices of batches whose completion flag is set."""
+    """Indices of batches whose completion flag is set (a flag whose chunk is damaged counts as not set)."""
     try:
-        done = zarr.open_array(store=str(path), path=f"{BATCHES}/done", mode="r")
+        root = zarr.open_group(store=str(path), mode="r")
     except (FileNotFoundError, KeyError, zarr.errors.NodeNotFoundError):
         return set()
-    return {int(i) for i in np.flatnonzero(np.asarray(done[...]) == 1)}
+    return finished_batches(root)
+
+
+def repair_for_resume(path: str | Path, sweep: Sweep, scene: Scene, plan: Plan) -> Verification:
+    """Read every chunk of the store (checksums verified); clear the completion flag of each batch that owns a
+    damaged chunk, so that it reruns and rewrites all its chunks with the same bits, and rewrite damaged
+    coordinates (and ``launch_group``) from the sweep. Returns the verification (its damage as found)."""
+    path = Path(path)
+    verification = verify_store(path)
+    fixed = {d.variable for d in verification.damage if not d.batches}
+    with storage_faults("repairing the store", path):
+        if verification.damaged_batches:
+            done = _open_for_writing(path, f"{BATCHES}/done")
+            for index in sorted(verification.damaged_batches):
+                _remove_chunks_of(path, index, plan)
+                done[index] = 0
+        if fixed:
+            root = zarr.open_group(store=str(path), mode="r+")
+            for name, data, _, _ in fixed_arrays(sweep, scene, plan):
+                if name in fixed:
+                    root[name][...] = data
+                    fixed.discard(name)
+    if fixed:
+        raise SweepStoreError(f"{path}: {', '.join(sorted(fixed))} damaged and not rebuilt from the sweep")
+    return verification
+
+
+def _remove_chunks_of(path: Path, index: int, plan: Plan) -> None:
+    """Delete the chunk files (shards) batch ``index`` writes, so that its rerun writes them afresh instead of
+    reading damaged ones back (the store's chunk keys are ``c/i/j/…``, one shard per batch along the sweep dims)."""
+    batch = plan.batches[index]
+    root = zarr.open_group(store=str(path), mode="r")
+    dims = tuple(root.attrs.get("scenes_differ_along", []))
+    if not dims:
+        return
+    for name, arr in root.arrays():
+        fixed = name == "launch_group" or name in root.attrs.get("sweep_axes", {})
+        if fixed or tuple(arr.metadata.dimension_names or ())[: len(dims)] != dims:
+            continue
+        outer = arr.shards or arr.chunks
+        corner = tuple(start // step for (start, _), step in zip(batch.region, outer))
+        key = arr.metadata.encode_chunk_key(corner + (0,) * (arr.ndim - len(dims)))
+        base = path / arr.path / Path(*key.split("/")[: 1 + len(dims)])
+        if base.is_dir():
+            shutil.rmtree(base)
+        else:
+            base.unlink(missing_ok=True)
+
+
+@contextlib.contextmanager
+def writing_session(path: str | Path, sweep: Sweep, scene: Scene, plan: Plan, *, resuming: bool):
+    """Guard a sweep's writes into the store at ``path``; yields notes (lines) for the user.
+
+    Holds the store's lock (a second writer gets :class:`StoreLockedError`); refuses a store whose estimate
+    (what is left of it, on resume) exceeds the free space (:class:`NoRoomError`); on resume, verifies every
+    chunk and reruns the batches owning a damaged one (:func:`repair_for_resume`). A :class:`StorageError`
+    raised inside gets the plan's store estimate (its ``need``), after the temporary files of the failed write
+    are removed: the store then holds exactly the batches completed before it."""
+    path = Path(path)
+    need = store_estimate(sweep, scene, plan)
+    with store_lock(path):
+        done = completed_batches(path) if resuming else set()
+        check_free_space(path, need * (len(plan.batches) - len(done)) // max(1, len(plan.batches)))
+        notes = []
+        if resuming:
+            remove_partial_files(path)
+            verification = repair_for_resume(path, sweep, scene, plan)
+            if verification.unchecked:
+                notes.append(f"note: {path} has no chunk checksums (written by an older version)")
+            if verification.damage:
+                batches = sorted(verification.damaged_batches)
+                notes.append(f"note: {len(verification.damage)} damaged chunk(s) found; rerunning batches {batches}")
+        try:
+            yield notes
+        except StorageError as err:
+            err.need = need
+            with contextlib.suppress(OSError):
+                remove_partial_files(path)
+            raise
 
 
 def remove_partial_files(path: str | Path) -> int:
@@ -666,6 +733,7 @@ class RowWriter:
         return self._opened[name]
 
     def _open_all(self) -> None:
+        check_store_present(self.path, f"writing batch {self.batch.index}")
         for name in zarr.open_group(store=str(self.path), mode="r").array_keys():
             self.array(name)
 
@@ -679,6 +747,10 @@ class RowWriter:
         return self._arrays[name]
 
     def _write(self, available: dict[str, tuple[np.ndarray, int]]) -> None:
+        with storage_faults(f"writing batch {self.batch.index}'s records", self.path):
+            self._write_rows(available)
+
+    def _write_rows(self, available: dict[str, tuple[np.ndarray, int]]) -> None:
         start = time.perf_counter()
         for name, (data, count) in available.items():
             arr, rows = self._rows_per_shard(name)
@@ -710,8 +782,28 @@ def write_batch(
     """Write one batch's results into its block, then its completion record; return the record.
 
     ``build_seconds``: host time spent building the batch's model and initial state (recorded). ``rows``: the
-    batch's :class:`RowWriter`, whose rows are already written (only the rest is).
+    batch's :class:`RowWriter`, whose rows are already written (only the rest is). A failed write (full disk,
+    no permission, read-only or vanished store) raises :class:`StorageError` (one line); the batch's completion
+    flag is then not set, so ``--resume`` reruns it.
     """
+    action = f"writing batch {batch.index}"
+    with storage_faults(action, path):
+        check_store_present(path, action)
+        return _write_batch(
+            path, batch, result, grain_steps=grain_steps, worker=worker, build_seconds=build_seconds, rows=rows
+        )
+
+
+def _write_batch(
+    path: str | Path,
+    batch: Batch,
+    result: RunResult,
+    *,
+    grain_steps: int,
+    worker: str,
+    build_seconds: float,
+    rows: RowWriter | None,
+) -> dict[str, Any]:
     write_start = time.perf_counter()
     path = Path(path)
     region = batch.slices
@@ -824,6 +916,12 @@ def batch_records(path: str | Path, *, status_counts: bool = False) -> list[dict
 def finalize(path: str | Path, *, session_seconds: float | None = None, session_grain_steps: int = 0) -> dict:
     """Sum the completion records into ``provenance``; re-consolidate. Returns the provenance."""
     path = Path(path)
+    with storage_faults("finishing the store", path):
+        check_store_present(path, "finishing the store")
+        return _finalize(path, session_seconds, session_grain_steps)
+
+
+def _finalize(path: Path, session_seconds: float | None, session_grain_steps: int) -> dict:
     records = batch_records(path)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -886,3 +984,100 @@ def differing_arrays(a: str | Path, b: str | Path, *, skip: tuple[str, ...] = TI
         ):
             out.append(name)
     return out
+
+
+# ---- a run as a store ---------------------------------------------------------------------
+
+
+def _flat_scene(scene) -> dict[str, Any]:
+    """A scene as dotted keys (``chain.l0``, ``impurities.0.mass``; lists as JSON-ready lists)."""
+    data = scene.to_dict()
+    out = {}
+    for section, values in data.items():
+        if section == "impurities":
+            out["impurities"] = len(values)
+            for k, block in enumerate(values):
+                out.update({f"impurities.{k}.{key}": value for key, value in block.items()})
+            continue
+        out.update({f"{section}.{key}": value for key, value in values.items()})
+    return out
+
+
+def scene_differences(scenes) -> dict[str, list]:
+    """Dotted scene keys whose values differ between ``scenes`` → every scene's value, in order."""
+    flats = [_flat_scene(s) for s in scenes]
+    keys = sorted(set().union(*flats))
+    return {k: [f.get(k) for f in flats] for k in keys if any(f.get(k) != flats[0].get(k) for f in flats)}
+
+
+def _axis_key(name: str, values: np.ndarray, dim: int, shape: tuple[int, ...], differences: dict) -> str:
+    """The scene key that varies exactly like axis ``name`` (its values along dimension ``dim``), or ''."""
+    for key, per_point in differences.items():
+        grid = np.array(per_point, dtype=object).reshape(shape)
+        along = np.moveaxis(grid, dim, 0).reshape(shape[dim], -1)
+        if all(len(set(map(repr, row))) == 1 for row in along) and [row[0] for row in along] == list(values):
+            return key
+    return ""
+
+
+def write_result(
+    path: str | Path,
+    result: RunResult,
+    *,
+    axes: dict[str, np.ndarray] | None = None,
+    sweep: dict | None = None,
+    overwrite: bool = False,
+) -> Path:
+    """Write a run (or an ensemble shaped by ``axes``: name → coordinate values, C order) as a Zarr v3
+    store, through the sweep store's writer: a run is a sweep with no axes, one batch.
+
+    Scenes that differ between points are kept: the ``scene`` attribute holds the first point's,
+    ``scene_overrides`` (JSON) every differing dotted key's value at every point, and an axis whose
+    values are exactly one differing key's gets that key as its ``scene_key``. ``sweep`` (plain
+    data) is stored as the ``sweep`` attribute when given.
+    """
+    path = Path(path)
+    axes = {name: np.asarray(values) for name, values in (axes or {}).items()}
+    shape = tuple(len(v) for v in axes.values())
+    if int(np.prod(shape)) != result.chain_count:
+        raise ValueError(f"axes {shape} do not match {result.chain_count} chains")
+    clash = sorted(set(axes) & RESERVED_NAMES)
+    if clash:
+        raise ValueError(f"axis names {clash} are store variable names; choose others")
+    if path.exists() and not overwrite:
+        raise FileExistsError(f"{path} exists (pass --overwrite to replace it)")
+    scenes = result.scenes
+    scene = scenes[0]
+    if isinstance(scenes, ChainSet):  # differences straight from the per-chain arrays
+        differences = {k: v.tolist() for k, v in scenes.values.items() if np.any(v != v[0])}
+    else:
+        differences = scene_differences(list(scenes)) if len(scenes) > 1 else {}
+    dimensions = tuple(
+        Dimension(
+            axes=(
+                Axis(
+                    name=name,
+                    key=_axis_key(name, values.tolist(), d, shape, differences),
+                    values=tuple(values.tolist()),
+                ),
+            )
+        )
+        for d, (name, values) in enumerate(axes.items())
+    )
+    definition = Sweep(base=scene, dimensions=dimensions)
+    plan = single_batch_plan(shape, scene, result.features, result.device)
+    attributes = {"scene_overrides": json.dumps(differences)}
+    if sweep is not None:
+        attributes["sweep"] = json.dumps(sweep)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent if path.parent.exists() else None))
+    try:
+        target = tmp / "store.zarr"
+        create_sweep_store(target, definition, scene, plan, device=result.device, attributes=attributes)
+        write_batch(target, plan.batches[0], result, grain_steps=result.grain_count * result.steps * result.chain_count)
+        finalize(target)
+        if path.exists():
+            shutil.rmtree(path)
+        target.rename(path)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return path

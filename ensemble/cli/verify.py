@@ -1,0 +1,42 @@
+"""``hertzian verify``: read every chunk of a store, checksums checked, and name what is damaged."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from hertzian.cli.app import app, fail
+
+
+@app.command()
+def verify(store: Annotated[Path, typer.Argument(help="A store written by run or sweep.")]):
+    """Read every chunk (each carries a CRC-32C) and print one line per damaged one: variable, sweep point(s) by
+    coordinate, batch. Exit 0 if none is damaged, 1 otherwise; ``sweep --resume`` reruns the damaged batches."""
+    from hertzian.sweeping.integrity import damage_lines, verify_store
+    from hertzian.sweeping.store import open_store, unchecked_note
+    from hertzian.sweeping.store_format import DAMAGED_EXIT_CODE
+
+    try:
+        open_store(store)
+        note = unchecked_note(store)
+        verification = verify_store(store)
+    except (FileNotFoundError, ValueError, KeyError) as err:
+        fail(f"store = {str(store)!r}: {err}")
+    if note:
+        typer.echo(note, err=True)
+    for line in damage_lines(store, verification):
+        typer.echo(f"damaged: {line}")
+    count = len(verification.damage)
+    batches = sorted(verification.damaged_batches)
+    typer.echo(
+        f"{store}: {verification.chunks} chunks read, {count} damaged"
+        + (
+            f" (batches {', '.join(map(str, batches))}: rerun with hertzian sweep SWEEP --out {store} --resume)"
+            if batches
+            else ""
+        ),
+        err=count > 0,
+    )
+    if count:
+        raise typer.Exit(DAMAGED_EXIT_CODE)

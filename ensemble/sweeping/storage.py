@@ -1,0 +1,141 @@
+"""Storage faults and the writer's lock: what a sweep does when the disk fills, the store turns read-only or
+vanishes, or a second writer starts on the same store.
+
+* :func:`storage_faults` turns an ``OSError`` (and a store whose metadata vanished) into a :class:`StorageError`
+  whose message is one line: what failed, where, the errno's meaning and the free space left.
+* :func:`check_free_space` refuses a sweep whose store estimate exceeds the free space before anything is written.
+* :func:`store_lock` holds an exclusive ``flock`` on ``STORE.lock`` for the writer's whole run; a second writer
+  is refused (:class:`StoreLockedError`). The kernel drops the lock when the process dies, so a killed writer
+  never blocks ``--resume``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import fcntl
+import os
+import shutil
+from pathlib import Path
+
+from hertzian.sweeping.planner import format_bytes
+
+
+class StorageError(OSError):
+    """A write into a store failed (full disk, no permission, read-only or vanished store), or the store would not
+    fit. ``str()`` is one line: what failed, where, why, the free space and what to do, with the plan's store
+    estimate once ``need`` [bytes] is set (the caller that planned the sweep sets it). Nothing beyond the last
+    completed batch is half-written: a batch's completion flag is written last."""
+
+    def __init__(self, code: int, action: str, where: str | Path, *, need: int | None = None):
+        super().__init__(code, os.strerror(code), str(where))
+        self.action, self.where, self.need = action, str(where), need
+
+    def __str__(self) -> str:
+        return fault_line(self.errno, self.action, self.where, self.need)
+
+    def __reduce__(self):  # a Dask worker's error reaches the client whole
+        return (type(self), (self.errno, self.action, self.where), {"need": self.need})
+
+
+class NoRoomError(StorageError):
+    """The store's estimate exceeds the free space: the sweep is refused before anything is written."""
+
+
+class StoreLockedError(RuntimeError):
+    """Another process is writing into this store."""
+
+
+NO_ROOM = "checking free space"
+"""``StorageError.action`` of a store that would not fit (refused before anything is written)."""
+ADVICE = {
+    errno.ENOSPC: "the store needs {need}: free space, then continue with --resume",
+    errno.EDQUOT: "the store needs {need}: free quota, then continue with --resume",
+    errno.EACCES: "make the store writable, then continue with --resume",
+    errno.EPERM: "make the store writable, then continue with --resume",
+    errno.EROFS: "remount the filesystem writable or write a new store",
+    errno.ENOENT: "the store was removed while the sweep ran; start it again",
+}
+"""What to do after each storage errno (``{need}``: the plan's store estimate)."""
+
+
+def free_bytes(path: str | Path) -> int | None:
+    """Free bytes on the filesystem holding ``path`` (its nearest existing parent), or None if unknown."""
+    path = Path(path).absolute()
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    try:
+        return shutil.disk_usage(path).free
+    except OSError:
+        return None
+
+
+def fault_line(code: int, action: str, where: str | Path, need: int | None = None) -> str:
+    """One line for a failed store write: ``action`` (what failed) at ``where``, why, free space, what to do."""
+    free = free_bytes(where)
+    free_text = f"; {format_bytes(free)} free there" if free is not None else ""
+    need_text = f"about {format_bytes(need)}" if need else "its plan's estimate (hertzian sweep --dry-run)"
+    if action == NO_ROOM:
+        return f"the store needs {need_text}{free_text}; free space or write the store elsewhere"
+    advice = ADVICE.get(code, "fix the store's filesystem, then continue with --resume").format(need=need_text)
+    return f"{action} failed at {where}: {os.strerror(code)} (errno {code}){free_text}; {advice}"
+
+
+@contextlib.contextmanager
+def storage_faults(action: str, path: str | Path):
+    """Raise :class:`StorageError` (one line) for an ``OSError`` inside: ``action`` (e.g. "writing batch 3")
+    failed at the file it names, else at ``path``."""
+    try:
+        yield
+    except StorageError:
+        raise
+    except OSError as err:
+        raise StorageError(err.errno or errno.EIO, action, err.filename or path) from None
+
+
+def check_store_present(path: str | Path, action: str) -> None:
+    """Raise :class:`StorageError` (ENOENT) if the store's root metadata is gone (zarr would recreate the
+    directories and write chunks no metadata describes)."""
+    if not (Path(path) / "zarr.json").exists():
+        raise StorageError(errno.ENOENT, action, path)
+
+
+def check_free_space(path: str | Path, need: int) -> None:
+    """Raise :class:`StorageError` (ENOSPC) if the filesystem of ``path`` has less than ``need`` bytes free."""
+    free = free_bytes(path)
+    if free is not None and free < need:
+        raise NoRoomError(errno.ENOSPC, NO_ROOM, path, need=need)
+
+
+def lock_path(path: str | Path) -> Path:
+    """The lock file of the store at ``path``: ``STORE.lock`` beside it."""
+    path = Path(path)
+    return path.with_name(path.name + ".lock")
+
+
+@contextlib.contextmanager
+def store_lock(path: str | Path):
+    """Hold an exclusive lock on the store at ``path`` for the block (raise :class:`StoreLockedError` if another
+    process holds it). The lock file is removed on exit; a lock file left by a killed writer holds no lock."""
+    target = lock_path(path)
+    while True:
+        with storage_faults("locking the store", target):
+            fd = os.open(target, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 200, 0).decode(errors="replace").strip() or "another process"
+            os.close(fd)
+            raise StoreLockedError(f"{path} is being written by {holder} (lock {target})") from None
+        # the file may have been removed (and another made) between open and flock: lock the current one
+        if os.path.exists(target) and os.stat(target).st_ino == os.fstat(fd).st_ino:
+            break
+        os.close(fd)
+    try:
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"pid {os.getpid()} on {os.uname().nodename}".encode(), 0)
+        yield target
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(target)
+        os.close(fd)
