@@ -28,15 +28,23 @@ def sweep_needs(path: Path, overrides: dict[str, Any], device: str, kernel: str 
     return [Need(*run, kernel) for run in dict.fromkeys(runs_of(plan, points, plan.batches))]
 
 
-def paper_needs(device: str, *, quick: bool = False, events: str | None = None, kernel: str | None = None) -> list:
-    """Every launch group of ``hertzian reproduce`` (each figure group's sweep, the driven column of Figs. 9-10 and
-    its window kernels), with the kernel choice ``reproduce`` makes per group."""
+def paper_needs(
+    device: str,
+    *,
+    quick: bool = False,
+    events: str | None = None,
+    kernel: str | None = None,
+    groups: list[str] | None = None,
+) -> list:
+    """Every launch group of ``hertzian reproduce`` (each figure group's sweep of ``groups``, default all; the driven
+    column of Figs. 9-10 and its window kernels), with the kernel choice ``reproduce`` makes per group."""
     from hertzian.kernels.windows import window_kernels
     from hertzian.studies import reproduce as rp
 
     needs: list = []
     sweeps = rp.default_sweeps_dir()
-    for name, group in rp.GROUPS.items():
+    for name in groups or list(rp.GROUPS):
+        group = rp.GROUPS[name]
         overrides = {**(group.quick if quick else {}), **({"integrator.events": events} if events else {})}
         if name == "fig9_10":
             grains = group.quick["chain.grains"] if quick else 10000
