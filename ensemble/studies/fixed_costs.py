@@ -45,7 +45,17 @@ def time_runs(out_dir: str) -> list[dict]:
     for grains, duration in CASES:
         for kernel in ("step", "chain"):
             cache = tempfile.mkdtemp(prefix="warp-cache-")
-            args = ["run", "--device", "cpu", "--quiet", "--overwrite", "--kernel", kernel, "--out", f"{out_dir}/o.zarr"]
+            args = [
+                "run",
+                "--device",
+                "cpu",
+                "--quiet",
+                "--overwrite",
+                "--kernel",
+                kernel,
+                "--out",
+                f"{out_dir}/o.zarr",
+            ]
             args += ["--set", f"chain.grains={grains}", "--set", f"integrator.duration={duration}"]
             cold, warm = _wall(args, cache), _wall(args, cache)
             rows.append({"grains": grains, "duration": duration, "kernel": kernel, "cold_s": cold, "warm_s": warm})
