@@ -471,17 +471,26 @@ def parts_of_grains_block_dim(device) -> int:
     return 1 if wp.get_device(device).is_cpu else PART_TILE_THREADS
 
 
-def load_record_kernels(kernels: RecordKernels, *, long_chains: bool, device) -> None:
-    """Load the reductions a record takes on ``device``: for ``long_chains`` (STAGED_GRAINS grains or more) the grain
-    terms, the per-part sums and ``record_long`` (tiled, at their block size there), else ``record_parts`` and
+def record_modules(kernels: RecordKernels, *, long_chains: bool, device) -> list[tuple]:
+    """(Warp module, block_dim) of the reductions a record takes on ``device``, each at the block size its launch
+    uses (None: Warp's launch default): for ``long_chains`` (STAGED_GRAINS grains or more) the grain terms, the
+    per-part sums and ``record_long`` (tiled), else ``record_parts`` (RECORD_BLOCK_DIM threads on a GPU) and
     ``record``."""
     if long_chains:
-        wp.load_module(kernels.grains.module, device=device)
-        for kernel in (kernels.parts_of_grains, kernels.record_long):
-            wp.load_module(kernel.module, device=device, block_dim=parts_of_grains_block_dim(device))
-    else:
-        for kernel in (kernels.parts, kernels.record):
-            wp.load_module(kernel.module, device=device)
+        tiled = parts_of_grains_block_dim(device)
+        return [
+            (kernels.grains.module, None),
+            (kernels.parts_of_grains.module, tiled),
+            (kernels.record_long.module, tiled),
+        ]
+    parts_block = None if wp.get_device(device).is_cpu else RECORD_BLOCK_DIM
+    return [(kernels.parts.module, parts_block), (kernels.record.module, None)]
+
+
+def load_record_kernels(kernels: RecordKernels, *, long_chains: bool, device) -> None:
+    """Load the reductions a record takes on ``device`` (:func:`record_modules`)."""
+    for module, block_dim in record_modules(kernels, long_chains=long_chains, device=device):
+        wp.load_module(module, device=device, block_dim=block_dim)
 
 
 def launch_parts_of_grains(kernels: RecordKernels, grain_terms, dissipated_grain, parts, device) -> None:

@@ -134,17 +134,11 @@ def test_store_created_by_the_store_thread_while_the_first_batch_runs(tmp_path):
 
 
 def test_a_serial_sweep_warms_the_stepping_kernel_its_batches_use(monkeypatch):
-    """``warm_kernels(runs=…)``: the record kernels always; the fused kernel of the shape the calibration cache
-    holds for a batch; the per-step kernel only where ``auto`` takes it (a short run, nothing calibrated); without
-    ``runs`` (Dask workers) the per-step kernel of every feature set, as before."""
-    from types import SimpleNamespace
-
-    import warp as wp
-    from hertzian.core.solvers import calibrate
-    from hertzian.core.solvers.calibrate import _cache_key, whole_chain_configs
-    from hertzian.kernels.records import record_kernels
-    from hertzian.kernels.step import step_kernel
-    from hertzian.kernels.tile import tile_kernel
+    """``warm_kernels(runs=…)`` on a CPU: the record kernels of each chain length, ``track_extremes`` and the chain
+    kernel ``auto`` takes, short runs and long alike; without ``runs`` (Dask workers) the same for short chains."""
+    from hertzian.core.solvers import compile as compiling
+    from hertzian.kernels.cpu import chain_kernel
+    from hertzian.kernels.records import record_kernels, traced_start_kernel, track_extremes
     from hertzian.sweeping import distributed
 
     sweep = sweep_from_dict(SWEEP)
@@ -154,39 +148,27 @@ def test_a_serial_sweep_warms_the_stepping_kernel_its_batches_use(monkeypatch):
     f = plan.groups[0].features
     assert {(r[0], r[1], r[3]) for r in runs} == {(f, 12, 100)} and sorted({r[2] for r in runs}) == [4]
     loaded = []
-    block_dims = {}
-
-    def load_module(module, device=None, block_dim=None):
-        loaded.append(module)
-        block_dims[module] = block_dim
-
-    monkeypatch.setattr(wp, "load_module", load_module)
-    records = {k.module for k in record_kernels(f)[:2]}  # 12 grains: the one-stage reductions only
-    monkeypatch.setattr(calibrate, "_read_cache", lambda: {})
-    distributed.warm_kernels([f], "cpu", runs=runs)  # 4 × 12 × 100 grain-steps: short, the per-step kernel
-    assert set(loaded) == records | {step_kernel(f).module}
+    monkeypatch.setattr(compiling, "_load", lambda device, module, block_dim: loaded.append(module))
+    common = {track_extremes.module, chain_kernel(f).module} | (
+        {traced_start_kernel(f.precision).module} if f.traces else set()
+    )
+    short = {k.module for k in record_kernels(f)[:2]} | common
+    for warm in (runs, [(f, 12, 4, 10**9)], None):
+        loaded.clear()
+        distributed.warm_kernels([f], "cpu", runs=warm)
+        assert set(loaded) == short
     loaded.clear()
-    distributed.warm_kernels([f], "cpu", runs=[(f, 12, 4, 10**9)])  # long: the run's own kernel, none warmed
-    assert set(loaded) == records
-    model = build_model([scene_from_dict(SWEEP["scene"])] * 4, "cpu")
-    config = whole_chain_configs(model)[0]
-    shape_of = SimpleNamespace(device=wp.get_device("cpu"), features=f, grain_count=12, chain_count=4)
-    monkeypatch.setattr(calibrate, "_read_cache", lambda: {_cache_key(shape_of): config.to_dict()})
-    loaded.clear()
-    distributed.warm_kernels([f], "cpu", runs=runs)
-    assert set(loaded) == records | {tile_kernel(f, config.shape).module}
-    assert block_dims[tile_kernel(f, config.shape).module] == config.shape.block_dim  # compiled for its launch
-    loaded.clear()
-    distributed.warm_kernels([f], "cpu")
-    assert set(loaded) == records | {step_kernel(f).module}
-    loaded.clear()
-    distributed.warm_kernels([f], "cpu", runs=[(f, 4096, 2, 10**9)])  # long chains: the two-stage reductions only
+    distributed.warm_kernels([f], "cpu", runs=[(f, 4096, 2, 10**9)])  # long chains: the two-stage reductions
     long_records = record_kernels(f)
-    assert set(loaded) == {
-        long_records.grains.module,
-        long_records.parts_of_grains.module,
-        long_records.record_long.module,
-    }
+    assert (
+        set(loaded)
+        == {
+            long_records.grains.module,
+            long_records.parts_of_grains.module,
+            long_records.record_long.module,
+        }
+        | common
+    )
 
 
 def test_overlapped_preparation_of_batches_spanning_templates(tmp_path):

@@ -15,7 +15,19 @@ from importlib import import_module
 
 from hertzian.cli.app import EXIT_BAD_INPUT, app, fail, resolve_device
 
-COMMANDS = ("run", "summarize", "verify", "check", "accuracy", "sweep", "bench", "plot", "reproduce", "detect")
+COMMANDS = (
+    "run",
+    "summarize",
+    "verify",
+    "check",
+    "accuracy",
+    "sweep",
+    "bench",
+    "plot",
+    "reproduce",
+    "detect",
+    "warmup",
+)
 """Command modules of this package, in help order."""
 
 

@@ -21,6 +21,7 @@ from hertzian.core.recorder import Recorder
 from hertzian.core.scene import Scene
 from hertzian.core.solvers import SolverConfig, choose_config, make_solver
 from hertzian.core.solvers.calibrate import fused_lacks, step_reason
+from hertzian.core.solvers.compile import Need, prepare_kernels
 from hertzian.core.status import Status
 from hertzian.kernels.features import Features
 
@@ -163,6 +164,7 @@ class Runner:
             )
         if use_graph is not None:
             config = replace(config, use_graph=use_graph)
+        prepare_kernels([Need(model.features, model.grain_count, model.chain_count, kernel=config)], model.device)
         self.solver = make_solver(model, config)
         self.solver.load()
         self.recorder = Recorder(

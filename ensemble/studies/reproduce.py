@@ -1126,6 +1126,8 @@ def reproduce(
     while the next groups integrate (same PNGs and numbers); the log's ``figure_wait_seconds`` is the time
     the end waited for them."""
     import warp as wp
+    from hertzian.core.solvers.compile import prepare_kernels
+    from hertzian.studies.warmup import paper_needs
 
     sweeps_dir = sweeps_dir or default_sweeps_dir()
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -1157,6 +1159,7 @@ def reproduce(
     # with figures in the background the driven column (the longest run) goes first: its figures and the short
     # groups overlap, and the log keeps the groups' order
     order = sorted(names, key=lambda n: n != "fig9_10") if pool is not None else names
+    prepare_kernels(paper_needs(device, quick=quick, events=events, kernel=kernel, groups=names), device)
     for name in order:
         group = GROUPS[name]
         path = sweeps_dir / group.sweep

@@ -70,51 +70,12 @@ def warm_kernels(features: Iterable[Features], device: str, *, runs: Iterable[tu
     """Build and load every kernel variant on ``device`` once, so workers find them in Warp's cache.
 
     ``runs``: (features, grains, chains, steps) of the batches this process will run (a serial sweep); then the
-    stepping kernel warmed is the one each will use — on a GPU the fused kernel of the shape the calibration cache
-    holds for it (none when not yet calibrated: the run calibrates), the per-step kernel only where ``auto`` takes
-    it — instead of the per-step kernel of every feature set."""
-    from hertzian.kernels.records import STAGED_GRAINS, load_record_kernels, record_kernels
-    from hertzian.kernels.step import step_kernel
+    stepping kernel warmed is the one each will use (hertzian.core.solvers.compile.prepare_kernels); without them,
+    the record kernels of each feature set (and on a CPU its chain kernel)."""
+    from hertzian.core.solvers.compile import Need, prepare_kernels
 
-    wp = _quiet_warp()
-    dev = wp.get_device(device)
-    runs = None if runs is None else list(runs)
-    for f in set(features):
-        # the record reductions of the chain lengths the runs have (unknown runs: the one-stage ones; a long chain's
-        # recorder loads its own)
-        lengths = {run[1] >= STAGED_GRAINS for run in runs if run[0] == f} if runs is not None else set()
-        for long_chains in lengths or {False}:
-            load_record_kernels(record_kernels(f), long_chains=long_chains, device=device)
-    if runs is None:
-        for f in set(features):
-            wp.load_module(step_kernel(f).module, device=device)
-        return
-    from types import SimpleNamespace
-
-    from hertzian.core.solvers.calibrate import _cache_key, _read_cache, step_reason_of
-    from hertzian.core.solvers.config import SolverConfig
-    from hertzian.core.solvers.tile import solver_plan
-    from hertzian.kernels.tile import drive_table, tile_kernel
-
-    cache = _read_cache()  # (only GPUs calibrate: empty for a CPU)
-    for f, grains, chains, steps in set(runs):
-        shape_of = SimpleNamespace(device=dev, features=f, grain_count=grains, chain_count=chains)
-        entry = cache.get(_cache_key(shape_of))
-        if entry is not None:
-            try:
-                config = SolverConfig.from_dict(entry)
-            except (KeyError, TypeError, ValueError):
-                continue
-            if config.kind in ("tile", "window"):  # compiled for its launch's block size, as TileSolver.load does
-                block_dim = config.shape.block_dim
-                if dev.is_cpu and block_dim > 1:
-                    wp.config.enable_cpu_blocks = True
-                shape = solver_plan(config, f, grains, chains).shape  # as TileSolver compiles it
-                wp.load_module(tile_kernel(f, shape).module, device=device, block_dim=block_dim)
-                if f.surface == "driven":  # its phase table (TileSolver)
-                    wp.load_module(drive_table.module, device=device)
-        elif step_reason_of(f, dev.is_cpu, float(grains) * chains * steps):
-            wp.load_module(step_kernel(f).module, device=device)
+    _quiet_warp()
+    prepare_kernels(list(features) if runs is None else [Need(*run) for run in set(runs)], device)
 
 
 def runs_of(plan, points, batches) -> list[tuple]:

@@ -9,13 +9,12 @@ themselves are in this package's ``step``, ``tile`` and ``chain`` modules. Kinds
 * ``window`` — long chains cut into blocks with ghost zones, K ≤ ghost steps per launch
   (``kernels/tile.py`` + ``kernels/ghost.py``), CUDA.
 * ``chain`` — one CPU thread per chain, many steps per launch (``kernels/cpu.py``).
-* ``auto`` — per-step for features the fused kernels lack (see :func:`step_reason`) and for runs too
-  short to repay a compile; else ``chain`` on a CPU, and on a GPU the fastest of a few ``tile``/``window``
-  shapes, timed once per (device, features, grains, chains) and remembered in
-  ``$HERTZIAN_CACHE`` (default ``~/.cache/hertzian/calibration.json``).
-* ``fused`` — ``auto`` without the short-run rule: the fused kernel whenever the features allow it, a short
-  run included (on a GPU its first run calibrates and compiles, later ones read both from the caches). For
-  work made of many short runs of a few shapes, run again and again (``hertzian reproduce`` on a GPU).
+* ``auto`` — per-step for features the fused kernels lack (see :func:`step_reason`); else ``chain`` on a CPU,
+  and on a GPU the fastest of a few ``tile``/``window`` shapes, timed once per (device, features, grains,
+  chains) and remembered in ``$HERTZIAN_CACHE`` (default ``~/.cache/hertzian/calibration.json``). A GPU run
+  shorter than AUTO_MIN_GRAIN_STEPS_GPU is not timed: it takes the cached shape, else :func:`default_config`.
+* ``fused`` — ``auto`` that calibrates short runs too (the first run of a shape on a GPU times its candidates,
+  later ones read the cache).
 
 Every fused kernel reproduces the per-step kernel's arithmetic (tests/test_tile.py,
 tests/test_cpu_kernel.py), so the choice changes speed, not results.
@@ -34,6 +33,7 @@ from pathlib import Path
 import numpy as np
 import warp as wp
 from hertzian.core.model import Model, State
+from hertzian.core.solvers.compile import Need, prepare_kernels
 from hertzian.core.solvers.config import CHAIN, STEP, SolverConfig
 from hertzian.core.solvers.tile import TileSolver, config_of
 from hertzian.kernels.cpu import chain_kernel_supports
@@ -42,10 +42,9 @@ from hertzian.kernels.tile import fusable, plan_tile
 
 KERNELS = ("auto", "fused", "step", "tile", "window", "chain")
 
-AUTO_MIN_GRAIN_STEPS_CPU = 2e8
-"""Below this many grain-steps in a run, ``auto`` keeps the per-step kernel on a CPU (a compile costs seconds)."""
 AUTO_MIN_GRAIN_STEPS_GPU = 5e9
-"""Likewise on a GPU, where a calibration costs tens of seconds the first time."""
+"""Below this many grain-steps in a run, ``auto`` on a GPU does not calibrate (tens of seconds the first time): it
+takes the shape the calibration cache holds for the model, else :func:`default_config`."""
 CALIBRATION_VERSION = 4
 """Bumped when the cached fields change (2: a SolverConfig; 3: the event step out of line by default; 4: one-warp
 windows among the candidates)."""
@@ -70,22 +69,13 @@ def fused_lacks(features, is_cpu: bool) -> str | None:
 
 
 def step_reason_of(features, is_cpu: bool, grain_steps: float) -> str | None:
-    """Why ``auto`` picks the per-step kernel for a run of ``grain_steps`` (one line), or None."""
+    """Why ``auto`` picks the per-step kernel for a run of ``grain_steps`` (one line), or None. Only a feature
+    the fused kernel lacks does: on a CPU the chain kernel is faster than the per-step kernel, its compile
+    included, from the shortest runs up (docs/fixed-costs.md, docs/records/bench/cpu_auto_rule.json); on a GPU a
+    short run takes a fused kernel of a cached or default shape (:func:`choose_config`)."""
     lacks = fused_lacks(features, is_cpu)
     if lacks:
         return f"the {'chain' if is_cpu else 'tile/window'} kernel lacks {lacks}"
-    limit = AUTO_MIN_GRAIN_STEPS_CPU if is_cpu else AUTO_MIN_GRAIN_STEPS_GPU
-    if grain_steps < limit:
-        if is_cpu:
-            return (
-                f"a short run ({grain_steps:.3g} grain-steps < {limit:.0e}) does not repay a fused kernel's "
-                "compile; --kernel chain forces one"
-            )
-        return (
-            f"a short run ({grain_steps:.3g} grain-steps < {limit:.0e}) does not repay a fused kernel's first "
-            "calibration and compile (a shape calibrated before on this device is taken); --kernel tile/window "
-            "forces one"
-        )
     return None
 
 
@@ -103,14 +93,9 @@ def event_cost_note(features, is_cpu: bool) -> str | None:
 
 
 def step_reason(model: Model, run_steps: int | None = None) -> str | None:
-    """Why ``auto`` picks the per-step kernel for ``model`` (one line), or None when it picks a fused one.
-    On a GPU a short run takes the fused kernel when this model's shape is already calibrated on this device
-    (:func:`is_calibrated`): the calibration is then read from the cache and the kernel from Warp's."""
+    """Why ``auto`` picks the per-step kernel for ``model`` (one line), or None when it picks a fused one."""
     work = model.chain_count * model.grain_count * (run_steps if run_steps is not None else math.inf)
-    reason = step_reason_of(model.features, model.device.is_cpu, work)
-    if reason and not model.device.is_cpu and fused_lacks(model.features, False) is None and is_calibrated(model):
-        return None
-    return reason
+    return step_reason_of(model.features, model.device.is_cpu, work)
 
 
 def is_calibrated(model: Model) -> bool:
@@ -306,6 +291,12 @@ def calibrate(
         if not configs or model.chain_count < _sm_count(model) or model.grain_count > 1024:
             configs = configs + window_configs(model)
     states = states or model.state_pair()
+    try:  # every candidate compiled at once before the first is timed
+        prepare_kernels(
+            [Need(model.features, model.grain_count, model.chain_count, kernel=c) for c in configs], model.device
+        )
+    except Exception:  # noqa: BLE001 - a candidate that fails to build fails again below, where it is reported
+        pass
     results, failures = [], []
     for config in configs:
         k = config.steps_per_launch
@@ -327,15 +318,23 @@ def calibrate(
     return best, results
 
 
+def cached_config(model: Model) -> SolverConfig | None:
+    """The calibration cache's choice for this model's (device, features, grains, chain-count bucket), or None."""
+    entry = _read_cache().get(_cache_key(model))
+    if entry is None:
+        return None
+    try:
+        return SolverConfig.from_dict(entry)
+    except (KeyError, TypeError, ValueError):
+        return None
+
+
 def calibrated_config(model: Model, *, states: tuple[State, State] | None = None, log=None) -> SolverConfig:
     """The cached calibration for this model's (device, features, grains, chain-count bucket); calibrate once."""
-    entries = _read_cache()
+    cached = cached_config(model)
+    if cached is not None:
+        return cached
     key = _cache_key(model)
-    if key in entries:
-        try:
-            return SolverConfig.from_dict(entries[key])
-        except (KeyError, TypeError, ValueError):
-            pass
     best, _ = calibrate(model, states=states, log=log)
     entries = _read_cache()
     entries[key] = best.to_dict()
@@ -409,6 +408,9 @@ def choose_config(
         return STEP
     if model.device.is_cpu:
         return CHAIN
+    work = model.chain_count * model.grain_count * (run_steps if run_steps is not None else math.inf)
+    if work < AUTO_MIN_GRAIN_STEPS_GPU:  # short: no calibration, a shape timed before or the default one
+        return cached_config(model) or default_config(model)
     return calibrated_config(model, states=states, log=log) if calibrate_now else default_config(model)
 
 

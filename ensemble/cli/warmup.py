@@ -1,0 +1,74 @@
+"""``hertzian warmup``: compile a job's kernels into Warp's kernel cache ahead of time (an image build, once per node)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+from hertzian.cli.app import DeviceOption, KernelOption, app, fail, resolve_device
+
+
+@app.command()
+def warmup(
+    path: Annotated[
+        Optional[Path], typer.Argument(help="A sweep file (a [scene] table and [sweep] axes) or a scene TOML.")
+    ] = None,
+    paper: Annotated[bool, typer.Option("--paper", help="Every figure group of `hertzian reproduce`.")] = False,
+    quick: Annotated[bool, typer.Option("--quick", help="With --paper: the groups of `reproduce --quick`.")] = False,
+    detect: Annotated[
+        Optional[Path], typer.Option("--detect", help="BASE scene of `hertzian detect --scene BASE`.")
+    ] = None,
+    device: DeviceOption = None,
+    kernel: KernelOption = "auto",
+    workers: Annotated[
+        Optional[int], typer.Option("--workers", help="Compile threads (default: 1 on a CPU, up to 8 on a GPU).")
+    ] = None,
+    dry_run: Annotated[bool, typer.Option("--dry-run", help="List the kernel variants; compile nothing.")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the result as one JSON object.")] = False,
+):
+    """Compile and cache every kernel variant a job will launch, so its first run compiles nothing.
+
+    Warp keeps compiled kernels in its kernel cache (``WARP_CACHE_PATH``, default ~/.cache/warp); a run on the
+    same device, Warp version and hertzian source reads them from there. One of PATH, --paper or --detect.
+    """
+    from hertzian.core.scene import SceneError
+    from hertzian.core.solvers.calibrate import KERNELS
+    from hertzian.core.solvers.compile import kernel_variants, prepare_kernels
+
+    if sum((path is not None, paper, detect is not None)) != 1:
+        fail("warmup: PATH, --paper, --detect = none or several: give exactly one")
+    if kernel not in KERNELS:
+        fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)}")
+    if workers is not None and workers < 1:
+        fail(f"--workers = {workers}: must be at least 1")
+    dev = resolve_device(device)
+    try:
+        needs = _needs(path, paper, quick, detect, dev, kernel)
+    except (SceneError, ValueError) as err:
+        fail(str(err))
+    if dry_run:
+        variants = kernel_variants(needs, dev)
+        names = [f"{module.name} (block {block or 'default'})" for module, block in variants]
+        typer.echo(json.dumps({"variants": names}, indent=1) if as_json else "\n".join(names))
+        return
+    report = prepare_kernels(needs, dev, max_workers=workers)
+    if as_json:
+        typer.echo(json.dumps({"device": dev, **report}))
+    else:
+        typer.echo(f"{report['variants']} kernel variants ready on {dev} in {report['seconds']:.2f} s")
+
+
+def _needs(path: Path | None, paper: bool, quick: bool, detect: Path | None, device: str, kernel: str) -> list:
+    """The job's needs (hertzian.studies.warmup)."""
+    from hertzian.core.scene import load_scene, read_toml
+    from hertzian.studies import warmup as needs
+
+    if paper:
+        return needs.paper_needs(device, quick=quick, kernel=None if kernel == "auto" else kernel)
+    if detect is not None:
+        return needs.detect_needs(load_scene(detect))
+    if path.is_file() and "scene" in read_toml(path):  # a sweep file holds its base scene in [scene]
+        return needs.sweep_needs(path, {}, device, kernel)
+    return needs.scene_needs(load_scene(path), kernel)
