@@ -16,6 +16,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import warp as wp
 from hertzian.core.devices import default_device, init_warp
+from hertzian.core.error_estimate import model_order, richardson_error, shadow_chains
 from hertzian.core.model import Model, State, build_model
 from hertzian.core.recorder import Recorder
 from hertzian.core.scene import Scene
@@ -89,6 +90,10 @@ class RunResult:
     """Energy dissipated by damping up to each record, shape (chains, R), damped scenes only."""
     response: dict[str, np.ndarray] = field(default_factory=dict)
     """Response windows (ensemble/core/response.py): 'response', 'window_ke', 'driver_open', 'window_start'."""
+    error_estimate: np.ndarray | None = None
+    """Estimated max over records and grains of |u − u_exact| / max|u_exact| [relative], shape (chains,)
+    (SPEC §12, ensemble/core/error_estimate.py); None unless ``record.error_estimate``. Its shadow run's
+    seconds are ``timing["error_estimate"]``, not part of ``wall_seconds``."""
 
     @property
     def chain_count(self) -> int:
@@ -163,6 +168,8 @@ class Runner:
             )
         if use_graph is not None:
             config = replace(config, use_graph=use_graph)
+        self.kernel_request = kernel if isinstance(kernel, str) else "auto"
+        """The kernel kind asked for; a shadow run for the error estimate asks for the same."""
         self.solver = make_solver(model, config)
         self.solver.load()
         self.recorder = Recorder(
@@ -295,6 +302,9 @@ class Runner:
             & ((m.injected_energy > 0) | (rec.work is not None))
         )
         status[drift] = Status.ENERGY_DRIFT
+        error_estimate = None
+        if scene.record.error_estimate:
+            error_estimate, timing["error_estimate"] = self.shadow_estimate(rec.fields["u"])
         return RunResult(
             scenes=m.scenes,
             features=m.features,
@@ -316,7 +326,16 @@ class Runner:
             timing=timing,
             dissipated=rec.dissipated,
             response=rec.response.result() if rec.response is not None else {},
+            error_estimate=error_estimate,
         )
+
+    def shadow_estimate(self, u: np.ndarray) -> tuple[np.ndarray, float]:
+        """(per-chain error estimate of positions ``u`` (chains, records, grains), seconds it took): the same
+        chains integrated at 2·dt, compared at the records (ensemble/core/error_estimate.py)."""
+        clock = time.perf_counter()
+        shadow = Runner(build_model(shadow_chains(self.model.scenes), self.model.device), kernel=self.kernel_request)
+        estimate = richardson_error(u, shadow.run().u, model_order(self.model))
+        return estimate, time.perf_counter() - clock
 
 
 def energy_errors(
