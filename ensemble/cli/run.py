@@ -41,13 +41,17 @@ def run(
         ),
     ] = False,
     kernel: KernelOption = "auto",
+    error_estimate: Annotated[
+        bool,
+        typer.Option("--error-estimate", help="Estimate the run's position error (record.error_estimate, SPEC §12)."),
+    ] = False,
 ):
     """Run one scene and store it as Zarr (times in program units of 1.0102e-3 s)."""
     from hertzian.core.solvers import KERNELS
 
     if kernel not in KERNELS:
         fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)}")
-    loaded = load_scene_or_fail(scene, set_, precision)
+    loaded = load_scene_or_fail(scene, [*(set_ or []), *(["record.error_estimate=true"] if error_estimate else [])], precision)
     from hertzian.core.check import dt_warning, memory_refusal
 
     too_big = memory_refusal(loaded)  # the host first, before Warp starts
@@ -109,5 +113,10 @@ def run(
         f"dt={loaded.integrator.dt:g} on {result.device} ({runner.solver.describe()} kernel): {result.wall_seconds:.2f} s, "
         f"{result.grain_steps_per_second:.3g} grain-steps/s, energy error {result.energy_error[0]:.2e}, "
         f"status {status}"
+        + (
+            f", error estimate {result.error_estimate[0]:.2e} (+{result.timing['error_estimate']:.2f} s)"
+            if result.error_estimate is not None
+            else ""
+        )
     )
     typer.echo(f"wrote {out}")

@@ -33,6 +33,9 @@ from hertzian.core.scene import SHADOW_STEP_FACTOR as SHADOW_FACTOR
 from hertzian.core.scene import Scene
 from hertzian.core.static import static_arrays, static_state
 
+ERROR_ESTIMATE_MEANING = "estimated max over records and grains of |u - u_exact| / max|u_exact| (2*dt shadow, Richardson)"
+"""What ``error_estimate`` holds (store attribute ``long_name``)."""
+
 SMOOTH_ORDER = {"gear4": 4.0, "gear5": 5.0, "gear6": 6.0, "verlet": 2.0, "yoshida4": 4.0}
 """Order of the positions where no contact opens (tests/test_order.py, docs/stability.md §2c, §6)."""
 EVENT_ORDER = 4.0

@@ -47,6 +47,7 @@ import zarr.errors
 from hertzian.core.model import SHARED_KEYS
 from hertzian.core.runner import RunResult
 from hertzian.core.scene import Scene
+from hertzian.core.error_estimate import ERROR_ESTIMATE_MEANING
 from hertzian.core.status import status_attrs
 from hertzian.sweeping.planner import Batch, Plan
 from hertzian.sweeping.spec import Sweep, record_times, trace_times
@@ -278,6 +279,20 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
             attrs={**coords(), "long_name": "max_t |E(t) - E(0) [- W(t)]| / E_inj (absolute when nothing is injected)"},
         ),
         dict(name="max_overlap", dims=dims, trailing=(), dtype=np.dtype(np.float64), fill=np.nan, attrs=coords()),
+        *(
+            [
+                dict(
+                    name="error_estimate",
+                    dims=dims,
+                    trailing=(),
+                    dtype=np.dtype(np.float64),
+                    fill=np.nan,
+                    attrs={**coords(), "units": "relative", "long_name": ERROR_ESTIMATE_MEANING},
+                )
+            ]
+            if scene.record.error_estimate
+            else []
+        ),
         dict(
             name="wall_seconds",
             dims=dims,
@@ -750,6 +765,7 @@ def write_batch(
             "status": result.status.astype(np.int32),
             "energy_error": result.energy_error,
             "max_overlap": result.max_overlap,
+            **({"error_estimate": result.error_estimate} if result.error_estimate is not None else {}),
             "wall_seconds": np.full(chains, wall / chains),
             "grain_steps_per_second": np.full(chains, rate),
         }
