@@ -58,7 +58,7 @@ def run(
     if too_big:
         fail(too_big)
 
-    unsafe = dt_warning(loaded)
+    unsafe = dt_warning(loaded) if loaded.integrator.tolerance is None else None
     if unsafe and strict:
         fail(unsafe)
     if unsafe:
@@ -77,6 +77,23 @@ def run(
     from hertzian.core.solvers.calibrate import event_cost_note
     from hertzian.sweeping.store import write_result
 
+    if loaded.integrator.tolerance is not None:
+        import zarr
+        from hertzian.core.error_estimate import meet_tolerance
+        from hertzian.sweeping.store import consolidate
+
+        choice = meet_tolerance([loaded], lambda chosen: Runner(build_model(chosen, dev), kernel=kernel).run())
+        write_result(out, choice.result, overwrite=overwrite)
+        zarr.open_group(str(out), mode="r+").attrs.update(choice.attrs())
+        consolidate(out)
+        chosen = choice.result.scenes[0].integrator
+        typer.echo(
+            f"tolerance {chosen.tolerance or loaded.integrator.tolerance:g}: {chosen.method} events {chosen.events} "
+            f"dt={chosen.dt:g} after {len(choice.pilot)} pilot runs ({sum(p.seconds for p in choice.pilot):.2f} s), "
+            f"error estimate {float(choice.result.error_estimate.max()):.2e}, status {int(choice.result.status[0])}"
+        )
+        typer.echo(f"wrote {out}")
+        return
     try:
         runner = Runner(build_model([loaded], dev), kernel=kernel)
     except ValueError as err:  # a forced kernel that cannot run this scene here

@@ -25,13 +25,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import asdict, dataclass
 
 import numpy as np
 from hertzian.core.chains import ChainSet, ChainStack
+from hertzian.core.check import ACCURATE_STEPS_PER_CONTACT_TIME, check_scene
 from hertzian.core.model import Model, chain_set_can_open, contact_can_open
 from hertzian.core.scene import SHADOW_STEP_FACTOR as SHADOW_FACTOR
-from hertzian.core.scene import Scene
+from hertzian.core.scene import AUTO_METHOD, Scene
 from hertzian.core.static import static_arrays, static_state
+from hertzian.core.status import Status
 
 ERROR_ESTIMATE_MEANING = "estimated max over records and grains of |u - u_exact| / max|u_exact| (2*dt shadow, Richardson)"
 """What ``error_estimate`` holds (store attribute ``long_name``)."""
@@ -107,3 +110,102 @@ def richardson_error(u: np.ndarray, u_shadow: np.ndarray, order: float, factor: 
         scale = np.max(np.abs(u), axis=axes)
     estimate = difference / (factor**order - 1.0) / np.where(scale > 0, scale, 1.0)
     return np.where(np.isfinite(estimate), estimate, math.inf)
+
+
+TOLERANCE_CANDIDATES = (("gear4", "auto"), ("gear4", "off"), ("gear6", "auto"), ("verlet", "auto"))
+"""(method, events) tried by ``integrator.method = "auto"`` with a tolerance."""
+MAX_HALVINGS = 12
+"""Most halvings (or doublings) of the step a tolerance search takes from its start."""
+
+
+@dataclass(frozen=True)
+class PilotRun:
+    """One run of a tolerance search."""
+
+    method: str
+    events: str
+    dt: float
+    """Step [time]."""
+    estimate: float
+    """Largest error estimate over the chains [relative]."""
+    seconds: float
+    """Wall seconds of the run, its shadow included."""
+
+
+@dataclass(frozen=True)
+class ToleranceChoice:
+    """What ``integrator.tolerance`` chose: the run kept (it met TOL, or the finest tried) and every run tried."""
+
+    tolerance: float
+    result: object
+    """The RunResult kept; its scenes carry the chosen dt, method and events."""
+    pilot: tuple[PilotRun, ...]
+
+    def attrs(self) -> dict:
+        """Store attributes: the tolerance, the choice and the pilot's figures (JSON-ready)."""
+        scene = self.result.scenes[0]
+        return {
+            "tolerance": self.tolerance,
+            "tolerance_choice": {
+                "dt": scene.integrator.dt,
+                "method": scene.integrator.method,
+                "events": scene.integrator.events,
+            },
+            "tolerance_pilot": [asdict(p) for p in self.pilot],
+        }
+
+
+def step_ladder(scene: Scene, method: str) -> tuple[float, int]:
+    """(base interval [time], start exponent j): candidate steps are base/2^j, which put every record on an
+    even step; j starts at the first step ``hertzian check`` calls accurate for ``method``."""
+    base = scene.record.every if scene.record.every is not None else scene.integrator.duration
+    accurate = check_scene(scene.with_overrides({"integrator.method": method, "integrator.tolerance": None}))
+    start = accurate.contact_time / ACCURATE_STEPS_PER_CONTACT_TIME[method]
+    j = max(1, math.ceil(math.log2(base / start))) if math.isfinite(start) and start > 0 else 1
+    return base, j
+
+
+def search_step(scenes: list[Scene], method: str, events: str, run, pilot: list) -> tuple[object, bool]:
+    """The run at the largest ladder step whose estimate meets the tolerance (``run(scenes) → RunResult``),
+    and whether one did; appends each run to ``pilot``."""
+    tolerance = scenes[0].integrator.tolerance
+    base, j = step_ladder(scenes[0], method)
+    tried: dict[int, object] = {}
+
+    def attempt(k: int):
+        overrides = {"integrator.tolerance": None, "integrator.method": method, "integrator.events": events}
+        overrides |= {"integrator.dt": base / 2**k, "record.error_estimate": True}
+        result = run([s.with_overrides(overrides) for s in scenes])
+        worst = float(np.max(result.error_estimate))
+        pilot.append(PilotRun(method, events, base / 2**k, worst, result.wall_seconds + result.timing["error_estimate"]))
+        tried[k] = result
+        return worst <= tolerance
+
+    step = -1 if attempt(j) else 1
+    for _ in range(MAX_HALVINGS):
+        k = max(tried) + 1 if step > 0 else min(tried) - 1
+        if k < 1:
+            break
+        met = attempt(k)
+        if (step < 0 and not met) or (step > 0 and met):
+            break
+    meeting = [k for k, r in tried.items() if np.max(r.error_estimate) <= tolerance]
+    return (tried[min(meeting)], True) if meeting else (tried[max(tried)], False)
+
+
+def meet_tolerance(scenes: list[Scene], run) -> ToleranceChoice:
+    """Run ``scenes`` (sharing ``integrator.tolerance``) at the largest step of the ladder meeting it; with
+    ``integrator.method = "auto"`` for each of TOLERANCE_CANDIDATES, keeping the fastest. Chains whose estimate
+    misses the tolerance get status TOLERANCE_MISSED."""
+    integrator = scenes[0].integrator
+    candidates = (
+        TOLERANCE_CANDIDATES if integrator.method == AUTO_METHOD else ((integrator.method, integrator.events),)
+    )
+    pilot: list[PilotRun] = []
+    found = [search_step(list(scenes), method, events, run, pilot) for method, events in candidates]
+    met = [r for r, ok in found if ok] or [r for r, _ in found]
+    result = min(met, key=lambda r: r.wall_seconds)
+    missed = (result.status == Status.OK) & ~(result.error_estimate <= integrator.tolerance)
+    result.status[missed] = Status.TOLERANCE_MISSED
+    return ToleranceChoice(tolerance=integrator.tolerance, result=result, pilot=tuple(pilot))
+

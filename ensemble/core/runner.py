@@ -16,10 +16,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import warp as wp
 from hertzian.core.devices import default_device, init_warp
-from hertzian.core.error_estimate import model_order, richardson_error, shadow_chains
+from hertzian.core.error_estimate import meet_tolerance, model_order, richardson_error, shadow_chains
 from hertzian.core.model import Model, State, build_model
 from hertzian.core.recorder import Recorder
-from hertzian.core.scene import Scene
+from hertzian.core.scene import Scene, SceneError
 from hertzian.core.solvers import SolverConfig, choose_config, make_solver
 from hertzian.core.solvers.calibrate import fused_lacks, step_reason
 from hertzian.core.status import Status
@@ -140,6 +140,11 @@ class Runner:
         on_queued=None,
     ):
         setup_start = time.perf_counter()
+        tolerance = model.scenes[0].integrator.tolerance
+        if tolerance is not None:
+            raise SceneError(
+                "integrator.tolerance", tolerance, "a tolerance picks dt before the run: use run_ensemble or hertzian run"
+            )
         self.model = model
         self.monitor_every = (
             max(MONITOR_MIN_STEPS, MONITOR_STEPS_PER_GRAIN * model.grain_count)
@@ -371,9 +376,13 @@ def energy_errors(
 def run_ensemble(
     scenes: list[Scene], device: str | None = None, *, progress=None, use_graph: bool | None = None
 ) -> RunResult:
-    """Run compatible scenes as one ensemble (one kernel launch per step for all chains)."""
+    """Run compatible scenes as one ensemble (one kernel launch per step for all chains). Scenes with
+    ``integrator.tolerance`` run at the step (and method) a search picks (ensemble/core/error_estimate.py)."""
     init_warp()
-    model = build_model(list(scenes), device or default_device())
+    device = device or default_device()
+    if scenes[0].integrator.tolerance is not None:
+        return meet_tolerance(list(scenes), lambda chosen: run_ensemble(chosen, device, use_graph=use_graph)).result
+    model = build_model(list(scenes), device)
     return Runner(model, use_graph=use_graph).run(progress)
 
 
