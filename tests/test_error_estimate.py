@@ -112,3 +112,26 @@ def test_refusals(record, key):
             record={**record, "error_estimate": True},
         )
     assert "\n" not in str(refused.value)
+
+
+@pytest.mark.parametrize("name, tolerance", [("walls, precompressed", 1e-6), ("loose chain, event-aware steps", 1e-6)])
+def test_tolerance_met_with_the_largest_ladder_step(name, tolerance):
+    """The kept run's true error is ≤ TOL, and twice its step (the next rung up) would miss TOL."""
+    sections = CASES[name][0]
+    scene = make_scene(
+        chain={"grains": GRAINS, **sections["chain"]},
+        excitation=sections["excitation"],
+        integrator={"duration": DURATION, "tolerance": tolerance},
+        record={"every": EVERY, "fields": ["u"]},
+    )
+    result = run_scene(scene, "cpu")
+    chosen = result.scenes[0]
+    assert chosen.integrator.tolerance is None and result.status[0] == 0
+    assert true_error(chosen, result.u[0]) <= tolerance
+    coarser = chosen.with_overrides({"integrator.dt": 2 * chosen.integrator.dt})
+    assert true_error(coarser, run_scene(coarser, "cpu").u[0]) > tolerance
+
+
+def test_tolerance_and_dt_refused_together():
+    with pytest.raises(SceneError, match="integrator.tolerance"):
+        make_scene(chain={"grains": GRAINS}, integrator={"duration": 1.0, "dt": 1e-3, "tolerance": 1e-6})
