@@ -80,8 +80,10 @@ def test_estimate_within_factor_of_true_error(name):
 
 def test_estimate_per_chain_in_an_ensemble():
     """Each chain of an ensemble gets its own estimate; a member's equals its run alone (bit for bit)."""
-    scenes = [estimated_scene(CASES["walls, precompressed"][0] | {"excitation": {"impact": v}}, "gear4", "auto", 1e-3)
-              for v in (1e-3, 1e-2)]
+    scenes = [
+        estimated_scene(CASES["walls, precompressed"][0] | {"excitation": {"impact": v}}, "gear4", "auto", 1e-3)
+        for v in (1e-3, 1e-2)
+    ]
     together = run_ensemble(scenes, "cpu").error_estimate
     alone = [run_scene(s, "cpu").error_estimate[0] for s in scenes]
     assert together.shape == (2,)

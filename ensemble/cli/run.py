@@ -51,7 +51,9 @@ def run(
 
     if kernel not in KERNELS:
         fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)}")
-    loaded = load_scene_or_fail(scene, [*(set_ or []), *(["record.error_estimate=true"] if error_estimate else [])], precision)
+    loaded = load_scene_or_fail(
+        scene, [*(set_ or []), *(["record.error_estimate=true"] if error_estimate else [])], precision
+    )
     from hertzian.core.check import dt_warning, memory_refusal
 
     too_big = memory_refusal(loaded)  # the host first, before Warp starts

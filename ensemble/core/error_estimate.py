@@ -31,12 +31,14 @@ import numpy as np
 from hertzian.core.chains import ChainSet, ChainStack
 from hertzian.core.check import ACCURATE_STEPS_PER_CONTACT_TIME, check_scene
 from hertzian.core.model import Model, chain_set_can_open, contact_can_open
-from hertzian.core.scene import SHADOW_STEP_FACTOR as SHADOW_FACTOR
 from hertzian.core.scene import AUTO_METHOD, Scene
+from hertzian.core.scene import SHADOW_STEP_FACTOR as SHADOW_FACTOR
 from hertzian.core.static import static_arrays, static_state
 from hertzian.core.status import Status
 
-ERROR_ESTIMATE_MEANING = "estimated max over records and grains of |u - u_exact| / max|u_exact| (2*dt shadow, Richardson)"
+ERROR_ESTIMATE_MEANING = (
+    "estimated max over records and grains of |u - u_exact| / max|u_exact| (2*dt shadow, Richardson)"
+)
 """What ``error_estimate`` holds (store attribute ``long_name``)."""
 
 SMOOTH_ORDER = {"gear4": 4.0, "gear5": 5.0, "gear6": 6.0, "verlet": 2.0, "yoshida4": 4.0}
@@ -177,7 +179,9 @@ def search_step(scenes: list[Scene], method: str, events: str, run, pilot: list)
         overrides |= {"integrator.dt": base / 2**k, "record.error_estimate": True}
         result = run([s.with_overrides(overrides) for s in scenes])
         worst = float(np.max(result.error_estimate))
-        pilot.append(PilotRun(method, events, base / 2**k, worst, result.wall_seconds + result.timing["error_estimate"]))
+        pilot.append(
+            PilotRun(method, events, base / 2**k, worst, result.wall_seconds + result.timing["error_estimate"])
+        )
         tried[k] = result
         return worst <= tolerance
 
@@ -198,9 +202,7 @@ def meet_tolerance(scenes: list[Scene], run) -> ToleranceChoice:
     ``integrator.method = "auto"`` for each of TOLERANCE_CANDIDATES, keeping the fastest. Chains whose estimate
     misses the tolerance get status TOLERANCE_MISSED."""
     integrator = scenes[0].integrator
-    candidates = (
-        TOLERANCE_CANDIDATES if integrator.method == AUTO_METHOD else ((integrator.method, integrator.events),)
-    )
+    candidates = TOLERANCE_CANDIDATES if integrator.method == AUTO_METHOD else ((integrator.method, integrator.events),)
     pilot: list[PilotRun] = []
     found = [search_step(list(scenes), method, events, run, pilot) for method, events in candidates]
     met = [r for r, ok in found if ok] or [r for r, _ in found]
@@ -208,4 +210,3 @@ def meet_tolerance(scenes: list[Scene], run) -> ToleranceChoice:
     missed = (result.status == Status.OK) & ~(result.error_estimate <= integrator.tolerance)
     result.status[missed] = Status.TOLERANCE_MISSED
     return ToleranceChoice(tolerance=integrator.tolerance, result=result, pilot=tuple(pilot))
-

@@ -143,7 +143,9 @@ class Runner:
         tolerance = model.scenes[0].integrator.tolerance
         if tolerance is not None:
             raise SceneError(
-                "integrator.tolerance", tolerance, "a tolerance picks dt before the run: use run_ensemble or hertzian run"
+                "integrator.tolerance",
+                tolerance,
+                "a tolerance picks dt before the run: use run_ensemble or hertzian run",
             )
         self.model = model
         self.monitor_every = (

@@ -451,7 +451,9 @@ def scene_from_dict(data: dict) -> Scene:
         raise SceneError("integrator.duration", None, "is required (simulated time, > 0)")
     if integrator.get("tolerance") is not None and "dt" in integrator:
         raise SceneError(
-            "integrator.tolerance", integrator["tolerance"], "give either integrator.dt or integrator.tolerance, not both"
+            "integrator.tolerance",
+            integrator["tolerance"],
+            "give either integrator.dt or integrator.tolerance, not both",
         )
     return Scene(impurities=imps, **parts)
 

@@ -44,10 +44,10 @@ from typing import Any
 import numpy as np
 import zarr
 import zarr.errors
+from hertzian.core.error_estimate import ERROR_ESTIMATE_MEANING
 from hertzian.core.model import SHARED_KEYS
 from hertzian.core.runner import RunResult
 from hertzian.core.scene import Scene
-from hertzian.core.error_estimate import ERROR_ESTIMATE_MEANING
 from hertzian.core.status import status_attrs
 from hertzian.sweeping.planner import Batch, Plan
 from hertzian.sweeping.spec import Sweep, record_times, trace_times
