@@ -41,20 +41,26 @@ def run(
         ),
     ] = False,
     kernel: KernelOption = "auto",
+    error_estimate: Annotated[
+        bool,
+        typer.Option("--error-estimate", help="Estimate the run's position error (record.error_estimate, SPEC §12)."),
+    ] = False,
 ):
     """Run one scene and store it as Zarr (times in program units of 1.0102e-3 s)."""
     from hertzian.core.solvers import KERNELS
 
     if kernel not in KERNELS:
         fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)}")
-    loaded = load_scene_or_fail(scene, set_, precision)
+    loaded = load_scene_or_fail(
+        scene, [*(set_ or []), *(["record.error_estimate=true"] if error_estimate else [])], precision
+    )
     from hertzian.core.check import dt_warning, memory_refusal
 
     too_big = memory_refusal(loaded)  # the host first, before Warp starts
     if too_big:
         fail(too_big)
 
-    unsafe = dt_warning(loaded)
+    unsafe = dt_warning(loaded) if loaded.integrator.tolerance is None else None
     if unsafe and strict:
         fail(unsafe)
     if unsafe:
@@ -73,6 +79,23 @@ def run(
     from hertzian.core.solvers.calibrate import event_cost_note
     from hertzian.sweeping.sweep_store import write_result
 
+    if loaded.integrator.tolerance is not None:
+        import zarr
+        from hertzian.core.error_estimate import meet_tolerance
+        from hertzian.sweeping.store import consolidate
+
+        choice = meet_tolerance([loaded], lambda chosen: Runner(build_model(chosen, dev), kernel=kernel).run())
+        write_result(out, choice.result, overwrite=overwrite)
+        zarr.open_group(str(out), mode="r+").attrs.update(choice.attrs())
+        consolidate(out)
+        chosen = choice.result.scenes[0].integrator
+        typer.echo(
+            f"tolerance {chosen.tolerance or loaded.integrator.tolerance:g}: {chosen.method} events {chosen.events} "
+            f"dt={chosen.dt:g} after {len(choice.pilot)} pilot runs ({sum(p.seconds for p in choice.pilot):.2f} s), "
+            f"error estimate {float(choice.result.error_estimate.max()):.2e}, status {int(choice.result.status[0])}"
+        )
+        typer.echo(f"wrote {out}")
+        return
     try:
         runner = Runner(build_model([loaded], dev), kernel=kernel)
     except ValueError as err:  # a forced kernel that cannot run this scene here
@@ -109,5 +132,10 @@ def run(
         f"dt={loaded.integrator.dt:g} on {result.device} ({runner.solver.describe()} kernel): {result.wall_seconds:.2f} s, "
         f"{result.grain_steps_per_second:.3g} grain-steps/s, energy error {result.energy_error[0]:.2e}, "
         f"status {status}"
+        + (
+            f", error estimate {result.error_estimate[0]:.2e} (+{result.timing['error_estimate']:.2f} s)"
+            if result.error_estimate is not None
+            else ""
+        )
     )
     typer.echo(f"wrote {out}")

@@ -163,6 +163,10 @@ def sweep(
         bool, typer.Option("--allow-large", help="Run sweeps of more than 10^7 points (refused by default).")
     ] = False,
     kernel: KernelOption = "auto",
+    error_estimate: Annotated[
+        bool,
+        typer.Option("--error-estimate", help="Store each point's estimated position error (record.error_estimate)."),
+    ] = False,
 ):
     """Run a parameter sweep (SPEC §8) as batched ensembles into one Zarr store with one dimension per axis.
 
@@ -188,6 +192,8 @@ def sweep(
         sets = parse_overrides(set_)
         if precision is not None:
             sets["integrator.precision"] = precision
+        if error_estimate:
+            sets["record.error_estimate"] = True
         definition = load_sweep(sweep_file, sets, max_points=None if allow_large else MAX_POINTS)
         timing["load"] = time.perf_counter() - clock
         clock = time.perf_counter()

@@ -16,9 +16,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import warp as wp
 from hertzian.core.devices import default_device, init_warp
+from hertzian.core.error_estimate import meet_tolerance, model_order, richardson_error, shadow_chains
 from hertzian.core.model import Model, State, build_model
 from hertzian.core.recorder import Recorder
-from hertzian.core.scene import Scene
+from hertzian.core.scene import Scene, SceneError
 from hertzian.core.solvers import SolverConfig, choose_config, make_solver
 from hertzian.core.solvers.calibrate import fused_lacks, step_reason
 from hertzian.core.solvers.compile import Need, prepare_kernels
@@ -90,6 +91,10 @@ class RunResult:
     """Energy dissipated by damping up to each record, shape (chains, R), damped scenes only."""
     response: dict[str, np.ndarray] = field(default_factory=dict)
     """Response windows (ensemble/core/response.py): 'response', 'window_ke', 'driver_open', 'window_start'."""
+    error_estimate: np.ndarray | None = None
+    """Estimated max over records and grains of |u − u_exact| / max|u_exact| [relative], shape (chains,)
+    (SPEC §12, ensemble/core/error_estimate.py); None unless ``record.error_estimate``. Its shadow run's
+    seconds are ``timing["error_estimate"]``, not part of ``wall_seconds``."""
 
     @property
     def chain_count(self) -> int:
@@ -136,6 +141,13 @@ class Runner:
         on_queued=None,
     ):
         setup_start = time.perf_counter()
+        tolerance = model.scenes[0].integrator.tolerance
+        if tolerance is not None:
+            raise SceneError(
+                "integrator.tolerance",
+                tolerance,
+                "a tolerance picks dt before the run: use run_ensemble or hertzian run",
+            )
         self.model = model
         self.monitor_every = (
             max(MONITOR_MIN_STEPS, MONITOR_STEPS_PER_GRAIN * model.grain_count)
@@ -165,6 +177,8 @@ class Runner:
         if use_graph is not None:
             config = replace(config, use_graph=use_graph)
         prepare_kernels([Need(model.features, model.grain_count, model.chain_count, kernel=config)], model.device)
+        self.kernel_request = kernel if isinstance(kernel, str) else "auto"
+        """The kernel kind asked for; a shadow run for the error estimate asks for the same."""
         self.solver = make_solver(model, config)
         self.solver.load()
         self.recorder = Recorder(
@@ -297,6 +311,9 @@ class Runner:
             & ((m.injected_energy > 0) | (rec.work is not None))
         )
         status[drift] = Status.ENERGY_DRIFT
+        error_estimate = None
+        if scene.record.error_estimate:
+            error_estimate, timing["error_estimate"] = self.shadow_estimate(rec.fields["u"])
         return RunResult(
             scenes=m.scenes,
             features=m.features,
@@ -318,7 +335,16 @@ class Runner:
             timing=timing,
             dissipated=rec.dissipated,
             response=rec.response.result() if rec.response is not None else {},
+            error_estimate=error_estimate,
         )
+
+    def shadow_estimate(self, u: np.ndarray) -> tuple[np.ndarray, float]:
+        """(per-chain error estimate of positions ``u`` (chains, records, grains), seconds it took): the same
+        chains integrated at 2·dt, compared at the records (ensemble/core/error_estimate.py)."""
+        clock = time.perf_counter()
+        shadow = Runner(build_model(shadow_chains(self.model.scenes), self.model.device), kernel=self.kernel_request)
+        estimate = richardson_error(u, shadow.run().u, model_order(self.model))
+        return estimate, time.perf_counter() - clock
 
 
 def energy_errors(
@@ -354,9 +380,13 @@ def energy_errors(
 def run_ensemble(
     scenes: list[Scene], device: str | None = None, *, progress=None, use_graph: bool | None = None
 ) -> RunResult:
-    """Run compatible scenes as one ensemble (one kernel launch per step for all chains)."""
+    """Run compatible scenes as one ensemble (one kernel launch per step for all chains). Scenes with
+    ``integrator.tolerance`` run at the step (and method) a search picks (ensemble/core/error_estimate.py)."""
     init_warp()
-    model = build_model(list(scenes), device or default_device())
+    device = device or default_device()
+    if scenes[0].integrator.tolerance is not None:
+        return meet_tolerance(list(scenes), lambda chosen: run_ensemble(chosen, device, use_graph=use_graph)).result
+    model = build_model(list(scenes), device)
     return Runner(model, use_graph=use_graph).run(progress)
 
 

@@ -22,6 +22,10 @@ import numpy as np
 SURFACE_KINDS = ("wall", "load", "free", "driven")
 BOTTOM_KINDS = ("wall", "fixed", "free")
 METHODS = ("gear4", "gear5", "gear6", "verlet", "yoshida4")
+AUTO_METHOD = "auto"
+"""integrator.method with integrator.tolerance: the pilot (ensemble/core/error_estimate.py) picks the method."""
+SHADOW_STEP_FACTOR = 2
+"""record.error_estimate integrates a shadow ensemble at this many times dt (ensemble/core/error_estimate.py)."""
 COMPOSED_METHODS = ("yoshida4",)
 """Methods composed of velocity-Verlet substeps (kernels/features.py SUBSTEP_WEIGHTS): no drive, no damping."""
 EVENT_MODES = ("auto", "off")
@@ -137,6 +141,9 @@ class IntegratorSpec:
     events: str = "auto"
     """auto: Gear steps near a contact opening/closing are event-aware (kernels/events.py) when some
     contact can open; off: plain Gear steps everywhere (the results before event-aware steps)."""
+    tolerance: float | None = None
+    """Instead of ``dt``: the largest relative position error allowed (SPEC §12) [relative]; a pilot run picks
+    dt (and, with ``method = "auto"``, the method and events) before the run (ensemble/core/error_estimate.py)."""
 
 
 @dataclass(frozen=True)
@@ -173,6 +180,9 @@ class RecordSpec:
     """Consecutive response windows."""
     harmonics: int = 1
     """Highest harmonic H of the drive frequency kept in ``response`` (k = 0 … H)."""
+    error_estimate: bool = False
+    """Estimate each chain's relative position error (SPEC §12) from a shadow run at 2·dt
+    (ensemble/core/error_estimate.py); needs ``u`` among ``fields`` and records on even steps."""
 
 
 @dataclass(frozen=True)
@@ -303,6 +313,8 @@ class Scene:
         ]
         d["record"]["fields"] = list(d["record"]["fields"])
         d["record"]["traces"] = list(d["record"]["traces"])
+        if self.integrator.tolerance is not None:
+            del d["integrator"]["dt"]  # not given: the pilot chooses it
         return d
 
     def with_overrides(self, overrides: dict[str, Any]) -> "Scene":
@@ -434,8 +446,15 @@ def scene_from_dict(data: dict) -> Scene:
     if not isinstance(raw_imps, list):
         raise SceneError("impurities", raw_imps, "must be an array of tables ([[impurities]])")
     imps = tuple(_build(ImpuritySpec, f"impurities[{k}]", imp) for k, imp in enumerate(raw_imps))
-    if "duration" not in data.get("integrator", {}):
+    integrator = data.get("integrator", {})
+    if "duration" not in integrator:
         raise SceneError("integrator.duration", None, "is required (simulated time, > 0)")
+    if integrator.get("tolerance") is not None and "dt" in integrator:
+        raise SceneError(
+            "integrator.tolerance",
+            integrator["tolerance"],
+            "give either integrator.dt or integrator.tolerance, not both",
+        )
     return Scene(impurities=imps, **parts)
 
 
@@ -592,10 +611,11 @@ def _validate(s: Scene) -> None:
     _positive("integrator.dt", i.dt)
     if i.dt > i.duration:
         raise SceneError("integrator.dt", i.dt, f"must not exceed integrator.duration = {i.duration}")
-    if i.method not in METHODS:
-        raise SceneError(
-            "integrator.method", i.method, f"must be one of {', '.join(METHODS)}" + _did_you_mean(i.method, METHODS)
-        )
+    if i.tolerance is not None and not (0 < i.tolerance < 1):
+        raise SceneError("integrator.tolerance", i.tolerance, "must be a relative error in (0, 1), e.g. 1e-6")
+    if i.method not in METHODS and not (i.method == AUTO_METHOD and i.tolerance is not None):
+        allowed = ", ".join(METHODS) + ' (or "auto" with integrator.tolerance)'
+        raise SceneError("integrator.method", i.method, f"must be one of {allowed}" + _did_you_mean(i.method, METHODS))
     if i.precision not in PRECISIONS:
         raise SceneError("integrator.precision", i.precision, "must be float64 or float32")
     steps = i.duration / i.dt
@@ -641,6 +661,7 @@ def _validate(s: Scene) -> None:
                 f"trace_every = {s.trace_stride} steps of dt = {i.dt:g})",
             )
     _validate_damping_and_response(s)
+    _validate_error_estimate(s)
     if i.method in COMPOSED_METHODS:
         allowed = ", ".join(m for m in METHODS if m not in COMPOSED_METHODS)
         if b.surface == "driven":
@@ -667,6 +688,23 @@ def _validate(s: Scene) -> None:
             finite = False
         if not finite:
             raise SceneError(key, value, "too large: the load or energy it gives overflows float64")
+
+
+def _validate_error_estimate(s: Scene) -> None:
+    """record.error_estimate: positions recorded, every record on a step of the 2·dt shadow."""
+    r = s.record
+    if not r.error_estimate:
+        return
+    if "u" not in r.fields:
+        raise SceneError("record.fields", list(r.fields), "record.error_estimate needs 'u' among them")
+    odd = s.record_steps[s.record_steps % SHADOW_STEP_FACTOR != 0]
+    if s.integrator.tolerance is None and odd.size:
+        raise SceneError(
+            "record.every" if int(odd[0]) != s.step_count else "integrator.duration",
+            r.every if int(odd[0]) != s.step_count else s.integrator.duration,
+            f"record.error_estimate needs every record on an even step (the 2·dt shadow's), but record step "
+            f"{int(odd[0])} of dt = {s.integrator.dt:g} is odd; make record.every and duration even multiples of dt",
+        )
 
 
 def _validate_damping_and_response(s: Scene) -> None:

@@ -20,6 +20,8 @@ class Status(IntEnum):
     NON_FINITE = STATUS_NON_FINITE
     OVERLAP_BEYOND_VALIDITY = STATUS_OVERLAP_BEYOND_VALIDITY
     ENERGY_DRIFT = STATUS_ENERGY_DRIFT
+    TOLERANCE_MISSED = 4
+    """Set on the host only (ensemble/core/error_estimate.py), on a chain still OK."""
 
     @property
     def message(self) -> str:
@@ -31,6 +33,7 @@ STATUS_MESSAGES = {
     Status.NON_FINITE: "state became non-finite (NaN/inf); the chain was frozen at the next record",
     Status.OVERLAP_BEYOND_VALIDITY: "an overlap exceeded 0.1·diameter, beyond where the Hertz law holds",
     Status.ENERGY_DRIFT: "energy error above the tolerance (1e-2 of the injected energy by default)",
+    Status.TOLERANCE_MISSED: "error estimate above integrator.tolerance at the step it chose (the finest tried when none met it)",
 }
 
 

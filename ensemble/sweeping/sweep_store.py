@@ -46,6 +46,7 @@ import numpy as np
 import zarr
 import zarr.errors
 from hertzian.core.chains import ChainSet
+from hertzian.core.error_estimate import ERROR_ESTIMATE_MEANING
 from hertzian.core.model import SHARED_KEYS
 from hertzian.core.runner import RunResult
 from hertzian.core.scene import Scene
@@ -250,9 +251,9 @@ def _trace_variables(scene: Scene, dims: tuple[str, ...], coords, real: np.dtype
     ]
 
 
-def _point_variables(dims: tuple[str, ...], coords) -> list[dict]:
-    """One value per point: ``status``, ``energy_error``, ``max_overlap``, ``wall_seconds``,
-    ``grain_steps_per_second``."""
+def _point_variables(dims: tuple[str, ...], coords, *, error_estimate: bool = False) -> list[dict]:
+    """One value per point: ``status``, ``energy_error``, ``max_overlap``, ``error_estimate`` (when asked for),
+    ``wall_seconds``, ``grain_steps_per_second``."""
     codes = status_codes()
     long_names = {
         "energy_error": "max_t |E(t) - E(0) [- W(t)]| / E_inj (absolute when nothing is injected)",
@@ -273,6 +274,9 @@ def _point_variables(dims: tuple[str, ...], coords) -> list[dict]:
     for name, long_name in long_names.items():
         attrs = {**coords(), "long_name": long_name} if long_name else coords()
         out.append(_variable(name, dims, (), np.float64, np.nan, attrs))
+        if name == "max_overlap" and error_estimate:
+            attrs = {**coords(), "units": "relative", "long_name": ERROR_ESTIMATE_MEANING}
+            out.append(_variable("error_estimate", dims, (), np.float64, np.nan, attrs))
     return out
 
 
@@ -292,7 +296,7 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
         _record_variables(scene, dims, coords, real, block_points)
         + _response_variables(scene, dims, coords)
         + _trace_variables(scene, dims, coords, real, block_points)
-        + _point_variables(dims, coords)
+        + _point_variables(dims, coords, error_estimate=scene.record.error_estimate)
     )
 
 
@@ -842,6 +846,7 @@ def _write_batch(
             "status": result.status.astype(np.int32),
             "energy_error": result.energy_error,
             "max_overlap": result.max_overlap,
+            **({"error_estimate": result.error_estimate} if result.error_estimate is not None else {}),
             "wall_seconds": np.full(chains, wall / chains),
             "grain_steps_per_second": np.full(chains, rate),
         }
