@@ -16,7 +16,7 @@ from hertzian.core.model import build_model
 from hertzian.core.runner import Runner
 from hertzian.core.solvers import CHAIN, choose_config
 from hertzian.core.solvers.calibrate import step_reason
-from hertzian.core.solvers.compile import kernel_variants, prepare_kernels
+from hertzian.core.solvers.prepare import kernel_variants, prepare_kernels
 from hertzian.studies.warmup import scene_needs
 
 SCENES = {

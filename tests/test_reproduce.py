@@ -59,9 +59,9 @@ def test_quick_group_writes_store_png_and_log(tmp_path):
 
 
 def test_kernel_option_and_the_split_of_each_runs_seconds(tmp_path):
-    # --kernel fused: the short group takes the CPU chain kernel, which auto leaves for the per-step one
+    # --kernel step against --kernel fused (the CPU chain kernel): the option reaches the group's runs
     logs = {}
-    for kernel in ("auto", "fused"):
+    for kernel in ("step", "fused"):
         out = tmp_path / kernel
         result = cli.invoke(
             app,
@@ -70,8 +70,8 @@ def test_kernel_option_and_the_split_of_each_runs_seconds(tmp_path):
         assert result.exit_code == 0, result.output
         logs[kernel] = json.loads((out / "log.json").read_text())
         assert f"--kernel {kernel}" in logs[kernel]["command"]
-    (auto,), (fused,) = logs["auto"]["runs"], logs["fused"]["runs"]
-    assert auto["kernel"].startswith("step (a short run") and fused["kernel"] == "chain"
+    (auto,), (fused,) = logs["step"]["runs"], logs["fused"]["runs"]
+    assert auto["kernel"].startswith("step") and fused["kernel"] == "chain"
     assert fused["energy_error_max"] == pytest.approx(auto["energy_error_max"], rel=1e-6)
     for run in (auto, fused):
         assert set(run["seconds"]) == {"setup", "integrate", "finalize", "figures", "measure"}

@@ -35,7 +35,7 @@ def warmup(
     """
     from hertzian.core.scene import SceneError
     from hertzian.core.solvers.calibrate import KERNELS
-    from hertzian.core.solvers.compile import kernel_variants, prepare_kernels
+    from hertzian.core.solvers.prepare import kernel_variants, prepare_kernels
 
     if sum((path is not None, paper, detect is not None)) != 1:
         fail("warmup: PATH, --paper, --detect = none or several: give exactly one")

@@ -22,7 +22,7 @@ from hertzian.core.recorder import Recorder
 from hertzian.core.scene import Scene, SceneError
 from hertzian.core.solvers import SolverConfig, choose_config, make_solver
 from hertzian.core.solvers.calibrate import fused_lacks, step_reason
-from hertzian.core.solvers.compile import Need, prepare_kernels
+from hertzian.core.solvers.prepare import Need, prepare_kernels
 from hertzian.core.status import Status
 from hertzian.kernels.features import Features
 

@@ -25,7 +25,7 @@ import sys, time
 import warp as wp
 wp.config.quiet = True
 from hertzian.kernels.features import Features
-from hertzian.core.solvers.compile import Need, prepare_kernels
+from hertzian.core.solvers.prepare import Need, prepare_kernels
 needs = [Need(Features(method=m, static=s), 200, 1, 10**6, k) for m in ("gear4", "gear5")
          for s in ("none", "uniform") for k in ("step", "chain")]
 print(prepare_kernels(needs, "cpu", max_workers=int(sys.argv[1]))["seconds"])

@@ -1126,8 +1126,7 @@ def reproduce(
     while the next groups integrate (same PNGs and numbers); the log's ``figure_wait_seconds`` is the time
     the end waited for them."""
     import warp as wp
-    from hertzian.core.solvers.compile import prepare_kernels
-    from hertzian.studies.warmup import paper_needs
+    from hertzian.core.solvers.prepare import prepare_kernels
 
     sweeps_dir = sweeps_dir or default_sweeps_dir()
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -1250,3 +1249,40 @@ def _cpu_count() -> int:
     import os
 
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
+def paper_needs(
+    device: str,
+    *,
+    quick: bool = False,
+    events: str | None = None,
+    kernel: str | None = None,
+    groups: list[str] | None = None,
+) -> list:
+    """Every launch group of ``hertzian reproduce`` (each figure group's sweep of ``groups``, default all; the driven
+    column of Figs. 9-10 and its window kernels), with the kernel choice ``reproduce`` makes per group."""
+    from hertzian.core.model import features_of
+    from hertzian.core.solvers.prepare import Need
+    from hertzian.kernels.windows import window_kernels
+    from hertzian.sweeping.distributed import sweep_needs
+
+    needs: list = []
+    sweeps = default_sweeps_dir()
+    for name in groups or list(GROUPS):
+        group = GROUPS[name]
+        overrides = {**(group.quick if quick else {}), **({"integrator.events": events} if events else {})}
+        if name == "fig9_10":
+            grains = group.quick["chain.grains"] if quick else 10000
+            _, scenes = drive_scenes(sweeps / group.sweep, grains, 1.0, DRIVE_DT, events)
+            needs.append(Need(features_of(list(scenes)), grains, len(scenes), None, "auto"))
+            needs.extend(window_kernels(needs[-1].features.precision))
+            continue
+        from hertzian.sweeping.spec import expand, load_sweep
+
+        choice = kernel
+        if choice is None:
+            choice = group_kernel(
+                expand(load_sweep(sweeps / group.sweep, overrides)).scene(0).integrator.events, device
+            )
+        needs.extend(sweep_needs(sweeps / group.sweep, overrides, device, choice))
+    return needs

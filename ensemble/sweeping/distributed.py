@@ -21,8 +21,8 @@ from typing import Any
 
 from hertzian.core.chains import ChainSet
 from hertzian.kernels.features import Features
-from hertzian.sweeping.planner import Batch, Plan
-from hertzian.sweeping.spec import SweepPoints
+from hertzian.sweeping.planner import Batch, Plan, plan_sweep
+from hertzian.sweeping.spec import SweepPoints, expand, load_sweep
 
 
 @dataclass(frozen=True)
@@ -72,7 +72,7 @@ def warm_kernels(features: Iterable[Features], device: str, *, runs: Iterable[tu
     ``runs``: (features, grains, chains, steps) of the batches this process will run (a serial sweep); then the
     stepping kernel warmed is the one each will use (hertzian.core.solvers.compile.prepare_kernels); without them,
     the record kernels of each feature set (and on a CPU its chain kernel)."""
-    from hertzian.core.solvers.compile import Need, prepare_kernels
+    from hertzian.core.solvers.prepare import Need, prepare_kernels
 
     _quiet_warp()
     prepare_kernels(list(features) if runs is None else [Need(*run) for run in set(runs)], device)
@@ -334,3 +334,12 @@ def run_distributed(
         record = future.result()
         if on_done:
             on_done(futures[future], record)
+
+
+def sweep_needs(path: Path, overrides: dict[str, Any], device: str, kernel: str = "auto") -> list:
+    """Every launch group and batch size of the sweep file ``path`` (with ``overrides``) on ``device``."""
+    from hertzian.core.solvers.prepare import Need  # Warp and the kernels load only where kernels are prepared
+
+    points = expand(load_sweep(path, overrides))
+    plan = plan_sweep(load_sweep(path, overrides), points, device)
+    return [Need(*run, kernel) for run in dict.fromkeys(runs_of(plan, points, plan.batches))]

@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 import warp as wp
 from hertzian.core.model import Model, State
-from hertzian.core.solvers.compile import Need, prepare_kernels
+from hertzian.core.solvers.compile import load_variants, solver_variants
 from hertzian.core.solvers.config import CHAIN, STEP, SolverConfig
 from hertzian.core.solvers.tile import TileSolver, config_of
 from hertzian.kernels.cpu import chain_kernel_supports
@@ -292,8 +292,9 @@ def calibrate(
             configs = configs + window_configs(model)
     states = states or model.state_pair()
     try:  # every candidate compiled at once before the first is timed
-        prepare_kernels(
-            [Need(model.features, model.grain_count, model.chain_count, kernel=c) for c in configs], model.device
+        load_variants(
+            [v for c in configs for v in solver_variants(c, model.features, model.grain_count, model.chain_count)],
+            model.device,
         )
     except Exception:  # noqa: BLE001 - a candidate that fails to build fails again below, where it is reported
         pass

@@ -1,0 +1,85 @@
+"""Every kernel a job needs, named before its first launch and compiled at once.
+
+A job is a list of :class:`Need` (one per launch group: features, chain length, chains, steps, kernel choice).
+:func:`kernel_variants` names the Warp modules and block sizes those launches will load: the stepping kernel the
+solver choice takes (``choose_config`` without a calibration: a shape the calibration cache holds, else the
+default shape), the record reductions of that chain length, ``track_extremes`` and, with traces, the traced-start
+gather. :func:`prepare_kernels` compiles and loads them (``compile.load_variants``), so that the run itself
+compiles nothing. Every entry point calls it: ``Runner`` (one run), ``warm_kernels`` (sweeps and the paper
+reproduction), the detection library, and ``hertzian warmup``, which fills Warp's kernel cache ahead of time.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from types import SimpleNamespace
+from typing import Iterable
+
+import warp as wp
+from hertzian.core.solvers.calibrate import cached_config, choose_config
+from hertzian.core.solvers.compile import load_variants, recorder_variants, solver_variants
+from hertzian.core.solvers.config import SolverConfig
+from hertzian.kernels.cpu import chain_kernel, chain_kernel_supports
+from hertzian.kernels.features import Features
+
+
+@dataclass(frozen=True)
+class Need:
+    """One launch group of a job: what its solver and recorder will compile."""
+
+    features: Features
+    grains: int
+    chains: int = 1
+    steps: int | None = None
+    """Steps of one run (None: long, as ``choose_config`` counts it)."""
+    kernel: str | SolverConfig = "auto"
+    """A ``--kernel`` choice (hertzian.core.solvers.calibrate.KERNELS) or the config itself."""
+
+
+def planned_config(need: Need, device) -> SolverConfig:
+    """The SolverConfig a run of ``need`` on ``device`` takes, without calibrating: a GPU's cached calibration when
+    there is one (the run reads the same entry), else the choice ``choose_config`` makes with ``calibrate_now=False``."""
+    if isinstance(need.kernel, SolverConfig):
+        return need.kernel
+    model = SimpleNamespace(
+        device=wp.get_device(device), features=need.features, grain_count=need.grains, chain_count=need.chains
+    )
+    config = choose_config(model, need.kernel, run_steps=need.steps, calibrate_now=False)
+    if config.kind in ("tile", "window") and need.kernel in ("auto", "fused"):
+        return cached_config(model) or config
+    return config
+
+
+def kernel_variants(needs: Iterable[Need | Features | wp.Kernel], device) -> list[tuple]:
+    """The distinct (Warp module, block_dim) every launch of ``needs`` loads on ``device``, in first-need order;
+    a Warp kernel stands for its own launches at Warp's default block size.
+    A bare Features stands for runs of unknown size: its record kernels for short chains and, on a CPU, the chain
+    kernel ``auto`` takes (on a GPU the stepping kernel's shape depends on the size)."""
+    dev = wp.get_device(device)
+    out: dict[tuple, None] = {}
+    for need in needs:
+        if isinstance(need, wp.Kernel):  # a kernel launched as it is (detection library, response windows)
+            out[(need.module, None)] = None
+            continue
+        if isinstance(need, Features):
+            stepping = [(chain_kernel(need).module, None)] if dev.is_cpu and chain_kernel_supports(need) else []
+            for variant in stepping + recorder_variants(need, 1, dev):
+                out[variant] = None
+            continue
+        config = planned_config(need, dev)
+        for variant in solver_variants(config, need.features, need.grains, need.chains):
+            out[variant] = None
+        for variant in recorder_variants(need.features, need.grains, dev):
+            out[variant] = None
+    return list(out)
+
+
+def prepare_kernels(needs: Iterable[Need | Features | wp.Kernel], device, max_workers: int | None = None) -> dict:
+    """Compile (or read from Warp's kernel cache) and load every kernel variant ``needs`` will launch on
+    ``device``, ``max_workers`` at a time (None: ``default_workers``). Returns {"variants": count,
+    "seconds": wall time [s], "workers": threads used}."""
+    start = time.perf_counter()
+    variants = kernel_variants(needs, device)
+    workers = load_variants(variants, device, max_workers)
+    return {"variants": len(variants), "seconds": time.perf_counter() - start, "workers": workers}
