@@ -69,6 +69,8 @@ def check_device(device: str | None) -> str:
     if device is None:
         return default_device()
     try:
+        if str(device).startswith("cuda") and not wp.is_cuda_available():
+            raise RuntimeError  # asking Warp for it would print CUDA driver errors
         wp.get_device(device)
     except Exception:
         available = ", ".join(str(d) for d in wp.get_devices())

@@ -74,6 +74,9 @@ INNER_CHUNK_BYTES = 1 << 20
 TIMING_VARIABLES = ("wall_seconds", "grain_steps_per_second")
 """Per-point variables that measure the machine, not the physics (they differ between runs)."""
 
+TIME_UNITS = "program time (1.0102e-3 s)"
+ENERGY_UNITS = "program energy (2.36e-5 kg · (1e-5 m / 1.0102e-3 s)²)"
+DIMENSIONLESS = "1"
 FIELD_ATTRS = {
     "u": {
         "coordinates": "t",
@@ -171,6 +174,7 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
                 fill=np.nan,
                 attrs={
                     **coords("t"),
+                    "units": ENERGY_UNITS,
                     "long_name": "total energy relative to the static state (SPEC §5 E minus a constant)",
                 },
             )
@@ -183,7 +187,7 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
                     trailing=(records,),
                     dtype=np.dtype(np.float64),
                     fill=np.nan,
-                    attrs={**coords("t"), "long_name": "work done by the driver on the chain"},
+                    attrs={**coords("t"), "units": ENERGY_UNITS, "long_name": "work done by the driver on the chain"},
                 )
             )
     if scene.damping.model != "none" and scene.record.energy:
@@ -194,7 +198,11 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
                 trailing=(records,),
                 dtype=np.dtype(np.float64),
                 fill=np.nan,
-                attrs={**coords("t"), "long_name": "energy dissipated by damping up to the record"},
+                attrs={
+                    **coords("t"),
+                    "units": ENERGY_UNITS,
+                    "long_name": "energy dissipated by damping up to the record",
+                },
             )
         )
     if scene.has_response:
@@ -208,6 +216,7 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
                 fill=complex(np.nan, np.nan),
                 attrs={
                     **coords("window_start"),
+                    "units": FIELD_ATTRS["v"]["units"],
                     "long_name": "V_k = (c_k/T_w) ∫ v e^{-ikωt} dt over the "
                     "window (c_0 = 1, c_k = 2), t absolute [length/time]",
                 },
@@ -218,7 +227,11 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
                 trailing=(windows, n),
                 dtype=np.dtype(np.float64),
                 fill=np.nan,
-                attrs={**coords("window_start"), "long_name": "window-averaged kinetic energy ½ m v²"},
+                attrs={
+                    **coords("window_start"),
+                    "units": ENERGY_UNITS,
+                    "long_name": "window-averaged kinetic energy ½ m v²",
+                },
             ),
             dict(
                 name="driver_open",
@@ -228,6 +241,7 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
                 fill=np.nan,
                 attrs={
                     **coords("window_start"),
+                    "units": DIMENSIONLESS,
                     "long_name": "fraction of the window during which the driver–grain-1 contact is open",
                 },
             ),
@@ -237,7 +251,7 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
                 trailing=(windows,),
                 dtype=np.dtype(np.float64),
                 fill=np.nan,
-                attrs={"long_name": "start time of the window (depends on the point's period)"},
+                attrs={"units": TIME_UNITS, "long_name": "start time of the window (depends on the point's period)"},
             ),
         ]
     tt = trace_times(scene)
@@ -256,7 +270,7 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
                     trailing=(len(tt), len(scene.record.traces)),
                     dtype=real,
                     fill=np.nan,
-                    attrs=coords("trace_t", "traced_grain"),
+                    attrs={"units": FIELD_ATTRS[name]["units"], **coords("trace_t", "traced_grain")},
                     rows_per_shard=trace_rows,
                 )
             )
@@ -275,16 +289,27 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
             trailing=(),
             dtype=np.dtype(np.float64),
             fill=np.nan,
-            attrs={**coords(), "long_name": "max_t |E(t) - E(0) [- W(t)]| / E_inj (absolute when nothing is injected)"},
+            attrs={
+                **coords(),
+                "units": DIMENSIONLESS,
+                "long_name": "max_t |E(t) - E(0) [- W(t)]| / E_inj (absolute when nothing is injected)",
+            },
         ),
-        dict(name="max_overlap", dims=dims, trailing=(), dtype=np.dtype(np.float64), fill=np.nan, attrs=coords()),
+        dict(
+            name="max_overlap",
+            dims=dims,
+            trailing=(),
+            dtype=np.dtype(np.float64),
+            fill=np.nan,
+            attrs={**coords(), "units": FIELD_ATTRS["u"]["units"], "long_name": "largest overlap at any check"},
+        ),
         dict(
             name="wall_seconds",
             dims=dims,
             trailing=(),
             dtype=np.dtype(np.float64),
             fill=np.nan,
-            attrs={**coords(), "long_name": "wall seconds of the ensemble, shared evenly among its chains"},
+            attrs={**coords(), "units": "s", "long_name": "wall seconds of the ensemble, shared evenly among its chains"},
         ),
         dict(
             name="grain_steps_per_second",
@@ -292,7 +317,7 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
             trailing=(),
             dtype=np.dtype(np.float64),
             fill=np.nan,
-            attrs={**coords(), "long_name": "throughput of the point's batch (all its chains)"},
+            attrs={**coords(), "units": "grain-steps/s", "long_name": "throughput of the point's batch (all its chains)"},
         ),
     ]
     return out
@@ -469,7 +494,7 @@ def create_sweep_store(
                     (dimension.name,),
                     {"scene_key": axis.key, "long_name": f"scene key {axis.key}"},
                 )
-        _small(root, "t", record_times(scene), ("record",), {"units": "program time (1.0102e-3 s)"})
+        _small(root, "t", record_times(scene), ("record",), {"units": TIME_UNITS})
         _small(
             root,
             "grain",
@@ -487,7 +512,7 @@ def create_sweep_store(
             )
         tt = trace_times(scene)
         if tt is not None:
-            _small(root, "trace_t", tt, ("sample",))
+            _small(root, "trace_t", tt, ("sample",), {"units": TIME_UNITS})
             _small(root, "traced_grain", np.asarray(scene.record.traces, dtype=np.int32), ("traced",))
         for var in variables(sweep, scene, plan):
             _create(
