@@ -11,10 +11,6 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-from rich.console import Console
-from rich.progress import BarColumn, Progress, ProgressColumn, TextColumn, TimeRemainingColumn
-from rich.text import Text
-
 from hertzian.cli.app import (
     DeviceOption,
     KernelOption,
@@ -24,6 +20,9 @@ from hertzian.cli.app import (
     one_line_errors,
     overrides_of,
 )
+from rich.console import Console
+from rich.progress import BarColumn, Progress, ProgressColumn, TextColumn, TimeRemainingColumn
+from rich.text import Text
 
 
 class _Progress:

@@ -43,6 +43,7 @@ from hertzian.sweeping.sweep_store import (
     store_bytes,
 )
 
+
 @dataclass
 class PreparedSweep:
     """A checked sweep, ready to run: nothing written yet."""
@@ -167,7 +168,9 @@ def prepare_sweep(
     else:
         per_step_notes(plan, dev, notify)
     if resuming and batch_size is not None and plan.batch_size != batch_size:
-        notify(f"note: batch_size {batch_size} ignored: {out} was planned with batches of up to {plan.batch_size} points")
+        notify(
+            f"note: batch size {batch_size} ignored: {out} was planned with batches of up to {plan.batch_size} points"
+        )
     return PreparedSweep(
         definition, points, plan, out, dev, device, kernel, resuming, overwrite, workers, scheduler, timing
     )

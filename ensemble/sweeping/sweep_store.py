@@ -309,7 +309,11 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
             trailing=(),
             dtype=np.dtype(np.float64),
             fill=np.nan,
-            attrs={**coords(), "units": "s", "long_name": "wall seconds of the ensemble, shared evenly among its chains"},
+            attrs={
+                **coords(),
+                "units": "s",
+                "long_name": "wall seconds of the ensemble, shared evenly among its chains",
+            },
         ),
         dict(
             name="grain_steps_per_second",
@@ -317,7 +321,11 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
             trailing=(),
             dtype=np.dtype(np.float64),
             fill=np.nan,
-            attrs={**coords(), "units": "grain-steps/s", "long_name": "throughput of the point's batch (all its chains)"},
+            attrs={
+                **coords(),
+                "units": "grain-steps/s",
+                "long_name": "throughput of the point's batch (all its chains)",
+            },
         ),
     ]
     return out
