@@ -7,6 +7,8 @@ code 2, writing nothing. This module imports no command module.
 from __future__ import annotations
 
 import contextlib
+import inspect
+import re
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -19,6 +21,7 @@ app = typer.Typer(
     add_completion=False,
     no_args_is_help=True,
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,
     help="Simulate many Hertzian granular chains at once (Warp kernels on GPU or CPU).",
 )
 
@@ -30,7 +33,8 @@ DeviceOption = Annotated[
 SetOption = Annotated[
     Optional[list[str]], typer.Option("--set", help="Override a scene key, e.g. --set chain.l0=1e-4 (repeatable).")
 ]
-SceneArgument = Annotated[Optional[Path], typer.Argument(help="Scene TOML (SPEC §8). Default: the built-in example.")]
+SCENE_HELP = "Scene TOML file, or the name of a shipped example (e.g. impact). Default: the built-in example"
+SceneArgument = Annotated[Optional[Path], typer.Argument(help=f"{SCENE_HELP}.")]
 PrecisionOption = Annotated[
     Optional[str],
     typer.Option(
@@ -47,6 +51,18 @@ KernelOption = Annotated[
         "included); results are the same.",
     ),
 ]
+
+
+def plain_help(doc: str | None) -> str | None:
+    """A command's docstring as help text: ``literal`` shown as 'literal' (the help is plain text, not reST)."""
+    return None if doc is None else re.sub(r"``(.+?)``", r"'\1'", inspect.cleandoc(doc))
+
+
+def plain_helps() -> None:
+    """Give every registered command :func:`plain_help` of its docstring (typer would show it raw)."""
+    for info in app.registered_commands:
+        if info.help is None and info.callback is not None:
+            info.help = plain_help(info.callback.__doc__)
 
 
 def fail(message: str) -> None:

@@ -85,7 +85,13 @@ class _Progress:
 
 @app.command()
 def sweep(
-    sweep_file: Annotated[Path, typer.Argument(help="Sweep TOML: a base scene and [[axis]] tables (docs/sweeps.md).")],
+    sweep_file: Annotated[
+        Path,
+        typer.Argument(
+            help="Sweep TOML file: a base scene and [[axis]] tables (docs/sweeps.md); or the name of a shipped "
+            "sweep (e.g. example.toml), looked up when no such path exists."
+        ),
+    ],
     out: Annotated[
         Optional[Path],
         typer.Option(
