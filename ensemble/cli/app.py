@@ -46,7 +46,7 @@ KernelOption = Annotated[
     str,
     typer.Option(
         "--kernel",
-        help="auto | fused | step | tile | window | sweep: which "
+        help="auto | fused | step | tile | window | chain: which "
         "solver steps the chains (ensemble/core/solvers; fused = auto, short runs "
         "included); results are the same.",
     ),
