@@ -35,22 +35,9 @@ traces = [0, 7]
 trace_every = 0.002
 """
 
-SWEEP = """
-[scene.chain]
-grains = 8
-
-[scene.excitation]
-impact = 1e-2
-
-[scene.integrator]
-dt = 1e-4
-duration = 0.02
-
-[scene.record]
-every = 0.01
-traces = [0, 7]
-trace_every = 0.002
-
+SWEEP = (
+    re.sub(r"^\[", "[scene.", SCENE, flags=re.MULTILINE)
+    + """
 [[axis]]
 name = "v_imp"
 key = "excitation.impact"
@@ -61,6 +48,7 @@ name = "l0"
 key = "chain.l0"
 values = [0.0, 1e-4, 2e-4]
 """
+)
 
 
 def invoke(*args):
