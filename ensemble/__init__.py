@@ -1,0 +1,58 @@
+"""hertzian: many Hertzian granular chains at once, on a GPU or a CPU (Warp kernels, float64).
+
+    import hertzian as hz
+
+    scene = hz.load_scene("impact", {"chain.grains": 100, "integrator.duration": 5.0})
+    result = hz.run([scene, scene.replace(...)])      # one ensemble
+    dataset = result.to_xarray()                      # what `hertzian run --out` stores
+    summary = hz.sweep("example.toml", "example.zarr") # what `hertzian sweep --json` prints
+    dataset = hz.open_store("example.zarr")
+
+Everything but the scene loads on first use (Warp, Zarr and xarray are slow to import and ``hertzian --help``
+needs none of them).
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
+from importlib.metadata import PackageNotFoundError, version
+
+# ---- scenes (light: numpy only) ----------------------------------------------------------------
+from hertzian.core.errors import OptionError, RefusedError
+from hertzian.core.scene import Scene, SceneError
+
+try:
+    __version__ = version("hertzian")
+except PackageNotFoundError:  # a source tree that was never installed
+    __version__ = "0+unknown"
+
+# ---- loaded on first use: name → module ---------------------------------------------------------
+_LAZY = {
+    # scenes and runs
+    "load_scene": "hertzian.api",
+    "run": "hertzian.api",
+    "RunResult": "hertzian.core.runner",
+    # sweeps and stores
+    "Sweep": "hertzian.sweeping.spec",
+    "load_sweep": "hertzian.sweeping.spec",
+    "sweep": "hertzian.sweeping.pipeline",
+    "open_store": "hertzian.sweeping.store",
+    # errors of stores
+    "SweepStoreError": "hertzian.sweeping.sweep_store",
+}
+_RENAMED = {"open_store": "open_dataset"}
+"""Public name → the name in its module, where they differ."""
+
+__all__ = ["__version__", "Scene", "SceneError", "OptionError", "RefusedError", *_LAZY]
+
+
+def __getattr__(name: str):
+    if name not in _LAZY:
+        raise AttributeError(f"module 'hertzian' has no attribute {name!r}")
+    value = getattr(import_module(_LAZY[name]), _RENAMED.get(name, name))
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

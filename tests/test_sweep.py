@@ -189,8 +189,8 @@ def test_bad_sweep_is_one_line_exit_2_nothing_written(tmp_path, name, text, expe
     [
         ("--batch-size 0", "--batch-size = 0: must be ≥ 1"),
         ("--workers 0", "--workers = 0: must be ≥ 1"),
-        ("--workers 2 --scheduler tcp://x:1", "give either --workers"),
-        ("--resume --overwrite", "--resume continues a store"),
+        ("--workers 2 --scheduler tcp://x:1", "give either workers (a local cluster) or scheduler"),
+        ("--resume --overwrite", "resume continues a store, overwrite replaces it"),
         ("--set chain.grainz=3", "chain.grainz: unknown key"),
         ("--precision float16", "integrator.precision = 'float16'"),
     ],
@@ -205,7 +205,7 @@ def test_existing_store_needs_resume_or_overwrite(tmp_path):
     out = tmp_path / "o.zarr"
     out.mkdir()
     result = sweep_cli(write(tmp_path), "--out", out)
-    assert result.exit_code == 2 and "pass --resume to continue it or --overwrite" in result.stderr
+    assert result.exit_code == 2 and "exists; resume to continue it or overwrite to replace it" in result.stderr
     assert list(out.iterdir()) == []
 
 

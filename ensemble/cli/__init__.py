@@ -1,4 +1,4 @@
-"""The ``hertzian`` command line (SPEC §7): one module per command, all registering on ``app.app``.
+"""The ``hertzian`` command line : one module per command, all registering on ``app.app``.
 
 Command modules import ``.app`` (the typer app, shared options, ``fail``) and the library, never
 each other; this file imports every module named in ``COMMANDS`` so that its commands register.
@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from importlib import import_module
 
-from hertzian.cli.app import EXIT_BAD_INPUT, app, fail, resolve_device
+from hertzian.cli.app import EXIT_BAD_INPUT, app, fail, plain_helps, resolve_device
 
 COMMANDS = (
     "run",
@@ -34,6 +34,7 @@ COMMANDS = (
 def register(module: str) -> None:
     """Import a command module (a dotted name, e.g. 'hertzian.cli_detect') so its commands register."""
     import_module(module)
+    plain_helps()
 
 
 for _name in COMMANDS:

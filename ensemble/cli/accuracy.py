@@ -85,7 +85,7 @@ def accuracy(
         Optional[str],
         typer.Option(
             "--kernel",
-            help="Kernel for every run (auto | step | tile | window | sweep); default: sweep on a CPU, auto on a GPU.",
+            help="Kernel for every run (auto | step | tile | window | chain); default: chain on a CPU, auto on a GPU.",
         ),
     ] = None,
     target: Annotated[

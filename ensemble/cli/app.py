@@ -6,17 +6,22 @@ code 2, writing nothing. This module imports no command module.
 
 from __future__ import annotations
 
-from importlib import resources
+import contextlib
+import inspect
+import re
 from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
+from hertzian.core.errors import OptionError, RefusedError
 from hertzian.core.scene import SceneError, load_scene, parse_overrides
+from hertzian.core.shipped import example_path, shipped_file
 
 app = typer.Typer(
     add_completion=False,
     no_args_is_help=True,
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,
     help="Simulate many Hertzian granular chains at once (Warp kernels on GPU or CPU).",
 )
 
@@ -28,7 +33,8 @@ DeviceOption = Annotated[
 SetOption = Annotated[
     Optional[list[str]], typer.Option("--set", help="Override a scene key, e.g. --set chain.l0=1e-4 (repeatable).")
 ]
-SceneArgument = Annotated[Optional[Path], typer.Argument(help="Scene TOML (SPEC §8). Default: the built-in example.")]
+SCENE_HELP = "Scene TOML file, or the name of a shipped example (e.g. impact). Default: the built-in example"
+SceneArgument = Annotated[Optional[Path], typer.Argument(help=f"{SCENE_HELP}.")]
 PrecisionOption = Annotated[
     Optional[str],
     typer.Option(
@@ -40,11 +46,23 @@ KernelOption = Annotated[
     str,
     typer.Option(
         "--kernel",
-        help="auto | fused | step | tile | window | sweep: which "
+        help="auto | fused | step | tile | window | chain: which "
         "solver steps the chains (ensemble/core/solvers; fused = auto, short runs "
         "included); results are the same.",
     ),
 ]
+
+
+def plain_help(doc: str | None) -> str | None:
+    """A command's docstring as help text: ``literal`` shown as 'literal' (the help is plain text, not reST)."""
+    return None if doc is None else re.sub(r"``(.+?)``", r"'\1'", inspect.cleandoc(doc))
+
+
+def plain_helps() -> None:
+    """Give every registered command :func:`plain_help` of its docstring (typer would show it raw)."""
+    for info in app.registered_commands:
+        if info.help is None and info.callback is not None:
+            info.help = plain_help(info.callback.__doc__)
 
 
 def fail(message: str) -> None:
@@ -53,36 +71,38 @@ def fail(message: str) -> None:
     raise typer.Exit(EXIT_BAD_INPUT)
 
 
-def example_path(name: str = "impact") -> Path:
-    """A built-in example scene shipped with the package."""
-    return Path(str(resources.files("hertzian.examples") / f"{name}.toml"))
-
-
 def resolve_device(device: str | None) -> str:
-    import warp as wp
-    from hertzian.core.devices import init_warp
-    from hertzian.core.solvers.chain import cpu_threads
+    """``device`` if Warp has it here (None: cuda if present, else cpu); else one line and exit 2."""
+    # Warp starts only once a command runs: importing it would slow `hertzian --help`
+    from hertzian.core.devices import check_device
 
-    init_warp()
+    with one_line_errors():
+        return check_device(device)
+
+
+@contextlib.contextmanager
+def one_line_errors():
+    """Bad input the library refuses (OptionError, RefusedError, SceneError, a bad thread count) → ``fail``."""
     try:
-        cpu_threads()  # the CPU chain kernel's thread count (an environment variable): refused before anything runs
-    except ValueError as err:
+        yield
+    except OptionError as err:
+        fail(err.cli_message())
+    except (RefusedError, SceneError) as err:
         fail(str(err))
-    if device is None:
-        return "cuda" if wp.is_cuda_available() else "cpu"
-    try:
-        wp.get_device(device)
-    except Exception:
-        available = ", ".join(str(d) for d in wp.get_devices())
-        fail(f"--device = {device!r}: not available here; available: {available}")
-    return device
+
+
+def overrides_of(overrides: list[str] | None, precision: str | None) -> dict:
+    """``--set KEY=VALUE`` flags and ``--precision`` as one dict of scene overrides (bad input → ``fail``)."""
+    with one_line_errors():
+        sets = parse_overrides(overrides)
+    if precision is not None:
+        sets["integrator.precision"] = precision
+    return sets
 
 
 def load_scene_or_fail(scene_path: Path | None, overrides: list[str] | None, precision: str | None):
-    try:
-        sets = parse_overrides(overrides)
-        if precision is not None:
-            sets["integrator.precision"] = precision
-        return load_scene(scene_path or example_path(), sets)
-    except SceneError as err:
-        fail(str(err))
+    """The scene file (a path, or the name of a shipped example; default: the built-in example) with ``--set`` and
+    ``--precision`` applied (bad input → ``fail``)."""
+    sets = overrides_of(overrides, precision)
+    with one_line_errors():
+        return load_scene(shipped_file(scene_path) if scene_path else example_path(), sets)

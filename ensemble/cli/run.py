@@ -8,6 +8,7 @@ from typing import Annotated, Optional
 
 import typer
 from hertzian.cli.app import (
+    SCENE_HELP,
     DeviceOption,
     KernelOption,
     PrecisionOption,
@@ -23,9 +24,7 @@ from hertzian.cli.app import (
 def run(
     scene: Annotated[
         Optional[Path],
-        typer.Argument(
-            help="Scene TOML (SPEC §8). Default: the built-in example (1000-grain impact, l0 = 1e-4, v_imp = 1e-2)."
-        ),
+        typer.Argument(help=f"{SCENE_HELP} (1000-grain impact, l0 = 1e-4, v_imp = 1e-2)."),
     ] = None,
     out: Annotated[Path, typer.Option("--out", help="Zarr store to write.")] = Path("hertzian-run.zarr"),
     device: DeviceOption = None,

@@ -5,31 +5,38 @@ See docs/sweeps.md for the file format, resuming and running on several GPUs or 
 
 from __future__ import annotations
 
-import contextlib
 import json
 import sys
-import time
 from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-from hertzian.cli.app import DeviceOption, KernelOption, PrecisionOption, SetOption, app, fail, resolve_device
-from hertzian.core.scene import SceneError, parse_overrides
+from hertzian.cli.app import (
+    DeviceOption,
+    KernelOption,
+    PrecisionOption,
+    SetOption,
+    app,
+    one_line_errors,
+    overrides_of,
+)
+from rich.console import Console
+from rich.progress import BarColumn, Progress, ProgressColumn, TextColumn, TimeRemainingColumn
+from rich.text import Text
 
 
 class _Progress:
-    """A rich progress bar on stderr: batches, simulated time of the running batch, ETA, grain-steps/s."""
+    """A rich progress bar on stderr: batches, simulated time of the running batch, ETA, grain-steps/s
+    (the pipeline's SweepProgress, drawn)."""
 
-    def __init__(self, enabled: bool, *, total_batches: int, done_batches: int, grain_steps: int):
+    def __init__(self, enabled: bool):
         self.enabled = enabled
-        self.total_batches = total_batches
-        self.done_batches = done_batches
-        self.finished_steps = 0
-        if not enabled:
+        self.total_batches = self.done_batches = self.finished_steps = 0
+
+    def start(self, *, total_batches: int, done_batches: int, grain_steps: int) -> None:
+        self.total_batches, self.done_batches = total_batches, done_batches
+        if not self.enabled:
             return
-        from rich.console import Console
-        from rich.progress import BarColumn, Progress, ProgressColumn, TextColumn, TimeRemainingColumn
-        from rich.text import Text
 
         class RateColumn(ProgressColumn):
             def render(self, task):
@@ -72,41 +79,19 @@ class _Progress:
             self.bar.update(self.task, completed=self.finished_steps, batches=self._batches())
 
     def stop(self) -> None:
-        if self.enabled:
+        if self.enabled and hasattr(self, "bar"):
             self.bar.stop()
-
-
-def corner_dt_warnings(definition, scenes=None) -> list[str]:
-    """``hertzian check``'s dt warning at the corners of the grid (at most 64 points).
-
-    The stiffest contact grows monotonically with v_imp, l0, g, drive amplitude and the impurity
-    constants, and the lightest mass shrinks monotonically, so a grid's extremes sit at its corners.
-    """
-    import itertools
-
-    import numpy as np
-    from hertzian.core.check import dt_warning
-
-    shape = list(definition.shape)
-    if shape:
-        corners = itertools.product(*[sorted({0, n - 1}) for n in shape])
-        points = sorted({int(np.ravel_multi_index(c, shape)) for c in corners})[:64]
-    else:
-        points = [0]
-    lines = []
-    for index in points:
-        scene = definition.scene_at(tuple(int(i) for i in np.unravel_index(index, shape))) if shape else definition.base
-        message = dt_warning(scene)
-        if message:
-            names = definition.coordinates_at(np.unravel_index(index, shape)) if shape else {}
-            where = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in names.items())
-            lines.append(f"point {index}{' (' + where + ')' if where else ''}: {message}")
-    return lines
 
 
 @app.command()
 def sweep(
-    sweep_file: Annotated[Path, typer.Argument(help="Sweep TOML: a base scene and [[axis]] tables (docs/sweeps.md).")],
+    sweep_file: Annotated[
+        Path,
+        typer.Argument(
+            help="Sweep TOML file: a base scene and [[axis]] tables (docs/sweeps.md); or the name of a shipped "
+            "sweep (e.g. example.toml), looked up when no such path exists."
+        ),
+    ],
     out: Annotated[
         Optional[Path],
         typer.Option(
@@ -168,339 +153,71 @@ def sweep(
         typer.Option("--error-estimate", help="Store each point's estimated position error (record.error_estimate)."),
     ] = False,
 ):
-    """Run a parameter sweep (SPEC §8) as batched ensembles into one Zarr store with one dimension per axis.
+    """Run a parameter sweep as batched ensembles into one Zarr store with one dimension per axis.
 
     Times are in program units (1.0102e-3 s). Kill it at any moment and rerun with --resume.
     """
-    if batch_size is not None and batch_size < 1:
-        fail(f"--batch-size = {batch_size}: must be ≥ 1")
-    if workers is not None and workers < 1:
-        fail(f"--workers = {workers}: must be ≥ 1")
-    if workers is not None and scheduler is not None:
-        fail(f"--scheduler = {scheduler!r}: give either --workers (a local cluster) or --scheduler, not both")
-    if resume and overwrite:
-        fail("--resume = true: --resume continues a store, --overwrite replaces it; give one")
-    from hertzian.core.check import memory_refusal
-    from hertzian.core.solvers import KERNELS
-    from hertzian.sweeping.spec import MAX_POINTS, expand, load_sweep
+    # the pipeline imports Warp and Zarr: only once a sweep runs, not for `hertzian --help`
+    from hertzian.sweeping.pipeline import plan_summary, prepare_sweep, run_sweep
+    from hertzian.sweeping.planner import describe
 
-    if kernel not in KERNELS:
-        fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)}")
-    timing = {}
-    clock = time.perf_counter()
-    try:
-        sets = parse_overrides(set_)
-        if precision is not None:
-            sets["integrator.precision"] = precision
-        if error_estimate:
-            sets["record.error_estimate"] = True
-        definition = load_sweep(sweep_file, sets, max_points=None if allow_large else MAX_POINTS)
-        timing["load"] = time.perf_counter() - clock
-        clock = time.perf_counter()
-        points = expand(definition)
-        timing["expand"] = time.perf_counter() - clock
-    except SceneError as err:
-        fail(str(err))
-    # one chain of the largest kind (the planner sizes batches); before any array is built
-    too_big = memory_refusal(max(points.templates, key=lambda t: t.chain.grains))
-    if too_big:
-        fail(too_big)
-    unsafe = corner_dt_warnings(definition)
-    if unsafe and strict:
-        fail(unsafe[0])
-    for line in unsafe:
-        typer.echo(f"warning: {line}", err=True)
-    out = out if out is not None else Path(sweep_file.stem + ".zarr")
-    if not dry_run:
-        if out.exists() and not (resume or overwrite):
-            fail(f"--out = {str(out)!r}: exists; pass --resume to continue it or --overwrite to replace it")
-        if not out.parent.exists():
-            fail(f"--out = {str(out)!r}: parent directory does not exist")
-    dev = resolve_device(device)
-
-    from hertzian.sweeping.planner import describe, plan_sweep
-    from hertzian.sweeping.sweep_store import SweepStoreError, check_resumable
-
-    block = None
-    resuming = resume and out.exists()
-    if resuming:
-        try:
-            block = check_resumable(out, definition)
-        except SweepStoreError as err:
-            fail(f"--resume = {str(out)!r}: {err}")
-    clock = time.perf_counter()
-    try:
-        plan = plan_sweep(definition, points, dev, batch_size=batch_size, block=block)
-    except SceneError as err:
-        fail(str(err))
-    timing["plan"] = time.perf_counter() - clock
-    if kernel != "auto":
-        _check_kernel(kernel, plan, points, dev)
-    else:
-        _per_step_notes(plan, dev)
-    if dry_run:
-        if as_json:
-            typer.echo(describe(plan, definition), err=True)
-            typer.echo(
-                json.dumps(
-                    {
-                        "points": plan.point_count,
-                        "batches": len(plan.batches),
-                        "batch_size": plan.batch_size,
-                        "grain_steps": plan.grain_steps,
-                        "device": dev,
-                        "seconds": timing,
-                    },
-                    indent=1,
-                )
-            )
-        else:
-            typer.echo(describe(plan, definition))
-        return
-    if resuming and batch_size is not None and plan.batch_size != batch_size:
-        typer.echo(
-            f"note: --batch-size {batch_size} ignored: {out} was planned with batches of up to "
-            f"{plan.batch_size} points",
-            err=True,
+    notify = lambda line: typer.echo(line, err=True)  # noqa: E731
+    with one_line_errors():
+        prepared = prepare_sweep(
+            sweep_file,
+            out,
+            device=device,
+            resume=resume,
+            overwrite=overwrite,
+            batch_size=batch_size,
+            workers=workers,
+            scheduler=scheduler,
+            kernel=kernel,
+            overrides=overrides_of(set_, precision) | ({"record.error_estimate": True} if error_estimate else {}),
+            allow_large=allow_large,
+            strict=strict,
+            dry_run=dry_run,
+            notify=notify,
         )
-    from hertzian.sweeping.storage import NoRoomError, StorageError, StoreLockedError
-    from hertzian.sweeping.sweep_store import writing_session
+    if dry_run:
+        typer.echo(describe(prepared.plan, prepared.definition), err=as_json)
+        if as_json:
+            typer.echo(json.dumps(plan_summary(prepared), indent=1))
+        return
+    from hertzian.sweeping.storage import StorageError
 
-    try:  # lock, free space, repair on resume; a storage fault is one line, exit 1
-        with writing_session(out, definition, points.templates[0], plan, resuming=resuming) as notes:
-            for line in notes:
-                typer.echo(line, err=True)
-            _run(
-                definition,
-                points,
-                plan,
-                out,
-                dev,
-                resuming=resuming,
-                overwrite=overwrite,
-                workers=workers,
-                scheduler=scheduler,
-                requested_device=device,
-                quiet=quiet,
-                timing=timing,
-                as_json=as_json,
-                kernel=kernel,
-            )
-    except (StoreLockedError, NoRoomError) as err:
-        fail(f"--out = {str(out)!r}: {err}")
-    except StorageError as err:
+    progress = _Progress(not quiet and sys.stderr.isatty())
+    try:
+        with one_line_errors():
+            result = run_sweep(prepared, progress=progress, notify=notify)
+    except StorageError as err:  # a full disk, lost permission: the store holds its completed batches
         typer.echo(f"error: {err}", err=True)
         raise typer.Exit(1) from None
-
-
-def _per_step_notes(plan, dev: str) -> None:
-    """One line on stderr for each launch group that ``auto`` leaves on the per-step kernel, and why; one
-    for each CUDA launch group that carries event-aware steps (their cost)."""
-    import warp as wp
-    from hertzian.core.solvers.calibrate import event_cost_note, step_reason_of
-
-    is_cpu = wp.get_device(dev).is_cpu
-    for index, group in enumerate(plan.groups):
-        batch = next((b for b in plan.batches if b.group == index), None)
-        if batch is None:
-            continue
-        reason = step_reason_of(group.features, is_cpu, plan.batch_grain_steps(batch))
-        if reason:
-            typer.echo(f"note: launch group {index}: per-step kernel: {reason}", err=True)
-        events = event_cost_note(group.features, is_cpu)
-        if events:
-            typer.echo(f"note: launch group {index}: {events}", err=True)
-
-
-def _check_kernel(kernel: str, plan, points, dev: str) -> None:
-    """Refuse (exit 2) a forced ``--kernel`` that cannot run some launch group, before anything is written."""
-    from hertzian.core.model import build_model
-    from hertzian.core.solvers import choose_config
-
-    for index, group in enumerate(plan.groups):
-        batch = next(b for b in plan.batches if b.group == index)
-        model = build_model([points.scene(int(batch.points[0]))], dev, features=group.features)
-        try:
-            choose_config(model, kernel, calibrate_now=False)
-        except ValueError as err:
-            fail(f"--kernel = {kernel!r}: {str(err).split(': ', 1)[-1]}")
-
-
-def _connect(workers, scheduler, stack: contextlib.ExitStack):
-    """A Dask client (starting a LocalCluster for --workers), closed with ``stack``; bad address → exit 2."""
-    from distributed import Client
-    from hertzian.sweeping.distributed import local_cluster
-
-    if workers is not None:
-        cluster = stack.enter_context(local_cluster(workers))
-        return stack.enter_context(Client(cluster))
-    try:
-        return stack.enter_context(Client(scheduler, timeout="15s"))
-    except (OSError, TimeoutError, ValueError) as err:
-        fail(f"--scheduler = {scheduler!r}: cannot connect ({type(err).__name__}: {err})")
-
-
-def _run(
-    definition,
-    points,
-    plan,
-    out: Path,
-    dev: str,
-    *,
-    resuming: bool,
-    overwrite: bool,
-    workers,
-    scheduler,
-    requested_device,
-    quiet: bool,
-    timing: dict,
-    as_json: bool,
-    kernel: str = "auto",
-) -> None:
-    from concurrent.futures import ThreadPoolExecutor
-
-    import numpy as np
-    import zarr
-    from hertzian.sweeping.distributed import jobs_for, run_distributed, run_serial, runs_of, warm_kernels, warm_workers
-    from hertzian.sweeping.planner import format_bytes
-    from hertzian.sweeping.sweep_store import (
-        batch_records,
-        completed_batches,
-        create_sweep_store,
-        finalize,
-        remove_partial_files,
-        status_codes,
-        store_bytes,
-    )
-
-    distributed = workers is not None or scheduler is not None
-    label = (
-        f"{workers} local Dask workers"
-        if workers is not None
-        else f"Dask cluster {scheduler}"
-        if scheduler is not None
-        else dev
-    )
-    features = [g.features for g in plan.groups]
-    with contextlib.ExitStack() as stack:
-        client = _connect(workers, scheduler, stack) if distributed else None
-        # the kernels load (from Warp's cache, or compile) in a thread
-        # (a serial run warms the stepping kernels its batches will use; Dask workers find every variant in the cache)
-        runs = (
-            None
-            if client is not None
-            else runs_of(
-                plan, points, [b for b in plan.batches if b.index not in (completed_batches(out) if resuming else ())]
-            )
-        )
-        warming = stack.enter_context(ThreadPoolExecutor(max_workers=1)).submit(warm_kernels, features, dev, runs=runs)
-        create = None
-        if resuming:
-            remove_partial_files(out)
-            done = completed_batches(out)
-            earlier = {r["device"].split(":")[0] for r in batch_records(out)}
-            if earlier - {dev.split(":")[0]}:
-                typer.echo(
-                    f"note: earlier batches ran on {', '.join(sorted(earlier))}, these run on {dev}: "
-                    "results agree to rounding, not bit for bit, across device kinds",
-                    err=True,
-                )
-        else:
-
-            def create():
-                create_sweep_store(out, definition, points.templates[0], plan, device=label, overwrite=overwrite)
-
-            if client is not None:  # workers write into it: it exists before they start
-                clock = time.perf_counter()
-                create()
-                timing["create_store"] = time.perf_counter() - clock
-                create = None
-            # else: run_serial's store thread creates it while the first batch's first records run
-            done = set()
-        clock = time.perf_counter()
-        pending = [b for b in plan.batches if b.index not in done]
-        # workers may run elsewhere: give them the absolute store path
-        jobs = jobs_for(out.resolve(), plan, points, pending, kernel=kernel)
-        timing["jobs"] = time.perf_counter() - clock
-        clock = time.perf_counter()
-        warming.result()
-        if client is not None:
-            warm_workers(client, features, requested_device)
-        timing["warm_kernels"] = time.perf_counter() - clock
-        progress = _Progress(
-            not quiet and sys.stderr.isatty(),
-            total_batches=len(plan.batches),
-            done_batches=len(done),
-            grain_steps=sum(j.grain_steps for j in jobs),
-        )
-        start = time.perf_counter()
-        try:
-            if client is None:
-                run_serial(
-                    jobs,
-                    dev,
-                    on_record=progress.record,
-                    on_done=progress.batch_done,
-                    create_store=create,
-                    timing=timing,
-                )
-            else:
-                run_distributed(jobs, client, requested_device, on_done=progress.batch_done)
-        except KeyboardInterrupt:
-            progress.stop()
-            typer.echo(
-                f"interrupted after {progress.done_batches}/{len(plan.batches)} batches; continue with: "
-                f"hertzian sweep {definition.source} --out {out} --resume",
-                err=True,
-            )
-            raise typer.Exit(130) from None
-        finally:
-            progress.stop()
-        session = time.perf_counter() - start
-    session_steps = sum(j.grain_steps for j in jobs)
-    clock = time.perf_counter()
-    prov = finalize(out, session_seconds=session, session_grain_steps=session_steps)
-    timing["finalize"] = time.perf_counter() - clock
-    records = [r for r in batch_records(out) if r["batch"] in {j.batch.index for j in jobs}]
-    timing["batches"] = session
-    timing["build"] = sum(r["build_seconds"] for r in records)
-    timing["kernel"] = sum(r["wall_seconds"] for r in records)
-    timing["write"] = sum(r["write_seconds"] for r in records)
-
-    status = np.asarray(zarr.open_array(store=str(out), path="status", mode="r")[...])
-    codes, counts = np.unique(status, return_counts=True)
-    names = status_codes()
-    status_text = ", ".join(f"{names[str(int(c))].split(':')[0]} {int(k)}" for c, k in zip(codes, counts))
-    ran = f"ran {len(jobs)} of {len(plan.batches)} batches" if resuming else f"{len(plan.batches)} batches"
-    typer.echo(
-        f"{plan.point_count} points, {ran} on {label}: {session:.2f} s, "
-        f"{session_steps / max(session, 1e-12):.3g} grain-steps/s (per device "
-        f"{prov['grain_steps_per_second']:.3g}); status: {status_text}; store {format_bytes(store_bytes(out))}",
-        err=as_json,
-    )
-    typer.echo(f"wrote {out}", err=as_json)
-    if as_json:
+    except KeyboardInterrupt:
         typer.echo(
-            json.dumps(
-                {
-                    "points": plan.point_count,
-                    "batches": len(plan.batches),
-                    "batches_run": len(jobs),
-                    "device": label,
-                    "grain_steps": session_steps,
-                    "grain_steps_per_second": session_steps / max(session, 1e-12),
-                    "status_counts": {str(int(c)): int(k) for c, k in zip(codes, counts)},
-                    "store": str(out),
-                    "store_bytes": store_bytes(out),
-                    "seconds": timing,
-                    # host time of this command outside the integration (interpreter start-up and imports excluded)
-                    "seconds_outside_kernel": sum(
-                        timing.get(k, 0.0) for k in ("load", "expand", "plan", "jobs", "warm_kernels", "finalize")
-                    )
-                    + (timing.get("create_store", 0.0) if distributed else 0.0)
-                    + timing["batches"]
-                    - timing["kernel"],
-                },
-                indent=1,
-            )
+            f"interrupted after {progress.done_batches}/{len(prepared.plan.batches)} batches; continue with: "
+            f"hertzian sweep {prepared.definition.source} --out {prepared.out} --resume",
+            err=True,
         )
+        raise typer.Exit(130) from None
+    typer.echo(report(result, resumed=prepared.resuming), err=as_json)
+    typer.echo(f"wrote {prepared.out}", err=as_json)
+    if as_json:
+        typer.echo(json.dumps(result, indent=1))
+
+
+def report(result: dict, *, resumed: bool) -> str:
+    """The one-line report of a sweep's summary: points, batches, device, seconds, rates, status counts, store size."""
+    from hertzian.sweeping.planner import format_bytes
+    from hertzian.sweeping.sweep_store import status_codes
+
+    if result["batches_run"] == 0:
+        return f"nothing to do: all {result['batches']} batches were complete"
+    names = status_codes()
+    status = ", ".join(f"{names[c].split(':')[0]} {k}" for c, k in result["status_counts"].items())
+    ran = f"ran {result['batches_run']} of {result['batches']} batches" if resumed else f"{result['batches']} batches"
+    return (
+        f"{result['points']} points, {ran} on {result['device']}: {result['seconds']['batches']:.2f} s, "
+        f"{result['grain_steps_per_second']:.3g} grain-steps/s (per device "
+        f"{result['grain_steps_per_second_per_device']:.3g}); status: {status}; store {format_bytes(result['store_bytes'])}"
+    )

@@ -54,6 +54,30 @@ def init_warp() -> None:
         wp.init()
 
 
+def check_device(device: str | None) -> str:
+    """``device`` ('cpu', 'cuda', 'cuda:N') if Warp has it here, else OptionError; None: :func:`default_device`.
+    Also refuses a bad CPU thread count (an environment variable of the chain kernel) before anything runs."""
+    import warp as wp
+    from hertzian.core.errors import OptionError, RefusedError
+    from hertzian.core.solvers.chain import cpu_threads
+
+    init_warp()
+    try:
+        cpu_threads()
+    except ValueError as err:
+        raise RefusedError(str(err)) from None
+    if device is None:
+        return default_device()
+    try:
+        if str(device).startswith("cuda") and not wp.is_cuda_available():
+            raise RuntimeError  # asking Warp for it would print CUDA driver errors
+        wp.get_device(device)
+    except Exception:
+        available = ", ".join(str(d) for d in wp.get_devices())
+        raise OptionError("device", device, f"not available here; available: {available}") from None
+    return device
+
+
 def default_device() -> str:
     """'cuda' when a CUDA device is present, else 'cpu'."""
     init_warp()

@@ -690,13 +690,14 @@ def select_point(ds, at: dict[str, float] | None = None):
     """One point of a store: the coordinate nearest each value in ``at`` {axis: value}, the first along
     every other axis. Raises PlotError naming an unknown axis."""
     at = dict(at or {})
-    for dim in point_dims(ds):
+    axes = point_dims(ds)
+    for dim in axes:
         if dim in at:
             ds = ds.sel({dim: at.pop(dim)}, method="nearest")
         else:
             ds = ds.isel({dim: 0})
     if at:
-        raise PlotError(f"no sweep axis {', '.join(at)}; the store's axes: {', '.join(point_dims(ds)) or 'none'}")
+        raise PlotError(f"no sweep axis {', '.join(at)}; the store's axes: {', '.join(axes) or 'none'}")
     return ds
 
 

@@ -24,12 +24,12 @@ from __future__ import annotations
 import platform
 import tempfile
 import time
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
 import warp as wp
 from hertzian.studies.bench import today
+from hertzian.sweeping.pipeline import prepare_sweep, run_sweep
 
 
 def _device_name(device: str) -> str:
@@ -134,94 +134,56 @@ def bench_scene(
 def bench_sweep(
     path: str | Path, device: str, *, kernel: str = "auto", overrides: dict[str, Any] | None = None, log=None
 ) -> dict:
-    """Time ``hertzian sweep`` (serial, this process) end to end: plan, store, batches, background writes."""
-    from hertzian.core.solvers.calibrate import step_reason_of
-    from hertzian.sweeping.distributed import jobs_for, run_serial, runs_of, warm_kernels
-    from hertzian.sweeping.planner import plan_sweep
-    from hertzian.sweeping.spec import expand, load_sweep
-    from hertzian.sweeping.sweep_store import create_sweep_store, finalize
-
+    """Time ``hertzian sweep`` (serial, this process) end to end through the sweep pipeline: load, plan, store,
+    batches, background writes, finalize (the store in a temporary directory)."""
     startup = start_device(device)
+    notes: list[str] = []
+    totals = dict.fromkeys(("compile", "kernel", "record", "device", "build"), 0.0)
+    kernels = []
+
+    def add(job, result, batch_build):
+        t = result.timing
+        totals["build"] += batch_build - t["setup_in_init"]
+        totals["compile"] += t["setup"]
+        totals["kernel"] += t["advance"]
+        totals["record"] += t["record"]
+        totals["device"] += t["device"]
+        kernels.append(result.kernel)
+
+    def note(line: str) -> None:
+        if "per-step kernel" in line:
+            notes.append(line.removeprefix("note: "))
+
     start = time.perf_counter()
-    definition = load_sweep(path, overrides)
-    points = expand(definition)
-    plan = plan_sweep(definition, points, device)
-    notes = []
-    for index, group in enumerate(plan.groups):
-        batch = next((b for b in plan.batches if b.group == index), None)
-        reason = (
-            batch is not None
-            and kernel == "auto"
-            and step_reason_of(group.features, wp.get_device(device).is_cpu, plan.batch_grain_steps(batch))
+    with tempfile.TemporaryDirectory(prefix="hertzian-bench-") as tmp:
+        prepared = prepare_sweep(
+            path, Path(tmp) / "sweep.zarr", device=device, kernel=kernel, overrides=overrides, notify=note
         )
-        if reason:
-            notes.append(f"launch group {index}: per-step kernel: {reason}")
-    with tempfile.TemporaryDirectory(prefix="hertzian-bench-") as tmp, ThreadPoolExecutor(max_workers=1) as loader:
-        out = Path(tmp) / "sweep.zarr"
-        # as `hertzian sweep`: the kernels load in a thread; the store thread creates the store while the first
-        # batch's first records run
-        warming = loader.submit(
-            warm_kernels, [g.features for g in plan.groups], device, runs=runs_of(plan, points, plan.batches)
-        )
-        jobs = jobs_for(out, plan, points, plan.batches, kernel=kernel)
-        build = time.perf_counter() - start
-        clock = time.perf_counter()
-        warming.result()
-        compile_seconds = time.perf_counter() - clock  # the part of loading that nothing hid
-        totals = {
-            "compile": 0.0,
-            "kernel": 0.0,
-            "record": 0.0,
-            "device": 0.0,
-            "build": 0.0,
-            "store": 0.0,
-            "prepare": 0.0,
-            "prepare_wait": 0.0,
-        }
-        kernels = []
-
-        def add(job, result, batch_build):
-            t = result.timing
-            totals["build"] += batch_build - t["setup_in_init"]
-            totals["compile"] += t["setup"]
-            totals["kernel"] += t["advance"]
-            totals["record"] += t["record"]
-            totals["device"] += t["device"]
-            kernels.append(result.kernel)
-
-        # exactly `hertzian sweep`'s pipeline (serial): the next batch prepared and the store written in threads
-        run_serial(
-            jobs,
-            device,
-            on_result=add,
-            timing=totals,
-            create_store=lambda: create_sweep_store(out, definition, points.templates[0], plan, device=device),
-        )
-        finalize(out)
+        done = run_sweep(prepared, notify=note, on_result=add)
     total = time.perf_counter() - start
+    t = done["seconds"]
     seconds = {
         "total": total,
-        "build": build + totals["build"] + totals["prepare_wait"],
-        "compile": compile_seconds + totals["compile"],
+        "build": sum(t[k] for k in ("load", "expand", "plan", "jobs")) + totals["build"] + t["prepare_wait"],
+        "compile": t["warm_kernels"] + totals["compile"],  # the part of loading that nothing hid, then per batch
         "kernel": totals["kernel"],
         "record": totals["record"],
-        "store": totals["store"],
-        "create_store_overlapped": totals.get("create_store", 0.0),
-        "prepare_overlapped": totals["prepare"],
+        "store": t["store"],
+        "create_store_overlapped": t.get("create_store", 0.0),
+        "prepare_overlapped": t["prepare"],
         "startup": startup,
     }
-    grain_steps = float(sum(j.grain_steps for j in jobs))
-    first = points.templates[0]
+    first = prepared.points.templates[0]
     if log:
-        log(f"{path}: {plan.point_count} points, {len(jobs)} batches, {total:.2f} s end to end")
+        log(f"{path}: {done['points']} points, {done['batches_run']} batches, {total:.2f} s end to end")
     return _summary(
         "sweep",
         str(path),
         device,
-        chains=plan.point_count,
+        chains=done["points"],
         grains=first.chain.grains,
         steps=first.step_count,
-        grain_steps=grain_steps,
+        grain_steps=float(done["grain_steps"]),
         kernels=kernels,
         seconds=seconds,
         device_seconds=totals["device"],

@@ -29,6 +29,7 @@ from typing import Any, Callable
 
 import numpy as np
 from hertzian.studies import analysis as an
+from hertzian.sweeping.pipeline import prepare_sweep, run_sweep
 
 WINDOW = an.PAPER_WINDOW
 """Averaging window of Figs. 9–10 [time units] (Fig. 9's caption)."""
@@ -154,49 +155,35 @@ def default_sweeps_dir() -> Path:
 def run_sweep_group(
     path: Path, overrides: dict[str, Any], out: Path, device: str, kernel: str | None = "auto"
 ) -> dict[str, Any]:
-    """Run one sweep file into a store at ``out`` (as ``hertzian sweep --kernel KERNEL`` does, serially); returns
-    its log entry, with ``seconds``: setup (plan, store, kernel loads), integrate (the batches, calibration
-    included), finalize. ``kernel=None``: ``group_kernel``'s choice for the sweep's scene on ``device``."""
-    import zarr
-    from hertzian.sweeping.distributed import jobs_for, run_serial, warm_kernels
-    from hertzian.sweeping.planner import plan_sweep
-    from hertzian.sweeping.spec import expand, load_sweep
-    from hertzian.sweeping.sweep_store import create_sweep_store, finalize
-
-    clock = time.perf_counter()
-    definition = load_sweep(path, overrides)
-    points = expand(definition)
+    """Run one sweep file into a store at ``out`` through the sweep pipeline (as ``hertzian sweep --kernel KERNEL
+    --overwrite`` does, serially); returns its log entry, with ``seconds``: setup (load, plan, kernel loads),
+    integrate (the batches, calibration and the store's creation included), finalize. ``kernel=None``:
+    ``group_kernel``'s choice for the sweep's scene on ``device``."""
+    options = dict(device=device, overwrite=True, overrides=overrides, notify=lambda line: None)
+    prepared = prepare_sweep(path, out, kernel="auto" if kernel is None else kernel, **options)
+    scene = prepared.points.scene(0)
     if kernel is None:
-        kernel = group_kernel(points.scene(0).integrator.events, device)
-    plan = plan_sweep(definition, points, device)
-    create_sweep_store(out, definition, points.templates[0], plan, device=device, overwrite=True)
-    jobs = jobs_for(out.resolve(), plan, points, plan.batches, kernel=kernel)
-    warm_kernels([g.features for g in plan.groups], device)
-    start = time.perf_counter()
-    run_serial(jobs, device)
-    session = time.perf_counter() - start
-    grain_steps = sum(j.grain_steps for j in jobs)
-    prov = finalize(out, session_seconds=session, session_grain_steps=grain_steps)
-    seconds = {"setup": start - clock, "integrate": session, "finalize": time.perf_counter() - start - session}
-    status = np.asarray(zarr.open_array(store=str(out), path="status", mode="r")[...]).ravel()
-    codes, counts = np.unique(status, return_counts=True)
-    scene = points.scene(0)
+        kernel = group_kernel(scene.integrator.events, prepared.device)
+        prepared.kernel = kernel
+    done = run_sweep(prepared)
+    t = done["seconds"]
+    setup = sum(t.get(k, 0.0) for k in ("load", "expand", "plan", "jobs", "warm_kernels"))
     return {
-        "points": points.point_count,
+        "points": done["points"],
         "grains": scene.chain.grains,
         "steps": scene.step_count,
         "dt": scene.integrator.dt,
         "method": scene.integrator.method,
         "events": scene.integrator.events,
-        "device": prov["device"],
-        "wall_seconds": session,
-        "grain_steps": grain_steps,
-        "grain_steps_per_second": grain_steps / max(session, 1e-12),
-        "energy_error_max": prov["energy_error_max"],
-        "status_counts": {str(int(c)): int(k) for c, k in zip(codes, counts)},
+        "device": done["device"],
+        "wall_seconds": t["batches"],
+        "grain_steps": done["grain_steps"],
+        "grain_steps_per_second": done["grain_steps_per_second"],
+        "energy_error_max": done["energy_error_max"],
+        "status_counts": done["status_counts"],
         "kernel_choice": kernel,
-        "kernel": prov.get("kernel", ""),
-        "seconds": seconds,
+        "kernel": done["kernel"],
+        "seconds": {"setup": setup, "integrate": t["batches"], "finalize": t["finalize"]},
     }
 
 

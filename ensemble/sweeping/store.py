@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import xarray as xr
 import zarr
 from hertzian.sweeping.store_format import (
     DAMAGE_ERRORS,
@@ -44,6 +45,24 @@ def open_store(path: str | Path):
     if "schema_version" not in group.attrs:
         raise ValueError(f"{path}: not a hertzian store (no schema_version attribute)")
     return group
+
+
+def open_dataset(path: str | Path):
+    """A store written by ``hertzian run``, ``hertzian sweep`` or :func:`hertzian.sweep` as a lazy
+    ``xarray.Dataset`` (FileNotFoundError or ValueError, one line, if it is not a hertzian store)."""
+    open_store(path)
+    return xr.open_zarr(str(path))
+
+
+def result_dataset(result: RunResult, axes: dict[str, np.ndarray] | None = None):
+    """``result`` as the ``xarray.Dataset`` (in memory) that ``hertzian run --out`` stores: the same variables,
+    dimensions and attributes, written and read back through :func:`write_result`. ``axes`` as there; an ensemble
+    without them gets one axis ``chain`` (0, 1, …)."""
+    if axes is None and result.chain_count > 1:
+        axes = {"chain": np.arange(result.chain_count)}
+    with tempfile.TemporaryDirectory(prefix="hertzian-result-") as tmp:
+        with open_dataset(write_result(Path(tmp) / "run.zarr", result, axes=axes)) as dataset:
+            return dataset.load()
 
 
 SUMMARY_SCHEME = ("method", "precision", "dt", "steps", "grains")

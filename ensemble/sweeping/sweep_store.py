@@ -83,6 +83,9 @@ INNER_CHUNK_BYTES = 1 << 20
 TIMING_VARIABLES = ("wall_seconds", "grain_steps_per_second")
 """Per-point variables that measure the machine, not the physics (they differ between runs)."""
 
+TIME_UNITS = "program time (1.0102e-3 s)"
+ENERGY_UNITS = "program energy (2.36e-5 kg · (1e-5 m / 1.0102e-3 s)²)"
+DIMENSIONLESS = "1"
 FIELD_ATTRS = {
     "u": {
         "coordinates": "t",
@@ -165,14 +168,21 @@ def _record_variables(scene: Scene, dims: tuple[str, ...], coords, real: np.dtyp
     ]
     per_record = []
     if scene.record.energy:
-        per_record.append(("energy", "total energy relative to the static state (SPEC §5 E minus a constant)"))
+        per_record.append(("energy", "total energy relative to the static state (model.md: E minus a constant)"))
         if scene.boundary.surface == "driven":
             per_record.append(("work", "work done by the driver on the chain"))
         if scene.damping.model != "none":
             per_record.append(("dissipated", "energy dissipated by damping up to the record"))
     for name, long_name in per_record:
         out.append(
-            _variable(name, dims + ("record",), (records,), np.float64, np.nan, {**coords("t"), "long_name": long_name})
+            _variable(
+                name,
+                dims + ("record",),
+                (records,),
+                np.float64,
+                np.nan,
+                {**coords("t"), "units": ENERGY_UNITS, "long_name": long_name},
+            )
         )
     return out
 
@@ -191,6 +201,7 @@ def _response_variables(scene: Scene, dims: tuple[str, ...], coords) -> list[dic
             complex(np.nan, np.nan),
             {
                 **coords("window_start"),
+                "units": FIELD_ATTRS["v"]["units"],
                 "long_name": "V_k = (c_k/T_w) ∫ v e^{-ikωt} dt over the "
                 "window (c_0 = 1, c_k = 2), t absolute [length/time]",
             },
@@ -201,7 +212,7 @@ def _response_variables(scene: Scene, dims: tuple[str, ...], coords) -> list[dic
             (windows, n),
             np.float64,
             np.nan,
-            {**coords("window_start"), "long_name": "window-averaged kinetic energy ½ m v²"},
+            {**coords("window_start"), "units": ENERGY_UNITS, "long_name": "window-averaged kinetic energy ½ m v²"},
         ),
         _variable(
             "driver_open",
@@ -211,6 +222,7 @@ def _response_variables(scene: Scene, dims: tuple[str, ...], coords) -> list[dic
             np.nan,
             {
                 **coords("window_start"),
+                "units": DIMENSIONLESS,
                 "long_name": "fraction of the window during which the driver–grain-1 contact is open",
             },
         ),
@@ -220,7 +232,7 @@ def _response_variables(scene: Scene, dims: tuple[str, ...], coords) -> list[dic
             (windows,),
             np.float64,
             np.nan,
-            {"long_name": "start time of the window (depends on the point's period)"},
+            {"units": TIME_UNITS, "long_name": "start time of the window (depends on the point's period)"},
         ),
     ]
 
@@ -244,7 +256,7 @@ def _trace_variables(scene: Scene, dims: tuple[str, ...], coords, real: np.dtype
             (len(tt), traced),
             real,
             np.nan,
-            coords("trace_t", "traced_grain"),
+            {"units": FIELD_ATTRS[name]["units"], **coords("trace_t", "traced_grain")},
             rows_per_shard=rows,
         )
         for name in ("u", "v")
@@ -255,11 +267,11 @@ def _point_variables(dims: tuple[str, ...], coords, *, error_estimate: bool = Fa
     """One value per point: ``status``, ``energy_error``, ``max_overlap``, ``error_estimate`` (when asked for),
     ``wall_seconds``, ``grain_steps_per_second``."""
     codes = status_codes()
-    long_names = {
-        "energy_error": "max_t |E(t) - E(0) [- W(t)]| / E_inj (absolute when nothing is injected)",
-        "max_overlap": None,
-        "wall_seconds": "wall seconds of the ensemble, shared evenly among its chains",
-        "grain_steps_per_second": "throughput of the point's batch (all its chains)",
+    described = {  # name: (units, long name)
+        "energy_error": (DIMENSIONLESS, "max_t |E(t) - E(0) [- W(t)]| / E_inj (absolute when nothing is injected)"),
+        "max_overlap": (FIELD_ATTRS["u"]["units"], "largest overlap at any check"),
+        "wall_seconds": ("s", "wall seconds of the ensemble, shared evenly among its chains"),
+        "grain_steps_per_second": ("grain-steps/s", "throughput of the point's batch (all its chains)"),
     }
     out = [
         _variable(
@@ -271,9 +283,8 @@ def _point_variables(dims: tuple[str, ...], coords, *, error_estimate: bool = Fa
             {**coords(), "flag_values": [int(k) for k in codes], "flag_meanings": codes},
         )
     ]
-    for name, long_name in long_names.items():
-        attrs = {**coords(), "long_name": long_name} if long_name else coords()
-        out.append(_variable(name, dims, (), np.float64, np.nan, attrs))
+    for name, (units, long_name) in described.items():
+        out.append(_variable(name, dims, (), np.float64, np.nan, {**coords(), "units": units, "long_name": long_name}))
         if name == "max_overlap" and error_estimate:
             attrs = {**coords(), "units": "relative", "long_name": ERROR_ESTIMATE_MEANING}
             out.append(_variable("error_estimate", dims, (), np.float64, np.nan, attrs))

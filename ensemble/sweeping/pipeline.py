@@ -1,0 +1,451 @@
+"""The one sweep pipeline: load → expand → plan → create store → jobs → warm kernels → run → finalize → summary.
+
+``hertzian sweep``, ``hertzian reproduce``, ``hertzian bench --sweep`` and :func:`hertzian.sweep` all run it.
+:func:`prepare_sweep` checks everything a sweep needs and writes nothing; :func:`run_sweep` runs a prepared sweep
+and returns the summary that ``hertzian sweep --json`` prints. Bad input raises one line: an
+:class:`~hertzian.core.errors.OptionError` for an argument, a :class:`~hertzian.core.scene.SceneError` for the file.
+Notes and warnings (a dt that looks unstable, the per-step kernel and why) go to ``notify``, one line each.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import time
+import warnings
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import warp as wp
+import zarr
+from hertzian.core.check import dt_warning, memory_refusal
+from hertzian.core.devices import check_device
+from hertzian.core.errors import OptionError, RefusedError
+from hertzian.core.model import build_model
+from hertzian.core.shipped import shipped_file
+from hertzian.core.solvers import KERNELS, choose_config
+from hertzian.core.solvers.calibrate import event_cost_note, step_reason_of
+from hertzian.sweeping.distributed import jobs_for, run_distributed, run_serial, runs_of, warm_kernels, warm_workers
+from hertzian.sweeping.planner import Plan, plan_sweep
+from hertzian.sweeping.spec import MAX_POINTS, Sweep, SweepPoints, expand, load_sweep
+from hertzian.sweeping.storage import NoRoomError, StoreLockedError
+from hertzian.sweeping.sweep_store import (
+    SweepStoreError,
+    batch_records,
+    check_resumable,
+    completed_batches,
+    create_sweep_store,
+    finalize,
+    store_bytes,
+    writing_session,
+)
+
+
+@dataclass
+class PreparedSweep:
+    """A checked sweep, ready to run: nothing written yet."""
+
+    definition: Sweep
+    points: SweepPoints
+    plan: Plan
+    out: Path
+    device: str
+    """The device batches run on here ('cpu', 'cuda:0', …)."""
+    requested_device: str | None
+    """The device as asked for (Dask workers resolve None themselves)."""
+    kernel: str
+    resuming: bool
+    overwrite: bool
+    workers: int | None
+    scheduler: str | None
+    timing: dict[str, float]
+    """Seconds so far: load, expand, plan."""
+
+
+def check_options(*, batch_size, workers, scheduler, resume, overwrite, kernel) -> None:
+    """Refuse arguments that cannot work together, before anything is read."""
+    if batch_size is not None and batch_size < 1:
+        raise OptionError("batch_size", batch_size, "must be ≥ 1")
+    if workers is not None and workers < 1:
+        raise OptionError("workers", workers, "must be ≥ 1")
+    if workers is not None and scheduler is not None:
+        raise OptionError("scheduler", scheduler, "give either workers (a local cluster) or scheduler, not both")
+    if resume and overwrite:
+        raise OptionError("resume", True, "resume continues a store, overwrite replaces it; give one")
+    if kernel not in KERNELS:
+        raise OptionError("kernel", kernel, f"one of {', '.join(KERNELS)}")
+
+
+def load_points(sweep, overrides, *, allow_large: bool, timing: dict) -> tuple[Sweep, SweepPoints]:
+    """The sweep (a file, a shipped name or a Sweep) and its points; ``timing`` gets load and expand."""
+    clock = time.perf_counter()
+    if isinstance(sweep, Sweep):
+        if overrides:
+            raise OptionError("overrides", overrides, "apply overrides to a sweep file, not to a loaded Sweep")
+        definition = sweep
+    else:
+        definition = load_sweep(shipped_file(sweep), overrides, max_points=None if allow_large else MAX_POINTS)
+    timing["load"] = time.perf_counter() - clock
+    clock = time.perf_counter()
+    points = expand(definition)
+    timing["expand"] = time.perf_counter() - clock
+    return definition, points
+
+
+def corner_dt_warnings(definition: Sweep) -> list[str]:
+    """``hertzian check``'s dt warning at the corners of the grid (at most 64 points).
+
+    The stiffest contact grows monotonically with v_imp, l0, g, drive amplitude and the impurity
+    constants, and the lightest mass shrinks monotonically, so a grid's extremes sit at its corners.
+    """
+    shape = list(definition.shape)
+    corners = itertools.product(*[sorted({0, n - 1}) for n in shape])
+    points = sorted({int(np.ravel_multi_index(c, shape)) for c in corners})[:64] if shape else [0]
+    lines = []
+    for index in points:
+        where = tuple(int(i) for i in np.unravel_index(index, shape)) if shape else ()
+        message = dt_warning(definition.scene_at(where) if shape else definition.base)
+        if message:
+            names = definition.coordinates_at(where) if shape else {}
+            text = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in names.items())
+            lines.append(f"point {index}{' (' + text + ')' if text else ''}: {message}")
+    return lines
+
+
+def check_out(out: Path, *, resume: bool, overwrite: bool) -> None:
+    """Refuse a store path that exists (unless resuming or replacing it) or whose folder does not."""
+    if out.exists() and not (resume or overwrite):
+        raise OptionError("out", str(out), "exists; resume to continue it or overwrite to replace it")
+    if not out.parent.exists():
+        raise OptionError("out", str(out), "parent directory does not exist")
+
+
+def prepare_sweep(
+    sweep: str | Path | Sweep,
+    out: str | Path | None = None,
+    *,
+    device: str | None = None,
+    resume: bool = False,
+    overwrite: bool = False,
+    batch_size: int | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    kernel: str = "auto",
+    overrides: dict[str, Any] | None = None,
+    allow_large: bool = False,
+    strict: bool = False,
+    dry_run: bool = False,
+    notify: Callable[[str], None] | None = None,
+) -> PreparedSweep:
+    """Load, expand, check and plan a sweep; writes nothing. ``out`` defaults to the sweep's name with ``.zarr`` in
+    the current directory; ``strict`` refuses a dt that looks unstable at a corner of the grid (else a warning)."""
+    notify = notify or _warn
+    check_options(
+        batch_size=batch_size, workers=workers, scheduler=scheduler, resume=resume, overwrite=overwrite, kernel=kernel
+    )
+    timing: dict[str, float] = {}
+    definition, points = load_points(sweep, overrides, allow_large=allow_large, timing=timing)
+    # one chain of the largest kind (the planner sizes batches); before any array is built
+    too_big = memory_refusal(max(points.templates, key=lambda t: t.chain.grains))
+    if too_big:
+        raise RefusedError(too_big)
+    unsafe = corner_dt_warnings(definition)
+    if unsafe and strict:
+        raise RefusedError(unsafe[0])
+    for line in unsafe:
+        notify(f"warning: {line}")
+    out = Path(out) if out is not None else Path(Path(str(definition.source or "sweep")).stem + ".zarr")
+    if not dry_run:
+        check_out(out, resume=resume, overwrite=overwrite)
+    dev = check_device(device)
+    resuming = resume and out.exists()
+    plan = _plan(definition, points, out, dev, batch_size=batch_size, resuming=resuming, timing=timing)
+    if kernel != "auto":
+        check_kernel(kernel, plan, points, dev)
+    else:
+        per_step_notes(plan, dev, notify)
+    if resuming and batch_size is not None and plan.batch_size != batch_size:
+        notify(
+            f"note: batch size {batch_size} ignored: {out} was planned with batches of up to {plan.batch_size} points"
+        )
+    return PreparedSweep(
+        definition, points, plan, out, dev, device, kernel, resuming, overwrite, workers, scheduler, timing
+    )
+
+
+def _plan(definition, points, out: Path, dev: str, *, batch_size, resuming: bool, timing: dict) -> Plan:
+    """The plan (a resumed store's block kept); ``timing`` gets plan."""
+    block = None
+    if resuming:
+        try:
+            block = check_resumable(out, definition)
+        except SweepStoreError as err:
+            raise OptionError("resume", str(out), str(err)) from None
+    clock = time.perf_counter()
+    plan = plan_sweep(definition, points, dev, batch_size=batch_size, block=block)
+    timing["plan"] = time.perf_counter() - clock
+    return plan
+
+
+def per_step_notes(plan: Plan, dev: str, notify: Callable[[str], None]) -> None:
+    """One note for each launch group that ``auto`` leaves on the per-step kernel, and why; one for each CUDA
+    launch group that carries event-aware steps (their cost)."""
+    is_cpu = wp.get_device(dev).is_cpu
+    for index, group in enumerate(plan.groups):
+        batch = next((b for b in plan.batches if b.group == index), None)
+        if batch is None:
+            continue
+        reason = step_reason_of(group.features, is_cpu, plan.batch_grain_steps(batch))
+        if reason:
+            notify(f"note: launch group {index}: per-step kernel: {reason}")
+        events = event_cost_note(group.features, is_cpu)
+        if events:
+            notify(f"note: launch group {index}: {events}")
+
+
+def check_kernel(kernel: str, plan: Plan, points: SweepPoints, dev: str) -> None:
+    """Refuse a forced ``kernel`` that cannot run some launch group, before anything is written."""
+    for index, group in enumerate(plan.groups):
+        batch = next(b for b in plan.batches if b.group == index)
+        model = build_model([points.scene(int(batch.points[0]))], dev, features=group.features)
+        try:
+            choose_config(model, kernel, calibrate_now=False)
+        except ValueError as err:
+            raise OptionError("kernel", kernel, str(err).split(": ", 1)[-1]) from None
+
+
+def plan_summary(prepared: PreparedSweep) -> dict[str, Any]:
+    """What ``hertzian sweep --dry-run --json`` prints: points, batches, batch size, grain-steps, device, seconds."""
+    plan = prepared.plan
+    return {
+        "points": plan.point_count,
+        "batches": len(plan.batches),
+        "batch_size": plan.batch_size,
+        "grain_steps": plan.grain_steps,
+        "device": prepared.device,
+        "seconds": prepared.timing,
+    }
+
+
+def _warn(line: str) -> None:
+    """The default ``notify`` of the Python API: warnings as Python warnings, notes dropped."""
+    if line.startswith("warning: "):
+        warnings.warn(line.removeprefix("warning: "), stacklevel=3)
+
+
+class SweepProgress:
+    """What :func:`run_sweep` tells about progress; a subclass draws it (the CLI's bar), this one does nothing."""
+
+    done_batches = 0
+
+    def start(self, *, total_batches: int, done_batches: int, grain_steps: int) -> None:
+        """Before the first batch: ``done_batches`` of ``total_batches`` already in the store."""
+        self.done_batches = done_batches
+
+    def record(self, job, done: int, total: int) -> None:
+        """Record ``done`` of ``total`` of the running batch ``job`` is on the host (serial runs only)."""
+
+    def batch_done(self, job, record: dict) -> None:
+        """Batch ``job`` is written."""
+        self.done_batches += 1
+
+    def stop(self) -> None:
+        """After the last batch, or on an interruption."""
+
+
+class CallbackProgress(SweepProgress):
+    """Calls ``callback(done_batches, total_batches)`` after each batch (the Python API's ``progress``)."""
+
+    def __init__(self, callback: Callable[[int, int], None]):
+        self.callback = callback
+        self.total_batches = 0
+
+    def start(self, *, total_batches: int, done_batches: int, grain_steps: int) -> None:
+        super().start(total_batches=total_batches, done_batches=done_batches, grain_steps=grain_steps)
+        self.total_batches = total_batches
+
+    def batch_done(self, job, record: dict) -> None:
+        super().batch_done(job, record)
+        self.callback(self.done_batches, self.total_batches)
+
+
+def _connect(workers: int | None, scheduler: str | None, stack: contextlib.ExitStack):
+    """A Dask client (starting a LocalCluster for ``workers``), closed with ``stack``."""
+    # Dask is imported only for a distributed sweep: it is optional and slow to import
+    from distributed import Client
+    from hertzian.sweeping.distributed import local_cluster
+
+    if workers is not None:
+        return stack.enter_context(Client(stack.enter_context(local_cluster(workers))))
+    try:
+        return stack.enter_context(Client(scheduler, timeout="15s"))
+    except (OSError, TimeoutError, ValueError) as err:
+        raise OptionError("scheduler", scheduler, f"cannot connect ({type(err).__name__}: {err})") from None
+
+
+def run_sweep(
+    prepared: PreparedSweep,
+    *,
+    progress: SweepProgress | None = None,
+    notify: Callable[[str], None] | None = None,
+    on_result: Callable | None = None,
+) -> dict[str, Any]:
+    """Run a prepared sweep into its store and finalize it; returns :func:`summary`'s dict. ``on_result(job, result,
+    build_seconds)`` is called after each batch of a serial run. An interruption (KeyboardInterrupt) leaves a store
+    that ``resume`` continues.
+
+    The writes are guarded (``sweep_store.writing_session``): a second writer of the same store gets an
+    :class:`OptionError` on ``out``, as does a store larger than the free space; on resume, damaged chunks are found
+    and their batches rerun; a storage fault while running (a full disk, lost permission) raises
+    ``StorageError`` (one line) and leaves the store as of its last completed batch."""
+    p, notify = prepared, notify or _warn
+    try:
+        with writing_session(p.out, p.definition, p.points.templates[0], p.plan, resuming=p.resuming) as notes:
+            for line in notes:
+                notify(line)
+            return _run_pending(p, progress or SweepProgress(), notify, on_result)
+    except (StoreLockedError, NoRoomError) as err:
+        raise OptionError("out", str(p.out), str(err)) from None
+
+
+def _run_pending(p: PreparedSweep, progress: SweepProgress, notify, on_result) -> dict[str, Any]:
+    """The batches not yet complete, run here or on Dask workers, then the store finalized."""
+    distributed = p.workers is not None or p.scheduler is not None
+    done = completed_batches(p.out) if p.resuming else set()
+    pending = [b for b in p.plan.batches if b.index not in done]
+    if not pending:
+        prov = finalize(p.out, session_seconds=0.0, session_grain_steps=0)
+        return summary(p, [], prov, 0.0)
+    with contextlib.ExitStack() as stack:
+        client = _connect(p.workers, p.scheduler, stack) if distributed else None
+        create, jobs = _setup(p, pending, client, stack, notify)
+        progress.start(
+            total_batches=len(p.plan.batches), done_batches=len(done), grain_steps=sum(j.grain_steps for j in jobs)
+        )
+        start = time.perf_counter()
+        try:
+            if client is None:
+                run_serial(
+                    jobs,
+                    p.device,
+                    on_record=progress.record,
+                    on_done=progress.batch_done,
+                    on_result=on_result,
+                    create_store=create,
+                    timing=p.timing,
+                )
+            else:
+                run_distributed(jobs, client, p.requested_device, on_done=progress.batch_done)
+        finally:
+            progress.stop()
+        session = time.perf_counter() - start
+    clock = time.perf_counter()
+    prov = finalize(p.out, session_seconds=session, session_grain_steps=sum(j.grain_steps for j in jobs))
+    p.timing["finalize"] = time.perf_counter() - clock
+    return summary(p, jobs, prov, session)
+
+
+def _setup(p: PreparedSweep, pending: list, client, stack: contextlib.ExitStack, notify) -> tuple:
+    """Warm the kernels (in a thread), create or clean up the store, build the jobs; returns (the store's creation
+    for run_serial's store thread, or None; the jobs). ``p.timing`` gets create_store (distributed), jobs and
+    warm_kernels."""
+    features = [g.features for g in p.plan.groups]
+    # the kernels load (from Warp's cache, or compile) in a thread; a serial run warms the stepping kernels its
+    # batches will use, Dask workers find every variant in the cache
+    runs = None if client is not None else runs_of(p.plan, p.points, pending)
+    warming = stack.enter_context(ThreadPoolExecutor(max_workers=1)).submit(warm_kernels, features, p.device, runs=runs)
+    create = None
+    if p.resuming:  # (writing_session removed the temporary files of a killed write)
+        earlier = {r["device"].split(":")[0] for r in batch_records(p.out)}
+        if earlier - {p.device.split(":")[0]}:
+            notify(
+                f"note: earlier batches ran on {', '.join(sorted(earlier))}, these run on {p.device}: "
+                "results agree to rounding, not bit for bit, across device kinds"
+            )
+    else:
+
+        def create():
+            create_sweep_store(
+                p.out, p.definition, p.points.templates[0], p.plan, device=label_of(p), overwrite=p.overwrite
+            )
+
+        if client is not None:  # workers write into it: it exists before they start
+            clock = time.perf_counter()
+            create()
+            p.timing["create_store"] = time.perf_counter() - clock
+            create = None
+        # else: run_serial's store thread creates it while the first batch's first records run
+    clock = time.perf_counter()
+    # workers may run elsewhere: give them the absolute store path
+    jobs = jobs_for(p.out.resolve(), p.plan, p.points, pending, kernel=p.kernel)
+    p.timing["jobs"] = time.perf_counter() - clock
+    clock = time.perf_counter()
+    warming.result()
+    if client is not None:
+        warm_workers(client, features, p.requested_device)
+    p.timing["warm_kernels"] = time.perf_counter() - clock
+    return create, jobs
+
+
+def label_of(p: PreparedSweep) -> str:
+    """Where the batches run, in words: the device, or the Dask workers or cluster."""
+    if p.workers is not None:
+        return f"{p.workers} local Dask workers"
+    return f"Dask cluster {p.scheduler}" if p.scheduler is not None else p.device
+
+
+def summary(p: PreparedSweep, jobs: list, prov: dict, session: float) -> dict[str, Any]:
+    """The summary of a run: points, batches (and how many ran), device, grain-steps and rates, status counts,
+    the store and its bytes, the time split [s] and the host seconds outside the kernel."""
+    timing = p.timing
+    ran = {j.batch.index for j in jobs}
+    records = [r for r in batch_records(p.out) if r["batch"] in ran]
+    timing["batches"] = session
+    for key, column in (("build", "build_seconds"), ("kernel", "wall_seconds"), ("write", "write_seconds")):
+        timing[key] = sum(r[column] for r in records)
+    status = np.asarray(zarr.open_array(store=str(p.out), path="status", mode="r")[...])
+    codes, counts = np.unique(status, return_counts=True)
+    steps = sum(j.grain_steps for j in jobs)
+    overhead = ("load", "expand", "plan", "jobs", "warm_kernels", "finalize")
+    distributed = p.workers is not None or p.scheduler is not None
+    return {
+        "points": p.plan.point_count,
+        "batches": len(p.plan.batches),
+        "batches_run": len(jobs),
+        "device": label_of(p),
+        "grain_steps": steps,
+        "grain_steps_per_second": steps / max(session, 1e-12),
+        "grain_steps_per_second_per_device": prov["grain_steps_per_second"],
+        "energy_error_max": prov["energy_error_max"],
+        "kernel": prov.get("kernel", ""),
+        "status_counts": {str(int(c)): int(k) for c, k in zip(codes, counts)},
+        "store": str(p.out),
+        "store_bytes": store_bytes(p.out),
+        "seconds": timing,
+        # host time outside the integration (interpreter start-up and imports excluded)
+        "seconds_outside_kernel": sum(timing.get(k, 0.0) for k in overhead)
+        + (timing.get("create_store", 0.0) if distributed else 0.0)
+        + timing["batches"]
+        - timing["kernel"],
+    }
+
+
+def sweep(
+    sweep: str | Path | Sweep,
+    out: str | Path | None = None,
+    *,
+    progress: SweepProgress | Callable[[int, int], None] | None = None,
+    notify: Callable[[str], None] | None = None,
+    on_result: Callable | None = None,
+    **options: Any,
+) -> dict[str, Any]:
+    """Prepare (:func:`prepare_sweep`'s ``options``) and run a sweep; returns the summary dict.
+    ``progress``: a :class:`SweepProgress`, or ``callback(done_batches, total_batches)``."""
+    prepared = prepare_sweep(sweep, out, notify=notify, **options)
+    if progress is not None and not isinstance(progress, SweepProgress):
+        progress = CallbackProgress(progress)
+    return run_sweep(prepared, progress=progress, notify=notify, on_result=on_result)

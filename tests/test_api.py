@@ -1,0 +1,193 @@
+"""The Python API (``import hertzian as hz``) against the command line: same stores, same one-line refusals; and
+the command line's help screens, bare names of shipped files, plot's axes and a resume with nothing to do."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+
+import hertzian as hz
+import numpy as np
+import pytest
+import typer.main
+import xarray as xr
+from hertzian.cli import COMMANDS, app
+from hertzian.sweeping.sweep_store import TIMING_VARIABLES, differing_arrays
+from typer.testing import CliRunner
+
+cli = CliRunner()
+
+SCENE = """
+[chain]
+grains = 8
+
+[excitation]
+impact = 1e-2
+
+[integrator]
+dt = 1e-4
+duration = 0.02
+
+[record]
+every = 0.01
+traces = [0, 7]
+trace_every = 0.002
+"""
+
+SWEEP = (
+    re.sub(r"^\[", "[scene.", SCENE, flags=re.MULTILINE)
+    + """
+[[axis]]
+name = "v_imp"
+key = "excitation.impact"
+values = [1e-3, 1e-2]
+
+[[axis]]
+name = "l0"
+key = "chain.l0"
+values = [0.0, 1e-4, 2e-4]
+"""
+)
+
+
+def invoke(*args):
+    return cli.invoke(app, [str(a) for a in args])
+
+
+def without_timing(ds: xr.Dataset) -> xr.Dataset:
+    """The dataset without what measures the machine: per-point timings and the provenance (clock times)."""
+    ds = ds.drop_vars([v for v in TIMING_VARIABLES if v in ds.variables])
+    ds.attrs = {k: v for k, v in ds.attrs.items() if k != "provenance"}
+    return ds
+
+
+@pytest.fixture(scope="module")
+def sweep_stores(tmp_path_factory):
+    """The same sweep file through hz.sweep and through ``hertzian sweep``: (file, API store, CLI store)."""
+    root = tmp_path_factory.mktemp("api")
+    path = root / "grid.toml"
+    path.write_text(SWEEP)
+    summary = hz.sweep(path, root / "api.zarr", device="cpu", batch_size=2)
+    result = invoke("sweep", path, "--out", root / "cli.zarr", "--device", "cpu", "--batch-size", "2", "--quiet")
+    assert result.exit_code == 0, result.stderr
+    return path, root / "api.zarr", root / "cli.zarr", summary
+
+
+def test_run_to_xarray_is_the_store_hertzian_run_writes(tmp_path):
+    path = tmp_path / "scene.toml"
+    path.write_text(SCENE)
+    result = invoke("run", path, "--out", tmp_path / "run.zarr", "--device", "cpu", "--quiet")
+    assert result.exit_code == 0, result.stderr
+    stored = hz.open_store(tmp_path / "run.zarr").load()
+    dataset = hz.run(hz.load_scene(path), device="cpu").to_xarray()
+    xr.testing.assert_identical(without_timing(dataset), without_timing(stored))
+    for name, variable in dataset.variables.items():
+        assert variable.attrs == stored[name].attrs, name
+
+
+def test_every_float_variable_has_units():
+    scene = hz.load_scene(
+        {"chain": {"grains": 6}, "integrator": {"dt": 1e-4, "duration": 0.01}, "record": {"every": 0.005}},
+        {"record.traces": [0, 5], "record.trace_every": 0.001},
+    )
+    dataset = hz.run(scene, device="cpu").to_xarray()
+    assert {"u", "v", "trace_u", "trace_v", "energy", "t", "trace_t"} <= set(dataset.variables)
+    lacking = [n for n, v in dataset.variables.items() if v.dtype.kind in "fc" and not v.attrs.get("units")]
+    assert lacking == []
+    assert dataset.trace_v.attrs["units"] == dataset.v.attrs["units"]
+
+
+def test_hz_sweep_writes_the_store_hertzian_sweep_writes(sweep_stores):
+    _, api_store, cli_store, summary = sweep_stores
+    assert differing_arrays(api_store, cli_store) == []
+    assert summary["points"] == 6 and summary["batches"] == summary["batches_run"] > 1
+    assert summary["status_counts"] == {"0": 6} and summary["store"] == str(api_store)
+    xr.testing.assert_identical(without_timing(hz.open_store(api_store)), without_timing(hz.open_store(cli_store)))
+
+
+def test_resume_with_nothing_left_says_so(sweep_stores):
+    path, _, cli_store, summary = sweep_stores
+    result = invoke("sweep", path, "--out", cli_store, "--device", "cpu", "--resume", "--quiet")
+    assert result.exit_code == 0, result.stderr
+    assert f"nothing to do: all {summary['batches']} batches were complete" in result.stdout
+    assert "grain-steps/s" not in result.stdout
+
+
+def test_plot_at_an_unknown_axis_lists_the_stores_axes(sweep_stores, tmp_path):
+    _, api_store, _, _ = sweep_stores
+    result = invoke("plot", api_store, "--at", "masss=4", "--out", tmp_path / "p.png")
+    assert result.exit_code == 2
+    assert "no sweep axis masss; the store's axes: v_imp, l0" in result.stderr, result.stderr
+
+
+@pytest.mark.parametrize(
+    "call,expected",
+    [
+        (lambda s: hz.run(s, device="cuda:7"), "device = 'cuda:7': not available here; available: cpu"),
+        (lambda s: hz.run(s, device="cpu", kernel="fastest"), "kernel = 'fastest': one of auto"),
+        (lambda s: hz.run("scene.toml", device="cpu"), "scenes = 'list': a Scene or a non-empty list of Scenes"),
+    ],
+)
+def test_python_refusals_are_one_line(call, expected):
+    scene = hz.load_scene({"chain": {"grains": 4}, "integrator": {"dt": 1e-4, "duration": 0.01}})
+    with pytest.raises(hz.OptionError) as refused:
+        call(scene)
+    assert str(refused.value).startswith(expected) and "\n" not in str(refused.value)
+
+
+def test_sweep_refusals_are_one_line_and_write_nothing(tmp_path):
+    path = tmp_path / "grid.toml"
+    path.write_text(SWEEP)
+    with pytest.raises(hz.OptionError, match=r"^batch_size = 0: must be ≥ 1$"):
+        hz.sweep(path, tmp_path / "o.zarr", batch_size=0)
+    with pytest.raises(hz.SceneError, match=r"^chain.grainz: unknown key"):
+        hz.sweep(path, tmp_path / "o.zarr", overrides={"chain.grainz": 3})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["grid.toml"]
+
+
+def test_shipped_files_by_bare_name(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    result = invoke("sweep", "example.toml", "--dry-run", "--device", "cpu")
+    assert result.exit_code == 0, result.stderr
+    assert "points: 9 over v_imp (3) × l0 (3)" in result.stdout
+    assert hz.load_scene("impact").chain.grains == 1000
+    assert invoke("sweep", "no_such_sweep.toml", "--dry-run").exit_code == 2
+    assert list(tmp_path.iterdir()) == []
+
+
+def _help(*command: str) -> str:
+    result = cli.invoke(app, [*command, "--help"], terminal_width=100)
+    assert result.exit_code == 0, result.output
+    return result.output
+
+
+def _bracketed(command) -> set[str]:
+    """Every [text] in a command's docstring and its parameters' help."""
+    texts = [command.help or ""] + [getattr(p, "help", None) or "" for p in command.params]
+    return {m for text in texts for m in re.findall(r"\[[^\]\n]*\]", text)}
+
+
+@pytest.mark.parametrize("name", COMMANDS)
+def test_help_screens_read_cleanly(name):
+    command = typer.main.get_command(app).commands[name]
+    shown = _help(name)
+    flat = " ".join(shown.split())
+    assert "``" not in shown and "SPEC" not in shown and "[]" not in shown, shown
+    lost = [b for b in _bracketed(command) if " ".join(b.split()) not in flat]
+    assert lost == [], shown
+
+
+def test_help_keeps_the_brackets_rich_markup_ate():
+    assert "[[axis]] tables" in " ".join(_help("sweep").split())
+    assert "[program time]" in " ".join(_help("accuracy").split())
+    assert "SPEC" not in _help()
+
+
+def test_import_is_light():
+    """``import hertzian`` loads neither Warp nor Zarr (``hertzian --help`` pays for neither)."""
+    code = "import sys, hertzian; print(sorted({'warp', 'zarr', 'xarray'} & set(sys.modules)))"
+    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert loaded.strip() == "[]"
+    assert isinstance(hz.__version__, str) and set(hz.__all__) <= set(dir(hz))
+    assert np.all([callable(getattr(hz, n)) for n in ("run", "sweep", "load_scene", "load_sweep", "open_store")])
