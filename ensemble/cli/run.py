@@ -42,7 +42,9 @@ def run(
     kernel: KernelOption = "auto",
     error_estimate: Annotated[
         bool,
-        typer.Option("--error-estimate", help="Estimate the run's position error (record.error_estimate, SPEC §12)."),
+        typer.Option(
+            "--error-estimate", help="Estimate the run's position error (record.error_estimate; docs/accuracy.md)."
+        ),
     ] = False,
 ):
     """Run one scene and store it as Zarr (times in program units of 1.0102e-3 s)."""

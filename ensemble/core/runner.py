@@ -113,7 +113,7 @@ class RunResult:
         included) of the store ``hertzian run --out`` writes. ``axes`` (name → coordinate values, C order) shape an
         ensemble's chains; without them an ensemble has one axis ``chain``."""
         # the store layer imports this module (RunResult): imported here, not at the top
-        from hertzian.sweeping.store import result_dataset
+        from hertzian.sweeping.sweep_store import result_dataset
 
         return result_dataset(self, axes)
 

@@ -54,17 +54,6 @@ def open_dataset(path: str | Path):
     return xr.open_zarr(str(path))
 
 
-def result_dataset(result: RunResult, axes: dict[str, np.ndarray] | None = None):
-    """``result`` as the ``xarray.Dataset`` (in memory) that ``hertzian run --out`` stores: the same variables,
-    dimensions and attributes, written and read back through :func:`write_result`. ``axes`` as there; an ensemble
-    without them gets one axis ``chain`` (0, 1, …)."""
-    if axes is None and result.chain_count > 1:
-        axes = {"chain": np.arange(result.chain_count)}
-    with tempfile.TemporaryDirectory(prefix="hertzian-result-") as tmp:
-        with open_dataset(write_result(Path(tmp) / "run.zarr", result, axes=axes)) as dataset:
-            return dataset.load()
-
-
 SUMMARY_SCHEME = ("method", "precision", "dt", "steps", "grains")
 
 

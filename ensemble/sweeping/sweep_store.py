@@ -40,7 +40,7 @@ import time
 import warnings
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import zarr
@@ -48,7 +48,6 @@ import zarr.errors
 from hertzian.core.chains import ChainSet
 from hertzian.core.error_estimate import ERROR_ESTIMATE_MEANING
 from hertzian.core.model import SHARED_KEYS
-from hertzian.core.runner import RunResult
 from hertzian.core.scene import Scene
 from hertzian.core.status import status_attrs
 from hertzian.sweeping.integrity import BATCHES, Verification, finished_batches, verify_store
@@ -61,7 +60,11 @@ from hertzian.sweeping.storage import (
     storage_faults,
     store_lock,
 )
+from hertzian.sweeping.store import open_dataset
 from hertzian.sweeping.store_format import SCHEMA_VERSION, chunk_codecs, consolidate, package_version
+
+if TYPE_CHECKING:  # annotations only: the runner imports this module to write its result
+    from hertzian.core.runner import RunResult
 
 NOT_RUN = -1
 """``status`` of a point whose batch has not finished."""
@@ -460,7 +463,7 @@ def fixed_arrays(sweep: Sweep, scene: Scene, plan: Plan) -> list[tuple[str, np.n
         for d in sweep.dimensions
         for axis in d.axes
     ]
-    out.append(("t", record_times(scene), ("record",), {"units": "program time (1.0102e-3 s)"}))
+    out.append(("t", record_times(scene), ("record",), {"units": TIME_UNITS}))
     grains = np.arange(scene.chain.grains, dtype=np.int32)
     out.append(("grain", grains, ("grain",), {"long_name": "grain index from the surface"}))
     if scene.has_response:
@@ -468,7 +471,7 @@ def fixed_arrays(sweep: Sweep, scene: Scene, plan: Plan) -> list[tuple[str, np.n
         out.append(("harmonic", harmonics, ("harmonic",), {"long_name": "harmonic k of the drive frequency"}))
     tt = trace_times(scene)
     if tt is not None:
-        out.append(("trace_t", tt, ("sample",), {}))
+        out.append(("trace_t", tt, ("sample",), {"units": TIME_UNITS}))
         out.append(("traced_grain", np.asarray(scene.record.traces, dtype=np.int32), ("traced",), {}))
     group_attrs = {"long_name": "launch group of the point (index into the launch_groups attribute)"}
     companions = " ".join(a.name for d in sweep.dimensions for a in d.axes[1:])
@@ -1097,3 +1100,14 @@ def write_result(
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return path
+
+
+def result_dataset(result: RunResult, axes: dict[str, np.ndarray] | None = None):
+    """``result`` as the ``xarray.Dataset`` (in memory) that ``hertzian run --out`` stores: the same variables,
+    dimensions and attributes, written and read back through :func:`write_result`. ``axes`` as there; an ensemble
+    without them gets one axis ``chain`` (0, 1, …)."""
+    if axes is None and result.chain_count > 1:
+        axes = {"chain": np.arange(result.chain_count)}
+    with tempfile.TemporaryDirectory(prefix="hertzian-result-") as tmp:
+        with open_dataset(write_result(Path(tmp) / "run.zarr", result, axes=axes)) as dataset:
+            return dataset.load()
