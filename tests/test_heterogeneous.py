@@ -203,3 +203,90 @@ def test_bad_radii_are_one_clear_line(radii, key):
     with pytest.raises(SceneError) as err:
         scene_from_dict({"chain": {"grains": GRAINS, "radii": radii}, "integrator": {"duration": 1.0}})
     assert err.value.key == key and "\n" not in str(err.value)
+
+
+SEED_SWEEP = """
+[scene.chain]
+grains = 12
+l0 = 1e-4
+radii = { spread = 0.3, seed = 0 }
+
+[scene.excitation]
+impact = 1e-2
+
+[scene.integrator]
+dt = 5e-4
+duration = 0.5
+
+[scene.record]
+every = 0.25
+
+[[axis]]
+name = "seed"
+key = "chain.radii.seed"
+values = [0, 1, 2, 3, 4, 5]
+
+[[axis]]
+name = "taper"
+key = "chain.radii.taper"
+values = [0.0, 0.1]
+"""
+
+
+def _sweep_counting_scenes(tmp_path, monkeypatch, text: str, name: str):
+    """Run a sweep file on the CPU; return the store's path and how many Scene objects were built."""
+    from hertzian.cli import app
+    from hertzian.core import scene as scene_module
+    from typer.testing import CliRunner
+
+    path = tmp_path / f"{name}.toml"
+    path.write_text(text)
+    built = []
+    monkeypatch.setattr(scene_module.Scene, "__post_init__", lambda s: built.append(1) or scene_module._validate(s))
+    result = CliRunner().invoke(app, ["sweep", str(path), "--out", str(tmp_path / f"{name}.zarr"), "--device", "cpu"])
+    assert result.exit_code == 0, result.stderr + result.stdout
+    monkeypatch.undo()
+    return tmp_path / f"{name}.zarr", len(built)
+
+
+def test_a_seed_sweep_stores_radius_and_mass_and_each_point_reruns_alone(tmp_path, monkeypatch):
+    import xarray as xr
+    from hertzian.sweeping.spec import load_sweep
+
+    seeds = SEED_SWEEP.split('[[axis]]\nname = "taper"')[0]
+    out, built = _sweep_counting_scenes(tmp_path, monkeypatch, seeds, "six")
+    _, built_more = _sweep_counting_scenes(tmp_path, monkeypatch, seeds.replace("[0, 1, 2, 3, 4, 5]", str(list(range(60)))), "sixty")
+    assert built_more == built  # the points run as per-chain arrays, not one scene each
+    ds = xr.open_zarr(out)
+    assert ds.radius.dims == ("seed", "grain") and ds.mass.dims == ("seed", "grain")
+    sweep = load_sweep(tmp_path / "six.toml")
+    for k, seed in enumerate(ds.seed.values.tolist()):
+        scene = sweep.scene_at((k,))
+        np.testing.assert_array_equal(ds.radius.values[k], radii_of({"spread": 0.3, "seed": seed}))
+        np.testing.assert_array_equal(ds.mass.values[k], static_state(scene).mass)
+        alone = run_scene(scene, device="cpu")
+        np.testing.assert_array_equal(ds.u.values[k], alone.u[0])
+    assert not np.array_equal(ds.radius.values[0], ds.radius.values[1])
+
+
+def test_a_taper_sweep_stores_radius(tmp_path, monkeypatch):
+    import xarray as xr
+
+    taper = SEED_SWEEP.replace("{ spread = 0.3, seed = 0 }", "{ taper = 0.0 }").split("[[axis]]")
+    out, _ = _sweep_counting_scenes(tmp_path, monkeypatch, taper[0] + "[[axis]]" + taper[2], "taper")
+    radius = xr.open_zarr(out).radius.values
+    np.testing.assert_array_equal(radius[0], np.full(GRAINS, R0))
+    np.testing.assert_allclose(radius[1], radii_of({"taper": 0.1}), rtol=1e-15)
+
+
+def test_uniform_sweeps_store_no_grain_variables(tmp_path):
+    import xarray as xr
+    from hertzian.cli import app
+    from typer.testing import CliRunner
+
+    path = tmp_path / "plain.toml"
+    path.write_text(SEED_SWEEP.replace("radii = { spread = 0.3, seed = 0 }\n", "").split("[[axis]]")[0]
+                    + '[[axis]]\nname = "speed"\nkey = "excitation.impact"\nvalues = [1e-2, 2e-2]\n')
+    result = CliRunner().invoke(app, ["sweep", str(path), "--out", str(tmp_path / "p.zarr"), "--device", "cpu"])
+    assert result.exit_code == 0, result.stderr + result.stdout
+    assert "radius" not in xr.open_zarr(tmp_path / "p.zarr")

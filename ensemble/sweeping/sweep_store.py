@@ -48,6 +48,7 @@ from hertzian.core.model import SHARED_KEYS
 from hertzian.core.runner import RunResult
 from hertzian.core.scene import Scene
 from hertzian.core.status import status_attrs
+from hertzian.sweeping.grain_store import grain_arrays, grain_variables, records_grains
 from hertzian.sweeping.planner import Batch, Plan
 from hertzian.sweeping.spec import Sweep, record_times, trace_times
 from hertzian.sweeping.store import SCHEMA_VERSION, consolidate, package_version
@@ -295,7 +296,7 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
             attrs={**coords(), "long_name": "throughput of the point's batch (all its chains)"},
         ),
     ]
-    return out
+    return out + grain_variables(sweep, scene, coords())
 
 
 def _trailing_chunks(trailing: tuple[int, ...], itemsize: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
@@ -754,6 +755,8 @@ def write_batch(
             "grain_steps_per_second": np.full(chains, rate),
         }
     )
+    if records_grains(scene):
+        arrays.update(grain_arrays(result.scenes))
     for name, data in arrays.items():
         put(name, data)
     finished = datetime.now(timezone.utc)
