@@ -113,7 +113,9 @@ def test_static_overlaps_balance_every_grain():
     np.testing.assert_allclose(force[0], scene.chain.surface_force, rtol=1e-14)
     np.testing.assert_allclose(st.contact_constant[0], a * np.sqrt(r[0]), rtol=1e-15)
     np.testing.assert_allclose(st.contact_constant[-1], a * np.sqrt(r[-1]), rtol=1e-15)
-    np.testing.assert_allclose(st.contact_constant[1:-1], a * np.sqrt(2 * r[:-1] * r[1:] / (r[:-1] + r[1:])), rtol=1e-15)
+    np.testing.assert_allclose(
+        st.contact_constant[1:-1], a * np.sqrt(2 * r[:-1] * r[1:] / (r[:-1] + r[1:])), rtol=1e-15
+    )
     assert scene.chain.validity_overlap == pytest.approx(0.1 * 2 * R0 * r.min(), rel=1e-15)
 
 
@@ -152,8 +154,15 @@ def test_chain_and_tile_kernels_equal_the_per_step_kernel():
     assert model.features.heterogeneous
     steps = 2501
     want = per_step(model, steps)
-    plan = plan_tile(model.features, model.grain_count, model.chain_count, grains_per_lane=4, lanes_per_chain=8,
-                     steps_per_launch=6, windowed=True)
+    plan = plan_tile(
+        model.features,
+        model.grain_count,
+        model.chain_count,
+        grains_per_lane=4,
+        lanes_per_chain=8,
+        steps_per_launch=6,
+        windowed=True,
+    )
     assert_every_window_moved(want, window_ranges(plan, model.grain_count), held_bottom=True)
     start, scratch = model.state_pair()
     np.testing.assert_array_equal(TileSolver(model, config_of(plan)).advance(start, scratch, steps).x.numpy(), want)
@@ -255,7 +264,9 @@ def test_a_seed_sweep_stores_radius_and_mass_and_each_point_reruns_alone(tmp_pat
 
     seeds = SEED_SWEEP.split('[[axis]]\nname = "taper"')[0]
     out, built = _sweep_counting_scenes(tmp_path, monkeypatch, seeds, "six")
-    _, built_more = _sweep_counting_scenes(tmp_path, monkeypatch, seeds.replace("[0, 1, 2, 3, 4, 5]", str(list(range(60)))), "sixty")
+    _, built_more = _sweep_counting_scenes(
+        tmp_path, monkeypatch, seeds.replace("[0, 1, 2, 3, 4, 5]", str(list(range(60)))), "sixty"
+    )
     assert built_more == built  # the points run as per-chain arrays, not one scene each
     ds = xr.open_zarr(out)
     assert ds.radius.dims == ("seed", "grain") and ds.mass.dims == ("seed", "grain")
@@ -285,8 +296,60 @@ def test_uniform_sweeps_store_no_grain_variables(tmp_path):
     from typer.testing import CliRunner
 
     path = tmp_path / "plain.toml"
-    path.write_text(SEED_SWEEP.replace("radii = { spread = 0.3, seed = 0 }\n", "").split("[[axis]]")[0]
-                    + '[[axis]]\nname = "speed"\nkey = "excitation.impact"\nvalues = [1e-2, 2e-2]\n')
+    path.write_text(
+        SEED_SWEEP.replace("radii = { spread = 0.3, seed = 0 }\n", "").split("[[axis]]")[0]
+        + '[[axis]]\nname = "speed"\nkey = "excitation.impact"\nvalues = [1e-2, 2e-2]\n'
+    )
     result = CliRunner().invoke(app, ["sweep", str(path), "--out", str(tmp_path / "p.zarr"), "--device", "cpu"])
     assert result.exit_code == 0, result.stderr + result.stdout
     assert "radius" not in xr.open_zarr(tmp_path / "p.zarr")
+
+
+def _synthetic_store(lengths, grains: int = 20):
+    """A store whose every point's leading pulse decays as exp(−z/λ) exactly (λ per seed), reaching grain z at
+    record z."""
+    import xarray as xr
+
+    z = np.arange(grains)
+    v = np.zeros((len(lengths), grains, grains))
+    for s, length in enumerate(lengths):
+        v[s, z, z] = np.exp(-z / length)
+    return xr.Dataset(
+        {"v": (("seed", "record", "grain"), v)}, coords={"seed": np.arange(len(lengths)), "t": ("record", 0.5 * z)}
+    )
+
+
+def test_statistics_over_seeds_match_closed_forms():
+    from hertzian.studies.realisations import statistics
+
+    lengths = np.array([4.0, 6.0, 9.0, 13.0])
+    stats = statistics(_synthetic_store(lengths), "seed")
+    np.testing.assert_allclose(stats["decay_length"]["mean"], lengths.mean(), rtol=1e-12)
+    np.testing.assert_allclose(stats["decay_length"]["std"], lengths.std(ddof=1), rtol=1e-12)
+    np.testing.assert_allclose(stats["decay_length"]["q50"], np.median(lengths), rtol=1e-12)
+    bottom = 0.5 * np.exp(-2 * 19 / lengths)
+    np.testing.assert_allclose(stats["bottom_energy"]["q95"], np.quantile(bottom, 0.95), rtol=1e-12)
+    np.testing.assert_allclose(stats["bottom_fraction"]["mean"], bottom.mean() / 0.5, rtol=1e-12)
+    np.testing.assert_allclose(stats["arrival_time"]["mean"], 0.5 * 19, rtol=1e-12)
+    np.testing.assert_allclose(stats["leading_amplitude"]["mean"][5], np.exp(-5 / lengths).mean(), rtol=1e-12)
+
+
+def test_summarize_over_seed_and_distribution_plot(tmp_path, monkeypatch):
+    import json
+
+    from hertzian.cli import app
+    from typer.testing import CliRunner
+
+    out, _ = _sweep_counting_scenes(tmp_path, monkeypatch, SEED_SWEEP.split('[[axis]]\nname = "taper"')[0], "s")
+    cli = CliRunner()
+    result = cli.invoke(app, ["summarize", str(out), "--over", "seed"])
+    assert result.exit_code == 0, result.stderr
+    numbers = json.loads(result.stdout)
+    assert numbers["realisations"] == 6 and numbers["observables"]["bottom_energy"]["count"] == 6
+    bad = cli.invoke(app, ["summarize", str(out), "--over", "sed"])
+    assert bad.exit_code == 2 and "sed" in bad.stderr and "Traceback" not in bad.stderr + bad.stdout
+    png = tmp_path / "d.png"
+    result = cli.invoke(app, ["plot", str(out), "--figure", "distribution", "--of", "arrival_time", "--out", str(png)])
+    assert result.exit_code == 0 and png.stat().st_size > 0, result.stderr
+    bad = cli.invoke(app, ["plot", str(out), "--figure", "distribution", "--of", "nothing", "--out", str(png)])
+    assert bad.exit_code == 2 and "nothing" in bad.stderr
