@@ -91,6 +91,10 @@ def _grain_params(scene):
         raise ValueError(f"chain.grains = {N}: need at least 1 grain")
     m = np.full(N, float(ch["mass"]), dtype=np.float64)
     a = np.full(N, float(ch["a"]), dtype=np.float64)
+    ratio = _radius_ratio(scene)
+    if ratio is not None:  # Hertz spheres of radius R_i = ratio·R0 (SPEC section 11)
+        m = m * ratio**3
+        a = a * np.sqrt(ratio)
     own = np.zeros(N, dtype=bool)
     for blk in scene.get("impurities") or []:
         idx = np.asarray(list(blk["grains"]), dtype=np.int64)
@@ -103,6 +107,18 @@ def _grain_params(scene):
             raise ValueError(f"impurities.contact = {rule!r}: allowed harmonic | own")
         own[idx] = rule == "own"
     return m, a, own
+
+
+def _radius_ratio(scene):
+    """R_i / R0 per grain from ``chain.radii`` given as a list of N radii [length] (R0 = diameter / 2),
+    or None for equal grains. Only the explicit list is read: callers compute any other form themselves."""
+    ch = scene["chain"]
+    radii = ch.get("radii")
+    if radii is None:
+        return None
+    if not isinstance(radii, (list, tuple, np.ndarray)) or len(radii) != int(ch["grains"]):
+        raise ValueError(f"chain.radii: the reference reads only a list of {ch['grains']} radii")
+    return np.asarray(radii, dtype=np.float64) / (0.5 * float(ch["diameter"]))
 
 
 def _boundaries(scene):
@@ -130,13 +146,21 @@ def contact_constants(scene):
     Inner contact (i, i+1): harmonic mean ``2 a_i a_j / (a_i + a_j)``, except a
     grain of an impurity block with ``contact = "own"`` imposes its own ``a``
     (both "own": harmonic mean of the two).  Walls use the touching grain's ``a``.
-    Wall constants are returned even if the boundary has no wall.
+    Wall constants are returned even if the boundary has no wall. With per-grain radii
+    (``chain.radii``, a list) the self-constant of grain i is ``a sqrt(R_i/R0)`` (walls) and an inner
+    contact ``a sqrt(2 R_i R_j / (R0 (R_i + R_j)))``; its mass is ``m (R_i/R0)^3``.
     """
     _, a, own = _grain_params(scene)
     ai, aj = a[:-1], a[1:]
     oi, oj = own[:-1], own[1:]
     harm = 2.0 * ai * aj / (ai + aj)
     a_in = np.where(oi & ~oj, ai, np.where(oj & ~oi, aj, harm))
+    ratio = _radius_ratio(scene)
+    if ratio is not None:
+        if scene.get("impurities"):
+            raise ValueError("the reference does not combine chain.radii with impurities")
+        ri, rj = ratio[:-1], ratio[1:]  # Hertz: a_ij = a sqrt(2 R_eff / R0), R_eff = R_i R_j / (R_i + R_j)
+        a_in = float(scene["chain"]["a"]) * np.sqrt(2.0 * ri * rj / (ri + rj))
     return float(a[0]), a_in.astype(np.float64), float(a[-1])
 
 

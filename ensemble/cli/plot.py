@@ -34,7 +34,8 @@ def plot(
             help="A paper figure group instead of the store picture: fig1 | fig1d | fig2 | fig3 | fig4 | "
             "fig5 | modes | fig6 | depth | fig7_8 | fig9 | fig10 (the store must hold that figure's sweep); drive_map: the "
             "response map of a drive sweep (docs/drive.md), its numbers also written as JSON next to the PNG; standing: "
-            "the standing fraction of a drive sweep (forward and backward waves at the drive frequency), also as JSON.",
+            "the standing fraction of a drive sweep (forward and backward waves at the drive frequency), also as JSON; "
+            "distribution: a histogram of one observable (--of) over the store's points (docs/heterogeneous.md).",
         ),
     ] = None,
     field: Annotated[str, typer.Option("--field", help="u | v: the field of the depth–time picture.")] = "v",
@@ -46,6 +47,10 @@ def plot(
             "first along each axis).",
         ),
     ] = None,
+    of: Annotated[
+        Optional[str],
+        typer.Option("--of", help="With --figure distribution: the observable whose histogram is drawn."),
+    ] = None,
     out: Annotated[
         Optional[Path],
         typer.Option("--out", help="PNG file to write (default: STORE's name with .png, or FIGURE.png)."),
@@ -56,6 +61,8 @@ def plot(
     a paper figure group in the paper's representation (profiles in the paper's sign, + toward the surface)."""
     from hertzian.plotting.figures import FIGURES, PlotError, plot_figure, plot_store
 
+    if figure == "distribution":
+        return _plot_distribution(store, of, out)
     if figure is not None and figure not in FIGURES:
         fail(f"--figure = {figure!r}: allowed: {', '.join(FIGURES)}")
     if field not in ("u", "v"):
@@ -109,4 +116,24 @@ def plot(
         fail(f"{what}: {err}")
     except (KeyError, IndexError, ValueError) as err:  # a store of another sweep than the figure's
         fail(f"{what}: store {str(store)!r} does not hold this figure's sweep ({err})")
+    typer.echo(f"wrote {out}")
+
+
+def _plot_distribution(store: Path, of: str | None, out: Path | None) -> None:
+    import xarray as xr
+    from hertzian.studies.realisations import SCALAR_OBSERVABLES, plot_distribution
+
+    if of is None:
+        fail(f"--figure distribution needs --of: one of {', '.join(SCALAR_OBSERVABLES)}")
+    out = out or Path(f"{of}.png")
+    if out.suffix.lower() != ".png" or not out.parent.exists():
+        fail(f"--out = {str(out)!r}: must end in .png, in an existing directory")
+    try:
+        dataset = xr.open_zarr(store)
+    except Exception as err:  # noqa: BLE001  (any unreadable store is bad input)
+        fail(f"store = {str(store)!r}: not a readable Zarr store ({type(err).__name__})")
+    try:
+        plot_distribution(dataset, of, out)
+    except ValueError as err:
+        fail(str(err))
     typer.echo(f"wrote {out}")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Optional
 
 import typer
 from hertzian.cli.app import app, fail
@@ -22,6 +22,14 @@ def summarize(
             "its status counts and the points with the largest energy error.",
         ),
     ] = 40,
+    over: Annotated[
+        Optional[str],
+        typer.Option(
+            "--over",
+            help="A sweep dimension (e.g. seed): print as JSON the mean, standard deviation and 5/50/95 % "
+            "quantiles over it of per-point impact observables (hertzian.studies.realisations).",
+        ),
+    ] = None,
 ):
     """Per point: status, energy error [relative], max overlap [length], wall seconds, grain-steps per second.
 
@@ -34,6 +42,9 @@ def summarize(
 
     if rows < 1:
         fail(f"--rows = {rows}: must be ≥ 1")
+    if over is not None:
+        _print_statistics(store, over)
+        return
     try:
         note = unchecked_note(store)
         columns = summary_columns(store)
@@ -95,3 +106,18 @@ def summarize(
         + ", ".join(f"{c} {k}" for c, k in zip(codes, counts))
         + (f"; energy error max {finite.max():.3g}, median {np.median(finite):.3g}" if finite.size else "")
     )
+
+
+def _print_statistics(store: Path, over: str) -> None:
+    import xarray as xr
+    from hertzian.studies.realisations import statistics_json
+
+    try:
+        dataset = xr.open_zarr(store)
+    except Exception as err:  # noqa: BLE001  (any unreadable store is bad input)
+        fail(f"store = {str(store)!r}: not a readable Zarr store ({type(err).__name__})")
+    try:
+        numbers = statistics_json(dataset, over)
+    except ValueError as err:
+        fail(str(err))
+    typer.echo(json.dumps({"store": str(store), **numbers}, indent=1))

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from hertzian.core.radii import SWEEPABLE, RadiiSpec, radius_ratios, with_values
 from hertzian.core.scene import Scene
 
 CHAIN_KEYS = (
@@ -32,12 +33,16 @@ CHAIN_KEYS = (
     "excitation.drive_period",
     "damping.gamma",
 )
+RADII_KEYS = tuple(f"chain.radii.{name}" for name in SWEEPABLE)
+"""Per-chain keys of a table form of ``chain.radii`` (taper, spread, seed)."""
+CHAIN_KEYS += RADII_KEYS
 IMPURITY_KEY = re.compile(r"^impurities\.(\d+)\.(mass|a)$")
 
 
 def is_per_chain_key(key: str) -> bool:
     """Whether a dotted scene key is a per-chain scalar (may differ between chains of one launch
-    and is held as an array): ``chain.*`` except ``grains``, ``excitation.*``, ``damping.gamma``, ``impurities.K.mass|a``."""
+    and is held as an array): ``chain.*`` except ``grains``, ``excitation.*``, ``damping.gamma``, ``impurities.K.mass|a``,
+    ``chain.radii.taper|spread|seed``."""
     return key in CHAIN_KEYS or IMPURITY_KEY.match(key) is not None
 
 
@@ -50,6 +55,8 @@ def template_value(scene: Scene, key: str) -> Any:
     match = IMPURITY_KEY.match(key)
     if match:
         return getattr(scene.impurities[int(match.group(1))], match.group(2))
+    if key in RADII_KEYS:
+        return None if scene.chain.radii is None else getattr(scene.chain.radii, key.rsplit(".", 1)[1])
     section, name = key.split(".")
     return getattr(getattr(scene, section), name)
 
@@ -137,6 +144,31 @@ class ChainStack(Sequence):
         index %= len(self)
         part = int(np.searchsorted(self.offsets, index, side="right")) - 1
         return self.parts[part][index - int(self.offsets[part])]
+
+
+def has_radii(chains: ChainSet) -> bool:
+    """Whether some chain of the set may have radii (a ``chain.radii`` form in the template or an axis)."""
+    return chains.template.chain.radii is not None or any(chains.varies(k) for k in RADII_KEYS)
+
+
+def radius_rows(chains: ChainSet) -> np.ndarray | None:
+    """R_i/R0 of every grain of every chain, shape (chains, N), float64 (rows of 1 for equal grains), computed
+    once per distinct (taper, spread, seed, diameter) with the per-scene function (same bits); None when every
+    chain's grains are equal."""
+    if not has_radii(chains):
+        return None
+    template = chains.template.chain
+    varying = {name: chains.values[key] for name, key in zip(SWEEPABLE, RADII_KEYS) if chains.varies(key)}
+    diameter = chains.column("chain.diameter")
+    first, inverse = row_codes([*varying.values(), diameter])
+    rows = []
+    for index in first.tolist():
+        spec = with_values(template.radii or RadiiSpec(), **{k: v[index] for k, v in varying.items()})
+        rows.append(radius_ratios(spec, template.grains, float(diameter[index])))
+    if all(r is None for r in rows):
+        return None
+    table = np.stack([np.ones(template.grains) if r is None else r for r in rows])
+    return table[inverse]
 
 
 def row_codes(columns: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:

@@ -1,12 +1,22 @@
-"""The error a bad option of the Python API raises: one line naming the option, the value and what is allowed.
+"""The errors bad input raises: one line naming the key, the value and what is allowed.
 
-The command line prints the same line with the option spelled as a flag (``batch_size`` → ``--batch-size``).
-Scene keys raise :class:`hertzian.core.scene.SceneError` instead (``chain.l0 = -1.0: must be ≥ 0``).
+:class:`SceneError` is a bad scene value (``chain.l0 = -1.0: must be ≥ 0``; re-exported by
+:mod:`hertzian.core.scene`); :class:`OptionError` a bad keyword argument of the Python API, which the command line
+prints with the option spelled as a flag (``batch_size`` → ``--batch-size``); :class:`RefusedError` a request
+refused as a whole.
 """
 
 from __future__ import annotations
 
 from typing import Any
+
+
+class SceneError(ValueError):
+    """Invalid scene input: names the key, the value given and what is allowed."""
+
+    def __init__(self, key: str, value: Any, allowed: str):
+        self.key, self.value, self.allowed = key, value, allowed
+        super().__init__(f"{key} = {value!r}: {allowed}")
 
 
 class OptionError(ValueError):

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import warp as wp
-from hertzian.core.chains import ChainSet, ChainStack, per_unique
+from hertzian.core.chains import ChainSet, ChainStack, has_radii, per_unique
 from hertzian.core.scene import VALIDITY_FRACTION, Scene, SceneError
 from hertzian.core.static import StaticState, static_state
 from hertzian.kernels.features import EVENT_WINDOW, GEAR_CORRECTOR, GEAR_VALUES, Features
@@ -50,7 +50,7 @@ def features_of(scenes: list[Scene], statics: list[StaticState] | None = None) -
     return _features(
         first,
         any_static=any(np.any(st.static_overlap > 0) for st in statics),
-        heterogeneous=any(s.impurities for s in scenes),
+        heterogeneous=any(s.impurities or s.chain.radius_ratios is not None for s in scenes),
         gravity=any(s.chain.gravity > 0 for s in scenes),
         hertz=all(s.chain.exponent == 2.5 for s in scenes),
         can_open=lambda: any(contact_can_open(s, st) for s, st in zip(scenes, statics)),
@@ -352,7 +352,7 @@ def chain_set_features(chains: ChainSet, static) -> Features:
     return _features(
         chains.template,
         any_static=bool(np.any(static.static_overlap > 0)),
-        heterogeneous=bool(chains.template.impurities),
+        heterogeneous=bool(chains.template.impurities) or static.radius_ratio is not None,
         gravity=bool(np.any(chains.column("chain.gravity") > 0)),
         hertz=bool(np.all(chains.column("chain.exponent") == 2.5)),
         can_open=lambda: chain_set_can_open(chains, static),
@@ -402,9 +402,9 @@ def prepare_model(chains: ChainSet, *, features: Features | None = None) -> Host
     scene = chains.template
     # Homogeneous chains without gravity carry the same static force on every contact, so their
     # static state (all a uniform or absent static overlap needs) and the Taylor start come from the
-    # first grains alone; impurities or gravity need every grain's.
+    # first grains alone; impurities, radii or gravity need every grain's.
     window = None
-    if not scene.impurities and not np.any(chains.column("chain.gravity") > 0):
+    if not scene.impurities and not has_radii(chains) and not np.any(chains.column("chain.gravity") > 0):
         window = taylor_window(scene.chain.grains, GEAR_VALUES[scene.integrator.method] - 1)
     st = static_arrays(chains, grains=window)
     f = chain_set_features(chains, st)
@@ -452,7 +452,7 @@ def prepare_model(chains: ChainSet, *, features: Features | None = None) -> Host
         "exponent": exponent.astype(np_real, copy=False),
         "drive": drive,
         "trace_slot": trace_slot,
-        "validity_overlap": per_unique(lambda d: VALIDITY_FRACTION * d, chains.column("chain.diameter")),
+        "validity_overlap": _validity(chains, st),
         "damping": (chains.column("damping.gamma") if f.damping != "none" else np.zeros(0)).astype(np_real, copy=False),
     }
     # only the first grains move at t = 0 (startup.taylor_window); the others start at zero
@@ -466,6 +466,15 @@ def prepare_model(chains: ChainSet, *, features: Features | None = None) -> Host
         start=start,
         seconds=time.perf_counter() - clock,
     )
+
+
+def _validity(chains: ChainSet, static) -> np.ndarray:
+    """ChainSpec.validity_overlap of every chain: VALIDITY_FRACTION·diameter, times the smallest radius ratio
+    where the radii differ (same arithmetic, same bits)."""
+    validity = per_unique(lambda d: VALIDITY_FRACTION * d, chains.column("chain.diameter"))
+    if static.radius_ratio is None:
+        return validity
+    return validity * static.radius_ratio.min(axis=1)
 
 
 def stack_prepared(parts: list[HostModel]) -> HostModel:

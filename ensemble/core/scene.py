@@ -18,6 +18,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from hertzian.core.errors import SceneError
+from hertzian.core.radii import RadiiSpec, parse_radii, radius_ratios
 
 SURFACE_KINDS = ("wall", "load", "free", "driven")
 BOTTOM_KINDS = ("wall", "fixed", "free")
@@ -44,14 +46,6 @@ VALIDITY_FRACTION = 0.1
 (status OVERLAP_BEYOND_VALIDITY; ``hertzian check`` warns)."""
 
 
-class SceneError(ValueError):
-    """Invalid scene input: names the key, the value given and what is allowed."""
-
-    def __init__(self, key: str, value: Any, allowed: str):
-        self.key, self.value, self.allowed = key, value, allowed
-        super().__init__(f"{key} = {value!r}: {allowed}")
-
-
 @dataclass(frozen=True)
 class ChainSpec:
     """The chain: ``grains`` equal spheres in contact (program units)."""
@@ -69,8 +63,17 @@ class ChainSpec:
 
     @property
     def validity_overlap(self) -> float:
-        """Largest overlap where the Hertz law is trusted: VALIDITY_FRACTION·diameter [length]."""
-        return VALIDITY_FRACTION * self.diameter
+        """Largest overlap where the Hertz law is trusted: VALIDITY_FRACTION·diameter [length], of the
+        smallest grain's diameter where the radii differ."""
+        ratios = self.radius_ratios
+        if ratios is None:
+            return VALIDITY_FRACTION * self.diameter
+        return VALIDITY_FRACTION * self.diameter * float(ratios.min())
+
+    @functools.cached_property
+    def radius_ratios(self) -> np.ndarray | None:
+        """R_i/R0 of every grain (R0 = diameter/2), shape (grains,); None for equal grains (hertzian.core.radii)."""
+        return radius_ratios(self.radii, self.grains, self.diameter)
 
     l0: float = 0.0
     """Precompression: static overlap of two equal grains under the load [length]."""
@@ -78,6 +81,8 @@ class ChainSpec:
     """Load F0 on the surface side [force]; alternative to ``l0``."""
     gravity: float = 0.0
     """Gravitational acceleration g (1 ≙ 9.8 m/s²), toward the bottom."""
+    radii: RadiiSpec | None = None
+    """Per-grain radii (SPEC §11; hertzian.core.radii): None for equal grains of radius diameter/2."""
 
     @property
     def surface_force(self) -> float:
@@ -311,6 +316,7 @@ class Scene:
             }
             for imp in d["impurities"]
         ]
+        d["chain"]["radii"] = None if self.chain.radii is None else self.chain.radii.to_plain()
         d["record"]["fields"] = list(d["record"]["fields"])
         d["record"]["traces"] = list(d["record"]["traces"])
         if self.integrator.tolerance is not None:
@@ -340,10 +346,15 @@ def response_stride_of(period_steps) -> int:
 
 
 def grain_masses_at(scene: Scene, index: int) -> float:
+    """Mass of grain ``index`` [mass]: an impurity's, else m·r³ (r = R_i/R0), else the chain's."""
     for imp in scene.impurities:
         if index in imp.grains and imp.mass is not None:
             return imp.mass
-    return scene.chain.mass
+    ratios = scene.chain.radius_ratios
+    if ratios is None:
+        return scene.chain.mass
+    r = ratios[index]
+    return float(scene.chain.mass * r * r * r)
 
 
 # ---- parsing -----------------------------------------------------------------------
@@ -382,6 +393,8 @@ def _unknown(key: str, choices) -> SceneError:
 
 def _coerce(key: str, value: Any, default: Any, annotation: str) -> Any:
     """Check a TOML value against a field's type (annotation text) and convert it."""
+    if "RadiiSpec" in annotation:
+        return parse_radii(key, value)
     if "tuple[int" in annotation:
         if not isinstance(value, (list, tuple)) or not all(
             isinstance(x, int) and not isinstance(x, bool) for x in value
@@ -484,6 +497,9 @@ def apply_overrides(data: dict, overrides: dict[str, Any]) -> dict:
                 raise SceneError(dotted, value, f"there are {len(blocks)} impurity blocks")
             blocks[k][parts[2]] = value
             continue
+        if parts[:2] == ["chain", "radii"] and len(parts) == 3:
+            _set_radii_key(data, dotted, parts[2], value)
+            continue
         if len(parts) != 2:
             raise SceneError(dotted, value, "keys are written section.key, e.g. chain.l0")
         section = data.setdefault(parts[0], {})
@@ -491,6 +507,17 @@ def apply_overrides(data: dict, overrides: dict[str, Any]) -> dict:
             raise SceneError(parts[0], section, "must be a table")
         section[parts[1]] = value
     return data
+
+
+def _set_radii_key(data: dict, dotted: str, name: str, value: Any) -> None:
+    """``chain.radii.<name> = value`` in nested plain data (a table form of chain.radii)."""
+    chain = data.setdefault("chain", {})
+    radii = chain.get("radii")
+    if radii is None:
+        radii = chain["radii"] = {}
+    if not isinstance(radii, dict):
+        raise SceneError(dotted, value, "chain.radii is a list of radii here: only a table form has keys")
+    radii[name] = value
 
 
 def parse_overrides(items: list[str] | None) -> dict[str, Any]:
@@ -515,8 +542,13 @@ def read_toml(path: str | Path) -> dict:
 
 
 def load_scene(path: str | Path, overrides: dict[str, Any] | None = None) -> Scene:
-    """Read a scene TOML file, apply ``--set`` overrides, validate."""
-    return scene_from_dict(apply_overrides(read_toml(path), overrides or {}))
+    """Read a scene TOML file, apply ``--set`` overrides, validate. A ``chain.radii`` .npy path is relative to
+    the file."""
+    data = apply_overrides(read_toml(path), overrides or {})
+    radii = data.get("chain", {}).get("radii") if isinstance(data.get("chain"), dict) else None
+    if isinstance(radii, str) and not Path(radii).is_absolute():
+        data["chain"]["radii"] = str(Path(path).parent / radii)
+    return scene_from_dict(data)
 
 
 # ---- validation --------------------------------------------------------------------
@@ -528,7 +560,49 @@ def _positive(key, value):
 
 
 def _validate(s: Scene) -> None:
-    c, b, e, i, r = s.chain, s.boundary, s.excitation, s.integrator, s.record
+    """Raise SceneError for the first invalid value of ``s``."""
+    _validate_chain(s)
+    _validate_boundary_and_excitation(s)
+    _validate_impurities(s)
+    _validate_integrator(s)
+    _validate_record(s)
+    _validate_damping_and_response(s)
+    _validate_error_estimate(s)
+    _validate_composed_and_overflow(s)
+
+
+def _validate_composed_and_overflow(s: Scene) -> None:
+    c, b, e, i = s.chain, s.boundary, s.excitation, s.integrator
+    if i.method in COMPOSED_METHODS:
+        allowed = ", ".join(m for m in METHODS if m not in COMPOSED_METHODS)
+        if b.surface == "driven":
+            raise SceneError(
+                "integrator.method",
+                i.method,
+                f'a driven surface (boundary.surface = "driven") is '
+                f"not implemented for {i.method}: use one of {allowed}",
+            )
+        if s.damping.model != "none":
+            raise SceneError(
+                "integrator.method",
+                i.method,
+                f'damping (damping.model = "{s.damping.model}") is '
+                f"not implemented for {i.method}: use one of {allowed}",
+            )
+    for key, value, derived in (
+        ("chain.l0" if c.load is None else "chain.load", c.l0 if c.load is None else c.load, lambda: c.surface_force),
+        ("excitation.impact", e.impact, lambda: s.injected_energy),
+    ):
+        try:
+            finite = math.isfinite(derived())
+        except OverflowError:
+            finite = False
+        if not finite:
+            raise SceneError(key, value, "too large: the load or energy it gives overflows float64")
+
+
+def _validate_chain(s: Scene) -> None:
+    c = s.chain
     if c.grains < 2:
         raise SceneError("chain.grains", c.grains, "must be an integer ≥ 2")
     for key in ("mass", "a", "diameter"):
@@ -544,6 +618,11 @@ def _validate(s: Scene) -> None:
             raise SceneError("chain.load", c.load, "give either chain.l0 or chain.load, not both")
     if c.gravity < 0:
         raise SceneError("chain.gravity", c.gravity, "must be ≥ 0 (it points toward the bottom)")
+    c.radius_ratios  # raises SceneError for radii that are not > 0 and finite or a list of the wrong length
+
+
+def _validate_boundary_and_excitation(s: Scene) -> None:
+    c, b, e = s.chain, s.boundary, s.excitation
     if b.surface not in SURFACE_KINDS:
         raise SceneError(
             "boundary.surface",
@@ -589,6 +668,10 @@ def _validate(s: Scene) -> None:
         raise SceneError("excitation.impact", e.impact, "must be ≥ 0 (toward the bottom)")
     if b.bottom == "fixed" and c.grains < 3 and b.surface == "driven":
         raise SceneError("chain.grains", c.grains, "a driven chain with a fixed bottom needs ≥ 3 grains")
+
+
+def _validate_impurities(s: Scene) -> None:
+    c = s.chain
     seen: dict[int, int] = {}
     for k, imp in enumerate(s.impurities):
         key = f"impurities[{k}]"
@@ -606,6 +689,10 @@ def _validate(s: Scene) -> None:
             _positive(f"{key}.a", imp.a)
         if imp.contact not in CONTACT_RULES:
             raise SceneError(f"{key}.contact", imp.contact, "must be harmonic or own")
+
+
+def _validate_integrator(s: Scene) -> None:
+    i = s.integrator
     if not (i.duration > 0):
         raise SceneError("integrator.duration", i.duration, "is required and must be > 0")
     _positive("integrator.dt", i.dt)
@@ -628,6 +715,10 @@ def _validate(s: Scene) -> None:
         )
     if i.events not in EVENT_MODES:
         raise SceneError("integrator.events", i.events, f"must be one of {', '.join(EVENT_MODES)}")
+
+
+def _validate_record(s: Scene) -> None:
+    c, i, r = s.chain, s.integrator, s.record
     if r.every is not None:
         _positive("record.every", r.every)
         if r.every > i.duration * (1 + 1e-12):
@@ -660,34 +751,6 @@ def _validate(s: Scene) -> None:
                 f"{r.every if r.every is not None else i.duration:g}, duration = {i.duration:g}, "
                 f"trace_every = {s.trace_stride} steps of dt = {i.dt:g})",
             )
-    _validate_damping_and_response(s)
-    _validate_error_estimate(s)
-    if i.method in COMPOSED_METHODS:
-        allowed = ", ".join(m for m in METHODS if m not in COMPOSED_METHODS)
-        if b.surface == "driven":
-            raise SceneError(
-                "integrator.method",
-                i.method,
-                f'a driven surface (boundary.surface = "driven") is '
-                f"not implemented for {i.method}: use one of {allowed}",
-            )
-        if s.damping.model != "none":
-            raise SceneError(
-                "integrator.method",
-                i.method,
-                f'damping (damping.model = "{s.damping.model}") is '
-                f"not implemented for {i.method}: use one of {allowed}",
-            )
-    for key, value, derived in (
-        ("chain.l0" if c.load is None else "chain.load", c.l0 if c.load is None else c.load, lambda: c.surface_force),
-        ("excitation.impact", e.impact, lambda: s.injected_energy),
-    ):
-        try:
-            finite = math.isfinite(derived())
-        except OverflowError:
-            finite = False
-        if not finite:
-            raise SceneError(key, value, "too large: the load or energy it gives overflows float64")
 
 
 def _validate_error_estimate(s: Scene) -> None:

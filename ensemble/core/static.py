@@ -7,6 +7,9 @@ A padded slot without a contact (no wall at that end) has constant 0.
 
 Contact ``k`` carries ``F0 + g Σ_{j<k} m_j`` — the paper's sum rule, eq. 4, plus a load —
 and its static overlap is ``δ0 = (carried / (n a_c))^(1/(n−1))``.
+
+Grains of radius R_i = r_i·R0 (``chain.radii``, SPEC §11) have mass m·r_i³, wall constant a·√r_i and
+contact constant a·√(2 r_i r_j / (r_i + r_j)); an impurity's own mass or ``a`` overrides its grain's.
 """
 
 from __future__ import annotations
@@ -15,10 +18,11 @@ import re
 from dataclasses import dataclass
 
 import numpy as np
+from hertzian.core.chains import RADII_KEYS, per_unique, radius_rows, row_codes
 from hertzian.core.scene import Scene
 
-STATIC_KEYS = ("chain.mass", "chain.a", "chain.exponent", "chain.l0", "chain.load", "chain.gravity")
-"""Per-chain keys the static state reads (with ``impurities.K.mass|a``)."""
+STATIC_KEYS = ("chain.mass", "chain.a", "chain.exponent", "chain.l0", "chain.load", "chain.gravity") + RADII_KEYS
+"""Per-chain keys the static state reads (with ``impurities.K.mass|a``, and ``chain.diameter`` for a list of radii)."""
 IMPURITY_STATIC = re.compile(r"^impurities\.(\d+)\.(mass|a)$")
 
 
@@ -39,36 +43,57 @@ class StaticState:
     exponent: float
     surface_force: float
     """F0 [force]."""
+    radius_ratio: np.ndarray | None = None
+    """R_i/R0 of each grain, shape (N,); None for equal grains."""
 
     @property
     def grain_count(self) -> int:
         return self.mass.shape[0]
 
 
-def contact_constants(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(masses (N,), self-constants (N,), padded contact constants (N+1,)) for a scene."""
-    n_grains = scene.chain.grains
-    mass = np.full(n_grains, scene.chain.mass)
-    self_a = np.full(n_grains, scene.chain.a)
-    own = np.zeros(n_grains, dtype=bool)
-    for imp in scene.impurities:
-        idx = np.asarray(imp.grains)
-        if imp.mass is not None:
-            mass[idx] = imp.mass
-        if imp.a is not None:
-            self_a[idx] = imp.a
-        own[idx] = imp.contact == "own"
+def radius_constants(mass, a, ratios: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(masses m·r³, self-constants a·√r, inner contact constants a·√(2 r_i r_j / (r_i + r_j))) of grains
+    with radius ratios ``ratios`` (shape (..., N)); ``mass``, ``a``: scalars or per-chain columns (chains, 1)."""
+    left, right = ratios[..., :-1], ratios[..., 1:]
+    return mass * ratios * ratios * ratios, a * np.sqrt(ratios), a * np.sqrt(2.0 * left * right / (left + right))
 
-    left, right = self_a[:-1], self_a[1:]
+
+def _inner_contacts(self_a, own, hertz_inner=None, overridden=None) -> np.ndarray:
+    """Inner contact constants (..., N − 1): the harmonic mean of the self-constants, an ``own`` impurity's
+    constant, or (radii) ``hertz_inner`` wherever neither grain has an impurity's ``a``."""
+    left, right = self_a[..., :-1], self_a[..., 1:]
     inner = 2.0 * left * right / (left + right)
     own_left, own_right = own[:-1], own[1:]
     inner = np.where(own_left & ~own_right, left, inner)
     inner = np.where(own_right & ~own_left, right, inner)
     # Equal grains must get exactly a (the harmonic mean rounds otherwise).
     inner = np.where(left == right, left, inner)
+    if hertz_inner is not None:
+        inner = np.where(overridden[:-1] | overridden[1:], inner, hertz_inner)
+    return inner
+
+
+def contact_constants(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(masses (N,), self-constants (N,), padded contact constants (N+1,)) for a scene."""
+    n_grains = scene.chain.grains
+    ratios = scene.chain.radius_ratios
+    if ratios is None:
+        mass, self_a, hertz_inner = np.full(n_grains, scene.chain.mass), np.full(n_grains, scene.chain.a), None
+    else:
+        mass, self_a, hertz_inner = radius_constants(scene.chain.mass, scene.chain.a, ratios)
+    own = np.zeros(n_grains, dtype=bool)
+    overridden = np.zeros(n_grains, dtype=bool)
+    for imp in scene.impurities:
+        idx = np.asarray(imp.grains)
+        if imp.mass is not None:
+            mass[idx] = imp.mass
+        if imp.a is not None:
+            self_a[idx] = imp.a
+            overridden[idx] = True
+        own[idx] = imp.contact == "own"
 
     padded = np.zeros(n_grains + 1)
-    padded[1:n_grains] = inner
+    padded[1:n_grains] = _inner_contacts(self_a, own, hertz_inner, overridden)
     if scene.boundary.surface == "wall":
         padded[0] = self_a[0]
     if scene.boundary.bottom == "wall":
@@ -97,6 +122,7 @@ def static_state(scene: Scene) -> StaticState:
         static_overlap=overlap,
         exponent=n,
         surface_force=f0,
+        radius_ratio=scene.chain.radius_ratios,
     )
 
 
@@ -125,6 +151,8 @@ class StaticArrays:
     """n per chain, shape (chains,)."""
     surface_force: np.ndarray
     """F0 per chain [force], shape (chains,)."""
+    radius_ratio: np.ndarray | None = None
+    """R_i/R0 of each grain, shape (chains, N) (1 in chains of equal grains); None when every chain's are equal."""
 
 
 def _surface_force(load, l0, exponent, a) -> float:
@@ -149,14 +177,17 @@ def _power_by_exponent(base: np.ndarray, exponent: np.ndarray, power) -> np.ndar
 def _static_columns(chains) -> list[str]:
     """The varying per-chain keys that the static state depends on (not the impact, drive, damping or
     diameter, which vary in a sweep without changing it)."""
-    return [k for k in chains.values if k in STATIC_KEYS or IMPURITY_STATIC.match(k)]
+    radii_listed = chains.template.chain.radii is not None and chains.template.chain.radii.values is not None
+    return [
+        k
+        for k in chains.values
+        if k in STATIC_KEYS or IMPURITY_STATIC.match(k) or (radii_listed and k == "chain.diameter")
+    ]
 
 
 def distinct_static_rows(chains) -> tuple[np.ndarray, np.ndarray] | None:
     """(first index of each distinct static configuration, configuration of every chain), or None when
     every chain is its own configuration (nothing to share)."""
-    from hertzian.core.chains import row_codes
-
     keys = _static_columns(chains)
     if not keys:
         first, inverse = np.zeros(1, dtype=np.int64), np.zeros(len(chains), dtype=np.int64)
@@ -191,20 +222,20 @@ def static_arrays(chains, *, grains: int | None = None) -> StaticArrays:
         static_overlap=one.static_overlap[inverse],
         exponent=one.exponent[inverse],
         surface_force=one.surface_force[inverse],
+        radius_ratio=None if one.radius_ratio is None else one.radius_ratio[inverse],
     )
 
 
-def _static_arrays(chains, grains: int | None) -> StaticArrays:
-    from hertzian.core.chains import per_unique
-
+def _grain_arrays(chains, n_grains: int, ratios):
+    """(masses, self-constants, inner contact constants) of the first ``n_grains`` grains of every chain."""
     scene = chains.template
-    count, n_total = len(chains), scene.chain.grains
-    window = n_total if grains is None or grains >= n_total else int(grains)
-    cut = window < n_total
-    n_grains = window + 1 if cut else n_total  # one grain past the window gives the last contact's constant
-    mass = np.repeat(chains.column("chain.mass")[:, None], n_grains, axis=1)
-    self_a = np.repeat(chains.column("chain.a")[:, None], n_grains, axis=1)
+    m, a = chains.column("chain.mass")[:, None], chains.column("chain.a")[:, None]
+    if ratios is None:
+        mass, self_a, hertz_inner = np.repeat(m, n_grains, axis=1), np.repeat(a, n_grains, axis=1), None
+    else:
+        mass, self_a, hertz_inner = radius_constants(m, a, ratios[:, :n_grains])
     own = np.zeros(n_grains, dtype=bool)
+    overridden = np.zeros(n_grains, dtype=bool)
     for k, imp in enumerate(scene.impurities):
         idx = np.asarray([g for g in imp.grains if g < n_grains], dtype=np.int64)
         imp_mass = chains.column(f"impurities.{k}.mass")
@@ -213,14 +244,19 @@ def _static_arrays(chains, grains: int | None) -> StaticArrays:
         imp_a = chains.column(f"impurities.{k}.a")
         if imp_a is not None:
             self_a[:, idx] = imp_a[:, None]
+            overridden[idx] = True
         own[idx] = imp.contact == "own"
+    return mass, self_a, _inner_contacts(self_a, own, hertz_inner, overridden)
 
-    left, right = self_a[:, :-1], self_a[:, 1:]
-    inner = 2.0 * left * right / (left + right)
-    own_left, own_right = own[:-1], own[1:]
-    inner = np.where(own_left & ~own_right, left, inner)
-    inner = np.where(own_right & ~own_left, right, inner)
-    inner = np.where(left == right, left, inner)
+
+def _static_arrays(chains, grains: int | None) -> StaticArrays:
+    scene = chains.template
+    count, n_total = len(chains), scene.chain.grains
+    window = n_total if grains is None or grains >= n_total else int(grains)
+    cut = window < n_total
+    n_grains = window + 1 if cut else n_total  # one grain past the window gives the last contact's constant
+    ratios = radius_rows(chains)
+    mass, self_a, inner = _grain_arrays(chains, n_grains, ratios)
     a_c = np.zeros((count, n_grains + 1))
     a_c[:, 1:n_grains] = inner
     if scene.boundary.surface == "wall":
@@ -255,4 +291,5 @@ def _static_arrays(chains, grains: int | None) -> StaticArrays:
         static_overlap=overlap,
         exponent=exponent,
         surface_force=f0,
+        radius_ratio=None if ratios is None else ratios[:, :window],
     )

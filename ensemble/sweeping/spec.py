@@ -444,7 +444,7 @@ contact can open, hence event-aware steps, depends on the injected energy: hertz
 
 
 def _is_static_key(key: str) -> bool:
-    return key in FEATURE_KEYS or key.startswith("impurities.")
+    return key in FEATURE_KEYS or key.startswith(("impurities.", "chain.radii."))
 
 
 @dataclass(frozen=True, eq=False)

@@ -50,6 +50,7 @@ from hertzian.core.error_estimate import ERROR_ESTIMATE_MEANING
 from hertzian.core.model import SHARED_KEYS
 from hertzian.core.scene import Scene
 from hertzian.core.status import status_attrs
+from hertzian.sweeping.grain_store import grain_arrays, grain_variables, records_grains
 from hertzian.sweeping.integrity import BATCHES, Verification, finished_batches, verify_store
 from hertzian.sweeping.planner import Batch, Plan, single_batch_plan
 from hertzian.sweeping.spec import RESERVED_NAMES, Axis, Dimension, Sweep, record_times, trace_times
@@ -311,6 +312,7 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
         + _response_variables(scene, dims, coords)
         + _trace_variables(scene, dims, coords, real, block_points)
         + _point_variables(dims, coords, error_estimate=scene.record.error_estimate)
+        + grain_variables(sweep, scene, coords())
     )
 
 
@@ -865,6 +867,8 @@ def _write_batch(
             "grain_steps_per_second": np.full(chains, rate),
         }
     )
+    if records_grains(scene):
+        arrays.update(grain_arrays(result.scenes))
     for name, data in arrays.items():
         put(name, data)
     finished = datetime.now(timezone.utc)
