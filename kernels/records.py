@@ -44,7 +44,7 @@ PART_TILE = 32
 PART_TILE_THREADS = 32
 """Threads of a ``record_parts_of_grains`` block (one block per part; launched with :func:`launch_parts_of_grains`).
 A thread per part summing its terms from device memory took 51-58 µs a record of a 10 000-grain column on an H100
-(ncu, docs/gpu_logs nov28e-g), each of its loads waited for in turn."""
+(ncu), each of its loads waited for in turn."""
 PART_SUMS = 5
 """Per part: kinetic energy, excess potential, largest overlap, finite (1.0 or 0.0), dissipated energy."""
 

@@ -41,7 +41,7 @@ table in device memory that ``drive_table`` fills before the launches (with the 
 broadcast). Each step logs what the driver's power needs (grain 0's overlap change); after the step loop the
 block's lanes evaluate one step's power each and the driver's lane sums the work in step order, so no contact
 force of the driver's lies on a step's critical path. The driver's own register column is never overwritten:
-traces and the write-back take its values from the phases (docs/benchmarks.md, fifth session).
+traces and the write-back take its values from the phases.
 Traces are written inside the launch after each step k·stride, from the lanes that keep the traced grains
 (a window's interior), as the per-step kernel writes them, by an out-of-line function called only when a sample is
 due (its code in the step loop slowed every step).
@@ -103,8 +103,8 @@ class TileShape:
     """CUDA register cap per thread (0: the compiler's choice); lower caps fit more blocks per SM."""
     inline_event_step: bool = True
     """Event-aware steps: the event step (written once, in the loop over rounds) inlined; False: an out-of-line
-    function (CUDA ``__noinline__``). Same bits. Since the event steps moved to shared memory and rounds, inlined
-    compiles without spills at G = 4 where out of line spills (sm_90, ptxas; docs/benchmarks.md)."""
+    function (CUDA ``__noinline__``). Same bits. With the event steps in shared memory and rounds, inlined compiles
+    without spills at G = 4 where out of line spills (sm_90, ptxas)."""
     driver_slot: int = -1
     """A driven surface: grain 0's position among its lane's G grains when it is the same in every block that holds
     grain 0 (``plan_tile`` sets it), so the driver's code indexes a fixed register; -1: found at run time, by a
@@ -178,9 +178,63 @@ def block_sync(unused: int):
     ...
 
 
-@functools.cache
-def tile_kernel(features: Features, shape: TileShape):
-    """The fused kernel for one feature set and compile-time launch shape (cached)."""
+@dataclass(frozen=True)
+class TileLayout:
+    """What the fused kernel's builders share for one feature set and launch shape (``tile_layout``): compile-time
+    constants and register types, under the names the kernel code reads, and the device functions it calls from
+    kernels/gear.py, kernels/physics.py and kernels/events.py."""
+
+    shape: TileShape
+    real: Any  # wp.float64 or wp.float32
+    Q: int  # values per grain (Features.values)
+    G: int  # grains per lane
+    L: int  # lanes per chain (or window)
+    CPB: int  # chains per block
+    B: int  # threads per block
+    BG: int  # grains a block holds
+    G1: int  # contacts a lane sweeps (a name: Warp unrolls range() only over a literal or a constant's name)
+    MAX_UNROLL: int  # every loop over a lane's grains or contacts unrolled (Warp's default limit is 16): a loop
+    # left to run indexes the lane's register vectors at run time, which puts them in local memory
+    WINDOWED: bool
+    MASKED: bool
+    TRACES: bool
+    SURFACE_WALL: bool
+    DRIVEN: bool
+    DRIVER_SLOT: int  # TileShape.driver_slot when driven, else -1
+    BOTTOM_WALL: bool
+    FIXED: bool  # a held bottom grain
+    FREE_END: bool  # a free end's missing contact is masked out of the forces
+    HETERO: bool
+    HERTZ: bool
+    VISCOUS: bool
+    DASHPOT: bool
+    DISSIPATES: bool  # the dissipated energy is accumulated per grain
+    ORDER: int  # rows of the Nordsieck vector (kernels/gear.py), as kernels/step.py counts them
+    EVENTS: bool
+    COMP: bool  # compensated float32: predicted positions also carry their low parts (kernels/gear.py)
+    EDGE_LO: int  # where the edge tile keeps the low parts of the edge positions
+    state_t: Any  # a lane's state: values × G
+    grain_vec: Any
+    contact_vec: Any
+    edge_t: Any  # what a lane publishes to its neighbours each step (edge_values)
+    vec2: Any
+    vec3: Any
+    one_vec: Any
+    value_vec: Any  # one grain's values
+    loss_vec: Any  # the lane's grains' dissipated energy (float64)
+    params: Any
+    contact_force: Any
+    forces: Any  # the lane's G + 1 contact forces
+    one_force: Any  # one contact's force, with the lane's contact law
+    nordsieck: Any
+    dashpot: Any
+    near_event: Any  # event-aware steps (None without them)
+    event_step: Any
+
+
+def tile_layout(features: Features, shape: TileShape) -> TileLayout:
+    """The fused kernel's constants, types and device functions for ``features`` and ``shape``; raises ValueError
+    for a feature set the fused kernels do not implement (``fusable``)."""
     f = features
     if f.damping == "contact" and f.compensation:
         raise ValueError(
@@ -189,59 +243,94 @@ def tile_kernel(features: Features, shape: TileShape):
         )
     if not fusable(f):
         raise ValueError(f"fused kernels do not implement method={f.method!r}")
-    TRACES = f.traces
     real = wp.float64 if f.precision == "float64" else wp.float32
-    Q = f.values
     G = shape.grains_per_lane
-    L = shape.lanes_per_chain
-    CPB = shape.chains_per_block
-    B = shape.block_dim
-    BG = B * G  # grains a block holds
-    G1 = G + 1  # contacts a lane sweeps (a name: Warp unrolls range() only over a literal or a constant's name)
-    MAX_UNROLL = max(16, G1)  # every loop over a lane's grains or contacts unrolled (Warp's default limit is 16):
-    # a loop left to run indexes the lane's register vectors at run time, which puts them in local memory
-    WINDOWED = shape.windowed
-    MASKED = shape.masked
-    SURFACE_WALL = f.surface == "wall"
     DRIVEN = f.surface == "driven"
-    DRIVER_SLOT = shape.driver_slot if DRIVEN else -1
-    BOTTOM_WALL = f.bottom == "wall"
-    FIXED = f.bottom == "fixed"
-    # a free end's missing contact is masked out of the forces. A driven surface is no free end: the contact above the
-    # driven grain 0 acts on grain 0, whose corrected column no output reads (driver_values), and on padding (1/m = 0)
-    FREE_END = (not SURFACE_WALL and not DRIVEN) or f.bottom == "free"
-    HETERO = f.heterogeneous
-    params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz)
-    HERTZ = f.hertz
-    contact_force, _ = contact_functions(f.precision, f.hertz)
-    forces = contact_forces(f.precision, f.hertz, G + 1, branchless=shape.branchless, fast_sqrt=shape.fast_sqrt)
-    one_force = contact_forces(f.precision, f.hertz, 1, branchless=shape.branchless, fast_sqrt=shape.fast_sqrt)
-    one_vec = wp.types.vector(length=1, dtype=real)
-    nordsieck = nordsieck_functions(f.method, f.precision, f.compensation)
-    VISCOUS = f.damping == "viscous"
-    DASHPOT = f.damping == "contact"
-    DISSIPATES = VISCOUS or DASHPOT  # the dissipated energy is accumulated per grain
-    ORDER = f.nordsieck_values  # rows of the Nordsieck vector (kernels/gear.py), as kernels/step.py counts them
-
-    state_t = wp.types.matrix(shape=(Q, G), dtype=real)
-    grain_vec = wp.types.vector(length=G, dtype=real)
-    contact_vec = wp.types.vector(length=G + 1, dtype=real)
     EVENTS = f.event_window > 0
-    COMP = f.compensation  # compensated float32: predicted positions also carry their low parts (kernels/gear.py)
-    EDGE_LO = 6 if EVENTS else 2  # where the edge tile keeps the low parts of the edge positions
-    # the contact dashpot also needs the neighbour lanes' edge grains' predicted rates and the first grain's (u, dt·v)
-    # at t_n: [u_first, u_last, rate_first, rate_last, u_first(t_n), dt·v_first(t_n)] (no events, no compensation)
-    edge_t = wp.types.vector(length=edge_values(f), dtype=real)
-    vec2 = wp.types.vector(2, real)
+    contact_force, _ = contact_functions(f.precision, f.hertz)
+    nordsieck = nordsieck_functions(f.method, f.precision, f.compensation)
     vec3 = wp.types.vector(3, real)
+    near_event = event_step = None
     if EVENTS:
         near_event, event_step = event_functions(f)
         if not shape.inline_event_step:
             event_step = out_of_line(event_step, nordsieck.values, vec3, real)
-    else:
-        near_event = event_step = None
-    value_vec = nordsieck.values
-    loss_vec = wp.types.vector(length=G, dtype=wp.float64)
+    return TileLayout(
+        shape=shape,
+        real=real,
+        Q=f.values,
+        G=G,
+        L=shape.lanes_per_chain,
+        CPB=shape.chains_per_block,
+        B=shape.block_dim,
+        BG=shape.block_dim * G,
+        G1=G + 1,
+        MAX_UNROLL=max(16, G + 1),
+        WINDOWED=shape.windowed,
+        MASKED=shape.masked,
+        TRACES=f.traces,
+        SURFACE_WALL=f.surface == "wall",
+        DRIVEN=DRIVEN,
+        DRIVER_SLOT=shape.driver_slot if DRIVEN else -1,
+        BOTTOM_WALL=f.bottom == "wall",
+        FIXED=f.bottom == "fixed",
+        # a driven surface is no free end: the contact above the driven grain 0 acts on grain 0, whose corrected
+        # column no output reads (driver_values), and on padding (1/m = 0)
+        FREE_END=(f.surface != "wall" and not DRIVEN) or f.bottom == "free",
+        HETERO=f.heterogeneous,
+        HERTZ=f.hertz,
+        VISCOUS=f.damping == "viscous",
+        DASHPOT=f.damping == "contact",
+        DISSIPATES=f.damping in ("viscous", "contact"),
+        ORDER=f.nordsieck_values,
+        EVENTS=EVENTS,
+        COMP=f.compensation,
+        EDGE_LO=6 if EVENTS else 2,
+        state_t=wp.types.matrix(shape=(f.values, G), dtype=real),
+        grain_vec=wp.types.vector(length=G, dtype=real),
+        contact_vec=wp.types.vector(length=G + 1, dtype=real),
+        edge_t=wp.types.vector(length=edge_values(f), dtype=real),
+        vec2=wp.types.vector(2, real),
+        vec3=vec3,
+        one_vec=wp.types.vector(length=1, dtype=real),
+        value_vec=nordsieck.values,
+        loss_vec=wp.types.vector(length=G, dtype=wp.float64),
+        params=contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz),
+        contact_force=contact_force,
+        forces=contact_forces(f.precision, f.hertz, G + 1, branchless=shape.branchless, fast_sqrt=shape.fast_sqrt),
+        one_force=contact_forces(f.precision, f.hertz, 1, branchless=shape.branchless, fast_sqrt=shape.fast_sqrt),
+        nordsieck=nordsieck,
+        dashpot=damping_functions(f.precision, f.nordsieck_values)[1],
+        near_event=near_event,
+        event_step=event_step,
+    )
+
+
+@functools.cache
+def tile_kernel(features: Features, shape: TileShape):
+    """The fused kernel for one feature set and compile-time launch shape (cached), built from per-concern builders;
+    raises ValueError for a feature set the fused kernels do not implement."""
+    t = tile_layout(features, shape)
+    predicted_rate, column, shared_column, at_driver = register_functions(t)
+    driver_log_entry, driver_power, work_step, driver_values = driver_functions(t)
+    dissipation, lane_rates, dashpot_forces, dashpot_losses = loss_functions(t, predicted_rate, column, at_driver)
+    shared_event_steps = event_steps_function(t, shared_column)
+    advance = advance_function(t, predicted_rate, column, at_driver, lane_rates, dashpot_forces, shared_event_steps)
+    write_traces = trace_function(t, driver_values)
+    return fused_kernel(
+        t,
+        advance=advance,
+        dissipation=dissipation,
+        dashpot_losses=dashpot_losses,
+        write_traces=write_traces,
+        driver=(driver_log_entry, driver_power, work_step, driver_values),
+    )
+
+
+def register_functions(t: TileLayout):
+    """A lane's register helpers: a grain's predicted dt·v, a grain's column of the lane's state (registers, or the
+    block's shared tile of states), and whether grain k of the lane is the driven grain 0."""
+    Q, real, ORDER, DRIVER_SLOT, state_t, value_vec = t.Q, t.real, t.ORDER, t.DRIVER_SLOT, t.state_t, t.value_vec
 
     @wp.func
     def predicted_rate(v: value_vec) -> real:
@@ -270,9 +359,6 @@ def tile_kernel(features: Features, shape: TileShape):
             v[q] = wp.tile_extract(states, lane, q, k)
         return v
 
-    driver_values_at = nordsieck.driver_values_at
-    dashpot = damping_functions(f.precision, ORDER)[1]
-
     @wp.func
     def at_driver(k: int, k0: int) -> bool:
         # grain k of the lane is the driven grain 0 (k0: its index in this lane, or -1). With a fixed slot the test of
@@ -281,22 +367,14 @@ def tile_kernel(features: Features, shape: TileShape):
             return k == wp.static(DRIVER_SLOT) and k0 >= 0
         return k == k0 and k0 >= 0
 
-    @wp.func
-    def dissipation(
-        s: state_t, lost: loss_vec, inv_m: grain_vec, move_bits: int, k0: int, gamma: real, h: real, dt: wp.float64
-    ) -> loss_vec:
-        # kernels/step.py's viscous loss of one step for every integrated grain of the lane (not a held bottom
-        # grain, not the driver, not padding): the trapezoid of γ m (dt·v)²/h² at t_n and at the predicted t_n+1
-        out = lost
-        for k in range(G):
-            if (move_bits & (1 << k)) != 0 and not at_driver(k, k0):
-                own_rate = predicted_rate(column(s, k))
-                own_rate_old = s[1, k]
-                m_i = real(1) / inv_m[k]
-                loss_old = gamma * m_i * own_rate_old * own_rate_old / (h * h)
-                loss_new = gamma * m_i * own_rate * own_rate / (h * h)
-                out[k] = out[k] + dt * wp.float64(0.5) * (wp.float64(loss_old) + wp.float64(loss_new))
-        return out
+    return predicted_rate, column, shared_column, at_driver
+
+
+def driver_functions(t: TileLayout):
+    """A driven surface's per-step log entry, its power at t_n from that entry, one trapezoid step of its work, and
+    its (u_0, dt·v_0) from its phases."""
+    G, real, DRIVER_SLOT, DASHPOT, state_t, vec2 = t.G, t.real, t.DRIVER_SLOT, t.DASHPOT, t.state_t, t.vec2
+    one_force, one_vec, dashpot = t.one_force, t.one_vec, t.dashpot
 
     @wp.func
     def driver_log_entry(s: state_t, k0: int, u_driver: real) -> wp.vec2d:
@@ -349,6 +427,50 @@ def tile_kernel(features: Features, shape: TileShape):
             if step_old == 0:
                 return wp.vec2d(work_power[0], power)  # W(0) = 0: the dashpot's power at t = 0 is not zero
         return wp.vec2d(work_power[0] + dt * wp.float64(0.5) * (work_power[1] + power), power)
+
+    @wp.func
+    def driver_values(amplitude: wp.float64, omega: wp.float64, phase: wp.vec2d, dt: wp.float64) -> vec2:
+        # the prescribed surface grain's u_0 and dt·v_0 where (sin ωt, cos ωt) = phase, as kernels/step.py stores
+        # them. The fused kernels never store them in the driver's register column during the launch: every step
+        # reads the driver from its phases (its predicted position, its overlap change in driver_log_entry, an
+        # event step's neighbour: driver_values_at), so its column is left to its own corrector (no select per
+        # step), and traces and the write-back take these values
+        return vec2(real(product_rn(amplitude, phase[0])), real(dt * amplitude * omega * phase[1]))
+
+    return driver_log_entry, driver_power, work_step, driver_values
+
+
+def loss_functions(t: TileLayout, predicted_rate, column, at_driver):
+    """Damping: the viscous loss of one step, the lane's predicted rates, the contact dashpot's forces and its loss
+    of one step."""
+    G, G1, real, MASKED, FREE_END, DRIVEN, SURFACE_WALL = (
+        t.G,
+        t.G1,
+        t.real,
+        t.MASKED,
+        t.FREE_END,
+        t.DRIVEN,
+        t.SURFACE_WALL,
+    )
+    state_t, grain_vec, contact_vec, loss_vec = t.state_t, t.grain_vec, t.contact_vec, t.loss_vec
+    nordsieck, dashpot = t.nordsieck, t.dashpot
+
+    @wp.func
+    def dissipation(
+        s: state_t, lost: loss_vec, inv_m: grain_vec, move_bits: int, k0: int, gamma: real, h: real, dt: wp.float64
+    ) -> loss_vec:
+        # kernels/step.py's viscous loss of one step for every integrated grain of the lane (not a held bottom
+        # grain, not the driver, not padding): the trapezoid of γ m (dt·v)²/h² at t_n and at the predicted t_n+1
+        out = lost
+        for k in range(G):
+            if (move_bits & (1 << k)) != 0 and not at_driver(k, k0):
+                own_rate = predicted_rate(column(s, k))
+                own_rate_old = s[1, k]
+                m_i = real(1) / inv_m[k]
+                loss_old = gamma * m_i * own_rate_old * own_rate_old / (h * h)
+                loss_new = gamma * m_i * own_rate * own_rate / (h * h)
+                out[k] = out[k] + dt * wp.float64(0.5) * (wp.float64(loss_old) + wp.float64(loss_new))
+        return out
 
     @wp.func
     def lane_rates(
@@ -487,92 +609,127 @@ def tile_kernel(features: Features, shape: TileShape):
                 out[k] = out[k] + dt * wp.float64(0.5) * (wp.float64(loss_old) + wp.float64(loss_new))
         return out
 
-    if EVENTS:
-        LO_CONTACT = 0 if SURFACE_WALL else 1  # padded contacts c with LO_CONTACT <= c <= n_grains - HI_OFFSET exist
-        HI_OFFSET = 0 if BOTTOM_WALL else 1
+    return dissipation, lane_rates, dashpot_forces, dashpot_losses
 
-        @wp.func
-        def shared_event_steps(
-            states: Any,
-            flags: Any,
-            results: Any,
-            lane_c: int,
-            segment: int,
-            first: int,
-            cc: int,
-            n_grains: int,
-            static_overlap: wp.array2d(dtype=real),
-            contact_constant: wp.array2d(dtype=real),
-            exponent: wp.array(dtype=real),
-            inverse_mass: wp.array2d(dtype=real),
-            n: real,
-            h: real,
-            amplitude: wp.float64,
-            omega: wp.float64,
-            phase_old: wp.vec2d,
-            dt: wp.float64,
-        ):
-            # The event steps of a chain's flagged grains, shared among the chain's L lanes: in round m lane j takes
-            # the chain's grain j + m·L (neighbouring flagged grains, which sit in one lane, go to neighbouring
-            # lanes). A worker reads everything from t_n's shared state and the parameter arrays, nothing from its
-            # own lane's registers, and writes the new Nordsieck vector to the grain's slot of ``results``; rounds
-            # no lane needs are skipped by one vote.
-            m = int(0)
-            while m < G:  # (a loop: one copy of the event step)
-                chain_grain = lane_c + m * L
-                owner_c = chain_grain / G
-                k = chain_grain - owner_c * G
-                owner = segment * L + owner_c
-                mine = (wp.tile_extract(flags, owner) >> k) & 1
-                if block_any(mine) != 0:
-                    new = value_vec()
-                    if mine != 0:
-                        g = first + owner_c * G + k
-                        own = shared_column(states, owner, k)
-                        above = value_vec()
-                        if k > 0:
-                            above = shared_column(states, owner, k - 1)
-                        elif owner_c > 0:
-                            above = shared_column(states, owner - 1, G - 1)
-                        below = value_vec()
-                        if k < G - 1:
-                            below = shared_column(states, owner, k + 1)
-                        elif owner_c < L - 1:
-                            below = shared_column(states, owner + 1, 0)
-                        if wp.static(DRIVEN):
-                            if g == 1:  # grain 1 sees the driver's vector at t_n above it
-                                above = driver_values_at(amplitude, omega, phase_old[0], phase_old[1], dt)
-                        has_above = g >= LO_CONTACT and g <= n_grains - HI_OFFSET
-                        has_below = g + 1 >= LO_CONTACT and g + 1 <= n_grains - HI_OFFSET
-                        p_above = params(static_overlap, contact_constant, exponent, cc, wp.min(wp.max(g, 0), n_grains))
-                        p_below = params(
-                            static_overlap, contact_constant, exponent, cc, wp.min(wp.max(g + 1, 0), n_grains)
-                        )
-                        inside = g >= 0 and g < n_grains
-                        inv_m_event = real(0)
-                        if wp.static(HETERO):
-                            inv_m_event = inverse_mass[cc, wp.min(wp.max(g, 0), n_grains - 1)]
-                        else:
-                            inv_m_event = inverse_mass[cc, 0]
-                        if wp.static(MASKED):
-                            if not inside:
-                                inv_m_event = real(0)
-                        new = event_step(
-                            own,
-                            above,
-                            below,
-                            has_above,
-                            has_below,
-                            vec3(p_above[0], p_above[1], n),
-                            vec3(p_below[0], p_below[1], n),
-                            inv_m_event,
-                            h,
-                        )
-                        if wp.static(FIXED):
-                            if not inside or g == n_grains - 1:  # a held bottom grain (or padding) stays
-                                new = own
-                    wp.tile_scatter_masked(results, owner * G + k, new, mine != 0)
-                m += 1
+
+def event_steps_function(t: TileLayout, shared_column):
+    """Event-aware steps: the event steps of a chain's flagged grains, shared among its lanes (None without events)."""
+    if not t.EVENTS:
+        return None
+    G, L, real, DRIVEN, HETERO, MASKED, FIXED = t.G, t.L, t.real, t.DRIVEN, t.HETERO, t.MASKED, t.FIXED
+    value_vec, vec3, params, event_step = t.value_vec, t.vec3, t.params, t.event_step
+    driver_values_at = t.nordsieck.driver_values_at
+    LO_CONTACT = 0 if t.SURFACE_WALL else 1  # padded contacts c with LO_CONTACT <= c <= n_grains - HI_OFFSET exist
+    HI_OFFSET = 0 if t.BOTTOM_WALL else 1
+
+    @wp.func
+    def shared_event_steps(
+        states: Any,
+        flags: Any,
+        results: Any,
+        lane_c: int,
+        segment: int,
+        first: int,
+        cc: int,
+        n_grains: int,
+        static_overlap: wp.array2d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        exponent: wp.array(dtype=real),
+        inverse_mass: wp.array2d(dtype=real),
+        n: real,
+        h: real,
+        amplitude: wp.float64,
+        omega: wp.float64,
+        phase_old: wp.vec2d,
+        dt: wp.float64,
+    ):
+        # The event steps of a chain's flagged grains, shared among the chain's L lanes: in round m lane j takes
+        # the chain's grain j + m·L (neighbouring flagged grains, which sit in one lane, go to neighbouring
+        # lanes). A worker reads everything from t_n's shared state and the parameter arrays, nothing from its
+        # own lane's registers, and writes the new Nordsieck vector to the grain's slot of ``results``; rounds
+        # no lane needs are skipped by one vote.
+        m = int(0)
+        while m < G:  # (a loop: one copy of the event step)
+            chain_grain = lane_c + m * L
+            owner_c = chain_grain / G
+            k = chain_grain - owner_c * G
+            owner = segment * L + owner_c
+            mine = (wp.tile_extract(flags, owner) >> k) & 1
+            if block_any(mine) != 0:
+                new = value_vec()
+                if mine != 0:
+                    g = first + owner_c * G + k
+                    own = shared_column(states, owner, k)
+                    above = value_vec()
+                    if k > 0:
+                        above = shared_column(states, owner, k - 1)
+                    elif owner_c > 0:
+                        above = shared_column(states, owner - 1, G - 1)
+                    below = value_vec()
+                    if k < G - 1:
+                        below = shared_column(states, owner, k + 1)
+                    elif owner_c < L - 1:
+                        below = shared_column(states, owner + 1, 0)
+                    if wp.static(DRIVEN):
+                        if g == 1:  # grain 1 sees the driver's vector at t_n above it
+                            above = driver_values_at(amplitude, omega, phase_old[0], phase_old[1], dt)
+                    has_above = g >= LO_CONTACT and g <= n_grains - HI_OFFSET
+                    has_below = g + 1 >= LO_CONTACT and g + 1 <= n_grains - HI_OFFSET
+                    p_above = params(static_overlap, contact_constant, exponent, cc, wp.min(wp.max(g, 0), n_grains))
+                    p_below = params(static_overlap, contact_constant, exponent, cc, wp.min(wp.max(g + 1, 0), n_grains))
+                    inside = g >= 0 and g < n_grains
+                    inv_m_event = real(0)
+                    if wp.static(HETERO):
+                        inv_m_event = inverse_mass[cc, wp.min(wp.max(g, 0), n_grains - 1)]
+                    else:
+                        inv_m_event = inverse_mass[cc, 0]
+                    if wp.static(MASKED):
+                        if not inside:
+                            inv_m_event = real(0)
+                    new = event_step(
+                        own,
+                        above,
+                        below,
+                        has_above,
+                        has_below,
+                        vec3(p_above[0], p_above[1], n),
+                        vec3(p_below[0], p_below[1], n),
+                        inv_m_event,
+                        h,
+                    )
+                    if wp.static(FIXED):
+                        if not inside or g == n_grains - 1:  # a held bottom grain (or padding) stays
+                            new = own
+                wp.tile_scatter_masked(results, owner * G + k, new, mine != 0)
+            m += 1
+
+    return shared_event_steps
+
+
+def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rates, dashpot_forces, shared_event_steps):
+    """One step of a lane: predict, exchange the edge positions, (event-aware steps: test, vote, step the flagged
+    grains), contact forces, correct."""
+    Q, G, G1, real, EDGE_LO = t.Q, t.G, t.G1, t.real, t.EDGE_LO
+    COMP, DRIVEN, EVENTS, DASHPOT, VISCOUS, MASKED, FREE_END, FIXED = (
+        t.COMP,
+        t.DRIVEN,
+        t.EVENTS,
+        t.DASHPOT,
+        t.VISCOUS,
+        t.MASKED,
+        t.FREE_END,
+        t.FIXED,
+    )
+    state_t, grain_vec, contact_vec, edge_t, value_vec, vec2 = (
+        t.state_t,
+        t.grain_vec,
+        t.contact_vec,
+        t.edge_t,
+        t.value_vec,
+        t.vec2,
+    )
+    nordsieck, forces, near_event = t.nordsieck, t.forces, t.near_event
+    driver_values_at = nordsieck.driver_values_at
 
     @wp.func
     def advance(
@@ -767,7 +924,7 @@ def tile_kernel(features: Features, shape: TileShape):
         if wp.static(DASHPOT):
             # each contact's dashpot at the predicted t_n+1 (kernels/step.py: added to its Hertz force). The lane's
             # rates are recomputed rather than kept from the edge tile above: keeping them across the barrier cost
-            # registers (sm_90, ptxas: 251 -> 255 on gpu_10k's tile kernel; docs/logs/tile_damping_code.py)
+            # registers (sm_90, ptxas: 255 against 251 on gpu_10k's tile kernel)
             rate_left = real(0)
             rate_right = real(0)
             if has_left:
@@ -812,14 +969,12 @@ def tile_kernel(features: Features, shape: TileShape):
         # (the driver's own column is left to its corrector: see driver_values)
         return out
 
-    @wp.func
-    def driver_values(amplitude: wp.float64, omega: wp.float64, phase: wp.vec2d, dt: wp.float64) -> vec2:
-        # the prescribed surface grain's u_0 and dt·v_0 where (sin ωt, cos ωt) = phase, as kernels/step.py stores
-        # them. The fused kernels never store them in the driver's register column during the launch: every step
-        # reads the driver from its phases (its predicted position, its overlap change in driver_log_entry, an
-        # event step's neighbour: driver_values_at), so its column is left to its own corrector (no select per
-        # step), and traces and the write-back take these values
-        return vec2(real(product_rn(amplitude, phase[0])), real(dt * amplitude * omega * phase[1]))
+    return advance
+
+
+def trace_function(t: TileLayout, driver_values):
+    """Traces: the trace sample after a step when one is due (written out of line)."""
+    G, real, DRIVEN, state_t = t.G, t.real, t.DRIVEN, t.state_t
 
     @wp.func(inline=False)
     def write_trace_sample(
@@ -842,8 +997,8 @@ def tile_kernel(features: Features, shape: TileShape):
     ) -> int:
         # kernels/step.py's trace sample after step ``step_new`` (a multiple of the stride): (u, dt·v) of the traced
         # grains this lane keeps (a frozen chain: its frozen state; the driven grain 0: its driver_values at
-        # ``phase``), ring slot k % length. Out of line: written into the step loop, this code made every step of the
-        # traced window kernel 28 % slower on an H100, though it runs once a stride (docs/benchmarks.md)
+        # ``phase``), ring slot k % length. Out of line: written into the step loop, this code makes every step of the
+        # traced window kernel 28 % slower on an H100 (measured), though it runs once a stride
         if live:
             sample = (step_new / trace_stride) % trace_x.shape[2]
             for k in range(G):
@@ -909,6 +1064,46 @@ def tile_kernel(features: Features, shape: TileShape):
             dt,
         )
         return next_trace + trace_stride
+
+    return write_traces
+
+
+def fused_kernel(t: TileLayout, *, advance, dissipation, dashpot_losses, write_traces, driver):
+    """The ``@wp.kernel`` of the fused steps, from the layout and the step's builders' functions."""
+    driver_log_entry, driver_power, work_step, driver_values = driver
+    shape, real, Q, G, G1, L, CPB, B, BG, MAX_UNROLL = (
+        t.shape,
+        t.real,
+        t.Q,
+        t.G,
+        t.G1,
+        t.L,
+        t.CPB,
+        t.B,
+        t.BG,
+        t.MAX_UNROLL,
+    )
+    WINDOWED, MASKED, TRACES, SURFACE_WALL, BOTTOM_WALL, DRIVEN, FIXED, HETERO, HERTZ = (
+        t.WINDOWED,
+        t.MASKED,
+        t.TRACES,
+        t.SURFACE_WALL,
+        t.BOTTOM_WALL,
+        t.DRIVEN,
+        t.FIXED,
+        t.HETERO,
+        t.HERTZ,
+    )
+    VISCOUS, DASHPOT, DISSIPATES, EVENTS = t.VISCOUS, t.DASHPOT, t.DISSIPATES, t.EVENTS
+    state_t, grain_vec, contact_vec, edge_t, value_vec, loss_vec = (
+        t.state_t,
+        t.grain_vec,
+        t.contact_vec,
+        t.edge_t,
+        t.value_vec,
+        t.loss_vec,
+    )
+    params, contact_force = t.params, t.contact_force
 
     # the module's block size is the launch's: Warp hashes a module's source for its default block size when the
     # kernel is made and again for each other size it is loaded with (each hash walks every function the kernel calls)
@@ -1013,8 +1208,8 @@ def tile_kernel(features: Features, shape: TileShape):
                 if wp.static(FIXED):
                     if g == n_grains - 1:
                         move_bits = move_bits & (~(1 << k))
-            # (written out here and in the event step alike: one shared @wp.func for it made nvcc schedule the impact
-            # window kernel's step loop otherwise, 0.392 against 0.314 us a step on an H100, docs/gpu_logs nov30i)
+            # (written out here and in the event step alike: one shared @wp.func for it makes nvcc schedule the impact
+            # window kernel's step loop worse: measured 0.392 against 0.314 us a step on an H100)
             m_inv = real(0)
             if wp.static(HETERO):
                 m_inv = inverse_mass[cc, wp.min(wp.max(g, 0), n_grains - 1)]
