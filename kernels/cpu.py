@@ -32,7 +32,7 @@ from hertzian.kernels.physics import contact_functions, contact_parameters, damp
 
 
 def chain_kernel_supports(features: Features) -> bool:
-    """True when the chain kernel implements every feature of this set (every feature now: traces are
+    """True when the chain kernel implements every feature of this set: it implements all of them (traces are
     sampled inside the launch)."""
     return True
 

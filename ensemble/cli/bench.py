@@ -22,6 +22,52 @@ def _counts(text: str, flag: str) -> list[int]:
     return values
 
 
+def _sizes(chains: str, grains: str) -> list[tuple[int, int]]:
+    """(chains, grains) pairs of ``--chains`` zipped with ``--grains`` (a single value repeats); bad input → fail."""
+    chain_list, grain_list = _counts(chains, "--chains"), _counts(grains, "--grains")
+    if len(chain_list) > 1 and len(grain_list) > 1 and len(chain_list) != len(grain_list):
+        fail(f"--grains = {grains!r}: as many values as --chains ({len(chain_list)}), or one")
+    count = max(len(chain_list), len(grain_list))
+    return [
+        (chain_list[i if len(chain_list) > 1 else 0], grain_list[i if len(grain_list) > 1 else 0]) for i in range(count)
+    ]
+
+
+def _print_table(records: list[dict], device: str) -> None:
+    """The rich table of the bench records, one row per implementation and size."""
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"hertzian bench on {records[0]['device_name'] if records else device}")
+    for column in (
+        "implementation",
+        "kernel",
+        "chains",
+        "grains",
+        "steps",
+        "GS/s",
+        "steps/s",
+        "x wall",
+        "x best",
+        "rel. diff",
+    ):
+        table.add_column(column)
+    for r in records:
+        table.add_row(
+            r["implementation"],
+            r["kernel"],
+            str(r["chains"]),
+            str(r["grains"]),
+            str(r["steps"]),
+            f"{r['grain_steps_per_second']:.3g}",
+            f"{r['steps_per_second']:.3g}",
+            f"{r['ratio_to_memory_wall']:.2f}",
+            f"{r['ratio_to_best']:.2f}",
+            f"{r['max_relative_difference']:.1e}",
+        )
+    Console(width=200).print(table)
+
+
 @app.command()
 def bench(
     device: DeviceOption = None,
@@ -38,7 +84,7 @@ def bench(
         str,
         typer.Option(
             "--kernel",
-            help="all | auto | step | tile | window | sweep: the project kernels to time (peers are always timed).",
+            help="all | auto | step | tile | window | chain: the project kernels to time (peers are always timed).",
         ),
     ] = "all",
     repeats: Annotated[int, typer.Option("--repeats", help="Timed runs per implementation; the median counts.")] = 5,
@@ -78,13 +124,7 @@ def bench(
     if scene is not None or sweep is not None:
         _end_to_end(scene, sweep, device, kernel, cold, set_, as_json)
         return
-    chain_list, grain_list = _counts(chains, "--chains"), _counts(grains, "--grains")
-    if len(chain_list) > 1 and len(grain_list) > 1 and len(chain_list) != len(grain_list):
-        fail(f"--grains = {grains!r}: as many values as --chains ({len(chain_list)}), or one")
-    count = max(len(chain_list), len(grain_list))
-    sizes = [
-        (chain_list[i if len(chain_list) > 1 else 0], grain_list[i if len(grain_list) > 1 else 0]) for i in range(count)
-    ]
+    sizes = _sizes(chains, grains)
     if kernel not in KERNEL_CHOICES:
         fail(f"--kernel = {kernel!r}: one of {', '.join(KERNEL_CHOICES)}")
     if steps is not None and steps < 1:
@@ -93,7 +133,7 @@ def bench(
         fail(f"--repeats = {repeats}: a positive integer")
     dev = resolve_device(device)
     if kernel in ("tile", "window") and not dev.startswith("cuda"):
-        fail(f"--kernel = {kernel!r}: a CUDA kernel; use --device cuda (or sweep on a CPU)")
+        fail(f"--kernel = {kernel!r}: a CUDA kernel; use --device cuda (or --kernel chain on a CPU)")
     if kernel == "chain" and dev != "cpu":
         fail(f"--kernel = {kernel!r}: a CPU kernel; use --device cpu")
 
@@ -106,37 +146,7 @@ def bench(
     if as_json:
         typer.echo(json.dumps(records, indent=1))
         return
-    from rich.console import Console
-    from rich.table import Table
-
-    table = Table(title=f"hertzian bench on {records[0]['device_name'] if records else dev}")
-    for column in (
-        "implementation",
-        "kernel",
-        "chains",
-        "grains",
-        "steps",
-        "GS/s",
-        "steps/s",
-        "x wall",
-        "x best",
-        "rel. diff",
-    ):
-        table.add_column(column)
-    for r in records:
-        table.add_row(
-            r["implementation"],
-            r["kernel"],
-            str(r["chains"]),
-            str(r["grains"]),
-            str(r["steps"]),
-            f"{r['grain_steps_per_second']:.3g}",
-            f"{r['steps_per_second']:.3g}",
-            f"{r['ratio_to_memory_wall']:.2f}",
-            f"{r['ratio_to_best']:.2f}",
-            f"{r['max_relative_difference']:.1e}",
-        )
-    Console(width=200).print(table)
+    _print_table(records, dev)
 
 
 def _end_to_end(scene: Path | None, sweep: Path | None, device, kernel: str, cold: bool, set_, as_json: bool) -> None:
@@ -148,7 +158,7 @@ def _end_to_end(scene: Path | None, sweep: Path | None, device, kernel: str, col
         fail(f"--sweep = {str(sweep)!r}: give --scene or --sweep, not both")
     path = scene if scene is not None else sweep
     if not path.is_file():
-        fail(f"--{'scene' if scene is not None else 'chain'} = {str(path)!r}: no such file")
+        fail(f"--{'scene' if scene is not None else 'sweep'} = {str(path)!r}: no such file")
     kernel = "auto" if kernel == "all" else kernel
     if kernel not in KERNELS:
         fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)} (end to end)")

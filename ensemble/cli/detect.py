@@ -25,83 +25,112 @@ def _pair(key: str, text: str, sep: str, kind):
         fail(f"{key} = {text!r}: must be written A{sep}B with two {'integers' if kind is int else 'numbers'}")
 
 
+SignalArgument = Annotated[
+    Path,
+    typer.Argument(
+        help="CSV with the header line t,v (grain 0's velocity sampled uniformly from the impact at t = 0, program units), or a hertzian store with a trace of grain 0."
+    ),
+]
+
+SceneOption = Annotated[
+    Optional[Path],
+    typer.Option(
+        "--scene",
+        help="BASE scene TOML: the host chain without impurities (grains, l0, gravity, boundaries, impact, integrator); its duration and record are replaced.",
+    ),
+]
+
+BlockOption = Annotated[int, typer.Option("--block", help="Impurity block length in grains (depth = its first grain).")]
+
+NoiseOption = Annotated[
+    Optional[float],
+    typer.Option(
+        "--noise",
+        help="σ of the i.i.d. Gaussian noise (program velocity); default: estimated (see docs/detection.md).",
+    ),
+]
+
+DepthsOption = Annotated[
+    Optional[str],
+    typer.Option(
+        "--depths",
+        help="Depths searched, A:B (default: ⌈N/20⌉ to the deepest whose echo can start within the signal).",
+    ),
+]
+
+MassRangeOption = Annotated[
+    str, typer.Option("--mass-range", help="Prior range of the mass ratio μ_min,μ_max (μ_min < 1 < μ_max).")
+]
+
+MassStepsOption = Annotated[
+    int, typer.Option("--mass-steps", help="Library mass ratios on each side of 1 (log-spaced).")
+]
+
+RefineOption = Annotated[
+    int,
+    typer.Option("--refine", help="Depths per class refined by Gauss–Newton in ln μ (0: the library grid only)."),
+]
+
+IterationsOption = Annotated[int, typer.Option("--iterations", help="Gauss–Newton iterations (one ensemble run each).")]
+
+WindowOption = Annotated[
+    Optional[float],
+    typer.Option(
+        "--window",
+        help="Analyse the samples with t ≤ this, in program time (default: until the pulse reflected by the bottom returns to the surface).",
+    ),
+]
+
+FitAOption = Annotated[
+    bool,
+    typer.Option(
+        "--fit-a",
+        help="Also fit the impurity's self-constant a (as a/a_host; contacts by the scene's impurity rule, the harmonic mean) at the depth found; reports a_ratio with a 95 % interval.",
+    ),
+]
+
+ARangeOption = Annotated[
+    Optional[str],
+    typer.Option(
+        "--a-range", help="With --fit-a: prior range of a/a_host, a_min,a_max (a_min < 1 < a_max; default 0.25,4)."
+    ),
+]
+
+AsJsonOption = Annotated[bool, typer.Option("--json", help="Print the result as a JSON object.")]
+
+PlotOption = Annotated[
+    Optional[Path],
+    typer.Option("--plot", help="Draw signal, best fit, residual and the posterior over depth into this PNG."),
+]
+
+NoCacheOption = Annotated[bool, typer.Option("--no-cache", help="Neither read nor write the library cache.")]
+
+BatchSizeOption = Annotated[
+    Optional[int],
+    typer.Option(
+        "--batch-size", help="Chains per ensemble run of the library (default 4096 on the CPU, 16384 on a GPU)."
+    ),
+]
+
+
 @app.command()
 def detect(
-    signal: Annotated[
-        Path,
-        typer.Argument(
-            help="CSV with the header line t,v (grain 0's velocity sampled uniformly from the impact at t = 0, program units), or a hertzian store with a trace of grain 0."
-        ),
-    ],
-    scene: Annotated[
-        Optional[Path],
-        typer.Option(
-            "--scene",
-            help="BASE scene TOML: the host chain without impurities (grains, l0, gravity, boundaries, impact, integrator); its duration and record are replaced.",
-        ),
-    ] = None,
-    block: Annotated[
-        int, typer.Option("--block", help="Impurity block length in grains (depth = its first grain).")
-    ] = 1,
-    noise: Annotated[
-        Optional[float],
-        typer.Option(
-            "--noise",
-            help="σ of the i.i.d. Gaussian noise (program velocity); default: estimated (see docs/detection.md).",
-        ),
-    ] = None,
-    depths: Annotated[
-        Optional[str],
-        typer.Option(
-            "--depths",
-            help="Depths searched, A:B (default: ⌈N/20⌉ to the deepest whose echo can start within the signal).",
-        ),
-    ] = None,
-    mass_range: Annotated[
-        str, typer.Option("--mass-range", help="Prior range of the mass ratio μ_min,μ_max (μ_min < 1 < μ_max).")
-    ] = "0.25,4",
-    mass_steps: Annotated[
-        int, typer.Option("--mass-steps", help="Library mass ratios on each side of 1 (log-spaced).")
-    ] = 7,
-    refine: Annotated[
-        int,
-        typer.Option("--refine", help="Depths per class refined by Gauss–Newton in ln μ (0: the library grid only)."),
-    ] = 3,
-    iterations: Annotated[
-        int, typer.Option("--iterations", help="Gauss–Newton iterations (one ensemble run each).")
-    ] = 2,
-    window: Annotated[
-        Optional[float],
-        typer.Option(
-            "--window",
-            help="Analyse the samples with t ≤ this, in program time (default: until the pulse reflected by the bottom returns to the surface).",
-        ),
-    ] = None,
-    fit_a: Annotated[
-        bool,
-        typer.Option(
-            "--fit-a",
-            help="Also fit the impurity's self-constant a (as a/a_host; contacts by the scene's impurity rule, the harmonic mean) at the depth found; reports a_ratio with a 95 % interval.",
-        ),
-    ] = False,
-    a_range: Annotated[
-        Optional[str],
-        typer.Option(
-            "--a-range", help="With --fit-a: prior range of a/a_host, a_min,a_max (a_min < 1 < a_max; default 0.25,4)."
-        ),
-    ] = None,
-    as_json: Annotated[bool, typer.Option("--json", help="Print the result as a JSON object.")] = False,
-    plot: Annotated[
-        Optional[Path],
-        typer.Option("--plot", help="Draw signal, best fit, residual and the posterior over depth into this PNG."),
-    ] = None,
-    no_cache: Annotated[bool, typer.Option("--no-cache", help="Neither read nor write the library cache.")] = False,
-    batch_size: Annotated[
-        Optional[int],
-        typer.Option(
-            "--batch-size", help="Chains per ensemble run of the library (default 4096 on the CPU, 16384 on a GPU)."
-        ),
-    ] = None,
+    signal: SignalArgument,
+    scene: SceneOption = None,
+    block: BlockOption = 1,
+    noise: NoiseOption = None,
+    depths: DepthsOption = None,
+    mass_range: MassRangeOption = "0.25,4",
+    mass_steps: MassStepsOption = 7,
+    refine: RefineOption = 3,
+    iterations: IterationsOption = 2,
+    window: WindowOption = None,
+    fit_a: FitAOption = False,
+    a_range: ARangeOption = None,
+    as_json: AsJsonOption = False,
+    plot: PlotOption = None,
+    no_cache: NoCacheOption = False,
+    batch_size: BatchSizeOption = None,
     device: DeviceOption = None,
     set_: SetOption = None,
 ):

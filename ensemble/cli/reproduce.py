@@ -8,63 +8,75 @@ from typing import Annotated, Optional
 import typer
 from hertzian.cli.app import DeviceOption, app, fail, resolve_device
 
+FigureOption = Annotated[
+    Optional[list[str]],
+    typer.Option(
+        "--figure",
+        help="A figure group or figure (fig1, fig1d, fig2, fig3, fig3_load, fig4, fig5, fig5_single, "
+        "fig5_modes or modes, fig6, depth, fig7_8, fig7_8_single, fig7_8_slow, fig9_10 or fig9/fig10); repeatable. "
+        "Default: every group.",
+    ),
+]
+
+QuickOption = Annotated[
+    bool,
+    typer.Option(
+        "--quick",
+        help="Short chains and times: the whole paper in minutes on a "
+        "CPU (a test of the pipeline, not the paper's numbers).",
+    ),
+]
+
+OutDirOption = Annotated[Path, typer.Option("--out-dir", help="Folder for the stores, PNGs and log.json.")]
+
+SweepsOption = Annotated[
+    Optional[Path],
+    typer.Option("--sweeps", help="Folder of the paper_*.toml sweep files (default: the repository's sweeps/)."),
+]
+
+DriveGrainsOption = Annotated[
+    Optional[int],
+    typer.Option(
+        "--drive-grains",
+        help="Length of the driven column of "
+        "Figs. 9-10 (default 10000; 300 with --quick); the paper's "
+        "times scale with the travel time, N^(5/6).",
+    ),
+]
+
+GroupEventsOption = Annotated[
+    Optional[str],
+    typer.Option(
+        "--events",
+        help="auto | off: integrator.events for every group "
+        "(default: as each sweep file says, plain Gear steps; auto = "
+        "event-aware steps, a smaller energy error at 2-27x the GPU time, "
+        "docs/reproduction.md).",
+    ),
+]
+
+GroupKernelOption = Annotated[
+    Optional[str],
+    typer.Option(
+        "--kernel",
+        help="auto | fused | step | tile | window | chain for "
+        "every figure group's sweep (default, per group: fused on a GPU "
+        "where the group takes plain Gear steps, so the short groups run "
+        "on the calibrated fused kernels, cached after the first run; "
+        "else auto).",
+    ),
+]
+
 
 @app.command()
 def reproduce(
-    figure: Annotated[
-        Optional[list[str]],
-        typer.Option(
-            "--figure",
-            help="A figure group or figure (fig1, fig1d, fig2, fig3, fig3_load, fig4, fig5, fig5_single, "
-            "fig5_modes or modes, fig6, depth, fig7_8, fig7_8_single, fig7_8_slow, fig9_10 or fig9/fig10); repeatable. "
-            "Default: every group.",
-        ),
-    ] = None,
-    quick: Annotated[
-        bool,
-        typer.Option(
-            "--quick",
-            help="Short chains and times: the whole paper in minutes on a "
-            "CPU (a test of the pipeline, not the paper's numbers).",
-        ),
-    ] = False,
-    out_dir: Annotated[Path, typer.Option("--out-dir", help="Folder for the stores, PNGs and log.json.")] = Path(
-        "reproduce_out"
-    ),
-    sweeps: Annotated[
-        Optional[Path],
-        typer.Option("--sweeps", help="Folder of the paper_*.toml sweep files (default: the repository's sweeps/)."),
-    ] = None,
-    drive_grains: Annotated[
-        Optional[int],
-        typer.Option(
-            "--drive-grains",
-            help="Length of the driven column of "
-            "Figs. 9-10 (default 10000; 300 with --quick); the paper's "
-            "times scale with the travel time, N^(5/6).",
-        ),
-    ] = None,
-    events: Annotated[
-        Optional[str],
-        typer.Option(
-            "--events",
-            help="auto | off: integrator.events for every group "
-            "(default: as each sweep file says, plain Gear steps; auto = "
-            "event-aware steps, a smaller energy error at 2-27x the GPU time, "
-            "docs/reproduction.md).",
-        ),
-    ] = None,
-    kernel: Annotated[
-        Optional[str],
-        typer.Option(
-            "--kernel",
-            help="auto | fused | step | tile | window | sweep for "
-            "every figure group's sweep (default, per group: fused on a GPU "
-            "where the group takes plain Gear steps, so the short groups run "
-            "on the calibrated fused kernels, cached after the first run; "
-            "else auto).",
-        ),
-    ] = None,
+    figure: FigureOption = None,
+    quick: QuickOption = False,
+    out_dir: OutDirOption = Path("reproduce_out"),
+    sweeps: SweepsOption = None,
+    drive_grains: DriveGrainsOption = None,
+    events: GroupEventsOption = None,
+    kernel: GroupKernelOption = None,
     device: DeviceOption = None,
 ):
     """Run Sen, Manciu & Wright (1998)'s figure groups: per group a Zarr store, its figures as PNGs, and in

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import sys
 from pathlib import Path
 from typing import Annotated, Optional
@@ -75,28 +76,14 @@ def run(
     if too_big:
         fail(too_big)
 
+    if loaded.integrator.tolerance is not None:
+        _run_to_tolerance(loaded, dev, kernel, out, overwrite=overwrite)
+        return
     from hertzian.core.model import build_model
     from hertzian.core.runner import Runner
     from hertzian.core.solvers.calibrate import event_cost_note
     from hertzian.sweeping.sweep_store import write_result
 
-    if loaded.integrator.tolerance is not None:
-        import zarr
-        from hertzian.core.error_estimate import meet_tolerance
-        from hertzian.sweeping.store import consolidate
-
-        choice = meet_tolerance([loaded], lambda chosen: Runner(build_model(chosen, dev), kernel=kernel).run())
-        write_result(out, choice.result, overwrite=overwrite)
-        zarr.open_group(str(out), mode="r+").attrs.update(choice.attrs())
-        consolidate(out)
-        chosen = choice.result.scenes[0].integrator
-        typer.echo(
-            f"tolerance {chosen.tolerance or loaded.integrator.tolerance:g}: {chosen.method} events {chosen.events} "
-            f"dt={chosen.dt:g} after {len(choice.pilot)} pilot runs ({sum(p.seconds for p in choice.pilot):.2f} s), "
-            f"error estimate {float(choice.result.error_estimate.max()):.2e}, status {int(choice.result.status[0])}"
-        )
-        typer.echo(f"wrote {out}")
-        return
     try:
         runner = Runner(build_model([loaded], dev), kernel=kernel)
     except ValueError as err:  # a forced kernel that cannot run this scene here
@@ -107,36 +94,69 @@ def run(
     events = event_cost_note(runner.model.features, runner.model.device.is_cpu)
     if events:
         typer.echo(f"note: {events}", err=True)
-    progress = None
-    if not quiet and sys.stderr.isatty():
-        from rich.progress import BarColumn, Progress, TimeRemainingColumn
-
-        bar = Progress(
-            "[progress.description]{task.description}",
-            BarColumn(),
-            "{task.completed}/{task.total} records",
-            TimeRemainingColumn(),
-            transient=True,
-        )
-        bar.start()
-        task = bar.add_task("integrating", total=loaded.record_count)
-        progress = lambda done, total: bar.update(task, completed=done)  # noqa: E731
-    try:
+    with _progress_bar(loaded.record_count, shown=not quiet and sys.stderr.isatty()) as progress:
         result = runner.run(progress)
-    finally:
-        if progress is not None:
-            bar.stop()
     write_result(out, result, overwrite=overwrite)
-    status = int(result.status[0])
+    typer.echo(_summary(loaded, result, runner.solver.describe()))
+    typer.echo(f"wrote {out}")
+
+
+def _run_to_tolerance(scene, device: str, kernel: str, out: Path, *, overwrite: bool) -> None:
+    """integrator.tolerance: pilot runs choose method and dt (:func:`meet_tolerance`); the chosen run is stored with
+    the choice in the store's attributes."""
+    import zarr
+    from hertzian.core.error_estimate import meet_tolerance
+    from hertzian.core.model import build_model
+    from hertzian.core.runner import Runner
+    from hertzian.sweeping.store import consolidate
+    from hertzian.sweeping.sweep_store import write_result
+
+    choice = meet_tolerance([scene], lambda chosen: Runner(build_model(chosen, device), kernel=kernel).run())
+    write_result(out, choice.result, overwrite=overwrite)
+    zarr.open_group(str(out), mode="r+").attrs.update(choice.attrs())
+    consolidate(out)
+    chosen = choice.result.scenes[0].integrator
     typer.echo(
-        f"{loaded.chain.grains} grains, {result.steps} steps of {loaded.integrator.method} "
-        f"dt={loaded.integrator.dt:g} on {result.device} ({runner.solver.describe()} kernel): {result.wall_seconds:.2f} s, "
-        f"{result.grain_steps_per_second:.3g} grain-steps/s, energy error {result.energy_error[0]:.2e}, "
-        f"status {status}"
-        + (
-            f", error estimate {result.error_estimate[0]:.2e} (+{result.timing['error_estimate']:.2f} s)"
-            if result.error_estimate is not None
-            else ""
-        )
+        f"tolerance {chosen.tolerance or scene.integrator.tolerance:g}: {chosen.method} events {chosen.events} "
+        f"dt={chosen.dt:g} after {len(choice.pilot)} pilot runs ({sum(p.seconds for p in choice.pilot):.2f} s), "
+        f"error estimate {float(choice.result.error_estimate.max()):.2e}, status {int(choice.result.status[0])}"
     )
     typer.echo(f"wrote {out}")
+
+
+@contextlib.contextmanager
+def _progress_bar(total: int, *, shown: bool):
+    """A transient rich bar of records done, as a ``progress(done, total)`` callback (None when not shown)."""
+    if not shown:
+        yield None
+        return
+    from rich.progress import BarColumn, Progress, TimeRemainingColumn
+
+    bar = Progress(
+        "[progress.description]{task.description}",
+        BarColumn(),
+        "{task.completed}/{task.total} records",
+        TimeRemainingColumn(),
+        transient=True,
+    )
+    bar.start()
+    task = bar.add_task("integrating", total=total)
+    try:
+        yield lambda done, total: bar.update(task, completed=done)
+    finally:
+        bar.stop()
+
+
+def _summary(scene, result, kernel: str) -> str:
+    """The one line ``hertzian run`` prints: size, steps, device, kernel, speed, energy error, status."""
+    estimate = (
+        f", error estimate {result.error_estimate[0]:.2e} (+{result.timing['error_estimate']:.2f} s)"
+        if result.error_estimate is not None
+        else ""
+    )
+    return (
+        f"{scene.chain.grains} grains, {result.steps} steps of {scene.integrator.method} "
+        f"dt={scene.integrator.dt:g} on {result.device} ({kernel} kernel): {result.wall_seconds:.2f} s, "
+        f"{result.grain_steps_per_second:.3g} grain-steps/s, energy error {result.energy_error[0]:.2e}, "
+        f"status {int(result.status[0])}" + estimate
+    )

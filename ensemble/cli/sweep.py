@@ -83,75 +83,101 @@ class _Progress:
             self.bar.stop()
 
 
+SweepFileArgument = Annotated[
+    Path,
+    typer.Argument(
+        help="Sweep TOML file: a base scene and [[axis]] tables (docs/sweeps.md); or the name of a shipped "
+        "sweep (e.g. example.toml), looked up when no such path exists."
+    ),
+]
+
+OutOption = Annotated[
+    Optional[Path],
+    typer.Option(
+        "--out", help="Zarr store to write (default: the sweep file's name with .zarr, in the current directory)."
+    ),
+]
+
+ResumeOption = Annotated[
+    bool,
+    typer.Option(
+        "--resume",
+        help="Continue an interrupted store: skip finished batches (refused for a different sweep or package version).",
+    ),
+]
+
+OverwriteOption = Annotated[bool, typer.Option("--overwrite", help="Replace an existing store.")]
+
+DryRunOption = Annotated[
+    bool, typer.Option("--dry-run", help="Print the plan (points, batches, memory, grain-steps) and write nothing.")
+]
+
+BatchSizeOption = Annotated[
+    Optional[int],
+    typer.Option("--batch-size", help="Points per ensemble launch (default: as many as fit the device's memory)."),
+]
+
+WorkersOption = Annotated[
+    Optional[int],
+    typer.Option(
+        "--workers", help="Run batches on N local Dask worker processes (one device each: worker i uses cuda:i)."
+    ),
+]
+
+SchedulerOption = Annotated[
+    Optional[str],
+    typer.Option("--scheduler", help="Run batches on an existing Dask cluster, e.g. tcp://host:8786."),
+]
+
+QuietOption = Annotated[bool, typer.Option("--quiet", help="No progress bar.")]
+
+StrictOption = Annotated[
+    bool,
+    typer.Option(
+        "--strict",
+        help="Refuse (exit 2) when dt looks unstable or inaccurate at a corner of the grid (see hertzian check).",
+    ),
+]
+
+AsJsonOption = Annotated[
+    bool,
+    typer.Option(
+        "--json",
+        help="Print a JSON summary with the time split (load, "
+        "expand, plan, store creation, model build, kernel, store writes) on "
+        "stdout.",
+    ),
+]
+
+AllowLargeOption = Annotated[
+    bool, typer.Option("--allow-large", help="Run sweeps of more than 10^7 points (refused by default).")
+]
+
+ErrorEstimateOption = Annotated[
+    bool,
+    typer.Option("--error-estimate", help="Store each point's estimated position error (record.error_estimate)."),
+]
+
+
 @app.command()
 def sweep(
-    sweep_file: Annotated[
-        Path,
-        typer.Argument(
-            help="Sweep TOML file: a base scene and [[axis]] tables (docs/sweeps.md); or the name of a shipped "
-            "sweep (e.g. example.toml), looked up when no such path exists."
-        ),
-    ],
-    out: Annotated[
-        Optional[Path],
-        typer.Option(
-            "--out", help="Zarr store to write (default: the sweep file's name with .zarr, in the current directory)."
-        ),
-    ] = None,
-    resume: Annotated[
-        bool,
-        typer.Option(
-            "--resume",
-            help="Continue an interrupted store: skip finished "
-            "batches (refused for a different sweep or package version).",
-        ),
-    ] = False,
-    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing store.")] = False,
-    dry_run: Annotated[
-        bool, typer.Option("--dry-run", help="Print the plan (points, batches, memory, grain-steps) and write nothing.")
-    ] = False,
-    batch_size: Annotated[
-        Optional[int],
-        typer.Option("--batch-size", help="Points per ensemble launch (default: as many as fit the device's memory)."),
-    ] = None,
-    workers: Annotated[
-        Optional[int],
-        typer.Option(
-            "--workers", help="Run batches on N local Dask worker processes (one device each: worker i uses cuda:i)."
-        ),
-    ] = None,
-    scheduler: Annotated[
-        Optional[str],
-        typer.Option("--scheduler", help="Run batches on an existing Dask cluster, e.g. tcp://host:8786."),
-    ] = None,
+    sweep_file: SweepFileArgument,
+    out: OutOption = None,
+    resume: ResumeOption = False,
+    overwrite: OverwriteOption = False,
+    dry_run: DryRunOption = False,
+    batch_size: BatchSizeOption = None,
+    workers: WorkersOption = None,
+    scheduler: SchedulerOption = None,
     device: DeviceOption = None,
     precision: PrecisionOption = None,
     set_: SetOption = None,
-    quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
-    strict: Annotated[
-        bool,
-        typer.Option(
-            "--strict",
-            help="Refuse (exit 2) when dt looks unstable or inaccurate at a corner of the grid (see hertzian check).",
-        ),
-    ] = False,
-    as_json: Annotated[
-        bool,
-        typer.Option(
-            "--json",
-            help="Print a JSON summary with the time split (load, "
-            "expand, plan, store creation, model build, kernel, store writes) on "
-            "stdout.",
-        ),
-    ] = False,
-    allow_large: Annotated[
-        bool, typer.Option("--allow-large", help="Run sweeps of more than 10^7 points (refused by default).")
-    ] = False,
+    quiet: QuietOption = False,
+    strict: StrictOption = False,
+    as_json: AsJsonOption = False,
+    allow_large: AllowLargeOption = False,
     kernel: KernelOption = "auto",
-    error_estimate: Annotated[
-        bool,
-        typer.Option("--error-estimate", help="Store each point's estimated position error (record.error_estimate)."),
-    ] = False,
+    error_estimate: ErrorEstimateOption = False,
 ):
     """Run a parameter sweep as batched ensembles into one Zarr store with one dimension per axis.
 

@@ -61,9 +61,8 @@ yoshida4: the one-step matrix on ü = −ω²u is the product of its three veloc
 recomputed by tests/test_check.py)."""
 
 ACCURATE_STEPS_PER_CONTACT_TIME = {"gear4": 400.0, "gear5": 300.0, "gear6": 400.0, "verlet": 3200.0, "yoshida4": 400.0}
-"""Steps per contact time T/dt that kept the energy error below 1e-6 in every extreme case measured
-(docs/stability.md: 13 cases × 11 step sizes on 30 grains, 2026-11-22; yoshida4: the same 13 cases at
-T/dt = 50 … 3200, worst 5.6e-7 at 400 and 1.3e-6 at 300, docs/accuracy/yoshida4_thresholds.json, measured)."""
+"""Steps per contact time T/dt that keep the energy error below 1e-6 in every case of the extreme-case suite
+(docs/stability.md §3 "Accuracy thresholds" and §5; yoshida4: §2c)."""
 
 STABILITY_MARGIN = 2.0
 """The suggested dt stays this factor below the stability limit."""

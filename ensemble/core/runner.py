@@ -30,9 +30,9 @@ from hertzian.kernels.features import Features
 @contextlib.contextmanager
 def frozen_collector():
     """While a run's loop queues launches and records, the objects made before it (Warp's kernels and their syntax
-    trees, the model, the store's handles) are frozen for Python's garbage collector, so its full passes skip them: one
-    over them stopped every thread for 85 ms in the middle of the driven columns' run on the H100 host, and the device
-    ran out of queued work for 77 ms (docs/benchmarks.md, sixth session). Unfrozen on exit."""
+    trees, the model, the store's handles) are frozen for Python's garbage collector, so its full passes skip them: a
+    full pass over them stops every thread, and in a long run on a GPU the device then runs out of queued work.
+    Unfrozen on exit."""
     gc.freeze()
     try:
         yield

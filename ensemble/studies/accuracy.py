@@ -39,6 +39,7 @@ from hertzian.core.devices import default_device, init_warp
 from hertzian.core.model import build_model, features_of
 from hertzian.core.runner import Runner
 from hertzian.core.scene import EVENT_MODES, METHODS, PRECISIONS, Scene, SceneError
+from hertzian.core.solvers import KERNELS
 from hertzian.core.solvers.calibrate import stepping_features
 from hertzian.core.status import Status
 from hertzian.kernels.cpu import chain_kernel_supports
@@ -86,9 +87,9 @@ class AccuracyRecord:
     status: int
     status_name: str
     reference_limited: bool
+    """True when ``error`` is within a factor 10 of the reference's own estimated error."""
     events: str = "auto"
     """integrator.events of the run: auto (event-aware Gear steps, kernels/events.py) or off."""
-    """True when ``error`` is within a factor 10 of the reference's own estimated error."""
     kernel: str = "step"
     """Which kernel ran (ensemble/core/solvers/calibrate.py): the same for every run of a study."""
 
@@ -296,6 +297,80 @@ class TimeToTarget:
 def parse_targets(texts: list[str]) -> list[float]:
     """['1e-6,1e-8', '1e-7'] → [1e-6, 1e-7, 1e-8] (each a finite number > 0, no repeats), largest first."""
     return _positive_numbers(texts, "--target", "--target 1e-6,1e-8")
+
+
+@dataclass(frozen=True)
+class StudyRequest:
+    """What a work–precision study runs and reports, checked (the options of ``hertzian accuracy``)."""
+
+    methods: list[str]
+    dts: list[float]
+    """Steps [time], largest first."""
+    precisions: list[str]
+    events: list[str]
+    """integrator.events modes: each run is made once per mode."""
+    targets: list[float]
+    """Accuracy targets (dimensionless), largest first; empty: no time-to-target table."""
+    measure: str
+    """What the targets bound: one of TARGET_MEASURES."""
+    reference_factor: int
+    records: int
+    kernel: str | None
+    """A kernel name of KERNELS, or None for :func:`study_kernel`."""
+
+
+def _modes(key: str, text: str | None, default: str, both: list[str]) -> list[str]:
+    """``text`` as a list of modes: None → [default], "both" → ``both``, one of ``both`` → [text]."""
+    if text is None:
+        return [default]
+    if text == "both":
+        return list(both)
+    if text in both:
+        return [text]
+    raise SceneError(key, text, f"allowed: {', '.join(both)}, both")
+
+
+def study_request(
+    scene: Scene,
+    *,
+    methods: str,
+    dt: str,
+    precision: str | None = None,
+    events: str | None = None,
+    targets: list[str] | None = None,
+    measure: str = "energy",
+    reference_factor: int = 4,
+    records: int = 40,
+    kernel: str | None = None,
+) -> StudyRequest:
+    """The study's options as given on the command line (comma-separated text), checked; SceneError on the first
+    bad one (precision and events default to the scene's; "both" studies both values)."""
+    method_list, steps, target_list = (
+        parse_list("--methods", methods, METHODS),
+        parse_steps(dt),
+        parse_targets(targets or []),
+    )
+    if measure not in TARGET_MEASURES:
+        raise SceneError("--measure", measure, f"allowed: {', '.join(TARGET_MEASURES)}")
+    precisions = _modes("--precision", precision, scene.integrator.precision, ["float64", "float32"])
+    event_modes = _modes("--events", events, scene.integrator.events, ["auto", "off"])
+    if reference_factor < 1:
+        raise SceneError("--reference-factor", reference_factor, "must be an integer ≥ 1")
+    if records < 1:
+        raise SceneError("--records", records, "must be ≥ 1")
+    if kernel is not None and kernel not in KERNELS:
+        raise SceneError("--kernel", kernel, f"allowed: {', '.join(KERNELS)}")
+    return StudyRequest(
+        methods=method_list,
+        dts=steps,
+        precisions=precisions,
+        events=event_modes,
+        targets=target_list,
+        measure=measure,
+        reference_factor=reference_factor,
+        records=records,
+        kernel=kernel,
+    )
 
 
 def _meets(record: AccuracyRecord, target: float, measure: str) -> bool:

@@ -1218,8 +1218,8 @@ def _merge_drawn(runs: list[dict[str, Any]], drawn: dict[str, Any], say: Callabl
 
 
 FIGURE_WORKERS = 8
-"""The most worker processes drawing a reproduction's figures (docs/benchmarks.md, eighth session: with 4 the whole
-reproduction waited 9.4 s for them after its last run on a 16-core GPU host; its figures take ~49 CPU seconds)."""
+"""The most worker processes drawing a reproduction's figures: the figures take far more CPU time than the GPU
+takes for the runs, so with fewer workers a reproduction on a GPU host waits for its figures after its last run."""
 
 
 def _figure_pool(groups: int):

@@ -342,11 +342,11 @@ def _run_pending(p: PreparedSweep, progress: SweepProgress, notify, on_result) -
                 run_distributed(jobs, client, p.requested_device, on_done=progress.batch_done)
         finally:
             progress.stop()
-        session = time.perf_counter() - start
+        batches_seconds = time.perf_counter() - start
     clock = time.perf_counter()
-    prov = finalize(p.out, session_seconds=session, session_grain_steps=sum(j.grain_steps for j in jobs))
+    prov = finalize(p.out, session_seconds=batches_seconds, session_grain_steps=sum(j.grain_steps for j in jobs))
     p.timing["finalize"] = time.perf_counter() - clock
-    return summary(p, jobs, prov, session)
+    return summary(p, jobs, prov, batches_seconds)
 
 
 def _setup(p: PreparedSweep, pending: list, client, stack: contextlib.ExitStack, notify) -> tuple:
@@ -398,13 +398,13 @@ def label_of(p: PreparedSweep) -> str:
     return f"Dask cluster {p.scheduler}" if p.scheduler is not None else p.device
 
 
-def summary(p: PreparedSweep, jobs: list, prov: dict, session: float) -> dict[str, Any]:
+def summary(p: PreparedSweep, jobs: list, prov: dict, batches_seconds: float) -> dict[str, Any]:
     """The summary of a run: points, batches (and how many ran), device, grain-steps and rates, status counts,
     the store and its bytes, the time split [s] and the host seconds outside the kernel."""
     timing = p.timing
     ran = {j.batch.index for j in jobs}
     records = [r for r in batch_records(p.out) if r["batch"] in ran]
-    timing["batches"] = session
+    timing["batches"] = batches_seconds
     for key, column in (("build", "build_seconds"), ("kernel", "wall_seconds"), ("write", "write_seconds")):
         timing[key] = sum(r[column] for r in records)
     status = np.asarray(zarr.open_array(store=str(p.out), path="status", mode="r")[...])
@@ -418,7 +418,7 @@ def summary(p: PreparedSweep, jobs: list, prov: dict, session: float) -> dict[st
         "batches_run": len(jobs),
         "device": label_of(p),
         "grain_steps": steps,
-        "grain_steps_per_second": steps / max(session, 1e-12),
+        "grain_steps_per_second": steps / max(batches_seconds, 1e-12),
         "grain_steps_per_second_per_device": prov["grain_steps_per_second"],
         "energy_error_max": prov["energy_error_max"],
         "kernel": prov.get("kernel", ""),

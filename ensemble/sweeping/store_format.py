@@ -17,9 +17,8 @@ SCHEMA_VERSION = 1
 """Version of the store layout (SPEC §6); chunk checksums are a codec, read from each array's metadata, and
 change nothing a reader must know."""
 RESULT_ZSTD_LEVEL = 1
-"""zstd level of the per-point result arrays: simulated floats barely compress (122 of 220 MB at zstd's default
-level 3, 121 MB at level 1), and level 1 encodes them 1.8x faster (docs/logs/store/store_codec_bench_cpu.txt); the
-last batch's write is the sweep's tail, which nothing overlaps."""
+"""zstd level of the per-point result arrays: simulated floats barely compress at any level, and level 1 encodes
+them faster than the default level 3; the last batch's write is the sweep's tail, which nothing overlaps."""
 CHECKSUM_CODEC = "crc32c"
 """Name (in an array's ``zarr.json``) of the codec that appends a CRC-32C of each chunk's compressed bytes."""
 

@@ -81,8 +81,8 @@ def step_reason_of(features, is_cpu: bool, grain_steps: float) -> str | None:
 
 def event_cost_note(features, is_cpu: bool) -> str | None:
     """One line when a CUDA run carries event-aware steps (a contact can open, ``integrator.events = "auto"``),
-    which cost the fused kernels 1.7x (H100) to 11x (H200) the time of plain steps, the more contacts open
-    (docs/benchmarks.md, seventh session); None otherwise."""
+    which cost the fused kernels several times the time of plain steps, the more contacts open (docs/stability.md
+    §6c and §7c, record docs/records/bench/h100_events.json); None otherwise."""
     if is_cpu or features.event_window <= 0:
         return None
     return (
