@@ -106,6 +106,7 @@ def corner_dt_warnings(definition, scenes=None) -> list[str]:
 
 @app.command()
 def sweep(
+    ctx: typer.Context,
     sweep_file: Annotated[Path, typer.Argument(help="Sweep TOML: a base scene and [[axis]] tables (docs/sweeps.md).")],
     out: Annotated[
         Optional[Path],
@@ -211,7 +212,10 @@ def sweep(
         if not out.parent.exists():
             fail(f"--out = {str(out)!r}: parent directory does not exist")
     dev = resolve_device(device)
+    # a local cluster starts in a background thread while this process plans and creates the store
+    cluster = _start_cluster(workers, scheduler, device, ctx) if not dry_run else None
 
+    from hertzian.sweeping.balance import balance_plan
     from hertzian.sweeping.planner import describe, plan_sweep
     from hertzian.sweeping.sweep_store import SweepStoreError, check_resumable
 
@@ -227,6 +231,8 @@ def sweep(
         plan = plan_sweep(definition, points, dev, batch_size=batch_size, block=block)
     except SceneError as err:
         fail(str(err))
+    if not resuming and (workers or cluster):  # a store being resumed keeps its block
+        plan = balance_plan(plan, workers or cluster.worker_count)
     timing["plan"] = time.perf_counter() - clock
     if kernel != "auto":
         _check_kernel(kernel, plan, points, dev)
@@ -267,6 +273,7 @@ def sweep(
         overwrite=overwrite,
         workers=workers,
         scheduler=scheduler,
+        cluster=cluster,
         requested_device=device,
         quiet=quiet,
         timing=timing,
@@ -308,18 +315,19 @@ def _check_kernel(kernel: str, plan, points, dev: str) -> None:
             fail(f"--kernel = {kernel!r}: {str(err).split(': ', 1)[-1]}")
 
 
-def _connect(workers, scheduler, stack: contextlib.ExitStack):
-    """A Dask client (starting a LocalCluster for --workers), closed with ``stack``; bad address → exit 2."""
-    from distributed import Client
-    from hertzian.sweeping.distributed import local_cluster
+def _start_cluster(workers, scheduler, device, ctx: typer.Context):
+    """The workers of --workers (a local cluster, one GPU each, starting in the background) or --scheduler (bad
+    address: exit 2); closed when the command ends."""
+    from hertzian.sweeping.distributed import ClusterError, ClusterStart
 
-    if workers is not None:
-        cluster = stack.enter_context(local_cluster(workers))
-        return stack.enter_context(Client(cluster))
-    try:
-        return stack.enter_context(Client(scheduler, timeout="15s"))
-    except (OSError, TimeoutError, ValueError) as err:
-        fail(f"--scheduler = {scheduler!r}: cannot connect ({type(err).__name__}: {err})")
+    if workers is None and scheduler is None:
+        return None
+    try:  # --device cpu or an explicit cuda:N: workers share what they are told, no GPU of their own
+        cluster = ClusterStart(workers, scheduler, gpus=None if device in (None, "cuda") else [])
+    except ClusterError as err:
+        fail(f"--scheduler = {scheduler!r}: {err}")
+    ctx.call_on_close(cluster.close)
+    return cluster
 
 
 def _run(
@@ -333,6 +341,7 @@ def _run(
     overwrite: bool,
     workers,
     scheduler,
+    cluster,
     requested_device,
     quiet: bool,
     timing: dict,
@@ -343,7 +352,8 @@ def _run(
 
     import numpy as np
     import zarr
-    from hertzian.sweeping.distributed import jobs_for, run_distributed, run_serial, runs_of, warm_kernels, warm_workers
+    from hertzian.sweeping.balance import batch_priorities
+    from hertzian.sweeping.distributed import calibrate_ahead, jobs_for, run_distributed, run_serial, runs_of, warm_kernels
     from hertzian.sweeping.planner import format_bytes
     from hertzian.sweeping.sweep_store import (
         batch_records,
@@ -355,7 +365,7 @@ def _run(
         store_bytes,
     )
 
-    distributed = workers is not None or scheduler is not None
+    distributed = cluster is not None
     label = (
         f"{workers} local Dask workers"
         if workers is not None
@@ -365,17 +375,16 @@ def _run(
     )
     features = [g.features for g in plan.groups]
     with contextlib.ExitStack() as stack:
-        client = _connect(workers, scheduler, stack) if distributed else None
-        # the kernels load (from Warp's cache, or compile) in a thread
-        # (a serial run warms the stepping kernels its batches will use; Dask workers find every variant in the cache)
-        runs = (
-            None
-            if client is not None
-            else runs_of(
-                plan, points, [b for b in plan.batches if b.index not in (completed_batches(out) if resuming else ())]
-            )
-        )
-        warming = stack.enter_context(ThreadPoolExecutor(max_workers=1)).submit(warm_kernels, features, dev, runs=runs)
+        # the kernels this process's batches (or the workers') will use load in a thread, from Warp's cache or
+        # compiled into it; for workers, shapes not yet calibrated are calibrated here first (one cache writer)
+        todo = [b for b in plan.batches if b.index not in (completed_batches(out) if resuming else ())]
+
+        def warm():
+            if distributed:
+                calibrate_ahead(plan, points, todo, dev, kernel=kernel)
+            warm_kernels(features, dev, runs=runs_of(plan, points, todo))
+
+        warming = stack.enter_context(ThreadPoolExecutor(max_workers=1)).submit(warm)
         create = None
         if resuming:
             remove_partial_files(out)
@@ -392,7 +401,7 @@ def _run(
             def create():
                 create_sweep_store(out, definition, points.templates[0], plan, device=label, overwrite=overwrite)
 
-            if client is not None:  # workers write into it: it exists before they start
+            if distributed:  # workers write into it: it exists before they start
                 clock = time.perf_counter()
                 create()
                 timing["create_store"] = time.perf_counter() - clock
@@ -406,9 +415,10 @@ def _run(
         timing["jobs"] = time.perf_counter() - clock
         clock = time.perf_counter()
         warming.result()
-        if client is not None:
-            warm_workers(client, features, requested_device)
         timing["warm_kernels"] = time.perf_counter() - clock
+        clock = time.perf_counter()
+        client = cluster.client() if distributed else None  # the workers' own warm-up is their first batch
+        timing["cluster_wait"] = time.perf_counter() - clock
         progress = _Progress(
             not quiet and sys.stderr.isatty(),
             total_batches=len(plan.batches),
@@ -427,7 +437,13 @@ def _run(
                     timing=timing,
                 )
             else:
-                run_distributed(jobs, client, requested_device, on_done=progress.batch_done)
+                run_distributed(
+                    jobs,
+                    client,
+                    requested_device,
+                    on_done=progress.batch_done,
+                    priorities=batch_priorities(plan, [j.batch.index for j in jobs]),
+                )
         except KeyboardInterrupt:
             progress.stop()
             typer.echo(
@@ -477,7 +493,8 @@ def _run(
                     "seconds": timing,
                     # host time of this command outside the integration (interpreter start-up and imports excluded)
                     "seconds_outside_kernel": sum(
-                        timing.get(k, 0.0) for k in ("load", "expand", "plan", "jobs", "warm_kernels", "finalize")
+                        timing.get(k, 0.0)
+                        for k in ("load", "expand", "plan", "jobs", "warm_kernels", "cluster_wait", "finalize")
                     )
                     + (timing.get("create_store", 0.0) if distributed else 0.0)
                     + timing["batches"]
