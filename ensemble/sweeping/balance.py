@@ -51,20 +51,19 @@ def balance_plan(plan: Plan, workers: int) -> Plan:
     points = plan.point_count
     best, best_excess = plan, tail_excess(plan, workers)
     smallest = max(1, plan.batch_size // SMALLEST_FRACTION)
-    count = len(plan.batches) + 1
-    while True:
+    for count in range(len(plan.batches) + 1, points + 1):
         target = math.ceil(points / count)
         if target < smallest:
             break
         block = block_for(plan.shape, splitting, target)
-        if block != best.block:
-            candidate = replace(plan, block=block, batches=tuple(batches_for(plan.shape, block, plan.point_group)))
-            excess = tail_excess(candidate, workers)
-            if excess < best_excess:
-                best, best_excess = candidate, excess
-            if excess <= TAIL_TOLERANCE:
-                break
-        count += 1
+        if block == best.block:
+            continue
+        candidate = replace(plan, block=block, batches=tuple(batches_for(plan.shape, block, plan.point_group)))
+        excess = tail_excess(candidate, workers)
+        if excess < best_excess:
+            best, best_excess = candidate, excess
+        if excess <= TAIL_TOLERANCE:
+            break
     return best
 
 

@@ -412,7 +412,7 @@ def local_cluster(workers: int, gpus: list[str] | None = None):
     from distributed import Scheduler, SpecCluster
 
     gpus = visible_gpus() if gpus is None else gpus
-    scheduler = {"cls": Scheduler, "options": {"dashboard_address": None}}
+    scheduler = {"cls": Scheduler, "options": {"dashboard_address": ":0", "dashboard": False}}
     return SpecCluster(
         workers=worker_specs(workers, gpus), scheduler=scheduler, silence_logs=logging.ERROR, name="hertzian"
     )
