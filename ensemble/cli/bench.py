@@ -231,7 +231,9 @@ def _scale_out(counts_text: str, sweep: Path | None, device, set_, as_json: bool
             err=as_json,
         )
     for run in record["weak"]:
-        typer.echo(f"weak {run['workers']}: {run['process_seconds']:.2f} s, efficiency {run['efficiency']:.0%}", err=as_json)
+        typer.echo(
+            f"weak {run['workers']}: {run['process_seconds']:.2f} s, efficiency {run['efficiency']:.0%}", err=as_json
+        )
     typer.echo(f"stores bitwise equal: {record['bitwise_equal']}", err=as_json)
     if as_json:
         typer.echo(json.dumps(record, indent=1))

@@ -353,7 +353,14 @@ def _run(
     import numpy as np
     import zarr
     from hertzian.sweeping.balance import batch_priorities
-    from hertzian.sweeping.distributed import calibrate_ahead, jobs_for, run_distributed, run_serial, runs_of, warm_kernels
+    from hertzian.sweeping.distributed import (
+        calibrate_ahead,
+        jobs_for,
+        run_distributed,
+        run_serial,
+        runs_of,
+        warm_kernels,
+    )
     from hertzian.sweeping.planner import format_bytes
     from hertzian.sweeping.sweep_store import (
         batch_records,
