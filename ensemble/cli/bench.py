@@ -112,6 +112,14 @@ def bench(
         ),
     ] = False,
     set_: SetOption = None,
+    scale_out: Annotated[
+        Optional[str],
+        typer.Option(
+            "--scale-out",
+            help="Worker counts, comma-separated (e.g. 1,2,4): strong and weak scaling of `hertzian sweep --workers "
+            "N` on --sweep, end to end, stores compared bit for bit (docs/scale-out.md); --json prints the record.",
+        ),
+    ] = None,
 ):
     """Grain-steps per second of every implementation, gear4 float64, the paper's chain (program units).
 
@@ -121,6 +129,9 @@ def bench(
     """
     from hertzian.studies.bench import KERNEL_CHOICES, run_bench
 
+    if scale_out is not None:
+        _scale_out(scale_out, sweep, device, set_, as_json)
+        return
     if scene is not None or sweep is not None:
         _end_to_end(scene, sweep, device, kernel, cold, set_, as_json)
         return
@@ -199,3 +210,42 @@ def _end_to_end(scene: Path | None, sweep: Path | None, device, kernel: str, col
         f"{record['grain_steps_per_second']:.3g} GS/s end to end, {record['kernel_grain_steps_per_second']:.3g} "
         f"in the kernel; device busy {record['device_busy']:.0%}"
     )
+
+
+def _scale_out(counts_text: str, sweep: Path | None, device, set_, as_json: bool) -> None:
+    """``--scale-out``: strong and weak scaling of ``sweep`` (ensemble/studies/scaling.py)."""
+    from hertzian.core.scene import SceneError, parse_overrides
+
+    counts = _counts(counts_text, "--scale-out")
+    if sweep is None or not sweep.is_file():
+        fail(f"--sweep = {str(sweep) if sweep else None!r}: --scale-out needs a sweep file")
+    try:
+        parse_overrides(set_)
+    except SceneError as err:
+        fail(str(err))
+    from hertzian.studies.scaling import scale_out
+
+    log = lambda message: typer.echo(message, err=True)  # noqa: E731
+    with tempfile.TemporaryDirectory(prefix="hertzian-scale-", dir=".") as workdir:
+        try:
+            record = scale_out(sweep, counts, sets=list(set_ or []), device=device, workdir=Path(workdir), log=log)
+        except RuntimeError as err:
+            typer.echo(f"error: {err}", err=True)
+            raise typer.Exit(1)
+    for run in record["strong"]:
+        typer.echo(
+            f"strong {'serial' if run['serial'] else '--workers ' + str(run['workers'])}: "
+            f"{run['process_seconds']:.2f} s, "
+            f"speed-up {run['speedup']:.2f}, efficiency {run['efficiency']:.0%}, busy "
+            + ", ".join(f"{w} {b:.0%}" for w, b in run["busy"].items()),
+            err=as_json,
+        )
+    for run in record["weak"]:
+        typer.echo(
+            f"weak {run['workers']}: {run['process_seconds']:.2f} s, efficiency {run['efficiency']:.0%}", err=as_json
+        )
+    typer.echo(f"stores bitwise equal: {record['bitwise_equal']}", err=as_json)
+    if as_json:
+        typer.echo(json.dumps(record, indent=1))
+    if not record["bitwise_equal"]:
+        raise typer.Exit(1)

@@ -2,17 +2,25 @@
 
 Each batch runs as one ensemble (``build_model`` with its launch group's kernel variant, then
 ``Runner``) and writes its own block of the store, then its completion record. Workers share
-nothing but the store path, so a batch can run on any worker, on any host that sees the store.
+nothing but the store path, so a batch can run on any worker, on any host that sees the store,
+and a batch whose worker dies is run again elsewhere (it rewrites the same shards with the same bits).
+
+``--workers N`` starts N worker processes the way dask-cuda's ``LocalCUDACluster`` does, without it
+(:func:`worker_specs`): one ``Nanny`` per GPU, named 0 … N-1, one thread each, the host's memory
+split evenly between them, and ``CUDA_VISIBLE_DEVICES`` rotated so worker i sees GPU i first — as
+its ``cuda:0``. A worker imports the package and initialises Warp when it starts (:func:`dask_setup`,
+its preload), while the host plans and creates the store.
 
 Device of a worker: ``cpu`` or an explicit ``cuda:N`` when one is named; otherwise (``cuda`` or
-none) the worker's own GPU — ``cuda:i`` for the i-th worker of a ``LocalCluster`` (workers are
-named 0 … N-1), ``cuda:0`` for a worker started with one GPU visible
-(``CUDA_VISIBLE_DEVICES=i dask worker --nworkers 1 …``) — or the CPU when it has none.
+none) ``cuda:0`` where ``CUDA_VISIBLE_DEVICES`` is set in the worker (a worker of :func:`start_cluster`,
+of dask-cuda, or one started by hand with ``CUDA_VISIBLE_DEVICES=i dask worker --nworkers 1 …``),
+``cuda:i`` for the worker named i of a plain ``LocalCluster``, or the CPU when it has no GPU.
 """
 
 from __future__ import annotations
 
 import logging
+import os
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
@@ -91,6 +99,28 @@ def runs_of(plan, points, batches) -> list[tuple]:
     return out
 
 
+def calibrate_ahead(plan, points, batches, device: str, *, kernel: str = "auto") -> int:
+    """On CUDA with ``auto``: calibrate here, once, each launch shape of ``batches`` that the calibration cache
+    lacks, so that workers read the choice from that cache and its kernel from Warp's instead of each timing the
+    candidate shapes in its first batch (one writer per cache). Returns how many shapes it calibrated."""
+    wp = _quiet_warp()
+    if kernel != "auto" or not wp.get_device(device).is_cuda:
+        return 0
+    from hertzian.core.model import build_model
+    from hertzian.core.solvers.calibrate import calibrated_config, is_calibrated, step_reason
+
+    calibrated, seen = 0, set()
+    for batch in batches:
+        if (batch.group, batch.size) in seen:
+            continue
+        seen.add((batch.group, batch.size))
+        model = build_model(points.chains(batch.points), device, features=plan.groups[batch.group].features)
+        if not step_reason(model, model.scenes[0].step_count) and not is_calibrated(model):
+            calibrated_config(model)
+            calibrated += 1
+    return calibrated
+
+
 def run_job(
     job: BatchJob, device: str, progress: Callable[[int, int], None] | None = None, *, worker: str = ""
 ) -> dict[str, Any]:
@@ -154,6 +184,8 @@ def worker_device(requested: str | None, worker_name: Any = None) -> str:
         return requested
     if not wp.is_cuda_available():
         return "cpu"
+    if os.environ.get("CUDA_VISIBLE_DEVICES"):
+        return "cuda:0"  # its own GPU comes first (LocalCUDACluster's convention)
     try:
         index = int(worker_name)
     except (ValueError, TypeError):
@@ -161,23 +193,17 @@ def worker_device(requested: str | None, worker_name: Any = None) -> str:
     return f"cuda:{index % wp.get_cuda_device_count()}"
 
 
-def _prepare_worker(features: list[Features], requested_device: str | None, dask_worker=None) -> str:
+def dask_setup(worker=None) -> None:
+    """A worker's preload (``Nanny(preload=["hertzian.sweeping.distributed"])``): the package's imports and
+    Warp's initialisation (the CUDA driver) are paid when the worker starts, not in its first batch."""
     from hertzian.core import runner  # noqa: F401
-    from hertzian.sweeping import sweep_store  # noqa: F401  (imports paid before the clock starts)
+    from hertzian.sweeping import sweep_store  # noqa: F401
 
-    device = worker_device(requested_device, getattr(dask_worker, "name", None))
-    warm_kernels(features, device)
-    return device
-
-
-def warm_workers(client, features: Iterable[Features], requested_device: str | None) -> dict[str, str]:
-    """Initialise Warp and load every kernel variant on each worker's device (from the cache the parent
-    filled); returns worker address → device."""
-    return client.run(_prepare_worker, list(set(features)), requested_device)
+    _quiet_warp()
 
 
 def run_job_on_worker(job: BatchJob, requested_device: str | None) -> dict[str, Any]:
-    """Dask task: run one batch on this worker's device."""
+    """Dask task: run one batch on this worker's device (its first batch loads the kernels, from Warp's cache)."""
     from distributed import get_worker
 
     worker = get_worker()
@@ -299,13 +325,109 @@ def run_serial(
             creating[0].result()
 
 
-def local_cluster(workers: int):
-    """A LocalCluster of ``workers`` processes with one thread each (one device per worker)."""
-    from distributed import LocalCluster
+def visible_gpus() -> list[str]:
+    """The GPUs this process may hand out to workers: ``CUDA_VISIBLE_DEVICES`` (its entries) when set, else
+    every CUDA device Warp sees (by index); none without CUDA."""
+    wp = _quiet_warp()
+    if not wp.is_cuda_available():
+        return []
+    listed = os.environ.get("CUDA_VISIBLE_DEVICES")
+    if listed:
+        return [d.strip() for d in listed.split(",") if d.strip()]
+    return [str(i) for i in range(wp.get_cuda_device_count())]
 
-    return LocalCluster(
-        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR
+
+def cuda_visible_devices(index: int, gpus: list[str]) -> str:
+    """``CUDA_VISIBLE_DEVICES`` of worker ``index``: ``gpus`` rotated to start at its own (dask-cuda's
+    ``cuda_visible_devices``), so the worker's ``cuda:0`` is GPU ``gpus[index % len(gpus)]``."""
+    start = index % len(gpus)
+    return ",".join(gpus[start:] + gpus[:start])
+
+
+def worker_specs(workers: int, gpus: list[str], *, memory_limit: int | None = None) -> dict[int, dict]:
+    """``SpecCluster`` worker specs of ``workers`` Nanny processes named 0 … workers-1: one thread each, host
+    memory split evenly (``memory_limit`` bytes each; default: the host's memory / workers), the package
+    preloaded (:func:`dask_setup`), and with ``gpus`` each its own GPU first in ``CUDA_VISIBLE_DEVICES``."""
+    from distributed import Nanny
+    from distributed.system import MEMORY_LIMIT
+
+    limit = memory_limit if memory_limit is not None else MEMORY_LIMIT // workers
+    specs = {}
+    for index in range(workers):
+        options = {
+            "nthreads": 1,
+            "name": index,
+            "memory_limit": limit,
+            "preload": [__name__],
+            "silence_logs": logging.ERROR,
+        }
+        if gpus:
+            options["env"] = {"CUDA_VISIBLE_DEVICES": cuda_visible_devices(index, gpus)}
+        specs[index] = {"cls": Nanny, "options": options}
+    return specs
+
+
+def local_cluster(workers: int, gpus: list[str] | None = None):
+    """A local cluster of ``workers`` worker processes (:func:`worker_specs`; ``gpus`` as :func:`visible_gpus`
+    when None) and its scheduler, no dashboard. Returns once every worker has started."""
+    from distributed import Scheduler, SpecCluster
+
+    gpus = visible_gpus() if gpus is None else gpus
+    scheduler = {"cls": Scheduler, "options": {"dashboard_address": ":0", "dashboard": False}}
+    return SpecCluster(
+        workers=worker_specs(workers, gpus), scheduler=scheduler, silence_logs=logging.ERROR, name="hertzian"
     )
+
+
+class ClusterError(ValueError):
+    """A cluster that cannot be reached (one line: the address and why)."""
+
+
+class ClusterStart:
+    """The workers of a sweep: a local cluster starting in a background thread (``workers``), or an existing
+    one reached at ``scheduler``. ``worker_count`` is known at once; :meth:`client` waits for the start."""
+
+    def __init__(self, workers: int | None = None, scheduler: str | None = None, *, gpus: list[str] | None = None):
+        from concurrent.futures import ThreadPoolExecutor
+
+        self._client = self._cluster = None
+        self._starting = None
+        if scheduler is not None:
+            from distributed import Client
+
+            try:
+                self._client = Client(scheduler, timeout="15s")
+            except (OSError, TimeoutError, ValueError) as err:
+                raise ClusterError(f"cannot connect ({type(err).__name__}: {err})") from None
+            self.worker_count = max(1, len(self._client.scheduler_info(n_workers=-1)["workers"]))
+            return
+        self.worker_count = int(workers)
+        gpus = visible_gpus() if gpus is None else gpus  # here: Warp's initialisation is not thread-safe
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="hertzian-cluster")
+        self._starting = self._pool.submit(local_cluster, self.worker_count, gpus)
+
+    def client(self):
+        """The Dask client (waits for a local cluster's workers)."""
+        if self._client is None:
+            from distributed import Client
+
+            self._cluster = self._starting.result()
+            self._client = Client(self._cluster)
+        return self._client
+
+    def close(self) -> None:
+        """Close the client, and the local cluster this started (waiting for its start if need be)."""
+        if self._client is not None:
+            self._client.close()
+        if self._starting is not None:
+            try:
+                cluster = self._starting.result()
+            except Exception:  # a failed start has nothing to close
+                cluster = None
+            if cluster is not None:
+                cluster.close()
+            self._pool.shutdown()
+            self._starting = None
 
 
 def run_distributed(
@@ -314,8 +436,12 @@ def run_distributed(
     requested_device: str | None,
     *,
     on_done: Callable[[BatchJob, dict], None] | None = None,
+    priorities: dict[int, int] | None = None,
 ) -> None:
-    """Run jobs on a Dask client's workers; each worker writes its batches into the store."""
+    """Run jobs on a Dask client's workers, all submitted at once; each worker writes its batches into the store.
+
+    ``priorities``: batch index → scheduler priority (higher first; default: grid order). A batch whose worker
+    dies is run again on another (Dask's ``allowed-failures``, 3 by default); one that fails anyway raises."""
     from distributed import as_completed
 
     token = f"{time.time_ns():x}"
@@ -326,7 +452,7 @@ def run_distributed(
             requested_device,
             pure=False,
             key=f"hertzian-batch-{job.batch.index}-{token}",
-            priority=-job.batch.index,
+            priority=priorities[job.batch.index] if priorities else -job.batch.index,
         ): job
         for job in jobs
     }

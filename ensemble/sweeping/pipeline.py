@@ -29,7 +29,8 @@ from hertzian.core.model import build_model
 from hertzian.core.shipped import shipped_file
 from hertzian.core.solvers import KERNELS, choose_config
 from hertzian.core.solvers.calibrate import event_cost_note, step_reason_of
-from hertzian.sweeping.distributed import jobs_for, run_distributed, run_serial, runs_of, warm_kernels, warm_workers
+from hertzian.sweeping.balance import balance_plan, batch_priorities
+from hertzian.sweeping.distributed import calibrate_ahead, jobs_for, run_distributed, run_serial, runs_of, warm_kernels
 from hertzian.sweeping.planner import Plan, plan_sweep
 from hertzian.sweeping.spec import MAX_POINTS, Sweep, SweepPoints, expand, load_sweep
 from hertzian.sweeping.storage import NoRoomError, StoreLockedError
@@ -64,6 +65,9 @@ class PreparedSweep:
     scheduler: str | None
     timing: dict[str, float]
     """Seconds so far: load, expand, plan."""
+    cluster: Any = None
+    """The Dask workers (``distributed.ClusterStart``) of ``workers``/``scheduler``, started while this process
+    plans; :func:`run_sweep` closes them."""
 
 
 def check_options(*, batch_size, workers, scheduler, resume, overwrite, kernel) -> None:
@@ -163,17 +167,26 @@ def prepare_sweep(
         check_out(out, resume=resume, overwrite=overwrite)
     dev = check_device(device)
     resuming = resume and out.exists()
-    plan = _plan(definition, points, out, dev, batch_size=batch_size, resuming=resuming, timing=timing)
-    if kernel != "auto":
-        check_kernel(kernel, plan, points, dev)
-    else:
-        per_step_notes(plan, dev, notify)
+    # the workers start in the background while this process plans (and, in run_sweep, creates the store)
+    cluster = None if dry_run else _start_cluster(workers, scheduler, device)
+    try:
+        plan = _plan(definition, points, out, dev, batch_size=batch_size, resuming=resuming, timing=timing)
+        if cluster is not None and not resuming:  # a store being resumed keeps its block
+            plan = balance_plan(plan, workers or cluster.worker_count)
+        if kernel != "auto":
+            check_kernel(kernel, plan, points, dev)
+        else:
+            per_step_notes(plan, dev, notify)
+    except BaseException:
+        if cluster is not None:
+            cluster.close()
+        raise
     if resuming and batch_size is not None and plan.batch_size != batch_size:
         notify(
             f"note: batch size {batch_size} ignored: {out} was planned with batches of up to {plan.batch_size} points"
         )
     return PreparedSweep(
-        definition, points, plan, out, dev, device, kernel, resuming, overwrite, workers, scheduler, timing
+        definition, points, plan, out, dev, device, kernel, resuming, overwrite, workers, scheduler, timing, cluster
     )
 
 
@@ -273,18 +286,18 @@ class CallbackProgress(SweepProgress):
         self.callback(self.done_batches, self.total_batches)
 
 
-def _connect(workers: int | None, scheduler: str | None, stack: contextlib.ExitStack):
-    """A Dask client (starting a LocalCluster for ``workers``), closed with ``stack``."""
+def _start_cluster(workers: int | None, scheduler: str | None, device: str | None):
+    """The workers of ``workers`` (a local cluster, one GPU each, starting in the background) or ``scheduler``
+    (an existing cluster; a bad address is an OptionError); None for a serial sweep."""
+    if workers is None and scheduler is None:
+        return None
     # Dask is imported only for a distributed sweep: it is optional and slow to import
-    from distributed import Client
-    from hertzian.sweeping.distributed import local_cluster
+    from hertzian.sweeping.distributed import ClusterError, ClusterStart
 
-    if workers is not None:
-        return stack.enter_context(Client(stack.enter_context(local_cluster(workers))))
-    try:
-        return stack.enter_context(Client(scheduler, timeout="15s"))
-    except (OSError, TimeoutError, ValueError) as err:
-        raise OptionError("scheduler", scheduler, f"cannot connect ({type(err).__name__}: {err})") from None
+    try:  # --device cpu or an explicit cuda:N: workers share what they are told, no GPU of their own
+        return ClusterStart(workers, scheduler, gpus=None if device in (None, "cuda") else [])
+    except ClusterError as err:
+        raise OptionError("scheduler", scheduler, str(err)) from None
 
 
 def run_sweep(
@@ -310,19 +323,24 @@ def run_sweep(
             return _run_pending(p, progress or SweepProgress(), notify, on_result)
     except (StoreLockedError, NoRoomError) as err:
         raise OptionError("out", str(p.out), str(err)) from None
+    finally:
+        if p.cluster is not None:
+            p.cluster.close()
 
 
 def _run_pending(p: PreparedSweep, progress: SweepProgress, notify, on_result) -> dict[str, Any]:
     """The batches not yet complete, run here or on Dask workers, then the store finalized."""
-    distributed = p.workers is not None or p.scheduler is not None
+    distributed = p.cluster is not None
     done = completed_batches(p.out) if p.resuming else set()
     pending = [b for b in p.plan.batches if b.index not in done]
     if not pending:
         prov = finalize(p.out, session_seconds=0.0, session_grain_steps=0)
         return summary(p, [], prov, 0.0)
     with contextlib.ExitStack() as stack:
-        client = _connect(p.workers, p.scheduler, stack) if distributed else None
-        create, jobs = _setup(p, pending, client, stack, notify)
+        create, jobs = _setup(p, pending, stack, notify)
+        clock = time.perf_counter()
+        client = p.cluster.client() if distributed else None  # the workers' own warm-up is their first batch
+        p.timing["cluster_wait"] = time.perf_counter() - clock
         progress.start(
             total_batches=len(p.plan.batches), done_batches=len(done), grain_steps=sum(j.grain_steps for j in jobs)
         )
@@ -339,7 +357,13 @@ def _run_pending(p: PreparedSweep, progress: SweepProgress, notify, on_result) -
                     timing=p.timing,
                 )
             else:
-                run_distributed(jobs, client, p.requested_device, on_done=progress.batch_done)
+                run_distributed(
+                    jobs,
+                    client,
+                    p.requested_device,
+                    on_done=progress.batch_done,
+                    priorities=batch_priorities(p.plan, [j.batch.index for j in jobs]),
+                )
         finally:
             progress.stop()
         batches_seconds = time.perf_counter() - start
@@ -349,15 +373,19 @@ def _run_pending(p: PreparedSweep, progress: SweepProgress, notify, on_result) -
     return summary(p, jobs, prov, batches_seconds)
 
 
-def _setup(p: PreparedSweep, pending: list, client, stack: contextlib.ExitStack, notify) -> tuple:
+def _setup(p: PreparedSweep, pending: list, stack: contextlib.ExitStack, notify) -> tuple:
     """Warm the kernels (in a thread), create or clean up the store, build the jobs; returns (the store's creation
     for run_serial's store thread, or None; the jobs). ``p.timing`` gets create_store (distributed), jobs and
     warm_kernels."""
+    distributed = p.cluster is not None
     features = [g.features for g in p.plan.groups]
-    # the kernels load (from Warp's cache, or compile) in a thread; a serial run warms the stepping kernels its
-    # batches will use, Dask workers find every variant in the cache
-    runs = None if client is not None else runs_of(p.plan, p.points, pending)
-    warming = stack.enter_context(ThreadPoolExecutor(max_workers=1)).submit(warm_kernels, features, p.device, runs=runs)
+
+    def warm():  # the kernels load from Warp's cache or compile into it; one writer: this process
+        if distributed:  # shapes the workers' batches take and the cache lacks are calibrated here first
+            calibrate_ahead(p.plan, p.points, pending, p.device, kernel=p.kernel)
+        warm_kernels(features, p.device, runs=runs_of(p.plan, p.points, pending))
+
+    warming = stack.enter_context(ThreadPoolExecutor(max_workers=1)).submit(warm)
     create = None
     if p.resuming:  # (writing_session removed the temporary files of a killed write)
         earlier = {r["device"].split(":")[0] for r in batch_records(p.out)}
@@ -373,7 +401,7 @@ def _setup(p: PreparedSweep, pending: list, client, stack: contextlib.ExitStack,
                 p.out, p.definition, p.points.templates[0], p.plan, device=label_of(p), overwrite=p.overwrite
             )
 
-        if client is not None:  # workers write into it: it exists before they start
+        if distributed:  # workers write into it: it exists before they start
             clock = time.perf_counter()
             create()
             p.timing["create_store"] = time.perf_counter() - clock
@@ -385,8 +413,6 @@ def _setup(p: PreparedSweep, pending: list, client, stack: contextlib.ExitStack,
     p.timing["jobs"] = time.perf_counter() - clock
     clock = time.perf_counter()
     warming.result()
-    if client is not None:
-        warm_workers(client, features, p.requested_device)
     p.timing["warm_kernels"] = time.perf_counter() - clock
     return create, jobs
 
@@ -410,8 +436,8 @@ def summary(p: PreparedSweep, jobs: list, prov: dict, batches_seconds: float) ->
     status = np.asarray(zarr.open_array(store=str(p.out), path="status", mode="r")[...])
     codes, counts = np.unique(status, return_counts=True)
     steps = sum(j.grain_steps for j in jobs)
-    overhead = ("load", "expand", "plan", "jobs", "warm_kernels", "finalize")
-    distributed = p.workers is not None or p.scheduler is not None
+    overhead = ("load", "expand", "plan", "jobs", "warm_kernels", "cluster_wait", "finalize")
+    distributed = p.cluster is not None
     return {
         "points": p.plan.point_count,
         "batches": len(p.plan.batches),

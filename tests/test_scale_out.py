@@ -1,0 +1,157 @@
+"""Scale-out on CPU workers: LocalCUDACluster-like worker specs, balanced tails that keep every bit, and a worker
+killed with SIGKILL mid-sweep (its batch runs again elsewhere; the store equals the serial one)."""
+
+import os
+import signal
+import sys
+import threading
+import time
+
+import numpy as np
+import zarr
+from hertzian.cli import app
+from hertzian.sweeping.balance import TAIL_TOLERANCE, balance_plan, batch_priorities, makespan, tail_excess
+from hertzian.sweeping.distributed import cuda_visible_devices, local_cluster
+from hertzian.sweeping.planner import plan_sweep
+from hertzian.sweeping.spec import expand, sweep_from_dict
+from hertzian.sweeping.sweep_store import batch_records, completed_batches, differing_arrays
+from typer.testing import CliRunner
+
+cli = CliRunner()
+
+SWEEP = """
+[scene.chain]
+grains = 16
+
+[scene.excitation]
+impact = 1e-2
+
+[scene.integrator]
+method = "verlet"
+dt = 1e-5
+duration = {duration}
+
+[scene.record]
+every = 0.01
+traces = [3]
+
+[[axis]]
+name = "v_imp"
+key = "excitation.impact"
+logspace = [-3, -1, {speeds}]
+
+[[axis]]
+name = "gravity"
+key = "chain.gravity"
+values = [0.0, 1.0]
+"""
+
+
+def write_sweep(tmp_path, *, speeds: int, duration: float):
+    path = tmp_path / "sweep.toml"
+    path.write_text(SWEEP.format(speeds=speeds, duration=duration))
+    return path
+
+
+def sweep(path, out, *flags):
+    result = cli.invoke(app, ["sweep", str(path), "--out", str(out), "--device", "cpu", "--quiet", *flags])
+    assert result.exit_code == 0, result.stderr or str(result.exception)
+    return result
+
+
+def test_makespan_hands_out_batches_biggest_first():
+    assert makespan([1.0] * 9, 4) == 3.0  # 9 equal batches on 4 workers: three rounds
+    assert makespan([3, 5, 3, 4, 3], 2) == 10  # 5 | 4, then 3 → 7, 3 → 8, 3 → 10
+    assert makespan([], 3) == 0.0
+
+
+def test_balanced_plan_tiles_the_grid_and_finishes_together():
+    import tomllib
+
+    definition = sweep_from_dict(tomllib.loads(SWEEP.format(speeds=48, duration=0.01)))
+    points = expand(definition)
+    plan = plan_sweep(definition, points, "cpu", batch_size=10)  # 9 batches of 10 points and one of 6
+    assert len(plan.batches) == 10 and tail_excess(plan, 4) > 0.2
+    balanced = balance_plan(plan, 4)
+    assert tail_excess(balanced, 4) <= TAIL_TOLERANCE
+    assert balanced.batch_size >= plan.batch_size // 4 and balanced.block != plan.block
+    covered = np.zeros(definition.shape, dtype=np.int64)
+    for b in balanced.batches:
+        covered[b.slices] += 1
+    assert (covered == 1).all()
+    assert balance_plan(plan, 1) is plan
+    # 90 points: no block of 3 to 10 points splits evenly over 4 workers; the best found is kept
+    odd = sweep_from_dict(tomllib.loads(SWEEP.format(speeds=45, duration=0.01)))
+    odd_plan = plan_sweep(odd, expand(odd), "cpu", batch_size=10)
+    assert TAIL_TOLERANCE < tail_excess(balance_plan(odd_plan, 4), 4) < tail_excess(odd_plan, 4)
+    priorities = batch_priorities(balanced, range(len(balanced.batches)))
+    order = sorted(priorities, key=priorities.get, reverse=True)
+    sizes = [balanced.batches[i].size for i in order]
+    assert sizes == sorted(sizes, reverse=True) and sorted(priorities.values()) == list(range(1, len(order) + 1))
+
+
+def test_workers_see_their_own_gpu_first():
+    gpus = ["0", "1", "2", "3"]
+    assert [cuda_visible_devices(i, gpus) for i in range(4)] == ["0,1,2,3", "1,2,3,0", "2,3,0,1", "3,0,1,2"]
+    assert cuda_visible_devices(5, ["4", "6"]) == "6,4"
+
+
+def test_three_workers_with_a_balanced_block_write_the_serial_store_bit_for_bit(tmp_path):
+    """The balanced block differs from the serial run's, so each point runs in a batch of other points; the
+    gravity axis makes batches differ in their static features (the launch group's variant covers them all)."""
+    path = write_sweep(tmp_path, speeds=5, duration=0.05)
+    sweep(path, tmp_path / "serial.zarr", "--batch-size", "3")
+    result = sweep(path, tmp_path / "three.zarr", "--batch-size", "4", "--workers", "3", "--json")
+    assert "on 3 local Dask workers" in result.stderr
+    blocks = [zarr.open_group(str(tmp_path / s), mode="r").attrs["sweep_block"] for s in ("serial.zarr", "three.zarr")]
+    assert blocks[0] != blocks[1]
+    assert differing_arrays(tmp_path / "three.zarr", tmp_path / "serial.zarr") == []
+    assert len({r["worker"] for r in batch_records(tmp_path / "three.zarr")}) >= 2
+
+
+def _kill_when_first_batch_done(store, pid, state):
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        try:
+            done = completed_batches(store)
+        except Exception:  # the store is not created yet
+            done = set()
+        if done:
+            state["done_at_kill"] = len(done)
+            os.kill(pid, signal.SIGKILL)
+            return
+        time.sleep(0.02)
+
+
+def test_a_worker_killed_mid_sweep_leaves_the_serial_store(tmp_path):
+    path = write_sweep(tmp_path, speeds=6, duration=0.3)  # 12 batches of one point
+    sweep(path, tmp_path / "serial.zarr", "--batch-size", "1")
+    with local_cluster(2, gpus=["5", "7"]) as cluster:
+        from distributed import Client
+        from distributed.system import MEMORY_LIMIT
+
+        with Client(cluster) as client:
+            info = client.scheduler_info(n_workers=-1)["workers"]
+            assert sorted(w["name"] for w in info.values()) == [0, 1]
+            assert {w["memory_limit"] for w in info.values()} == {MEMORY_LIMIT // 2}
+            assert {w["nthreads"] for w in info.values()} == {1}
+            env = client.run(lambda: os.environ["CUDA_VISIBLE_DEVICES"])
+            assert sorted(env.values()) == ["5,7", "7,5"]
+            assert all(client.run(lambda: "hertzian.core.runner" in sys.modules).values())  # preloaded
+            pids = client.run(os.getpid)
+        victim = pids[next(a for a, w in info.items() if w["name"] == 1)]
+        state = {}
+        store = tmp_path / "parallel.zarr"
+        killer = threading.Thread(target=_kill_when_first_batch_done, args=(store, victim, state))
+        killer.start()
+        sweep(path, store, "--batch-size", "1", "--scheduler", cluster.scheduler_address)
+        killer.join()
+    assert 0 < state["done_at_kill"] < 12  # killed mid-sweep
+    try:
+        os.kill(victim, 0)
+        alive = True
+    except ProcessLookupError:
+        alive = False
+    assert not alive
+    assert completed_batches(store) == set(range(12))
+    assert differing_arrays(store, tmp_path / "serial.zarr") == []
