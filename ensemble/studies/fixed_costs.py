@@ -3,7 +3,12 @@ Warp kernel cache) and warm, compile concurrency (``prepare_kernels`` with 1, 2 
 the CPU ``auto`` rule reads (hertzian.core.solvers.calibrate.CPU_COSTS): each stepping kernel's compile seconds and
 its warm rate [grain-steps/s], with the crossover they give.
 
-``python -m hertzian.studies.fixed_costs --out docs/records/bench/cpu_auto_rule.json`` regenerates the record.
+Also process start (``import hertzian.cli``, ``hertzian run --help``, a tiny warm ``hertzian run``) and the host
+stages of building the first batches of ``sweeps/million.toml`` (expand, plan, jobs, prepare_model, uploads,
+state buffers).
+
+``python -m hertzian.studies.fixed_costs --out docs/records/bench/cpu_auto_rule.json`` regenerates the record
+(``--only start,build`` re-measures those parts into the existing file).
 """
 
 from __future__ import annotations
@@ -127,21 +132,89 @@ def time_kernel_costs(grains: int = 200, steps: int = 20000) -> dict:
     return out
 
 
+BUILD_PROBE = """
+import json, sys, time
+import warp as wp
+wp.config.quiet = True
+from hertzian.core.model import build_model
+from hertzian.core.shipped import shipped_file
+from hertzian.sweeping.distributed import jobs_for, prepare_job
+from hertzian.sweeping.planner import plan_sweep
+from hertzian.sweeping.spec import expand, load_sweep
+out, clock = {}, time.perf_counter()
+def lap(name):
+    global clock
+    out[name] = time.perf_counter() - clock
+    clock = time.perf_counter()
+sweep = load_sweep(shipped_file("million.toml"), {}); points = expand(sweep); lap("expand")
+plan = plan_sweep(sweep, points, "cpu"); lap("plan")
+jobs = jobs_for("unused.zarr", plan, points, plan.batches[: int(sys.argv[1])]); lap("jobs")
+prepared = [prepare_job(job) for job in jobs]; lap("prepare_model")
+models = [build_model(j.chains, "cpu", features=j.features, prepared=p) for j, p in zip(jobs, prepared)]; lap("upload")
+[model.state_pair() for model in models]; lap("state_pair")
+print(json.dumps({"points": sum(len(j.chains) for j in jobs), "seconds": out}))
+"""
+"""Host stages [s] of building the first batches of the 10^6-point sweep on the CPU (no kernel runs)."""
+
+
+def time_build(batches: int = 2) -> dict:
+    """Seconds of each host stage of building the first ``batches`` batches of ``sweeps/million.toml``."""
+    result = subprocess.run(
+        [sys.executable, "-c", BUILD_PROBE, str(batches)], check=True, capture_output=True, text=True
+    )
+    return json.loads(result.stdout.strip().splitlines()[-1])
+
+
+def time_start(repeats: int = 3) -> dict:
+    """Median process wall [s] of ``import hertzian.cli``, ``hertzian run --help`` and a tiny warm CPU run
+    (20 grains, 200 steps; its kernels compiled by a first run that is not counted)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        cache = tempfile.mkdtemp(prefix="warp-cache-")
+        tiny = ["run", "--device", "cpu", "--quiet", "--overwrite", "--out", f"{tmp}/t.zarr"]
+        tiny += ["--set", "chain.grains=20", "--set", "integrator.duration=0.01", "--set", "record.every=0.01"]
+        _wall(tiny, cache)
+        walls = {"import_cli": [], "run_help": [], "tiny_run": []}
+        for _ in range(repeats):
+            start = time.perf_counter()
+            subprocess.run([sys.executable, "-c", "import hertzian.cli"], check=True)
+            walls["import_cli"].append(time.perf_counter() - start)
+            walls["run_help"].append(_wall(["run", "--help"], cache))
+            walls["tiny_run"].append(_wall(tiny, cache))
+    return {name: sorted(values)[len(values) // 2] for name, values in walls.items()}
+
+
+PARTS = {
+    "runs": lambda tmp: time_runs(tmp),
+    "compile_8_variants": lambda tmp: time_compiles(),
+    "kernel_costs": lambda tmp: time_kernel_costs(),
+    "start": lambda tmp: time_start(),
+    "build_million": lambda tmp: time_build(),
+}
+"""Each part of the record and how it is measured (``--only`` names them by key, or ``start``/``build``)."""
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--only", default="", help="comma-separated parts to re-measure into the existing --out")
     args = parser.parse_args()
+    only = [{"build": "build_million"}.get(p, p) for p in args.only.split(",") if p]
+    unknown = [p for p in only if p not in PARTS]
+    if unknown:
+        parser.exit(2, f"error: --only = {unknown[0]!r}: one of {', '.join(PARTS)}, start, build\n")
+    record = json.loads(args.out.read_text()) if only and args.out.is_file() else {}
+    stamp = datetime.now(timezone.utc).isoformat(timespec="seconds")
+    record |= {
+        "command": f"python -m hertzian.studies.fixed_costs --out {args.out}",
+        "device": "cpu",
+        "cpu_count": os.cpu_count(),
+        "platform": platform.platform(),
+    }
+    record.setdefault("dates", {})
     with tempfile.TemporaryDirectory() as tmp:
-        record = {
-            "command": f"python -m hertzian.studies.fixed_costs --out {args.out}",
-            "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-            "device": "cpu",
-            "cpu_count": os.cpu_count(),
-            "platform": platform.platform(),
-            "runs": time_runs(tmp),
-            "compile_8_variants": time_compiles(),
-            "kernel_costs": time_kernel_costs(),
-        }
+        for name in only or PARTS:
+            record[name] = PARTS[name](tmp)
+            record["dates"][name] = stamp
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(record, indent=1) + "\n")
 

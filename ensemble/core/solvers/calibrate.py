@@ -52,11 +52,11 @@ CALIBRATION_VERSION = 4
 windows among the candidates)."""
 
 
-CPU_COSTS = {"step": (6.58, 9.48e6), "chain": (7.17, 4.94e7)}
+CPU_COSTS = {"step": (4.40, 8.33e6), "chain": (4.97, 1.29e8)}
 """(compile seconds on a cold Warp cache, warm rate [grain-steps/s]) of the CPU stepping kernels: the example
 scene at 200 grains on the 2-core machine (docs/records/bench/cpu_auto_rule.json, ``kernel_costs``; regenerated
 by ``python -m hertzian.studies.fixed_costs``). The CPU ``auto`` rule (:func:`cpu_auto_config`) reads them: the
-chain kernel is the cheaper from 6.9e6 grain-steps on a cold cache and from 8.4e7 where only the per-step kernel
+chain kernel is the cheaper from 5.2e6 grain-steps on a cold cache and from 4.4e7 where only the per-step kernel
 is cached (:func:`cpu_crossovers`)."""
 
 
