@@ -1,6 +1,6 @@
 """Fixed costs: every kernel a job launches is named and compiled before its first launch
 (hertzian.core.solvers.compile), ``hertzian warmup`` fills Warp's cache so a run compiles nothing, and ``auto``
-takes the CPU chain kernel for short runs."""
+on a CPU takes the kernel that compiles and runs sooner, a cached kernel counting no compile."""
 
 from __future__ import annotations
 
@@ -14,8 +14,8 @@ import warp as wp
 from conftest import make_scene
 from hertzian.core.model import build_model
 from hertzian.core.runner import Runner
-from hertzian.core.solvers import CHAIN, choose_config
-from hertzian.core.solvers.calibrate import step_reason
+from hertzian.core.solvers import CHAIN, STEP, calibrate, choose_config
+from hertzian.core.solvers.calibrate import CPU_COSTS, cpu_auto_config, cpu_crossovers, cpu_seconds, step_reason
 from hertzian.core.solvers.prepare import kernel_variants, prepare_kernels
 from hertzian.studies.warmup import scene_needs
 
@@ -91,8 +91,56 @@ def test_warmup_refuses_bad_input_in_one_line(tmp_path):
     assert not (tmp_path / "c").exists()
 
 
-def test_cpu_auto_takes_the_chain_kernel_for_a_short_run():
+def test_cpu_auto_takes_the_chain_kernel_for_a_long_run():
     model = build_model([make_scene(chain={"grains": 20})], "cpu")
-    assert model.chain_count * model.grain_count * 10 < 1e3
-    assert choose_config(model, "auto", run_steps=10) == CHAIN
+    assert choose_config(model, "auto", run_steps=None) == CHAIN
+    assert choose_config(model, "auto", run_steps=10**9) == CHAIN
     assert step_reason(model, 10) is None
+
+
+@pytest.mark.parametrize("chain_cached", [False, True])
+@pytest.mark.parametrize("step_cached", [False, True])
+def test_cpu_auto_rule_counts_only_uncached_compiles(monkeypatch, chain_cached, step_cached):
+    """The rule against the cost model written out by hand: seconds = compile (unless cached) + work / rate."""
+    costs = {"step": (2.0, 1e6), "chain": (5.0, 4e6)}  # crossovers: 4e6 (none cached), 6.67e6 (step cached)
+    cached = {"chain": chain_cached, "step": step_cached}
+    monkeypatch.setattr(
+        calibrate, "in_kernel_cache", lambda module, device: cached["chain" if "chain" in module.name else "step"]
+    )
+    features = build_model([make_scene(chain={"grains": 20})], "cpu").features
+    crossover = 4e6 if not step_cached else 5.0 / (1 / 1e6 - 1 / 4e6)
+    assert cpu_crossovers(costs)["step_cached" if step_cached else "none_cached"] == pytest.approx(crossover)
+    for work in (1e3, 0.5 * crossover, 2 * crossover, 1e12):
+        expected = CHAIN if chain_cached or work > crossover else STEP
+        assert cpu_auto_config(features, work, "cpu", costs) == expected, work
+
+
+PROBE = """
+import sys
+from hertzian.core.model import build_model
+from hertzian.core.scene import load_scene
+from hertzian.core.solvers import choose_config
+model = build_model([load_scene(sys.argv[1])], "cpu")
+print(choose_config(model, "auto", run_steps=model.scenes[0].step_count).kind)
+"""
+
+
+def test_cpu_auto_reads_the_kernel_cache(tmp_path):
+    """A tiny run on an empty Warp cache takes the kernel CPU_COSTS say compiles and runs sooner; after
+    ``hertzian warmup`` of the same scene, the chain kernel."""
+    scene = tmp_path / "scene.toml"
+    scene.write_text('[chain]\ngrains = 20\n[integrator]\nduration = 0.01\n[record]\nevery = 0.01\nfields = ["u"]\n')
+    cache = tmp_path / "warp-cache"
+    env = {**os.environ, "WARP_CACHE_PATH": str(cache), "HERTZIAN_CACHE": str(cache / "calibration.json")}
+
+    def choice() -> str:
+        probe = subprocess.run([sys.executable, "-c", PROBE, scene], capture_output=True, text=True, env=env)
+        assert probe.returncode == 0, probe.stderr
+        return probe.stdout.split()[-1]
+
+    work = 20 * 800  # grain-steps: 0.01 / dt 1.25e-5
+    cheaper = min(("chain", "step"), key=lambda kind: cpu_seconds(kind, work, False, CPU_COSTS))
+    assert choice() == cheaper
+    warm = _hertzian("warmup", scene, "--device", "cpu", cache=cache)
+    assert warm.returncode == 0, warm.stderr
+    assert choice() == "chain"

@@ -101,10 +101,11 @@ def test_a_long_fused_advance_replays_graphs_of_a_fixed_length():
     assert lengths == [512, 512, 512, 464]
 
 
-def test_fused_choice_is_auto_without_the_short_run_rule():
-    from hertzian.core.solvers import choose_config
+def test_fused_choice_is_auto_without_the_short_run_rule(monkeypatch):
+    from hertzian.core.solvers import calibrate, choose_config
 
     model = build_model(chains(2, chain={"grains": 30, "l0": 1e-4}, integrator={"dt": 5e-4}), "cpu")
+    monkeypatch.setattr(calibrate, "in_kernel_cache", lambda module, device: False)  # a cold kernel cache
     assert choose_config(model, "auto", run_steps=100) == STEP  # too short to repay a compile
     assert choose_config(model, "fused", run_steps=100) == CHAIN
     assert choose_config(model, "auto", run_steps=10**9) == CHAIN

@@ -69,6 +69,9 @@ def _needs(path: Path | None, paper: bool, quick: bool, detect: Path | None, dev
         return needs.paper_needs(device, quick=quick, kernel=None if kernel == "auto" else kernel)
     if detect is not None:
         return needs.detect_needs(load_scene(detect))
+    # "auto" warms what a run takes once its kernels are cached: "fused" (a short CPU run on a cold cache may
+    # take the per-step kernel, hertzian.core.solvers.calibrate.cpu_auto_config; once warm it takes the chain one)
+    warm = "fused" if kernel == "auto" else kernel
     if path.is_file() and "scene" in read_toml(path):  # a sweep file holds its base scene in [scene]
-        return needs.sweep_needs(path, {}, device, kernel)
-    return needs.scene_needs(load_scene(path), kernel)
+        return needs.sweep_needs(path, {}, device, warm)
+    return needs.scene_needs(load_scene(path), warm)

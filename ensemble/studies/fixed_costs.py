@@ -1,7 +1,14 @@
 """Fixed costs on this machine: ``hertzian run`` wall time with the per-step and the chain kernel, cold (an empty
-Warp kernel cache) and warm, and compile concurrency (``prepare_kernels`` with 1, 2 workers on a cold cache).
+Warp kernel cache) and warm, compile concurrency (``prepare_kernels`` with 1, 2 workers on a cold cache), and what
+the CPU ``auto`` rule reads (hertzian.core.solvers.calibrate.CPU_COSTS): each stepping kernel's compile seconds and
+its warm rate [grain-steps/s], with the crossover they give.
 
-``python -m hertzian.studies.fixed_costs --out docs/records/bench/cpu_auto_rule.json`` regenerates the record.
+Also process start (``import hertzian.cli``, ``hertzian run --help``, a tiny warm ``hertzian run``) and the host
+stages of building the first batches of ``sweeps/million.toml`` (expand, plan, jobs, prepare_model, uploads,
+state buffers).
+
+``python -m hertzian.studies.fixed_costs --out docs/records/bench/cpu_auto_rule.json`` regenerates the record
+(``--only start,build`` re-measures those parts into the existing file).
 """
 
 from __future__ import annotations
@@ -30,6 +37,35 @@ needs = [Need(Features(method=m, static=s), 200, 1, 10**6, k) for m in ("gear4",
          for s in ("none", "uniform") for k in ("step", "chain")]
 print(prepare_kernels(needs, "cpu", max_workers=int(sys.argv[1]))["seconds"])
 """
+
+
+KERNEL_PROBE = """
+import json, sys, time
+import warp as wp
+wp.config.quiet = True
+from hertzian.core.model import build_model
+from hertzian.core.runner import Runner
+from hertzian.core.scene import load_scene
+from hertzian.core.shipped import example_path
+from hertzian.core.solvers.calibrate import cpu_kernel_config
+from hertzian.core.solvers.compile import load_variants, solver_variants
+kind, grains, steps = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+scene = load_scene(example_path(), {"chain.grains": grains, "integrator.duration": steps * 5e-5,
+                                    "record.traces": [], "record.every": steps * 5e-5})
+model = build_model([scene], "cpu")
+config = cpu_kernel_config(kind)
+start = time.perf_counter()
+load_variants(solver_variants(config, model.features, model.grain_count, 1), "cpu")
+compile_s = time.perf_counter() - start
+Runner(model, kernel=config).run()  # warm-up: record kernels, first launch
+runner = Runner(model, kernel=config)
+start = time.perf_counter()
+runner.run()
+run_s = time.perf_counter() - start
+print(json.dumps({"compile_s": compile_s, "rate": grains * steps / run_s}))
+"""
+"""A cold process (its own empty Warp cache): compile seconds of one stepping kernel (``step`` or ``chain``) for the
+example scene at the given grains, then its warm rate over the given steps [grain-steps/s]."""
 
 
 def _wall(args: list[str], cache: str) -> float:
@@ -75,20 +111,110 @@ def time_compiles() -> dict[str, float]:
     return out
 
 
+def time_kernel_costs(grains: int = 200, steps: int = 20000) -> dict:
+    """Compile seconds (cold cache, one process each) and warm rate [grain-steps/s] of the per-step and the chain
+    kernel, and the crossover [grain-steps] of the CPU ``auto`` rule they give (calibrate.cpu_crossovers)."""
+    from hertzian.core.solvers.calibrate import cpu_crossovers
+
+    out = {"grains": grains, "steps": steps}
+    for kind in ("step", "chain"):
+        env = {**os.environ, "WARP_CACHE_PATH": tempfile.mkdtemp(prefix="warp-cache-")}
+        result = subprocess.run(
+            [sys.executable, "-c", KERNEL_PROBE, kind, str(grains), str(steps)],
+            env=env,
+            check=True,
+            capture_output=True,
+            text=True,
+        )
+        out[kind] = json.loads(result.stdout.strip().splitlines()[-1])
+    costs = {kind: (out[kind]["compile_s"], out[kind]["rate"]) for kind in ("step", "chain")}
+    out["crossover_grain_steps"] = cpu_crossovers(costs)
+    return out
+
+
+BUILD_PROBE = """
+import json, sys, time
+import warp as wp
+wp.config.quiet = True
+from hertzian.core.model import build_model
+from hertzian.core.shipped import shipped_file
+from hertzian.sweeping.distributed import jobs_for, prepare_job
+from hertzian.sweeping.planner import plan_sweep
+from hertzian.sweeping.spec import expand, load_sweep
+out, clock = {}, time.perf_counter()
+def lap(name):
+    global clock
+    out[name] = time.perf_counter() - clock
+    clock = time.perf_counter()
+sweep = load_sweep(shipped_file("million.toml"), {}); points = expand(sweep); lap("expand")
+plan = plan_sweep(sweep, points, "cpu"); lap("plan")
+jobs = jobs_for("unused.zarr", plan, points, plan.batches[: int(sys.argv[1])]); lap("jobs")
+prepared = [prepare_job(job) for job in jobs]; lap("prepare_model")
+models = [build_model(j.chains, "cpu", features=j.features, prepared=p) for j, p in zip(jobs, prepared)]; lap("upload")
+[model.state_pair() for model in models]; lap("state_pair")
+print(json.dumps({"points": sum(len(j.chains) for j in jobs), "seconds": out}))
+"""
+"""Host stages [s] of building the first batches of the 10^6-point sweep on the CPU (no kernel runs)."""
+
+
+def time_build(batches: int = 2) -> dict:
+    """Seconds of each host stage of building the first ``batches`` batches of ``sweeps/million.toml``."""
+    result = subprocess.run(
+        [sys.executable, "-c", BUILD_PROBE, str(batches)], check=True, capture_output=True, text=True
+    )
+    return json.loads(result.stdout.strip().splitlines()[-1])
+
+
+def time_start(repeats: int = 3) -> dict:
+    """Median process wall [s] of ``import hertzian.cli``, ``hertzian run --help`` and a tiny warm CPU run
+    (20 grains, 200 steps; its kernels compiled by a first run that is not counted)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        cache = tempfile.mkdtemp(prefix="warp-cache-")
+        tiny = ["run", "--device", "cpu", "--quiet", "--overwrite", "--out", f"{tmp}/t.zarr"]
+        tiny += ["--set", "chain.grains=20", "--set", "integrator.duration=0.01", "--set", "record.every=0.01"]
+        _wall(tiny, cache)
+        walls = {"import_cli": [], "run_help": [], "tiny_run": []}
+        for _ in range(repeats):
+            start = time.perf_counter()
+            subprocess.run([sys.executable, "-c", "import hertzian.cli"], check=True)
+            walls["import_cli"].append(time.perf_counter() - start)
+            walls["run_help"].append(_wall(["run", "--help"], cache))
+            walls["tiny_run"].append(_wall(tiny, cache))
+    return {name: sorted(values)[len(values) // 2] for name, values in walls.items()}
+
+
+PARTS = {
+    "runs": lambda tmp: time_runs(tmp),
+    "compile_8_variants": lambda tmp: time_compiles(),
+    "kernel_costs": lambda tmp: time_kernel_costs(),
+    "start": lambda tmp: time_start(),
+    "build_million": lambda tmp: time_build(),
+}
+"""Each part of the record and how it is measured (``--only`` names them by key, or ``start``/``build``)."""
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--only", default="", help="comma-separated parts to re-measure into the existing --out")
     args = parser.parse_args()
+    only = [{"build": "build_million"}.get(p, p) for p in args.only.split(",") if p]
+    unknown = [p for p in only if p not in PARTS]
+    if unknown:
+        parser.exit(2, f"error: --only = {unknown[0]!r}: one of {', '.join(PARTS)}, start, build\n")
+    record = json.loads(args.out.read_text()) if only and args.out.is_file() else {}
+    stamp = datetime.now(timezone.utc).isoformat(timespec="seconds")
+    record |= {
+        "command": f"python -m hertzian.studies.fixed_costs --out {args.out}",
+        "device": "cpu",
+        "cpu_count": os.cpu_count(),
+        "platform": platform.platform(),
+    }
+    record.setdefault("dates", {})
     with tempfile.TemporaryDirectory() as tmp:
-        record = {
-            "command": f"python -m hertzian.studies.fixed_costs --out {args.out}",
-            "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-            "device": "cpu",
-            "cpu_count": os.cpu_count(),
-            "platform": platform.platform(),
-            "runs": time_runs(tmp),
-            "compile_8_variants": time_compiles(),
-        }
+        for name in only or PARTS:
+            record[name] = PARTS[name](tmp)
+            record["dates"][name] = stamp
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(record, indent=1) + "\n")
 

@@ -9,7 +9,8 @@ themselves are in this package's ``step``, ``tile`` and ``chain`` modules. Kinds
 * ``window`` — long chains cut into blocks with ghost zones, K ≤ ghost steps per launch
   (``kernels/tile.py`` + ``kernels/ghost.py``), CUDA.
 * ``chain`` — one CPU thread per chain, many steps per launch (``kernels/cpu.py``).
-* ``auto`` — per-step for features the fused kernels lack (see :func:`step_reason`); else ``chain`` on a CPU,
+* ``auto`` — per-step for features the fused kernels lack (see :func:`step_reason`); on a CPU the cheaper of
+  ``chain`` and ``step`` counting the compile of a kernel not in Warp's kernel cache (:func:`cpu_auto_config`),
   and on a GPU the fastest of a few ``tile``/``window`` shapes, timed once per (device, features, grains,
   chains) and remembered in ``$HERTZIAN_CACHE`` (default ``~/.cache/hertzian/calibration.json``). A GPU run
   shorter than AUTO_MIN_GRAIN_STEPS_GPU is not timed: it takes the cached shape, else :func:`default_config`.
@@ -36,8 +37,9 @@ from hertzian.core.model import Model, State
 from hertzian.core.solvers.compile import load_variants, solver_variants
 from hertzian.core.solvers.config import CHAIN, STEP, SolverConfig
 from hertzian.core.solvers.tile import TileSolver, config_of
-from hertzian.kernels.cpu import chain_kernel_supports
+from hertzian.kernels.cpu import chain_kernel, chain_kernel_supports
 from hertzian.kernels.features import SUBSTEP_WEIGHTS
+from hertzian.kernels.step import step_kernel
 from hertzian.kernels.tile import fusable, plan_tile
 
 KERNELS = ("auto", "fused", "step", "tile", "window", "chain")
@@ -48,6 +50,14 @@ takes the shape the calibration cache holds for the model, else :func:`default_c
 CALIBRATION_VERSION = 4
 """Bumped when the cached fields change (2: a SolverConfig; 3: the event step out of line by default; 4: one-warp
 windows among the candidates)."""
+
+
+CPU_COSTS = {"step": (4.40, 8.33e6), "chain": (4.97, 1.29e8)}
+"""(compile seconds on a cold Warp cache, warm rate [grain-steps/s]) of the CPU stepping kernels: the example
+scene at 200 grains on the 2-core machine (docs/records/bench/cpu_auto_rule.json, ``kernel_costs``; regenerated
+by ``python -m hertzian.studies.fixed_costs``). The CPU ``auto`` rule (:func:`cpu_auto_config`) reads them: the
+chain kernel is the cheaper from 5.2e6 grain-steps on a cold cache and from 4.4e7 where only the per-step kernel
+is cached (:func:`cpu_crossovers`)."""
 
 
 def stepping_features(features):
@@ -90,6 +100,51 @@ def event_cost_note(features, is_cpu: bool) -> str | None:
         "cost the fused kernel 1.7-11x the time of plain steps, the more contacts open (docs/benchmarks.md, "
         'docs/stability.md 6c, 7c); integrator.events = "off" takes plain Gear steps'
     )
+
+
+def cpu_kernel_config(kind: str) -> SolverConfig:
+    """The SolverConfig of a CPU stepping kernel kind (``step`` or ``chain``)."""
+    return CHAIN if kind == "chain" else STEP
+
+
+def in_kernel_cache(module, device) -> bool:
+    """Whether the Warp ``module`` is loaded on the CPU ``device`` or compiled in Warp's kernel cache (its object
+    file for CPU launches, block 1), so that loading it compiles nothing."""
+    dev = wp.get_device(device)
+    if (dev.context, 1) in module.execs:
+        return True
+    name = module.get_module_identifier(1)
+    path = Path(wp.config.kernel_cache_dir) / name / module._get_compile_output_name(dev, block_dim=1)
+    return path.is_file()
+
+
+def cpu_seconds(kind: str, grain_steps: float, cached: bool, costs: dict = CPU_COSTS) -> float:
+    """Estimated seconds [s] of a CPU run of ``grain_steps`` on kernel ``kind``: its compile unless ``cached``,
+    plus the work at its warm rate (``costs``: kind → (compile seconds, grain-steps/s))."""
+    compile_s, rate = costs[kind]
+    return (0.0 if cached else compile_s) + grain_steps / rate
+
+
+def cpu_crossovers(costs: dict = CPU_COSTS) -> dict[str, float]:
+    """Grain-steps above which the chain kernel is cheaper than the per-step kernel, uncached: when neither is
+    cached (``none_cached``) and when the per-step one is (``step_cached``); 0 when always, inf when never."""
+    (c_step, r_step), (c_chain, r_chain) = costs["step"], costs["chain"]
+    gain = 1.0 / r_step - 1.0 / r_chain  # seconds saved per grain-step on the chain kernel
+    out = {}
+    for name, extra in (("none_cached", c_chain - c_step), ("step_cached", c_chain)):
+        out[name] = 0.0 if extra <= 0 else (extra / gain if gain > 0 else math.inf)
+    return out
+
+
+def cpu_auto_config(features, grain_steps: float, device, costs: dict = CPU_COSTS) -> SolverConfig:
+    """``auto`` on a CPU for features the chain kernel supports: the kernel of the fewer estimated seconds
+    (:func:`cpu_seconds`), a kernel in Warp's kernel cache counting no compile; the chain kernel on a tie. So a
+    cached chain kernel always runs, and a short run on a cold cache takes whichever compiles and runs sooner."""
+    if math.isinf(grain_steps) or in_kernel_cache(chain_kernel(features).module, device):
+        return CHAIN
+    step_cached = in_kernel_cache(step_kernel(features).module, device)
+    chain_s = cpu_seconds("chain", grain_steps, False, costs)
+    return STEP if cpu_seconds("step", grain_steps, step_cached, costs) < chain_s else CHAIN
 
 
 def step_reason(model: Model, run_steps: int | None = None) -> str | None:
@@ -407,9 +462,9 @@ def choose_config(
     # auto
     if step_reason(model, run_steps):
         return STEP
-    if model.device.is_cpu:
-        return CHAIN
     work = model.chain_count * model.grain_count * (run_steps if run_steps is not None else math.inf)
+    if model.device.is_cpu:
+        return cpu_auto_config(f, work, model.device)
     if work < AUTO_MIN_GRAIN_STEPS_GPU:  # short: no calibration, a shape timed before or the default one
         return cached_config(model) or default_config(model)
     return calibrated_config(model, states=states, log=log) if calibrate_now else default_config(model)
