@@ -1,4 +1,4 @@
-"""``hertzian estimate-check``: the per-point error estimate against the true error over a sweep, and its cost
+"""``hertzian estimates``: the per-point error estimate against the true error over a sweep, and its cost
 (ensemble/studies/estimates.py; numbers in docs/accuracy.md)."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import typer
 from hertzian.cli.app import DeviceOption, app, fail, one_line_errors, resolve_device
 
 
-@app.command("estimate-check")
+@app.command("estimates")
 def estimate_check(
     sweep: Annotated[Path, typer.Argument(help="Sweep file whose points are checked (they run as one ensemble).")],
     events: Annotated[str, typer.Option("--events", help="Comma-separated event settings: auto, off.")] = "auto,off",
