@@ -137,3 +137,38 @@ def test_tolerance_met_with_the_largest_ladder_step(name, tolerance):
 def test_tolerance_and_dt_refused_together():
     with pytest.raises(SceneError, match="integrator.tolerance"):
         make_scene(chain={"grains": GRAINS}, integrator={"duration": 1.0, "dt": 1e-3, "tolerance": 1e-6})
+
+
+def test_smooth_chain_keeps_its_order_beside_a_loose_one():
+    """With plain steps, a chain where no contact can open is estimated at its smooth order even when another
+    chain of the ensemble opens contacts (the order is per chain): within 3× of its true error."""
+    smooth = estimated_scene(SMOOTH, "gear4", "off", 2.5e-3)
+    loose = estimated_scene(dict(chain={"l0": 0.0}, excitation={"impact": 1e-2}), "gear4", "off", 2.5e-3)
+    result = run_ensemble([smooth, loose], "cpu")
+    estimate, error = float(result.error_estimate[0]), true_error(smooth, result.u[0])
+    assert error / FACTOR <= estimate <= FACTOR * error, f"estimate {estimate:.3g}, true error {error:.3g}"
+
+
+def test_sweep_refuses_a_tolerance(tmp_path):
+    """A sweep takes dt: a tolerance (in the scene or on an axis) is refused at load with one line, exit 2,
+    nothing written."""
+    from hertzian.cli import EXIT_BAD_INPUT, app
+    from hertzian.sweeping.spec import sweep_from_dict
+    from typer.testing import CliRunner
+
+    scene = {"chain": {"grains": 4}, "integrator": {"tolerance": 1e-6, "duration": 0.1}, "record": {"every": 0.05}}
+    axis = {"name": "v", "key": "excitation.impact", "values": [1e-3, 1e-2]}
+    with pytest.raises(SceneError, match="integrator.tolerance") as refused:
+        sweep_from_dict({"scene": scene, "axis": [axis]})
+    assert "\n" not in str(refused.value)
+    tolerance_axis = {"name": "tol", "key": "integrator.tolerance", "values": [1e-6, 1e-8]}
+    with pytest.raises(SceneError, match="not a tolerance"):
+        sweep_from_dict({"scene": {**scene, "integrator": {"duration": 0.1}}, "axis": [tolerance_axis]})
+    path = tmp_path / "tol.toml"
+    path.write_text(
+        "[scene.chain]\ngrains = 4\n[scene.integrator]\ntolerance = 1e-6\nduration = 0.1\n"
+        '[[axis]]\nname = "v"\nkey = "excitation.impact"\nvalues = [1e-3, 1e-2]\n'
+    )
+    out = tmp_path / "out.zarr"
+    ran = CliRunner().invoke(app, ["sweep", str(path), "--out", str(out), "--device", "cpu"])
+    assert ran.exit_code == EXIT_BAD_INPUT and "integrator.tolerance" in ran.output and not out.exists()

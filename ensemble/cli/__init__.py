@@ -27,6 +27,7 @@ COMMANDS = (
     "reproduce",
     "detect",
     "warmup",
+    "estimates",
 )
 """Command modules of this package, in help order."""
 

@@ -25,12 +25,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
+import warp as wp
 from hertzian.core.chains import ChainSet, ChainStack
 from hertzian.core.check import ACCURATE_STEPS_PER_CONTACT_TIME, check_scene
-from hertzian.core.model import Model, chain_set_can_open, contact_can_open
+from hertzian.core.model import Model, chains_can_open, contact_can_open
 from hertzian.core.scene import AUTO_METHOD, Scene
 from hertzian.core.scene import SHADOW_STEP_FACTOR as SHADOW_FACTOR
 from hertzian.core.static import static_arrays, static_state
@@ -72,36 +73,55 @@ def shadow_chains(scenes: "Sequence[Scene] | ChainSet | ChainStack"):
     return [s.with_overrides(shadow_overrides(s)) for s in scenes]
 
 
-def assumed_order(method: str, *, can_open: bool, events: bool) -> float:
-    """The convergence order p of the positions used by the Richardson estimate (module docstring)."""
-    if not can_open:
-        return SMOOTH_ORDER[method]
-    if events:
-        return min(EVENT_ORDER, SMOOTH_ORDER[method])
-    return min(OPEN_ORDER, SMOOTH_ORDER[method])
+def shadow_model(model: Model) -> Model:
+    """The shadow of a built model: its uploaded per-chain arrays reused, twice the step, no traces. The
+    initial state of a float64 ChainSet model is the run's scaled by 2^k per Nordsieck row k (exact in binary);
+    otherwise the shadow computes its own."""
+    features = replace(model.features, traces=False)
+    start = None
+    if model._start is not None and not model.features.compensation:
+        scale = float(SHADOW_FACTOR) ** np.arange(model._start[1].shape[0])
+        start = (features, model._start[1] * scale[:, None, None])
+    return replace(
+        model,
+        scenes=shadow_chains(model.scenes),
+        features=features,
+        dt=SHADOW_FACTOR * model.dt,
+        trace_slot=wp.zeros(0, dtype=wp.int32, device=model.device),
+        _start=start,
+    )
 
 
-def ensemble_can_open(scenes: "Sequence[Scene] | ChainSet | ChainStack") -> bool:
-    """Whether a contact of any chain may open during the run (hertzian.core.model.contact_can_open)."""
+def assumed_order(method: str, *, can_open, events: bool):
+    """The convergence order p of the positions used by the Richardson estimate (module docstring); ``can_open``
+    a bool or a per-chain bool array (then p is per chain)."""
+    opened = min(EVENT_ORDER, SMOOTH_ORDER[method]) if events else min(OPEN_ORDER, SMOOTH_ORDER[method])
+    order = np.where(can_open, opened, SMOOTH_ORDER[method])
+    return float(order) if order.ndim == 0 else order
+
+
+def ensemble_can_open(scenes: "Sequence[Scene] | ChainSet | ChainStack") -> np.ndarray:
+    """Per chain, whether a contact may open during the run (hertzian.core.model.contact_can_open), bool (chains,)."""
     if isinstance(scenes, ChainStack):
-        return any(ensemble_can_open(part) for part in scenes.parts)
+        return np.concatenate([ensemble_can_open(part) for part in scenes.parts])
     if isinstance(scenes, ChainSet):
-        return chain_set_can_open(scenes, static_arrays(scenes))
-    return any(contact_can_open(s, static_state(s)) for s in scenes)
+        return chains_can_open(scenes, static_arrays(scenes))
+    return np.array([contact_can_open(s, static_state(s)) for s in scenes], dtype=bool)
 
 
-def model_order(model: Model) -> float:
-    """:func:`assumed_order` of an ensemble's method, contacts and event setting."""
+def model_order(model: Model) -> np.ndarray:
+    """:func:`assumed_order` per chain of an ensemble: the method's smooth order on chains where no contact can
+    open, the event or plain-step order where one can."""
     events = model.features.event_window > 0
-    can_open = events or ensemble_can_open(model.scenes)
-    return assumed_order(model.features.method, can_open=can_open, events=events)
+    return assumed_order(model.features.method, can_open=ensemble_can_open(model.scenes), events=events)
 
 
-def richardson_error(u: np.ndarray, u_shadow: np.ndarray, order: float, factor: int = SHADOW_FACTOR) -> np.ndarray:
+def richardson_error(u: np.ndarray, u_shadow: np.ndarray, order, factor: int = SHADOW_FACTOR) -> np.ndarray:
     """Per chain, max |u − u_shadow| / (factor^order − 1) / max |u| over records and grains [relative].
 
-    ``u``, ``u_shadow``: positions at the same records, shape (chains, records, grains). A chain whose
-    ``u`` or shadow is not finite gets inf; a chain at rest (max |u| = 0) gets the absolute difference."""
+    ``u``, ``u_shadow``: positions at the same records, shape (chains, records, grains); ``order``: one number, or
+    one per chain. A chain whose ``u`` or shadow is not finite gets inf; a chain at rest (max |u| = 0) gets the
+    absolute difference."""
     u = np.asarray(u, dtype=np.float64)
     u_shadow = np.asarray(u_shadow, dtype=np.float64)
     if u.shape != u_shadow.shape:

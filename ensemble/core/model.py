@@ -361,15 +361,20 @@ def chain_set_features(chains: ChainSet, static) -> Features:
 
 def chain_set_can_open(chains: ChainSet, static) -> bool:
     """:func:`contact_can_open` for any chain of a ChainSet, vectorised over its static arrays."""
+    return bool(np.any(chains_can_open(chains, static)))
+
+
+def chains_can_open(chains: ChainSet, static) -> np.ndarray:
+    """:func:`contact_can_open` per chain of a ChainSet (bool, shape (chains,)), vectorised over its static arrays."""
     if chains.template.boundary.surface == "driven":
-        return True
+        return np.ones(len(chains), dtype=bool)
     present = static.contact_constant > 0
     impact = chains.column("excitation.impact")
     impact = np.zeros(len(chains)) if impact is None else impact
     injected = 0.5 * static.mass[:, 0] * impact**2
     delta0 = np.where(present, static.static_overlap, 1.0)
     bound = (static.exponent[:, None] - 1) * static.contact_constant * delta0 ** static.exponent[:, None]
-    return bool(np.any(present & ((static.static_overlap <= 0) | (bound <= injected[:, None]))))
+    return np.any(present & ((static.static_overlap <= 0) | (bound <= injected[:, None])), axis=1)
 
 
 @dataclass(frozen=True, eq=False)

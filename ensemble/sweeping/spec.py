@@ -301,6 +301,12 @@ def _parse_zips(raw: Any, names: list[str]) -> list[tuple[str, ...]]:
     return groups
 
 
+SWEEP_TOLERANCE = (
+    "a sweep takes integrator.dt, not a tolerance (hertzian run takes one); set dt and add --error-estimate"
+)
+"""Why a sweep refuses ``integrator.tolerance``."""
+
+
 def sweep_from_dict(
     data: dict,
     *,
@@ -333,6 +339,8 @@ def sweep_from_dict(
         raise SceneError("scene", raw_scene, "must be a path (string) or an inline [scene] table")
     base_data = apply_overrides(base_data, overrides or {})
     base = scene_from_dict(base_data)
+    if base.integrator.tolerance is not None:
+        raise SceneError("integrator.tolerance", base.integrator.tolerance, SWEEP_TOLERANCE)
     base_data = base.to_dict()
 
     raw_axes = data.get("axis", [])
@@ -341,6 +349,9 @@ def sweep_from_dict(
     if not isinstance(raw_axes, list):
         raise SceneError("axis", raw_axes, "must be an array of tables ([[axis]])")
     axes = [_parse_axis(k, raw, max_points) for k, raw in enumerate(raw_axes)]
+    for axis in axes:
+        if axis.key == "integrator.tolerance":
+            raise SceneError(f"axis {axis.name!r} key", axis.key, SWEEP_TOLERANCE)
     names, keys = {}, {}
     for k, axis in enumerate(axes):
         if axis.name in names:

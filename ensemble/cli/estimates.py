@@ -1,0 +1,64 @@
+"""``hertzian estimates``: the per-point error estimate against the true error over a sweep, and its cost
+(ensemble/studies/estimates.py; numbers in docs/accuracy.md)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+from hertzian.cli.app import DeviceOption, app, fail, one_line_errors, resolve_device
+
+
+@app.command("estimates")
+def estimate_check(
+    sweep: Annotated[Path, typer.Argument(help="Sweep file whose points are checked (they run as one ensemble).")],
+    events: Annotated[str, typer.Option("--events", help="Comma-separated event settings: auto, off.")] = "auto,off",
+    reference_divisor: Annotated[
+        int, typer.Option("--reference-divisor", help="Reference step = the sweep's dt / this (gear6), even, ≥ 4.")
+    ] = 16,
+    cost: Annotated[
+        bool, typer.Option("--cost", help="Also time 64 chains × 200 grains with and without the estimate.")
+    ] = False,
+    as_json: Annotated[Optional[Path], typer.Option("--json", help="Write the record (JSON) here.")] = None,
+    device: DeviceOption = None,
+):
+    """Estimate against true error: each point of SWEEP is run with its error estimate (per --events setting)
+    and against gear6 at dt/--reference-divisor; prints the fraction of points whose estimate is within 3× of
+    the true error, where contacts can open and where none can."""
+    from hertzian.studies.accuracy import parse_list
+    from hertzian.studies.estimates import cost_scenes, estimate_check, estimate_cost
+    from hertzian.sweeping.spec import load_sweep
+
+    if reference_divisor < 4 or reference_divisor % 2:
+        fail(f"--reference-divisor = {reference_divisor}: must be an even integer ≥ 4")
+    if as_json is not None and not as_json.parent.exists():
+        fail(f"--json = {str(as_json)!r}: parent directory does not exist")
+    with one_line_errors():
+        settings = parse_list("--events", events, ("auto", "off"))
+        scenes = load_sweep(sweep).scenes()
+    dev = resolve_device(device)
+    record = {
+        "sweep": sweep.name,
+        **estimate_check(scenes, device=dev, events=settings, reference_divisor=reference_divisor),
+    }
+    if cost:
+        record["cost"] = estimate_cost(cost_scenes(), device=dev)
+    for setting, row in record["events"].items():
+        typer.echo(
+            f"events {setting}: {row['fraction_within']:.0%} of {row['resolved_points']} resolved points within 3× "
+            f"(contacts open: {_percent(row['fraction_within_where_contacts_open'])}, none open: "
+            f"{_percent(row['fraction_within_where_none_open'])}); ratio {row['ratio_range'][0]:.2g} … "
+            f"{row['ratio_range'][1]:.2g}"
+        )
+    if cost:
+        c = record["cost"]
+        typer.echo(f"cost: {c['ratio']:.2f}× ({c['chains']} chains × {c['grains']} grains, kernel {c['kernel']})")
+    if as_json is not None:
+        as_json.write_text(json.dumps(record, indent=1) + "\n")
+        typer.echo(f"wrote {as_json}", err=True)
+
+
+def _percent(value: float | None) -> str:
+    return "-" if value is None else f"{value:.0%}"
