@@ -65,6 +65,19 @@ def reproduce(
             "else auto).",
         ),
     ] = None,
+    measure: Annotated[
+        Optional[list[str]],
+        typer.Option(
+            "--measure",
+            help="Instead of figure groups, a measurement with no figure (hertzian.studies.measures): "
+            "daggers (every item of docs/records/reproduction/daggers_cpu.json), one of its items, or settle "
+            "(reduces OUT_DIR/tau10.zarr, tau1.zarr and their _half twins); repeatable. Needs --json.",
+        ),
+    ] = None,
+    record: Annotated[
+        Optional[Path],
+        typer.Option("--json", help="With --measure: the JSON record the items are merged into (created if missing)."),
+    ] = None,
     device: DeviceOption = None,
 ):
     """Run Sen, Manciu & Wright (1998)'s figure groups: per group a Zarr store, its figures as PNGs, and in
@@ -101,6 +114,8 @@ def reproduce(
     if kernel is not None and kernel not in KERNELS:
         fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)}")
     dev = resolve_device(device)
+    if measure or record:
+        return _measure(measure or [], record, out_dir, dev)
     if kernel == "chain" and dev != "cpu":
         fail(f"--kernel = 'chain': a CPU kernel; --device = {dev!r}")
     if kernel in ("tile", "window") and dev == "cpu":
@@ -120,3 +135,25 @@ def reproduce(
     if log["figure_failures"]:
         typer.echo(f"error: {log['figure_failures']} figure(s) could not be drawn (see log.json)", err=True)
         raise typer.Exit(1)
+
+
+def _measure(names: list[str], record: Path | None, out_dir: Path, device: str) -> None:
+    """``--measure``: run the named items of hertzian.studies.measures into the record ``--json``."""
+    import sys
+
+    from hertzian.studies.measures import DAGGERS, MEASURES, measure_items
+
+    if not names:
+        fail("--json: only with --measure")
+    allowed = ("daggers", *MEASURES)
+    for name in names:
+        if name not in allowed:
+            fail(f"--measure = {name!r}: one of {', '.join(allowed)}")
+    if record is None:
+        fail("--measure: needs --json RECORD (the JSON file the items are written into)")
+    if not record.parent.is_dir():
+        fail(f"--json = {str(record)!r}: parent directory does not exist")
+    items = [item for name in names for item in (DAGGERS if name == "daggers" else (name,))]
+    command = "hertzian " + " ".join(sys.argv[1:])
+    measure_items(list(dict.fromkeys(items)), record, out_dir, device, command=command, say=typer.echo)
+    typer.echo(f"wrote {record}")
