@@ -93,3 +93,15 @@ def test_measure_bad_input_is_one_line_exit_2(tmp_path, monkeypatch, args, messa
     assert result.exit_code == 2
     assert message in result.output and len(result.output.strip().splitlines()) == 1
     assert list(tmp_path.iterdir()) == []
+
+
+def test_window_medians_skip_infinite_ratios_and_stop_at_count():
+    windows = {"swr": [1.0, math.inf, 3.0, 100.0], "node_drift": [0, 2, 4, 6]}
+    windows |= {"ke_correlation_next": [0.1, 0.2, 0.3], "driver_open": [0.0, 0.5, 1.0, 1.0]}
+    assert ms.window_medians(windows) == {
+        "swr": 3.0,
+        "node_drift": 3.0,
+        "ke_correlation_next": 0.2,
+        "driver_open": 0.75,
+    }
+    assert ms.window_medians(windows, 2)["swr"] == 1.0

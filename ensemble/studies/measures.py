@@ -433,6 +433,17 @@ def strobe(point, since: float) -> str:
     return f"{an.LABELS[an.strobe_label(samples)]} ({len(samples)} samples)"
 
 
+def window_medians(windows: dict[str, list], count: int | None = None) -> dict[str, float]:
+    """Medians over the first ``count`` windows (default all) of :func:`window_numbers`' swr (where finite), node
+    drift, successive-window correlation and driver-open fraction: docs/drive.md's table."""
+    out = {}
+    for key in ("swr", "node_drift", "ke_correlation_next", "driver_open"):
+        x = np.asarray(windows[key][:count], dtype=float)
+        x = x[np.isfinite(x)]
+        out[key] = float(np.median(x)) if x.size else math.nan
+    return out
+
+
 def settle_point(point, half=None) -> dict[str, Any]:
     """One point of a long driven run: energy error, mean driver power over POWER_SPANS, strobe labels (all, and
     t ≥ 2500), :func:`window_numbers`; with ``half`` (the same point at dt/2) its window numbers, energy error and
@@ -457,6 +468,10 @@ def settle_point(point, half=None) -> dict[str, Any]:
                 point.trace_t.values[:same], point.trace_v.values, half.trace_v.values
             ),
         }
+        shared = len(row["half_dt"]["windows"]["swr"])
+        row["medians_over_shared_windows"] = {"dt": window_medians(row["windows"], shared)}
+        row["medians_over_shared_windows"]["dt/2"] = window_medians(row["half_dt"]["windows"])
+    row["medians"] = window_medians(row["windows"])
     return row
 
 
