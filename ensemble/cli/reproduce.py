@@ -16,7 +16,8 @@ def reproduce(
         typer.Option(
             "--figure",
             help="A figure group or figure (fig1, fig1d, fig2, fig3, fig3_load, fig4, fig5, fig5_single, "
-            "fig5_modes or modes, fig6, depth, fig7_8, fig7_8_single, fig7_8_slow, fig9_10 or fig9/fig10); repeatable. "
+            "fig5_modes or modes, fig6, depth, fig7_8, fig7_8_single, fig7_8_slow, finite_g, fig9_10 or fig9/fig10, "
+            "sec6_lag); repeatable. "
             "Default: every group.",
         ),
     ] = None,
