@@ -13,7 +13,8 @@ FigureOption = Annotated[
     typer.Option(
         "--figure",
         help="A figure group or figure (fig1, fig1d, fig2, fig3, fig3_load, fig4, fig5, fig5_single, "
-        "fig5_modes or modes, fig6, depth, fig7_8, fig7_8_single, fig7_8_slow, fig9_10 or fig9/fig10); repeatable. "
+        "fig5_modes or modes, fig6, depth, fig7_8, fig7_8_single, fig7_8_slow, finite_g, fig9_10 or fig9/fig10, "
+        "sec6_lag); repeatable. "
         "Default: every group.",
     ),
 ]
@@ -55,6 +56,19 @@ GroupEventsOption = Annotated[
     ),
 ]
 
+MeasureOption = Annotated[
+    Optional[list[str]],
+    typer.Option(
+        "--measure",
+        help="Instead of figure groups, a measurement with no figure (hertzian.studies.measures): "
+        "daggers (every item of docs/records/reproduction/daggers_cpu.json), one of its items, or settle "
+        "(reduces OUT_DIR/tau10.zarr, tau1.zarr and their _half twins); repeatable. Needs --json.",
+    ),
+]
+MeasureRecordOption = Annotated[
+    Optional[Path],
+    typer.Option("--json", help="With --measure: the JSON record the items are merged into (created if missing)."),
+]
 GroupKernelOption = Annotated[
     Optional[str],
     typer.Option(
@@ -77,6 +91,8 @@ def reproduce(
     drive_grains: DriveGrainsOption = None,
     events: GroupEventsOption = None,
     kernel: GroupKernelOption = None,
+    measure: MeasureOption = None,
+    record: MeasureRecordOption = None,
     device: DeviceOption = None,
 ):
     """Run Sen, Manciu & Wright (1998)'s figure groups: per group a Zarr store, its figures as PNGs, and in
@@ -113,10 +129,12 @@ def reproduce(
     if kernel is not None and kernel not in KERNELS:
         fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)}")
     dev = resolve_device(device)
+    if measure or record:
+        return _measure(measure or [], record, out_dir, dev)
     if kernel == "chain" and dev != "cpu":
         fail(f"--kernel = 'chain': a CPU kernel; --device = {dev!r}")
     if kernel in ("tile", "window") and dev == "cpu":
-        fail(f"--kernel = {kernel!r}: CUDA kernels; on --device cpu use auto, fused, step or sweep")
+        fail(f"--kernel = {kernel!r}: CUDA kernels; on --device cpu use auto, fused, step or chain")
     log = run_all(
         out_dir,
         groups=[g for g in GROUPS if g in groups] or None,
@@ -132,3 +150,25 @@ def reproduce(
     if log["figure_failures"]:
         typer.echo(f"error: {log['figure_failures']} figure(s) could not be drawn (see log.json)", err=True)
         raise typer.Exit(1)
+
+
+def _measure(names: list[str], record: Path | None, out_dir: Path, device: str) -> None:
+    """``--measure``: run the named items of hertzian.studies.measures into the record ``--json``."""
+    import sys
+
+    from hertzian.studies.measures import DAGGERS, MEASURES, measure_items
+
+    if not names:
+        fail("--json: only with --measure")
+    allowed = ("daggers", *MEASURES)
+    for name in names:
+        if name not in allowed:
+            fail(f"--measure = {name!r}: one of {', '.join(allowed)}")
+    if record is None:
+        fail("--measure: needs --json RECORD (the JSON file the items are written into)")
+    if not record.parent.is_dir():
+        fail(f"--json = {str(record)!r}: parent directory does not exist")
+    items = [item for name in names for item in (DAGGERS if name == "daggers" else (name,))]
+    command = "hertzian " + " ".join(sys.argv[1:])
+    measure_items(list(dict.fromkeys(items)), record, out_dir, device, command=command, say=typer.echo)
+    typer.echo(f"wrote {record}")

@@ -122,6 +122,16 @@ GROUPS: dict[str, Group] = {
             "integrator.duration": 6.0,
         },
     ),
+    "finite_g": Group(
+        "paper_finite_g.toml",
+        (),
+        {
+            "chain.grains": 300,
+            "impurities.0.grains": [148, 149, 150, 151, 152],
+            "record.traces": [0, 30, 75],
+            "integrator.duration": 24.0,
+        },
+    ),
     "fig9_10": Group("paper_fig9_10.toml", ("fig9", "fig10"), {"chain.grains": 300}),
     "sec6_lag": Group("paper_fig9_10.toml", ("sec6_lag",), {"chain.grains": 300}),
 }
@@ -319,6 +329,36 @@ def run_driven(scenes, device: str, centres: np.ndarray, *, coarse_every: float)
     }
 
 
+def write_dataset(ds, path: Path) -> None:
+    """Write an xarray Dataset as a Zarr store at ``path`` (replacing one there) with consolidated metadata."""
+    from hertzian.sweeping.store_format import consolidate
+
+    ds.to_zarr(path, mode="w", consolidated=False)
+    consolidate(path)
+
+
+def driven_entry(name: str, scenes, result: dict[str, Any], *, grains: int, dt: float, duration: float, **extra):
+    """The log entry of one run of the driven columns (``run_driven``'s ``result``): size, steps, device, kernel,
+    wall seconds, energy error and status per chain, then ``extra``."""
+    return {
+        "name": name,
+        "points": len(scenes),
+        "grains": grains,
+        "dt": dt,
+        "duration": duration,
+        "steps": result["steps"],
+        "taus": [s.excitation.drive_period for s in scenes],
+        "device": result["device"],
+        "kernel": result["kernel"],
+        "wall_seconds": result["wall_seconds"],
+        "grain_steps_per_second": result["grain_steps_per_second"],
+        "energy_error": result["energy_error"].tolist(),
+        "energy_error_max": float(np.max(result["energy_error"])),
+        "status": result["status"].tolist(),
+        **extra,
+    }
+
+
 def write_driven(
     path: Path, sweep, scenes, centres: np.ndarray, result: dict, block: np.ndarray, lag: np.ndarray
 ) -> None:
@@ -373,11 +413,7 @@ def write_driven(
             "sample_every": SAMPLE_EVERY,
         },
     )
-    import warnings
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", category=UserWarning)  # zarr 3: consolidated metadata has no spec yet
-        ds.to_zarr(path, mode="w", consolidated=True)
+    write_dataset(ds, path)
 
 
 def standing_wave_numbers(ke_window: np.ndarray, paper_times: np.ndarray, block: np.ndarray) -> list[list[dict]]:
@@ -412,20 +448,29 @@ def standing_wave_numbers(ke_window: np.ndarray, paper_times: np.ndarray, block:
     return out
 
 
-def run_drive_group(
-    path: Path,
-    out_dir: Path,
-    device: str,
-    *,
-    quick: bool,
-    grains: int | None = None,
-    events: str | None = None,
-    say: Callable[[str], None] = print,
-) -> list[dict[str, Any]]:
+@dataclass(frozen=True)
+class DriveJob:
+    """What a driven-column group (``run_drive_group``, ``run_lag_group``) runs: its sweep file, output folder,
+    device, size (``grains``: None = 10 000, or the group's ``--quick`` size), integrator.events, progress lines."""
+
+    path: Path
+    out_dir: Path
+    device: str
+    quick: bool = False
+    grains: int | None = None
+    events: str | None = None
+    say: Callable[[str], None] = print
+
+    def size(self, group: str) -> int:
+        """The column's grains for ``group``."""
+        return self.grains or (GROUPS[group].quick["chain.grains"] if self.quick else 10000)
+
+
+def run_drive_group(job: DriveJob) -> list[dict[str, Any]]:
     """Figs. 9–10: the windowed run (store ``fig9_10.zarr``) and, at full size, the dt check
     (``fig9_10_dt_check.zarr``: dt = 1.25e-5 to the first window, compared window by window)."""
-    grains = grains or (GROUPS["fig9_10"].quick["chain.grains"] if quick else 10000)
-    if quick and grains == GROUPS["fig9_10"].quick["chain.grains"]:
+    grains = job.size("fig9_10")
+    if job.quick and grains == GROUPS["fig9_10"].quick["chain.grains"]:
         paper_times = np.array(QUICK_DRIVE_TIMES)
     else:
         paper_times = np.round(an.drive_times(grains), 3)
@@ -434,9 +479,9 @@ def run_drive_group(
     centres = paper_times[block] + lag
     duration = float(centres[-1] + WINDOW)
     clock = time.perf_counter()
-    sweep, scenes = drive_scenes(path, grains, duration, DRIVE_DT, events)
-    result = run_driven(scenes, device, centres, coarse_every=0.5 if quick else COARSE_EVERY)
-    store = out_dir / "fig9_10.zarr"
+    sweep, scenes = drive_scenes(job.path, grains, duration, DRIVE_DT, job.events)
+    result = run_driven(scenes, job.device, centres, coarse_every=0.5 if job.quick else COARSE_EVERY)
+    store = job.out_dir / "fig9_10.zarr"
     write = time.perf_counter()
     write_driven(store, sweep, scenes, centres, result, block, lag)
     seconds = {
@@ -445,36 +490,28 @@ def run_drive_group(
         "store": time.perf_counter() - write,
     }
     runs = [
-        {
-            "name": "fig9_10",
-            "store": store.name,
-            "points": len(scenes),
-            "grains": grains,
-            "dt": DRIVE_DT,
-            "duration": duration,
-            "steps": result["steps"],
-            "taus": [s.excitation.drive_period for s in scenes],
-            "device": result["device"],
-            "kernel": result["kernel"],
-            "wall_seconds": result["wall_seconds"],
-            "grain_steps_per_second": result["grain_steps_per_second"],
-            "energy_error": result["energy_error"].tolist(),
-            "energy_error_max": float(np.max(result["energy_error"])),
-            "status": result["status"].tolist(),
-            "standing_wave": standing_wave_numbers(result["ke_window"], paper_times, block),
-            "seconds": seconds,
-        }
+        driven_entry(
+            "fig9_10",
+            scenes,
+            result,
+            grains=grains,
+            dt=DRIVE_DT,
+            duration=duration,
+            store=store.name,
+            standing_wave=standing_wave_numbers(result["ke_window"], paper_times, block),
+            seconds=seconds,
+        )
     ]
-    say(f"fig9_10: {result['wall_seconds']:.1f} s, energy error {np.max(result['energy_error']):.2e}")
-    if quick:
+    job.say(f"fig9_10: {result['wall_seconds']:.1f} s, energy error {np.max(result['energy_error']):.2e}")
+    if job.quick:
         return runs
     first = centres[centres <= paper_times[0]]
     clock = time.perf_counter()
-    _, fine_scenes = drive_scenes(path, grains, float(first[-1] + WINDOW), DRIVE_CHECK_DT, events)
-    fine = run_driven(fine_scenes, device, first, coarse_every=float(first[-1] + WINDOW))
+    _, fine_scenes = drive_scenes(job.path, grains, float(first[-1] + WINDOW), DRIVE_CHECK_DT, job.events)
+    fine = run_driven(fine_scenes, job.device, first, coarse_every=float(first[-1] + WINDOW))
     write = time.perf_counter()
     write_driven(
-        out_dir / "fig9_10_dt_check.zarr", sweep, fine_scenes, first, fine, block[: len(first)], lag[: len(first)]
+        job.out_dir / "fig9_10_dt_check.zarr", sweep, fine_scenes, first, fine, block[: len(first)], lag[: len(first)]
     )
     fine_seconds = {
         "integrate": fine["wall_seconds"],
@@ -484,26 +521,20 @@ def run_drive_group(
     coarse_ke = result["ke_window"][:, : len(first)]
     difference = np.linalg.norm(fine["ke_window"] - coarse_ke, axis=-1) / np.linalg.norm(fine["ke_window"], axis=-1)
     runs.append(
-        {
-            "name": "fig9_10_dt_check",
-            "store": "fig9_10_dt_check.zarr",
-            "points": len(fine_scenes),
-            "grains": grains,
-            "dt": DRIVE_CHECK_DT,
-            "duration": float(first[-1] + WINDOW),
-            "steps": fine["steps"],
-            "device": fine["device"],
-            "kernel": fine["kernel"],
-            "wall_seconds": fine["wall_seconds"],
-            "grain_steps_per_second": fine["grain_steps_per_second"],
-            "energy_error": fine["energy_error"].tolist(),
-            "energy_error_max": float(np.max(fine["energy_error"])),
-            "window_t": first.tolist(),
-            "relative_l2_difference_of_window_ke(dt=1.25e-4 vs 1.25e-5)": difference.tolist(),
-            "seconds": fine_seconds,
-        }
+        driven_entry(
+            "fig9_10_dt_check",
+            fine_scenes,
+            fine,
+            grains=grains,
+            dt=DRIVE_CHECK_DT,
+            duration=float(first[-1] + WINDOW),
+            store="fig9_10_dt_check.zarr",
+            window_t=first.tolist(),
+            **{"relative_l2_difference_of_window_ke(dt=1.25e-4 vs 1.25e-5)": difference.tolist()},
+            seconds=fine_seconds,
+        )
     )
-    say(f"fig9_10 dt check: {fine['wall_seconds']:.1f} s, relative KE-profile difference {difference.tolist()}")
+    job.say(f"fig9_10 dt check: {fine['wall_seconds']:.1f} s, relative KE-profile difference {difference.tolist()}")
     return runs
 
 
@@ -529,57 +560,42 @@ def lag_correlations(result: dict[str, Any], t0s: np.ndarray, lags: np.ndarray) 
     return out
 
 
-def run_lag_group(
-    path: Path,
-    out_dir: Path,
-    device: str,
-    *,
-    quick: bool,
-    grains: int | None = None,
-    events: str | None = None,
-    say: Callable[[str], None] = print,
-) -> list[dict[str, Any]]:
+def run_lag_group(job: DriveJob) -> list[dict[str, Any]]:
     """Sec. VI at the paper's own timescale: the driven columns of Figs. 9–10, profiles every SAMPLE_EVERY
     (80 steps) from t0 to t0 + WINDOW (12 000 steps) at the late paper times, instantaneous and WINDOW-averaged,
     each correlated with the one at t0 (:func:`lag_correlations`); at DRIVE_DT and DRIVE_DT/2 (the chaotic-drive
     rule: what differs between the two is a statistic, not a pattern). Writes no store: the numbers are the
     log's, ``hertzian plot LOG.json --figure sec6_lag`` draws them."""
-    grains = grains or (GROUPS["sec6_lag"].quick["chain.grains"] if quick else 10000)
+    grains = job.size("sec6_lag")
     t0s = np.round(an.drive_times(grains)[LAG_TIMES], 2)
     lags = np.round(np.arange(0.0, WINDOW + 1e-9, SAMPLE_EVERY), 6)
     centres = (t0s[:, None] + lags[None, :]).ravel()
     duration = float(centres[-1] + WINDOW)
     runs = []
     for dt in (DRIVE_DT, 0.5 * DRIVE_DT):
-        sweep, scenes = drive_scenes(path, grains, duration, dt, events)
-        result = run_driven(scenes, device, centres, coarse_every=duration)
+        sweep, scenes = drive_scenes(job.path, grains, duration, dt, job.events)
+        result = run_driven(scenes, job.device, centres, coarse_every=duration)
         runs.append(
-            {
-                "name": "sec6_lag" if dt == DRIVE_DT else "sec6_lag_dt_check",
-                "store": None,
-                "points": len(scenes),
-                "grains": grains,
-                "dt": dt,
-                "duration": duration,
-                "steps": result["steps"],
-                "taus": [s.excitation.drive_period for s in scenes],
-                "amplitude": scenes[0].excitation.drive_amplitude,
-                "device": result["device"],
-                "kernel": result["kernel"],
-                "wall_seconds": result["wall_seconds"],
-                "grain_steps_per_second": result["grain_steps_per_second"],
-                "energy_error": result["energy_error"].tolist(),
-                "energy_error_max": float(np.max(result["energy_error"])),
-                "status": result["status"].tolist(),
-                "t0": t0s.tolist(),
-                "lag": lags.tolist(),
-                "lag_steps_at_paper_dt": np.rint(lags / DRIVE_DT).astype(int).tolist(),
-                "correlation": lag_correlations(result, t0s, lags),
-            }
+            driven_entry(
+                "sec6_lag" if dt == DRIVE_DT else "sec6_lag_dt_check",
+                scenes,
+                result,
+                grains=grains,
+                dt=dt,
+                duration=duration,
+                store=None,
+                amplitude=scenes[0].excitation.drive_amplitude,
+                t0=t0s.tolist(),
+                lag=lags.tolist(),
+                lag_steps_at_paper_dt=np.rint(lags / DRIVE_DT).astype(int).tolist(),
+                correlation=lag_correlations(result, t0s, lags),
+            )
         )
-        say(f"sec6_lag dt = {dt:g}: {result['wall_seconds']:.1f} s, energy error {np.max(result['energy_error']):.2e}")
+        job.say(
+            f"sec6_lag dt = {dt:g}: {result['wall_seconds']:.1f} s, energy error {np.max(result['energy_error']):.2e}"
+        )
     runs[0]["store"] = "sec6_lag.zarr"
-    write_lag_store(out_dir / "sec6_lag.zarr", runs)
+    write_lag_store(job.out_dir / "sec6_lag.zarr", runs)
     return runs
 
 
@@ -596,12 +612,14 @@ def write_lag_store(path: Path, runs: list[dict[str, Any]]) -> None:
         attrs={"grains": first["grains"], "window": WINDOW, "amplitude": first["amplitude"]},
     )
     ds["energy_error"] = (("dt", "tau"), np.array([run["energy_error"] for run in runs]))
-    import warnings
+    write_dataset(ds, path)
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", category=UserWarning)  # zarr 3: consolidated metadata has no spec yet
-        ds.to_zarr(path, mode="w", consolidated=True)
 
+DRIVEN_GROUPS: dict[str, Callable[[DriveJob], list[dict[str, Any]]]] = {
+    "fig9_10": run_drive_group,
+    "sec6_lag": run_lag_group,
+}
+"""The groups that integrate the driven columns themselves (``run_driven``) instead of through a sweep."""
 
 # ---- measurements behind docs/reproduction.md ------------------------------------------------------
 
@@ -916,6 +934,15 @@ def _column_measurements(ds, name: str) -> dict[str, Any]:
     return out
 
 
+def _finite_g_measurements(ds) -> dict[str, Any]:
+    """Sec. VII's controlled pair: per g (everything else equal) the light/heavy contrast, leading signs (20 %
+    threshold), amplitudes and first lobes of the echoes at every traced grain."""
+    out: dict[str, Any] = {}
+    for g in ds.gravity.values:
+        out[f"g={float(g):g}"] = _echo_measurements(ds.sel(gravity=g))
+    return out
+
+
 def measure(name: str, ds) -> dict[str, Any]:
     """The numbers docs/reproduction.md quotes for group ``name``, from its store (empty if none)."""
     if name in ("fig1", "fig2", "fig3", "fig3_load"):
@@ -931,6 +958,8 @@ def measure(name: str, ds) -> dict[str, Any]:
         return _column_measurements(ds, name)
     if name.startswith("fig5_modes"):
         return _mode_measurements(ds)
+    if name == "finite_g":
+        return _finite_g_measurements(ds)
     if name.startswith("fig5") or name.startswith("fig7_8"):
         out = {"echo": _echo_measurements(ds)} if "impurity_mass" in ds.dims and np.any(ds.impurity_mass == 1.0) else {}
         if name == "fig5":
@@ -1149,9 +1178,8 @@ def reproduce(
     for name in order:
         group = GROUPS[name]
         path = sweeps_dir / group.sweep
-        if name in ("fig9_10", "sec6_lag"):
-            run_group = run_drive_group if name == "fig9_10" else run_lag_group
-            runs = run_group(path, out_dir, device, quick=quick, grains=drive_grains, events=events, say=say)
+        if name in DRIVEN_GROUPS:
+            runs = DRIVEN_GROUPS[name](DriveJob(path, out_dir, device, quick, drive_grains, events, say))
         else:
             store = out_dir / f"{name}.zarr"
             overrides = {**(group.quick if quick else {}), **({"integrator.events": events} if events else {})}
@@ -1199,7 +1227,7 @@ def draw_and_measure(out_dir: str, name: str, store: str) -> dict[str, Any]:
                 drawn["figures"][figure] = f"failed: {type(err).__name__}: {err}"
                 drawn["failures"].append(f"{name}: figure {figure} failed: {err}")
         drawn["seconds"]["figures"] = time.perf_counter() - clock
-        if name not in ("fig9_10", "sec6_lag"):
+        if name not in DRIVEN_GROUPS:
             clock = time.perf_counter()
             drawn["measurements"] = measure(name, dataset)
             drawn["seconds"]["measure"] = time.perf_counter() - clock
