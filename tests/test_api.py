@@ -14,9 +14,8 @@ import typer.main
 import xarray as xr
 from hertzian.cli import COMMANDS, app
 from hertzian.sweeping.sweep_store import TIMING_VARIABLES, differing_arrays
-from typer.testing import CliRunner
 
-cli = CliRunner()
+from tests.helpers import invoke
 
 SCENE = """
 [chain]
@@ -49,10 +48,6 @@ key = "chain.l0"
 values = [0.0, 1e-4, 2e-4]
 """
 )
-
-
-def invoke(*args):
-    return cli.invoke(app, [str(a) for a in args])
 
 
 def without_timing(ds: xr.Dataset) -> xr.Dataset:
@@ -157,7 +152,7 @@ def test_shipped_files_by_bare_name(tmp_path, monkeypatch):
 
 
 def _help(*command: str) -> str:
-    result = cli.invoke(app, [*command, "--help"], terminal_width=100)
+    result = invoke(*command, "--help", terminal_width=100)
     assert result.exit_code == 0, result.output
     return result.output
 

@@ -12,13 +12,13 @@ import time
 
 import numpy as np
 import pytest
-from cli_cases import assert_refused, invoke, toml_text, toml_value  # noqa: F401
-from conftest import make_scene
 from hertzian.core.runner import run_scene
 from hertzian.core.scene import MAX_STEPS, SceneError, load_scene
 from hertzian.sweeping.spec import MAX_POINTS, load_sweep, sweep_scenes
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
+
+from tests.helpers import assert_refused, invoke, make_scene, toml_text
 
 BASE = {
     "chain": {"grains": 8, "l0": 1e-4},

@@ -2,12 +2,12 @@
 xarray-readable store that summarize reads."""
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 import xarray as xr
+
+from tests.helpers import hertzian
 
 SCENE = """
 [chain]
@@ -42,10 +42,6 @@ BAD = [
     ("--precision float16", "integrator.precision = 'float16'"),
     ("--device tpu", "--device = 'tpu': not available"),
 ]
-
-
-def hertzian(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "hertzian.cli", *args], capture_output=True, text=True, cwd=cwd)
 
 
 @pytest.fixture

@@ -10,9 +10,10 @@ that grain's own largest displacement and speed.
 
 import numpy as np
 import pytest
-from conftest import make_scene
 from hertzian.core.runner import run_scene
-from reference import reference_run
+
+from tests.helpers import make_scene
+from tests.reference import reference_run
 
 GRAINS = 12
 IMPURITIES = [{"grains": [3, 4], "mass": 0.5, "a": 2000.0}, {"grains": [8], "mass": 2.0, "a": 1e4}]

@@ -8,12 +8,9 @@
 
 import json
 import math
-import subprocess
-import sys
 
 import numpy as np
 import pytest
-from conftest import make_scene
 from hertzian.core.check import (
     STABLE_OMEGA_DT,
     amplification_matrix,
@@ -26,6 +23,8 @@ from hertzian.core.check import (
 from hertzian.core.model import build_model
 from hertzian.core.runner import Runner, run_scene
 from hertzian.core.static import static_state
+
+from tests.helpers import hertzian, make_scene
 
 A = 5657.0
 METHODS = ["gear4", "gear5", "gear6", "verlet", "yoshida4"]
@@ -192,17 +191,6 @@ def test_suggested_dt_passes_its_own_check(method):
     assert first.verdict == "unstable" and dt_warning(scene) is not None
     fixed = scene.with_overrides({"integrator.dt": first.suggested_dt})
     assert check_scene(fixed).verdict == "ok" and dt_warning(fixed) is None
-
-
-def hertzian(*args, cwd):
-    """The ``hertzian`` entry point in a subprocess (``python -m hertzian.cli`` would miss commands that
-    register from other modules: they register on the imported ``hertzian.cli``, not on ``__main__``)."""
-    return subprocess.run(
-        [sys.executable, "-c", "from hertzian.cli import main; main()", *args],
-        capture_output=True,
-        text=True,
-        cwd=cwd,
-    )
 
 
 def test_cli_check_and_strict_run(tmp_path):

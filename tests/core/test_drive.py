@@ -13,7 +13,8 @@ from hertzian.core.runner import Runner, run_scene
 from hertzian.core.scene import RESPONSE_MIN_SAMPLES_PER_PERIOD, SceneError, response_stride_of, scene_from_dict
 from hertzian.core.solvers import choose_config
 from hertzian.core.solvers.calibrate import fused_lacks, step_reason
-from kernel_source import accessed_arrays, generated_source  # noqa: F401  (helpers of the lean-kernel test)
+
+from tests.helpers import accessed_arrays, assert_refused, generated_source, invoke, toml_text
 
 L0 = 1e-3
 A_SELF = 5657.0
@@ -297,7 +298,6 @@ def test_bad_response_and_damping_keys_are_refused(key, value, message):
 
 
 def test_cli_refuses_bad_response_key(tmp_path):
-    from cli_cases import assert_refused, invoke, toml_text
 
     scene = tmp_path / "s.toml"
     scene.write_text(
@@ -380,7 +380,6 @@ def test_drive_sweep_points_equal_runs_alone_and_the_map_is_drawn(tmp_path):
     import json
 
     import xarray as xr
-    from cli_cases import invoke
 
     sweep = tmp_path / "map.toml"
     sweep.write_text("""
@@ -490,7 +489,6 @@ def test_windows_of_other_lengths_share_one_launch_and_equal_each_chain_alone(tm
     may differ between the chains of one launch (a [[zip]] with the period). Each point's store equals that
     chain run alone, bit for bit, and its windows start where its own period count puts them."""
     import xarray as xr
-    from cli_cases import invoke
 
     sweep = tmp_path / "both.toml"
     sweep.write_text("""

@@ -4,10 +4,11 @@ checked by running it again at twice its step (its error must be far below the e
 
 import numpy as np
 import pytest
-from conftest import make_scene
 from hertzian.core.runner import run_ensemble, run_scene
 from hertzian.core.scene import SceneError
-from reference import reference_run
+
+from tests.helpers import make_scene
+from tests.reference import reference_run
 
 GRAINS = 12
 DURATION = 2.0

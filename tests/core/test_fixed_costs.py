@@ -6,18 +6,18 @@ from __future__ import annotations
 
 import os
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 import warp as wp
-from conftest import make_scene
 from hertzian.core.model import build_model
 from hertzian.core.runner import Runner
 from hertzian.core.solvers import CHAIN, STEP, calibrate, choose_config
 from hertzian.core.solvers.calibrate import CPU_COSTS, cpu_auto_config, cpu_crossovers, cpu_seconds, step_reason
 from hertzian.core.solvers.prepare import kernel_variants, prepare_kernels
 from hertzian.studies.warmup import scene_needs
+
+from tests.helpers import hertzian, make_scene
 
 SCENES = {
     "impact, traces": dict(chain={"grains": 30}, record={"every": 0.005, "traces": [0, 29], "trace_every": 0.001}),
@@ -62,9 +62,9 @@ def _cache_files(root: Path) -> set[str]:
 
 
 def _hertzian(*args, cache: Path) -> subprocess.CompletedProcess:
-    env = {**os.environ, "WARP_CACHE_PATH": str(cache), "HERTZIAN_CACHE": str(cache / "calibration.json")}
-    return subprocess.run(
-        [sys.executable, "-m", "hertzian.cli", *map(str, args)], capture_output=True, text=True, env=env
+    """``hertzian ARGS`` in a subprocess whose Warp kernel cache and calibration file are under ``cache``."""
+    return hertzian(
+        *args, env={**os.environ, "WARP_CACHE_PATH": str(cache), "HERTZIAN_CACHE": str(cache / "calibration.json")}
     )
 
 

@@ -23,9 +23,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-GOLDEN_DIR = Path(__file__).with_name("golden")
-sys.path.insert(0, str(GOLDEN_DIR))
-from make_golden import CASES, GOLDEN, arrays_of, run_case  # noqa: E402
+from tests.golden.make_golden import CASES, GOLDEN, arrays_of, run_case
+
+ROOT = Path(__file__).resolve().parents[2]
+"""The repository root: ``tests.golden.make_golden`` imports from there, in this process and in the subprocesses."""
 
 STORED = np.load(GOLDEN)
 
@@ -58,10 +59,10 @@ def computed(tmp_path_factory):
     env = dict(os.environ, NPY_DISABLE_CPU_FEATURES=simd_features_to_disable())
     code = (
         "import sys, numpy as np; sys.path.insert(0, sys.argv[1]); "
-        "from make_golden import CASES, arrays_of, run_case; "
+        "from tests.golden.make_golden import CASES, arrays_of, run_case; "
         "np.savez(sys.argv[2], **{f'{n}/{k}': v for n, c in CASES.items() for k, v in arrays_of(run_case(c)).items()})"
     )
-    subprocess.run([sys.executable, "-c", code, str(GOLDEN_DIR), str(out)], env=env, check=True, timeout=600)
+    subprocess.run([sys.executable, "-c", code, str(ROOT), str(out)], env=env, check=True, timeout=600)
     here = np.load(out)
     return {
         name: {key.split("/", 1)[1]: here[key] for key in here.files if key.split("/", 1)[0] == name} for name in CASES
@@ -84,7 +85,7 @@ def test_power_probe_tells_the_simd_power_apart():
     power must be libm's (otherwise the subprocess would not help)."""
     env = dict(os.environ, NPY_DISABLE_CPU_FEATURES=simd_features_to_disable())
     code = (
-        f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); import test_golden as t; "
+        f"import sys; sys.path.insert(0, {str(ROOT)!r}); import tests.core.test_golden as t; "
         "sys.exit(0 if t.numpy_power_is_libm() else 1)"
     )
     if simd_features_to_disable():

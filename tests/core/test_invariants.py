@@ -4,14 +4,14 @@ the contact law, float64 precision, the static state, specialisation, energy con
 import numpy as np
 import pytest
 import warp as wp
-from conftest import make_scene
 from hertzian.core.model import build_model
 from hertzian.core.runner import Runner, run_ensemble, run_scene
 from hertzian.core.static import static_state
 from hertzian.kernels.features import EVENT_WINDOW, Features
 from hertzian.kernels.physics import contact_functions, contact_potential, excess_potential
 from hertzian.kernels.step import step_kernel
-from kernel_source import accessed_arrays, generated_source
+
+from tests.helpers import accessed_arrays, generated_source, make_scene
 
 
 def impact_scene(**over):

@@ -9,16 +9,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import make_scene
-from fused_cases import assert_every_window_moved, per_step, window_ranges
 from hertzian.core.chains import ChainSet
 from hertzian.core.model import build_model, features_of, prepare_model
 from hertzian.core.runner import run_scene
 from hertzian.core.scene import SceneError, scene_from_dict
-from hertzian.core.solvers import ChainSolver, SolverConfig, TileSolver, config_of
 from hertzian.core.static import static_arrays, static_state
 from hertzian.kernels.tile import plan_tile
-from reference import reference_run
+
+from tests.helpers import assert_every_window_moved, fused, invoke, make_scene, per_step, sweep, window_ranges
+from tests.reference import reference_run
 
 GRAINS = 12
 R0 = 50.0
@@ -164,11 +163,8 @@ def test_chain_and_tile_kernels_equal_the_per_step_kernel():
         windowed=True,
     )
     assert_every_window_moved(want, window_ranges(plan, model.grain_count), held_bottom=True)
-    start, scratch = model.state_pair()
-    np.testing.assert_array_equal(TileSolver(model, config_of(plan)).advance(start, scratch, steps).x.numpy(), want)
-    start, scratch = model.state_pair()
-    chain = ChainSolver(model, SolverConfig("chain", steps_per_launch=7)).advance(start, scratch, steps)
-    np.testing.assert_array_equal(chain.x.numpy(), want)
+    np.testing.assert_array_equal(fused(model, plan, steps), want)
+    np.testing.assert_array_equal(sweep(model, steps, steps_per_launch=7), want)
 
 
 def test_random_radii_are_reproducible_and_bounded():
@@ -244,15 +240,13 @@ values = [0.0, 0.1]
 
 def _sweep_counting_scenes(tmp_path, monkeypatch, text: str, name: str):
     """Run a sweep file on the CPU; return the store's path and how many Scene objects were built."""
-    from hertzian.cli import app
     from hertzian.core import scene as scene_module
-    from typer.testing import CliRunner
 
     path = tmp_path / f"{name}.toml"
     path.write_text(text)
     built = []
     monkeypatch.setattr(scene_module.Scene, "__post_init__", lambda s: built.append(1) or scene_module._validate(s))
-    result = CliRunner().invoke(app, ["sweep", str(path), "--out", str(tmp_path / f"{name}.zarr"), "--device", "cpu"])
+    result = invoke("sweep", str(path), "--out", str(tmp_path / f"{name}.zarr"), "--device", "cpu")
     assert result.exit_code == 0, result.stderr + result.stdout
     monkeypatch.undo()
     return tmp_path / f"{name}.zarr", len(built)
@@ -292,15 +286,13 @@ def test_a_taper_sweep_stores_radius(tmp_path, monkeypatch):
 
 def test_uniform_sweeps_store_no_grain_variables(tmp_path):
     import xarray as xr
-    from hertzian.cli import app
-    from typer.testing import CliRunner
 
     path = tmp_path / "plain.toml"
     path.write_text(
         SEED_SWEEP.replace("radii = { spread = 0.3, seed = 0 }\n", "").split("[[axis]]")[0]
         + '[[axis]]\nname = "speed"\nkey = "excitation.impact"\nvalues = [1e-2, 2e-2]\n'
     )
-    result = CliRunner().invoke(app, ["sweep", str(path), "--out", str(tmp_path / "p.zarr"), "--device", "cpu"])
+    result = invoke("sweep", str(path), "--out", str(tmp_path / "p.zarr"), "--device", "cpu")
     assert result.exit_code == 0, result.stderr + result.stdout
     assert "radius" not in xr.open_zarr(tmp_path / "p.zarr")
 
@@ -337,19 +329,15 @@ def test_statistics_over_seeds_match_closed_forms():
 def test_summarize_over_seed_and_distribution_plot(tmp_path, monkeypatch):
     import json
 
-    from hertzian.cli import app
-    from typer.testing import CliRunner
-
     out, _ = _sweep_counting_scenes(tmp_path, monkeypatch, SEED_SWEEP.split('[[axis]]\nname = "taper"')[0], "s")
-    cli = CliRunner()
-    result = cli.invoke(app, ["summarize", str(out), "--over", "seed"])
+    result = invoke("summarize", str(out), "--over", "seed")
     assert result.exit_code == 0, result.stderr
     numbers = json.loads(result.stdout)
     assert numbers["realisations"] == 6 and numbers["observables"]["bottom_energy"]["count"] == 6
-    bad = cli.invoke(app, ["summarize", str(out), "--over", "sed"])
+    bad = invoke("summarize", str(out), "--over", "sed")
     assert bad.exit_code == 2 and "sed" in bad.stderr and "Traceback" not in bad.stderr + bad.stdout
     png = tmp_path / "d.png"
-    result = cli.invoke(app, ["plot", str(out), "--figure", "distribution", "--of", "arrival_time", "--out", str(png)])
+    result = invoke("plot", str(out), "--figure", "distribution", "--of", "arrival_time", "--out", str(png))
     assert result.exit_code == 0 and png.stat().st_size > 0, result.stderr
-    bad = cli.invoke(app, ["plot", str(out), "--figure", "distribution", "--of", "nothing", "--out", str(png)])
+    bad = invoke("plot", str(out), "--figure", "distribution", "--of", "nothing", "--out", str(png))
     assert bad.exit_code == 2 and "nothing" in bad.stderr

@@ -8,12 +8,13 @@ overlap and non-finite grain sit in the later parts (a reduction that dropped or
 
 import numpy as np
 import warp as wp
-from conftest import make_scene
 from hertzian.core.model import build_model
 from hertzian.core.recorder import Recorder
 from hertzian.core.status import Status
 from hertzian.kernels.records import PART_TILE, RECORD_PART, record_part_count
-from reference import static_overlaps, total_energy
+
+from tests.helpers import make_scene
+from tests.reference import static_overlaps, total_energy
 
 GRAINS = 2 * RECORD_PART + 44
 SECTIONS = dict(

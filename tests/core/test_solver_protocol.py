@@ -13,7 +13,7 @@ from hertzian.core.solvers import CHAIN, STEP, SolverConfig, config_of, make_sol
 from hertzian.kernels.features import STATUS_NON_FINITE
 from hertzian.kernels.tile import plan_tile
 
-from tests.test_tile import chains
+from tests.helpers import chains
 
 
 def configs(model):

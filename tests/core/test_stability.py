@@ -15,7 +15,6 @@ import math
 import numpy as np
 import pytest
 import zarr
-from conftest import DEVICES, make_scene
 from hertzian.core.check import check_scene
 from hertzian.core.model import build_model
 from hertzian.core.runner import Runner, run_ensemble, run_scene
@@ -23,6 +22,8 @@ from hertzian.core.static import static_state
 from hertzian.core.status import Status
 from hertzian.studies.accuracy import work_precision
 from hertzian.sweeping.sweep_store import write_result
+
+from tests.helpers import DEVICES, make_scene, slope
 
 PAPER_DT = 1.25e-5
 
@@ -166,10 +167,6 @@ def test_paper_step_times_ten_and_times_a_hundredth(factor, tolerance):
     result = Runner(build_model([scene], "cpu"), kernel="chain").run()
     assert result.status[0] == Status.OK
     assert result.energy_error[0] < tolerance
-
-
-def slope(dts, errors):
-    return np.polyfit(np.log(dts), np.log(errors), 1)[0]
 
 
 def test_order_loss_where_contacts_open():

@@ -1,13 +1,13 @@
-"""Helpers of the CLI refusal tests (test_refusals.py, test_drive.py): a small TOML writer, the CLI
-in-process, and the check that a refusal is one line, exit code 2 and nothing written.
-
-A plain module next to the tests (imported as ``cli_cases``), so no test imports another test file.
-"""
+"""The command line from tests: in-process (``invoke``, ``sweep_cli``) or as the installed entry point in a
+subprocess (``hertzian``), a small TOML writer, and the check that a refusal is one line, exit code 2 and
+nothing written."""
 
 from __future__ import annotations
 
 import json
 import math
+import subprocess
+import sys
 from pathlib import Path
 
 from hertzian.cli import app
@@ -46,11 +46,28 @@ def toml_text(data: dict, *, prefix: str = "") -> str:
     return "\n".join(lines) + "\n"
 
 
-def invoke(*args):
-    return CliRunner().invoke(app, [str(a) for a in args])
+def invoke(*args, **options):
+    """``hertzian ARGS`` in this process (arguments may be paths or numbers); ``options`` go to CliRunner.invoke."""
+    return CliRunner().invoke(app, [str(a) for a in args], **options)
+
+
+def sweep_cli(*args):
+    """``hertzian sweep ARGS`` in this process."""
+    return invoke("sweep", *args)
+
+
+HERTZIAN = (sys.executable, "-c", "from hertzian.cli import main; main()")
+"""The ``hertzian`` script's entry point as a command line for a subprocess."""
+
+
+def hertzian(*args, cwd=None, env=None) -> subprocess.CompletedProcess:
+    """``hertzian ARGS`` in a subprocess (its own interpreter: exit codes, stderr and environment as a user sees
+    them); output captured as text."""
+    return subprocess.run([*HERTZIAN, *map(str, args)], capture_output=True, text=True, cwd=cwd, env=env)
 
 
 def assert_refused(result, out: Path, key: str | None = None) -> None:
+    """An in-process refusal: exit code 2, one line ``error: KEY…`` and no traceback, ``out`` not written."""
     text = (result.stdout + result.stderr).strip()
     assert result.exit_code == 2, (result.exit_code, text, result.exception)
     assert result.exception is None or isinstance(result.exception, SystemExit), result.exception

@@ -1,15 +1,13 @@
-"""Shared by the fused-kernel tests (test_tile.py, test_cpu_kernel.py, test_bench.py): small ensembles,
-the per-step kernel's state after some steps, and the cases that exercise each kernel layout.
-
-A plain module next to the tests (imported as ``fused_cases``, like ``reference`` and ``conftest``),
-so no test imports another test file.
-"""
+"""The fused kernels against the per-step kernel: small ensembles, each kernel's state after some steps, the
+cases that exercise each kernel layout, and the checks that two kernels agree and that motion reached every
+window."""
 
 from __future__ import annotations
 
 import numpy as np
 from hertzian.core.runner import Runner
 from hertzian.core.scene import scene_from_dict
+from hertzian.core.solvers import ChainSolver, SolverConfig, TileSolver, config_of
 from hertzian.kernels.features import KERNEL_OPTIONS
 
 MOVED = 1e-3
@@ -31,7 +29,7 @@ CUDA_ROUNDING_FLOAT32 = float(np.finfo(np.float32).eps)
 """The same for float32 results (compensated float32's fields are the float32 high parts of hi + lo): one float32
 ulp of the largest value. A contraction changes hi + lo by ~1e-16 relative, which moves the rounded hi by an ulp
 wherever hi + lo lies near a rounding boundary (measured on an H100 with a driven, viscous chain: 1.5e-11 on values
-up to 2.9e-4, docs/gpu_logs/h100_2026-11-26d/nov27j; with contraction off the kernels agree bit for bit)."""
+up to 2.9e-4; with contraction off the kernels agree bit for bit)."""
 
 
 def assert_kernels_agree(got, want, device) -> None:
@@ -61,6 +59,26 @@ def per_step(model, steps: int, status=None) -> np.ndarray:
         runner.current.status.assign(status)
     runner.advance(steps)
     return runner.current.x.numpy()
+
+
+def advance(solver, model, steps: int, status=None) -> np.ndarray:
+    """State (values, chains, grains) after one ``solver.advance`` of ``steps`` steps from the model's start."""
+    start, scratch = model.state_pair()
+    if status is not None:
+        start.status.assign(status)
+    end = solver.advance(start, scratch, steps)
+    assert end.clock.numpy()[0] == steps
+    return end.x.numpy()
+
+
+def sweep(model, steps: int, status=None, steps_per_launch: int = 1 << 30) -> np.ndarray:
+    """State after ``steps`` steps of the CPU chain kernel (``steps_per_launch`` steps per launch)."""
+    return advance(ChainSolver(model, SolverConfig("chain", steps_per_launch=steps_per_launch)), model, steps, status)
+
+
+def fused(model, plan, steps: int, status=None) -> np.ndarray:
+    """State after ``steps`` steps of the tile or window kernel of ``plan``."""
+    return advance(TileSolver(model, config_of(plan)), model, steps, status)
 
 
 def window_ranges(plan, grains: int) -> list[tuple[int, int]]:

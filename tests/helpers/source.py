@@ -1,16 +1,17 @@
-"""Helpers of the lean-kernel tests (test_core.py, test_drive.py, test_events.py): the C++ Warp generates for
-a kernel and the arrays it touches. A plain module next to the tests (imported as ``kernel_source``).
-"""
+"""Generated kernel source, for the tests that check what a kernel leaves out: the C++ Warp generates for a
+kernel, the arrays it touches, a ``@wp.func``'s body and its call sites."""
 
 from __future__ import annotations
+
+import re
+
+from warp._src.context import ModuleBuilder
 
 
 def generated_source(kernel, device="cpu", *, block_dim: int | None = None) -> str:
     """The C++ Warp generated for a kernel's module (from the kernel cache).
 
     ``block_dim``: the launch's threads per block, for tile kernels (their shared tiles are sized by it)."""
-    from warp._src.context import ModuleBuilder
-
     options = dict(kernel.module.options)
     if block_dim is not None:
         options["block_dim"] = block_dim
@@ -20,16 +21,12 @@ def generated_source(kernel, device="cpu", *, block_dim: int | None = None) -> s
 
 def accessed_arrays(source: str) -> set[str]:
     """Kernel parameters whose elements the generated code reads or writes."""
-    import re
-
     return set(re.findall(r"wp::\w+\(var_(\w+),", source))
 
 
 def function_body(source: str, name: str) -> str:
     """The generated forward definition of the ``@wp.func`` called ``name`` (Warp's mangled
     ``…__locals__<name>_<n>``), from its signature to its closing brace at column 0."""
-    import re
-
     match = re.search(rf"^static [^\n]*__locals__{name}_\d+\($", source, re.MULTILINE)
     if match is None:
         raise LookupError(f"no generated function {name!r}")
@@ -39,6 +36,4 @@ def function_body(source: str, name: str) -> str:
 
 def call_count(source: str, name: str) -> int:
     """Call sites of the ``@wp.func`` called ``name`` in a piece of generated source."""
-    import re
-
     return len(re.findall(rf"(?:= |^\s+)[\w]*__locals__{name}_\d+\(", source, re.MULTILINE))

@@ -8,20 +8,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from fused_cases import CASES, chains, per_step
 from hertzian.core.model import build_model
 from hertzian.core.runner import Runner
 from hertzian.core.solvers import CHAIN, STEP, ChainSolver, SolverConfig, choose_config
 
-
-def sweep(model, steps: int, status=None, steps_per_launch: int = 1 << 30) -> np.ndarray:
-    solver = ChainSolver(model, SolverConfig("chain", steps_per_launch=steps_per_launch))
-    start, scratch = model.state_pair()
-    if status is not None:
-        start.status.assign(status)
-    end = solver.advance(start, scratch, steps)
-    assert end.clock.numpy()[0] == steps
-    return end.x.numpy()
+from tests.helpers import CASES, chains, invoke, per_step, sweep
 
 
 @pytest.mark.parametrize("case", list(CASES))
@@ -96,14 +87,12 @@ def test_chain_split_over_threads_changes_no_bit(case, monkeypatch):
 
 
 def test_cpu_thread_count_comes_from_the_environment(monkeypatch):
-    from hertzian.cli import app
     from hertzian.core.solvers.chain import cpu_threads
-    from typer.testing import CliRunner
 
     monkeypatch.setenv("HERTZIAN_CPU_THREADS", "3")
     assert cpu_threads() == 3
     monkeypatch.setenv("HERTZIAN_CPU_THREADS", "zero")
-    result = CliRunner().invoke(app, ["run", "--device", "cpu"])
+    result = invoke("run", "--device", "cpu")
     assert result.exit_code == 2
     assert result.stderr.strip().splitlines() == ["error: HERTZIAN_CPU_THREADS = 'zero': must be a whole number ≥ 1"]
 

@@ -11,23 +11,28 @@ import re
 
 import numpy as np
 import pytest
-from conftest import make_scene
-from fused_cases import assert_every_window_moved, assert_kernels_agree
 from hertzian.core.model import build_model, features_of
 from hertzian.kernels.features import Features
 from hertzian.kernels.step import step_kernel
 from hertzian.kernels.tile import TileShape, plan_tile, tile_kernel
 from hertzian.studies.accuracy import work_precision
-from kernel_source import call_count, function_body, generated_source
 
-from tests.test_cpu_kernel import sweep
-from tests.test_tile import chains, fused, per_step
+from tests.helpers import (
+    assert_every_window_moved,
+    assert_kernels_agree,
+    call_count,
+    chains,
+    function_body,
+    fused,
+    generated_source,
+    invoke,
+    make_scene,
+    per_step,
+    slope,
+    sweep,
+)
 
 DTS = [2e-3, 1e-3, 5e-4]
-
-
-def slope(dts, errors):
-    return np.polyfit(np.log(dts), np.log(errors), 1)[0]
 
 
 def test_l0_zero_keeps_gear4_order():
@@ -161,14 +166,11 @@ def test_out_of_line_event_step_takes_the_same_steps():
 
 
 def test_bad_event_modes_are_one_line_errors():
-    from hertzian.cli import app
-    from typer.testing import CliRunner
-
     for args, key in (
         (["accuracy", "--events", "maybe", "--dt", "2e-4"], "--events"),
         (["check", "--set", "integrator.events=maybe"], "integrator.events"),
     ):
-        result = CliRunner().invoke(app, args)
+        result = invoke(*args)
         assert result.exit_code == 2, result.output
         assert key in result.output and "Traceback" not in result.output
 

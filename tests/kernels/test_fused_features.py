@@ -16,12 +16,23 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from fused_cases import MOVED, assert_every_window_moved, assert_kernels_agree, chains, window_ranges
 from hertzian.core.model import build_model
 from hertzian.core.runner import Runner
 from hertzian.core.solvers import CHAIN, choose_config, config_of
 from hertzian.core.solvers.calibrate import step_reason
 from hertzian.kernels.tile import plan_tile
+
+from tests.helpers import (
+    MOVED,
+    accessed_arrays,
+    assert_every_window_moved,
+    assert_kernels_agree,
+    call_count,
+    chains,
+    function_body,
+    generated_source,
+    window_ranges,
+)
 
 TRACED = {"grains": 30, "l0": 1e-4}
 TRACE_RECORD = {"every": 0.1, "traces": [0, 13, 28], "trace_every": 4e-3, "fields": ["u", "v"]}
@@ -345,7 +356,6 @@ def test_driven_kernel_never_indexes_registers_by_the_driven_grain():
     # the lane's whole state in local memory, for every lane and step (on an H100 the driven 10 000-grain column
     # stepped ~3x slower than an undriven one until the drive used selects over the static positions)
     from hertzian.kernels.tile import tile_kernel
-    from kernel_source import generated_source
 
     model = build_model(driven_scenes(traces=False), "cpu")
     f = replace(model.features, traces=False)
@@ -382,7 +392,6 @@ def test_fused_kernel_keeps_its_state_in_registers(driven, tmp_path):
     # unroll (e.g. range(G - 1)) or an index known only at run time puts the lane's matrices in local memory —
     # on an H100 that made the driven 10 000-grain column step 2.7-5x slower than an undriven one
     from hertzian.kernels.tile import tile_kernel
-    from kernel_source import generated_source
     from warp._src import build
 
     scenes = (
@@ -526,7 +535,6 @@ def test_undamped_fused_kernels_hold_no_damping_code():
     """Leave out what a scene does not need: without damping the tile kernel's generated code reads neither γ
     nor the dissipated energy; with viscous damping it reads and writes both."""
     from hertzian.kernels.tile import tile_kernel
-    from kernel_source import accessed_arrays, generated_source
 
     scenes = driven_scenes(traces=False, integrator={"events": "off"})
     plain = build_model(scenes, "cpu").features
@@ -566,7 +574,6 @@ def test_trace_sample_is_written_out_of_the_step_loop():
     (docs/benchmarks.md, seventh session). Generated C++ only, nothing compiled."""
     from hertzian.kernels.features import Features
     from hertzian.kernels.tile import TileShape, tile_kernel
-    from kernel_source import call_count, function_body, generated_source
 
     for surface in ("wall", "driven"):
         features = Features(method="gear4", surface=surface, bottom="wall", static="uniform", traces=True)

@@ -12,23 +12,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from fused_cases import CASES, assert_every_window_moved, assert_kernels_agree, chains, per_step, window_ranges
 from hertzian.core.model import build_model
 from hertzian.core.runner import Runner
-from hertzian.core.solvers import TileSolver, config_of
+from hertzian.core.solvers import config_of
 from hertzian.kernels.features import STATUS_NON_FINITE
 from hertzian.kernels.ghost import plan_windows
 from hertzian.kernels.tile import fusable, plan_tile
 
-
-def fused(model, plan, steps: int, status=None) -> np.ndarray:
-    solver = TileSolver(model, config_of(plan))
-    start, scratch = model.state_pair()
-    if status is not None:
-        start.status.assign(status)
-    end = solver.advance(start, scratch, steps)
-    assert end.clock.numpy()[0] == steps
-    return end.x.numpy()
+from tests.helpers import CASES, assert_every_window_moved, assert_kernels_agree, chains, fused, per_step, window_ranges
 
 
 def assert_same(got: np.ndarray, want: np.ndarray, device) -> None:

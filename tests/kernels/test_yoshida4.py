@@ -21,16 +21,25 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from cli_cases import assert_refused, invoke, toml_text
-from conftest import make_scene
-from fused_cases import COMPOSED_CASES, assert_every_window_moved, chains, per_step
 from hertzian.core.check import STABLE_OMEGA_DT, amplification_matrix
 from hertzian.core.model import build_model
 from hertzian.core.runner import Runner
 from hertzian.core.scene import SceneError
-from hertzian.core.solvers import ChainSolver, SolverConfig, choose_config
+from hertzian.core.solvers import choose_config
 from hertzian.core.solvers.calibrate import fused_lacks
 from hertzian.kernels.features import SUBSTEP_WEIGHTS
+
+from tests.helpers import (
+    COMPOSED_CASES,
+    assert_every_window_moved,
+    assert_refused,
+    chains,
+    invoke,
+    make_scene,
+    per_step,
+    sweep,
+    toml_text,
+)
 
 # ---- (a) the CPU chain kernel equals the per-step kernel, bit for bit ----------------------------------
 
@@ -43,11 +52,8 @@ def test_sweep_equals_per_step(case):
     want = per_step(model, steps)
     held = sections.get("boundary", {}).get("bottom") == "fixed"
     assert_every_window_moved(want, [(0, want.shape[2])], held_bottom=held)  # the pulse reached the bottom
-    solver = ChainSolver(model, SolverConfig("chain", steps_per_launch=7))  # several launches, an odd one last
-    start, scratch = model.state_pair()
-    end = solver.advance(start, scratch, steps)
-    assert end.clock.numpy()[0] == steps  # the clock counts steps, not substeps
-    np.testing.assert_array_equal(end.x.numpy(), want)
+    # several launches, an odd one last; sweep() asserts that the clock counts steps, not substeps
+    np.testing.assert_array_equal(sweep(model, steps, steps_per_launch=7), want)
 
 
 def test_runner_records_and_traces_agree_across_kernels():

@@ -5,34 +5,29 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import xarray as xr
-from hertzian.cli import app
 from hertzian.plotting.figures import PlotError, select_point
 from hertzian.studies.analysis import energy_drift
-from typer.testing import CliRunner
 
-cli = CliRunner()
+from tests.helpers import invoke
 
 
 @pytest.fixture(scope="module")
 def impact_store(tmp_path_factory):
     """The built-in example, 100 grains for 1 time unit (records every 0.25, grain 0 traced)."""
     out = tmp_path_factory.mktemp("plot") / "impact.zarr"
-    result = cli.invoke(
-        app,
-        [
-            "run",
-            "--device",
-            "cpu",
-            "--quiet",
-            "--set",
-            "chain.grains=100",
-            "--set",
-            "integrator.duration=1.0",
-            "--set",
-            "record.every=0.25",
-            "--out",
-            str(out),
-        ],
+    result = invoke(
+        "run",
+        "--device",
+        "cpu",
+        "--quiet",
+        "--set",
+        "chain.grains=100",
+        "--set",
+        "integrator.duration=1.0",
+        "--set",
+        "record.every=0.25",
+        "--out",
+        str(out),
     )
     assert result.exit_code == 0, result.output
     return out
@@ -40,11 +35,11 @@ def impact_store(tmp_path_factory):
 
 def test_plot_any_store_writes_a_png(impact_store, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    result = cli.invoke(app, ["plot", str(impact_store)])
+    result = invoke("plot", str(impact_store))
     assert result.exit_code == 0, result.output
     png = tmp_path / "impact.png"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
-    result = cli.invoke(app, ["plot", str(impact_store), "--field", "u", "--out", str(tmp_path / "u.png")])
+    result = invoke("plot", str(impact_store), "--field", "u", "--out", str(tmp_path / "u.png"))
     assert result.exit_code == 0, result.output
 
 
@@ -60,7 +55,7 @@ def test_plot_any_store_writes_a_png(impact_store, tmp_path, monkeypatch):
 )
 def test_plot_bad_input_is_one_line_exit_2(impact_store, tmp_path, monkeypatch, args, message):
     monkeypatch.chdir(tmp_path)
-    result = cli.invoke(app, ["plot", str(impact_store), *args])
+    result = invoke("plot", str(impact_store), *args)
     assert result.exit_code == 2
     assert message in result.output and "Traceback" not in result.output
     assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob("*.svg"))

@@ -3,19 +3,18 @@ forms, and a small study against the known orders of the methods. Also: every ru
 next to its run time (store and summarize)."""
 
 import json
-import subprocess
-import sys
 import time
 from fractions import Fraction
 
 import numpy as np
 import pytest
-from conftest import make_scene
 from hertzian.core.runner import run_scene
 from hertzian.core.scene import SceneError
 from hertzian.studies.accuracy import common_record_interval, relative_error, richardson_estimate, work_precision
 from hertzian.sweeping.store import summary_records
 from hertzian.sweeping.sweep_store import write_result
+
+from tests.helpers import assert_refused, hertzian, invoke, make_scene, slope
 
 
 def test_record_interval_is_a_common_multiple():
@@ -78,8 +77,7 @@ def test_small_study_shows_the_orders():
     by = {(r.method, r.precision, r.dt): r for r in records}
     for method, order in (("gear4", 4.0), ("verlet", 2.0)):
         errors = [by[method, "float64", dt].error for dt in dts]
-        slope = np.polyfit(np.log(dts), np.log(errors), 1)[0]
-        assert abs(slope - order) < 0.3, (method, errors)
+        assert abs(slope(dts, errors) - order) < 0.3, (method, errors)
         assert min(errors) > 100 * reference.error_estimate  # the reference resolves them
     assert not any(r.reference_limited for r in records if r.precision == "float64")
     assert 4 < reference.observed_order < 7
@@ -112,15 +110,6 @@ def test_run_reports_energy_error_next_to_wall_seconds(tmp_path):
     assert float(ds.energy_error) == pytest.approx(expected, rel=1e-12)
     assert record["wall_seconds"] == pytest.approx(result.wall_seconds) and result.wall_seconds > 0
     assert record["status_name"] == "OK"
-
-
-def hertzian(*args, cwd):
-    return subprocess.run(
-        [sys.executable, "-c", "from hertzian.cli import main; main()", *args],
-        capture_output=True,
-        text=True,
-        cwd=cwd,
-    )
 
 
 def test_cli_accuracy(tmp_path):
@@ -203,7 +192,6 @@ def largest_meeting(records, method, precision, target, key):
 
 
 def test_cli_accuracy_target_picks_the_largest_dt_meeting_it(tmp_path):
-    from cli_cases import invoke
 
     scene = tmp_path / "s.toml"
     scene.write_text(TARGET_SCENE)
@@ -312,7 +300,6 @@ def test_time_to_target_skips_failed_runs():
     ],
 )
 def test_cli_accuracy_target_refusals(tmp_path, args, key):
-    from cli_cases import assert_refused, invoke
 
     scene = tmp_path / "s.toml"
     scene.write_text(TARGET_SCENE)

@@ -8,12 +8,11 @@ from datetime import datetime, timezone
 
 import numpy as np
 import pytest
-from fused_cases import per_step
-from hertzian.cli import app
 from hertzian.core.model import build_model
 from hertzian.studies.bench import bench_scenes
 from hertzian.studies.peers import NumpyGear4, problem_from_model
-from typer.testing import CliRunner
+
+from tests.helpers import invoke, per_step
 
 
 def plain_gear(scenes):
@@ -21,15 +20,11 @@ def plain_gear(scenes):
     return [s.with_overrides({"integrator.events": "off"}) for s in scenes]
 
 
-def invoke(*args):
-    return CliRunner().invoke(app, ["bench", *args])
-
-
 def test_bench_json_records():
     days = {datetime.now(timezone.utc).date().isoformat()}
     started = time.perf_counter()
     result = invoke(
-        "--device", "cpu", "--chains", "3,1", "--grains", "40,60", "--steps", "20", "--repeats", "1", "--json"
+        "bench", "--device", "cpu", "--chains", "3,1", "--grains", "40,60", "--steps", "20", "--repeats", "1", "--json"
     )
     elapsed = time.perf_counter() - started
     days.add(datetime.now(timezone.utc).date().isoformat())
@@ -67,7 +62,7 @@ def test_bench_bad_input():
         (["--device", "cpu", "--kernel", "tile"], "--kernel"),
         (["--chains", "1,2", "--grains", "5,6,7"], "--grains"),
     ):
-        result = invoke(*args)
+        result = invoke("bench", *args)
         assert result.exit_code == 2, (args, result.output)
         assert result.output.strip().startswith(f"error: {key} = ")
         assert "Traceback" not in result.output
@@ -94,7 +89,7 @@ def test_end_to_end_scene_json(tmp_path):
         '[record]\nevery = 0.1\nfields = ["u"]\ntraces = [0, 29]\ntrace_every = 0.002\n'
     )
     started = time.perf_counter()
-    result = invoke("--device", "cpu", "--scene", str(scene), "--kernel", "chain", "--json")
+    result = invoke("bench", "--device", "cpu", "--scene", str(scene), "--kernel", "chain", "--json")
     elapsed = time.perf_counter() - started
     assert result.exit_code == 0, result.output
     (record,) = json.loads(result.stdout)
@@ -113,7 +108,7 @@ def test_end_to_end_sweep_json(tmp_path):
         '[scene.integrator]\ndt = 5e-4\nduration = 0.2\n[scene.record]\nevery = 0.1\nfields = ["u"]\n'
         '[[axis]]\nname = "v_imp"\nkey = "excitation.impact"\nvalues = [1e-3, 1e-2, 2e-2]\n'
     )
-    result = invoke("--device", "cpu", "--sweep", str(sweep), "--kernel", "chain", "--json")
+    result = invoke("bench", "--device", "cpu", "--sweep", str(sweep), "--kernel", "chain", "--json")
     assert result.exit_code == 0, result.output
     (record,) = json.loads(result.stdout)
     assert record["kernel"] == "chain" and record["grain_steps"] == 3 * 20 * 400
@@ -128,7 +123,7 @@ def test_end_to_end_bad_input(tmp_path):
         (["--scene", "a.toml", "--sweep", "b.toml"], "--sweep"),
     ):
         (tmp_path / "a.toml").write_text("")
-        result = invoke(*args)
+        result = invoke("bench", *args)
         assert result.exit_code == 2, (args, result.output)
         assert result.output.strip().startswith(f"error: {key} = ")
         assert "Traceback" not in result.output

@@ -7,8 +7,6 @@ refused with one line and exit code 2."""
 
 import json
 import math
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -23,6 +21,8 @@ from hertzian.studies.detection import (
     signal_from_arrays,
     write_signal_csv,
 )
+
+from tests.helpers import assert_refused, hertzian, invoke
 
 GRAINS = 40
 SPACING = 0.01
@@ -173,10 +173,6 @@ def test_signal_checks(tmp_path):
     write_signal_csv(path, signal_from_arrays(t, np.sin(t)))
     back = read_signal(path)
     assert np.array_equal(back.v, np.sin(t)) and np.allclose(back.t, t, rtol=0, atol=1e-15)
-
-
-def hertzian(*args, env=None):
-    return subprocess.run([sys.executable, "-m", "hertzian.cli", *args], capture_output=True, text=True, env=env)
 
 
 def write_csv(path, rows, header="t,v"):
@@ -625,7 +621,6 @@ def test_cli_detect_study_takes_its_options_and_refuses_a_bad_study(tmp_path):
     """`hertzian detect-study STUDY --out F`: its options are its own (a helper defined between the command's
     decorator and its function once took the command's place), and a study file without hosts is refused with
     one line, exit 2, nothing written."""
-    from cli_cases import assert_refused, invoke
 
     help_text = invoke("detect-study", "--help")
     assert help_text.exit_code == 0 and "--out" in help_text.stdout and "STUDY" in help_text.stdout.upper()
@@ -647,7 +642,6 @@ def test_cli_detect_study_takes_its_options_and_refuses_a_bad_study(tmp_path):
 def test_cli_detect_study_refuses_bad_study_keys(tmp_path, study, host, key):
     """[study] and [[hosts]] keys are checked: an unknown key, a window past the bottom outside [1, 2] or noise
     trials that are not a whole number ≥ 1 is one line, exit 2."""
-    from cli_cases import assert_refused, invoke
 
     path = tmp_path / "study.toml"
     path.write_text(

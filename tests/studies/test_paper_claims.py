@@ -17,6 +17,8 @@ from hertzian.core.runner import run_ensemble
 from hertzian.core.scene import scene_from_dict
 from hertzian.studies import analysis as an
 
+from tests.helpers import invoke
+
 DT = 1.25e-4
 A = 5657.0
 _cache: dict = {}
@@ -283,9 +285,7 @@ def test_backscatter_in_a_weakly_loaded_chain_is_compressive(device):
 def test_plot_cli_draws_a_figure_and_refuses_bad_input(tmp_path):
     """`hertzian plot` writes a PNG from a store shaped like paper_fig1.toml's, and answers bad input
     with one line and exit code 2."""
-    from hertzian.cli import app
     from hertzian.sweeping.sweep_store import write_result
-    from typer.testing import CliRunner
 
     speeds = [1e-3, 1e-2, 1e-1]
     scenes = [
@@ -298,13 +298,12 @@ def test_plot_cli_draws_a_figure_and_refuses_bad_input(tmp_path):
         for v in speeds
     ]
     store = write_result(tmp_path / "fig1.zarr", run_ensemble(scenes, "cpu"), axes={"v_imp": np.array(speeds)})
-    runner = CliRunner()
     out = tmp_path / "fig1.png"
-    result = runner.invoke(app, ["plot", str(store), "--figure", "fig1", "--out", str(out)])
+    result = invoke("plot", str(store), "--figure", "fig1", "--out", str(out))
     assert result.exit_code == 0, result.output
     assert out.stat().st_size > 10_000
-    bad = runner.invoke(app, ["plot", str(store), "--figure", "fig42", "--out", str(out)])
+    bad = invoke("plot", str(store), "--figure", "fig42", "--out", str(out))
     assert bad.exit_code == 2 and "fig42" in bad.output
-    wrong = runner.invoke(app, ["plot", str(store), "--figure", "fig5", "--out", str(tmp_path / "x.png")])
+    wrong = invoke("plot", str(store), "--figure", "fig5", "--out", str(tmp_path / "x.png"))
     assert wrong.exit_code == 2 and "impurity_mass" in wrong.output
     assert not (tmp_path / "x.png").exists()

@@ -6,11 +6,9 @@ import json
 
 import pytest
 import xarray as xr
-from hertzian.cli import app
 from hertzian.studies.reproduce import GROUPS, default_sweeps_dir, group_of
-from typer.testing import CliRunner
 
-cli = CliRunner()
+from tests.helpers import invoke
 
 
 def test_every_group_has_its_sweep_file_and_figures_known_to_plot():
@@ -42,7 +40,7 @@ def test_paper_groups_take_plain_gear_steps_on_the_fused_kernels_of_a_gpu(monkey
 
 def test_quick_group_writes_store_png_and_log(tmp_path):
     out = tmp_path / "out"
-    result = cli.invoke(app, ["reproduce", "--quick", "--figure", "fig6", "--out-dir", str(out), "--device", "cpu"])
+    result = invoke("reproduce", "--quick", "--figure", "fig6", "--out-dir", str(out), "--device", "cpu")
     assert result.exit_code == 0, result.output
     log = json.loads((out / "log.json").read_text())
     assert log["quick"] and log["device"] == "cpu" and log["figure_failures"] == 0
@@ -63,9 +61,8 @@ def test_kernel_option_and_the_split_of_each_runs_seconds(tmp_path):
     logs = {}
     for kernel in ("step", "fused"):
         out = tmp_path / kernel
-        result = cli.invoke(
-            app,
-            ["reproduce", "--quick", "--figure", "fig6", "--kernel", kernel, "--out-dir", str(out), "--device", "cpu"],
+        result = invoke(
+            "reproduce", "--quick", "--figure", "fig6", "--kernel", kernel, "--out-dir", str(out), "--device", "cpu"
         )
         assert result.exit_code == 0, result.output
         logs[kernel] = json.loads((out / "log.json").read_text())
@@ -82,8 +79,8 @@ def test_kernel_option_and_the_split_of_each_runs_seconds(tmp_path):
 def test_events_option_sets_every_group(tmp_path):
     # --events off: plain Gear steps in every group (the GPU's fast choice), recorded in the log and the store
     out = tmp_path / "off"
-    result = cli.invoke(
-        app, ["reproduce", "--quick", "--figure", "fig6", "--events", "off", "--out-dir", str(out), "--device", "cpu"]
+    result = invoke(
+        "reproduce", "--quick", "--figure", "fig6", "--events", "off", "--out-dir", str(out), "--device", "cpu"
     )
     assert result.exit_code == 0, result.output
     log = json.loads((out / "log.json").read_text())
@@ -107,7 +104,7 @@ def test_events_option_sets_every_group(tmp_path):
 )
 def test_reproduce_bad_input_is_one_line_exit_2(tmp_path, monkeypatch, args, message):
     monkeypatch.chdir(tmp_path)
-    result = cli.invoke(app, ["reproduce", "--quick", *args])
+    result = invoke("reproduce", "--quick", *args)
     assert result.exit_code == 2 and message in result.output and "Traceback" not in result.output
     assert list(tmp_path.iterdir()) == []
 
@@ -116,7 +113,7 @@ def test_reproduce_bad_input_is_one_line_exit_2(tmp_path, monkeypatch, args, mes
 def test_quick_reproduces_every_group_on_the_cpu(tmp_path):
     """The whole paper at --quick size (about 1.5 min on 2 CPU cores): every figure drawn, every run logged."""
     out = tmp_path / "all"
-    result = cli.invoke(app, ["reproduce", "--quick", "--out-dir", str(out), "--device", "cpu"])
+    result = invoke("reproduce", "--quick", "--out-dir", str(out), "--device", "cpu")
     assert result.exit_code == 0, result.output
     log = json.loads((out / "log.json").read_text())
     names = [r["name"] for r in log["runs"]]

@@ -2,10 +2,10 @@
 serial run; each worker writes its own batches."""
 
 import distributed  # a hard dependency (dask[distributed]): a missing one must fail, not skip
-from hertzian.cli import app
 from hertzian.sweeping.distributed import worker_device
 from hertzian.sweeping.sweep_store import batch_records, differing_arrays
-from typer.testing import CliRunner
+
+from tests.helpers import invoke
 
 SWEEP = """
 [scene.chain]
@@ -39,28 +39,24 @@ key = "chain.gravity"
 values = [0.0, 1.0]
 """
 
-cli = CliRunner()
-
 
 def test_two_workers_write_one_store_equal_to_the_serial_run(tmp_path):
     sweep = tmp_path / "sweep.toml"
     sweep.write_text(SWEEP)
     flags = ("--batch-size", "2", "--device", "cpu", "--quiet")
     serial = tmp_path / "serial.zarr"
-    result = cli.invoke(app, ["sweep", str(sweep), "--out", str(serial), *flags])
+    result = invoke("sweep", str(sweep), "--out", str(serial), *flags)
     assert result.exit_code == 0, result.stderr
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         parallel = tmp_path / "parallel.zarr"
-        result = cli.invoke(
-            app, ["sweep", str(sweep), "--out", str(parallel), "--scheduler", cluster.scheduler_address, *flags]
-        )
+        result = invoke("sweep", str(sweep), "--out", str(parallel), "--scheduler", cluster.scheduler_address, *flags)
         assert result.exit_code == 0, result.stderr
     assert differing_arrays(parallel, serial) == []
     records = batch_records(parallel)
     assert len(records) == 8 and sum(r["points"] for r in records) == 16
     assert {r["worker"] for r in records} == {"0", "1"}  # both workers wrote batches
     local = tmp_path / "local.zarr"  # --workers 2 starts its own LocalCluster
-    result = cli.invoke(app, ["sweep", str(sweep), "--out", str(local), "--workers", "2", *flags])
+    result = invoke("sweep", str(sweep), "--out", str(local), "--workers", "2", *flags)
     assert result.exit_code == 0 and "on 2 local Dask workers" in result.stdout, result.stderr
     assert differing_arrays(local, serial) == []
 

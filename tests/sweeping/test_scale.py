@@ -8,27 +8,23 @@ The time bounds below are loose (a loaded CI machine) but far below what a per-p
 
 import json
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
 import xarray as xr
-from hertzian.cli import app
 from hertzian.core.model import build_model
 from hertzian.core.runner import Runner
 from hertzian.sweeping.planner import plan_sweep
 from hertzian.sweeping.spec import expand, load_sweep
 from hertzian.sweeping.store import summary_columns
-from typer.testing import CliRunner
 
-SWEEPS = Path(__file__).parent.parent / "sweeps"
-cli = CliRunner()
+from tests.helpers import SWEEPS, invoke
 
 
 def test_dry_run_of_a_million_points_plans_in_seconds_and_writes_nothing(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     start = time.perf_counter()
-    result = cli.invoke(app, ["sweep", str(SWEEPS / "million.toml"), "--dry-run", "--device", "cpu", "--json"])
+    result = invoke("sweep", str(SWEEPS / "million.toml"), "--dry-run", "--device", "cpu", "--json")
     elapsed = time.perf_counter() - start
     assert result.exit_code == 0, result.stderr
     report = json.loads(result.stdout)
@@ -61,9 +57,7 @@ def test_hundred_thousand_point_sweep_on_the_cpu(tmp_path):
     """10⁵ points of 10-grain chains (2·10⁸ grain-steps): every point OK, and sampled points equal,
     bit for bit, the same chain built scene by scene and run alone with the sweep's kernel."""
     out = tmp_path / "cpu_100k.zarr"
-    result = cli.invoke(
-        app, ["sweep", str(SWEEPS / "cpu_100k.toml"), "--out", str(out), "--device", "cpu", "--quiet", "--json"]
-    )
+    result = invoke("sweep", str(SWEEPS / "cpu_100k.toml"), "--out", str(out), "--device", "cpu", "--quiet", "--json")
     assert result.exit_code == 0, result.stderr
     report = json.loads(result.stdout)
     assert report["points"] == 10**5 and report["status_counts"] == {"0": 10**5}
@@ -92,11 +86,11 @@ def test_summarize_a_large_store_lists_the_worst_points_and_counts(tmp_path):
     path = tmp_path / "s.toml"
     path.write_text(text)
     out = tmp_path / "s.zarr"
-    assert cli.invoke(app, ["sweep", str(path), "--out", str(out), "--device", "cpu", "--quiet"]).exit_code == 0
-    table = cli.invoke(app, ["summarize", str(out), "--rows", "3"])
+    assert invoke("sweep", str(path), "--out", str(out), "--device", "cpu", "--quiet").exit_code == 0
+    table = invoke("summarize", str(out), "--rows", "3")
     assert table.exit_code == 0, table.stderr
     assert "3 of 1000 points" in table.stdout and "status: OK 1000" in table.stdout
-    records = json.loads(cli.invoke(app, ["summarize", str(out), "--json"]).stdout)
+    records = json.loads(invoke("summarize", str(out), "--json").stdout)
     assert len(records) == 1000 and records[1]["impurity_mass"] == pytest.approx(10**-0.5 * 10 ** (1 / 9))
     worst = max(records, key=lambda r: r["energy_error"])
     assert f"{worst['energy_error']:.3g}" in table.stdout

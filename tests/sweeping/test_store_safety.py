@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 import zarr
 import zarr.storage._local as zarr_local
-from hertzian.cli import app
 from hertzian.core.runner import run_scene
 from hertzian.sweeping import planner, storage, sweep_store
 from hertzian.sweeping.integrity import verify_store
@@ -18,10 +17,8 @@ from hertzian.sweeping.spec import load_sweep, sweep_from_dict, sweep_scenes
 from hertzian.sweeping.storage import StorageError, store_lock
 from hertzian.sweeping.store_format import DAMAGE_ERRORS
 from hertzian.sweeping.sweep_store import completed_batches, differing_arrays, write_result
-from test_sweep_resume import BATCHES, FLAGS, SWEEP, sweep_cli
-from typer.testing import CliRunner
 
-cli = CliRunner()
+from tests.helpers import RESUME_BATCHES, RESUME_FLAGS, RESUME_SWEEP, invoke, sweep_cli
 
 
 def one_error_line(result, *expected):
@@ -36,7 +33,7 @@ def one_error_line(result, *expected):
 @pytest.fixture(scope="module")
 def sweep_file(tmp_path_factory):
     path = tmp_path_factory.mktemp("safety") / "sweep.toml"
-    path.write_text(SWEEP)
+    path.write_text(RESUME_SWEEP)
     return path
 
 
@@ -44,7 +41,7 @@ def sweep_file(tmp_path_factory):
 def reference(sweep_file):
     """The sweep in batches of one point, undisturbed."""
     out = sweep_file.parent / "reference.zarr"
-    assert sweep_cli(sweep_file, "--out", out, *FLAGS).exit_code == 0
+    assert sweep_cli(sweep_file, "--out", out, *RESUME_FLAGS).exit_code == 0
     return out
 
 
@@ -105,30 +102,30 @@ def test_verify_names_the_damaged_point_and_resume_restores_it(store, sweep_file
     # batch 4 is point (1, 1): v_imp = 1e-2, l0 = 1e-5
     shard = store / "u" / "c" / "1" / "1"
     flip(next(p for p in sorted(shard.rglob("*")) if p.is_file()), 20)
-    result = cli.invoke(app, ["verify", str(store)])
+    result = invoke("verify", str(store))
     assert result.exit_code == 1
     damaged = [ln for ln in result.stdout.splitlines() if ln.startswith("damaged: ")]
     assert damaged and all(ln.startswith("damaged: u: v_imp=0.01, l0=1e-05; batch 4:") for ln in damaged), damaged
-    resumed = sweep_cli(sweep_file, "--out", store, "--resume", *FLAGS)
+    resumed = sweep_cli(sweep_file, "--out", store, "--resume", *RESUME_FLAGS)
     assert resumed.exit_code == 0, resumed.stderr
     assert "rerunning batches [4]" in resumed.stderr and "ran 1 of 9 batches" in resumed.stdout
     assert differing_arrays(store, reference) == []
-    assert cli.invoke(app, ["verify", str(store)]).exit_code == 0
+    assert invoke("verify", str(store)).exit_code == 0
 
 
 def test_resume_rebuilds_a_damaged_coordinate_and_rereads_a_damaged_flag(store, sweep_file, reference):
     flip(chunk_files(store / "l0")[0], 3)
     flip(chunk_files(store / "batches" / "done")[2], 1)
     assert {d.variable for d in verify_store(store).damage} == {"l0", "batches/done"}
-    resumed = sweep_cli(sweep_file, "--out", store, "--resume", *FLAGS)
+    resumed = sweep_cli(sweep_file, "--out", store, "--resume", *RESUME_FLAGS)
     assert resumed.exit_code == 0, resumed.stderr
-    assert differing_arrays(store, reference) == [] and completed_batches(store) == set(range(BATCHES))
+    assert differing_arrays(store, reference) == [] and completed_batches(store) == set(range(RESUME_BATCHES))
     assert verify_store(store).damage == []
 
 
 def test_summarize_refuses_a_damaged_store_with_one_line(store):
     flip(chunk_files(store / "energy_error")[0], 5)
-    result = cli.invoke(app, ["summarize", str(store)])
+    result = invoke("summarize", str(store))
     assert result.exit_code == 1
     one_error_line(result, "damaged", "hertzian verify")
 
@@ -138,9 +135,9 @@ def test_a_store_without_checksums_opens_with_a_note(tmp_path, sweep_file, monke
     scene = sweep_scenes(load_sweep(sweep_file))[0]
     out = write_result(tmp_path / "old.zarr", run_scene(scene, device="cpu"))
     monkeypatch.undo()
-    result = cli.invoke(app, ["summarize", str(out)])
+    result = invoke("summarize", str(out))
     assert result.exit_code == 0 and "no chunk checksums" in result.stderr
-    verified = cli.invoke(app, ["verify", str(out)])
+    verified = invoke("verify", str(out))
     assert verified.exit_code == 0 and "no chunk checksums" in verified.stderr
 
 
@@ -164,15 +161,15 @@ def test_a_storage_fault_mid_sweep_is_one_line_and_resume_is_bitwise(
 ):
     out = tmp_path / "out.zarr"
     failing_writes(monkeypatch, code, after=3)
-    result = sweep_cli(sweep_file, "--out", out, *FLAGS)
+    result = sweep_cli(sweep_file, "--out", out, *RESUME_FLAGS)
     assert result.exit_code == 1
     line = one_error_line(result, "writing batch", f"errno {code}", str(out))
     if code == errno.ENOSPC:
         assert "the store needs about" in line and "free there" in line
-    assert 0 < len(completed_batches(out)) < BATCHES
+    assert 0 < len(completed_batches(out)) < RESUME_BATCHES
     assert not list(out.rglob("*.partial"))
     monkeypatch.undo()
-    resumed = sweep_cli(sweep_file, "--out", out, "--resume", *FLAGS)
+    resumed = sweep_cli(sweep_file, "--out", out, "--resume", *RESUME_FLAGS)
     assert resumed.exit_code == 0, resumed.stderr
     assert differing_arrays(out, reference) == []
 
@@ -192,7 +189,7 @@ def test_a_vanished_store_is_one_line(tmp_path, sweep_file):
 def test_a_store_larger_than_the_free_space_is_refused_before_the_start(tmp_path, sweep_file, monkeypatch):
     out = tmp_path / "out.zarr"
     monkeypatch.setattr(storage.shutil, "disk_usage", lambda path: shutil._ntuple_diskusage(10**9, 10**9, 1000))
-    result = sweep_cli(sweep_file, "--out", out, *FLAGS)
+    result = sweep_cli(sweep_file, "--out", out, *RESUME_FLAGS)
     assert result.exit_code == 2
     one_error_line(result, "--out = ", "the store needs about", "1000 B free")
     assert not out.exists() and list(tmp_path.iterdir()) == []
@@ -201,12 +198,12 @@ def test_a_store_larger_than_the_free_space_is_refused_before_the_start(tmp_path
 def test_a_second_writer_is_refused(tmp_path, sweep_file):
     out = tmp_path / "out.zarr"
     with store_lock(out):
-        result = sweep_cli(sweep_file, "--out", out, *FLAGS)
+        result = sweep_cli(sweep_file, "--out", out, *RESUME_FLAGS)
         assert result.exit_code == 2
         one_error_line(result, "is being written by pid")
         assert not out.exists()
     assert not storage.lock_path(out).exists()
-    assert sweep_cli(sweep_file, "--out", out, *FLAGS).exit_code == 0
+    assert sweep_cli(sweep_file, "--out", out, *RESUME_FLAGS).exit_code == 0
 
 
 @pytest.mark.parametrize("size", ["3", "9"])

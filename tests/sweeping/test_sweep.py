@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 import xarray as xr
 import zarr
-from hertzian.cli import app
 from hertzian.core.model import build_model
 from hertzian.core.runner import Runner, run_scene
 from hertzian.core.scene import SceneError
@@ -22,7 +21,8 @@ from hertzian.sweeping.sweep_store import (
     differing_arrays,
     write_result,
 )
-from typer.testing import CliRunner
+
+from tests.helpers import invoke, sweep_cli
 
 SWEEP = """
 [scene.chain]
@@ -51,17 +51,11 @@ key = "chain.l0"
 values = [0.0, 1e-4]
 """
 
-cli = CliRunner()
-
 
 def write(tmp_path, text=SWEEP, name="sweep.toml"):
     path = tmp_path / name
     path.write_text(text)
     return path
-
-
-def sweep_cli(*args):
-    return cli.invoke(app, ["sweep", *map(str, args)])
 
 
 def run_store(tmp_path, text=SWEEP, *flags, name="out.zarr"):
@@ -400,19 +394,19 @@ def test_summarize_a_sweep_and_an_unfinished_one(tmp_path):
     scenes = sweep_scenes(sweep)
     plan = plan_sweep(sweep, scenes, "cpu")
     empty = create_sweep_store(tmp_path / "empty.zarr", sweep, scenes, plan, device="cpu")
-    result = cli.invoke(app, ["summarize", str(empty), "--json"])
+    result = invoke("summarize", str(empty), "--json")
     assert result.exit_code == 0, result.stderr
     records = json.loads(result.stdout)
     assert len(records) == 6 and {r["status_name"] for r in records} == {"NOT_RUN"}
     assert int(xr.open_zarr(empty).status.min()) == -1
     out = run_store(tmp_path)
-    records = json.loads(cli.invoke(app, ["summarize", str(out), "--json"]).stdout)
+    records = json.loads(invoke("summarize", str(out), "--json").stdout)
     assert [(r["v_imp"], r["l0"]) for r in records[:2]] == [(1e-3, 0.0), (1e-3, 1e-4)]
     for r in records:
         assert r["status_name"] == "OK" and r["energy_error"] < 1e-6
         assert r["grain_steps_per_second"] > 0 and r["wall_seconds"] > 0
         assert (r["method"], r["steps"], r["grains"], r["dt"]) == ("gear4", 200, 12, 1e-4)
-    table = cli.invoke(app, ["summarize", str(out)])
+    table = invoke("summarize", str(out))
     assert table.exit_code == 0 and "6 point(s); 12 grains, 200 steps of gear4" in table.stdout
 
 

@@ -18,9 +18,13 @@ from hertzian.core.scene import SceneError
 from hertzian.core.startup import initial_nordsieck, initial_nordsieck_of
 from hertzian.core.static import static_arrays, static_state
 from hertzian.sweeping.planner import plan_sweep
-from hertzian.sweeping.spec import Dimension, expand, load_sweep, sweep_from_dict
+from hertzian.sweeping.spec import Dimension, expand, load_sweep, sweep_from_dict, sweep_scenes
+from hypothesis import HealthCheck, example, given, settings
+from hypothesis import strategies as st
 
-SWEEPS = sorted((Path(__file__).parent.parent / "sweeps").glob("*.toml"))
+from tests.helpers import SWEEPS
+
+SWEEP_FILES = sorted(SWEEPS.glob("*.toml"))
 
 IMPACT_HOST = """
 [scene.chain]
@@ -181,7 +185,7 @@ def reduced(sweep, keep=3):
 
 def cases():
     # sweep files only (a detection study file has a [study] table of its own: tests/test_detect.py)
-    out = [pytest.param(path, id=path.stem) for path in SWEEPS if not path.stem.startswith("detect_study")]
+    out = [pytest.param(path, id=path.stem) for path in SWEEP_FILES if not path.stem.startswith("detect_study")]
     out += [pytest.param(name, id=name) for name in INLINE]
     return out
 
@@ -315,9 +319,6 @@ def test_zipped_axes_are_checked_at_each_axis_extremes_not_only_the_leading_ones
 
 # ---- validation by corners equals validation of every point --------------------------------------
 
-from hertzian.sweeping.spec import sweep_scenes  # noqa: E402
-from hypothesis import HealthCheck, example, given, settings  # noqa: E402
-from hypothesis import strategies as st  # noqa: E402
 
 PARAMETER_VALUES = {
     "chain.l0": [0.0, 1e-4, -1e-5, 2e-4],
