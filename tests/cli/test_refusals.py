@@ -28,7 +28,7 @@ BASE = {
 }
 
 
-# ---- the specific refusals of issue 9 --------------------------------------------------------------
+# ---- refused up front, before any run ---------------------------------------------------------------
 
 REFUSED = [
     ("chain.grains=1000000000000", "chain.grains = 1000000000000: the run needs"),
@@ -98,7 +98,7 @@ def test_kernel_option(tmp_path):
         "--set",
         "excitation.drive_amplitude=1e-3",
     ]
-    # a drive runs on the chain kernel (issue 11; bitwise equality: tests/test_fused_features.py)
+    # a drive runs on the chain kernel (bitwise equality: tests/kernels/test_fused_features.py)
     driven_out = tmp_path / "driven.zarr"
     done = invoke("run", scene, "--out", driven_out, "--device", "cpu", "--kernel", "chain", "--quiet", *driven)
     assert done.exit_code == 0 and "(chain kernel)" in done.stdout, done.output
@@ -111,7 +111,7 @@ def test_kernel_option(tmp_path):
 
 @pytest.mark.parametrize("dt, every, duration", [(1e-3, 0.3, 1.0), (3e-3, 0.01, 1.0), (1e-3, 0.25, 0.6)])
 def test_run_ends_at_the_duration(dt, every, duration):
-    """Issue 9's examples: records on the steps nearest r·every, the last at the duration (to a step)."""
+    """Schedules that do not divide evenly: records on the steps nearest r·every, the last at the duration (to a step)."""
     scene = make_scene(
         chain={"grains": 6, "l0": 1e-4},
         excitation={"impact": 1e-2},
@@ -130,7 +130,7 @@ def test_run_ends_at_the_duration(dt, every, duration):
 
 
 def test_whole_schedules_are_unchanged():
-    """every/dt and duration/every whole: records exactly every/dt steps apart (as before issue 9)."""
+    """every/dt and duration/every whole: records exactly every/dt steps apart."""
     scene = make_scene(integrator={"duration": 0.2, "dt": 1e-4}, record={"every": 0.05})
     np.testing.assert_array_equal(scene.record_steps, np.arange(5) * 500)
     np.testing.assert_array_equal(scene.record_times, np.arange(5) * 500 * 1e-4)
@@ -316,7 +316,7 @@ def test_chain_kernel_option(tmp_path):
     path = tmp_path / "sweep.toml"
     path.write_text(text)
     out = tmp_path / "sweep.zarr"
-    # traces run on the chain kernel too (issue 11)
+    # traces run on the chain kernel too
     done = invoke(
         "sweep", path, "--out", out, "--device", "cpu", "--kernel", "chain", "--quiet", "--set", "record.traces=[0]"
     )

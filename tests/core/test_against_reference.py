@@ -85,7 +85,7 @@ def build(name: str, method: str = "gear4", dt: float = 5e-4):
     sections = {k: dict(v) if isinstance(v, dict) else v for k, v in case.items()}
     sections.setdefault("chain", {})["grains"] = GRAINS
     # the reference integrates plain Gear/Verlet steps: compare the kernels' plain steps (event-aware
-    # steps, integrator.events = "auto", are checked by their order of accuracy in tests/test_events.py)
+    # steps, integrator.events = "auto", are checked by their order of accuracy in tests/kernels/test_event_steps.py)
     sections["integrator"] = {"method": method, "dt": dt, "duration": duration, "events": "off"}
     sections["record"] = {"every": duration / 20, "traces": [0, GRAINS // 2, GRAINS - 2, GRAINS - 1]}
     return make_scene(**sections)

@@ -14,7 +14,7 @@ GRAINS = 12
 DURATION = 2.0
 EVERY = 0.5
 FACTOR = 3.0
-"""The estimate must lie within this factor of the true error (issue's target)."""
+"""The estimate must lie within this factor of the true error (the accuracy the estimate promises)."""
 REFERENCE_REFINEMENT = 32
 IMPURITIES = [{"grains": [3, 4], "mass": 0.5, "a": 2000.0}, {"grains": [8], "mass": 2.0, "a": 1e4}]
 

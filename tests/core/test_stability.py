@@ -1,4 +1,4 @@
-"""Numerical stability on stiff and extreme cases (issue 4), on small sizes.
+"""Numerical stability on stiff and extreme cases, on small sizes.
 
 * Per-chain status, never a crash: a member that blows up is flagged and frozen, and the other
   members stay bitwise equal to their single runs (same kernel), on every CPU kernel path.
@@ -172,7 +172,7 @@ def test_paper_step_times_ten_and_times_a_hundredth(factor, tolerance):
 def test_order_loss_where_contacts_open():
     """l0 = 0: F ∝ δ^(3/2) is not smooth at δ = 0 and plain Gear steps (integrator.events = "off") fall
     to order ≈ 2.3 (Verlet stays 2); at l0 = 1e-2 (no contact opens) gear6 shows its order 6. Reference:
-    gear6 at dt/4, Richardson-checked. tests/test_events.py checks the order event-aware steps restore."""
+    gear6 at dt/4, Richardson-checked. tests/kernels/test_event_steps.py checks the order event-aware steps restore."""
     dts = [2e-3, 1e-3, 5e-4]
     orders = {}
     for l0, impact in ((0.0, 1e-2), (1e-2, 1e-4)):

@@ -3,7 +3,7 @@
 ``python tests/golden/make_golden.py`` (from the repository root, with the repository on
 ``PYTHONPATH``) runs every case in ``CASES`` on the CPU and writes ``tests/golden/golden.npz``:
 for each case its snapshots u and v, energy, work (driven), traces u and v, per-chain status,
-largest overlap and energy error. ``tests/test_golden.py`` reruns the cases and asserts that
+largest overlap and energy error. ``tests/core/test_golden.py`` reruns the cases and asserts that
 every array is bitwise equal. A case is a plain dict, so a later kernel option can be pinned here:
 
 * ``scenes``: scene dictionaries (the TOML layout), one per chain of the ensemble;
@@ -232,7 +232,7 @@ def run_case(case: dict):
 
     wp.init()
     # the stored outputs predate event-aware Gear steps: pin them off (integrator.events = "off"
-    # reproduces the earlier steps bit for bit; tests/test_events.py covers "auto")
+    # reproduces the earlier steps bit for bit; tests/kernels/test_event_steps.py covers "auto")
     scenes = [
         scene_from_dict({**s, "integrator": {**s.get("integrator", {}), "events": "off"}}) for s in case["scenes"]
     ]

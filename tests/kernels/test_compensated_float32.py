@@ -8,14 +8,14 @@ plain float32 and in compensated float32, gear4 and Verlet; the claims checked:
 
 * compensated float32's energy error (SPEC §5) is ≤ 2e-7 (docs/stability.md claims ≤ 1e-6 on the
   paper's 1000-grain scene to t = 20; this scene measured 5.9e-8 gear4, 9.5e-8 Verlet, whose own
-  float64 error is 4.6e-8: docs/accuracy/float32_small.json), and its positions are within 2e-6
+  float64 error is 4.6e-8: docs/records/accuracy/float32.json, "small"), and its positions are within 2e-6
   (relative) of float64's (measured 4.7e-7, 6.7e-7);
 * the plain float32 update is more than 100 times worse in both (it measured 3e-3), so the scene is
   one where float32's rounding matters and the comparison can fail.
 
 Without the compensated contact displacements (``gap`` from rounded positions) the energy drifts
 linearly in time, 5.9e-7 (gear4) and 6.3e-7 (Verlet) at t = 4 here
-(docs/accuracy/float32_small_without_gap.json): the 2e-7 bound catches that too.
+(docs/records/accuracy/float32.json, "small_without_gap"): the 2e-7 bound catches that too.
 """
 
 from __future__ import annotations

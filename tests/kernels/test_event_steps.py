@@ -177,10 +177,10 @@ def test_bad_event_modes_are_one_line_errors():
 
 @pytest.mark.slow
 def test_wall_struck_chain_converges_like_the_smooth_case():
-    """Issue 18's scene: 200 grains, l0 = 1e-4, v_imp = 1e-2, duration 8, gear4. The struck grain leaves
+    """A wall-struck chain: 200 grains, l0 = 1e-4, v_imp = 1e-2, duration 8, gear4. The struck grain leaves
     the wall; with event-aware steps the error falls at every halving of dt and stays within 3× of
     the same chain's error with a load surface (no contact opens) at dt = 2e-4 and 1e-4. Without them
-    (docs/accuracy/wall.json) the error at 1e-4 is 3× the one at 2e-4 and 30× the load surface's."""
+    (docs/records/accuracy/events.json, "wall") the error at 1e-4 is 3× the one at 2e-4 and 30× the load surface's."""
     dts = [4e-4, 2e-4, 1e-4, 5e-5]
     scene = make_scene(chain={"grains": 200, "l0": 1e-4}, excitation={"impact": 1e-2}, integrator={"duration": 8.0})
     wall, _, _ = work_precision(scene, ["gear4"], dts, ["float64"], device="cpu", events=["auto"])

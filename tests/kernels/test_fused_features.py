@@ -4,7 +4,7 @@ The per-step kernel writes trace samples inside the step and integrates the driv
 itself (kernels/step.py); the fused solvers sample the ring between stride-aligned pieces and the
 chain kernel copies the driven path expression for expression. On the CPU every record, every trace
 sample and the driver's work must agree bit for bit (on CUDA too with HERTZIAN_FUSE_FP=0; by default to
-rounding there, fused_cases.assert_kernels_agree). Each case asserts that motion reached the
+rounding there, tests.helpers.assert_kernels_agree). Each case asserts that motion reached the
 last traced grain / the bottom of the chain before comparing (a test of zeros against zeros
 cannot fail).
 """
@@ -571,7 +571,7 @@ def test_fused_kernels_refuse_the_dashpot_in_compensated_float32():
 def test_trace_sample_is_written_out_of_the_step_loop():
     """The fused kernel writes a trace sample through one out-of-line function, called only when a sample is due:
     written into the step loop, the sample's code slowed every step of the traced window kernel by 28 % on an H100
-    (docs/benchmarks.md, seventh session). Generated C++ only, nothing compiled."""
+    (docs/benchmarks.md). Generated C++ only, nothing compiled."""
     from hertzian.kernels.features import Features
     from hertzian.kernels.tile import TileShape, tile_kernel
 

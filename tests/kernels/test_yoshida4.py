@@ -7,12 +7,12 @@ Claims checked here, each against something independent of the kernels' own outp
   (walls, impurities + gravity + a fixed bottom, free ends, compensated float32), and equal records and
   traces through the runner (traces are written only at step boundaries);
 * order 4 on a smooth (precompressed, no contact opens) chain against a gear6 reference at a much smaller
-  step: tests/test_order.py (EXPECTED["yoshida4"]);
+  step: tests/core/test_order_of_accuracy.py (EXPECTED["yoshida4"]);
 * no energy drift over ~4000 contact times (symplectic: the error oscillates, bounded), where gear4 —
   not symplectic — drifts at the same step;
 * the stability limit in ``hertzian check`` is the first ω·dt where |trace/2| of the one-step map of a
   harmonic oscillator reaches 1, recomputed here from Verlet's 2×2 kick–drift–kick matrices
-  (tests/test_check.py also checks the scaled-Nordsieck matrix against the Warp kernel, and that runs
+  (tests/core/test_check.py also checks the scaled-Nordsieck matrix against the Warp kernel, and that runs
   blow up beyond the limit);
 * a drive, damping and the fused CUDA kernels are refused with one line (exit code 2 in the CLI).
 """

@@ -310,7 +310,7 @@ def test_binomial_lower_bound_closed_forms():
 # ---- --fit-a: the impurity's self-constant a as well as its mass -----------------------------------------
 
 FIT_A_TRUTH = (12, 0.5, 3.0)  # depth, mass ratio, a / a_host: off both grids (μ: 7 log steps; a: 9 over 0.25…4)
-FIT_A_CASES = [  # (depth, mass ratio, a / a_host, noise seed); as docs/logs/detection/fit_a_cpu.py
+FIT_A_CASES = [  # (depth, mass ratio, a / a_host, noise seed)
     (*FIT_A_TRUTH, 11),
     (25, 2.0, 0.4, 12),  # with a = a_host the best depth is 26: --fit-a also tries the neighbouring depths
 ]
@@ -467,8 +467,8 @@ def small_library(seed=4):
 
 
 def reference_library_scores(signal, t, clean, traces, ok, fronts, grid):
-    """The library's scores computed depth by depth from the traces, as detect did before they were vectorised
-    (kept here as the reference): per class, the quadratic of each depth (x0, rss0, g, H; None if no point is
+    """The library's scores computed depth by depth from the traces (the reference for the
+    vectorised scores): per class, the quadratic of each depth (x0, rss0, g, H; None if no point is
     usable) and the first-echo gain and best x; and the RSS of every candidate (inf where it did not run)."""
     from hertzian.studies.detection import FIRST_ECHO_GRAINS, INTERPOLATION_POINTS, lagrange_weights, quadratic_at
 

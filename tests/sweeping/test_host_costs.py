@@ -1,9 +1,9 @@
-"""Host-side cuts of a sweep's batches (issue 17): each gives the same bits as the path it replaces.
+"""Host-side cuts of a sweep's batches: each gives the same bits as the path it replaces.
 
 * the static state solved once per distinct static configuration equals every chain's own
   ``static_state`` (the per-scene reference);
 * a serial sweep that prepares batch b + 1's host arrays in a background thread while batch b runs
-  writes the same store as one that does not (and both equal the per-scene runs, tests/test_sweep.py);
+  writes the same store as one that does not (and both equal the per-scene runs, tests/sweeping/test_sweep.py);
 * reused host staging buffers give the same records as fresh ones;
 * records written into the store while their batch still runs (sweep_store.RowWriter) give the same store as
   a batch written at its end.

@@ -2,7 +2,7 @@
 
 The per-point cost these guard against: building one Scene per point took ~0.3 ms of CPU
 (28.7 s for a 10⁵-point dry run), so 10⁶ points spent ~5 minutes before planning; the
-vectorised expansion plans them in under a second on 2 cores (docs/logs/sweep_scale_cpu.txt).
+vectorised expansion plans them in under a second on 2 cores.
 The time bounds below are loose (a loaded CI machine) but far below what a per-point path costs.
 """
 

@@ -184,7 +184,7 @@ def reduced(sweep, keep=3):
 
 
 def cases():
-    # sweep files only (a detection study file has a [study] table of its own: tests/test_detect.py)
+    # sweep files only (a detection study file has a [study] table of its own: tests/studies/test_detection.py)
     out = [pytest.param(path, id=path.stem) for path in SWEEP_FILES if not path.stem.startswith("detect_study")]
     out += [pytest.param(name, id=name) for name in INLINE]
     return out
