@@ -11,9 +11,9 @@ positions, which are already in registers, so overwriting grain ``i`` cannot dis
 ``i + 1``.
 
 The arithmetic is ``kernels/step.py``'s expression for expression (bitwise equal on the CPU;
-``tests/test_cpu_kernel.py``), the driven surface grain and the driver's work included
-(``tests/test_fused_features.py``), and damping (viscous and dashpot) with the dissipated energy
-(``tests/test_drive.py``): the dashpot of the contact above grain ``i`` needs grain ``i − 1``'s old
+``tests/kernels/test_chain_kernel.py``), the driven surface grain and the driver's work included
+(``tests/kernels/test_fused_features.py``), and damping (viscous and dashpot) with the dissipated energy
+(``tests/core/test_drive.py``): the dashpot of the contact above grain ``i`` needs grain ``i − 1``'s old
 and predicted values, which are carried from the previous grain since ``x_out`` already holds its new
 ones. Traces are written inside the launch after each step k·stride, as the per-step kernel writes them.
 

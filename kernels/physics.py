@@ -13,7 +13,7 @@ import warp as wp
 # The fast path of the CUDA compiler's correctly rounded float64 sqrt (sqrt.rn.f64 on sm_90), written
 # out so that a lane's G + 1 square roots carry no branch each: one test for the rare inputs that need
 # the slow path (zero, subnormal, huge, negative, inf/nan), which then take wp.sqrt. In range it is the
-# same instruction sequence, hence the same bits; tests/test_tile.py and the GPU bench check this.
+# same instruction sequence, hence the same bits; tests/kernels/test_tile.py and the GPU bench check this.
 _SQRT_FAST_PATH = """
 #if defined(__CUDA_ARCH__)
     double y0_hi;

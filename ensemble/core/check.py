@@ -27,7 +27,7 @@ grain's own mass at a wall or against a held grain) gives the **contact time** `
   amplification matrix on ``ü = −ω² u`` (:func:`amplification_matrix`): velocity Verlet ρ = 1 up to
   ``ω dt = 2``; yoshida4 (three Verlet substeps) ρ = 1 up to ``ω dt = 1.5734``; gear4 is damped (ρ < 1) up to ``√2``; gear5 and gear6 grow weakly at any step
   (ρ slightly above 1, ~1e-6 per period at ω dt ≈ 0.1) and break down at 1.12 and 0.85, where the
-  growth reaches 10 % per period. ``tests/test_check.py`` confirms each limit with the Warp kernels
+  growth reaches 10 % per period. ``tests/core/test_check.py`` confirms each limit with the Warp kernels
   on a linear (n = 2) chain on either side of it.
 * **accuracy** — the energy error falls as a power of ``dt/T``. The steps per contact time that kept
   it below 1e-6 in every extreme case of the stability suite (impact speeds 1e-6 … 10, l0 = 0 …
@@ -58,7 +58,7 @@ STABLE_OMEGA_DT = {"verlet": 2.0, "gear4": math.sqrt(2.0), "gear5": 1.12, "gear6
 yoshida4: the one-step matrix on ü = −ω²u is the product of its three velocity-Verlet substep matrices
 (w1, w0, w1)·dt (:func:`amplification_matrix`); it has determinant 1 on (u, v), so it is stable while
 |trace/2| ≤ 1. Bisection of |trace/2| = 1 gives ω dt = 1.573402 (first crossing; rounded down here,
-recomputed by tests/test_check.py)."""
+recomputed by tests/core/test_check.py)."""
 
 ACCURATE_STEPS_PER_CONTACT_TIME = {"gear4": 400.0, "gear5": 300.0, "gear6": 400.0, "verlet": 3200.0, "yoshida4": 400.0}
 """Steps per contact time T/dt that keep the energy error below 1e-6 in every case of the extreme-case suite

@@ -533,7 +533,7 @@ def stack_prepared(parts: list[HostModel]) -> HostModel:
 
 def _build_model_of(chains: ChainSet, device, features: Features | None, prepared: HostModel | None = None) -> Model:
     """build_model for a ChainSet: every per-chain array from numpy over the set (bitwise equal to the
-    per-scene path, checked by tests/test_vectorised.py), then uploaded."""
+    per-scene path, checked by tests/sweeping/test_vectorised_expansion.py), then uploaded."""
     if prepared is None:
         if isinstance(chains, ChainStack):
             raise ValueError("a ChainStack model is built from stack_prepared(...) of its sets' prepare_model")

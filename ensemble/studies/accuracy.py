@@ -2,7 +2,7 @@
 
 **Reference.** The error of a run is measured against the same scene integrated with ``gear6`` in
 float64 at a step ``reference_factor`` (default 4) times smaller than the finest step studied.
-gear6 is the highest-order method here (order 6 in the positions, tests/test_order.py): at that
+gear6 is the highest-order method here (order 6 in the positions, tests/core/test_order_of_accuracy.py): at that
 step its truncation error is ``4^6 ≈ 4000`` times below its own error at the finest studied step,
 and orders of magnitude below gear4/verlet there. That argument needs the asymptotic regime, so
 it is checked, not assumed: the reference is also run at 2× and 4× its step and a Richardson

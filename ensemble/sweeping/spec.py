@@ -563,7 +563,7 @@ def validate_grid(expanded: SweepPoints) -> int:
     being nonzero (a load and l0 together, an impact on a driven surface), so a grid whose every
     structural combination passes at the smallest and largest value of each parameter axis passes
     everywhere; zipped axes pair up, so they are checked per sign pattern (:func:`_extreme_indices`).
-    tests/test_vectorised.py checks this against validating every point on generated grids.
+    tests/sweeping/test_vectorised_expansion.py checks this against validating every point on generated grids.
     """
     points = corner_points(expanded)
     for index in points:

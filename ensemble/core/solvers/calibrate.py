@@ -17,8 +17,8 @@ themselves are in this package's ``step``, ``tile`` and ``chain`` modules. Kinds
 * ``fused`` — ``auto`` that calibrates short runs too (the first run of a shape on a GPU times its candidates,
   later ones read the cache).
 
-Every fused kernel reproduces the per-step kernel's arithmetic (tests/test_tile.py,
-tests/test_cpu_kernel.py), so the choice changes speed, not results.
+Every fused kernel reproduces the per-step kernel's arithmetic (tests/kernels/test_tile.py,
+tests/kernels/test_chain_kernel.py), so the choice changes speed, not results.
 """
 
 from __future__ import annotations

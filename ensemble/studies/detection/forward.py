@@ -107,7 +107,7 @@ def prepare_candidates(forward: Scene, candidates: list[tuple], block: int):
     Candidates of one depth and contact constant differ only in the impurity's mass, a per-chain scalar: each
     such group is one ChainSet (template: BASE with that impurity block, mass per chain), prepared with numpy
     over the group, the groups stacked (``hertzian.core.model.stack_prepared``): no scene per candidate,
-    the same arrays as building every candidate's scene (``tests/test_detect.py`` checks the traces bit for
+    the same arrays as building every candidate's scene (``tests/studies/test_detection.py`` checks the traces bit for
     bit). The clean chain joins the first group as mass ratio 1 (the kernel is the impurity chains' anyway).
     """
 
@@ -158,7 +158,7 @@ def _moved_impurity(moved, chains, depth: int, block: int):
     prepared group's HostModel, with the block moved — or None when the impurity cannot move there
     (:func:`_impurity_can_move`) or the masses differ in number. Every array but 1/m is the prepared group's; 1/m is
     1/m_host outside the block (the prepared group's own value) and 1.0 / mass in it, numpy's division as in
-    prepare_model: the same bits as preparing the group (``tests/test_detect.py`` compares the traces)."""
+    prepare_model: the same bits as preparing the group (``tests/studies/test_detection.py`` compares the traces)."""
 
     part = moved
     if (
