@@ -28,7 +28,7 @@ from tests.helpers.fused import (
 from tests.helpers.numerics import slope
 from tests.helpers.scenes import DEVICES, make_scene
 from tests.helpers.source import accessed_arrays, call_count, function_body, generated_source
-from tests.helpers.sweeps import RESUME_BATCHES, RESUME_FLAGS, RESUME_SWEEP, SWEEPS
+from tests.helpers.sweeps import GRID_SWEEP, RESUME_BATCHES, RESUME_FLAGS, RESUME_SWEEP, SWEEPS, run_store, write_sweep
 
 __all__ = [
     "CASES",
@@ -36,6 +36,7 @@ __all__ = [
     "CUDA_ROUNDING",
     "CUDA_ROUNDING_FLOAT32",
     "DEVICES",
+    "GRID_SWEEP",
     "HERTZIAN",
     "MOVED",
     "RESUME_BATCHES",
@@ -56,10 +57,12 @@ __all__ = [
     "invoke",
     "make_scene",
     "per_step",
+    "run_store",
     "slope",
     "sweep",
     "sweep_cli",
     "toml_text",
     "toml_value",
     "window_ranges",
+    "write_sweep",
 ]

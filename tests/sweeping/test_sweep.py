@@ -1,5 +1,5 @@
-"""Sweeps: file format and validation, the planner, and the store (xarray dims, chunks aligned
-with batches, every point equal to the same chain run alone with its launch group's kernel)."""
+"""Sweeps run: the planner (blocks, launch groups, batches) and the store (xarray dims, chunks aligned with
+batches, every point equal to the same chain run alone with its launch group's kernel)."""
 
 import json
 import math
@@ -13,7 +13,6 @@ from hertzian.core.runner import Runner, run_scene
 from hertzian.core.scene import SceneError
 from hertzian.sweeping.planner import batches_for, block_for, plan_sweep
 from hertzian.sweeping.spec import load_sweep, sweep_from_dict, sweep_scenes
-from hertzian.sweeping.store import summary_records
 from hertzian.sweeping.sweep_store import (
     batch_records,
     chunk_layout,
@@ -22,198 +21,7 @@ from hertzian.sweeping.sweep_store import (
     write_result,
 )
 
-from tests.helpers import invoke, sweep_cli
-
-SWEEP = """
-[scene.chain]
-grains = 12
-
-[scene.excitation]
-impact = 1e-2
-
-[scene.integrator]
-dt = 1e-4
-duration = 0.02
-
-[scene.record]
-every = 0.01
-traces = [0, 11]
-trace_every = 0.001
-
-[[axis]]
-name = "v_imp"
-key = "excitation.impact"
-logspace = [-3, -1, 3]
-
-[[axis]]
-name = "l0"
-key = "chain.l0"
-values = [0.0, 1e-4]
-"""
-
-
-def write(tmp_path, text=SWEEP, name="sweep.toml"):
-    path = tmp_path / name
-    path.write_text(text)
-    return path
-
-
-def run_store(tmp_path, text=SWEEP, *flags, name="out.zarr"):
-    out = tmp_path / name
-    result = sweep_cli(write(tmp_path, text, name=f"{name}.toml"), "--out", out, "--device", "cpu", *flags)
-    assert result.exit_code == 0, result.stderr + result.stdout
-    return out
-
-
-# ---- file format -----------------------------------------------------------------------
-
-
-def test_grid_points_in_c_order_with_exact_axis_values(tmp_path):
-    sweep = load_sweep(write(tmp_path))
-    assert sweep.dims == ("v_imp", "l0") and sweep.shape == (3, 2) and sweep.point_count == 6
-    np.testing.assert_array_equal(sweep.dimensions[0].axes[0].coordinate(), np.logspace(-3, -1, 3))
-    scenes = sweep_scenes(sweep)
-    # last axis fastest
-    assert [(s.excitation.impact, s.chain.l0) for s in scenes[:3]] == [(1e-3, 0.0), (1e-3, 1e-4), (1e-2, 0.0)]
-
-
-def test_linspace_and_scene_file_relative_to_the_sweep_file(tmp_path):
-    (tmp_path / "scenes").mkdir()
-    (tmp_path / "scenes" / "base.toml").write_text("[chain]\ngrains = 12\n[integrator]\nduration = 0.01\n")
-    (tmp_path / "sweeps").mkdir()
-    path = tmp_path / "sweeps" / "s.toml"
-    path.write_text(
-        'scene = "../scenes/base.toml"\n[[axis]]\nname = "g"\nkey = "chain.gravity"\nlinspace = [0.0, 1.0, 5]\n'
-    )
-    sweep = load_sweep(path)
-    np.testing.assert_array_equal(sweep.dimensions[0].axes[0].coordinate(), np.linspace(0.0, 1.0, 5))
-    assert sweep.base.chain.grains == 12
-
-
-def test_zipped_axes_share_one_dimension(tmp_path):
-    text = SWEEP.replace("values = [0.0, 1e-4]", "values = [0.0, 1e-5, 1e-4]") + '[[zip]]\naxes = ["v_imp", "l0"]\n'
-    sweep = load_sweep(write(tmp_path, text))
-    assert sweep.dims == ("v_imp",) and sweep.shape == (3,)
-    assert [(s.excitation.impact, s.chain.l0) for s in sweep_scenes(sweep)] == [(1e-3, 0.0), (1e-2, 1e-5), (1e-1, 1e-4)]
-    out = run_store(tmp_path, text)
-    ds = xr.open_zarr(out)
-    assert ds.u.dims == ("v_imp", "record", "grain") and ds.l0.dims == ("v_imp",)
-    by_l0 = ds.swap_dims(v_imp="l0")
-    np.testing.assert_array_equal(by_l0.u.sel(l0=1e-5).values, ds.u.sel(v_imp=1e-2).values)
-    records = summary_records(out)
-    assert [(r["v_imp"], r["l0"]) for r in records] == [(1e-3, 0.0), (1e-2, 1e-5), (1e-1, 1e-4)]
-
-
-def test_fingerprint_is_the_meaning_not_the_spelling(tmp_path):
-    a = load_sweep(write(tmp_path))
-    b = load_sweep(
-        write(tmp_path, SWEEP.replace("values = [0.0, 1e-4]", "linspace = [0, 1e-4, 2]") + "# comment\n", name="b.toml")
-    )
-    c = load_sweep(write(tmp_path, SWEEP.replace("1e-4]", "2e-4]"), name="c.toml"))
-    assert a.fingerprint() == b.fingerprint() != c.fingerprint()
-    assert sweep_from_dict(a.to_dict()).fingerprint() == a.fingerprint()
-
-
-BAD = [
-    ("unknown top-level key", SWEEP + "[[axes]]\nname = 'x'\n", "axes: unknown key (did you mean 'axis'?)"),
-    ("no scene", "[[axis]]" + SWEEP.split("[[axis]]", 1)[1], "scene = None: is required"),
-    ("scene section at top", SWEEP.replace("[scene.chain]", "[chain]"), "chain: unknown key"),
-    ("missing scene file", 'scene = "nope.toml"\n', "scene = 'nope.toml': no such scene file"),
-    ("no values", SWEEP.replace("logspace = [-3, -1, 3]", ""), "axis[0] = 'v_imp': give exactly one of values"),
-    (
-        "two spacings",
-        SWEEP.replace("logspace = [-3, -1, 3]", "logspace = [-3, -1, 3]\nvalues = [1.0]"),
-        "give exactly one of",
-    ),
-    ("bad count", SWEEP.replace("logspace = [-3, -1, 3]", "logspace = [-3, -1, 2.5]"), "count must be an integer"),
-    (
-        "bad linspace",
-        SWEEP.replace("logspace = [-3, -1, 3]", "linspace = [1, 2]"),
-        "axis[0].linspace = [1, 2]: must be [first, last, count]",
-    ),
-    ("repeated values", SWEEP.replace("[0.0, 1e-4]", "[1e-4, 1e-4]"), "must not repeat"),
-    ("mixed values", SWEEP.replace("[0.0, 1e-4]", '[0.0, "x"]'), "must all be numbers, all strings"),
-    (
-        "unknown axis key",
-        SWEEP.replace('key = "chain.l0"', 'key = "chain.gravty"'),
-        "axis[1].key = 'chain.gravty': not a scene key (chain.gravty: unknown key (did you mean 'gravity'?)",
-    ),
-    ("unknown section", SWEEP.replace('key = "chain.l0"', 'key = "chian.l0"'), "axis[1].key = 'chian.l0'"),
-    (
-        "missing impurity block",
-        SWEEP.replace('key = "chain.l0"', 'key = "impurities.0.mass"'),
-        "there are 0 impurity blocks",
-    ),
-    ("duplicate name", SWEEP.replace('name = "l0"', 'name = "v_imp"'), "axis[1].name = 'v_imp': already used"),
-    ("duplicate key", SWEEP.replace('key = "chain.l0"', 'key = "excitation.impact"'), "already swept by axis[0]"),
-    ("reserved name", SWEEP.replace('name = "l0"', 'name = "energy"'), "is a store variable name"),
-    ("bad name", SWEEP.replace('name = "l0"', 'name = "l 0"'), "axis[1].name = 'l 0'"),
-    ("unknown axis field", SWEEP + "step = 2\n", "axis[1].step: unknown key"),
-    ("zip lengths", SWEEP + '[[zip]]\naxes = ["v_imp", "l0"]\n', "zipped axes need equal lengths"),
-    ("zip unknown axis", SWEEP + '[[zip]]\naxes = ["v_imp", "l1"]\n', "zip[0].axes = 'l1': no such axis"),
-    ("zip single axis", SWEEP + '[[zip]]\naxes = ["v_imp"]\n', "must list at least two axis names"),
-    (
-        "bad point",
-        SWEEP.replace("[0.0, 1e-4]", "[0.0, -1e-4]"),
-        "chain.l0 = -0.0001: must be ≥ 0 (at sweep point v_imp=0.001, l0=-0.0001)",
-    ),
-    (
-        "layout axis",
-        SWEEP.replace('key = "chain.l0"', 'key = "chain.grains"').replace("[0.0, 1e-4]", "[12, 20]"),
-        "chain.grains = ['12', '20']: every point of a sweep shares the store's record/grain layout",
-    ),
-    ("bad base scene", SWEEP.replace("grains = 12", "grains = 1"), "chain.grains = 1: must be an integer ≥ 2"),
-    ("not toml", "[[axis]\n", "is not valid TOML"),
-]
-
-
-@pytest.mark.parametrize("name,text,expected", BAD, ids=[b[0] for b in BAD])
-def test_bad_sweep_is_one_line_exit_2_nothing_written(tmp_path, name, text, expected):
-    out = tmp_path / "out.zarr"
-    result = sweep_cli(write(tmp_path, text), "--out", out, "--device", "cpu")
-    assert result.exit_code == 2, (result.stdout, result.stderr)
-    lines = [ln for ln in result.stderr.splitlines() if ln.strip() and not ln.startswith("Warp CUDA warning")]
-    assert len(lines) == 1 and lines[0].startswith("error: "), result.stderr
-    assert expected in lines[0], lines[0]
-    assert not out.exists() and [p.name for p in tmp_path.iterdir()] == ["sweep.toml"]
-
-
-@pytest.mark.parametrize(
-    "flags,expected",
-    [
-        ("--batch-size 0", "--batch-size = 0: must be ≥ 1"),
-        ("--workers 0", "--workers = 0: must be ≥ 1"),
-        ("--workers 2 --scheduler tcp://x:1", "give either workers (a local cluster) or scheduler"),
-        ("--resume --overwrite", "resume continues a store, overwrite replaces it"),
-        ("--set chain.grainz=3", "chain.grainz: unknown key"),
-        ("--precision float16", "integrator.precision = 'float16'"),
-    ],
-)
-def test_bad_flags(tmp_path, flags, expected):
-    result = sweep_cli(write(tmp_path), "--out", tmp_path / "o.zarr", *flags.split())
-    assert result.exit_code == 2 and expected in result.stderr, result.stderr
-    assert not (tmp_path / "o.zarr").exists()
-
-
-def test_existing_store_needs_resume_or_overwrite(tmp_path):
-    out = tmp_path / "o.zarr"
-    out.mkdir()
-    result = sweep_cli(write(tmp_path), "--out", out)
-    assert result.exit_code == 2 and "exists; resume to continue it or overwrite to replace it" in result.stderr
-    assert list(out.iterdir()) == []
-
-
-def test_dry_run_prints_the_plan_and_writes_nothing(tmp_path):
-    result = sweep_cli(
-        write(tmp_path), "--out", tmp_path / "o.zarr", "--dry-run", "--batch-size", "2", "--device", "cpu"
-    )
-    assert result.exit_code == 0, result.stderr
-    text = result.stdout
-    assert "points: 6 over v_imp (3) × l0 (2)" in text
-    assert "batches: 3 of up to 2 points" in text and "estimated work: 1.44e+04 grain-steps" in text
-    assert "device mem" in text and "KiB" in text
-    assert not (tmp_path / "o.zarr").exists()
-
+from tests.helpers import GRID_SWEEP, invoke, run_store, sweep_cli, write_sweep
 
 # ---- planner -----------------------------------------------------------------------------
 
@@ -237,14 +45,14 @@ def test_block_shapes(shape, splitting, target, block):
     assert points == list(range(math.prod(shape)))  # every point exactly once
 
 
-METHOD_SWEEP = SWEEP.replace(
+METHOD_SWEEP = GRID_SWEEP.replace(
     "values = [0.0, 1e-4]",
     'values = [0.0, 1e-4]\n\n[[axis]]\nname = "method"\nkey = "integrator.method"\nvalues = ["gear4", "verlet"]',
 )
 
 
 def test_method_axis_splits_launch_groups(tmp_path):
-    sweep = load_sweep(write(tmp_path, METHOD_SWEEP))
+    sweep = load_sweep(write_sweep(tmp_path, METHOD_SWEEP))
     scenes = sweep_scenes(sweep)
     plan = plan_sweep(sweep, scenes, "cpu")
     assert len(plan.groups) == 2 and plan.block == (3, 2, 1)
@@ -255,7 +63,7 @@ def test_method_axis_splits_launch_groups(tmp_path):
 
 def test_every_point_equals_the_same_chain_alone_with_its_groups_kernel(tmp_path, device):
     out = tmp_path / "o.zarr"
-    result = sweep_cli(write(tmp_path, METHOD_SWEEP), "--out", out, "--device", device, "--batch-size", "4")
+    result = sweep_cli(write_sweep(tmp_path, METHOD_SWEEP), "--out", out, "--device", device, "--batch-size", "4")
     assert result.exit_code == 0, result.stderr
     sweep = load_sweep(tmp_path / "sweep.toml")
     scenes = sweep_scenes(sweep)
@@ -275,16 +83,16 @@ def test_every_point_equals_the_same_chain_alone_with_its_groups_kernel(tmp_path
 
 
 def test_batch_size_changes_the_chunks_not_the_results(tmp_path):
-    one = run_store(tmp_path, SWEEP, "--batch-size", "1", name="one.zarr")
-    all_ = run_store(tmp_path, SWEEP, name="all.zarr")
+    one = run_store(tmp_path, GRID_SWEEP, "--batch-size", "1", name="one.zarr")
+    all_ = run_store(tmp_path, GRID_SWEEP, name="all.zarr")
     assert differing_arrays(one, all_) == []
     assert zarr.open_array(str(one), path="status").chunks == (1, 1)
     assert zarr.open_array(str(all_), path="status").chunks == (3, 2)
 
 
 def test_differing_arrays_sees_one_changed_value(tmp_path):
-    a = run_store(tmp_path, SWEEP, name="a.zarr")
-    b = run_store(tmp_path, SWEEP, name="b.zarr")
+    a = run_store(tmp_path, GRID_SWEEP, name="a.zarr")
+    b = run_store(tmp_path, GRID_SWEEP, name="b.zarr")
     assert differing_arrays(a, b) == []
     arr = zarr.open_array(str(b), path="v", mode="r+")
     arr[2, 1, 1, 3] = np.nextafter(arr[2, 1, 1, 3], np.inf)
@@ -321,7 +129,7 @@ def test_chunks_are_the_batch_blocks(tmp_path, monkeypatch):
     # shards of one record of u and v (of one record interval of the traces) however small: the default groups
     # records into shards of ROW_SHARD_BYTES, which this small sweep's records do not reach (checked below)
     monkeypatch.setattr(sweep_store, "ROW_SHARD_BYTES", 1)
-    out = run_store(tmp_path, SWEEP, "--batch-size", "2")
+    out = run_store(tmp_path, GRID_SWEEP, "--batch-size", "2")
     sweep = load_sweep(tmp_path / "out.zarr.toml")
     plan = plan_sweep(sweep, sweep_scenes(sweep), "cpu", batch_size=2)
     assert plan.block == (1, 2)
@@ -349,7 +157,7 @@ def test_chunks_are_the_batch_blocks(tmp_path, monkeypatch):
     for name in ("done", "record", "where"):
         assert batches[name].shape[0] == 3 and batches[name].chunks[0] == 1, name
     monkeypatch.undo()
-    grouped = zarr.open_group(str(run_store(tmp_path, SWEEP, "--batch-size", "2", name="grouped.zarr")), mode="r")
+    grouped = zarr.open_group(str(run_store(tmp_path, GRID_SWEEP, "--batch-size", "2", name="grouped.zarr")), mode="r")
     assert (grouped["u"].shards or grouped["u"].chunks)[2] == grouped["u"].shape[2]  # 2 × 12 × 8 B a record: one shard
 
 
@@ -390,7 +198,7 @@ def test_chunk_layout_with_rows_per_shard(block, trailing, rows, chunks, shards)
 
 
 def test_summarize_a_sweep_and_an_unfinished_one(tmp_path):
-    sweep = load_sweep(write(tmp_path))
+    sweep = load_sweep(write_sweep(tmp_path))
     scenes = sweep_scenes(sweep)
     plan = plan_sweep(sweep, scenes, "cpu")
     empty = create_sweep_store(tmp_path / "empty.zarr", sweep, scenes, plan, device="cpu")
@@ -411,7 +219,7 @@ def test_summarize_a_sweep_and_an_unfinished_one(tmp_path):
 
 
 def test_sweep_without_axes_is_a_single_run(tmp_path):
-    text = SWEEP.split("[[axis]]")[0]
+    text = GRID_SWEEP.split("[[axis]]")[0]
     out = run_store(tmp_path, text)
     ds = xr.open_zarr(out)
     assert ds.u.dims == ("record", "grain") and int(ds.status) == 0
@@ -420,14 +228,13 @@ def test_sweep_without_axes_is_a_single_run(tmp_path):
 
 
 def test_scene_error_from_planner_is_a_scene_error(tmp_path):
-    sweep = load_sweep(write(tmp_path))
+    sweep = load_sweep(write_sweep(tmp_path))
     with pytest.raises(SceneError):
         plan_sweep(sweep, sweep_scenes(sweep), "cpu", block=(5, 5, 5))
 
 
 def test_non_leading_zip_axis_may_repeat_values():
     """Only the first axis of a [[zip]] group labels the store dimension; the others are coordinates."""
-    from hertzian.sweeping.spec import sweep_from_dict
 
     data = {
         "scene": {"chain": {"grains": 10}, "excitation": {"impact": 1e-2}, "integrator": {"duration": 0.01}},
@@ -446,7 +253,7 @@ def test_non_leading_zip_axis_may_repeat_values():
 
 def test_unsafe_dt_warns_and_strict_refuses(tmp_path):
     """`hertzian check`'s warning at the grid's corners; --strict exits 2 and writes nothing."""
-    path = write(tmp_path)
+    path = write_sweep(tmp_path)
     out = tmp_path / "unsafe.zarr"
     coarse = ("--set", "integrator.dt=5e-3", "--set", "record.trace_every=5e-3")
     refused = sweep_cli(path, "--out", out, "--device", "cpu", *coarse, "--strict")
