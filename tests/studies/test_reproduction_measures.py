@@ -5,12 +5,10 @@ import math
 
 import numpy as np
 import pytest
-from hertzian.cli import app
 from hertzian.studies import measures as ms
 from hertzian.studies.reproduce import GROUPS, default_sweeps_dir
-from typer.testing import CliRunner
 
-cli = CliRunner()
+from tests.helpers import invoke
 
 
 def test_local_slopes_of_a_power_law_are_its_exponent():
@@ -89,7 +87,7 @@ def test_finite_g_pair_differs_only_in_gravity():
 )
 def test_measure_bad_input_is_one_line_exit_2(tmp_path, monkeypatch, args, message):
     monkeypatch.chdir(tmp_path)
-    result = cli.invoke(app, ["reproduce", *args, "--device", "cpu"])
+    result = invoke("reproduce", *args, "--device", "cpu")
     assert result.exit_code == 2
     assert message in result.output and len(result.output.strip().splitlines()) == 1
     assert list(tmp_path.iterdir()) == []

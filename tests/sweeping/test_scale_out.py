@@ -9,15 +9,13 @@ import time
 
 import numpy as np
 import zarr
-from hertzian.cli import app
 from hertzian.sweeping.balance import TAIL_TOLERANCE, balance_plan, batch_priorities, makespan, tail_excess
 from hertzian.sweeping.distributed import cuda_visible_devices, local_cluster
 from hertzian.sweeping.planner import plan_sweep
 from hertzian.sweeping.spec import expand, sweep_from_dict
 from hertzian.sweeping.sweep_store import batch_records, completed_batches, differing_arrays
-from typer.testing import CliRunner
 
-cli = CliRunner()
+from tests.helpers import sweep_cli
 
 SWEEP = """
 [scene.chain]
@@ -54,7 +52,7 @@ def write_sweep(tmp_path, *, speeds: int, duration: float):
 
 
 def sweep(path, out, *flags):
-    result = cli.invoke(app, ["sweep", str(path), "--out", str(out), "--device", "cpu", "--quiet", *flags])
+    result = sweep_cli(path, "--out", out, "--device", "cpu", "--quiet", *flags)
     assert result.exit_code == 0, result.stderr or str(result.exception)
     return result
 
