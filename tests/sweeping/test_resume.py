@@ -17,21 +17,6 @@ from hertzian.sweeping.sweep_store import batch_records, completed_batches, diff
 from tests.helpers import HERTZIAN, RESUME_BATCHES, RESUME_FLAGS, RESUME_SWEEP, sweep_cli
 
 
-@pytest.fixture(scope="module")
-def sweep_file(tmp_path_factory):
-    path = tmp_path_factory.mktemp("sweep") / "sweep.toml"
-    path.write_text(RESUME_SWEEP)
-    return path
-
-
-@pytest.fixture(scope="module")
-def reference(sweep_file):
-    out = sweep_file.parent / "reference.zarr"
-    result = sweep_cli(sweep_file, "--out", out, *RESUME_FLAGS)
-    assert result.exit_code == 0, result.stderr
-    return out
-
-
 def assert_equal_to_reference(out, reference):
     assert differing_arrays(out, reference) == []
     ds = xr.open_zarr(out)

@@ -18,7 +18,7 @@ from hertzian.sweeping.storage import StorageError, store_lock
 from hertzian.sweeping.store_format import DAMAGE_ERRORS
 from hertzian.sweeping.sweep_store import completed_batches, differing_arrays, write_result
 
-from tests.helpers import RESUME_BATCHES, RESUME_FLAGS, RESUME_SWEEP, invoke, sweep_cli
+from tests.helpers import RESUME_BATCHES, RESUME_FLAGS, invoke, sweep_cli
 
 
 def one_error_line(result, *expected):
@@ -28,21 +28,6 @@ def one_error_line(result, *expected):
     for text in expected:
         assert text in lines[0], lines[0]
     return lines[0]
-
-
-@pytest.fixture(scope="module")
-def sweep_file(tmp_path_factory):
-    path = tmp_path_factory.mktemp("safety") / "sweep.toml"
-    path.write_text(RESUME_SWEEP)
-    return path
-
-
-@pytest.fixture(scope="module")
-def reference(sweep_file):
-    """The sweep in batches of one point, undisturbed."""
-    out = sweep_file.parent / "reference.zarr"
-    assert sweep_cli(sweep_file, "--out", out, *RESUME_FLAGS).exit_code == 0
-    return out
 
 
 @pytest.fixture
