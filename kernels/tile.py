@@ -316,15 +316,15 @@ def tile_kernel(features: Features, shape: TileShape):
     dissipation, lane_rates, dashpot_forces, dashpot_losses = loss_functions(t, predicted_rate, column, at_driver)
     shared_event_steps = event_steps_function(t, shared_column)
     advance = advance_function(t, predicted_rate, column, at_driver, lane_rates, dashpot_forces, shared_event_steps)
-    write_traces = trace_function(t, driver_values)
-    return fused_kernel(
+    fused_step = step_function(
         t,
         advance=advance,
         dissipation=dissipation,
         dashpot_losses=dashpot_losses,
-        write_traces=write_traces,
-        driver=(driver_log_entry, driver_power, work_step, driver_values),
+        write_traces=trace_function(t, driver_values),
+        driver_log_entry=driver_log_entry,
     )
+    return fused_kernel(t, fused_step, driver_power, work_step, driver_values)
 
 
 def register_functions(t: TileLayout):
@@ -1068,9 +1068,153 @@ def trace_function(t: TileLayout, driver_values):
     return write_traces
 
 
-def fused_kernel(t: TileLayout, *, advance, dissipation, dashpot_losses, write_traces, driver):
-    """The ``@wp.kernel`` of the fused steps, from the layout and the step's builders' functions."""
-    driver_log_entry, driver_power, work_step, driver_values = driver
+def step_function(t: TileLayout, *, advance, dissipation, dashpot_losses, write_traces, driver_log_entry):
+    """One step of the fused kernel's loop, inlined at each of its three call sites (CUDA ``__forceinline__``): the
+    driver's log entry, the viscous loss, ``advance``, the contact dashpot's loss and the trace sample; returns the
+    lane's new state, its grains' dissipated energy and the next trace step."""
+    real, DRIVEN, VISCOUS, DASHPOT, TRACES = t.real, t.DRIVEN, t.VISCOUS, t.DASHPOT, t.TRACES
+    state_t, grain_vec, contact_vec, loss_vec = t.state_t, t.grain_vec, t.contact_vec, t.loss_vec
+
+    @wp.func(inline=True)
+    def fused_step(
+        s: state_t,
+        edges: Any,
+        states: Any,
+        flags: Any,
+        results: Any,
+        lost: loss_vec,
+        next_trace: int,
+        lane: int,
+        lane_c: int,
+        segment: int,
+        first: int,
+        cc: int,
+        n_grains: int,
+        static_overlap: wp.array2d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        exponent: wp.array(dtype=real),
+        inverse_mass: wp.array2d(dtype=real),
+        has_left: bool,
+        has_right: bool,
+        delta0: contact_vec,
+        a_c: contact_vec,
+        force0: contact_vec,
+        n: real,
+        inv_m: grain_vec,
+        hh: real,
+        contact_bits: int,
+        move_bits: int,
+        h: real,
+        k0: int,
+        amplitude: wp.float64,
+        omega: wp.float64,
+        phase_old: wp.vec2d,
+        phase_new: wp.vec2d,
+        dt: wp.float64,
+        gamma: real,
+        driver_log: wp.array2d(dtype=wp.vec2d),
+        log_row: int,
+        step: int,
+        step0: int,
+        x_in: wp.array3d(dtype=real),
+        frozen: bool,
+        live: bool,
+        base: int,
+        keep_lo: int,
+        keep_hi: int,
+        trace_slot: wp.array(dtype=wp.int32),
+        trace_stride: int,
+        trace_x: wp.array4d(dtype=real),
+    ):
+        # ``step``: the launch's step taken from phase_old's t_n to phase_new's t_n+1
+        if wp.static(DRIVEN):
+            driver_log[log_row, step] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
+        if wp.static(VISCOUS):
+            lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
+        s_new = advance(
+            s,
+            edges,
+            states,
+            flags,
+            results,
+            lane,
+            lane_c,
+            segment,
+            first,
+            cc,
+            n_grains,
+            static_overlap,
+            contact_constant,
+            exponent,
+            inverse_mass,
+            has_left,
+            has_right,
+            delta0,
+            a_c,
+            force0,
+            n,
+            inv_m,
+            hh,
+            contact_bits,
+            move_bits,
+            h,
+            k0,
+            amplitude,
+            omega,
+            phase_old,
+            phase_new,
+            dt,
+            gamma,
+        )
+        if wp.static(DASHPOT):
+            lost = dashpot_losses(
+                s,
+                lost,
+                edges,
+                lane,
+                base,
+                has_left,
+                has_right,
+                delta0,
+                contact_bits,
+                move_bits,
+                k0,
+                amplitude,
+                omega,
+                phase_old,
+                phase_new,
+                gamma,
+                h,
+                dt,
+            )
+        if wp.static(TRACES):
+            next_trace = write_traces(
+                s_new,
+                x_in,
+                frozen,
+                live,
+                cc,
+                base,
+                keep_lo,
+                keep_hi,
+                trace_slot,
+                trace_stride,
+                step0 + step + 1,
+                next_trace,
+                trace_x,
+                amplitude,
+                omega,
+                phase_new,
+                dt,
+            )
+        return s_new, lost, next_trace
+
+    return fused_step
+
+
+def fused_kernel(t: TileLayout, fused_step, driver_power, work_step, driver_values):
+    """The ``@wp.kernel`` of the fused steps: a lane's grains and constants loaded, ``fused_step`` taken ``steps``
+    times, the driver's work summed and the interior written back."""
     shape, real, Q, G, G1, L, CPB, B, BG, MAX_UNROLL = (
         t.shape,
         t.real,
@@ -1094,7 +1238,7 @@ def fused_kernel(t: TileLayout, *, advance, dissipation, dashpot_losses, write_t
         t.HETERO,
         t.HERTZ,
     )
-    VISCOUS, DASHPOT, DISSIPATES, EVENTS = t.VISCOUS, t.DASHPOT, t.DISSIPATES, t.EVENTS
+    DISSIPATES, EVENTS = t.DISSIPATES, t.EVENTS
     state_t, grain_vec, contact_vec, edge_t, value_vec, loss_vec = (
         t.state_t,
         t.grain_vec,
@@ -1277,17 +1421,14 @@ def fused_kernel(t: TileLayout, *, advance, dissipation, dashpot_losses, write_t
             if wp.static(DRIVEN):
                 phase_new = phase_next
                 phase_next = phases[cc, first_row + 2 * _pair + 1 + 1]  # (a row past the launch's last)
-                driver_log[log_row, 2 * _pair] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
-            if wp.static(VISCOUS):
-                lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
-            if wp.static(DASHPOT):
-                s_prev = s
-            s = advance(
+            s, lost, next_trace = fused_step(
                 s,
                 edges_even,
                 states,
                 flags,
                 results,
+                lost,
+                next_trace,
                 lane,
                 lane_c,
                 segment,
@@ -1316,63 +1457,32 @@ def fused_kernel(t: TileLayout, *, advance, dissipation, dashpot_losses, write_t
                 phase_new,
                 dt,
                 gamma,
+                driver_log,
+                log_row,
+                2 * _pair,
+                step0,
+                x_in,
+                frozen,
+                live,
+                base,
+                keep_lo,
+                keep_hi,
+                trace_slot,
+                trace_stride,
+                trace_x,
             )
-            if wp.static(DASHPOT):
-                lost = dashpot_losses(
-                    s_prev,
-                    lost,
-                    edges_even,
-                    lane,
-                    base,
-                    has_left,
-                    has_right,
-                    delta0,
-                    contact_bits,
-                    move_bits,
-                    k0,
-                    amplitude,
-                    omega,
-                    phase_old,
-                    phase_new,
-                    gamma,
-                    h,
-                    dt,
-                )
             phase_old = phase_new
-            if wp.static(TRACES):
-                next_trace = write_traces(
-                    s,
-                    x_in,
-                    frozen,
-                    live,
-                    cc,
-                    base,
-                    keep_lo,
-                    keep_hi,
-                    trace_slot,
-                    trace_stride,
-                    step0 + 2 * _pair + 1,
-                    next_trace,
-                    trace_x,
-                    amplitude,
-                    omega,
-                    phase_old,
-                    dt,
-                )
             if wp.static(DRIVEN):
                 phase_new = phase_next
                 phase_next = phases[cc, first_row + 2 * _pair + 2 + 1]  # (a row past the launch's last)
-                driver_log[log_row, 2 * _pair + 1] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
-            if wp.static(VISCOUS):
-                lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
-            if wp.static(DASHPOT):
-                s_prev = s
-            s = advance(
+            s, lost, next_trace = fused_step(
                 s,
                 edges_odd,
                 states,
                 flags,
                 results,
+                lost,
+                next_trace,
                 lane,
                 lane_c,
                 segment,
@@ -1401,63 +1511,32 @@ def fused_kernel(t: TileLayout, *, advance, dissipation, dashpot_losses, write_t
                 phase_new,
                 dt,
                 gamma,
+                driver_log,
+                log_row,
+                2 * _pair + 1,
+                step0,
+                x_in,
+                frozen,
+                live,
+                base,
+                keep_lo,
+                keep_hi,
+                trace_slot,
+                trace_stride,
+                trace_x,
             )
-            if wp.static(DASHPOT):
-                lost = dashpot_losses(
-                    s_prev,
-                    lost,
-                    edges_odd,
-                    lane,
-                    base,
-                    has_left,
-                    has_right,
-                    delta0,
-                    contact_bits,
-                    move_bits,
-                    k0,
-                    amplitude,
-                    omega,
-                    phase_old,
-                    phase_new,
-                    gamma,
-                    h,
-                    dt,
-                )
             phase_old = phase_new
-            if wp.static(TRACES):
-                next_trace = write_traces(
-                    s,
-                    x_in,
-                    frozen,
-                    live,
-                    cc,
-                    base,
-                    keep_lo,
-                    keep_hi,
-                    trace_slot,
-                    trace_stride,
-                    step0 + 2 * _pair + 2,
-                    next_trace,
-                    trace_x,
-                    amplitude,
-                    omega,
-                    phase_old,
-                    dt,
-                )
         if steps % 2 == 1:
             if wp.static(DRIVEN):
                 phase_new = phase_next
-                driver_log[log_row, steps - 1] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
-            if wp.static(VISCOUS):
-                lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
-            if wp.static(DASHPOT):
-                s_prev = s
-            s = advance(
+            s, lost, next_trace = fused_step(
                 s,
                 edges_even,
                 states,
                 flags,
                 results,
+                lost,
+                next_trace,
                 lane,
                 lane_c,
                 segment,
@@ -1486,48 +1565,20 @@ def fused_kernel(t: TileLayout, *, advance, dissipation, dashpot_losses, write_t
                 phase_new,
                 dt,
                 gamma,
+                driver_log,
+                log_row,
+                steps - 1,
+                step0,
+                x_in,
+                frozen,
+                live,
+                base,
+                keep_lo,
+                keep_hi,
+                trace_slot,
+                trace_stride,
+                trace_x,
             )
-            if wp.static(DASHPOT):
-                lost = dashpot_losses(
-                    s_prev,
-                    lost,
-                    edges_even,
-                    lane,
-                    base,
-                    has_left,
-                    has_right,
-                    delta0,
-                    contact_bits,
-                    move_bits,
-                    k0,
-                    amplitude,
-                    omega,
-                    phase_old,
-                    phase_new,
-                    gamma,
-                    h,
-                    dt,
-                )
-            if wp.static(TRACES):
-                next_trace = write_traces(
-                    s,
-                    x_in,
-                    frozen,
-                    live,
-                    cc,
-                    base,
-                    keep_lo,
-                    keep_hi,
-                    trace_slot,
-                    trace_stride,
-                    step0 + steps,
-                    next_trace,
-                    trace_x,
-                    amplitude,
-                    omega,
-                    phase_new,
-                    dt,
-                )
             phase_old = phase_new
 
         if wp.static(DRIVEN):
