@@ -48,10 +48,15 @@ def test_runner_sweep_run_equals_per_step_run():
     np.testing.assert_array_equal(result.status, reference.status)
 
 
-def test_kernel_choice():
+def test_kernel_choice(monkeypatch):
+    from hertzian.core.solvers import calibrate
+
     model = build_model(chains(2, chain={"grains": 10}), "cpu")
     assert choose_config(model, "step") == STEP
-    assert choose_config(model, "auto", run_steps=10) == STEP  # too short to repay a compile
+    monkeypatch.setattr(calibrate, "in_kernel_cache", lambda module, device: False)  # a cold kernel cache
+    assert choose_config(model, "auto", run_steps=10) == STEP  # too short to repay the chain kernel's compile
+    monkeypatch.setattr(calibrate, "in_kernel_cache", lambda module, device: True)  # both compiled already
+    assert choose_config(model, "auto", run_steps=10) == CHAIN
     assert choose_config(model, "auto", run_steps=10**8) == CHAIN
     traced = build_model(chains(2, chain={"grains": 10}, record={"traces": [0]}), "cpu")
     assert choose_config(traced, "auto", run_steps=10**8) == CHAIN  # traces are sampled between launches
