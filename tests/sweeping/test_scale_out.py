@@ -2,6 +2,7 @@
 killed with SIGKILL mid-sweep (its batch runs again elsewhere; the store equals the serial one)."""
 
 import os
+import re
 import signal
 import sys
 import threading
@@ -152,4 +153,56 @@ def test_a_worker_killed_mid_sweep_leaves_the_serial_store(tmp_path):
         alive = False
     assert not alive
     assert completed_batches(store) == set(range(12))
+    assert differing_arrays(store, tmp_path / "serial.zarr") == []
+
+
+def _fail_batch(index: int, how: str):
+    """On a worker: make batch ``index`` fail the way a real one can (a CUDA error raised, or the process gone)."""
+
+    def patch():
+        import hertzian.sweeping.distributed as distributed
+
+        run_job = distributed.__dict__.setdefault("unpatched_run_job", distributed.run_job)
+
+        def failing(job, *args, **kwargs):
+            if job.batch.index == index:
+                if how == "exit":
+                    os._exit(1)
+                raise RuntimeError("Warp CUDA error 2: out of memory\n(while launching the step kernel)")
+            return run_job(job, *args, **kwargs)
+
+        distributed.run_job = failing
+
+    return patch
+
+
+def _one_line_failure(result, batches: str) -> str:
+    text = (result.stdout + result.stderr).strip()
+    assert result.exit_code == 1, (result.exit_code, text, result.exception)
+    assert "Traceback" not in text and len(text.splitlines()) == 1, text
+    assert re.match(f"error: batch [{batches}] failed on worker [01]: ", text), text
+    assert text.endswith("--resume"), text
+    return text
+
+
+def test_a_failing_batch_is_one_line_and_the_store_resumes(tmp_path):
+    import dask
+
+    path = write_sweep(tmp_path, speeds=3, duration=0.05)  # 6 batches of one point
+    sweep(path, tmp_path / "serial.zarr", "--batch-size", "1")
+    store = tmp_path / "failed.zarr"
+    flags = ("--device", "cpu", "--quiet", "--batch-size", "1", "--scheduler")
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}), local_cluster(2, gpus=[]) as cluster:
+        from distributed import Client
+
+        with Client(cluster) as client:  # closed before the sweep: its own client runs in this process
+            client.run(_fail_batch(2, "raise"))
+        text = _one_line_failure(sweep_cli(path, "--out", store, *flags, cluster.scheduler_address), "2")
+        assert "RuntimeError: Warp CUDA error 2: out of memory (while launching the step kernel)" in text
+        with Client(cluster) as client:
+            client.run(_fail_batch(4, "exit"))
+        killed = _one_line_failure(sweep_cli(path, "--out", tmp_path / "k.zarr", *flags, cluster.scheduler_address), "34")
+        assert "KilledWorker: its worker died on each of 1 attempts" in killed  # batch 3 may be queued there
+    assert completed_batches(store) == {0, 1, 3, 4, 5}
+    sweep(path, store, "--batch-size", "1", "--resume")
     assert differing_arrays(store, tmp_path / "serial.zarr") == []
