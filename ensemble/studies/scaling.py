@@ -105,7 +105,9 @@ class Measurement:
             else f"duration {run['duration']:g}, efficiency {_percent(run['efficiency'])}"
         )
         busy = ", ".join(f"{w} {b:.0%}" for w, b in run["busy"].items())
-        bits = "" if "differing_arrays" not in run else f"; store {'equal' if not run['differing_arrays'] else 'DIFFERS'}"
+        bits = (
+            "" if "differing_arrays" not in run else f"; store {'equal' if not run['differing_arrays'] else 'DIFFERS'}"
+        )
         self.log(
             f"{kind} {label}: {run['process_seconds']:.2f} s, {figures}, batch phase {run['seconds']['batches']:.2f} s, "
             f"busy {busy}{bits} ({self.elapsed():.0f} s so far)"

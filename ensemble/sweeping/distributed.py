@@ -222,7 +222,9 @@ class BatchFailedError(RuntimeError):
         self.batch, self.worker, self.error, self.hint = batch, worker, error, hint
 
     def __str__(self) -> str:
-        return f"batch {self.batch} failed on worker {self.worker}: {self.error}" + (f"; {self.hint}" if self.hint else "")
+        return f"batch {self.batch} failed on worker {self.worker}: {self.error}" + (
+            f"; {self.hint}" if self.hint else ""
+        )
 
 
 def error_line(err: BaseException) -> str:

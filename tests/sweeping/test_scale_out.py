@@ -204,7 +204,9 @@ def test_a_failing_batch_is_one_line_and_the_store_resumes(tmp_path):
         assert "RuntimeError: Warp CUDA error 2: out of memory (while launching the step kernel)" in text
         with Client(cluster) as client:
             client.run(_fail_batch(4, "exit"))
-        killed = _one_line_failure(sweep_cli(path, "--out", tmp_path / "k.zarr", *flags, cluster.scheduler_address), "34")
+        killed = _one_line_failure(
+            sweep_cli(path, "--out", tmp_path / "k.zarr", *flags, cluster.scheduler_address), "34"
+        )
         assert "KilledWorker: its worker died on each of 1 attempts" in killed  # batch 3 may be queued there
     assert completed_batches(store) == {0, 1, 3, 4, 5}
     sweep(path, store, "--batch-size", "1", "--resume")
@@ -232,7 +234,9 @@ def test_scale_out_record_is_whole_after_every_run(tmp_path):
             record = json.loads(path.read_text())
             seen.append((line.split(":")[0], len(record["strong"]), len(record["weak"]), record["complete"]))
 
-    record = scale_out(SCALE, [2], sets=TINY_SETS, device="cpu", workdir=tmp_path / "w", weak=True, record_path=path, log=log)
+    record = scale_out(
+        SCALE, [2], sets=TINY_SETS, device="cpu", workdir=tmp_path / "w", weak=True, record_path=path, log=log
+    )
     assert seen == [
         ("strong serial", 1, 0, False),
         ("strong --workers 2", 2, 0, False),
@@ -264,7 +268,9 @@ def test_a_killed_scale_out_keeps_its_finished_runs(tmp_path):
 
 def test_scale_budget_skips_the_runs_that_would_not_fit(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # the stores' temporary directory
-    assert_refused(invoke(*_scale_flags("--scale-budget", "0", "--scale-json", "r.json")), tmp_path / "r.json", "--scale-budget")
+    assert_refused(
+        invoke(*_scale_flags("--scale-budget", "0", "--scale-json", "r.json")), tmp_path / "r.json", "--scale-budget"
+    )
     result = invoke(*_scale_flags("--scale-budget", "0.5", "--scale-weak", "--json"))
     assert result.exit_code == 0, result.stderr or str(result.exception)
     record = json.loads(result.stdout)
