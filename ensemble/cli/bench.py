@@ -116,8 +116,30 @@ def bench(
         Optional[str],
         typer.Option(
             "--scale-out",
-            help="Worker counts, comma-separated (e.g. 1,2,4): strong and weak scaling of `hertzian sweep --workers "
-            "N` on --sweep, end to end, stores compared bit for bit (docs/scale-out.md); --json prints the record.",
+            help="Worker counts, comma-separated (e.g. 1,2,4): strong scaling of `hertzian sweep --workers N` on "
+            "--sweep, end to end, stores compared bit for bit (docs/scale-out.md); --json prints the record.",
+        ),
+    ] = None,
+    scale_weak: Annotated[
+        bool,
+        typer.Option(
+            "--scale-weak/--no-scale-weak",
+            help="With --scale-out: weak scaling too (integrator.duration in proportion to the workers).",
+        ),
+    ] = False,
+    scale_budget: Annotated[
+        Optional[float],
+        typer.Option(
+            "--scale-budget",
+            help="With --scale-out: seconds for the whole measurement; a run estimated not to fit is skipped.",
+        ),
+    ] = None,
+    scale_json: Annotated[
+        Optional[Path],
+        typer.Option(
+            "--scale-json",
+            help="With --scale-out: write the record to this file after every run (a killed measurement keeps "
+            "every finished run).",
         ),
     ] = None,
 ):
@@ -130,7 +152,7 @@ def bench(
     from hertzian.studies.bench import KERNEL_CHOICES, run_bench
 
     if scale_out is not None:
-        _scale_out(scale_out, sweep, device, set_, as_json)
+        _scale_out(scale_out, sweep, device, set_, as_json, weak=scale_weak, budget=scale_budget, path=scale_json)
         return
     if scene is not None or sweep is not None:
         _end_to_end(scene, sweep, device, kernel, cold, set_, as_json)
@@ -212,13 +234,18 @@ def _end_to_end(scene: Path | None, sweep: Path | None, device, kernel: str, col
     )
 
 
-def _scale_out(counts_text: str, sweep: Path | None, device, set_, as_json: bool) -> None:
-    """``--scale-out``: strong and weak scaling of ``sweep`` (ensemble/studies/scaling.py)."""
+def _scale_out(counts_text: str, sweep: Path | None, device, set_, as_json: bool, *, weak, budget, path) -> None:
+    """``--scale-out``: strong (and weak) scaling of ``sweep`` (ensemble/studies/scaling.py); one line per run on
+    stderr, the record in ``path`` after every run and, with ``as_json``, on stdout at the end."""
     from hertzian.core.scene import SceneError, parse_overrides
 
     counts = _counts(counts_text, "--scale-out")
     if sweep is None or not sweep.is_file():
         fail(f"--sweep = {str(sweep) if sweep else None!r}: --scale-out needs a sweep file")
+    if budget is not None and not budget > 0:
+        fail(f"--scale-budget = {budget!r}: a positive number of seconds")
+    if path is not None and not path.parent.is_dir():
+        fail(f"--scale-json = {str(path)!r}: no such directory {str(path.parent)!r}")
     try:
         parse_overrides(set_)
     except SceneError as err:
@@ -228,23 +255,21 @@ def _scale_out(counts_text: str, sweep: Path | None, device, set_, as_json: bool
     log = lambda message: typer.echo(message, err=True)  # noqa: E731
     with tempfile.TemporaryDirectory(prefix="hertzian-scale-", dir=".") as workdir:
         try:
-            record = scale_out(sweep, counts, sets=list(set_ or []), device=device, workdir=Path(workdir), log=log)
+            record = scale_out(
+                sweep,
+                counts,
+                sets=list(set_ or []),
+                device=device,
+                workdir=Path(workdir),
+                weak=weak,
+                budget=budget,
+                record_path=path,
+                log=log,
+            )
         except RuntimeError as err:
             typer.echo(f"error: {err}", err=True)
             raise typer.Exit(1)
-    for run in record["strong"]:
-        typer.echo(
-            f"strong {'serial' if run['serial'] else '--workers ' + str(run['workers'])}: "
-            f"{run['process_seconds']:.2f} s, "
-            f"speed-up {run['speedup']:.2f}, efficiency {run['efficiency']:.0%}, busy "
-            + ", ".join(f"{w} {b:.0%}" for w, b in run["busy"].items()),
-            err=as_json,
-        )
-    for run in record["weak"]:
-        typer.echo(
-            f"weak {run['workers']}: {run['process_seconds']:.2f} s, efficiency {run['efficiency']:.0%}", err=as_json
-        )
-    typer.echo(f"stores bitwise equal: {record['bitwise_equal']}", err=as_json)
+    typer.echo(f"stores bitwise equal: {record['bitwise_equal']}", err=True)
     if as_json:
         typer.echo(json.dumps(record, indent=1))
     if not record["bitwise_equal"]:

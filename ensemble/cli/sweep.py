@@ -210,13 +210,14 @@ def sweep(
         if as_json:
             typer.echo(json.dumps(plan_summary(prepared), indent=1))
         return
+    from hertzian.sweeping.distributed import BatchFailedError
     from hertzian.sweeping.storage import StorageError
 
     progress = _Progress(not quiet and sys.stderr.isatty())
     try:
         with one_line_errors():
             result = run_sweep(prepared, progress=progress, notify=notify)
-    except StorageError as err:  # a full disk, lost permission: the store holds its completed batches
+    except (StorageError, BatchFailedError) as err:  # a full disk, a failed batch: the store keeps what completed
         typer.echo(f"error: {err}", err=True)
         raise typer.Exit(1) from None
     except KeyboardInterrupt:

@@ -207,7 +207,30 @@ def run_job_on_worker(job: BatchJob, requested_device: str | None) -> dict[str, 
     from distributed import get_worker
 
     worker = get_worker()
-    return run_job(job, worker_device(requested_device, worker.name), worker=str(worker.name))
+    try:
+        return run_job(job, worker_device(requested_device, worker.name), worker=str(worker.name))
+    except Exception as err:  # the client learns which batch failed where, in one line
+        raise BatchFailedError(job.batch.index, str(worker.name), error_line(err)) from None
+
+
+class BatchFailedError(RuntimeError):
+    """A batch that failed on a worker (an error in the batch, or its workers died more often than Dask's
+    ``allowed-failures``). ``str()`` is one line: the batch, the worker and the error."""
+
+    def __init__(self, batch: int, worker: str, error: str, hint: str = ""):
+        super().__init__(batch, worker, error, hint)
+        self.batch, self.worker, self.error, self.hint = batch, worker, error, hint
+
+    def __str__(self) -> str:
+        return f"batch {self.batch} failed on worker {self.worker}: {self.error}" + (
+            f"; {self.hint}" if self.hint else ""
+        )
+
+
+def error_line(err: BaseException) -> str:
+    """``Type: message`` of an exception, on one line."""
+    text = " ".join(str(err).split())
+    return f"{type(err).__name__}: {text}" if text else type(err).__name__
 
 
 def take_prepared(ahead, builder, jobs, index: int, timing: dict):
@@ -441,7 +464,9 @@ def run_distributed(
     """Run jobs on a Dask client's workers, all submitted at once; each worker writes its batches into the store.
 
     ``priorities``: batch index → scheduler priority (higher first; default: grid order). A batch whose worker
-    dies is run again on another (Dask's ``allowed-failures``, 3 by default); one that fails anyway raises."""
+    dies is run again on another (Dask's ``allowed-failures``, 3 by default). A batch that fails anyway does not
+    stop the others: once every batch has ended, the failure of the lowest batch index raises :class:`BatchFailedError` (one line,
+    with the count of the others that failed); the store holds every batch that completed."""
     from distributed import as_completed
 
     token = f"{time.time_ns():x}"
@@ -456,10 +481,32 @@ def run_distributed(
         ): job
         for job in jobs
     }
+    failed = []
     for future in as_completed(futures):
+        if future.status == "error":
+            failed.append(batch_failure(futures[future], future.exception()))
+            continue
         record = future.result()
         if on_done:
             on_done(futures[future], record)
+    if failed:
+        first = min(failed, key=lambda f: f.batch)
+        more = f" ({len(failed) - 1} more batches failed)" if len(failed) > 1 else ""
+        raise BatchFailedError(first.batch, first.worker, first.error + more)
+
+
+def batch_failure(job: BatchJob, err: BaseException) -> BatchFailedError:
+    """The one-line failure of ``job``'s task: its worker's :class:`BatchFailedError`, or Dask's ``KilledWorker``
+    (every worker that ran it died) named by the last worker."""
+    if isinstance(err, BatchFailedError):
+        return err
+    last = getattr(err, "last_worker", None)  # KilledWorker: the scheduler's state of the last worker
+    if last is None:
+        return BatchFailedError(job.batch.index, "?", error_line(err))
+    name = getattr(last, "name", None)
+    worker = str(name if name is not None else getattr(last, "address", "?"))
+    tries = getattr(err, "allowed_failures", 0) + 1
+    return BatchFailedError(job.batch.index, worker, f"KilledWorker: its worker died on each of {tries} attempts")
 
 
 def sweep_needs(path: Path, overrides: dict[str, Any], device: str, kernel: str = "auto") -> list:

@@ -30,7 +30,15 @@ from hertzian.core.shipped import shipped_file
 from hertzian.core.solvers import KERNELS, choose_config
 from hertzian.core.solvers.calibrate import event_cost_note, step_reason_of
 from hertzian.sweeping.balance import balance_plan, batch_priorities
-from hertzian.sweeping.distributed import calibrate_ahead, jobs_for, run_distributed, run_serial, runs_of, warm_kernels
+from hertzian.sweeping.distributed import (
+    BatchFailedError,
+    calibrate_ahead,
+    jobs_for,
+    run_distributed,
+    run_serial,
+    runs_of,
+    warm_kernels,
+)
 from hertzian.sweeping.planner import Plan, plan_sweep
 from hertzian.sweeping.spec import MAX_POINTS, Sweep, SweepPoints, expand, load_sweep
 from hertzian.sweeping.storage import NoRoomError, StoreLockedError
@@ -357,13 +365,20 @@ def _run_pending(p: PreparedSweep, progress: SweepProgress, notify, on_result) -
                     timing=p.timing,
                 )
             else:
-                run_distributed(
-                    jobs,
-                    client,
-                    p.requested_device,
-                    on_done=progress.batch_done,
-                    priorities=batch_priorities(p.plan, [j.batch.index for j in jobs]),
-                )
+                try:
+                    run_distributed(
+                        jobs,
+                        client,
+                        p.requested_device,
+                        on_done=progress.batch_done,
+                        priorities=batch_priorities(p.plan, [j.batch.index for j in jobs]),
+                    )
+                except BatchFailedError as err:  # the batches that completed stay: --resume runs the rest
+                    err.hint = (
+                        "the store keeps the completed batches; continue with: "
+                        f"hertzian sweep {p.definition.source} --out {p.out} --resume"
+                    )
+                    raise
         finally:
             progress.stop()
         batches_seconds = time.perf_counter() - start

@@ -1,11 +1,15 @@
 """Scale-out on CPU workers: LocalCUDACluster-like worker specs, balanced tails that keep every bit, and a worker
 killed with SIGKILL mid-sweep (its batch runs again elsewhere; the store equals the serial one)."""
 
+import json
 import os
+import re
 import signal
+import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 import zarr
@@ -15,7 +19,7 @@ from hertzian.sweeping.planner import plan_sweep
 from hertzian.sweeping.spec import expand, sweep_from_dict
 from hertzian.sweeping.sweep_store import batch_records, completed_batches, differing_arrays
 
-from tests.helpers import sweep_cli
+from tests.helpers import HERTZIAN, assert_refused, invoke, sweep_cli
 
 SWEEP = """
 [scene.chain]
@@ -153,3 +157,124 @@ def test_a_worker_killed_mid_sweep_leaves_the_serial_store(tmp_path):
     assert not alive
     assert completed_batches(store) == set(range(12))
     assert differing_arrays(store, tmp_path / "serial.zarr") == []
+
+
+def _fail_batch(index: int, how: str):
+    """On a worker: make batch ``index`` fail the way a real one can (a CUDA error raised, or the process gone)."""
+
+    def patch():
+        import hertzian.sweeping.distributed as distributed
+
+        run_job = distributed.__dict__.setdefault("unpatched_run_job", distributed.run_job)
+
+        def failing(job, *args, **kwargs):
+            if job.batch.index == index:
+                if how == "exit":
+                    os._exit(1)
+                raise RuntimeError("Warp CUDA error 2: out of memory\n(while launching the step kernel)")
+            return run_job(job, *args, **kwargs)
+
+        distributed.run_job = failing
+
+    return patch
+
+
+def _one_line_failure(result, batches: str) -> str:
+    text = (result.stdout + result.stderr).strip()
+    assert result.exit_code == 1, (result.exit_code, text, result.exception)
+    assert "Traceback" not in text and len(text.splitlines()) == 1, text
+    assert re.match(f"error: batch [{batches}] failed on worker [01]: ", text), text
+    assert text.endswith("--resume"), text
+    return text
+
+
+def test_a_failing_batch_is_one_line_and_the_store_resumes(tmp_path):
+    import dask
+
+    path = write_sweep(tmp_path, speeds=3, duration=0.05)  # 6 batches of one point
+    sweep(path, tmp_path / "serial.zarr", "--batch-size", "1")
+    store = tmp_path / "failed.zarr"
+    flags = ("--device", "cpu", "--quiet", "--batch-size", "1", "--scheduler")
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}), local_cluster(2, gpus=[]) as cluster:
+        from distributed import Client
+
+        with Client(cluster) as client:  # closed before the sweep: its own client runs in this process
+            client.run(_fail_batch(2, "raise"))
+        text = _one_line_failure(sweep_cli(path, "--out", store, *flags, cluster.scheduler_address), "2")
+        assert "RuntimeError: Warp CUDA error 2: out of memory (while launching the step kernel)" in text
+        with Client(cluster) as client:
+            client.run(_fail_batch(4, "exit"))
+        killed = _one_line_failure(
+            sweep_cli(path, "--out", tmp_path / "k.zarr", *flags, cluster.scheduler_address), "34"
+        )
+        assert "KilledWorker: its worker died on each of 1 attempts" in killed  # batch 3 may be queued there
+    assert completed_batches(store) == {0, 1, 3, 4, 5}
+    sweep(path, store, "--batch-size", "1", "--resume")
+    assert differing_arrays(store, tmp_path / "serial.zarr") == []
+
+
+SCALE = Path(__file__).parents[2] / "sweeps" / "scale.toml"
+TINY = ("chain.grains=8", "integrator.duration=0.01", "record.every=0.005", "record.trace_every=0.001")
+TINY_SETS = [*TINY, "record.traces=[0,7]"]  # sweeps/scale.toml's header: 2.6e7 grain-steps, about a second on a CPU
+
+
+def _scale_flags(*flags):
+    sets = [a for s in TINY_SETS for a in ("--set", s)]
+    return ["bench", "--device", "cpu", "--scale-out", "2", "--sweep", SCALE, *sets, *flags]
+
+
+def test_scale_out_record_is_whole_after_every_run(tmp_path):
+    """Each finished run's line comes after the record file holds it; the stores are compared and gone."""
+    from hertzian.studies.scaling import scale_out
+
+    path, seen = tmp_path / "record.json", []
+
+    def log(line):
+        if line.startswith(("strong ", "weak ")) and " s, " in line:
+            record = json.loads(path.read_text())
+            seen.append((line.split(":")[0], len(record["strong"]), len(record["weak"]), record["complete"]))
+
+    record = scale_out(
+        SCALE, [2], sets=TINY_SETS, device="cpu", workdir=tmp_path / "w", weak=True, record_path=path, log=log
+    )
+    assert seen == [
+        ("strong serial", 1, 0, False),
+        ("strong --workers 2", 2, 0, False),
+        ("weak serial", 2, 1, False),
+        ("weak --workers 2", 2, 2, False),
+    ]
+    assert json.loads(path.read_text()) == record and record["complete"] and record["skipped"] == []
+    assert record["strong"][1]["differing_arrays"] == [] and record["bitwise_equal"]
+    assert record["weak"][0]["duration"] == 0.005 and record["weak"][1]["duration"] == 0.01
+    assert list((tmp_path / "w").iterdir()) == []
+
+
+def test_a_killed_scale_out_keeps_its_finished_runs(tmp_path):
+    """SIGKILL to the measurement (and its sweep) once the serial run is reported: the record holds that run."""
+    path = tmp_path / "record.json"
+    command = [*HERTZIAN, *map(str, _scale_flags("--scale-json", path))]
+    bench = subprocess.Popen(command, cwd=tmp_path, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        for line in bench.stderr:
+            if line.startswith("strong serial:"):
+                break
+    finally:
+        os.killpg(bench.pid, signal.SIGKILL)
+        bench.wait()
+    record = json.loads(path.read_text())
+    assert [r["label"] for r in record["strong"]] == ["serial"] and not record["complete"]
+    assert record["strong"][0]["speedup"] == 1.0 and record["grain_steps"] == 16000 * 8 * 200
+
+
+def test_scale_budget_skips_the_runs_that_would_not_fit(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # the stores' temporary directory
+    assert_refused(
+        invoke(*_scale_flags("--scale-budget", "0", "--scale-json", "r.json")), tmp_path / "r.json", "--scale-budget"
+    )
+    result = invoke(*_scale_flags("--scale-budget", "0.5", "--scale-weak", "--json"))
+    assert result.exit_code == 0, result.stderr or str(result.exception)
+    record = json.loads(result.stdout)
+    assert [r["label"] for r in record["strong"]] == ["serial"] and record["weak"] == []
+    assert [s["run"] for s in record["skipped"]] == ["strong --workers 2", "weak serial", "weak --workers 2"]
+    assert all(s["estimated_seconds"] > s["seconds_left"] for s in record["skipped"])
+    assert "skipped strong --workers 2: estimated" in result.stderr
