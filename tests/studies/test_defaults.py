@@ -77,3 +77,18 @@ def test_dt_given_reads_the_file_and_the_sets(tmp_path):
     assert not dt_given(bare, None)
     assert dt_given(stepped, None)
     assert dt_given(bare, ["integrator.dt=1e-4"])
+
+
+def test_defaults_study_keeps_the_cheapest_run_meeting_each_target():
+    from hertzian.studies.estimates import defaults_study
+
+    scene = scene_from_dict({**BASE, "integrator": {"method": "gear4", "dt": 1e-3, "duration": 0.5}})
+    scene = scene.with_overrides({"record.every": 0.1, "record.fields": ["u"]})
+    row = defaults_study("cpu", scenes={"small": scene}, dts=(1e-3, 5e-4), targets=(1e-6, 1e-30))["scenes"]["small"]
+    meeting = [r for r in row["records"] if r["status"] == 0 and r["error"] <= 1e-6]
+    assert meeting and row["cheapest"]["1e-06"]["seconds"] == min(r["seconds"] for r in meeting)
+    for events in ("auto", "off"):
+        ours = [r for r in meeting if r["events"] == events]
+        best = row["cheapest_per_events"]["1e-06"][events]
+        assert best["seconds"] == min(r["seconds"] for r in ours) and best["events"] == events
+    assert row["cheapest"]["1e-30"] is None
