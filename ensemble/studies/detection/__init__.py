@@ -237,14 +237,15 @@ def detect(
     """
     started = time.perf_counter()
     _check_options(base, block, noise, refine, iterations, window, fit_a, a_ratio_range)
+    given_base = base
     if not dt_given:  # the pulse fronts from a step the ladder starts at, not BASE's default
         base = base.with_overrides({"integrator.dt": signal.spacing / 2})
     signal, fronts = _analysed_signal(signal, base, device, window, use_cache)
     depths = default_depths(fronts, float(signal.t[-1]), base.chain.grains, block, depth_range)
     given = forward_scene(base, signal.spacing, signal.sample_count).integrator.dt if dt_given else None
     choice = noise_step(signal, base, fronts, int(depths[0]), noise, device, given=given)
-    if choice is not None and not dt_given:
-        base = base.with_overrides({"integrator.dt": choice.dt})
+    if not dt_given:  # with no σ to go by, BASE's step as it is
+        base = given_base if choice is None else base.with_overrides({"integrator.dt": choice.dt})
     forward = forward_scene(base, signal.spacing, signal.sample_count)
     library = build_library(
         forward,
