@@ -4,12 +4,23 @@
 from __future__ import annotations
 
 import json
+import tomllib
 from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-from hertzian.cli.app import DeviceOption, SetOption, app, fail, load_scene_or_fail, resolve_device
+from hertzian.cli.app import (
+    DeviceOption,
+    SetOption,
+    app,
+    fail,
+    load_scene_or_fail,
+    one_line_errors,
+    overrides_of,
+    resolve_device,
+)
 from hertzian.core.scene import SceneError
+from hertzian.core.shipped import shipped_file
 
 MISFIT_WARNING = 3.0
 """Warn when the best fit's σ exceeds the σ before the earliest echo by more than this factor."""
@@ -174,9 +185,12 @@ def detect(
             batch_size=batch_size,
             fit_a=fit_a,
             a_ratio_range=a_ratio_range,
+            dt_given=dt_given(scene, set_),
         )
     except SceneError as err:
         fail(str(err))
+    if result.step_choice is not None and result.step_choice.warning():
+        typer.echo(f"warning: {result.step_choice.warning()}", err=True)
     if plot is not None:
         plot_detection(measured, result, library, plot)
     if as_json:
@@ -206,6 +220,13 @@ def _checked_options(scene, set_, mass_range, depths, fit_a, a_range, plot, batc
     if iterations < 1:
         fail(f"--iterations = {iterations}: must be an integer ≥ 1")
     return base, mass_ratio_range, depth_range, a_ratio_range
+
+
+def dt_given(scene: Path, set_: list[str] | None) -> bool:
+    """Whether BASE's file or a --set gives integrator.dt (a loaded scene always has one: the default)."""
+    with one_line_errors():
+        raw = tomllib.loads(shipped_file(scene).read_text())
+    return "integrator.dt" in overrides_of(set_, None) or "dt" in raw.get("integrator", {})
 
 
 def _print_detection(result, mass_ratio_range: tuple[float, float], dev: str) -> None:

@@ -13,13 +13,23 @@ from hertzian.cli.app import DeviceOption, app, fail, one_line_errors, resolve_d
 
 @app.command("estimates")
 def estimate_check(
-    sweep: Annotated[Path, typer.Argument(help="Sweep file whose points are checked (they run as one ensemble).")],
+    sweep: Annotated[
+        Optional[Path], typer.Argument(help="Sweep file whose points are checked (they run as one ensemble).")
+    ] = None,
     events: Annotated[str, typer.Option("--events", help="Comma-separated event settings: auto, off.")] = "auto,off",
     reference_divisor: Annotated[
         int, typer.Option("--reference-divisor", help="Reference step = the sweep's dt / this (gear6), even, ≥ 4.")
     ] = 16,
     cost: Annotated[
         bool, typer.Option("--cost", help="Also time 64 chains × 200 grains with and without the estimate.")
+    ] = False,
+    defaults: Annotated[
+        bool,
+        typer.Option(
+            "--defaults",
+            help="Instead of SWEEP: time to accuracy (1e-4, 1e-6, 1e-8) of gear4, gear6, verlet × events auto, off × "
+            "dt on three scenes (impact, loose, wall), the cheapest per target (docs/accuracy.md).",
+        ),
     ] = False,
     as_json: Annotated[Optional[Path], typer.Option("--json", help="Write the record (JSON) here.")] = None,
     device: DeviceOption = None,
@@ -31,10 +41,15 @@ def estimate_check(
     from hertzian.studies.estimates import cost_scenes, estimate_check, estimate_cost
     from hertzian.sweeping.spec import load_sweep
 
+    if defaults == (sweep is not None):
+        fail(f"SWEEP = {str(sweep or '')!r}: give a sweep file or --defaults, not both or neither")
     if reference_divisor < 4 or reference_divisor % 2:
         fail(f"--reference-divisor = {reference_divisor}: must be an even integer ≥ 4")
     if as_json is not None and not as_json.parent.exists():
         fail(f"--json = {str(as_json)!r}: parent directory does not exist")
+    if defaults:
+        _defaults(resolve_device(device), as_json)
+        return
     with one_line_errors():
         settings = parse_list("--events", events, ("auto", "off"))
         scenes = load_sweep(sweep).scenes()
@@ -62,3 +77,25 @@ def estimate_check(
 
 def _percent(value: float | None) -> str:
     return "-" if value is None else f"{value:.0%}"
+
+
+def _defaults(device: str, as_json: Optional[Path]) -> None:
+    """``--defaults``: the defaults study (hertzian.studies.estimates.defaults_study), one line per scene and
+    target, the record written to ``as_json``."""
+    from hertzian.studies.estimates import defaults_study
+
+    record = defaults_study(device, progress=lambda name: typer.echo(f"running {name}", err=True))
+    for name, row in record["scenes"].items():
+        for target, best in row["cheapest"].items():
+            choice = (
+                "none"
+                if best is None
+                else (
+                    f"{best['method']} events {best['events']} dt {best['dt']:g}: {best['seconds']:.3g} s, "
+                    f"error {best['error']:.2g}"
+                )
+            )
+            typer.echo(f"{name} ≤ {float(target):g}: {choice}")
+    if as_json is not None:
+        as_json.write_text(json.dumps(record, indent=1) + "\n")
+        typer.echo(f"wrote {as_json}", err=True)

@@ -23,7 +23,7 @@ from hertzian.core.error_estimate import ensemble_can_open
 from hertzian.core.model import build_model
 from hertzian.core.runner import Runner, run_ensemble
 from hertzian.core.scene import Scene
-from hertzian.studies.accuracy import REFERENCE_METHOD, RESOLVED_FACTOR
+from hertzian.studies.accuracy import REFERENCE_METHOD, RESOLVED_FACTOR, TimeToTarget, time_to_target, work_precision
 
 ESTIMATE_FACTOR = 3.0
 """An estimate within this factor of the true error passes (issue target: on ≥ 95 % of the points)."""
@@ -134,3 +134,71 @@ def cost_scenes(chains: int = 64, grains: int = 200, duration: float = 1.0) -> l
         | {"record.traces": [], "record.trace_every": None}
     )
     return [base.with_overrides({"excitation.impact": 1e-2 * (1 + 0.01 * i)}) for i in range(chains)]
+
+
+DEFAULTS_TARGETS = (1e-4, 1e-6, 1e-8)
+"""Position-error targets of the defaults study (max |u − u_ref| / max|u_ref|)."""
+DEFAULTS_METHODS = ("gear4", "gear6", "verlet")
+DEFAULTS_STEPS = (1e-3, 5e-4, 2.5e-4, 1.25e-4, 6.25e-5)
+"""Steps of the defaults study [time]; the gear6 reference runs at the smallest / 4."""
+
+
+def defaults_scenes() -> dict[str, Scene]:
+    """The defaults study's scenes (program units, positions every 0.1, no traces): the shipped impact example
+    cut to 400 grains, its pulse still in the bulk at the end (l0 = 1e-4, duration 10); the same chain loose
+    (l0 = 0: contacts open behind the pulse); the precompressed chain cut to 100 grains, its pulse striking the
+    bottom wall and coming back (duration 16)."""
+    from hertzian.core.scene import load_scene
+    from hertzian.core.shipped import example_path
+
+    base = load_scene(example_path("impact")).with_overrides(
+        {"chain.grains": 400, "record.every": 0.1, "record.fields": ["u"], "record.traces": []}
+        | {"record.trace_every": None, "integrator.duration": 10.0}
+    )
+    return {
+        "impact": base,
+        "loose": base.with_overrides({"chain.l0": 0.0}),
+        "wall": base.with_overrides({"chain.grains": 100, "integrator.duration": 16.0}),
+    }
+
+
+def defaults_study(
+    device: str | None = None,
+    *,
+    scenes: dict[str, Scene] | None = None,
+    methods=DEFAULTS_METHODS,
+    dts=DEFAULTS_STEPS,
+    targets=DEFAULTS_TARGETS,
+    progress=None,
+) -> dict:
+    """Time to accuracy per scene: every method × events (auto, off) × dt run against a gear6 reference
+    (hertzian.studies.accuracy.work_precision, float64), and per target the cheapest (method, events, dt) whose
+    position error meets it (time_to_target, measure "error"), overall and per event setting; JSON-ready."""
+    init_warp()
+    device = device or default_device()
+    out = {"device": device, "date": time.strftime("%Y-%m-%d"), "targets": list(targets), "scenes": {}}
+    for name, scene in (scenes or defaults_scenes()).items():
+        if progress:
+            progress(name)
+        records, reference, _ = work_precision(
+            scene, list(methods), list(dts), ["float64"], device=device, events=["auto", "off"]
+        )
+        rows = time_to_target(records, list(targets), "error")
+        out["scenes"][name] = {
+            "grains": scene.chain.grains,
+            "l0": scene.chain.l0,
+            "duration": scene.integrator.duration,
+            "reference": {"dt": reference.dt, "error_estimate": reference.error_estimate},
+            "records": [r.to_dict() for r in records],
+            "cheapest": {str(t): _cheapest(rows, t) for t in targets},
+            "cheapest_per_events": {
+                str(t): {e: _cheapest([r for r in rows if r.events == e], t) for e in ("auto", "off")} for t in targets
+            },
+        }
+    return out
+
+
+def _cheapest(rows: list[TimeToTarget], target: float) -> dict | None:
+    """The first (cheapest) row of ``target`` that met it, as a dict, or None."""
+    met = [r for r in rows if r.target == target and r.dt is not None]
+    return met[0].to_dict() if met else None

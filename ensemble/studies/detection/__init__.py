@@ -12,6 +12,9 @@ divides the sample spacing (no interpolation). A whole library of candidate chai
 ratio, coarse) is one ensemble run (:func:`hertzian.core.runner.run_ensemble`), cached per BASE under
 ``$HERTZIAN_DETECT_CACHE`` (default ``~/.cache/hertzian/detect/``).
 
+With BASE's step unset (``dt_given = False``) the step is the largest spacing/k (k = 1, 2, 4, …) whose clean
+trace moves by at most σ/10 when the step is halved (:mod:`hertzian.studies.detection.step`).
+
 **Window.** The samples up to the return of the pulse reflected by the bottom, ``t ≤ 2 t_front(N − 1)``,
 are analysed (``window`` to change it), where ``t_front(d)`` is the time the pulse front (``v_d > 1e-4
 v_imp``) reaches grain d in the BASE chain's own clean run. After that time the surface signal is
@@ -117,6 +120,7 @@ from hertzian.studies.detection.scoring import (
     rss_from_projections,
 )
 from hertzian.studies.detection.signal import Signal, read_signal, signal_from_arrays, write_signal_csv
+from hertzian.studies.detection.step import StepChoice, noise_step
 
 CREDIBLE = 0.95
 """Probability inside the reported intervals."""
@@ -164,6 +168,8 @@ class Detection:
     fit_a: dict | None = None
     """With --fit-a: a_ratio = a_impurity / a_host and its 95 % interval, the RSS of the joint fit and of the
     best fit with a = a_host, σ of the joint fit (None without --fit-a, or for class none)."""
+    step_choice: StepChoice | None = None
+    """The step the noise asks for and the one used (None when σ was neither given nor estimable)."""
 
     @property
     def misfit_ratio(self) -> float | None:
@@ -192,6 +198,7 @@ class Detection:
             "library_from_cache": self.library_from_cache,
             "refined_depths": self.refined_depths,
             "fine_scan": self.fine_scan,
+            "step_choice": self.step_choice.to_dict() if self.step_choice else None,
             **(self.fit_a if self.fit_a is not None else {}),
         }
 
@@ -214,6 +221,7 @@ def detect(
     batch_size: int | None = None,
     fit_a: bool = False,
     a_ratio_range: tuple[float, float] = (0.25, 4.0),
+    dt_given: bool = True,
 ) -> tuple[Detection, Library]:
     """Class, depth and mass ratio of an impurity in BASE from a surface signal (see the module docstring).
 
@@ -222,12 +230,22 @@ def detect(
     are analysed [time] (default: until the pulse reflected by the bottom returns, 2 t_front(N − 1)); ``fit_a``:
     at the depth found, fit ln μ and ln(a/a_host) jointly (:func:`fit_contact`, a/a_host in ``a_ratio_range``)
     and report a_ratio with its interval; the mass ratio and its interval then come from the joint fit.
-    ``noise``: σ [length/time], else estimated. Returns the detection and the library it used.
+    ``noise``: σ [length/time], else estimated. ``dt_given``: whether BASE sets its step; when it does not, the
+    forward model's step comes from the noise (:func:`hertzian.studies.detection.step.noise_step`), and when it
+    does, ``Detection.step_choice`` says whether that step is needlessly small. Returns the detection and the
+    library it used.
     """
     started = time.perf_counter()
     _check_options(base, block, noise, refine, iterations, window, fit_a, a_ratio_range)
+    given_base = base
+    if not dt_given:  # the pulse fronts from a step the ladder starts at, not BASE's default
+        base = base.with_overrides({"integrator.dt": signal.spacing / 2})
     signal, fronts = _analysed_signal(signal, base, device, window, use_cache)
     depths = default_depths(fronts, float(signal.t[-1]), base.chain.grains, block, depth_range)
+    given = forward_scene(base, signal.spacing, signal.sample_count).integrator.dt if dt_given else None
+    choice = noise_step(signal, base, fronts, int(depths[0]), noise, device, given=given)
+    if not dt_given:  # with no σ to go by, BASE's step as it is
+        base = given_base if choice is None else base.with_overrides({"integrator.dt": choice.dt})
     forward = forward_scene(base, signal.spacing, signal.sample_count)
     library = build_library(
         forward,
@@ -329,6 +347,7 @@ def detect(
         refined_depths=refined,
         fine_scan=fine,
         fit_a=fit_a_result,
+        step_choice=choice,
     ), library
 
 
