@@ -29,6 +29,7 @@ RIPPLE_DEPTHS = (500.0, 750.0, 1000.0, 5000.0, 7500.0, 10000.0)
 SETTLE_STORES = ("tau10", "tau1")
 """Stores of docs/drive.md's long runs in ``--out-dir``: NAME.zarr at dt, NAME_half.zarr at dt/2."""
 POWER_SPANS = ((0.0, 1000.0), (1000.0, 2500.0), (2500.0, 5000.0))
+CHANGE_PERCENTILES = (50.0, 90.0, 99.0)
 
 
 def _sweep(group: str) -> Path:
@@ -350,6 +351,17 @@ def energy_history(t, energy, work) -> dict[str, Any]:
     }
 
 
+def record_changes(t, energy, work) -> dict[str, Any]:
+    """:func:`energy_history` of one driven chain at evenly spaced records, with the percentiles
+    (CHANGE_PERCENTILES) of the change of |E − E0 − W| / max|W| between successive records."""
+    balance, _ = an.energy_drift(energy, work)
+    changes = np.abs(np.diff(balance))
+    label = ", ".join(f"{q:g}" for q in CHANGE_PERCENTILES)
+    return energy_history(t, energy, work) | {
+        f"change_percentiles ({label} %)": np.percentile(changes, CHANGE_PERCENTILES).tolist()
+    }
+
+
 def drive_1000_energy_history(work: Path, device: str) -> dict[str, Any]:
     """:func:`energy_history` of ``drive_1000``'s store (``work``/fig9_10.zarr; no run: run drive_1000 first)."""
     with _open(work / "fig9_10.zarr") as ds:
@@ -364,7 +376,7 @@ def drive_1000_energy_history(work: Path, device: str) -> dict[str, Any]:
 def drive_tau1_energy(work: Path, device: str) -> dict[str, Any]:
     """Where the 1000-grain τ = 1 column's energy error comes from: the column (records every 0.5) to t = 78 with
     the per-step kernel and the device's default kernel at dt = 1.25e-4, and the default kernel at dt = 1.25e-5;
-    energy error and largest |v| at every record."""
+    energy error and largest |v| at every record, and :func:`record_changes` of the energy balance."""
     from hertzian.core.devices import init_warp
     from hertzian.core.model import build_model
     from hertzian.core.runner import Runner
@@ -383,6 +395,7 @@ def drive_tau1_energy(work: Path, device: str) -> dict[str, Any]:
             "t": result.t.tolist(),
             f"energy_error_by_record ({scale})": np.abs(drift[0]).tolist(),
             "largest_abs_v_by_record": np.max(np.abs(result.v[0]), axis=-1).tolist(),
+            "energy_balance_between_records": record_changes(result.t, result.energy[0], result.work[0]),
         }
     return out
 

@@ -51,6 +51,19 @@ def test_energy_history_finds_a_jump_and_measures_around_it():
     assert len(history["jumps_over_1e-6"]) == 1
 
 
+def test_record_changes_are_percentiles_of_the_unsigned_balance_changes():
+    """E − E0 − W changes by (−1)^k k between records k and k + 1 (k = 1 … 100), max|W| = 1000: the changes'
+    magnitudes are 1 … 100, so their median is 50.5 / 1000 and the largest jump is the last one."""
+    t = np.arange(101.0)
+    work = 10.0 * t
+    steps = np.array([(-1.0) ** k * k for k in range(1, 101)])
+    energy = work + np.concatenate([[0.0], np.cumsum(steps)])
+    changes = ms.record_changes(t, energy, work)
+    assert changes["change_percentiles (50, 90, 99 %)"][0] == pytest.approx(50.5 / 1000.0, rel=1e-12)
+    assert changes["largest_jump"]["between_t"] == pytest.approx([99.0, 100.0])
+    assert changes["largest_jump"]["relative"] == pytest.approx(100.0 / 1000.0, rel=1e-12)
+
+
 def test_mean_power_and_parting_time():
     t = np.linspace(0.0, 5000.0, 10001)
     assert ms.mean_power(t, 3.0 * t + 7.0, 1000.0, 2500.0) == pytest.approx(3.0, rel=1e-12)
