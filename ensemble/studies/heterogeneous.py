@@ -34,6 +34,8 @@ def _run(name: str, overrides: dict, work: Path):
 
     data = tomllib.loads(resources.files("hertzian.sweeps").joinpath(f"{name}.toml").read_text())
     scene = data["scene"]
+    shift = overrides["grains"] - scene["chain"]["grains"]  # traced grains keep their distance from the bottom
+    scene["record"]["traces"] = [g + shift for g in scene["record"].get("traces", [])]
     scene["chain"]["grains"] = overrides["grains"]
     scene["integrator"]["duration"] = overrides["duration"]
     for axis in data["axis"]:
@@ -88,6 +90,7 @@ def study(grains: int = 40, seeds: int = 20) -> dict:
             "relative_to_uniform": (found["bottom_fraction"] / uniform).tolist(),
             "binary_collision_relative": [binary_collision_fraction(x, grains) for x in q],
             "arrival_time": found["arrival_time"].tolist(),
+            "bottom_peak_force": found["bottom_peak_force"].tolist(),
             "seconds": taper_s,
         },
         "disorder": {
@@ -95,7 +98,7 @@ def study(grains: int = 40, seeds: int = 20) -> dict:
             "realisations": seeds,
             **{
                 f"{name}_{k}": np.asarray(stats[name][k]).tolist()
-                for name in ("decay_length", "bottom_fraction", "arrival_time")
+                for name in ("decay_length", "bottom_fraction", "arrival_time", "bottom_peak_force")
                 for k in ("mean", "std", "q05", "q50", "q95")
             },
             "seconds": disorder_s,

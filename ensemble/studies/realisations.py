@@ -10,18 +10,24 @@ Observables, per point, from the snapshots ``v`` (record, grain) and, where stor
 * ``leading_amplitude`` [length/time], per grain: the largest speed each grain reaches (the leading pulse's
   amplitude against depth);
 * ``decay_length`` [grains]: λ of the least-squares fit ln(leading_amplitude) = c − z/λ over the grains between
-  the surface and the bottom (excluded: the struck grain and the bottom grain, which a wall reflects on).
+  the surface and the bottom (excluded: the struck grain and the bottom grain, which a wall reflects on);
+* ``bottom_peak_force`` [force], where the store records the bottom grain's displacement (traces or ``u``
+  snapshots): the largest Hertz force on the bottom grain from below (:func:`bottom_peak_force`).
 """
 
 from __future__ import annotations
 
+import json
 import warnings
 
 import numpy as np
+from hertzian.core.scene import scene_from_dict
+from hertzian.core.static import static_arrays, static_state
+from hertzian.sweeping.spec import expand, sweep_from_dict
 
 ARRIVAL_FRACTION = 1e-2
 QUANTILES = (0.05, 0.5, 0.95)
-SCALAR_OBSERVABLES = ("arrival_time", "bottom_energy", "bottom_fraction", "decay_length")
+SCALAR_OBSERVABLES = ("arrival_time", "bottom_energy", "bottom_fraction", "decay_length", "bottom_peak_force")
 OBSERVABLES = SCALAR_OBSERVABLES + ("leading_amplitude",)
 
 
@@ -47,13 +53,99 @@ def observables(ds) -> dict[str, np.ndarray]:
         zc = z - z.mean()
         slope = (logs * zc).sum(axis=-1) / (zc * zc).sum()
         decay = -1.0 / slope
-    return {
+    found = {
         "arrival_time": arrival,
         "bottom_energy": bottom,
         "bottom_fraction": fraction,
         "decay_length": decay,
         "leading_amplitude": amplitude,
     }
+    try:
+        found["bottom_peak_force"] = bottom_peak_force(ds)
+    except NotRecorded:
+        pass
+    return found
+
+
+class NotRecorded(ValueError):
+    """A store that records nothing an observable is measured from (the message is one line)."""
+
+
+def bottom_peak_force(ds) -> np.ndarray:
+    """Largest contact force [force] on the bottom grain N − 1 from below, per point of a store (shape: the
+    store's sweep dimensions), float64.
+
+    With ``boundary.bottom = "wall"`` it is the wall contact's F = n·a_w·max(δ, 0)^(n−1), δ = δ0_w + u_(N−1),
+    a_w the bottom grain's wall constant (a·√(R_(N−1)/R0), or an impurity's a) and δ0_w the wall contact's static
+    overlap; for another bottom it is the last inner contact's, δ = δ0 + u_(N−2) − u_(N−1). Constants and static
+    overlaps come from each point's scene, rebuilt from the store's ``sweep`` (or ``scene`` and
+    ``scene_overrides``) attributes. The displacements are the traces (``record.traces``, every
+    ``record.trace_every``) when they hold the grains needed, else the ``u`` snapshots, which sample the peak only
+    every ``record.every`` and so under-estimate it. Raises :class:`NotRecorded` (one line) if neither is stored.
+    """
+    grains = int(ds.sizes["grain"])
+    _displacements(ds, [grains - 1])  # refuse before rebuilding any scene
+    constant, overlap, exponent, wall = _bottom_contact(ds)
+    below, *above = _displacements(ds, [grains - 1] if wall.all() else [grains - 1, grains - 2])
+    delta = overlap[..., None] + below
+    if above:
+        delta += np.where(wall[..., None], 0.0, above[0])
+    n = exponent[..., None]
+    force = n * constant[..., None] * np.maximum(delta, 0.0) ** (n - 1.0)
+    return force.max(axis=-1)
+
+
+def _displacements(ds, grains: list[int]) -> list[np.ndarray]:
+    """u of each of ``grains`` over time, (…, time) float64: from the traces if they hold every one, else the u
+    snapshots (:class:`NotRecorded` if neither)."""
+    if "trace_u" in ds:
+        traced = np.asarray(ds.traced_grain.values).tolist()
+        if all(g in traced for g in grains):
+            return [np.asarray(ds.trace_u.isel(traced=traced.index(g)).values, dtype=np.float64) for g in grains]
+    if "u" in ds:
+        return [np.asarray(ds.u.isel(grain=g).values, dtype=np.float64) for g in grains]
+    listed = ", ".join(map(str, grains))
+    raise NotRecorded(
+        f"bottom_peak_force: the store records neither traces of grain(s) {listed} (record.traces) nor u snapshots "
+        "(record.fields must include u)"
+    )
+
+
+def _bottom_contact(ds) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(contact constant, static overlap [length], exponent, bottom is a wall) of the contact below the bottom grain
+    (the wall's, else the last inner contact's) at every point, each of the store's sweep shape."""
+    shape = tuple(ds.status.shape)
+    out = [np.empty(int(np.prod(shape))) for _ in range(3)] + [np.empty(int(np.prod(shape)), dtype=bool)]
+    for indices, constant, overlap, exponent, wall in _point_statics(ds):
+        last = constant.shape[-1] - (1 if wall else 2)  # padded contacts: N is the bottom wall, N − 1 the last inner
+        for column, value in zip(out, (constant[:, last], overlap[:, last], exponent, wall)):
+            column[indices] = value
+    return tuple(column.reshape(shape) for column in out)
+
+
+def _point_statics(ds):
+    """Per group of points sharing a template: (flat point indices, padded contact constants and static overlaps
+    (points, N + 1), exponents (points,), bottom is a wall)."""
+    overrides = json.loads(ds.attrs.get("scene_overrides", "{}"))
+    if overrides:  # a run of several scenes (hertzian.sweeping.sweep_store.write_result)
+        base = scene_from_dict(json.loads(ds.attrs["scene"]))
+        for p in range(len(next(iter(overrides.values())))):
+            scene = base.with_overrides({k: v[p] for k, v in overrides.items()})
+            st = static_state(scene)
+            wall = scene.boundary.bottom == "wall"
+            yield [p], st.contact_constant[None], st.static_overlap[None], st.exponent, wall
+        return
+    data = json.loads(ds.attrs["sweep"])
+    sweep = sweep_from_dict({k: data[k] for k in ("scene", "axis", "zip") if k in data}, max_points=None)
+    expanded = expand(sweep, validate=False)
+    points = np.arange(expanded.point_count)
+    templates = expanded.template_index(points)
+    for t in np.unique(templates):
+        members = points[templates == t]
+        chains = expanded.chains(members)
+        st = static_arrays(chains)
+        wall = chains.template.boundary.bottom == "wall"
+        yield members, st.contact_constant, st.static_overlap, st.exponent, wall
 
 
 def statistics(ds, over: str) -> dict[str, dict[str, np.ndarray]]:
@@ -104,7 +196,8 @@ def plot_distribution(ds, of: str, out, *, bins: int = 30) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    values = observables(ds)[of].reshape(-1)
+    found = observables(ds)
+    values = (found[of] if of in found else bottom_peak_force(ds)).reshape(-1)  # the latter refuses: not recorded
     values = values[np.isfinite(values)]
     fig, ax = plt.subplots(figsize=(5, 3.5))
     ax.hist(values, bins=bins)
