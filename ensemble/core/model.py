@@ -351,7 +351,7 @@ def chain_set_features(chains: ChainSet, static) -> Features:
     """features_of for a ChainSet, from its static arrays (no scene per chain)."""
     return _features(
         chains.template,
-        any_static=bool(np.any(static.static_overlap > 0)),
+        any_static=bool(np.any(static.configurations.static_overlap > 0)),
         heterogeneous=bool(chains.template.impurities) or static.radius_ratio is not None,
         gravity=bool(np.any(chains.column("chain.gravity") > 0)),
         hertz=bool(np.all(chains.column("chain.exponent") == 2.5)),
@@ -365,16 +365,23 @@ def chain_set_can_open(chains: ChainSet, static) -> bool:
 
 
 def chains_can_open(chains: ChainSet, static) -> np.ndarray:
-    """:func:`contact_can_open` per chain of a ChainSet (bool, shape (chains,)), vectorised over its static arrays."""
+    """:func:`contact_can_open` per chain of a ChainSet (bool, shape (chains,)), vectorised over its static arrays.
+
+    The contacts' bounds are computed once per static configuration: a chain can open a contact if one has no
+    static overlap or the configuration's lowest bound is within the chain's injected energy."""
     if chains.template.boundary.surface == "driven":
         return np.ones(len(chains), dtype=bool)
-    present = static.contact_constant > 0
+    rows = static.configurations
+    present = rows.contact_constant > 0
+    delta0 = np.where(present, rows.static_overlap, 1.0)
+    bound = (rows.exponent[:, None] - 1) * rows.contact_constant * delta0 ** rows.exponent[:, None]
+    unloaded = np.any(present & (rows.static_overlap <= 0), axis=1)
+    # fmin skips NaN: an absent contact (and a NaN bound, which no energy reaches) never counts
+    lowest = np.fmin.reduce(np.where(present, bound, np.nan), axis=1)
     impact = chains.column("excitation.impact")
     impact = np.zeros(len(chains)) if impact is None else impact
-    injected = 0.5 * static.mass[:, 0] * impact**2
-    delta0 = np.where(present, static.static_overlap, 1.0)
-    bound = (static.exponent[:, None] - 1) * static.contact_constant * delta0 ** static.exponent[:, None]
-    return np.any(present & ((static.static_overlap <= 0) | (bound <= injected[:, None])), axis=1)
+    injected = 0.5 * static.per_chain(rows.mass[:, 0]) * impact**2
+    return static.per_chain(unloaded) | (static.per_chain(lowest) <= injected)
 
 
 @dataclass(frozen=True, eq=False)
@@ -422,8 +429,9 @@ def prepare_model(chains: ChainSet, *, features: Features | None = None) -> Host
     np_real = np.float64 if f.precision == "float64" else np.float32
     n = scene.chain.grains
 
+    # derived per-grain arrays are computed on the static configurations, then gathered per chain
     if f.heterogeneous:
-        inverse_mass = 1.0 / st.mass
+        inverse_mass = st.per_chain(1.0 / st.configurations.mass)
         contact_constant = st.contact_constant
     else:
         inverse_mass = (1.0 / chains.column("chain.mass"))[:, None]
@@ -431,7 +439,7 @@ def prepare_model(chains: ChainSet, *, features: Features | None = None) -> Host
     if f.static == "profile":
         static_overlap = st.static_overlap
     elif f.static == "uniform":
-        static_overlap = st.static_overlap.max(axis=1)[:, None]
+        static_overlap = st.per_chain(st.configurations.static_overlap.max(axis=1))[:, None]
     else:
         static_overlap = np.zeros((0, 0))
     exponent = np.zeros(0) if f.hertz else st.exponent
@@ -449,7 +457,7 @@ def prepare_model(chains: ChainSet, *, features: Features | None = None) -> Host
     for slot, grain in enumerate(scene.record.traces):
         trace_slot[grain] = slot
     impact = chains.column("excitation.impact")
-    injected = per_unique(lambda m0, v: 0.5 * m0 * v**2, st.mass[:, 0], impact)
+    injected = per_unique(lambda m0, v: 0.5 * m0 * v**2, st.per_chain(st.configurations.mass[:, 0]), impact)
     arrays = {
         "inverse_mass": inverse_mass.astype(np_real, copy=False),
         "contact_constant": contact_constant.astype(np_real, copy=False),
@@ -461,7 +469,9 @@ def prepare_model(chains: ChainSet, *, features: Features | None = None) -> Host
         "damping": (chains.column("damping.gamma") if f.damping != "none" else np.zeros(0)).astype(np_real, copy=False),
     }
     # only the first grains move at t = 0 (startup.taylor_window); the others start at zero
-    start = state_layout(initial_nordsieck_of(chains, f.nordsieck_values, scene.integrator.dt, st, whole=False), f)
+    values = f.nordsieck_values
+    leading = st.leading(taylor_window(n, values - 1))
+    start = state_layout(initial_nordsieck_of(chains, values, scene.integrator.dt, leading, whole=False), f)
     return HostModel(
         chains=chains,
         features=f,
@@ -479,7 +489,7 @@ def _validity(chains: ChainSet, static) -> np.ndarray:
     validity = per_unique(lambda d: VALIDITY_FRACTION * d, chains.column("chain.diameter"))
     if static.radius_ratio is None:
         return validity
-    return validity * static.radius_ratio.min(axis=1)
+    return validity * static.per_chain(static.configurations.radius_ratio.min(axis=1))
 
 
 def stack_prepared(parts: list[HostModel]) -> HostModel:
@@ -544,7 +554,8 @@ def _build_model_of(chains: ChainSet, device, features: Features | None, prepare
     real = wp.float64 if f.precision == "float64" else wp.float32
 
     def upload(array, dtype=real):
-        return wp.array(np.ascontiguousarray(array), dtype=dtype, device=device)
+        # a CPU model reads the prepared arrays in place (HostModel's arrays are its own and never change)
+        return wp.array(np.ascontiguousarray(array), dtype=dtype, device=device, copy=not device.is_cpu)
 
     return Model(
         scenes=chains,

@@ -15,7 +15,8 @@ contact constant a·√(2 r_i r_j / (r_i + r_j)); an impurity's own mass or ``a`
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 from hertzian.core.chains import RADII_KEYS, per_unique, radius_rows, row_codes
@@ -154,6 +155,27 @@ class StaticArrays:
     radius_ratio: np.ndarray | None = None
     """R_i/R0 of each grain, shape (chains, N) (1 in chains of equal grains); None when every chain's are equal."""
 
+    @property
+    def configurations(self) -> "StaticArrays":
+        """The rows that differ (here every chain's; :class:`SharedStatic` has one per configuration)."""
+        return self
+
+    def per_chain(self, rows: np.ndarray | None) -> np.ndarray | None:
+        """``rows`` computed on :attr:`configurations`, per chain (here already)."""
+        return rows
+
+    def leading(self, grains: int) -> "StaticArrays":
+        """The first ``grains`` grains and contacts 0 … ``grains`` (views)."""
+        ratio = None if self.radius_ratio is None else self.radius_ratio[:, :grains]
+        per_grain = {"mass": self.mass[:, :grains], "self_constant": self.self_constant[:, :grains]}
+        per_contact = {name: getattr(self, name)[:, : grains + 1] for name in CONTACT_FIELDS}
+        return replace(self, **per_grain, **per_contact, radius_ratio=ratio)
+
+
+FIELDS = tuple(StaticArrays.__dataclass_fields__)
+"""The fields of StaticArrays."""
+CONTACT_FIELDS = ("contact_constant", "carried_force", "static_overlap")
+
 
 def _surface_force(load, l0, exponent, a) -> float:
     # ChainSpec.surface_force, on Python floats (load NaN = unset)
@@ -198,7 +220,7 @@ def distinct_static_rows(chains) -> tuple[np.ndarray, np.ndarray] | None:
     return first, inverse
 
 
-def static_arrays(chains, *, grains: int | None = None) -> StaticArrays:
+def static_arrays(chains, *, grains: int | None = None) -> "StaticArrays | SharedStatic":
     """:func:`static_state` of every chain of a ChainSet, vectorised over chains (same bits).
 
     ``grains`` < N computes only the first ``grains`` grains and contacts 0 … ``grains`` (the last one
@@ -206,24 +228,51 @@ def static_arrays(chains, *, grains: int | None = None) -> StaticArrays:
     leading columns of the full ones, bit for bit (a prefix of the cumulative mass is the same sum).
 
     Chains that differ only in keys the static state does not read (an impact speed, say) share one
-    computation: each distinct configuration is solved once and its rows copied (every operation is
-    row by row, so the bits are those of solving every chain).
+    computation: each distinct configuration is solved once (a :class:`SharedStatic`, whose per-chain
+    fields are gathered from those rows when first read; every operation is row by row, so the bits are
+    those of solving every chain).
     """
     shared = distinct_static_rows(chains) if len(chains) > 1 else None
     if shared is None:
         return _static_arrays(chains, grains)
     first, inverse = shared
-    one = _static_arrays(chains.take(first), grains)
-    return StaticArrays(
-        mass=one.mass[inverse],
-        self_constant=one.self_constant[inverse],
-        contact_constant=one.contact_constant[inverse],
-        carried_force=one.carried_force[inverse],
-        static_overlap=one.static_overlap[inverse],
-        exponent=one.exponent[inverse],
-        surface_force=one.surface_force[inverse],
-        radius_ratio=None if one.radius_ratio is None else one.radius_ratio[inverse],
-    )
+    return SharedStatic(_static_arrays(chains.take(first), grains), inverse)
+
+
+def _per_chain_field(name: str) -> cached_property:
+    """A SharedStatic field: its configurations' rows gathered per chain, on first access."""
+    return cached_property(lambda self: self.per_chain(getattr(self.configurations, name)))
+
+
+class SharedStatic:
+    """:class:`StaticArrays` of chains that share static configurations, read as StaticArrays (the same
+    fields, shapes and bits): ``configurations`` holds one solved row per configuration, ``inverse`` each
+    chain's configuration. A field is gathered per chain only when read, so a consumer that needs a
+    derived per-chain array (1/m, one column) computes it on the configurations and gathers that."""
+
+    def __init__(self, configurations: StaticArrays, inverse: np.ndarray):
+        self.configurations = configurations
+        """StaticArrays of the distinct configurations, one row each."""
+        self.inverse = inverse
+        """Configuration of every chain, shape (chains,), int64."""
+
+    def per_chain(self, rows: np.ndarray | None) -> np.ndarray | None:
+        """``rows`` (one per configuration, along axis 0) gathered for every chain."""
+        return None if rows is None else np.take(rows, self.inverse, axis=0)
+
+    def leading(self, grains: int) -> StaticArrays:
+        """StaticArrays of the first ``grains`` grains and contacts 0 … ``grains`` of every chain."""
+        part = self.configurations.leading(grains)
+        return StaticArrays(**{name: self.per_chain(getattr(part, name)) for name in FIELDS})
+
+    mass = _per_chain_field("mass")
+    self_constant = _per_chain_field("self_constant")
+    contact_constant = _per_chain_field("contact_constant")
+    carried_force = _per_chain_field("carried_force")
+    static_overlap = _per_chain_field("static_overlap")
+    exponent = _per_chain_field("exponent")
+    surface_force = _per_chain_field("surface_force")
+    radius_ratio = _per_chain_field("radius_ratio")
 
 
 def _grain_arrays(chains, n_grains: int, ratios):
