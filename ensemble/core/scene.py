@@ -307,12 +307,15 @@ class Scene:
     def to_dict(self) -> dict:
         """The scene as plain data, every key filled (JSON/TOML-ready)."""
         d = asdict(self)
+        # an impurity's unset mass or a is its grain's: the chain's in a uniform chain (filled in); with radii the
+        # grain's own scaled value, so the key stays out (filling in the chain's would lose the radius scaling)
+        fill = self.chain.radii is None
         d["impurities"] = [
             {
-                **imp,
+                **{k: v for k, v in imp.items() if v is not None},
                 "grains": list(imp["grains"]),
-                "mass": imp["mass"] if imp["mass"] is not None else self.chain.mass,
-                "a": imp["a"] if imp["a"] is not None else self.chain.a,
+                **({"mass": self.chain.mass if imp["mass"] is None else imp["mass"]} if fill else {}),
+                **({"a": self.chain.a if imp["a"] is None else imp["a"]} if fill else {}),
             }
             for imp in d["impurities"]
         ]

@@ -341,3 +341,20 @@ def test_summarize_over_seed_and_distribution_plot(tmp_path, monkeypatch):
     assert result.exit_code == 0 and png.stat().st_size > 0, result.stderr
     bad = invoke("plot", str(out), "--figure", "distribution", "--of", "nothing", "--out", str(png))
     assert bad.exit_code == 2 and "nothing" in bad.stderr
+
+
+def test_scene_rebuilt_from_its_dict_keeps_an_impurity_grains_radius_scaling():
+    """An impurity that sets only its contact constant keeps its grain's radius-scaled mass when the scene goes
+    through ``to_dict`` (stores, overrides, a chain set's member): the chain's mass is not filled in for it."""
+    scene = scene_from_dict(
+        {
+            "chain": {"grains": 12, "radii": {"taper": 0.05}},
+            "impurities": [{"grains": [7], "a": 3000.0}],
+            "excitation": {"impact": 0.01},
+            "integrator": {"dt": 1e-4, "duration": 0.01},
+        }
+    )
+    rebuilt = scene.with_overrides({})
+    assert static_state(scene).mass[7] == pytest.approx((1 - 0.05) ** 21, rel=1e-12)  # m (R_7/R0)^3
+    np.testing.assert_array_equal(static_state(rebuilt).mass, static_state(scene).mass)
+    np.testing.assert_array_equal(static_state(rebuilt).contact_constant, static_state(scene).contact_constant)
