@@ -160,6 +160,54 @@ def prepare_sweep(
         batch_size=batch_size, workers=workers, scheduler=scheduler, resume=resume, overwrite=overwrite, kernel=kernel
     )
     timing: dict[str, float] = {}
+    # the workers start in the background first: their start (process spawn, imports, the CUDA driver) is the
+    # longest fixed cost of a distributed sweep; this process loads, checks and plans meanwhile
+    cluster = None if dry_run else _start_cluster(workers, scheduler, device)
+    try:
+        return _prepare(
+            sweep,
+            out,
+            cluster,
+            timing,
+            notify,
+            device=device,
+            resume=resume,
+            overwrite=overwrite,
+            batch_size=batch_size,
+            workers=workers,
+            scheduler=scheduler,
+            kernel=kernel,
+            overrides=overrides,
+            allow_large=allow_large,
+            strict=strict,
+            dry_run=dry_run,
+        )
+    except BaseException:
+        if cluster is not None:
+            cluster.close()
+        raise
+
+
+def _prepare(
+    sweep,
+    out,
+    cluster,
+    timing: dict,
+    notify,
+    *,
+    device,
+    resume,
+    overwrite,
+    batch_size,
+    workers,
+    scheduler,
+    kernel,
+    overrides,
+    allow_large,
+    strict,
+    dry_run,
+) -> PreparedSweep:
+    """prepare_sweep's load, checks and plan, with the cluster (or None) already starting."""
     definition, points = load_points(sweep, overrides, allow_large=allow_large, timing=timing)
     # one chain of the largest kind (the planner sizes batches); before any array is built
     too_big = memory_refusal(max(points.templates, key=lambda t: t.chain.grains))
@@ -175,20 +223,13 @@ def prepare_sweep(
         check_out(out, resume=resume, overwrite=overwrite)
     dev = check_device(device)
     resuming = resume and out.exists()
-    # the workers start in the background while this process plans (and, in run_sweep, creates the store)
-    cluster = None if dry_run else _start_cluster(workers, scheduler, device)
-    try:
-        plan = _plan(definition, points, out, dev, batch_size=batch_size, resuming=resuming, timing=timing)
-        if cluster is not None and not resuming:  # a store being resumed keeps its block
-            plan = balance_plan(plan, workers or cluster.worker_count)
-        if kernel != "auto":
-            check_kernel(kernel, plan, points, dev)
-        else:
-            per_step_notes(plan, dev, notify)
-    except BaseException:
-        if cluster is not None:
-            cluster.close()
-        raise
+    plan = _plan(definition, points, out, dev, batch_size=batch_size, resuming=resuming, timing=timing)
+    if cluster is not None and not resuming:  # a store being resumed keeps its block
+        plan = balance_plan(plan, workers or cluster.worker_count)
+    if kernel != "auto":
+        check_kernel(kernel, plan, points, dev)
+    else:
+        per_step_notes(plan, dev, notify)
     if resuming and batch_size is not None and plan.batch_size != batch_size:
         notify(
             f"note: batch size {batch_size} ignored: {out} was planned with batches of up to {plan.batch_size} points"
