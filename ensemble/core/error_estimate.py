@@ -7,18 +7,25 @@ about half the run's steps), and estimates, per chain,
 
     err(dt) ≈ max |u_dt − u_2dt| / (2^p − 1) / max |u_dt|,
 
-with ``p`` the order the method shows on that scene (:func:`assumed_order`): its order on a smooth
-chain where no contact can open; 4 for Gear steps with event-aware steps where contacts open
-(kernels/events.py caps gear5/gear6 near 4 there); 2 where contacts open with plain steps
-(docs/stability.md §6 measures 2.3 for every Gear order). Choosing p below the true order
+with ``p`` the order the method shows on that chain (:func:`chain_orders`): its order on a smooth
+chain where no contact opens; 4 for Gear steps with event-aware steps where contacts can open
+(kernels/events.py caps gear5/gear6 near 4 there); n (2.5 for Hertz) where a contact opened with plain
+steps, n the exponent of the contact potential V ∝ δ^n. That last order follows from the force:
+F ∝ δ_+^(n−1) has a (t − t_open)^(n−1) kink in time, so a step that straddles an opening integrates the
+acceleration with a local error O(dt^n) in the velocity, and the finitely many openings add up to a
+global error O(dt^n). Choosing p below the true order
 overestimates the error by (2^p_true − 1)/(2^p − 1); above it, underestimates by the same ratio.
 
-Limits: two levels cannot measure p per chain, so where convergence is erratic (a plain Gear step
-straddling a contact opening, docs/stability.md §6b) the 2·dt run can be much worse than the run
-and the estimate overestimates, sometimes by more than 3×. Where trajectories part (a chaotic
-drive) the difference is of the order of the motion itself and the estimate is ~1: the run has no
-accuracy left to report. At round-off (estimates ≲ 1e-13) the difference measures rounding, not
-truncation.
+Where a contact opened with plain steps the estimate is marked ``Status.ESTIMATE_UNCERTAIN``: the error
+of such a step depends on where in the step the contact opens, a phase that differs between dt and 2·dt,
+so |u_dt − u_2dt| / |u − u_exact| scatters over a factor ~30 from chain to chain and no divisor (no
+order) puts 95 % of such chains within 3× (docs/accuracy.md). A chain counts as opened when an overlap
+is ≤ 0 at a record of the run or its shadow (contacts that open only between records are missed); a
+driven chain whose contacts can open counts as opened.
+
+Limits: where trajectories part (a chaotic drive) the difference is of the order of the motion itself
+and the estimate is ~1: the run has no accuracy left to report. At round-off (estimates ≲ 1e-13) the
+difference measures rounding, not truncation.
 """
 
 from __future__ import annotations
@@ -46,8 +53,6 @@ SMOOTH_ORDER = {"gear4": 4.0, "gear5": 5.0, "gear6": 6.0, "verlet": 2.0, "yoshid
 """Order of the positions where no contact opens (tests/core/test_order_of_accuracy.py, docs/stability.md §2c, §6)."""
 EVENT_ORDER = 4.0
 """Gear methods with event-aware steps where contacts open (docs/stability.md §6b: 3.5–4.1)."""
-OPEN_ORDER = 2.0
-"""Plain steps where contacts open (docs/stability.md §6: 2.0–2.4 for every Gear order and Verlet)."""
 
 
 def shadow_overrides(scene: Scene) -> dict:
@@ -92,12 +97,14 @@ def shadow_model(model: Model) -> Model:
     )
 
 
-def assumed_order(method: str, *, can_open, events: bool):
-    """The convergence order p of the positions used by the Richardson estimate (module docstring); ``can_open``
-    a bool or a per-chain bool array (then p is per chain)."""
-    opened = min(EVENT_ORDER, SMOOTH_ORDER[method]) if events else min(OPEN_ORDER, SMOOTH_ORDER[method])
-    order = np.where(can_open, opened, SMOOTH_ORDER[method])
-    return float(order) if order.ndim == 0 else order
+def chain_orders(method: str, *, can_open, opened, exponent, events: bool) -> np.ndarray:
+    """Per chain, the convergence order p of the positions used by the Richardson estimate (module docstring):
+    ``can_open``, ``opened`` (bool) and ``exponent`` (n) per chain; with ``events`` the event-aware order where
+    a contact can open, else n (the potential's exponent) where one opened; the method's smooth order elsewhere."""
+    smooth = SMOOTH_ORDER[method]
+    if events:
+        return np.where(can_open, min(EVENT_ORDER, smooth), smooth)
+    return np.where(opened, np.minimum(exponent, smooth), smooth)
 
 
 def ensemble_can_open(scenes: "Sequence[Scene] | ChainSet | ChainStack") -> np.ndarray:
@@ -109,11 +116,56 @@ def ensemble_can_open(scenes: "Sequence[Scene] | ChainSet | ChainStack") -> np.n
     return np.array([contact_can_open(s, static_state(s)) for s in scenes], dtype=bool)
 
 
-def model_order(model: Model) -> np.ndarray:
-    """:func:`assumed_order` per chain of an ensemble: the method's smooth order on chains where no contact can
-    open, the event or plain-step order where one can."""
+def ensemble_contacts(scenes: "Sequence[Scene] | ChainSet | ChainStack") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(δ0 [length], a_c, n) of every chain's padded contacts: shapes (chains, N + 1), (chains, N + 1), (chains,)."""
+    if isinstance(scenes, ChainStack):
+        parts = [ensemble_contacts(part) for part in scenes.parts]
+        return tuple(np.concatenate([p[k] for p in parts]) for k in range(3))
+    if isinstance(scenes, ChainSet):
+        static = static_arrays(scenes)
+        return static.static_overlap, static.contact_constant, np.asarray(static.exponent)
+    states = [static_state(s) for s in scenes]
+    return (
+        np.array([st.static_overlap for st in states]),
+        np.array([st.contact_constant for st in states]),
+        np.array([st.exponent for st in states], dtype=np.float64),
+    )
+
+
+def opened_at_records(u: np.ndarray, static_overlap: np.ndarray, contact_constant: np.ndarray) -> np.ndarray:
+    """Per chain, whether some present contact's overlap is ≤ 0 at some record: ``u`` (chains, records, grains)
+    the positions, ``static_overlap`` and ``contact_constant`` (chains, grains + 1) the padded contacts (0 the top
+    wall, N the bottom wall, both at rest); bool (chains,)."""
+    u = np.asarray(u, dtype=np.float64)
+    relative = np.concatenate([-u[:, :, :1], u[:, :, :-1] - u[:, :, 1:], u[:, :, -1:]], axis=2)
+    overlap = static_overlap[:, None, :] + relative
+    return np.any((overlap <= 0) & (contact_constant[:, None, :] > 0), axis=(1, 2))
+
+
+def model_orders(model: Model, u: np.ndarray, u_shadow: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(:func:`chain_orders` per chain of an ensemble, whether each chain opened a contact with plain steps)
+    from the run's positions ``u`` and its shadow's (chains, records, grains)."""
+    scenes = model.scenes
+    can_open = ensemble_can_open(scenes)
+    overlap, present, exponent = ensemble_contacts(scenes)
+    seen = opened_at_records(u, overlap, present) | opened_at_records(u_shadow, overlap, present)
+    driven = _template(scenes).boundary.surface == "driven"
+    opened = can_open & (seen | driven)
     events = model.features.event_window > 0
-    return assumed_order(model.features.method, can_open=ensemble_can_open(model.scenes), events=events)
+    orders = chain_orders(model.features.method, can_open=can_open, opened=opened, exponent=exponent, events=events)
+    return orders, opened & (not events)
+
+
+def _template(scenes) -> Scene:
+    """A scene of the ensemble (they share the boundary)."""
+    if isinstance(scenes, ChainStack):
+        return _template(scenes.parts[0])
+    return scenes.template if isinstance(scenes, ChainSet) else scenes[0]
+
+
+def mark_uncertain(status: np.ndarray, uncertain: np.ndarray) -> None:
+    """Set ``Status.ESTIMATE_UNCERTAIN`` on the chains of ``uncertain`` still OK (in place)."""
+    status[(status == Status.OK) & uncertain] = Status.ESTIMATE_UNCERTAIN
 
 
 def richardson_error(u: np.ndarray, u_shadow: np.ndarray, order, factor: int = SHADOW_FACTOR) -> np.ndarray:
@@ -227,6 +279,7 @@ def meet_tolerance(scenes: list[Scene], run) -> ToleranceChoice:
     found = [search_step(list(scenes), method, events, run, pilot) for method, events in candidates]
     met = [r for r, ok in found if ok] or [r for r, _ in found]
     result = min(met, key=lambda r: r.wall_seconds)
-    missed = (result.status == Status.OK) & ~(result.error_estimate <= integrator.tolerance)
+    still_ok = (result.status == Status.OK) | (result.status == Status.ESTIMATE_UNCERTAIN)
+    missed = still_ok & ~(result.error_estimate <= integrator.tolerance)
     result.status[missed] = Status.TOLERANCE_MISSED
     return ToleranceChoice(tolerance=integrator.tolerance, result=result, pilot=tuple(pilot))

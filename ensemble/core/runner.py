@@ -16,7 +16,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import warp as wp
 from hertzian.core.devices import default_device, init_warp
-from hertzian.core.error_estimate import meet_tolerance, model_order, richardson_error, shadow_model
+from hertzian.core.error_estimate import mark_uncertain, meet_tolerance, model_orders, richardson_error, shadow_model
 from hertzian.core.model import Model, State, build_model
 from hertzian.core.recorder import Recorder
 from hertzian.core.scene import Scene, SceneError
@@ -322,7 +322,8 @@ class Runner:
         status[drift] = Status.ENERGY_DRIFT
         error_estimate = None
         if scene.record.error_estimate:
-            error_estimate, timing["error_estimate"] = self.shadow_estimate(rec.fields["u"])
+            error_estimate, uncertain, timing["error_estimate"] = self.shadow_estimate(rec.fields["u"])
+            mark_uncertain(status, uncertain)
         return RunResult(
             scenes=m.scenes,
             features=m.features,
@@ -347,14 +348,15 @@ class Runner:
             error_estimate=error_estimate,
         )
 
-    def shadow_estimate(self, u: np.ndarray) -> tuple[np.ndarray, float]:
-        """(per-chain error estimate of positions ``u`` (chains, records, grains), seconds it took): the same
-        chains integrated at 2·dt on the model's arrays, checked at the records only, compared there
-        (ensemble/core/error_estimate.py)."""
+    def shadow_estimate(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        """(per-chain error estimate of positions ``u`` (chains, records, grains), per chain whether it is
+        uncertain, seconds it took): the same chains integrated at 2·dt on the model's arrays, checked at the
+        records only, compared there (ensemble/core/error_estimate.py)."""
         clock = time.perf_counter()
         shadow = Runner(shadow_model(self.model), kernel=self.kernel_request, monitor_every=0)
-        estimate = richardson_error(u, shadow.run().u, model_order(self.model))
-        return estimate, time.perf_counter() - clock
+        u_shadow = shadow.run().u
+        orders, uncertain = model_orders(self.model, u, u_shadow)
+        return richardson_error(u, u_shadow, orders), uncertain, time.perf_counter() - clock
 
 
 def energy_errors(

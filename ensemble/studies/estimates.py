@@ -5,7 +5,8 @@ reference, with gear6 at the step divided by ``reference_divisor`` (event-aware 
 against gear6 at twice that step (Richardson at order 4, the event-aware order where contacts open:
 an upper bound of the reference's error where the order is 6). The true error of a point is
 max over records and grains |u − u_ref| / max|u_ref|; a point passes when estimate / true error lies in
-[1/3, 3]. Points whose true error is within ``RESOLVED_FACTOR`` of the reference's own error are not
+[1/3, 3]. The fraction is also given apart for points whose estimate is marked ESTIMATE_UNCERTAIN (a contact
+opened with plain steps) and the others. Points whose true error is within ``RESOLVED_FACTOR`` of the reference's own error are not
 resolved by the reference: they are listed and left out of the fraction.
 
 **Cost.** The same ensemble run with and without the estimate, alternately, ``repeats`` times; the ratio of
@@ -23,6 +24,7 @@ from hertzian.core.error_estimate import ensemble_can_open
 from hertzian.core.model import build_model
 from hertzian.core.runner import Runner, run_ensemble
 from hertzian.core.scene import Scene
+from hertzian.core.status import Status
 from hertzian.studies.accuracy import REFERENCE_METHOD, RESOLVED_FACTOR, TimeToTarget, time_to_target, work_precision
 
 ESTIMATE_FACTOR = 3.0
@@ -76,12 +78,17 @@ def estimate_check(
         ratio = result.error_estimate / true
         resolved = true > RESOLVED_FACTOR * ref_error
         within = (ratio <= ESTIMATE_FACTOR) & (ratio >= 1 / ESTIMATE_FACTOR)
+        uncertain = result.status == Status.ESTIMATE_UNCERTAIN
         out["events"][setting] = {
             "fraction_within": float(np.mean(within[resolved])) if resolved.any() else None,
             "resolved_points": int(resolved.sum()),
             "fraction_within_where_contacts_open": _fraction(within, resolved & can_open),
             "fraction_within_where_none_open": _fraction(within, resolved & ~can_open),
             "ratio_range": [float(np.min(ratio[resolved])), float(np.max(ratio[resolved]))] if resolved.any() else None,
+            "uncertain_points": int(uncertain.sum()),
+            "fraction_within_where_not_uncertain": _fraction(within, resolved & ~uncertain),
+            "fraction_within_where_uncertain": _fraction(within, resolved & uncertain),
+            "uncertain": uncertain.tolist(),
             "estimate": result.error_estimate.tolist(),
             "true_error": true.tolist(),
             "reference_error": ref_error.tolist(),

@@ -4,8 +4,10 @@ checked by running it again at twice its step (its error must be far below the e
 
 import numpy as np
 import pytest
+from hertzian.core.error_estimate import ensemble_can_open, opened_at_records
 from hertzian.core.runner import run_ensemble, run_scene
 from hertzian.core.scene import SceneError
+from hertzian.core.status import Status
 
 from tests.helpers import make_scene
 from tests.reference import reference_run
@@ -173,3 +175,38 @@ def test_sweep_refuses_a_tolerance(tmp_path):
     out = tmp_path / "out.zarr"
     ran = CliRunner().invoke(app, ["sweep", str(path), "--out", str(out), "--device", "cpu"])
     assert ran.exit_code == EXIT_BAD_INPUT and "integrator.tolerance" in ran.output and not out.exists()
+
+
+def test_contact_that_never_opens_keeps_the_smooth_order():
+    """With plain steps, a chain the energy bound lets open but whose contacts stay closed (overlaps > 0 at every
+    record) is estimated at the smooth order, within 3× of its true error, and is not marked uncertain."""
+    scene = estimated_scene(dict(chain={"l0": 1e-4}, excitation={"impact": 1.9e-3}), "gear4", "off", 2.5e-3)
+    assert ensemble_can_open([scene])[0]
+    result = run_scene(scene, "cpu")
+    estimate, error = float(result.error_estimate[0]), true_error(scene, result.u[0])
+    assert error / FACTOR <= estimate <= FACTOR * error, f"estimate {estimate:.3g}, true error {error:.3g}"
+    assert result.status[0] == Status.OK
+
+
+@pytest.mark.parametrize("events, status", [("off", Status.ESTIMATE_UNCERTAIN), ("auto", Status.OK)])
+def test_opening_contact_with_plain_steps_marks_the_estimate(events, status):
+    """A loose chain opens contacts: with plain steps its estimate is marked ESTIMATE_UNCERTAIN, with event-aware
+    steps it is not; a smooth chain beside it stays OK either way."""
+    loose = estimated_scene(dict(chain={"l0": 0.0}, excitation={"impact": 1e-2}), "gear4", events, 2.5e-3)
+    smooth = estimated_scene(SMOOTH, "gear4", events, 2.5e-3)
+    assert list(run_ensemble([loose, smooth], "cpu").status) == [status, Status.OK]
+
+
+def test_opened_at_records():
+    """An overlap δ0 + u_(k−1) − u_k ≤ 0 at any record (walls at rest at both ends) counts; absent contacts do not."""
+    static_overlap = np.full((1, 4), 1e-3)
+    present = np.ones((1, 4))
+    u = np.zeros((1, 2, 3))
+    assert not opened_at_records(u, static_overlap, present)[0]
+    pulled = u.copy()
+    pulled[0, 1, 1] = 2e-3  # grain 1 moves 2e-3 toward the bottom: its contact with grain 0 opens
+    assert opened_at_records(pulled, static_overlap, present)[0]
+    lifted = u.copy()
+    lifted[0, 0, :] = 2e-3  # all grains toward the bottom: only the top wall's contact opens
+    assert opened_at_records(lifted, static_overlap, present)[0]
+    assert not opened_at_records(lifted, static_overlap, np.array([[0.0, 1, 1, 1]]))[0]
