@@ -294,7 +294,15 @@ class Recorder:
             wp.launch(
                 self.kernels.grains,
                 dim=self.grain_terms.shape,
-                inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.dt],
+                inputs=[
+                    state.x,
+                    m.inverse_mass,
+                    m.contact_constant,
+                    m.static_overlap,
+                    m.exponent,
+                    m.validity_scale,
+                    m.dt,
+                ],
                 outputs=[self.grain_terms],
                 device=m.device,
             )
@@ -310,6 +318,7 @@ class Recorder:
                     m.contact_constant,
                     m.static_overlap,
                     m.exponent,
+                    m.validity_scale,
                     m.dt,
                     state.dissipated,
                 ],
@@ -331,6 +340,7 @@ class Recorder:
                 step,
                 m.dt,
                 m.validity_overlap,
+                m.validity_scale,
                 self.parts,
             ],
             outputs=[
