@@ -142,12 +142,14 @@ def record_kernels(features: Features) -> RecordKernels:
         contact_constant: wp.array2d(dtype=real),
         static_overlap: wp.array2d(dtype=real),
         exponent: wp.array(dtype=real),
+        validity_scale: wp.array2d(dtype=wp.float64),
         dt: wp.float64,
         c: int,
         i: int,
     ) -> wp.vec4d:
         # grain i's terms of a chain's sums: kinetic energy (0 for the driven grain, whose motion is prescribed),
-        # excess potential and overlap of the contact above it (0 and -1e300 for grain 0), finite (1.0 or 0.0)
+        # excess potential and overlap of the contact above it (0 and -1e300 for grain 0; heterogeneous: times the
+        # contact's validity scale R0/min(R_i, R_j)), finite (1.0 or 0.0)
         u = position(x, c, i)
         v = rate(x, c, i) / dt
         finite = wp.float64(1.0)
@@ -170,6 +172,8 @@ def record_kernels(features: Features) -> RecordKernels:
             terms = contact_terms(static_overlap, contact_constant, exponent, c, i, position(x, c, i - 1) - u)
             potential = terms[0]
             overlap = terms[1]
+            if wp.static(HETERO):
+                overlap = overlap * validity_scale[c, i]
         return wp.vec4d(kinetic, potential, overlap, finite)
 
     @wp.func
@@ -184,6 +188,7 @@ def record_kernels(features: Features) -> RecordKernels:
         contact_constant: wp.array2d(dtype=real),
         static_overlap: wp.array2d(dtype=real),
         exponent: wp.array(dtype=real),
+        validity_scale: wp.array2d(dtype=wp.float64),
         dt: wp.float64,
         dissipated_grain: wp.array2d(dtype=wp.float64),
         parts: wp.array3d(dtype=wp.float64),
@@ -196,7 +201,8 @@ def record_kernels(features: Features) -> RecordKernels:
         sums = wp.vec4d(wp.float64(0.0), wp.float64(0.0), wp.float64(-1.0e300), wp.float64(1.0))
         for i in range(start, end):
             sums = add_terms(
-                sums, grain_terms_of(x, inverse_mass, contact_constant, static_overlap, exponent, dt, c, i)
+                sums,
+                grain_terms_of(x, inverse_mass, contact_constant, static_overlap, exponent, validity_scale, dt, c, i),
             )
         store_part(parts, c, part, sums, dissipated_grain, start, end)
 
@@ -207,12 +213,15 @@ def record_kernels(features: Features) -> RecordKernels:
         contact_constant: wp.array2d(dtype=real),
         static_overlap: wp.array2d(dtype=real),
         exponent: wp.array(dtype=real),
+        validity_scale: wp.array2d(dtype=wp.float64),
         dt: wp.float64,
         terms_out: wp.array2d(dtype=wp.vec4d),
     ):
         # long chains, first stage: grain i's terms of record_parts' sums, one thread per grain
         c, i = wp.tid()
-        terms_out[c, i] = grain_terms_of(x, inverse_mass, contact_constant, static_overlap, exponent, dt, c, i)
+        terms_out[c, i] = grain_terms_of(
+            x, inverse_mass, contact_constant, static_overlap, exponent, validity_scale, dt, c, i
+        )
 
     part_block = wp.types.matrix(shape=(4, 5), dtype=wp.float64)  # four parts' sums, loaded together
 
@@ -249,6 +258,7 @@ def record_kernels(features: Features) -> RecordKernels:
         step: int,
         dt: wp.float64,
         validity_overlap: wp.array(dtype=wp.float64),
+        validity_scale: wp.array2d(dtype=wp.float64),
         energy: wp.array(dtype=wp.float64),
         work: wp.array(dtype=wp.float64),
         max_overlap: wp.array(dtype=wp.float64),
@@ -268,11 +278,17 @@ def record_kernels(features: Features) -> RecordKernels:
         if wp.static(SURFACE_WALL):
             terms = contact_terms(static_overlap, contact_constant, exponent, c, 0, -position(x, c, 0))
             potential += terms[0]
-            largest = wp.max(largest, terms[1])
+            if wp.static(HETERO):
+                largest = wp.max(largest, terms[1] * validity_scale[c, 0])
+            else:
+                largest = wp.max(largest, terms[1])
         if wp.static(BOTTOM_WALL):
             terms = contact_terms(static_overlap, contact_constant, exponent, c, n_grains, position(x, c, n_grains - 1))
             potential += terms[0]
-            largest = wp.max(largest, terms[1])
+            if wp.static(HETERO):
+                largest = wp.max(largest, terms[1] * validity_scale[c, n_grains])
+            else:
+                largest = wp.max(largest, terms[1])
         energy[c] = kinetic + potential
         max_overlap[c] = largest
 
@@ -322,6 +338,7 @@ def record_kernels(features: Features) -> RecordKernels:
         step: int,
         dt: wp.float64,
         validity_overlap: wp.array(dtype=wp.float64),
+        validity_scale: wp.array2d(dtype=wp.float64),
         parts: wp.array3d(dtype=wp.float64),
         energy: wp.array(dtype=wp.float64),
         work: wp.array(dtype=wp.float64),
@@ -357,6 +374,7 @@ def record_kernels(features: Features) -> RecordKernels:
             step,
             dt,
             validity_overlap,
+            validity_scale,
             energy,
             work,
             max_overlap,
@@ -380,6 +398,7 @@ def record_kernels(features: Features) -> RecordKernels:
         step: int,
         dt: wp.float64,
         validity_overlap: wp.array(dtype=wp.float64),
+        validity_scale: wp.array2d(dtype=wp.float64),
         parts: wp.array3d(dtype=wp.float64),
         energy: wp.array(dtype=wp.float64),
         work: wp.array(dtype=wp.float64),
@@ -415,6 +434,7 @@ def record_kernels(features: Features) -> RecordKernels:
                 step,
                 dt,
                 validity_overlap,
+                validity_scale,
                 energy,
                 work,
                 max_overlap,

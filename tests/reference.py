@@ -193,6 +193,28 @@ def static_overlaps(scene):
     return d_sw, d_in, d_bw
 
 
+def contact_overlaps(scene, u):
+    """Overlaps of every padded contact ``(surface wall, inner (N-1,), bottom wall)`` at displacements ``u``
+    (records, N), shape (records, N + 1): static overlap plus the change of the gap; NaN where a boundary has no
+    wall contact."""
+    d_sw, d_in, d_bw = static_overlaps(scene)
+    u = np.atleast_2d(np.asarray(u, dtype=np.float64))
+    nan = np.full(len(u), np.nan)
+    top = nan if d_sw is None else d_sw - u[:, 0]
+    bottom = nan if d_bw is None else d_bw + u[:, -1]
+    return np.column_stack([top, d_in + u[:, :-1] - u[:, 1:], bottom])
+
+
+def validity_limits(scene):
+    """Each padded contact's validity overlap, 0.1 of the smaller grain's diameter (a wall contact: its grain's),
+    shape (N + 1,) [length]."""
+    ch = scene["chain"]
+    r = _radius_ratio(scene)
+    radius = 0.5 * float(ch["diameter"]) * (np.ones(int(ch["grains"])) if r is None else r)
+    smaller = np.concatenate([radius[:1], np.minimum(radius[:-1], radius[1:]), radius[-1:]])
+    return 0.1 * 2.0 * smaller
+
+
 # --------------------------------------------------------------------------
 # the model: forces and energy
 # --------------------------------------------------------------------------

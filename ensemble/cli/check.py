@@ -35,12 +35,17 @@ def check(
         typer.echo(json.dumps(result.to_dict(), indent=1))
         return
     n = loaded.chain.grains
-    k = result.stiffest_contact
-    where = ("surface wall" if k == 0 else "bottom wall" if k == n else f"grains {k - 1}–{k}") if k >= 0 else "none"
+
+    def where(k: int) -> str:
+        return ("surface wall" if k == 0 else "bottom wall" if k == n else f"grains {k - 1}–{k}") if k >= 0 else "none"
+
+    limit = f"validity limit {VALIDITY_FRACTION:g}·diameter"
+    if loaded.chain.radius_ratios is not None:  # per contact, set by its smaller grain: name the nearest to it
+        limit = f"{where(result.validity_contact)}, nearest its validity limit {VALIDITY_FRACTION:g}·(smaller diameter)"
     lines = [
-        f"largest overlap (bound)   {result.largest_overlap:.4g}  (validity limit {VALIDITY_FRACTION:g}·diameter = "
-        f"{result.validity_overlap:g})",
-        f"stiffest contact          {where}: k = {result.stiffness:.4g}, m_red = {result.reduced_mass:.4g}",
+        f"largest overlap (bound)   {result.largest_overlap:.4g}  ({limit} = {result.validity_overlap:g})",
+        f"stiffest contact          {where(result.stiffest_contact)}: k = {result.stiffness:.4g}, "
+        f"m_red = {result.reduced_mass:.4g}",
         f"contact time T            {result.contact_time:.4g}  (2π sqrt(m_red/k))",
         f"dt                        {result.dt:g} ({result.method}, {loaded.integrator.precision})",
         f"steps per contact time    {result.steps_per_contact_time:.4g}  (accurate ≥ "

@@ -50,7 +50,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from hertzian.core.scene import VALIDITY_FRACTION, Scene
-from hertzian.core.static import static_state
+from hertzian.core.static import static_state, validity_scale
 from hertzian.kernels.features import GEAR_CORRECTOR, SUBSTEP_WEIGHTS
 
 STABLE_OMEGA_DT = {"verlet": 2.0, "gear4": math.sqrt(2.0), "gear5": 1.12, "gear6": 0.85, "yoshida4": 1.5734}
@@ -76,7 +76,8 @@ class StepCheck:
     dt: float
     """The scene's time step [time]."""
     largest_overlap: float
-    """Largest overlap any contact can reach (static + impact/drive bound) [length]."""
+    """Largest overlap any contact can reach (static + impact/drive bound) [length]; where the radii differ, that
+    of the contact nearest its own validity limit (:attr:`validity_contact`)."""
     stiffest_contact: int
     """Padded index of the contact with the shortest period: k joins grains k−1 and k (0, N: walls)."""
     stiffness: float
@@ -88,8 +89,12 @@ class StepCheck:
     highest_frequency: float
     """Upper bound on the chain's highest angular frequency ω_max [1/time]."""
     validity_overlap: float
-    """VALIDITY_FRACTION·diameter [length] (ChainSpec.validity_overlap)."""
+    """That contact's validity limit VALIDITY_FRACTION·2·min(R_i, R_j) [length]: VALIDITY_FRACTION·diameter
+    (ChainSpec.validity_overlap) for equal grains."""
     notes: tuple[str, ...] = field(default_factory=tuple)
+    validity_contact: int = -1
+    """Padded index of the contact whose overlap bound is the largest fraction of its own validity limit (k joins
+    grains k−1 and k; 0, N: walls); -1 when nothing touches."""
 
     @property
     def steps_per_contact_time(self) -> float:
@@ -159,6 +164,7 @@ class StepCheck:
             "largest_overlap": self.largest_overlap,
             "validity_overlap": self.validity_overlap,
             "beyond_validity": self.beyond_validity,
+            "validity_contact": self.validity_contact,
             "stiffest_contact": self.stiffest_contact,
             "stiffness": self.stiffness,
             "reduced_mass": self.reduced_mass,
@@ -310,16 +316,16 @@ def check_scene(scene: Scene) -> StepCheck:
 
     if n > 3.0:
         notes.append(f"exponent n = {n:g} is outside the range the accuracy thresholds were measured on (2 … 3)")
-    validity = scene.chain.validity_overlap
-    if np.max(largest) > validity:
+    worst, validity = _nearest_validity(scene, largest)
+    if largest[worst] > validity:
         notes.append(
-            f"largest overlap {np.max(largest):.3g} may exceed {VALIDITY_FRACTION:g}·diameter = {validity:g}, "
+            f"largest overlap {largest[worst]:.3g} may exceed {_limit_name(scene)} = {validity:g}, "
             "beyond where the Hertz law holds (status OVERLAP_BEYOND_VALIDITY)"
         )
     return StepCheck(
         method=scene.integrator.method,
         dt=scene.integrator.dt,
-        largest_overlap=float(np.max(largest)),
+        largest_overlap=float(largest[worst]),
         stiffest_contact=k_star,
         stiffness=float(stiffness[k_star]),
         reduced_mass=float(1.0 / inverse_reduced[k_star]),
@@ -327,7 +333,26 @@ def check_scene(scene: Scene) -> StepCheck:
         highest_frequency=omega_max,
         validity_overlap=validity,
         notes=tuple(notes),
+        validity_contact=worst,
     )
+
+
+def _nearest_validity(scene: Scene, largest: np.ndarray) -> tuple[int, float]:
+    """(padded contact, its validity limit [length]) of the contact whose overlap bound ``largest`` is the largest
+    fraction of its own limit VALIDITY_FRACTION·2·min(R_i, R_j): the largest overlap for equal grains."""
+    ratios = scene.chain.radius_ratios
+    if ratios is None:
+        return int(np.argmax(largest)), scene.chain.validity_overlap
+    scale = validity_scale(ratios)
+    worst = int(np.argmax(largest * scale))
+    return worst, scene.chain.validity_overlap / float(scale[worst])
+
+
+def _limit_name(scene: Scene) -> str:
+    """How the validity limit reads in a note: of the diameter, or of the contact's smaller grain."""
+    if scene.chain.radius_ratios is None:
+        return f"{VALIDITY_FRACTION:g}·diameter"
+    return f"its contact's limit {VALIDITY_FRACTION:g}·(smaller grain's diameter)"
 
 
 def dt_warning(scene: Scene) -> str | None:

@@ -17,7 +17,7 @@ import numpy as np
 import warp as wp
 from hertzian.core.chains import ChainSet, ChainStack, has_radii, per_unique
 from hertzian.core.scene import VALIDITY_FRACTION, Scene, SceneError
-from hertzian.core.static import StaticState, static_state
+from hertzian.core.static import StaticState, static_state, validity_scale
 from hertzian.kernels.features import EVENT_WINDOW, GEAR_CORRECTOR, GEAR_VALUES, Features
 
 SHARED_KEYS = (
@@ -157,7 +157,12 @@ class Model:
     trace_slot: wp.array
     """For each grain its column in the trace buffer, or -1; shape (grains,) or (0,)."""
     validity_overlap: wp.array
-    """Overlap beyond which the Hertz law is not trusted (ChainSpec.validity_overlap), shape (chains,), float64."""
+    """Overlap beyond which the Hertz law is not trusted between two R0 grains (ChainSpec.validity_overlap), shape
+    (chains,), float64."""
+    validity_scale: wp.array
+    """R0/min(R_i, R_j) per padded contact (hertzian.core.static.validity_scale; 1 for equal grains), shape
+    (chains, grains + 1), float64, with impurities or radii, else (0, 0): the record kernels compare each contact's
+    overlap times its scale with ``validity_overlap``."""
     injected_energy: np.ndarray
     """½ m_0 v_imp² per chain (0 without an impact), float64."""
     _static: object = None
@@ -342,6 +347,7 @@ def build_model(
         drive=upload(drive, wp.float64),
         trace_slot=upload(trace_slot, wp.int32),
         validity_overlap=upload(np.array([s.chain.validity_overlap for s in scenes]), wp.float64),
+        validity_scale=upload(_scales(f, _stacked_ratios(scenes), c_count, n), wp.float64),
         injected_energy=np.array([s.injected_energy for s in scenes]),
         damping=upload(np.array([s.damping.gamma for s in scenes] if f.damping != "none" else [], dtype=np_real)),
     )
@@ -465,7 +471,8 @@ def prepare_model(chains: ChainSet, *, features: Features | None = None) -> Host
         "exponent": exponent.astype(np_real, copy=False),
         "drive": drive,
         "trace_slot": trace_slot,
-        "validity_overlap": _validity(chains, st),
+        "validity_overlap": per_unique(lambda d: VALIDITY_FRACTION * d, chains.column("chain.diameter")),
+        "validity_scale": _gathered(st, _scales(f, st.configurations.radius_ratio, len(st.configurations.mass), n)),
         "damping": (chains.column("damping.gamma") if f.damping != "none" else np.zeros(0)).astype(np_real, copy=False),
     }
     # only the first grains move at t = 0 (startup.taylor_window); the others start at zero
@@ -483,13 +490,27 @@ def prepare_model(chains: ChainSet, *, features: Features | None = None) -> Host
     )
 
 
-def _validity(chains: ChainSet, static) -> np.ndarray:
-    """ChainSpec.validity_overlap of every chain: VALIDITY_FRACTION·diameter, times the smallest radius ratio
-    where the radii differ (same arithmetic, same bits)."""
-    validity = per_unique(lambda d: VALIDITY_FRACTION * d, chains.column("chain.diameter"))
-    if static.radius_ratio is None:
-        return validity
-    return validity * static.per_chain(static.configurations.radius_ratio.min(axis=1))
+def _scales(f: Features, ratios: np.ndarray | None, rows: int, grains: int) -> np.ndarray:
+    """Model.validity_scale of ``rows`` chains with radius ratios ``ratios`` (rows, grains) or None (equal grains):
+    (rows, grains + 1) with impurities or radii, else (0, 0)."""
+    if not f.heterogeneous:
+        return np.zeros((0, 0))
+    if ratios is None:
+        return np.ones((rows, grains + 1))
+    return validity_scale(ratios)
+
+
+def _stacked_ratios(scenes: list[Scene]) -> np.ndarray | None:
+    """R_i/R0 of every scene's grains (chains, grains), 1 for equal grains; None when every chain's are equal."""
+    ratios = [s.chain.radius_ratios for s in scenes]
+    if all(r is None for r in ratios):
+        return None
+    return np.stack([np.ones(s.chain.grains) if r is None else r for s, r in zip(scenes, ratios, strict=True)])
+
+
+def _gathered(static, rows: np.ndarray) -> np.ndarray:
+    """``rows`` computed per static configuration, per chain (an empty array as it is)."""
+    return static.per_chain(rows) if rows.size else rows
 
 
 def stack_prepared(parts: list[HostModel]) -> HostModel:
@@ -571,6 +592,7 @@ def _build_model_of(chains: ChainSet, device, features: Features | None, prepare
         drive=upload(a["drive"], wp.float64),
         trace_slot=upload(a["trace_slot"], wp.int32),
         validity_overlap=upload(a["validity_overlap"], wp.float64),
+        validity_scale=upload(a["validity_scale"], wp.float64),
         injected_energy=prepared.injected_energy,
         _static=prepared.static,
         damping=upload(a["damping"]),

@@ -290,11 +290,13 @@ class Recorder:
     def check(self, state: State, step: int) -> None:
         """Energy, work, largest overlap and status of every chain at ``step`` (device only, no sync)."""
         m = self.model
+        # what every grain's terms need (record_grains and record_parts)
+        terms = [state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.validity_scale, m.dt]
         if self.staged:
             wp.launch(
                 self.kernels.grains,
                 dim=self.grain_terms.shape,
-                inputs=[state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.dt],
+                inputs=terms,
                 outputs=[self.grain_terms],
                 device=m.device,
             )
@@ -304,15 +306,7 @@ class Recorder:
                 self.kernels.parts,
                 dim=self.parts.shape[:2],
                 block_dim=RECORD_BLOCK_DIM,
-                inputs=[
-                    state.x,
-                    m.inverse_mass,
-                    m.contact_constant,
-                    m.static_overlap,
-                    m.exponent,
-                    m.dt,
-                    state.dissipated,
-                ],
+                inputs=[*terms, state.dissipated],
                 outputs=[self.parts],
                 device=m.device,
             )
@@ -331,6 +325,7 @@ class Recorder:
                 step,
                 m.dt,
                 m.validity_overlap,
+                m.validity_scale,
                 self.parts,
             ],
             outputs=[

@@ -63,12 +63,11 @@ class ChainSpec:
 
     @property
     def validity_overlap(self) -> float:
-        """Largest overlap where the Hertz law is trusted: VALIDITY_FRACTION·diameter [length], of the
-        smallest grain's diameter where the radii differ."""
-        ratios = self.radius_ratios
-        if ratios is None:
-            return VALIDITY_FRACTION * self.diameter
-        return VALIDITY_FRACTION * self.diameter * float(ratios.min())
+        """Largest overlap where the Hertz law is trusted between two grains of this diameter:
+        VALIDITY_FRACTION·diameter [length]. Where the radii differ, a contact's limit is set by its smaller grain,
+        VALIDITY_FRACTION·2·min(R_i, R_j): the runs compare each contact's overlap times R0/min(R_i, R_j)
+        (hertzian.core.static.validity_scale) with this one."""
+        return VALIDITY_FRACTION * self.diameter
 
     @functools.cached_property
     def radius_ratios(self) -> np.ndarray | None:

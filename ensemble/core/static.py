@@ -59,6 +59,16 @@ def radius_constants(mass, a, ratios: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return mass * ratios * ratios * ratios, a * np.sqrt(ratios), a * np.sqrt(2.0 * left * right / (left + right))
 
 
+def validity_scale(ratios: np.ndarray) -> np.ndarray:
+    """R0 / min(R_i, R_j) of each padded contact of grains with radius ratios ``ratios`` (shape (..., N)), shape
+    (..., N + 1): contact k joins grains k − 1 and k, a wall contact (k = 0, N) takes its grain's own radius. A
+    contact's overlap times its scale is the overlap two R0 grains would have at the same strain of the smaller
+    grain, so every contact's validity limit VALIDITY_FRACTION·2·min(R_i, R_j) becomes the one VALIDITY_FRACTION·2·R0."""
+    above = np.concatenate([ratios[..., :1], ratios], axis=-1)
+    below = np.concatenate([ratios, ratios[..., -1:]], axis=-1)
+    return 1.0 / np.minimum(above, below)
+
+
 def _inner_contacts(self_a, own, hertz_inner=None, overridden=None) -> np.ndarray:
     """Inner contact constants (..., N − 1): the harmonic mean of the self-constants, an ``own`` impurity's
     constant, or (radii) ``hertz_inner`` wherever neither grain has an impurity's ``a``."""

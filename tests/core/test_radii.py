@@ -13,7 +13,7 @@ from hertzian.core.chains import ChainSet
 from hertzian.core.model import build_model, features_of, prepare_model
 from hertzian.core.runner import run_scene
 from hertzian.core.scene import SceneError, scene_from_dict
-from hertzian.core.static import static_arrays, static_state
+from hertzian.core.static import static_arrays, static_state, validity_scale
 from hertzian.kernels.tile import plan_tile
 
 from tests.helpers import assert_every_window_moved, fused, invoke, make_scene, per_step, sweep, window_ranges
@@ -115,7 +115,10 @@ def test_static_overlaps_balance_every_grain():
     np.testing.assert_allclose(
         st.contact_constant[1:-1], a * np.sqrt(2 * r[:-1] * r[1:] / (r[:-1] + r[1:])), rtol=1e-15
     )
-    assert scene.chain.validity_overlap == pytest.approx(0.1 * 2 * R0 * r.min(), rel=1e-15)
+    # the validity limit is per contact, 0.1 of the smaller grain's diameter (a wall contact: the grain's own)
+    R = r * R0
+    limits = 0.1 * 2 * np.concatenate([[R[0]], np.minimum(R[:-1], R[1:]), [R[-1]]])
+    np.testing.assert_allclose(scene.chain.validity_overlap / validity_scale(r), limits, rtol=1e-15)
 
 
 def test_a_chain_set_of_seeds_and_tapers_equals_its_scenes():
@@ -128,7 +131,7 @@ def test_a_chain_set_of_seeds_and_tapers_equals_its_scenes():
         prepared = prepare_model(chains)
         assert prepared.features.heterogeneous and prepared.features.static == "profile"
         per_scene = build_model(list(chains), "cpu")
-        for name in ("inverse_mass", "contact_constant", "static_overlap", "validity_overlap"):
+        for name in ("inverse_mass", "contact_constant", "static_overlap", "validity_overlap", "validity_scale"):
             np.testing.assert_array_equal(prepared.arrays[name], getattr(per_scene, name).numpy(), err_msg=name)
         for c in range(len(chains)):
             st = static_state(chains[c])

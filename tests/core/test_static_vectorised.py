@@ -100,7 +100,14 @@ def test_prepared_arrays_equal_the_per_scene_model_byte_for_byte(name):
     prepared = prepare_model(chains)
     per_scene = build_model(list(chains), "cpu")
     assert prepared.features == per_scene.features
-    for array in ("inverse_mass", "contact_constant", "static_overlap", "exponent", "validity_overlap"):
+    for array in (
+        "inverse_mass",
+        "contact_constant",
+        "static_overlap",
+        "exponent",
+        "validity_overlap",
+        "validity_scale",
+    ):
         assert prepared.arrays[array].tobytes() == getattr(per_scene, array).numpy().tobytes(), array
     assert prepared.injected_energy.tobytes() == per_scene.injected_energy.tobytes()
     values, dt = prepared.features.nordsieck_values, chains.template.integrator.dt

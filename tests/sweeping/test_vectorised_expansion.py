@@ -207,6 +207,7 @@ def model_arrays(model):
         "drive": model.drive.numpy(),
         "trace_slot": model.trace_slot.numpy(),
         "validity_overlap": model.validity_overlap.numpy(),
+        "validity_scale": model.validity_scale.numpy(),
         "injected_energy": model.injected_energy,
         "initial_nordsieck": model.initial_state().x.numpy(),
     }

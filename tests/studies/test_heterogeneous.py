@@ -1,0 +1,69 @@
+"""The heterogeneous-chain study's command line: its CPU size, the shipped sizes (``--shipped``) and ``--device``
+reach the sweeps it runs, without running the shipped sizes here."""
+
+from __future__ import annotations
+
+import tomllib
+
+import pytest
+from hertzian.core.errors import OptionError
+from hertzian.studies import heterogeneous
+from hertzian.studies.heterogeneous import SHIPPED_EVENTS, arguments, study
+
+
+def _seeds(data: dict) -> int:
+    (axis,) = [a for a in data["axis"] if a["name"] == "seed"]
+    return int(axis["linspace"][2]) if "linspace" in axis else len(axis["values"])
+
+
+def test_shipped_runs_the_sweeps_as_shipped_with_plain_steps(tmp_path):
+    out, sweeps, device = arguments([str(tmp_path / "out.json"), "--shipped", "--device", "cpu"])
+    assert device == "cpu"
+    taper, disorder = sweeps["taper"], sweeps["disorder"]
+    assert taper["scene"]["chain"]["grains"] == 100 and taper["scene"]["record"]["traces"] == [99]
+    assert len(taper["axis"][0]["values"]) == 9 and taper["scene"]["integrator"]["duration"] == 12.0
+    assert disorder["scene"]["chain"]["grains"] == 200 and disorder["scene"]["integrator"]["duration"] == 20.0
+    assert _seeds(disorder) == 1000 and len(disorder["axis"][0]["values"]) == 6
+    for data in sweeps.values():
+        assert data["scene"]["integrator"]["events"] == SHIPPED_EVENTS == "off"
+        assert data["scene"]["integrator"]["dt"] == 5e-5
+    _, sweeps, _ = arguments([str(out), "--shipped", "--events", "auto", "--device", "cpu"])
+    assert sweeps["disorder"]["scene"]["integrator"]["events"] == "auto"
+
+
+def test_the_cpu_size_is_the_default_and_keeps_the_shipped_events(tmp_path):
+    _, sweeps, device = arguments([str(tmp_path / "out.json"), "--device", "cpu"])
+    assert device == "cpu"
+    taper, disorder = sweeps["taper"], sweeps["disorder"]
+    assert taper["scene"]["chain"]["grains"] == disorder["scene"]["chain"]["grains"] == 40
+    assert taper["scene"]["record"]["traces"] == [39] and disorder["scene"]["record"]["traces"] == [39]
+    assert (taper["scene"]["integrator"]["duration"], disorder["scene"]["integrator"]["duration"]) == (6.0, 4.0)
+    assert _seeds(disorder) == 20
+    assert "events" not in taper["scene"]["integrator"] and "events" not in disorder["scene"]["integrator"]
+
+
+def test_the_device_reaches_the_sweep_and_the_file_round_trips(tmp_path, monkeypatch):
+    import hertzian.sweeping.pipeline as pipeline
+    import xarray as xr
+
+    seen = {}
+    monkeypatch.setattr(pipeline, "sweep", lambda path, out, **options: seen.update(path=path, **options))
+    monkeypatch.setattr(xr, "open_zarr", lambda path: path)
+    _, sweeps, _ = arguments([str(tmp_path / "out.json"), "--shipped", "--device", "cpu"])
+    heterogeneous._run(sweeps["disorder"], "disorder", tmp_path, "cuda:3")
+    assert seen["device"] == "cuda:3"
+    assert tomllib.loads(seen["path"].read_text()) == sweeps["disorder"]
+
+
+def test_an_absent_device_is_one_clear_line(tmp_path):
+    with pytest.raises(OptionError, match="device"):
+        arguments([str(tmp_path / "out.json"), "--device", "cuda:9"])
+
+
+def test_a_small_cpu_study_reports_each_sweeps_wall_time_and_settings():
+    _, sweeps, device = arguments(["out.json", "--device", "cpu", "--grains", "12", "--seeds", "2"])
+    record = study(device=device, sweeps=sweeps)
+    assert record["device"] == "cpu" and record["grains"] == 12
+    for name in ("taper", "disorder"):
+        assert record[name]["seconds"] > 0 and record[name]["events"] == "auto" and record[name]["dt"] == 5e-5
+    assert record["disorder"]["realisations"] == 2 and len(record["disorder"]["decay_length_mean"]) == 6
