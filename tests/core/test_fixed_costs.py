@@ -85,6 +85,43 @@ def test_warmup_then_run_compiles_nothing(tmp_path):
     assert _cache_files(cache) == before
 
 
+DETECT_BASE = (
+    '[chain]\ngrains = 40\nl0 = 1e-4\n[excitation]\nimpact = 1e-2\n[integrator]\nmethod = "gear4"\ndt = 1e-3\n'
+)
+
+
+def test_warmup_detect_then_detect_compiles_nothing(tmp_path):
+    """``warmup --detect BASE`` names every variant a first detection launches (detect prepares the same list)."""
+    base, planted = tmp_path / "base.toml", tmp_path / "planted.toml"
+    base.write_text(DETECT_BASE + "duration = 1.0\n")
+    planted.write_text(
+        DETECT_BASE
+        + "duration = 3.0\n[record]\ntraces = [0]\ntrace_every = 0.01\n[[impurities]]\ngrains = [8]\nmass = 0.4\n"
+    )
+    signal = tmp_path / "planted.zarr"
+    made = _hertzian("run", planted, "--device", "cpu", "--out", signal, "--quiet", cache=tmp_path / "other")
+    assert made.returncode == 0, made.stderr
+    cache = tmp_path / "warp-cache"
+    warm = _hertzian("warmup", "--detect", base, "--device", "cpu", cache=cache)
+    assert warm.returncode == 0, warm.stderr
+    before = _cache_files(cache)
+    env = {"HERTZIAN_DETECT_CACHE": str(tmp_path / "library")}
+    found = hertzian(
+        "detect",
+        signal,
+        "--scene",
+        base,
+        "--noise",
+        "1e-5",
+        "--device",
+        "cpu",
+        "--json",
+        env={**os.environ, **env, "WARP_CACHE_PATH": str(cache), "HERTZIAN_CACHE": str(cache / "calibration.json")},
+    )
+    assert found.returncode == 0, found.stderr
+    assert _cache_files(cache) == before
+
+
 def test_warmup_refuses_bad_input_in_one_line(tmp_path):
     result = _hertzian("warmup", "--paper", "--detect", tmp_path / "base.toml", cache=tmp_path / "c")
     assert result.returncode == 2

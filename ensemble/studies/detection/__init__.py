@@ -60,11 +60,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from hertzian.core.scene import Scene, SceneError
+from hertzian.core.solvers.prepare import prepare_kernels
 from hertzian.studies.detection.forward import (
     FRONT_THRESHOLD,
     LIBRARY_BATCH,
     check_base,
     default_batch_size,
+    detect_needs,
     forward_scene,
     front_times,
     impurity_scene,
@@ -237,6 +239,8 @@ def detect(
     """
     started = time.perf_counter()
     _check_options(base, block, noise, refine, iterations, window, fit_a, a_ratio_range)
+    # every kernel variant the runs below launch, compiled side by side (on a GPU) before the first of them
+    prepare_kernels(detect_needs(base), device)
     given_base = base
     if not dt_given:  # the pulse fronts from a step the ladder starts at, not BASE's default
         base = base.with_overrides({"integrator.dt": signal.spacing / 2})

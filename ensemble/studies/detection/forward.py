@@ -10,12 +10,14 @@ from dataclasses import replace
 import numpy as np
 from hertzian.core.chains import ChainSet
 from hertzian.core.devices import init_warp
-from hertzian.core.model import build_model, prepare_model, stack_prepared
+from hertzian.core.model import build_model, features_of, prepare_model, stack_prepared
 from hertzian.core.runner import Runner
 from hertzian.core.scene import ImpuritySpec, Scene, SceneError
+from hertzian.core.solvers.prepare import Need
 from hertzian.core.startup import taylor_window
 from hertzian.core.status import Status
 from hertzian.kernels.features import GEAR_VALUES
+from hertzian.kernels.library import library_kernels
 
 FRONT_THRESHOLD = 1e-4
 """The pulse front reaches a grain when its velocity first exceeds this fraction of v_imp."""
@@ -224,3 +226,17 @@ def run_candidates(
             ok[start + order] = result.status == Status.OK
             del result, model
     return traces, ok
+
+
+def detect_needs(base: Scene, candidates: int = 64) -> list:
+    """The runs of a first ``hertzian detect`` with BASE, named for :func:`hertzian.core.solvers.prepare.prepare_kernels`:
+    the clean forward run, an ensemble of ``candidates`` impurity chains, and the library's assembly kernels (the
+    signal's spacing changes no compiled code)."""
+    forward = forward_scene(base, base.integrator.dt, 2)
+    grains = forward.chain.grains
+    impure = impurity_scene(forward, grains // 2, 2.0)
+    return [
+        Need(features_of([forward]), grains, 1, None, "fused"),
+        Need(features_of([forward, impure]), grains, candidates, None, "fused"),
+        *library_kernels(forward.integrator.precision),
+    ]
