@@ -204,9 +204,22 @@ def block_for(shape: tuple[int, ...], splitting: list[bool], target: int) -> tup
             room //= shape[d]
             continue
         parts = math.ceil(shape[d] / room)
-        block[d] = math.ceil(shape[d] / parts)
+        block[d] = chunkable_extent(math.ceil(shape[d] / parts), shape[d], room)
         break
     return tuple(block)
+
+
+def chunkable_extent(extent: int, length: int, room: int) -> int:
+    """``extent`` rounded up to a multiple of a power of two (up to 64, at most an eighth of it) where that keeps
+    the number of parts of ``length`` and stays within ``room``: the store's inner chunks of a few points divide the
+    block (a prime extent, such as 10 000 points in 7 batches of 1429, leaves only one-point chunks: one chunk encode
+    per point and record, which makes the store's writer thread slower than a GPU)."""
+    parts = math.ceil(length / extent)
+    for step in (64, 32, 16, 8, 4, 2):
+        rounded = -(-extent // step) * step
+        if 8 * step <= extent and rounded <= room and math.ceil(length / rounded) == parts:
+            return rounded
+    return extent
 
 
 def batches_for(shape: tuple[int, ...], block: tuple[int, ...], point_group: np.ndarray) -> list[Batch]:

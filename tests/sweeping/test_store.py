@@ -2,6 +2,7 @@
 caller's axes), written by ``hertzian.sweeping.sweep_store`` through ``write_result``."""
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -11,8 +12,9 @@ from hertzian.core.chains import ChainSet
 from hertzian.core.model import build_model
 from hertzian.core.runner import Runner, run_ensemble, run_scene
 from hertzian.core.scene import scene_from_dict
+from hertzian.sweeping.planner import block_for
 from hertzian.sweeping.store import summary_records
-from hertzian.sweeping.sweep_store import batch_records, completed_batches, write_result
+from hertzian.sweeping.sweep_store import batch_records, chunk_layout, completed_batches, write_result
 
 SCENE = {
     "chain": {"grains": 8, "l0": 1e-4},
@@ -79,3 +81,13 @@ def test_axis_named_like_a_store_variable_is_refused(tmp_path):
     with pytest.raises(ValueError, match="store variable names"):
         write_result(tmp_path / "x.zarr", result, axes={"u": np.array([0.0])})
     assert not (tmp_path / "x.zarr").exists()
+
+
+def test_a_block_cut_into_a_prime_extent_is_rounded_so_inner_chunks_hold_many_points():
+    """10 000 points in 7 batches: 1429 points a batch is prime, so no inner chunk but one point divides it."""
+    block = block_for((10000,), [False], 1500)
+    assert math.ceil(10000 / block[0]) == 7 and block[0] <= 1500
+    chunks, shards = chunk_layout(block, (1000,), 8)  # one 1000-grain record a point: 8 kB
+    assert shards == block + (1000,)
+    assert chunks[0] >= 32 and block[0] % chunks[0] == 0
+    assert block_for((10000,), [False], 1430) == (1430,)  # no room to round up: the extent as it was
