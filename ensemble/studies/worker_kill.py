@@ -82,12 +82,13 @@ def kill_one_worker(sweep: Path, flags: list[str], workdir: Path, device: str | 
         killer.start()
         result, seconds = _sweep(sweep, store, flags + ["--scheduler", cluster.scheduler_address])
         killer.join()
+        alive = _alive(victim)  # while the cluster runs: a nanny's restart is a new process
     return {
         "gpus": gpus,
         "serial_seconds": serial_seconds,
         "killed_run_seconds": seconds,
         "returncode": result.returncode,
-        "victim_alive_after": _alive(victim),
+        "victim_alive_after": alive,
         **state,
         "batches_completed": len(completed_batches(store)) if store.exists() else 0,
         "workers_in_completion_records": sorted({str(r["worker"]) for r in batch_records(store)}),
