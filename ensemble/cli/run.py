@@ -15,10 +15,12 @@ from hertzian.cli.app import (
     PrecisionOption,
     SetOption,
     app,
+    check_timeline_path,
     fail,
     load_scene_or_fail,
     resolve_device,
 )
+from hertzian.core import timeline
 
 
 @app.command()
@@ -48,7 +50,12 @@ def run(
         ),
     ] = False,
 ):
-    """Run one scene and store it as Zarr (times in program units of 1.0102e-3 s)."""
+    """Run one scene and store it as Zarr (times in program units of 1.0102e-3 s).
+
+    With HERTZIAN_TIMELINE=PATH set, the seconds since process start at each phase are written to PATH as JSON
+    (docs/fixed-costs.md)."""
+    timeline.mark("cli_ready")
+    check_timeline_path()
     from hertzian.core.solvers import KERNELS
 
     if kernel not in KERNELS:
@@ -71,6 +78,7 @@ def run(
         fail(f"--out = {str(out)!r}: exists; choose another path or pass --overwrite")
     if not out.parent.exists():
         fail(f"--out = {str(out)!r}: parent directory does not exist")
+    timeline.mark("scene_loaded")
     dev = resolve_device(device)
     too_big = memory_refusal(loaded, dev) if dev.startswith("cuda") else None
     if too_big:
@@ -79,13 +87,17 @@ def run(
     if loaded.integrator.tolerance is not None:
         _run_to_tolerance(loaded, dev, kernel, out, overwrite=overwrite)
         return
+    from hertzian.core.devices import open_device
     from hertzian.core.model import build_model
     from hertzian.core.runner import Runner
     from hertzian.core.solvers.calibrate import event_cost_note
-    from hertzian.sweeping.sweep_store import write_result
 
+    timeline.mark("library_imported")
+    open_device(dev)
     try:
-        runner = Runner(build_model([loaded], dev), kernel=kernel)
+        model = build_model([loaded], dev)
+        timeline.mark("model_built")
+        runner = Runner(model, kernel=kernel)
     except ValueError as err:  # a forced kernel that cannot run this scene here
         fail(f"--kernel = {kernel!r}: {str(err).split(': ', 1)[-1]}")
 
@@ -96,7 +108,12 @@ def run(
         typer.echo(f"note: {events}", err=True)
     with _progress_bar(loaded.record_count, shown=not quiet and sys.stderr.isatty()) as progress:
         result = runner.run(progress)
+    timeline.mark("integrated", kernel=result.kernel, seconds_in_run=result.timing)
+    from hertzian.sweeping.sweep_store import write_result
+
+    timeline.mark("store_imported")
     write_result(out, result, overwrite=overwrite)
+    timeline.mark("store_written")
     typer.echo(_summary(loaded, result, runner.solver.describe()))
     typer.echo(f"wrote {out}")
 

@@ -14,6 +14,7 @@ import os
 import sys
 
 import warp as wp
+from hertzian.core import timeline
 
 
 def cuda_driver_present() -> bool:
@@ -41,17 +42,26 @@ def _stderr_silenced():
         os.close(saved)
 
 
+_warp_started = False
+
+
 def init_warp() -> None:
-    """``wp.init()`` at warning log level, without the missing-driver warning on CPU-only machines."""
+    """``wp.init()`` at warning log level, without the missing-driver warning on CPU-only machines (once a process;
+    later calls return at once)."""
+    global _warp_started
     wp.config.log_level = wp.LOG_WARNING
+    if _warp_started:
+        return
     if cuda_driver_present():
         wp.init()
-        return
-    try:
-        with _stderr_silenced():
+    else:
+        try:
+            with _stderr_silenced():
+                wp.init()
+        except OSError:  # no file descriptor 2 to redirect (an embedded interpreter): start as usual
             wp.init()
-    except OSError:  # no file descriptor 2 to redirect (an embedded interpreter): start as usual
-        wp.init()
+    _warp_started = True
+    timeline.mark("warp_initialised")
 
 
 def check_device(device: str | None) -> str:
@@ -82,3 +92,13 @@ def default_device() -> str:
     """'cuda' when a CUDA device is present, else 'cpu'."""
     init_warp()
     return "cuda" if wp.is_cuda_available() else "cpu"
+
+
+def open_device(device: str) -> None:
+    """Start ``device`` now (CUDA: create its primary context), so that this cost shows apart from a model build's
+    in a timeline (hertzian.core.timeline)."""
+    init_warp()
+    dev = wp.get_device(device)
+    if dev.is_cuda:
+        dev.context  # noqa: B018 (the property creates the context)
+    timeline.mark("device_ready", device=str(dev))

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import warp as wp
 from hertzian.core.model import Model, State
-from hertzian.core.solvers.compile import load_variants, solver_variants
+from hertzian.core.solvers.compile import in_cache, load_variants, solver_variants
 from hertzian.core.solvers.config import CHAIN, STEP, SolverConfig
 from hertzian.core.solvers.tile import TileSolver, config_of
 from hertzian.kernels.cpu import chain_kernel, chain_kernel_supports
@@ -110,12 +110,7 @@ def cpu_kernel_config(kind: str) -> SolverConfig:
 def in_kernel_cache(module, device) -> bool:
     """Whether the Warp ``module`` is loaded on the CPU ``device`` or compiled in Warp's kernel cache (its object
     file for CPU launches, block 1), so that loading it compiles nothing."""
-    dev = wp.get_device(device)
-    if (dev.context, 1) in module.execs:
-        return True
-    name = module.get_module_identifier(1)
-    path = Path(wp.config.kernel_cache_dir) / name / module._get_compile_output_name(dev, block_dim=1)
-    return path.is_file()
+    return in_cache(module, device, 1)
 
 
 def cpu_seconds(kind: str, grain_steps: float, cached: bool, costs: dict = CPU_COSTS) -> float:

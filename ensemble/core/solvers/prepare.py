@@ -35,6 +35,8 @@ class Need:
     """Steps of one run (None: long, as ``choose_config`` counts it)."""
     kernel: str | SolverConfig = "auto"
     """A ``--kernel`` choice (hertzian.core.solvers.calibrate.KERNELS) or the config itself."""
+    fields: bool = False
+    """The runs record snapshot fields (``record.fields``): no traced-start gather then (False: compile it)."""
 
 
 def planned_config(need: Need, device) -> SolverConfig:
@@ -70,7 +72,7 @@ def kernel_variants(needs: Iterable[Need | Features | wp.Kernel], device) -> lis
         config = planned_config(need, dev)
         for variant in solver_variants(config, need.features, need.grains, need.chains):
             out[variant] = None
-        for variant in recorder_variants(need.features, need.grains, dev):
+        for variant in recorder_variants(need.features, need.grains, dev, fields=need.fields):
             out[variant] = None
     return list(out)
 
@@ -78,8 +80,9 @@ def kernel_variants(needs: Iterable[Need | Features | wp.Kernel], device) -> lis
 def prepare_kernels(needs: Iterable[Need | Features | wp.Kernel], device, max_workers: int | None = None) -> dict:
     """Compile (or read from Warp's kernel cache) and load every kernel variant ``needs`` will launch on
     ``device``, ``max_workers`` at a time (None: ``default_workers``). Returns {"variants": count,
-    "seconds": wall time [s], "workers": threads used}."""
+    "seconds": wall time [s], "workers": threads used, "loads": per variant {"module", "block_dim", "cached",
+    "seconds"}}."""
     start = time.perf_counter()
     variants = kernel_variants(needs, device)
-    workers = load_variants(variants, device, max_workers)
-    return {"variants": len(variants), "seconds": time.perf_counter() - start, "workers": workers}
+    workers, loads = load_variants(variants, device, max_workers)
+    return {"variants": len(variants), "seconds": time.perf_counter() - start, "workers": workers, "loads": loads}
