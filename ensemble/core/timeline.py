@@ -53,7 +53,7 @@ def write(path: str | Path) -> None:
 
 def _write_at_exit() -> None:
     target = os.environ.get(ENV, "").strip()
-    if target:
+    if target and Path(target).parent.is_dir():  # a missing folder: the command refused it in its one line
         try:
             write(target)
         except OSError as err:  # an unwritable path must not turn a finished run into a traceback

@@ -7,15 +7,16 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 import warp as wp
-from hertzian.core.model import build_model
+from hertzian.core.model import build_model, features_of
 from hertzian.core.runner import Runner
 from hertzian.core.solvers import CHAIN, STEP, calibrate, choose_config
 from hertzian.core.solvers.calibrate import CPU_COSTS, cpu_auto_config, cpu_crossovers, cpu_seconds, step_reason
-from hertzian.core.solvers.prepare import kernel_variants, prepare_kernels
+from hertzian.core.solvers.prepare import Need, kernel_variants, prepare_kernels
 from hertzian.studies.warmup import scene_needs
 
 from tests.helpers import hertzian, make_scene
@@ -52,6 +53,20 @@ def test_prepare_names_every_kernel_a_run_loads(name, loads):
     needs = scene_needs(scene)
     prepared = {(module.name, cpu_block(block)) for module, block in kernel_variants(needs, "cpu")}
     prepare_kernels(needs, "cpu")
+    loads.clear()
+    Runner(build_model([scene], "cpu")).run()
+    asked = {(module, cpu_block(block)) for module, block in loads}
+    assert asked <= prepared, asked - prepared
+
+
+def test_a_run_recording_fields_prepares_no_traced_start_gather_and_loads_nothing_else(loads):
+    """Record 0's snapshot holds the traced grains' start, so the gather is neither prepared nor launched."""
+    scene = make_scene(chain={"grains": 30}, record={"every": 0.005, "traces": [0, 29], "fields": ["u"]})
+    need = Need(features_of([scene]), 30, 1, scene.step_count, fields=True)
+    prepared = {(module.name, cpu_block(block)) for module, block in kernel_variants([need], "cpu")}
+    assert not any("traced_start" in name for name, _ in prepared), prepared
+    assert any("traced_start" in module.name for module, _ in kernel_variants([replace(need, fields=False)], "cpu"))
+    prepare_kernels([need], "cpu")
     loads.clear()
     Runner(build_model([scene], "cpu")).run()
     asked = {(module, cpu_block(block)) for module, block in loads}
@@ -118,7 +133,7 @@ def test_cpu_auto_rule_counts_only_uncached_compiles(monkeypatch, chain_cached, 
 
 PROBE = """
 import sys
-from hertzian.core.model import build_model
+from hertzian.core.model import build_model, features_of
 from hertzian.core.scene import load_scene
 from hertzian.core.solvers import choose_config
 model = build_model([load_scene(sys.argv[1])], "cpu")
