@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import contextlib
+import importlib
 import sys
+import threading
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -106,9 +108,11 @@ def run(
     events = event_cost_note(runner.model.features, runner.model.device.is_cpu)
     if events:
         typer.echo(f"note: {events}", err=True)
+    store_import = _import_in_background("hertzian.sweeping.sweep_store")
     with _progress_bar(loaded.record_count, shown=not quiet and sys.stderr.isatty()) as progress:
         result = runner.run(progress)
     timeline.mark("integrated", kernel=result.kernel, seconds_in_run=result.timing)
+    store_import.join()
     from hertzian.sweeping.sweep_store import write_result
 
     timeline.mark("store_imported")
@@ -139,6 +143,19 @@ def _run_to_tolerance(scene, device: str, kernel: str, out: Path, *, overwrite: 
         f"error estimate {float(choice.result.error_estimate.max()):.2e}, status {int(choice.result.status[0])}"
     )
     typer.echo(f"wrote {out}")
+
+
+def _import_in_background(module: str) -> threading.Thread:
+    """Import ``module`` in a thread (started, to be joined): Zarr's import overlaps the run, whose kernels and waits
+    release the GIL. A failed import fails again, with its message, where the module is imported for use."""
+
+    def load() -> None:
+        with contextlib.suppress(Exception):
+            importlib.import_module(module)
+
+    thread = threading.Thread(target=load, name=f"import {module}", daemon=True)
+    thread.start()
+    return thread
 
 
 @contextlib.contextmanager

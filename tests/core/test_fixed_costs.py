@@ -160,3 +160,38 @@ def test_cpu_auto_reads_the_kernel_cache(tmp_path):
     warm = _hertzian("warmup", scene, "--device", "cpu", cache=cache)
     assert warm.returncode == 0, warm.stderr
     assert choice() == "chain"
+
+
+PCH_PROBE = """
+import sys
+import warp as wp
+from hertzian.core.devices import init_warp
+
+init_warp()
+scale = float(sys.argv[1])
+
+@wp.kernel(module="unique")
+def scaled(x: wp.array(dtype=wp.float64)):
+    x[wp.tid()] = x[wp.tid()] * wp.float64(scale)
+
+wp.load_module(scaled.module, device="cpu")
+print(wp._src.context.runtime.get_clang_pch_dir())
+"""
+
+
+def test_cpu_precompiled_header_is_built_once_in_the_kernel_cache(tmp_path):
+    """Two processes compiling different CPU modules: the first builds Warp's precompiled header into the kernel
+    cache, the second compiles against that same file and builds none of its own."""
+    cache = tmp_path / "warp-cache"
+    env = {**os.environ, "WARP_CACHE_PATH": str(cache)}
+    script = tmp_path / "probe.py"  # Warp reads a kernel's source from its file
+    script.write_text(PCH_PROBE)
+    folders, headers = [], []
+    for scale in ("2.0", "3.0"):  # two kernels, two modules: each process compiles
+        probe = subprocess.run([sys.executable, script, scale], capture_output=True, text=True, env=env)
+        assert probe.returncode == 0, probe.stderr
+        folders.append(Path(probe.stdout.split()[-1]))
+        headers.append({p: p.stat().st_mtime_ns for p in cache.rglob("*.pch")})
+    assert folders[0] == folders[1] and cache in folders[0].parents, folders
+    assert len(headers[0]) == 1 and next(iter(headers[0])).parent == folders[0], headers[0]
+    assert headers[1] == headers[0]  # the second process read it, did not write it again
