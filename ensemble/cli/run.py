@@ -66,6 +66,7 @@ def run(
         scene, [*(set_ or []), *(["record.error_estimate=true"] if error_estimate else [])], precision
     )
     from hertzian.core.check import dt_warning, memory_refusal
+    from hertzian.core.devices import open_device
 
     too_big = memory_refusal(loaded)  # the host first, before Warp starts
     if too_big:
@@ -82,6 +83,7 @@ def run(
         fail(f"--out = {str(out)!r}: parent directory does not exist")
     timeline.mark("scene_loaded")
     dev = resolve_device(device)
+    open_device(dev)
     too_big = memory_refusal(loaded, dev) if dev.startswith("cuda") else None
     if too_big:
         fail(too_big)
@@ -89,13 +91,11 @@ def run(
     if loaded.integrator.tolerance is not None:
         _run_to_tolerance(loaded, dev, kernel, out, overwrite=overwrite)
         return
-    from hertzian.core.devices import open_device
     from hertzian.core.model import build_model
     from hertzian.core.runner import Runner
     from hertzian.core.solvers.calibrate import event_cost_note
 
     timeline.mark("library_imported")
-    open_device(dev)
     try:
         model = build_model([loaded], dev)
         timeline.mark("model_built")
