@@ -7,20 +7,8 @@ import json
 import os
 import time
 
+from tests.cli.test_run_command import SCENE
 from tests.helpers import hertzian
-
-SCENE = """
-[chain]
-grains = 20
-[excitation]
-impact = 1e-2
-[integrator]
-dt = 1e-4
-duration = 0.02
-[record]
-every = 0.01
-traces = [0, 5]
-"""
 
 PHASES = [
     "cli_ready",
