@@ -166,23 +166,29 @@ def time_compiles() -> dict[str, float]:
     return out
 
 
-def time_kernel_costs(grains: int = 200, steps: int = 20000) -> dict:
+def time_kernel_costs(grains: int = 200, steps: int = 20000, repeats: int = 3) -> dict:
     """Compile seconds (cold cache, one process each) and warm rate [grain-steps/s] of the per-step and the chain
-    kernel, and the crossover [grain-steps] of the CPU ``auto`` rule they give (calibrate.cpu_crossovers)."""
+    kernel, each the median of ``repeats`` processes taken in turn, and the crossover [grain-steps] of the CPU
+    ``auto`` rule they give (calibrate.cpu_crossovers)."""
     from hertzian.core.solvers.calibrate import cpu_crossovers
 
-    out = {"grains": grains, "steps": steps}
-    for kind in ("step", "chain"):
-        env = {**os.environ, "WARP_CACHE_PATH": tempfile.mkdtemp(prefix="warp-cache-")}
-        result = subprocess.run(
-            [sys.executable, "-c", KERNEL_PROBE, kind, str(grains), str(steps)],
-            env=env,
-            check=True,
-            capture_output=True,
-            text=True,
-        )
-        out[kind] = json.loads(result.stdout.strip().splitlines()[-1])
-    costs = {kind: (out[kind]["compile_s"], out[kind]["rate"]) for kind in ("step", "chain")}
+    runs = {"step": [], "chain": []}
+    for _ in range(repeats):
+        for kind, measured in runs.items():
+            env = {**os.environ, "WARP_CACHE_PATH": tempfile.mkdtemp(prefix="warp-cache-")}
+            result = subprocess.run(
+                [sys.executable, "-c", KERNEL_PROBE, kind, str(grains), str(steps)],
+                env=env,
+                check=True,
+                capture_output=True,
+                text=True,
+            )
+            measured.append(json.loads(result.stdout.strip().splitlines()[-1]))
+    out = {"grains": grains, "steps": steps, "repeats": repeats}
+    for kind, measured in runs.items():
+        out[kind] = {key: statistics.median(m[key] for m in measured) for key in ("compile_s", "rate")}
+        out[kind]["runs"] = measured
+    costs = {kind: (out[kind]["compile_s"], out[kind]["rate"]) for kind in runs}
     out["crossover_grain_steps"] = cpu_crossovers(costs)
     return out
 
