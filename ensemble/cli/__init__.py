@@ -11,6 +11,10 @@ code 2, writing nothing.
 
 from __future__ import annotations
 
+import atexit
+import os
+import sys
+import threading
 from importlib import import_module
 
 from hertzian.cli.app import EXIT_BAD_INPUT, app, fail, plain_helps, resolve_device
@@ -43,8 +47,25 @@ for _name in COMMANDS:
 
 
 def main() -> None:
-    """Entry point of the ``hertzian`` script."""
-    app()
+    """Entry point of the ``hertzian`` script.
+
+    When the command leaves no other thread to wait for, the process ends as the interpreter would (streams flushed,
+    exit handlers run: the timeline, Dask's, logging's) but without tearing down every module and Warp's runtime one
+    object at a time: about 0.13 s of a 1.9 s ``hertzian run`` on the 2-core machine. Otherwise it exits as usual."""
+    try:
+        app()
+        code = 0
+    except SystemExit as done:
+        code = done.code
+    others = [t for t in threading.enumerate() if t is not threading.current_thread() and not t.daemon]
+    if others or (code is not None and not isinstance(code, int)):
+        sys.exit(code)  # the interpreter's own shutdown: it stops thread pools before joining their threads
+    sys.stdout.flush()
+    sys.stderr.flush()
+    atexit._run_exitfuncs()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code or 0)
 
 
 __all__ = ["COMMANDS", "EXIT_BAD_INPUT", "app", "fail", "main", "register", "resolve_device"]

@@ -8,11 +8,13 @@ from __future__ import annotations
 
 import contextlib
 import inspect
+import os
 import re
 from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
+from hertzian.core import timeline
 from hertzian.core.errors import OptionError, RefusedError
 from hertzian.core.scene import SceneError, load_scene, parse_overrides
 from hertzian.core.shipped import example_path, shipped_file
@@ -69,6 +71,13 @@ def fail(message: str) -> None:
     """One clear line on stderr, exit code 2."""
     typer.echo(f"error: {message}", err=True)
     raise typer.Exit(EXIT_BAD_INPUT)
+
+
+def check_timeline_path() -> None:
+    """Refuse (exit 2) a ``HERTZIAN_TIMELINE`` whose folder does not exist, before anything runs."""
+    target = os.environ.get(timeline.ENV, "").strip()
+    if target and not Path(target).parent.is_dir():
+        fail(f"{timeline.ENV} = {target!r}: its folder does not exist")
 
 
 def resolve_device(device: str | None) -> str:

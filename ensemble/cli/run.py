@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import contextlib
+import importlib
 import sys
+import threading
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -15,10 +17,12 @@ from hertzian.cli.app import (
     PrecisionOption,
     SetOption,
     app,
+    check_timeline_path,
     fail,
     load_scene_or_fail,
     resolve_device,
 )
+from hertzian.core import timeline
 
 
 @app.command()
@@ -48,7 +52,12 @@ def run(
         ),
     ] = False,
 ):
-    """Run one scene and store it as Zarr (times in program units of 1.0102e-3 s)."""
+    """Run one scene and store it as Zarr (times in program units of 1.0102e-3 s).
+
+    With HERTZIAN_TIMELINE=PATH set, the seconds since process start at each phase are written to PATH as JSON
+    (docs/fixed-costs.md)."""
+    timeline.mark("cli_ready")
+    check_timeline_path()
     from hertzian.core.solvers import KERNELS
 
     if kernel not in KERNELS:
@@ -57,6 +66,7 @@ def run(
         scene, [*(set_ or []), *(["record.error_estimate=true"] if error_estimate else [])], precision
     )
     from hertzian.core.check import dt_warning, memory_refusal
+    from hertzian.core.devices import open_device
 
     too_big = memory_refusal(loaded)  # the host first, before Warp starts
     if too_big:
@@ -71,7 +81,9 @@ def run(
         fail(f"--out = {str(out)!r}: exists; choose another path or pass --overwrite")
     if not out.parent.exists():
         fail(f"--out = {str(out)!r}: parent directory does not exist")
+    timeline.mark("scene_loaded")
     dev = resolve_device(device)
+    open_device(dev)
     too_big = memory_refusal(loaded, dev) if dev.startswith("cuda") else None
     if too_big:
         fail(too_big)
@@ -82,10 +94,12 @@ def run(
     from hertzian.core.model import build_model
     from hertzian.core.runner import Runner
     from hertzian.core.solvers.calibrate import event_cost_note
-    from hertzian.sweeping.sweep_store import write_result
 
+    timeline.mark("library_imported")
     try:
-        runner = Runner(build_model([loaded], dev), kernel=kernel)
+        model = build_model([loaded], dev)
+        timeline.mark("model_built")
+        runner = Runner(model, kernel=kernel)
     except ValueError as err:  # a forced kernel that cannot run this scene here
         fail(f"--kernel = {kernel!r}: {str(err).split(': ', 1)[-1]}")
 
@@ -94,9 +108,16 @@ def run(
     events = event_cost_note(runner.model.features, runner.model.device.is_cpu)
     if events:
         typer.echo(f"note: {events}", err=True)
+    store_import = _import_in_background("hertzian.sweeping.sweep_store")
     with _progress_bar(loaded.record_count, shown=not quiet and sys.stderr.isatty()) as progress:
         result = runner.run(progress)
+    timeline.mark("integrated", kernel=result.kernel, seconds_in_run=result.timing)
+    store_import.join()
+    from hertzian.sweeping.sweep_store import write_result
+
+    timeline.mark("store_imported")
     write_result(out, result, overwrite=overwrite)
+    timeline.mark("store_written")
     typer.echo(_summary(loaded, result, runner.solver.describe()))
     typer.echo(f"wrote {out}")
 
@@ -122,6 +143,19 @@ def _run_to_tolerance(scene, device: str, kernel: str, out: Path, *, overwrite: 
         f"error estimate {float(choice.result.error_estimate.max()):.2e}, status {int(choice.result.status[0])}"
     )
     typer.echo(f"wrote {out}")
+
+
+def _import_in_background(module: str) -> threading.Thread:
+    """Import ``module`` in a thread (started, to be joined): Zarr's import overlaps the run, whose kernels and waits
+    release the GIL. A failed import fails again, with its message, where the module is imported for use."""
+
+    def load() -> None:
+        with contextlib.suppress(Exception):
+            importlib.import_module(module)
+
+    thread = threading.Thread(target=load, name=f"import {module}", daemon=True)
+    thread.start()
+    return thread
 
 
 @contextlib.contextmanager

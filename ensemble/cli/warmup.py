@@ -57,7 +57,10 @@ def warmup(
     if as_json:
         typer.echo(json.dumps({"device": dev, **report}))
     else:
-        typer.echo(f"{report['variants']} kernel variants ready on {dev} in {report['seconds']:.2f} s")
+        compiled = sum(not load["cached"] for load in report["loads"])
+        typer.echo(
+            f"{report['variants']} kernel variants ready on {dev} in {report['seconds']:.2f} s ({compiled} compiled)"
+        )
 
 
 def _needs(path: Path | None, paper: bool, quick: bool, detect: Path | None, device: str, kernel: str) -> list:

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 import warp as wp
+from hertzian.core import timeline
 from hertzian.core.devices import default_device, init_warp
 from hertzian.core.error_estimate import mark_uncertain, meet_tolerance, model_orders, richardson_error, shadow_model
 from hertzian.core.model import Model, State, build_model
@@ -185,7 +186,19 @@ class Runner:
             )
         if use_graph is not None:
             config = replace(config, use_graph=use_graph)
-        prepare_kernels([Need(model.features, model.grain_count, model.chain_count, kernel=config)], model.device)
+        prepared = prepare_kernels(
+            [
+                Need(
+                    model.features,
+                    model.grain_count,
+                    model.chain_count,
+                    kernel=config,
+                    fields=bool(model.scenes[0].record.fields),
+                )
+            ],
+            model.device,
+        )
+        timeline.mark("kernels_loaded", kernel=config.describe(), variants=prepared["loads"])
         self.kernel_request = kernel if isinstance(kernel, str) else "auto"
         """The kernel kind asked for; a shadow run for the error estimate asks for the same."""
         self.solver = make_solver(model, config)

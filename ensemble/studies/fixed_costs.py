@@ -7,8 +7,12 @@ Also process start (``import hertzian.cli``, ``hertzian run --help``, a tiny war
 stages of building the first batches of ``sweeps/million.toml`` (expand, plan, jobs, prepare_model, uploads,
 state buffers).
 
+And the README's first command (``hertzian run --out impact.zarr``) cold and warm, back to back, with each run's
+timeline (part ``readme``; ``--device`` picks the device, a GPU included).
+
 ``python -m hertzian.studies.fixed_costs --out docs/records/bench/cpu_auto_rule.json`` regenerates the record
-(``--only start,build`` re-measures those parts into the existing file).
+(``--only start,build`` re-measures those parts into the existing file;
+``--only readme --device cuda --repeats 3 --out FILE`` measures the README command on a GPU).
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ import argparse
 import json
 import os
 import platform
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -68,11 +73,61 @@ print(json.dumps({"compile_s": compile_s, "rate": grains * steps / run_s}))
 example scene at the given grains, then its warm rate over the given steps [grain-steps/s]."""
 
 
-def _wall(args: list[str], cache: str) -> float:
-    env = {**os.environ, "WARP_CACHE_PATH": cache}
+def _wall(args: list[str], cache: str, **env) -> float:
+    """Process wall [s] of ``hertzian ARGS`` with Warp's kernel cache in ``cache`` and ``env`` set (a command that
+    fails ends this process with its message and exit code)."""
+    env = {**os.environ, "WARP_CACHE_PATH": cache, **env}
     start = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "hertzian.cli", *args], env=env, check=True, capture_output=True)
+    result = subprocess.run([sys.executable, "-m", "hertzian.cli", *args], env=env, capture_output=True, text=True)
+    if result.returncode:
+        print(result.stderr.strip().splitlines()[-1] if result.stderr.strip() else "error", file=sys.stderr)
+        raise SystemExit(result.returncode)
     return time.perf_counter() - start
+
+
+README_COMMAND = ["run", "--out", "impact.zarr"]
+"""The README's first command: the built-in example (1000 grains, 200 000 steps) to a store."""
+
+
+def _timeline_summary(path: Path) -> dict:
+    """Phase → seconds since process start, and the kernel loads, of one HERTZIAN_TIMELINE file."""
+    phases = json.loads(path.read_text())["phases"]
+    loads = next((p.get("variants", []) for p in phases if p["phase"] == "kernels_loaded"), [])
+    return {
+        "phases": {p["phase"]: round(p["seconds"], 4) for p in phases},
+        "kernel": next((p.get("kernel") for p in phases if p["phase"] == "integrated"), None),
+        "compiled": {load["module"]: round(load["seconds"], 4) for load in loads if not load["cached"]},
+    }
+
+
+def time_readme(device: str, repeats: int = 3) -> dict:
+    """Process wall [s] of the README's first command on ``device``, cold then warm, back to back ``repeats`` times.
+
+    Cold: a new empty Warp kernel cache (``WARP_CACHE_PATH``) and calibration cache (``HERTZIAN_CACHE``); warm: the
+    same command again with those caches. Each run's timeline (``HERTZIAN_TIMELINE``) is kept in the record."""
+    pairs = []
+    with tempfile.TemporaryDirectory() as tmp:
+        args = [*README_COMMAND[:-1], f"{tmp}/impact.zarr", "--device", device, "--quiet", "--overwrite"]
+        for repeat in range(repeats):
+            cache = f"{tmp}/cache-{repeat}"
+            pair = {}
+            for state in ("cold", "warm"):
+                timeline = Path(tmp) / f"{state}-{repeat}.json"
+                pair[f"{state}_s"] = _wall(
+                    args, f"{cache}/warp", HERTZIAN_CACHE=f"{cache}/calibration.json", HERTZIAN_TIMELINE=str(timeline)
+                )
+                pair[f"{state}_timeline"] = _timeline_summary(timeline)
+            pairs.append(pair)
+    cold = statistics.median(p["cold_s"] for p in pairs)
+    warm = statistics.median(p["warm_s"] for p in pairs)
+    return {
+        "command": "hertzian " + " ".join(README_COMMAND) + f" --device {device}",
+        "device": device,
+        "median_cold_s": cold,
+        "median_warm_s": warm,
+        "cold_over_warm": cold / warm,
+        "pairs": pairs,
+    }
 
 
 def time_runs(out_dir: str) -> list[dict]:
@@ -111,23 +166,29 @@ def time_compiles() -> dict[str, float]:
     return out
 
 
-def time_kernel_costs(grains: int = 200, steps: int = 20000) -> dict:
+def time_kernel_costs(grains: int = 200, steps: int = 20000, repeats: int = 3) -> dict:
     """Compile seconds (cold cache, one process each) and warm rate [grain-steps/s] of the per-step and the chain
-    kernel, and the crossover [grain-steps] of the CPU ``auto`` rule they give (calibrate.cpu_crossovers)."""
+    kernel, each the median of ``repeats`` processes taken in turn, and the crossover [grain-steps] of the CPU
+    ``auto`` rule they give (calibrate.cpu_crossovers)."""
     from hertzian.core.solvers.calibrate import cpu_crossovers
 
-    out = {"grains": grains, "steps": steps}
-    for kind in ("step", "chain"):
-        env = {**os.environ, "WARP_CACHE_PATH": tempfile.mkdtemp(prefix="warp-cache-")}
-        result = subprocess.run(
-            [sys.executable, "-c", KERNEL_PROBE, kind, str(grains), str(steps)],
-            env=env,
-            check=True,
-            capture_output=True,
-            text=True,
-        )
-        out[kind] = json.loads(result.stdout.strip().splitlines()[-1])
-    costs = {kind: (out[kind]["compile_s"], out[kind]["rate"]) for kind in ("step", "chain")}
+    runs = {"step": [], "chain": []}
+    for _ in range(repeats):
+        for kind, measured in runs.items():
+            env = {**os.environ, "WARP_CACHE_PATH": tempfile.mkdtemp(prefix="warp-cache-")}
+            result = subprocess.run(
+                [sys.executable, "-c", KERNEL_PROBE, kind, str(grains), str(steps)],
+                env=env,
+                check=True,
+                capture_output=True,
+                text=True,
+            )
+            measured.append(json.loads(result.stdout.strip().splitlines()[-1]))
+    out = {"grains": grains, "steps": steps, "repeats": repeats}
+    for kind, measured in runs.items():
+        out[kind] = {key: statistics.median(m[key] for m in measured) for key in ("compile_s", "rate")}
+        out[kind]["runs"] = measured
+    costs = {kind: (out[kind]["compile_s"], out[kind]["rate"]) for kind in runs}
     out["crossover_grain_steps"] = cpu_crossovers(costs)
     return out
 
@@ -184,36 +245,49 @@ def time_start(repeats: int = 3) -> dict:
 
 
 PARTS = {
-    "runs": lambda tmp: time_runs(tmp),
-    "compile_8_variants": lambda tmp: time_compiles(),
-    "kernel_costs": lambda tmp: time_kernel_costs(),
-    "start": lambda tmp: time_start(),
-    "build_million": lambda tmp: time_build(),
+    "runs": lambda tmp, args: time_runs(tmp),
+    "compile_8_variants": lambda tmp, args: time_compiles(),
+    "kernel_costs": lambda tmp, args: time_kernel_costs(),
+    "start": lambda tmp, args: time_start(),
+    "build_million": lambda tmp, args: time_build(),
+    "readme": lambda tmp, args: time_readme(args.device, args.repeats),
 }
-"""Each part of the record and how it is measured (``--only`` names them by key, or ``start``/``build``)."""
+"""Each part of the record and how it is measured (``--only`` names them by key, or ``start``/``build``). Only
+``readme`` takes ``--device``; the others measure the CPU."""
 
 
-def main() -> None:
+def _arguments() -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--only", default="", help="comma-separated parts to re-measure into the existing --out")
+    parser.add_argument("--device", default="cpu", help="device of the readme part: cpu | cuda | cuda:N")
+    parser.add_argument("--repeats", type=int, default=3, help="cold/warm pairs of the readme part (≥ 1)")
     args = parser.parse_args()
-    only = [{"build": "build_million"}.get(p, p) for p in args.only.split(",") if p]
-    unknown = [p for p in only if p not in PARTS]
+    args.only = [{"build": "build_million"}.get(p, p) for p in args.only.split(",") if p]
+    unknown = [p for p in args.only if p not in PARTS]
     if unknown:
         parser.exit(2, f"error: --only = {unknown[0]!r}: one of {', '.join(PARTS)}, start, build\n")
-    record = json.loads(args.out.read_text()) if only and args.out.is_file() else {}
+    if args.repeats < 1:
+        parser.exit(2, f"error: --repeats = {args.repeats}: must be at least 1\n")
+    if args.device != "cpu" and args.only != ["readme"]:
+        parser.exit(2, f"error: --device = {args.device!r}: only the readme part takes a device; add --only readme\n")
+    return args
+
+
+def main() -> None:
+    args = _arguments()
+    record = json.loads(args.out.read_text()) if args.only and args.out.is_file() else {}
     stamp = datetime.now(timezone.utc).isoformat(timespec="seconds")
     record |= {
-        "command": f"python -m hertzian.studies.fixed_costs --out {args.out}",
-        "device": "cpu",
+        "command": " ".join(["python -m hertzian.studies.fixed_costs", *sys.argv[1:]]),
+        "device": args.device,
         "cpu_count": os.cpu_count(),
         "platform": platform.platform(),
     }
     record.setdefault("dates", {})
     with tempfile.TemporaryDirectory() as tmp:
-        for name in only or PARTS:
-            record[name] = PARTS[name](tmp)
+        for name in args.only or PARTS:
+            record[name] = PARTS[name](tmp, args)
             record["dates"][name] = stamp
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(record, indent=1) + "\n")

@@ -13,7 +13,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import xarray as xr
 import zarr
 from hertzian.sweeping.store_format import (
     DAMAGE_ERRORS,
@@ -50,6 +49,8 @@ def open_store(path: str | Path):
 def open_dataset(path: str | Path):
     """A store written by ``hertzian run``, ``hertzian sweep`` or :func:`hertzian.sweep` as a lazy
     ``xarray.Dataset`` (FileNotFoundError or ValueError, one line, if it is not a hertzian store)."""
+    import xarray as xr  # about 0.3 s to import, and writing a store (hertzian run) never reads one back
+
     open_store(path)
     return xr.open_zarr(str(path))
 

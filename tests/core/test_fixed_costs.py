@@ -7,15 +7,16 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 import warp as wp
-from hertzian.core.model import build_model
+from hertzian.core.model import build_model, features_of
 from hertzian.core.runner import Runner
 from hertzian.core.solvers import CHAIN, STEP, calibrate, choose_config
 from hertzian.core.solvers.calibrate import CPU_COSTS, cpu_auto_config, cpu_crossovers, cpu_seconds, step_reason
-from hertzian.core.solvers.prepare import kernel_variants, prepare_kernels
+from hertzian.core.solvers.prepare import Need, kernel_variants, prepare_kernels
 from hertzian.studies.warmup import scene_needs
 
 from tests.helpers import hertzian, make_scene
@@ -52,6 +53,20 @@ def test_prepare_names_every_kernel_a_run_loads(name, loads):
     needs = scene_needs(scene)
     prepared = {(module.name, cpu_block(block)) for module, block in kernel_variants(needs, "cpu")}
     prepare_kernels(needs, "cpu")
+    loads.clear()
+    Runner(build_model([scene], "cpu")).run()
+    asked = {(module, cpu_block(block)) for module, block in loads}
+    assert asked <= prepared, asked - prepared
+
+
+def test_a_run_recording_fields_prepares_no_traced_start_gather_and_loads_nothing_else(loads):
+    """Record 0's snapshot holds the traced grains' start, so the gather is neither prepared nor launched."""
+    scene = make_scene(chain={"grains": 30}, record={"every": 0.005, "traces": [0, 29], "fields": ["u"]})
+    need = Need(features_of([scene]), 30, 1, scene.step_count, fields=True)
+    prepared = {(module.name, cpu_block(block)) for module, block in kernel_variants([need], "cpu")}
+    assert not any("traced_start" in name for name, _ in prepared), prepared
+    assert any("traced_start" in module.name for module, _ in kernel_variants([replace(need, fields=False)], "cpu"))
+    prepare_kernels([need], "cpu")
     loads.clear()
     Runner(build_model([scene], "cpu")).run()
     asked = {(module, cpu_block(block)) for module, block in loads}
@@ -155,7 +170,7 @@ def test_cpu_auto_rule_counts_only_uncached_compiles(monkeypatch, chain_cached, 
 
 PROBE = """
 import sys
-from hertzian.core.model import build_model
+from hertzian.core.model import build_model, features_of
 from hertzian.core.scene import load_scene
 from hertzian.core.solvers import choose_config
 model = build_model([load_scene(sys.argv[1])], "cpu")
@@ -182,3 +197,38 @@ def test_cpu_auto_reads_the_kernel_cache(tmp_path):
     warm = _hertzian("warmup", scene, "--device", "cpu", cache=cache)
     assert warm.returncode == 0, warm.stderr
     assert choice() == "chain"
+
+
+PCH_PROBE = """
+import sys
+import warp as wp
+from hertzian.core.devices import init_warp
+
+init_warp()
+scale = float(sys.argv[1])
+
+@wp.kernel(module="unique")
+def scaled(x: wp.array(dtype=wp.float64)):
+    x[wp.tid()] = x[wp.tid()] * wp.float64(scale)
+
+wp.load_module(scaled.module, device="cpu")
+print(wp._src.context.runtime.get_clang_pch_dir())
+"""
+
+
+def test_cpu_precompiled_header_is_built_once_in_the_kernel_cache(tmp_path):
+    """Two processes compiling different CPU modules: the first builds Warp's precompiled header into the kernel
+    cache, the second compiles against that same file and builds none of its own."""
+    cache = tmp_path / "warp-cache"
+    env = {**os.environ, "WARP_CACHE_PATH": str(cache)}
+    script = tmp_path / "probe.py"  # Warp reads a kernel's source from its file
+    script.write_text(PCH_PROBE)
+    folders, headers = [], []
+    for scale in ("2.0", "3.0"):  # two kernels, two modules: each process compiles
+        probe = subprocess.run([sys.executable, script, scale], capture_output=True, text=True, env=env)
+        assert probe.returncode == 0, probe.stderr
+        folders.append(Path(probe.stdout.split()[-1]))
+        headers.append({p: p.stat().st_mtime_ns for p in cache.rglob("*.pch")})
+    assert folders[0] == folders[1] and cache in folders[0].parents, folders
+    assert len(headers[0]) == 1 and next(iter(headers[0])).parent == folders[0], headers[0]
+    assert headers[1] == headers[0]  # the second process read it, did not write it again

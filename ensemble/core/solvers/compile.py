@@ -6,10 +6,10 @@ The job-level view:
 A job is a list of :class:`Need` (one per launch group: features, chain length, chains, steps, kernel choice).
 :func:`kernel_variants` names the Warp modules and block sizes those launches will load: the stepping kernel the
 solver choice takes (``choose_config`` without a calibration: a shape the calibration cache holds, else the
-default shape), the record reductions of that chain length, ``track_extremes`` and, with traces, the traced-start
-gather. :func:`prepare_kernels` compiles and loads them, so that the run itself compiles nothing. Every entry point
-calls it: ``Runner`` (one run), ``warm_kernels`` (sweeps and the paper reproduction), the detection library, and
-``hertzian warmup``, which fills Warp's kernel cache ahead of time.
+default shape), the record reductions of that chain length, ``track_extremes`` and, with traces but no snapshot
+fields, the traced-start gather. :func:`prepare_kernels` compiles and loads them, so that the run itself compiles
+nothing. Every entry point calls it: ``Runner`` (one run), ``warm_kernels`` (sweeps and the paper reproduction), the
+detection library, and ``hertzian warmup``, which fills Warp's kernel cache ahead of time.
 
 Concurrency: ``max_workers`` threads each call ``Module.load``; the CUDA compiler (NVRTC) runs outside the GIL, so
 GPU variants compile side by side. On a CPU the in-process clang compiles of Warp serialise and threads made them
@@ -19,7 +19,9 @@ slower (docs/fixed-costs.md), so a CPU prepares serially unless told otherwise.
 from __future__ import annotations
 
 import os
+import time
 from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 
 import warp as wp
 from hertzian.core.solvers.config import SolverConfig
@@ -49,11 +51,12 @@ def solver_variants(config: SolverConfig, features: Features, grains: int, chain
     return out
 
 
-def recorder_variants(features: Features, grains: int, device) -> list[tuple]:
-    """(Warp module, block_dim) of the record kernels a run of ``grains``-grain chains loads (Recorder.load)."""
+def recorder_variants(features: Features, grains: int, device, *, fields: bool = False) -> list[tuple]:
+    """(Warp module, block_dim) of the record kernels a run of ``grains``-grain chains loads (Recorder.load);
+    ``fields``: the run records snapshot fields, whose record 0 holds the traced grains' start (no gather)."""
     out = record_modules(record_kernels(features), long_chains=grains >= STAGED_GRAINS, device=device)
     out.append((track_extremes.module, None))
-    if features.traces:
+    if features.traces and not fields:
         out.append((traced_start_kernel(features.precision).module, None))
     return out
 
@@ -71,22 +74,39 @@ def default_workers(device) -> int:
     return max(1, min(GPU_COMPILE_WORKERS, os.cpu_count() or 1))
 
 
-def _load(device, module, block_dim) -> None:
+def _block(device, block_dim: int | None) -> int:
+    """The block size a launch at ``block_dim`` loads (None: Warp's default, 1 on a CPU)."""
+    return block_dim if block_dim is not None else (1 if device.is_cpu else 256)
+
+
+def in_cache(module, device, block_dim: int | None = None) -> bool:
+    """Whether Warp's ``module`` at ``block_dim`` is loaded on ``device`` or compiled in Warp's kernel cache
+    (``wp.config.kernel_cache_dir``), so that loading it compiles nothing."""
+    dev = wp.get_device(device)
+    block = _block(dev, block_dim)
+    if (dev.context, block) in module.execs:
+        return True
+    name = module.get_module_identifier(block)
+    return (Path(wp.config.kernel_cache_dir) / name / module._get_compile_output_name(dev, block_dim=block)).is_file()
+
+
+def _load(device, module, block_dim) -> dict:
+    """Load one variant; {"module", "block_dim", "cached" (nothing compiled), "seconds"}."""
+    start = time.perf_counter()
+    cached = in_cache(module, device, block_dim)
     if device.is_cpu and (block_dim or 1) > 1:
         wp.config.enable_cpu_blocks = True  # Warp 1.19 runs CPU blocks as fibers only when asked (Solver.load)
-    module.load(device, block_dim=block_dim if block_dim is not None else (1 if device.is_cpu else 256))
+    module.load(device, block_dim=_block(device, block_dim))
+    return {"module": module.name, "block_dim": block_dim, "cached": cached, "seconds": time.perf_counter() - start}
 
 
-def load_variants(variants: list[tuple], device, max_workers: int | None = None) -> int:
+def load_variants(variants: list[tuple], device, max_workers: int | None = None) -> tuple[int, list[dict]]:
     """Compile (or read from Warp's kernel cache) and load each (Warp module, block_dim) on ``device``,
-    ``max_workers`` at a time (None: :func:`default_workers`). Returns the threads used."""
+    ``max_workers`` at a time (None: :func:`default_workers`). Returns the threads used and, per variant,
+    {"module", "block_dim", "cached", "seconds"}."""
     dev = wp.get_device(device)
     workers = max(1, min(len(variants), max_workers or default_workers(dev)))
     if workers == 1:
-        for module, block_dim in variants:
-            _load(dev, module, block_dim)
-    else:
-        with ThreadPoolExecutor(max_workers=workers, thread_name_prefix="hertzian-compile") as pool:
-            for future in [pool.submit(_load, dev, m, b) for m, b in variants]:
-                future.result()
-    return workers
+        return workers, [_load(dev, module, block_dim) for module, block_dim in variants]
+    with ThreadPoolExecutor(max_workers=workers, thread_name_prefix="hertzian-compile") as pool:
+        return workers, [future.result() for future in [pool.submit(_load, dev, m, b) for m, b in variants]]

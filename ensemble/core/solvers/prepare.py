@@ -3,10 +3,11 @@
 A job is a list of :class:`Need` (one per launch group: features, chain length, chains, steps, kernel choice).
 :func:`kernel_variants` names the Warp modules and block sizes those launches will load: the stepping kernel the
 solver choice takes (``choose_config`` without a calibration: a shape the calibration cache holds, else the
-default shape), the record reductions of that chain length, ``track_extremes`` and, with traces, the traced-start
-gather. :func:`prepare_kernels` compiles and loads them (``compile.load_variants``), so that the run itself
-compiles nothing. Every entry point calls it: ``Runner`` (one run), ``warm_kernels`` (sweeps and the paper
-reproduction), the detection library, and ``hertzian warmup``, which fills Warp's kernel cache ahead of time.
+default shape), the record reductions of that chain length, ``track_extremes`` and, with traces but no snapshot
+fields, the traced-start gather. :func:`prepare_kernels` compiles and loads them (``compile.load_variants``), so
+that the run itself compiles nothing. Every entry point calls it: ``Runner`` (one run), ``warm_kernels`` (sweeps and
+the paper reproduction), the detection library, and ``hertzian warmup``, which fills Warp's kernel cache ahead of
+time.
 """
 
 from __future__ import annotations
@@ -35,6 +36,8 @@ class Need:
     """Steps of one run (None: long, as ``choose_config`` counts it)."""
     kernel: str | SolverConfig = "auto"
     """A ``--kernel`` choice (hertzian.core.solvers.calibrate.KERNELS) or the config itself."""
+    fields: bool = False
+    """The runs record snapshot fields (``record.fields``): no traced-start gather then (False: compile it)."""
 
 
 def planned_config(need: Need, device) -> SolverConfig:
@@ -70,7 +73,7 @@ def kernel_variants(needs: Iterable[Need | Features | wp.Kernel], device) -> lis
         config = planned_config(need, dev)
         for variant in solver_variants(config, need.features, need.grains, need.chains):
             out[variant] = None
-        for variant in recorder_variants(need.features, need.grains, dev):
+        for variant in recorder_variants(need.features, need.grains, dev, fields=need.fields):
             out[variant] = None
     return list(out)
 
@@ -78,8 +81,9 @@ def kernel_variants(needs: Iterable[Need | Features | wp.Kernel], device) -> lis
 def prepare_kernels(needs: Iterable[Need | Features | wp.Kernel], device, max_workers: int | None = None) -> dict:
     """Compile (or read from Warp's kernel cache) and load every kernel variant ``needs`` will launch on
     ``device``, ``max_workers`` at a time (None: ``default_workers``). Returns {"variants": count,
-    "seconds": wall time [s], "workers": threads used}."""
+    "seconds": wall time [s], "workers": threads used, "loads": per variant {"module", "block_dim", "cached",
+    "seconds"}}."""
     start = time.perf_counter()
     variants = kernel_variants(needs, device)
-    workers = load_variants(variants, device, max_workers)
-    return {"variants": len(variants), "seconds": time.perf_counter() - start, "workers": workers}
+    workers, loads = load_variants(variants, device, max_workers)
+    return {"variants": len(variants), "seconds": time.perf_counter() - start, "workers": workers, "loads": loads}
