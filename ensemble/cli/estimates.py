@@ -21,8 +21,17 @@ def estimate_check(
         int, typer.Option("--reference-divisor", help="Reference step = the sweep's dt / this (gear6), even, ≥ 4.")
     ] = 16,
     cost: Annotated[
-        bool, typer.Option("--cost", help="Also time 64 chains × 200 grains with and without the estimate.")
+        bool,
+        typer.Option("--cost", help="Also time --cost-chains chains × 200 grains with and without the estimate."),
     ] = False,
+    cost_chains: Annotated[
+        Optional[int],
+        typer.Option(
+            "--cost-chains",
+            help="Chains of the --cost case (default: 64 on a CPU; 16384 on a GPU, enough to fill it: a smaller "
+            "ensemble times kernel launches, not integration).",
+        ),
+    ] = None,
     defaults: Annotated[
         bool,
         typer.Option(
@@ -43,6 +52,8 @@ def estimate_check(
 
     if defaults == (sweep is not None):
         fail(f"SWEEP = {str(sweep or '')!r}: give a sweep file or --defaults, not both or neither")
+    if cost_chains is not None and cost_chains < 1:
+        fail(f"--cost-chains = {cost_chains}: must be at least 1")
     if reference_divisor < 4 or reference_divisor % 2:
         fail(f"--reference-divisor = {reference_divisor}: must be an even integer ≥ 4")
     if as_json is not None and not as_json.parent.exists():
@@ -59,7 +70,8 @@ def estimate_check(
         **estimate_check(scenes, device=dev, events=settings, reference_divisor=reference_divisor),
     }
     if cost:
-        record["cost"] = estimate_cost(cost_scenes(), device=dev)
+        chains = cost_chains or (64 if dev == "cpu" else 16384)
+        record["cost"] = estimate_cost(cost_scenes(chains), device=dev)
     for setting, row in record["events"].items():
         typer.echo(
             f"events {setting}: {row['fraction_within']:.0%} of {row['resolved_points']} resolved points within 3× "

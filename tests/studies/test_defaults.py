@@ -92,3 +92,40 @@ def test_defaults_study_keeps_the_cheapest_run_meeting_each_target():
         best = row["cheapest_per_events"]["1e-06"][events]
         assert best["seconds"] == min(r["seconds"] for r in ours) and best["events"] == events
     assert row["cheapest"]["1e-30"] is None
+
+
+ESTIMATE_SWEEP = """
+[scene.chain]
+grains = 6
+l0 = 1e-4
+[scene.excitation]
+impact = 1e-2
+[scene.integrator]
+method = "gear4"
+dt = 1e-3
+duration = 0.2
+[scene.record]
+every = 0.1
+[[axis]]
+name = "v_imp"
+key = "excitation.impact"
+values = [1e-2, 2e-2]
+"""
+
+
+def test_estimates_cost_takes_the_chains_asked_for(tmp_path):
+    """``--cost-chains`` sizes the cost case (a GPU's default fills the device, a CPU's stays at 64)."""
+    import json
+
+    from tests.helpers import invoke
+
+    sweep, out = tmp_path / "s.toml", tmp_path / "r.json"
+    sweep.write_text(ESTIMATE_SWEEP)
+    result = invoke(
+        "estimates", sweep, "--events", "auto", "--cost", "--cost-chains", "3", "--device", "cpu", "--json", out
+    )
+    assert result.exit_code == 0, result.output
+    cost = json.loads(out.read_text())["cost"]
+    assert cost["chains"] == 3 and cost["ratio"] > 1.0
+    refused = invoke("estimates", sweep, "--cost-chains", "0", "--device", "cpu")
+    assert refused.exit_code == 2 and "--cost-chains = 0" in refused.output
