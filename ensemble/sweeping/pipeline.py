@@ -164,50 +164,35 @@ def prepare_sweep(
     # longest fixed cost of a distributed sweep; this process loads, checks and plans meanwhile
     cluster = None if dry_run else _start_cluster(workers, scheduler, device)
     try:
-        return _prepare(
-            sweep,
-            out,
-            cluster,
-            timing,
-            notify,
-            device=device,
-            resume=resume,
-            overwrite=overwrite,
-            batch_size=batch_size,
-            workers=workers,
-            scheduler=scheduler,
-            kernel=kernel,
-            overrides=overrides,
-            allow_large=allow_large,
-            strict=strict,
-            dry_run=dry_run,
-        )
+        definition, points = _checked_points(sweep, overrides, allow_large, strict, notify, timing)
+        out = Path(out) if out is not None else Path(Path(str(definition.source or "sweep")).stem + ".zarr")
+        if not dry_run:
+            check_out(out, resume=resume, overwrite=overwrite)
+        dev = check_device(device)
+        resuming = resume and out.exists()
+        plan = _plan(definition, points, out, dev, batch_size=batch_size, resuming=resuming, timing=timing)
+        if cluster is not None and not resuming:  # a store being resumed keeps its block
+            plan = balance_plan(plan, workers or cluster.worker_count)
+        if kernel != "auto":
+            check_kernel(kernel, plan, points, dev)
+        else:
+            per_step_notes(plan, dev, notify)
     except BaseException:
         if cluster is not None:
             cluster.close()
         raise
+    if resuming and batch_size is not None and plan.batch_size != batch_size:
+        notify(
+            f"note: batch size {batch_size} ignored: {out} was planned with batches of up to {plan.batch_size} points"
+        )
+    return PreparedSweep(
+        definition, points, plan, out, dev, device, kernel, resuming, overwrite, workers, scheduler, timing, cluster
+    )
 
 
-def _prepare(
-    sweep,
-    out,
-    cluster,
-    timing: dict,
-    notify,
-    *,
-    device,
-    resume,
-    overwrite,
-    batch_size,
-    workers,
-    scheduler,
-    kernel,
-    overrides,
-    allow_large,
-    strict,
-    dry_run,
-) -> PreparedSweep:
-    """prepare_sweep's load, checks and plan, with the cluster (or None) already starting."""
+def _checked_points(sweep, overrides, allow_large: bool, strict: bool, notify, timing: dict):
+    """The sweep loaded and expanded, refused (RefusedError) when one chain of its largest kind cannot fit or,
+    with ``strict``, when dt looks unstable at a corner of its grid (else ``notify`` warns)."""
     definition, points = load_points(sweep, overrides, allow_large=allow_large, timing=timing)
     # one chain of the largest kind (the planner sizes batches); before any array is built
     too_big = memory_refusal(max(points.templates, key=lambda t: t.chain.grains))
@@ -218,25 +203,7 @@ def _prepare(
         raise RefusedError(unsafe[0])
     for line in unsafe:
         notify(f"warning: {line}")
-    out = Path(out) if out is not None else Path(Path(str(definition.source or "sweep")).stem + ".zarr")
-    if not dry_run:
-        check_out(out, resume=resume, overwrite=overwrite)
-    dev = check_device(device)
-    resuming = resume and out.exists()
-    plan = _plan(definition, points, out, dev, batch_size=batch_size, resuming=resuming, timing=timing)
-    if cluster is not None and not resuming:  # a store being resumed keeps its block
-        plan = balance_plan(plan, workers or cluster.worker_count)
-    if kernel != "auto":
-        check_kernel(kernel, plan, points, dev)
-    else:
-        per_step_notes(plan, dev, notify)
-    if resuming and batch_size is not None and plan.batch_size != batch_size:
-        notify(
-            f"note: batch size {batch_size} ignored: {out} was planned with batches of up to {plan.batch_size} points"
-        )
-    return PreparedSweep(
-        definition, points, plan, out, dev, device, kernel, resuming, overwrite, workers, scheduler, timing, cluster
-    )
+    return definition, points
 
 
 def _plan(definition, points, out: Path, dev: str, *, batch_size, resuming: bool, timing: dict) -> Plan:
