@@ -14,4 +14,4 @@ from hertzian.sweeping.distributed import sweep_needs  # noqa: F401  (re-exporte
 
 def scene_needs(scene: Scene, kernel: str = "auto") -> list[Need]:
     """The launch group of one ``hertzian run`` of ``scene``."""
-    return [Need(features_of([scene]), scene.chain.grains, 1, scene.step_count, kernel)]
+    return [Need(features_of([scene]), scene.chain.grains, 1, scene.step_count, kernel, bool(scene.record.fields))]

@@ -77,6 +77,11 @@ def _cache_files(root: Path) -> set[str]:
     return {str(p.relative_to(root)) for p in root.rglob("*") if p.is_file()}
 
 
+def _modules(root: Path) -> set[str]:
+    """The kernel modules in a Warp cache (folder names, without the per-build hash suffix)."""
+    return {p.name.rsplit("_", 1)[0] for p in root.rglob("wp_*") if p.is_dir()}
+
+
 def _hertzian(*args, cache: Path) -> subprocess.CompletedProcess:
     """``hertzian ARGS`` in a subprocess whose Warp kernel cache and calibration file are under ``cache``."""
     return hertzian(
@@ -98,6 +103,11 @@ def test_warmup_then_run_compiles_nothing(tmp_path):
     run = _hertzian("run", scene, "--device", "cpu", "--out", tmp_path / "o.zarr", "--quiet", cache=cache)
     assert run.returncode == 0, run.stderr
     assert _cache_files(cache) == before
+    # and nothing more: a run on a cold cache compiles the same modules (a run recording fields, no traced start)
+    cold = tmp_path / "cold-cache"
+    alone = _hertzian("run", scene, "--device", "cpu", "--out", tmp_path / "p.zarr", "--quiet", cache=cold)
+    assert alone.returncode == 0, alone.stderr
+    assert _modules(cold) == _modules(cache)
 
 
 DETECT_BASE = (
