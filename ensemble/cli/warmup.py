@@ -23,7 +23,8 @@ def warmup(
     device: DeviceOption = None,
     kernel: KernelOption = "auto",
     workers: Annotated[
-        Optional[int], typer.Option("--workers", help="Compile threads (default: 1 on a CPU, up to 8 on a GPU).")
+        Optional[int],
+        typer.Option("--workers", help="Compile threads (default: one per core on a CPU, up to 8 on a GPU)."),
     ] = None,
     dry_run: Annotated[bool, typer.Option("--dry-run", help="List the kernel variants; compile nothing.")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the result as one JSON object.")] = False,

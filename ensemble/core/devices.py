@@ -13,6 +13,7 @@ import ctypes
 import hashlib
 import os
 import sys
+import threading
 from pathlib import Path
 
 import warp as wp
@@ -78,7 +79,8 @@ def share_precompiled_header() -> None:
     at exit: about 1 s of each compiling process on the 2-core machine, most of a small variant's compile. Shared,
     a later process compiling a new variant reuses it. The folder is keyed by the Warp headers it was built from;
     clang writes it to a temporary file and renames it, so processes compiling at once do not see a partial file.
-    Does nothing where Warp has no CPU compiler or no such hook."""
+    On a machine without CUDA whose cache has no header yet, the header is built at once in the background
+    (:func:`_start_header_primer`). Does nothing where Warp has no CPU compiler or no such hook."""
     runtime = wp._src.context.runtime
     if runtime is None or getattr(runtime, "llvm", None) is None or not hasattr(runtime, "get_clang_pch_dir"):
         return
@@ -90,7 +92,56 @@ def share_precompiled_header() -> None:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError:  # a read-only cache: each process builds its own, as Warp does
         return
-    runtime.get_clang_pch_dir = lambda: str(folder)
+
+    def header_folder() -> str:
+        # Warp asks for the folder right before a CPU compile (its source already generated): a compile waits here
+        # for a header being built, so that it compiles against that header instead of building one of its own
+        primer = _header_primer
+        if primer is not None and primer is not threading.current_thread():
+            primer.join()
+        return str(folder)
+
+    runtime.get_clang_pch_dir = header_folder
+    global _header_folder
+    _header_folder = folder
+    if not wp.is_cuda_available():
+        prime_precompiled_header()
+
+
+_header_folder: Path | None = None
+"""The shared folder of the CPU precompiled header (``share_precompiled_header``), or None."""
+_header_primer: threading.Thread | None = None
+"""The thread building the CPU precompiled header (:func:`prime_precompiled_header`), or None."""
+
+
+def prime_precompiled_header() -> None:
+    """Build the CPU precompiled header in a background thread now, unless the kernel cache has it or a thread
+    builds it already (Warp's clang runs outside the GIL).
+
+    ``share_precompiled_header`` calls this when Warp starts on a machine without CUDA, whose first run compiles
+    CPU kernels; ``hertzian.core.solvers.compile`` before it compiles CPU variants in several threads, each of
+    which would otherwise build a header of its own. Meanwhile the process loads its scene and generates its
+    kernels' source; their compiles wait for the header. A failure here is left to the compile that needs the
+    header, which reports its own."""
+    global _header_primer
+    if _header_folder is None or _header_primer is not None or any(_header_folder.glob(f"*_bd{CPU_BLOCK}_*.pch")):
+        return
+
+    def build() -> None:
+        from hertzian.kernels.primer import header_primer
+
+        try:
+            header_primer.module.load("cpu", block_dim=CPU_BLOCK)
+        except Exception:  # noqa: BLE001 (the run's own compile reports it)
+            return
+        timeline.mark("precompiled_header_built")
+
+    _header_primer = threading.Thread(target=build, name="hertzian-header-primer", daemon=True)
+    _header_primer.start()
+
+
+CPU_BLOCK = 1
+"""The block size of CPU launches (Warp's CPU default), which the header's file name carries (``_bd1_``)."""
 
 
 def check_device(device: str | None) -> str:

@@ -242,3 +242,55 @@ def test_cpu_precompiled_header_is_built_once_in_the_kernel_cache(tmp_path):
     assert folders[0] == folders[1] and cache in folders[0].parents, folders
     assert len(headers[0]) == 1 and next(iter(headers[0])).parent == folders[0], headers[0]
     assert headers[1] == headers[0]  # the second process read it, did not write it again
+
+
+PRIMER_PROBE = """
+import sys, threading
+from pathlib import Path
+import warp as wp
+import warp._src.build as build
+from hertzian.core import devices
+from hertzian.core.solvers.compile import load_variants
+
+seen = []  # (thread, whether the header existed when that compile began)
+original = build.build_cpu
+
+def build_cpu(*args, pch_dir=None, **kwargs):
+    seen.append((threading.current_thread().name, any(Path(pch_dir).glob("*_bd1_*.pch"))))
+    return original(*args, pch_dir=pch_dir, **kwargs)
+
+build.build_cpu = build_cpu
+devices.init_warp()
+started = devices._header_primer is not None
+if not started:  # a machine with CUDA: the compiles below start it
+    assert wp.is_cuda_available()
+
+def unique_kernel(scale):
+    @wp.kernel(module="unique")
+    def scaled(x: wp.array(dtype=wp.float64)):
+        x[wp.tid()] = x[wp.tid()] * wp.float64(scale)
+    return scaled
+
+kernels = [unique_kernel(s) for s in (2.0, 3.0, 5.0)]
+workers, _ = load_variants([(k.module, None) for k in kernels], "cpu", max_workers=2)
+print(repr((workers, started, seen)))
+"""
+
+
+def test_cpu_compiles_on_an_empty_cache_wait_for_one_precompiled_header(tmp_path):
+    """On an empty kernel cache the precompiled header is built once, by the primer thread (started when Warp starts
+    on a machine without CUDA, else by the first threaded CPU compile): every other compile, in two threads, begins
+    with the header in place instead of building its own."""
+    cache = tmp_path / "warp-cache"
+    script = tmp_path / "probe.py"  # Warp reads a kernel's source from its file
+    script.write_text(PRIMER_PROBE)
+    probe = subprocess.run(
+        [sys.executable, script], capture_output=True, text=True, env={**os.environ, "WARP_CACHE_PATH": str(cache)}
+    )
+    assert probe.returncode == 0, probe.stderr
+    workers, started, seen = eval(probe.stdout.strip().splitlines()[-1])  # noqa: S307 (our own probe's repr)
+    assert workers == 2 and (started or wp.is_cuda_available())
+    primer = [has for name, has in seen if name == "hertzian-header-primer"]
+    others = [has for name, has in seen if name != "hertzian-header-primer"]
+    assert primer == [False] and others == [True, True, True], seen
+    assert len(list(cache.rglob("*.pch"))) == 1

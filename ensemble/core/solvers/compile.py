@@ -11,9 +11,10 @@ fields, the traced-start gather. :func:`prepare_kernels` compiles and loads them
 nothing. Every entry point calls it: ``Runner`` (one run), ``warm_kernels`` (sweeps and the paper reproduction), the
 detection library, and ``hertzian warmup``, which fills Warp's kernel cache ahead of time.
 
-Concurrency: ``max_workers`` threads each call ``Module.load``; the CUDA compiler (NVRTC) runs outside the GIL, so
-GPU variants compile side by side. On a CPU the in-process clang compiles of Warp serialise and threads made them
-slower (docs/fixed-costs.md), so a CPU prepares serially unless told otherwise.
+Concurrency: ``max_workers`` threads each call ``Module.load``; the compilers (NVRTC, Warp's in-process clang) run
+outside the GIL, so variants compile side by side. On a CPU every compile waits for one precompiled header of Warp's
+headers, built once in the kernel cache (``hertzian.core.devices.prime_precompiled_header``); threads compiling
+before it existed each built their own and were slower than one (docs/fixed-costs.md).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import warp as wp
+from hertzian.core.devices import prime_precompiled_header
 from hertzian.core.solvers.config import SolverConfig
 from hertzian.kernels.cpu import chain_kernel
 from hertzian.kernels.features import Features
@@ -62,16 +64,17 @@ def recorder_variants(features: Features, grains: int, device, *, fields: bool =
 
 
 def default_workers(device) -> int:
-    """Compile threads: ``HERTZIAN_COMPILE_WORKERS`` if set, else 1 on a CPU (serial clang) and up to
+    """Compile threads: ``HERTZIAN_COMPILE_WORKERS`` if set, else one per core on a CPU and up to
     GPU_COMPILE_WORKERS on a GPU."""
     value = os.environ.get("HERTZIAN_COMPILE_WORKERS", "").strip()
     if value:
         if not value.isdigit() or int(value) < 1:
             raise ValueError(f"HERTZIAN_COMPILE_WORKERS = {value!r}: must be a whole number ≥ 1")
         return int(value)
+    cores = os.cpu_count() or 1
     if wp.get_device(device).is_cpu:
-        return 1
-    return max(1, min(GPU_COMPILE_WORKERS, os.cpu_count() or 1))
+        return cores
+    return max(1, min(GPU_COMPILE_WORKERS, cores))
 
 
 def _block(device, block_dim: int | None) -> int:
@@ -106,6 +109,8 @@ def load_variants(variants: list[tuple], device, max_workers: int | None = None)
     {"module", "block_dim", "cached", "seconds"}."""
     dev = wp.get_device(device)
     workers = max(1, min(len(variants), max_workers or default_workers(dev)))
+    if dev.is_cpu and workers > 1:
+        prime_precompiled_header()  # one header, built once, instead of one per compiling thread
     if workers == 1:
         return workers, [_load(dev, module, block_dim) for module, block_dim in variants]
     with ThreadPoolExecutor(max_workers=workers, thread_name_prefix="hertzian-compile") as pool:
