@@ -32,6 +32,14 @@ def estimate_check(
             "ensemble times kernel launches, not integration).",
         ),
     ] = None,
+    cost_features: Annotated[
+        bool,
+        typer.Option(
+            "--cost-features",
+            help="With --cost: also time the cost case with walls, gravity and impurities, a drive, viscous and "
+            "contact damping, each on the fused (CPU: chain) and the per-step kernel.",
+        ),
+    ] = False,
     defaults: Annotated[
         bool,
         typer.Option(
@@ -47,11 +55,13 @@ def estimate_check(
     and against gear6 at dt/--reference-divisor; prints the fraction of points whose estimate is within 3× of
     the true error, where contacts can open and where none can."""
     from hertzian.studies.accuracy import parse_list
-    from hertzian.studies.estimates import cost_scenes, estimate_check, estimate_cost
+    from hertzian.studies.estimates import cost_scenes, estimate_check, estimate_cost, feature_costs
     from hertzian.sweeping.spec import load_sweep
 
     if defaults == (sweep is not None):
         fail(f"SWEEP = {str(sweep or '')!r}: give a sweep file or --defaults, not both or neither")
+    if cost_features and not cost:
+        fail("--cost-features = true: needs --cost")
     if cost_chains is not None and cost_chains < 1:
         fail(f"--cost-chains = {cost_chains}: must be at least 1")
     if reference_divisor < 4 or reference_divisor % 2:
@@ -72,6 +82,9 @@ def estimate_check(
     if cost:
         chains = cost_chains or (64 if dev == "cpu" else 16384)
         record["cost"] = estimate_cost(cost_scenes(chains), device=dev)
+    if cost_features:
+        kernels = ["chain" if dev == "cpu" else "fused", "step"]
+        record["cost_features"] = feature_costs(dev, kernels, chains, progress=lambda s: typer.echo(s, err=True))
     for setting, row in record["events"].items():
         typer.echo(
             f"events {setting}: {row['fraction_within']:.0%} of {row['resolved_points']} resolved points within 3× "
@@ -82,6 +95,8 @@ def estimate_check(
     if cost:
         c = record["cost"]
         typer.echo(f"cost: {c['ratio']:.2f}× ({c['chains']} chains × {c['grains']} grains, kernel {c['kernel']})")
+    for row in record.get("cost_features", []):
+        typer.echo(f"cost, {row['case']}, kernel {row['kernel_asked']}: {row['ratio']:.2f}×")
     if as_json is not None:
         as_json.write_text(json.dumps(record, indent=1) + "\n")
         typer.echo(f"wrote {as_json}", err=True)

@@ -143,6 +143,46 @@ def cost_scenes(chains: int = 64, grains: int = 200, duration: float = 1.0) -> l
     return [base.with_overrides({"excitation.impact": 1e-2 * (1 + 0.01 * i)}) for i in range(chains)]
 
 
+COST_FEATURES = {
+    "walls": {},
+    "gravity, impurities": {"chain.gravity": 1.0},
+    "drive": {
+        "boundary.surface": "driven",
+        "excitation.impact": 0.0,
+        "excitation.drive_amplitude": 1e-4,
+        "excitation.drive_period": 1.0,
+    },
+    "viscous damping": {"damping.model": "viscous", "damping.gamma": 0.01},
+    "contact damping": {"damping.model": "contact", "damping.gamma": 0.01},
+}
+"""The feature cases of :func:`feature_costs`: overrides of the cost case (whose ends are walls); the gravity case
+also buries three light grains (mass 0.5, a = 2000, harmonic contacts) at grains 100-102."""
+COST_IMPURITIES = [{"grains": [100, 101, 102], "mass": 0.5, "a": 2000.0, "contact": "harmonic"}]
+
+
+def feature_cost_scenes(case: str, chains: int = 64) -> list[Scene]:
+    """The cost case (:func:`cost_scenes`) with the features of ``COST_FEATURES[case]``."""
+    from hertzian.core.scene import scene_from_dict
+
+    scenes = [s.with_overrides(COST_FEATURES[case]) for s in cost_scenes(chains)]
+    if case != "gravity, impurities":
+        return scenes
+    return [scene_from_dict({**s.to_dict(), "impurities": COST_IMPURITIES}) for s in scenes]
+
+
+def feature_costs(device: str, kernels: list[str], chains: int, repeats: int = 3, progress=None) -> list[dict]:
+    """:func:`estimate_cost` of every ``COST_FEATURES`` case on each of ``kernels``: one row per (case, kernel),
+    with ``case`` and ``kernel_asked`` added; JSON-ready."""
+    rows = []
+    for case in COST_FEATURES:
+        for kernel in kernels:
+            if progress:
+                progress(f"{case}, kernel {kernel}")
+            row = estimate_cost(feature_cost_scenes(case, chains), device=device, kernel=kernel, repeats=repeats)
+            rows.append({"case": case, "kernel_asked": kernel, **row})
+    return rows
+
+
 DEFAULTS_TARGETS = (1e-4, 1e-6, 1e-8)
 """Position-error targets of the defaults study (max |u − u_ref| / max|u_ref|)."""
 DEFAULTS_METHODS = ("gear4", "gear6", "verlet")

@@ -136,3 +136,26 @@ def test_estimates_cost_takes_the_chains_asked_for(tmp_path):
     assert cost["chains"] == 3 and cost["ratio"] > 1.0
     refused = invoke("estimates", sweep, "--cost-chains", "0", "--device", "cpu")
     assert refused.exit_code == 2 and "--cost-chains = 0" in refused.output
+
+
+def test_cost_feature_cases_carry_their_features():
+    """Each ``--cost-features`` case compiles the kernel variant of its feature: a profile static state with
+    impurities under gravity, a driven surface, viscous and contact damping; the walls case is the cost case."""
+    from hertzian.core.model import features_of
+    from hertzian.studies.estimates import COST_FEATURES, cost_scenes, feature_cost_scenes
+
+    features = {case: features_of(feature_cost_scenes(case, chains=2)) for case in COST_FEATURES}
+    assert features["walls"] == features_of(cost_scenes(2))
+    assert (features["walls"].surface, features["walls"].bottom) == ("wall", "wall")
+    assert features["gravity, impurities"].static == "profile" and features["gravity, impurities"].heterogeneous
+    assert features["drive"].surface == "driven"
+    assert features["viscous damping"].damping == "viscous" and features["contact damping"].damping == "contact"
+
+
+def test_cost_features_need_cost(tmp_path):
+    from tests.helpers import invoke
+
+    sweep = tmp_path / "s.toml"
+    sweep.write_text(ESTIMATE_SWEEP)
+    refused = invoke("estimates", sweep, "--cost-features", "--device", "cpu")
+    assert refused.exit_code == 2 and refused.output.strip() == "error: --cost-features = true: needs --cost"
