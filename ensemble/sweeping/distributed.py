@@ -464,9 +464,11 @@ def run_distributed(
     """Run jobs on a Dask client's workers, all submitted at once; each worker writes its batches into the store.
 
     ``priorities``: batch index → scheduler priority (higher first; default: grid order). A batch whose worker
-    dies is run again on another (Dask's ``allowed-failures``, 3 by default). A batch that fails anyway does not
-    stop the others: once every batch has ended, the failure of the lowest batch index raises :class:`BatchFailedError` (one line,
-    with the count of the others that failed); the store holds every batch that completed."""
+    dies is run again on another (Dask's ``allowed-failures``, 3 by default); one whose worker died after it was
+    written (its completion flag set) counts as done, though Dask reports its result lost. A batch that fails
+    anyway does not stop the others: once every batch has ended, the failure of the lowest batch index raises
+    :class:`BatchFailedError` (one line, with the count of the others that failed); the store holds every batch
+    that completed."""
     from distributed import as_completed
 
     token = f"{time.time_ns():x}"
@@ -483,16 +485,30 @@ def run_distributed(
     }
     failed = []
     for future in as_completed(futures):
+        job = futures[future]
         if future.status == "error":
-            failed.append(batch_failure(futures[future], future.exception()))
+            err = future.exception()
+            if not isinstance(err, BatchFailedError) and written(job):
+                # written, then its worker died holding the small result: Dask lost the result, not the batch
+                if on_done:
+                    on_done(job, {"result_lost_with_worker": True})
+                continue
+            failed.append(batch_failure(job, err))
             continue
         record = future.result()
         if on_done:
-            on_done(futures[future], record)
+            on_done(job, record)
     if failed:
         first = min(failed, key=lambda f: f.batch)
         more = f" ({len(failed) - 1} more batches failed)" if len(failed) > 1 else ""
         raise BatchFailedError(first.batch, first.worker, first.error + more)
+
+
+def written(job: BatchJob) -> bool:
+    """Whether ``job``'s batch has its completion flag set in the store (the flag is set after every chunk)."""
+    from hertzian.sweeping.sweep_store import completed_batches
+
+    return job.batch.index in completed_batches(job.store)
 
 
 def batch_failure(job: BatchJob, err: BaseException) -> BatchFailedError:

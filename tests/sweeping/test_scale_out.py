@@ -137,7 +137,8 @@ def test_a_worker_killed_mid_sweep_leaves_the_serial_store(tmp_path):
 
 
 def _fail_batch(index: int, how: str):
-    """On a worker: make batch ``index`` fail the way a real one can (a CUDA error raised, or the process gone)."""
+    """On a worker: make batch ``index`` fail the way a real one can (a CUDA error raised, or the process gone before
+    or right after the batch is written)."""
 
     def patch():
         import hertzian.sweeping.distributed as distributed
@@ -146,6 +147,9 @@ def _fail_batch(index: int, how: str):
 
         def failing(job, *args, **kwargs):
             if job.batch.index == index:
+                if how == "written, then exit":
+                    run_job(job, *args, **kwargs)
+                    os._exit(1)
                 if how == "exit":
                     os._exit(1)
                 raise RuntimeError("Warp CUDA error 2: out of memory\n(while launching the step kernel)")
@@ -167,14 +171,13 @@ def _one_line_failure(result, batches: str) -> str:
 
 def test_a_failing_batch_is_one_line_and_the_store_resumes(tmp_path):
     import dask
+    from distributed import Client  # before dask.config.set: leaving it must not drop distributed's defaults
 
     path = write_sweep(tmp_path, speeds=3, duration=0.05)  # 6 batches of one point
     sweep(path, tmp_path / "serial.zarr", "--batch-size", "1")
     store = tmp_path / "failed.zarr"
     flags = ("--device", "cpu", "--quiet", "--batch-size", "1", "--scheduler")
     with dask.config.set({"distributed.scheduler.allowed-failures": 0}), local_cluster(2, gpus=[]) as cluster:
-        from distributed import Client
-
         with Client(cluster) as client:  # closed before the sweep: its own client runs in this process
             client.run(_fail_batch(2, "raise"))
         text = _one_line_failure(sweep_cli(path, "--out", store, *flags, cluster.scheduler_address), "2")
@@ -190,6 +193,25 @@ def test_a_failing_batch_is_one_line_and_the_store_resumes(tmp_path):
         assert {4, named}.isdisjoint(completed_batches(tmp_path / "k.zarr"))
     assert completed_batches(store) == {0, 1, 3, 4, 5}
     sweep(path, store, "--batch-size", "1", "--resume")
+    assert differing_arrays(store, tmp_path / "serial.zarr") == []
+
+
+def test_a_worker_dying_after_writing_its_batch_loses_nothing(tmp_path):
+    """The worker of the last batch dies once that batch is written, before Dask has its small result: the sweep
+    counts the batch as done (its completion flag is set) and ends well, its store equal to a serial one."""
+    import dask
+    from distributed import Client  # before dask.config.set: leaving it must not drop distributed's defaults
+
+    path = write_sweep(tmp_path, speeds=3, duration=0.05)  # 6 batches of one point
+    sweep(path, tmp_path / "serial.zarr", "--batch-size", "1")
+    store = tmp_path / "late.zarr"
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}), local_cluster(2, gpus=[]) as cluster:
+        with Client(cluster) as client:
+            client.run(_fail_batch(5, "written, then exit"))
+        flags = ("--device", "cpu", "--quiet", "--batch-size", "1", "--scheduler", cluster.scheduler_address)
+        result = sweep_cli(path, "--out", store, *flags)
+    assert result.exit_code == 0, result.output
+    assert completed_batches(store) == set(range(6))
     assert differing_arrays(store, tmp_path / "serial.zarr") == []
 
 
