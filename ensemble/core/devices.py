@@ -14,6 +14,7 @@ import hashlib
 import os
 import sys
 import threading
+import time
 from pathlib import Path
 
 import warp as wp
@@ -126,6 +127,7 @@ def prime_precompiled_header() -> None:
     global _header_primer
     if _header_folder is None or _header_primer is not None or any(_header_folder.glob(f"*_bd{CPU_BLOCK}_*.pch")):
         return
+    _remove_abandoned_headers(_header_folder)
 
     def build() -> None:
         from hertzian.kernels.primer import header_primer
@@ -138,6 +140,16 @@ def prime_precompiled_header() -> None:
 
     _header_primer = threading.Thread(target=build, name="hertzian-header-primer", daemon=True)
     _header_primer.start()
+
+
+def _remove_abandoned_headers(folder: Path, age: float = 60.0) -> None:
+    """Delete clang's temporary header files in ``folder`` older than ``age`` seconds: a process that ended while
+    its header was being built (a header takes about a second) leaves its empty temporary file behind."""
+    now = time.time()
+    for tmp in folder.glob("*.pch.tmp"):
+        with contextlib.suppress(OSError):  # another process removed or renamed it
+            if now - tmp.stat().st_mtime > age:
+                tmp.unlink()
 
 
 CPU_BLOCK = 1

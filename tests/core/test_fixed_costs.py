@@ -294,3 +294,18 @@ def test_cpu_compiles_on_an_empty_cache_wait_for_one_precompiled_header(tmp_path
     others = [has for name, has in seen if name != "hertzian-header-primer"]
     assert primer == [False] and others == [True, True, True], seen
     assert len(list(cache.rglob("*.pch"))) == 1
+
+
+def test_an_abandoned_temporary_header_is_removed_and_a_fresh_one_kept(tmp_path):
+    """A process that ended while building the header leaves clang's empty temporary file; the next primer removes
+    those older than a minute, and never one another process may still be writing."""
+    from hertzian.core.devices import _remove_abandoned_headers
+
+    old, fresh = tmp_path / "builtin_bd1_x-1.pch.tmp", tmp_path / "builtin_bd1_x-2.pch.tmp"
+    header = tmp_path / "builtin_bd1_x.pch"
+    for path in (old, fresh, header):
+        path.write_bytes(b"")
+    os.utime(old, (0, 0))
+    os.utime(header, (0, 0))
+    _remove_abandoned_headers(tmp_path)
+    assert not old.exists() and fresh.exists() and header.exists()
