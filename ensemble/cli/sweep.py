@@ -129,6 +129,20 @@ SchedulerOption = Annotated[
     typer.Option("--scheduler", help="Run batches on an existing Dask cluster, e.g. tcp://host:8786."),
 ]
 
+TlsCaOption = Annotated[
+    Optional[Path],
+    typer.Option("--tls-ca-file", help="With --scheduler tls://…: the CA certificate (PEM) that signed the cluster's."),
+]
+
+TlsCertOption = Annotated[
+    Optional[Path], typer.Option("--tls-cert", help="With --scheduler tls://…: this client's certificate (PEM).")
+]
+
+TlsKeyOption = Annotated[
+    Optional[Path],
+    typer.Option("--tls-key", help="With --scheduler tls://…: this client's private key (PEM; omit if in --tls-cert)."),
+]
+
 QuietOption = Annotated[bool, typer.Option("--quiet", help="No progress bar.")]
 
 StrictOption = Annotated[
@@ -178,6 +192,9 @@ def sweep(
     allow_large: AllowLargeOption = False,
     kernel: KernelOption = "auto",
     error_estimate: ErrorEstimateOption = False,
+    tls_ca_file: TlsCaOption = None,
+    tls_cert: TlsCertOption = None,
+    tls_key: TlsKeyOption = None,
 ):
     """Run a parameter sweep as batched ensembles into one Zarr store with one dimension per axis.
 
@@ -204,6 +221,7 @@ def sweep(
             strict=strict,
             dry_run=dry_run,
             notify=notify,
+            tls=tls_files(tls_ca_file, tls_cert, tls_key),
         )
     if dry_run:
         typer.echo(describe(prepared.plan, prepared.definition), err=as_json)
@@ -231,6 +249,21 @@ def sweep(
     typer.echo(f"wrote {prepared.out}", err=as_json)
     if as_json:
         typer.echo(json.dumps(result, indent=1))
+
+
+def tls_files(ca_file: Path | None, cert: Path | None, key: Path | None):
+    """The TLS files of ``--tls-ca-file``/``--tls-cert``/``--tls-key`` (None when none is given; the CA file and
+    the certificate go together)."""
+    if ca_file is None and cert is None and key is None:
+        return None
+    from hertzian.core.errors import OptionError
+    from hertzian.sweeping.distributed import TlsFiles
+
+    with one_line_errors():
+        if ca_file is None or cert is None:
+            missing = "tls_ca_file" if ca_file is None else "tls_cert"
+            raise OptionError(missing, None, "TLS needs both --tls-ca-file and --tls-cert (and --tls-key)")
+    return TlsFiles(str(ca_file), str(cert), None if key is None else str(key))
 
 
 def report(result: dict, *, resumed: bool) -> str:

@@ -367,6 +367,10 @@ def cuda_visible_devices(index: int, gpus: list[str]) -> str:
     return ",".join(gpus[start:] + gpus[:start])
 
 
+LOOPBACK = "127.0.0.1"
+"""The only address a local cluster (:func:`local_cluster`) listens on."""
+
+
 def worker_specs(workers: int, gpus: list[str], *, memory_limit: int | None = None) -> dict[int, dict]:
     """``SpecCluster`` worker specs of ``workers`` Nanny processes named 0 … workers-1: one thread each, host
     memory split evenly (``memory_limit`` bytes each; default: the host's memory / workers), the package
@@ -380,6 +384,7 @@ def worker_specs(workers: int, gpus: list[str], *, memory_limit: int | None = No
         options = {
             "nthreads": 1,
             "name": index,
+            "host": LOOPBACK,  # the nanny, its worker and the worker's HTTP server: this host only
             "memory_limit": limit,
             "preload": [__name__],
             "silence_logs": logging.ERROR,
@@ -396,7 +401,10 @@ def local_cluster(workers: int, gpus: list[str] | None = None):
     from distributed import Scheduler, SpecCluster
 
     gpus = visible_gpus() if gpus is None else gpus
-    scheduler = {"cls": Scheduler, "options": {"dashboard_address": ":0", "dashboard": False}}
+    # the scheduler and its HTTP server (which Dask starts even with the dashboard off) on loopback only: a
+    # listener on every interface would let any host on the network run code in the workers
+    options = {"host": LOOPBACK, "dashboard_address": f"{LOOPBACK}:0", "dashboard": False}
+    scheduler = {"cls": Scheduler, "options": options}
     return SpecCluster(
         workers=worker_specs(workers, gpus), scheduler=scheduler, silence_logs=logging.ERROR, name="hertzian"
     )
@@ -406,11 +414,55 @@ class ClusterError(ValueError):
     """A cluster that cannot be reached (one line: the address and why)."""
 
 
+@dataclass(frozen=True)
+class TlsFiles:
+    """PEM files of a TLS connection to a scheduler (``--tls-ca-file``, ``--tls-cert``, ``--tls-key``): the
+    certificate authority that signed the cluster's certificates, and this client's certificate and key."""
+
+    ca_file: str
+    cert: str
+    key: str | None = None
+    """The client's key; None when it is appended to ``cert``."""
+
+
+def client_security(scheduler: str, tls: TlsFiles | None):
+    """The ``distributed.security.Security`` of a client of ``scheduler``: None for ``tcp://`` (refused with
+    ``tls``); for ``tls://``, from ``tls`` or else from the Dask config (``distributed.comm.tls.ca-file``,
+    ``.client.cert``, ``.client.key``). Raises :class:`ClusterError` (one line) when TLS has no certificates."""
+    from distributed.security import Security
+
+    if not scheduler.startswith("tls://"):
+        if tls is not None:
+            raise ClusterError(f"TLS files were given but {scheduler} is not a tls:// address")
+        return None
+    if tls is not None:
+        for name, value in (("tls_ca_file", tls.ca_file), ("tls_cert", tls.cert), ("tls_key", tls.key)):
+            if value is not None and not Path(value).is_file():
+                raise ClusterError(f"{name} = {value!r}: no such file")
+        return Security(
+            tls_ca_file=tls.ca_file, tls_client_cert=tls.cert, tls_client_key=tls.key, require_encryption=True
+        )
+    security = Security()
+    if not (security.tls_ca_file and security.tls_client_cert):
+        raise ClusterError(
+            "a tls:// scheduler needs certificates: --tls-ca-file and --tls-cert (and --tls-key), or "
+            "distributed.comm.tls.ca-file and distributed.comm.tls.client.cert in the Dask config"
+        )
+    return security
+
+
 class ClusterStart:
     """The workers of a sweep: a local cluster starting in a background thread (``workers``), or an existing
     one reached at ``scheduler``. ``worker_count`` is known at once; :meth:`client` waits for the start."""
 
-    def __init__(self, workers: int | None = None, scheduler: str | None = None, *, gpus: list[str] | None = None):
+    def __init__(
+        self,
+        workers: int | None = None,
+        scheduler: str | None = None,
+        *,
+        gpus: list[str] | None = None,
+        tls: TlsFiles | None = None,
+    ):
         from concurrent.futures import ThreadPoolExecutor
 
         self._client = self._cluster = None
@@ -418,9 +470,10 @@ class ClusterStart:
         if scheduler is not None:
             from distributed import Client
 
+            security = client_security(scheduler, tls)
             try:
-                self._client = Client(scheduler, timeout="15s")
-            except (OSError, TimeoutError, ValueError) as err:
+                self._client = Client(scheduler, timeout="15s", security=security)
+            except (OSError, TimeoutError, ValueError, TypeError) as err:
                 raise ClusterError(f"cannot connect ({type(err).__name__}: {err})") from None
             self.worker_count = max(1, len(self._client.scheduler_info(n_workers=-1)["workers"]))
             return

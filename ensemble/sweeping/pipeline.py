@@ -78,8 +78,10 @@ class PreparedSweep:
     plans; :func:`run_sweep` closes them."""
 
 
-def check_options(*, batch_size, workers, scheduler, resume, overwrite, kernel) -> None:
+def check_options(*, batch_size, workers, scheduler, resume, overwrite, kernel, tls=None) -> None:
     """Refuse arguments that cannot work together, before anything is read."""
+    if tls is not None and not str(scheduler or "").startswith("tls://"):
+        raise OptionError("tls_ca_file", tls.ca_file, "TLS files apply to a scheduler given as tls://HOST:PORT")
     if batch_size is not None and batch_size < 1:
         raise OptionError("batch_size", batch_size, "must be ≥ 1")
     if workers is not None and workers < 1:
@@ -152,17 +154,25 @@ def prepare_sweep(
     strict: bool = False,
     dry_run: bool = False,
     notify: Callable[[str], None] | None = None,
+    tls: Any = None,
 ) -> PreparedSweep:
     """Load, expand, check and plan a sweep; writes nothing. ``out`` defaults to the sweep's name with ``.zarr`` in
-    the current directory; ``strict`` refuses a dt that looks unstable at a corner of the grid (else a warning)."""
+    the current directory; ``strict`` refuses a dt that looks unstable at a corner of the grid (else a warning);
+    ``tls`` (``hertzian.sweeping.distributed.TlsFiles``) secures the connection to a ``tls://`` scheduler."""
     notify = notify or _warn
     check_options(
-        batch_size=batch_size, workers=workers, scheduler=scheduler, resume=resume, overwrite=overwrite, kernel=kernel
+        batch_size=batch_size,
+        workers=workers,
+        scheduler=scheduler,
+        resume=resume,
+        overwrite=overwrite,
+        kernel=kernel,
+        tls=tls,
     )
     timing: dict[str, float] = {}
     # the workers start in the background first: their start (process spawn, imports, the CUDA driver) is the
     # longest fixed cost of a distributed sweep; this process loads, checks and plans meanwhile
-    cluster = None if dry_run else _start_cluster(workers, scheduler, device)
+    cluster = None if dry_run else _start_cluster(workers, scheduler, device, tls)
     try:
         definition, points = _checked_points(sweep, overrides, allow_large, strict, notify, timing)
         out = Path(out) if out is not None else Path(Path(str(definition.source or "sweep")).stem + ".zarr")
@@ -302,7 +312,7 @@ class CallbackProgress(SweepProgress):
         self.callback(self.done_batches, self.total_batches)
 
 
-def _start_cluster(workers: int | None, scheduler: str | None, device: str | None):
+def _start_cluster(workers: int | None, scheduler: str | None, device: str | None, tls=None):
     """The workers of ``workers`` (a local cluster, one GPU each, starting in the background) or ``scheduler``
     (an existing cluster; a bad address is an OptionError); None for a serial sweep."""
     if workers is None and scheduler is None:
@@ -311,7 +321,7 @@ def _start_cluster(workers: int | None, scheduler: str | None, device: str | Non
     from hertzian.sweeping.distributed import ClusterError, ClusterStart
 
     try:  # --device cpu or an explicit cuda:N: workers share what they are told, no GPU of their own
-        return ClusterStart(workers, scheduler, gpus=None if device in (None, "cuda") else [])
+        return ClusterStart(workers, scheduler, gpus=None if device in (None, "cuda") else [], tls=tls)
     except ClusterError as err:
         raise OptionError("scheduler", scheduler, str(err)) from None
 
