@@ -17,9 +17,11 @@ from hertzian.cli.app import (
     PrecisionOption,
     SetOption,
     app,
+    check_store_out,
     check_timeline_path,
     fail,
     load_scene_or_fail,
+    one_line_errors,
     resolve_device,
 )
 from hertzian.core import timeline
@@ -77,10 +79,7 @@ def run(
         fail(unsafe)
     if unsafe:
         typer.echo(f"warning: {unsafe}", err=True)
-    if out.exists() and not overwrite:
-        fail(f"--out = {str(out)!r}: exists; choose another path or pass --overwrite")
-    if not out.parent.exists():
-        fail(f"--out = {str(out)!r}: parent directory does not exist")
+    check_store_out(out, overwrite=overwrite)
     timeline.mark("scene_loaded")
     dev = resolve_device(device)
     open_device(dev)
@@ -116,7 +115,8 @@ def run(
     from hertzian.sweeping.sweep_store import write_result
 
     timeline.mark("store_imported")
-    write_result(out, result, overwrite=overwrite)
+    with one_line_errors():
+        write_result(out, result, overwrite=overwrite)
     timeline.mark("store_written")
     typer.echo(_summary(loaded, result, runner.solver.describe()))
     typer.echo(f"wrote {out}")
@@ -125,17 +125,14 @@ def run(
 def _run_to_tolerance(scene, device: str, kernel: str, out: Path, *, overwrite: bool) -> None:
     """integrator.tolerance: pilot runs choose method and dt (:func:`meet_tolerance`); the chosen run is stored with
     the choice in the store's attributes."""
-    import zarr
     from hertzian.core.error_estimate import meet_tolerance
     from hertzian.core.model import build_model
     from hertzian.core.runner import Runner
-    from hertzian.sweeping.store import consolidate
     from hertzian.sweeping.sweep_store import write_result
 
     choice = meet_tolerance([scene], lambda chosen: Runner(build_model(chosen, device), kernel=kernel).run())
-    write_result(out, choice.result, overwrite=overwrite)
-    zarr.open_group(str(out), mode="r+").attrs.update(choice.attrs())
-    consolidate(out)
+    with one_line_errors():
+        write_result(out, choice.result, overwrite=overwrite, attributes=choice.attrs())
     chosen = choice.result.scenes[0].integrator
     typer.echo(
         f"tolerance {chosen.tolerance or scene.integrator.tolerance:g}: {chosen.method} events {chosen.events} "

@@ -41,7 +41,14 @@ from hertzian.sweeping.distributed import (
 )
 from hertzian.sweeping.planner import Plan, plan_sweep
 from hertzian.sweeping.spec import MAX_POINTS, Sweep, SweepPoints, expand, load_sweep
-from hertzian.sweeping.storage import NoRoomError, StoreLockedError
+from hertzian.sweeping.storage import (
+    NoRoomError,
+    NotReplaceableError,
+    StoreLockedError,
+    check_replaceable,
+    check_writable_folder,
+    resolved_link,
+)
 from hertzian.sweeping.sweep_store import (
     SweepStoreError,
     batch_records,
@@ -134,8 +141,14 @@ def check_out(out: Path, *, resume: bool, overwrite: bool) -> None:
     """Refuse a store path that exists (unless resuming or replacing it) or whose folder does not."""
     if out.exists() and not (resume or overwrite):
         raise OptionError("out", str(out), "exists; resume to continue it or overwrite to replace it")
-    if not out.parent.exists():
-        raise OptionError("out", str(out), "parent directory does not exist")
+    why = check_writable_folder(out)
+    if why:
+        raise OptionError("out", str(out), why)
+    if overwrite and (out.exists() or out.is_symlink()):
+        try:
+            check_replaceable(out)
+        except NotReplaceableError as err:
+            raise OptionError("out", str(out), str(err)) from None
 
 
 def prepare_sweep(
@@ -175,7 +188,7 @@ def prepare_sweep(
     cluster = None if dry_run else _start_cluster(workers, scheduler, device, tls)
     try:
         definition, points = _checked_points(sweep, overrides, allow_large, strict, notify, timing)
-        out = Path(out) if out is not None else Path(Path(str(definition.source or "sweep")).stem + ".zarr")
+        out = resolved_link(out if out is not None else Path(str(definition.source or "sweep")).stem + ".zarr")
         if not dry_run:
             check_out(out, resume=resume, overwrite=overwrite)
         dev = check_device(device)

@@ -18,7 +18,7 @@ import os
 import shutil
 from pathlib import Path
 
-from hertzian.sweeping.planner import format_bytes
+from hertzian.core.errors import RefusedError
 
 
 class StorageError(OSError):
@@ -42,8 +42,8 @@ class NoRoomError(StorageError):
     """The store's estimate exceeds the free space: the sweep is refused before anything is written."""
 
 
-class StoreLockedError(RuntimeError):
-    """Another process is writing into this store."""
+class StoreLockedError(RefusedError):
+    """Another process is writing into this store (one line)."""
 
 
 NO_ROOM = "checking free space"
@@ -72,6 +72,8 @@ def free_bytes(path: str | Path) -> int | None:
 
 def fault_line(code: int, action: str, where: str | Path, need: int | None = None) -> str:
     """One line for a failed store write: ``action`` (what failed) at ``where``, why, free space, what to do."""
+    from hertzian.sweeping.planner import format_bytes  # planner imports Warp: only once a write has failed
+
     free = free_bytes(where)
     free_text = f"; {format_bytes(free)} free there" if free is not None else ""
     need_text = f"about {format_bytes(need)}" if need else "its plan's estimate (hertzian sweep --dry-run)"
@@ -139,3 +141,89 @@ def store_lock(path: str | Path):
         with contextlib.suppress(OSError):
             os.unlink(target)
         os.close(fd)
+
+
+PROJECT = "hertzian"
+"""The ``project`` attribute of every store's root group: what ``--overwrite`` checks before it deletes."""
+
+
+class NotReplaceableError(RefusedError):
+    """``--overwrite`` pointed at something that is not a hertzian store (one line: what it is and why)."""
+
+
+def _protected(path: Path) -> str | None:
+    """Why ``path`` (resolved) may never be replaced: the filesystem root, the home folder, the current folder,
+    or a folder holding one of those; else None."""
+    for name, folder in (("the current folder", Path.cwd()), ("the home folder", Path.home()), ("/", Path("/"))):
+        folder = folder.resolve()
+        if path == folder:
+            return f"is {name}"
+        if path in folder.parents:
+            return f"holds {name}"
+    return None
+
+
+def _store_entries(path: Path) -> set[str] | None:
+    """The top-level names a hertzian store at ``path`` may hold (its root metadata's arrays and groups, the
+    metadata files), or None if ``path/zarr.json`` is not a hertzian store's root metadata."""
+    import json
+
+    try:
+        meta = json.loads((path / "zarr.json").read_text())
+    except (OSError, ValueError):
+        return None
+    attrs = meta.get("attributes", {}) if isinstance(meta, dict) else {}
+    if not isinstance(attrs, dict) or attrs.get("project") != PROJECT or "schema_version" not in attrs:
+        return None
+    consolidated = meta.get("consolidated_metadata") or {}
+    members = consolidated.get("metadata", {}) if isinstance(consolidated, dict) else {}
+    nodes = {p.name for p in path.iterdir() if (p / "zarr.json").is_file()}  # arrays and groups, consolidated or not
+    return {"zarr.json", MANIFEST} | nodes | {str(name).split("/")[0] for name in members}
+
+
+MANIFEST = "manifest.json"
+"""File of a store's root that lists the checksums of its metadata and its chunk files (``integrity``)."""
+
+
+def check_replaceable(path: str | Path) -> Path:
+    """The resolved path of a store that ``--overwrite`` may delete, or :class:`NotReplaceableError` (one line).
+
+    Replaceable: a folder (``.``, ``..`` and symlinks resolved) whose root metadata names this project and its
+    schema, holding nothing its metadata does not name; never the filesystem root, the home or the current
+    folder, nor a folder that holds one of them."""
+    target = Path(path).resolve()
+    why = _protected(target)
+    if why is None and not target.is_dir():
+        why = "is not a folder (a hertzian store is one)"
+    entries = None if why else _store_entries(target)
+    if why is None and entries is None:
+        why = "is not a hertzian store (its zarr.json does not name the project); delete it yourself if you mean to"
+    if why is None:
+        stray = sorted({p.name for p in target.iterdir()} - entries)
+        if stray:
+            why = f"holds files a hertzian store does not ({', '.join(stray[:3])}); delete it yourself if you mean to"
+    if why:
+        raise NotReplaceableError(f"{target} {why}; --overwrite replaces only a store hertzian wrote")
+    return target
+
+
+def resolved_link(path: str | Path) -> Path:
+    """``path``, or the folder it links to when it is a symlink (a store is replaced where it lives, and locked
+    there whatever name a writer gives it)."""
+    path = Path(path)
+    return path.resolve() if path.is_symlink() else path
+
+
+def check_writable_folder(path: str | Path) -> str | None:
+    """Why a store or file cannot be written at ``path`` (its folder missing or not writable), else None."""
+    import tempfile
+
+    folder = Path(path).absolute().parent
+    if not folder.is_dir():
+        return "parent directory does not exist"
+    try:
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as err:
+        return f"its folder is not writable ({os.strerror(err.errno) if err.errno else err})"
+    return None

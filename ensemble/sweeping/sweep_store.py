@@ -55,7 +55,10 @@ from hertzian.sweeping.integrity import BATCHES, Verification, finished_batches,
 from hertzian.sweeping.planner import Batch, Plan, single_batch_plan
 from hertzian.sweeping.spec import RESERVED_NAMES, Axis, Dimension, Sweep, record_times, trace_times
 from hertzian.sweeping.storage import (
+    PROJECT,
     StorageError,
+    check_replaceable,
+    resolved_link,
     check_free_space,
     check_store_present,
     storage_faults,
@@ -512,6 +515,7 @@ def _create_batches_group(root, count: int) -> None:
 
 def _store_attributes(sweep: Sweep, plan: Plan, device: str) -> dict[str, Any]:
     return {
+        "project": PROJECT,
         "schema_version": SCHEMA_VERSION,
         "scene": json.dumps(sweep.base.to_dict()),
         "scenes_differ_along": list(sweep.dims),
@@ -540,9 +544,11 @@ def create_sweep_store(
     ``scene``: any point's scene (they share the layout), e.g. ``SweepPoints.templates[0]``;
     ``attributes`` are added to the root group's. A failed write raises :class:`StorageError` (one line).
     """
-    path = Path(path)
+    path = resolved_link(path)
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path} exists")
+    if path.exists():
+        check_replaceable(path)
     if not isinstance(scene, Scene):
         scene = scene[0]
     with storage_faults("creating the store", path):
@@ -1050,6 +1056,7 @@ def write_result(
     axes: dict[str, np.ndarray] | None = None,
     sweep: dict | None = None,
     overwrite: bool = False,
+    attributes: dict[str, Any] | None = None,
 ) -> Path:
     """Write a run (or an ensemble shaped by ``axes``: name → coordinate values, C order) as a Zarr v3
     store, through the sweep store's writer: a run is a sweep with no axes, one batch.
@@ -1057,9 +1064,12 @@ def write_result(
     Scenes that differ between points are kept: the ``scene`` attribute holds the first point's,
     ``scene_overrides`` (JSON) every differing dotted key's value at every point, and an axis whose
     values are exactly one differing key's gets that key as its ``scene_key``. ``sweep`` (plain
-    data) is stored as the ``sweep`` attribute when given.
+    data) is stored as the ``sweep`` attribute when given, ``attributes`` are added to the root group's.
+
+    Holds the store's lock while it writes; ``overwrite`` replaces only a hertzian store
+    (``storage.check_replaceable``).
     """
-    path = Path(path)
+    path = resolved_link(path)
     axes = {name: np.asarray(values) for name, values in (axes or {}).items()}
     shape = tuple(len(v) for v in axes.values())
     if int(np.prod(shape)) != result.chain_count:
@@ -1069,6 +1079,14 @@ def write_result(
         raise ValueError(f"axis names {clash} are store variable names; choose others")
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path} exists (pass --overwrite to replace it)")
+    with store_lock(path):
+        if path.exists():
+            check_replaceable(path)
+        return _write_result(path, result, axes, shape, sweep, attributes)
+
+
+def _write_result(path: Path, result, axes: dict, shape: tuple, sweep: dict | None, extra: dict | None) -> Path:
+    """:func:`write_result` once the store's lock is held and a store it replaces is known to be one."""
     scenes = result.scenes
     scene = scenes[0]
     if isinstance(scenes, ChainSet):  # differences straight from the per-chain arrays
@@ -1089,7 +1107,7 @@ def write_result(
     )
     definition = Sweep(base=scene, dimensions=dimensions)
     plan = single_batch_plan(shape, scene, result.features, result.device)
-    attributes = {"scene_overrides": json.dumps(differences)}
+    attributes = {"scene_overrides": json.dumps(differences), **(extra or {})}
     if sweep is not None:
         attributes["sweep"] = json.dumps(sweep)
     tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent if path.parent.exists() else None))
