@@ -57,10 +57,10 @@ from hertzian.sweeping.spec import RESERVED_NAMES, Axis, Dimension, Sweep, recor
 from hertzian.sweeping.storage import (
     PROJECT,
     StorageError,
-    check_replaceable,
-    resolved_link,
     check_free_space,
+    check_replaceable,
     check_store_present,
+    resolved_link,
     storage_faults,
     store_lock,
 )

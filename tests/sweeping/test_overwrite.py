@@ -127,4 +127,6 @@ def test_a_store_being_written_is_not_replaced(tmp_path, scene, store):
 def test_a_folder_that_cannot_be_written_is_refused_before_the_run(tmp_path, scene):
     # /sys refuses new files to every user, root included (a chmod'ed folder would not stop root)
     one_line(invoke("run", scene, "--out", "/sys/x.zarr", "--device", "cpu"), "not writable")
-    one_line(invoke("sweep", write_sweep(tmp_path, GRID_SWEEP), "--out", "/sys/x.zarr", "--device", "cpu"), "not writable")
+    one_line(
+        invoke("sweep", write_sweep(tmp_path, GRID_SWEEP), "--out", "/sys/x.zarr", "--device", "cpu"), "not writable"
+    )
