@@ -14,12 +14,15 @@ def verify(store: Annotated[Path, typer.Argument(help="A store written by run or
     """Read every chunk (each carries a CRC-32C) and print one line per damaged one: variable, sweep point(s) by
     coordinate, batch. Exit 0 if none is damaged, 1 otherwise; ``sweep --resume`` reruns the damaged batches."""
     from hertzian.sweeping.integrity import damage_lines, verify_store
+    from hertzian.sweeping.manifest import is_project_store
     from hertzian.sweeping.store import open_store, unchecked_note
     from hertzian.sweeping.store_format import DAMAGED_EXIT_CODE
 
+    note = None
     try:
-        open_store(store)
-        note = unchecked_note(store)
+        if not is_project_store(store):  # a store from before manifests, or not a hertzian store at all
+            open_store(store, check=False)
+            note = unchecked_note(store)
         verification = verify_store(store)
     except (FileNotFoundError, ValueError, KeyError) as err:
         fail(f"store = {str(store)!r}: {err}")

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import zarr
+from hertzian.sweeping.manifest import ManifestError, file_damage, fixed_array_names, is_project_store, read_manifest
+from hertzian.sweeping.storage import MANIFEST
 from hertzian.sweeping.store_format import DAMAGE_ERRORS, has_checksums
 
 BATCHES = "batches"
@@ -60,6 +62,8 @@ class _Layout:
     done: frozenset[int]
     coordinates: dict = field(default_factory=dict)
     """Sweep dimension → [(axis name, values)]."""
+    fixed: frozenset[str] = frozenset()
+    """Arrays written at creation (coordinates, ``launch_group``): no batch owns their chunks."""
 
     def batches_of(self, region: tuple[tuple[int, int], ...]) -> tuple[int, ...]:
         if not self.dims:
@@ -91,7 +95,8 @@ def _layout(root, done: set[int]) -> _Layout:
         except DAMAGE_ERRORS:
             values = None
         coordinates.setdefault(spec["dim"], []).append((name, values))
-    return _Layout(dims, tuple(status.shape), block, frozenset(done), coordinates)
+    fixed = frozenset(fixed_array_names(attrs))
+    return _Layout(dims, tuple(status.shape), block, frozenset(done), coordinates, fixed)
 
 
 def finished_batches(root, verification: Verification | None = None) -> set[int]:
@@ -139,13 +144,14 @@ def _read(arr, region) -> str | None:
     return None
 
 
-def _check_array(path: Path, arr, name: str, layout: _Layout, verification: Verification) -> None:
-    """Read ``arr`` shard by shard (chunk by chunk where it has no shards); in a shard that fails, every inner
-    chunk, so that the damage is named as closely as the layout allows."""
+def _check_array(path: Path, arr, name: str, layout: _Layout, verification: Verification, *, read: bool) -> None:
+    """Check ``arr`` shard by shard (chunk by chunk where it has no shards): a finished batch's chunk file must exist,
+    and with ``read`` each must read (checksums verified); in a shard that fails, every inner chunk, so that the
+    damage is named as closely as the layout allows."""
     dims = tuple(arr.metadata.dimension_names or ())
     sweep_dims = len(layout.dims) if dims[: len(layout.dims)] == layout.dims and layout.dims else 0
     batch_rows = name.startswith(f"{BATCHES}/") and name != f"{BATCHES}/done"
-    by_batch = (sweep_dims or batch_rows) and name != "launch_group" and name.split("/")[-1] not in layout.coordinates
+    by_batch = batch_rows or name not in layout.fixed  # a run's data arrays belong to its one batch
     outer = arr.shards or arr.chunks
     for region in _blocks(arr.shape, outer):
         verification.chunks += 1
@@ -155,7 +161,7 @@ def _check_array(path: Path, arr, name: str, layout: _Layout, verification: Veri
         if by_batch and set(batches) <= layout.done and not (path / arr.path / key).exists():
             verification.damage.append(Damage(name, sweep_region, batches, "missing: a finished batch's chunk file"))
             continue
-        if _read(arr, region) is None:
+        if not read or _read(arr, region) is None:
             continue
         inner_blocks = list(_blocks(tuple(z - a for a, z in region), arr.chunks)) if arr.shards else [None]
         for inner in inner_blocks:
@@ -166,29 +172,66 @@ def _check_array(path: Path, arr, name: str, layout: _Layout, verification: Veri
                 verification.damage.append(Damage(name, part[:sweep_dims], part_batches, reason))
 
 
-def verify_store(path: str | Path) -> Verification:
-    """Read every chunk of the store at ``path`` (checksums verified) and list the damaged ones."""
+def _check_files(path: Path, verification: Verification) -> frozenset[int]:
+    """The manifest's check of the metadata and fixed arrays' files (a damaged one is added to ``verification``);
+    returns the batches the manifest names finished. A store from before manifests gets a note in ``unchecked``."""
+    try:
+        manifest = read_manifest(path)
+    except ManifestError as err:
+        if is_project_store(path):
+            verification.damage.append(Damage(MANIFEST, (), (), str(err)))
+        else:
+            verification.unchecked.append(MANIFEST)
+        return frozenset()
+    for rel, reason in file_damage(path, manifest):
+        verification.damage.append(Damage(rel, (), (), reason))
+    return manifest.finished
+
+
+def verify_store(path: str | Path, *, read: bool = True) -> Verification:
+    """Check the store at ``path``: its metadata and coordinates against the manifest, every chunk file a finished
+    batch owns, and (``read``) every chunk's checksum; list what is damaged. ``read=False`` checks files only, as
+    the readers do before they open a store."""
     path = Path(path)
-    root = zarr.open_group(store=str(path), mode="r")
     verification = Verification()
-    layout = _layout(root, finished_batches(root, verification))
+    finished = _check_files(path, verification)
+    metadata_damage = {d.variable.removesuffix("zarr.json").rstrip("/") for d in verification.damage}
+    if "" in metadata_damage:
+        return verification  # the root metadata is damaged: zarr would read the store wrongly
+    try:
+        root = zarr.open_group(store=str(path), mode="r")
+        flagged = finished_batches(root, verification)
+    except Exception as err:  # noqa: BLE001 - any unreadable root is damage, named in one line
+        verification.damage.append(Damage("zarr.json", (), (), f"unreadable ({type(err).__name__})"))
+        return verification
+    for index in sorted(finished - flagged):
+        reason = "missing: the flag of a batch that was finished when the store was finalized"
+        verification.damage.append(Damage(f"{BATCHES}/done", (), (index,), reason))
+    layout = _layout(root, flagged | finished)
     arrays = [(name, arr) for name, arr in root.arrays()]
     if BATCHES in root:
         arrays += [(f"{BATCHES}/{name}", arr) for name, arr in root[BATCHES].arrays() if name != "done"]
     for name, arr in arrays:
+        if name in metadata_damage:
+            continue  # named already; its chunks are rewritten with it
         if not has_checksums(arr):
             verification.unchecked.append(name)
-        _check_array(path, arr, name, layout, verification)
+        _check_array(path, arr, name, layout, verification, read=read)
     return verification
 
 
 def damage_lines(path: str | Path, verification: Verification) -> list[str]:
-    """One line per damaged chunk: variable, points (sweep coordinates), batches, reason."""
-    root = zarr.open_group(store=str(path), mode="r")
-    layout = _layout(root, set())
+    """One line per damaged chunk or file: variable (or file), points (sweep coordinates), batches, reason."""
+    try:
+        layout = _layout(zarr.open_group(store=str(path), mode="r"), set())
+    except Exception:  # noqa: BLE001 - a damaged root: points are named by index
+        layout = _Layout((), (), (), frozenset())
     lines = []
     for d in verification.damage:
         batches = f"; batch {', '.join(map(str, d.batches[:8]))}" + ("…" if len(d.batches) > 8 else "")
+        if not d.batches and not d.region:
+            lines.append(f"{d.variable}: {d.reason}")
+            continue
         where = layout.describe(d.region) if d.region or not d.variable.startswith(BATCHES) else "its row"
         lines.append(f"{d.variable}: {where}{batches if d.batches else ''}: {d.reason}")
     return lines

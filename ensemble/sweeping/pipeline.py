@@ -356,12 +356,17 @@ def run_sweep(
     ``StorageError`` (one line) and leaves the store as of its last completed batch."""
     p, notify = prepared, notify or _warn
     try:
-        with writing_session(p.out, p.definition, p.points.templates[0], p.plan, resuming=p.resuming) as notes:
+        session = writing_session(
+            p.out, p.definition, p.points.templates[0], p.plan, resuming=p.resuming, device=label_of(p)
+        )
+        with session as notes:
             for line in notes:
                 notify(line)
             return _run_pending(p, progress or SweepProgress(), notify, on_result)
     except (StoreLockedError, NoRoomError) as err:
         raise OptionError("out", str(p.out), str(err)) from None
+    except SweepStoreError as err:  # damage that --resume cannot repair
+        raise OptionError("resume", str(p.out), str(err)) from None
     finally:
         if p.cluster is not None:
             p.cluster.close()

@@ -35,12 +35,33 @@ __all__ = [
 ]
 
 
-def open_store(path: str | Path):
-    """Open a store's root group read-only (clear error if it is not a hertzian store)."""
+def check_intact(path: str | Path) -> None:
+    """Raise :class:`StoreDamagedError` (one line) if the store's metadata or coordinates differ from its manifest,
+    or a chunk file of a finished batch is missing (what would read back as fill values, silently). Chunk bytes are
+    not read here: zarr checks each chunk's CRC-32C as it reads it."""
+    from hertzian.sweeping.integrity import damage_lines, verify_store
+
+    verification = verify_store(path, read=False)
+    if verification.damage:
+        first = damage_lines(path, verification)[0]
+        more = f" (and {len(verification.damage) - 1} more)" if len(verification.damage) > 1 else ""
+        raise StoreDamagedError(f"{path} is damaged: {first}{more}; run hertzian verify {path}")
+
+
+def open_store(path: str | Path, *, check: bool = True):
+    """Open a store's root group read-only: FileNotFoundError or ValueError (one line) if it is not a hertzian
+    store; with ``check``, :class:`StoreDamagedError` (one line) if it is damaged (:func:`check_intact`)."""
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such store")
-    group = zarr.open_group(store=str(path), mode="r")
+    if not (path / "zarr.json").is_file():
+        raise ValueError(f"{path}: not a hertzian store (no zarr.json)")
+    if check:
+        check_intact(path)
+    try:
+        group = zarr.open_group(store=str(path), mode="r")
+    except Exception as err:  # noqa: BLE001 - whatever zarr raises for unreadable metadata
+        raise ValueError(f"{path}: not a readable Zarr store ({type(err).__name__})") from None
     if "schema_version" not in group.attrs:
         raise ValueError(f"{path}: not a hertzian store (no schema_version attribute)")
     return group
@@ -48,10 +69,24 @@ def open_store(path: str | Path):
 
 def open_dataset(path: str | Path):
     """A store written by ``hertzian run``, ``hertzian sweep`` or :func:`hertzian.sweep` as a lazy
-    ``xarray.Dataset`` (FileNotFoundError or ValueError, one line, if it is not a hertzian store)."""
+    ``xarray.Dataset`` (FileNotFoundError or ValueError, one line, if it is not a hertzian store;
+    :class:`StoreDamagedError` if it is damaged)."""
     import xarray as xr  # about 0.3 s to import, and writing a store (hertzian run) never reads one back
 
     open_store(path)
+    return xr.open_zarr(str(path))
+
+
+def open_any_dataset(path: str | Path):
+    """:func:`open_dataset` for a hertzian store; any other Zarr store (a figure group's analysis store, written by
+    xarray) opened as it is."""
+    from hertzian.sweeping.manifest import is_project_store
+
+    path = Path(path)
+    if is_project_store(path):
+        return open_dataset(path)
+    import xarray as xr
+
     return xr.open_zarr(str(path))
 
 
@@ -60,7 +95,7 @@ SUMMARY_SCHEME = ("method", "precision", "dt", "steps", "grains")
 
 def unchecked_note(path: str | Path) -> str | None:
     """A note when the store's chunks carry no checksums (a store written before them), else None."""
-    group = open_store(path)
+    group = open_store(path, check=False)
     if "status" in group and not has_checksums(group["status"]):
         return f"note: {path} has no chunk checksums (written by an older version): damaged chunks may read silently"
     return None

@@ -52,9 +52,11 @@ from hertzian.core.scene import Scene
 from hertzian.core.status import status_attrs
 from hertzian.sweeping.grain_store import grain_arrays, grain_variables, records_grains
 from hertzian.sweeping.integrity import BATCHES, Verification, finished_batches, verify_store
+from hertzian.sweeping.manifest import ManifestError, covered_files, fixed_array_names, read_manifest, write_manifest
 from hertzian.sweeping.planner import Batch, Plan, single_batch_plan
 from hertzian.sweeping.spec import RESERVED_NAMES, Axis, Dimension, Sweep, record_times, trace_times
 from hertzian.sweeping.storage import (
+    MANIFEST,
     PROJECT,
     StorageError,
     check_free_space,
@@ -576,6 +578,7 @@ def create_sweep_store(
             _create_batches_group(root, len(plan.batches))
             root.attrs.update({**_store_attributes(sweep, plan, device), **(attributes or {})})
             consolidate(target)
+            write_manifest(target)
             if path.exists():
                 shutil.rmtree(path)
             target.rename(path)
@@ -587,14 +590,26 @@ def create_sweep_store(
 # ---- resume -----------------------------------------------------------------------------
 
 
+def _identity(path: Path) -> dict[str, Any]:
+    """What names a store's sweep and versions: its manifest's copy where the manifest is intact (the root metadata
+    may be the damaged file), else its root attributes. Raises SweepStoreError (one line) if neither reads."""
+    try:
+        identity = read_manifest(path).identity
+        if identity.get("sweep_block") is not None:
+            return {**identity, "provenance": identity}
+    except ManifestError:
+        pass
+    try:
+        root = zarr.open_group(store=str(path), mode="r")
+        return dict(root.attrs)
+    except Exception as err:  # noqa: BLE001 - any unreadable store is refused the same way
+        raise SweepStoreError(f"{path}: not a readable Zarr store ({type(err).__name__})") from None
+
+
 def check_resumable(path: str | Path, sweep: Sweep) -> tuple[int, ...]:
     """Raise SweepStoreError unless ``path`` was made from this sweep by this package; return its block."""
     path = Path(path)
-    try:
-        root = zarr.open_group(store=str(path), mode="r")
-        attrs = dict(root.attrs)
-    except Exception as err:  # noqa: BLE001 - any unreadable store is refused the same way
-        raise SweepStoreError(f"{path}: not a readable Zarr store ({type(err).__name__})") from None
+    attrs = _identity(path)
     if "sweep_fingerprint" not in attrs:
         raise SweepStoreError(f"{path}: not a hertzian sweep store (no sweep_fingerprint attribute)")
     if attrs.get("schema_version") != SCHEMA_VERSION:
@@ -604,7 +619,8 @@ def check_resumable(path: str | Path, sweep: Sweep) -> tuple[int, ...]:
     if attrs["sweep_fingerprint"] != sweep.fingerprint():
         raise SweepStoreError(
             f"{path} was made from a different sweep (scene or axes differ); resume with the "
-            "sweep file it was made from, or write a new store"
+            "sweep file it was made from (and the same --set overrides, which are part of the sweep), "
+            "or write a new store"
         )
     prov = attrs.get("provenance", {})
     for key, current in (("package_version", package_version()), ("warp_version", warp_version())):
@@ -625,44 +641,66 @@ def completed_batches(path: str | Path) -> set[int]:
     return finished_batches(root)
 
 
-def repair_for_resume(path: str | Path, sweep: Sweep, scene: Scene, plan: Plan) -> Verification:
-    """Read every chunk of the store (checksums verified); clear the completion flag of each batch that owns a
-    damaged chunk, so that it reruns and rewrites all its chunks with the same bits, and rewrite damaged
-    coordinates (and ``launch_group``) from the sweep. Returns the verification (its damage as found)."""
+def repair_for_resume(path: str | Path, sweep: Sweep, scene: Scene, plan: Plan, *, device: str) -> Verification:
+    """Read every chunk of the store (checksums verified) and check its files against the manifest. Damaged
+    metadata, coordinates or manifest: every metadata file and coordinate is rebuilt from the sweep
+    (:func:`rebuild_skeleton`), never re-consolidated from what is there. A damaged chunk (or completion row):
+    its batch's flag is cleared and its chunks removed, so that it reruns and rewrites them with the same bits.
+    Returns the verification (its damage as found); raises SweepStoreError (one line) if damage remains."""
     path = Path(path)
     verification = verify_store(path)
-    fixed = {d.variable for d in verification.damage if not d.batches}
     with storage_faults("repairing the store", path):
+        if any(not d.batches for d in verification.damage):
+            rebuild_skeleton(path, sweep, scene, plan, device=device)
         if verification.damaged_batches:
             done = _open_for_writing(path, f"{BATCHES}/done")
             for index in sorted(verification.damaged_batches):
                 _remove_chunks_of(path, index, plan)
                 done[index] = 0
-        if fixed:
-            root = zarr.open_group(store=str(path), mode="r+")
-            for name, data, _, _ in fixed_arrays(sweep, scene, plan):
-                if name in fixed:
-                    root[name][...] = data
-                    fixed.discard(name)
-    if fixed:
-        raise SweepStoreError(f"{path}: {', '.join(sorted(fixed))} damaged and not rebuilt from the sweep")
+            write_manifest(path, finished=completed_batches(path))  # the files it covers are intact (or rebuilt)
+    left = verify_store(path, read=False).damage
+    if left:
+        raise SweepStoreError(f"{path}: {left[0].variable} is damaged ({left[0].reason}) and could not be repaired")
     return verification
 
 
+def rebuild_skeleton(path: Path, sweep: Sweep, scene: Scene, plan: Plan, *, device: str) -> None:
+    """Rewrite every metadata file, coordinate and the manifest of the store at ``path`` as a fresh creation from
+    the sweep writes them (the chunks of batches stay), and remove metadata files the sweep does not make."""
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
+    try:
+        fresh = create_sweep_store(tmp / "store.zarr", sweep, scene, plan, device=device)
+        wanted = covered_files(fresh, fixed_array_names(sweep_attrs(fresh))) + [MANIFEST]
+        for rel in covered_files(path, fixed_array_names(sweep_attrs(fresh))):
+            if rel not in wanted:
+                (path / rel).unlink(missing_ok=True)
+        for rel in wanted:  # the manifest last
+            target = path / rel
+            target.parent.mkdir(parents=True, exist_ok=True)
+            partial = target.with_name(target.name + ".partial")
+            shutil.copyfile(fresh / rel, partial)
+            partial.replace(target)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
 def _remove_chunks_of(path: Path, index: int, plan: Plan) -> None:
-    """Delete the chunk files (shards) batch ``index`` writes, so that its rerun writes them afresh instead of
-    reading damaged ones back (the store's chunk keys are ``c/i/j/…``, one shard per batch along the sweep dims)."""
-    batch = plan.batches[index]
+    """Delete the chunk files (shards) batch ``index`` writes, and its completion rows, so that its rerun writes
+    them afresh instead of reading damaged ones back (the store's chunk keys are ``c/i/j/…``, one shard per batch
+    along the sweep dims; a run's one batch owns every chunk of its data arrays)."""
+    for name in ("record", "where"):
+        shutil.rmtree(path / BATCHES / name / "c" / str(index), ignore_errors=True)
     root = zarr.open_group(store=str(path), mode="r")
     dims = tuple(root.attrs.get("scenes_differ_along", []))
-    if not dims:
-        return
+    fixed = set(fixed_array_names(dict(root.attrs)))
     for name, arr in root.arrays():
-        fixed = name == "launch_group" or name in root.attrs.get("sweep_axes", {})
-        if fixed or tuple(arr.metadata.dimension_names or ())[: len(dims)] != dims:
+        if name in fixed or tuple(arr.metadata.dimension_names or ())[: len(dims)] != dims:
+            continue
+        if not dims:
+            shutil.rmtree(path / arr.path / "c", ignore_errors=True)
             continue
         outer = arr.shards or arr.chunks
-        corner = tuple(start // step for (start, _), step in zip(batch.region, outer))
+        corner = tuple(start // step for (start, _), step in zip(plan.batches[index].region, outer))
         key = arr.metadata.encode_chunk_key(corner + (0,) * (arr.ndim - len(dims)))
         base = path / arr.path / Path(*key.split("/")[: 1 + len(dims)])
         if base.is_dir():
@@ -672,28 +710,34 @@ def _remove_chunks_of(path: Path, index: int, plan: Plan) -> None:
 
 
 @contextlib.contextmanager
-def writing_session(path: str | Path, sweep: Sweep, scene: Scene, plan: Plan, *, resuming: bool):
+def writing_session(path: str | Path, sweep: Sweep, scene: Scene, plan: Plan, *, resuming: bool, device: str = "cpu"):
     """Guard a sweep's writes into the store at ``path``; yields notes (lines) for the user.
 
     Holds the store's lock (a second writer gets :class:`StoreLockedError`); refuses a store whose estimate
-    (what is left of it, on resume) exceeds the free space (:class:`NoRoomError`); on resume, verifies every
-    chunk and reruns the batches owning a damaged one (:func:`repair_for_resume`). A :class:`StorageError`
+    (what is left of it, on resume) exceeds the free space (:class:`NoRoomError`); on resume, removes what a
+    killed write left, verifies the store and repairs it (:func:`repair_for_resume`; ``device``: the store's
+    creation label, should its metadata be rebuilt). A :class:`StorageError`
     raised inside gets the plan's store estimate (its ``need``), after the temporary files of the failed write
     are removed: the store then holds exactly the batches completed before it."""
     path = Path(path)
     need = store_estimate(sweep, scene, plan)
     with store_lock(path):
-        done = completed_batches(path) if resuming else set()
-        check_free_space(path, need * (len(plan.batches) - len(done)) // max(1, len(plan.batches)))
         notes = []
         if resuming:
             remove_partial_files(path)
-            verification = repair_for_resume(path, sweep, scene, plan)
+            verification = repair_for_resume(path, sweep, scene, plan, device=device)
             if verification.unchecked:
-                notes.append(f"note: {path} has no chunk checksums (written by an older version)")
+                notes.append(f"note: {path} has no chunk checksums or manifest (written by an older version)")
             if verification.damage:
                 batches = sorted(verification.damaged_batches)
-                notes.append(f"note: {len(verification.damage)} damaged chunk(s) found; rerunning batches {batches}")
+                rebuilt = any(not d.batches for d in verification.damage)
+                notes.append(
+                    f"note: {len(verification.damage)} damaged chunk(s) or file(s) found"
+                    + ("; metadata and coordinates rebuilt from the sweep" if rebuilt else "")
+                    + (f"; rerunning batches {batches}" if batches else "")
+                )
+        done = completed_batches(path) if resuming else set()
+        check_free_space(path, need * (len(plan.batches) - len(done)) // max(1, len(plan.batches)))
         try:
             yield notes
         except StorageError as err:
@@ -704,11 +748,17 @@ def writing_session(path: str | Path, sweep: Sweep, scene: Scene, plan: Plan, *,
 
 
 def remove_partial_files(path: str | Path) -> int:
-    """Delete temporary files a killed write left behind (zarr writes ``*.partial`` then renames)."""
+    """Delete temporary files a killed write left behind: zarr's ``*.partial`` files (written, then renamed), and
+    the ``.NAME.*`` folders beside the store in which a store is created before it is renamed into place."""
+    path = Path(path)
     count = 0
-    for p in Path(path).rglob("*.partial"):
+    for p in path.rglob("*.partial"):
         p.unlink(missing_ok=True)
         count += 1
+    for folder in path.parent.glob(f".{path.name}.*"):
+        if folder.is_dir() and {p.name for p in folder.iterdir()} <= {"store.zarr"}:
+            shutil.rmtree(folder, ignore_errors=True)
+            count += 1
     return count
 
 
@@ -980,6 +1030,7 @@ def _finalize(path: Path, session_seconds: float | None, session_grain_steps: in
             prov["session_grain_steps_per_second"] = session_grain_steps / max(session_seconds, 1e-12)
         root.attrs["provenance"] = prov
     consolidate(path)
+    write_manifest(path, finished=[r["batch"] for r in records])
     return prov
 
 
