@@ -99,6 +99,19 @@ def check_store_out(out: Path, *, overwrite: bool) -> None:
             fail(f"--out = {str(out)!r}: {err}")
 
 
+def open_dataset_or_fail(store: Path):
+    """The store as a Dataset: a hertzian store checked first (a damaged one is refused in one line), an analysis
+    store (a figure group's) as it is; anything unreadable is refused in one line."""
+    from hertzian.sweeping.store import StoreDamagedError, open_any_dataset
+
+    try:
+        return open_any_dataset(store)
+    except StoreDamagedError as err:
+        fail(str(err))
+    except Exception as err:  # noqa: BLE001  (any unreadable store is bad input)
+        fail(f"store = {str(store)!r}: not a readable Zarr store ({type(err).__name__})")
+
+
 def resolve_device(device: str | None) -> str:
     """``device`` if Warp has it here (None: cuda if present, else cpu); else one line and exit 2."""
     # Warp starts only once a command runs: importing it would slow `hertzian --help`

@@ -6,7 +6,7 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-from hertzian.cli.app import app, fail
+from hertzian.cli.app import app, fail, open_dataset_or_fail
 
 
 def _parse_at(items: list[str] | None) -> dict[str, float]:
@@ -74,14 +74,13 @@ def plot(
         out = Path(f"{figure}.png") if figure else Path(store.name).with_suffix(".png")
     if out.suffix.lower() != ".png":
         fail(f"--out = {str(out)!r}: must end in .png")
-    if not out.parent.exists():
-        fail(f"--out = {str(out)!r}: parent directory does not exist")
-    import xarray as xr
+    from hertzian.sweeping.storage import check_writable_folder
 
-    try:
-        dataset = xr.open_zarr(store)
-    except Exception as err:  # noqa: BLE001  (any unreadable store is bad input)
-        fail(f"store = {str(store)!r}: not a readable Zarr store ({type(err).__name__})")
+    why = check_writable_folder(out)
+    if why:
+        fail(f"--out = {str(out)!r}: {why}")
+
+    dataset = open_dataset_or_fail(store)
     what = f"--figure = {figure!r}" if figure else f"store = {str(store)!r}"
     try:
         if figure == "drive_map":
@@ -120,7 +119,6 @@ def plot(
 
 
 def _plot_distribution(store: Path, of: str | None, out: Path | None) -> None:
-    import xarray as xr
     from hertzian.studies.realisations import SCALAR_OBSERVABLES, plot_distribution
 
     if of is None:
@@ -128,10 +126,12 @@ def _plot_distribution(store: Path, of: str | None, out: Path | None) -> None:
     out = out or Path(f"{of}.png")
     if out.suffix.lower() != ".png" or not out.parent.exists():
         fail(f"--out = {str(out)!r}: must end in .png, in an existing directory")
-    try:
-        dataset = xr.open_zarr(store)
-    except Exception as err:  # noqa: BLE001  (any unreadable store is bad input)
-        fail(f"store = {str(store)!r}: not a readable Zarr store ({type(err).__name__})")
+    from hertzian.sweeping.storage import check_writable_folder
+
+    why = check_writable_folder(out)
+    if why:
+        fail(f"--out = {str(out)!r}: {why}")
+    dataset = open_dataset_or_fail(store)
     try:
         plot_distribution(dataset, of, out)
     except ValueError as err:

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-from hertzian.cli.app import app, fail
+from hertzian.cli.app import app, fail, open_dataset_or_fail
 
 
 @app.command()
@@ -46,8 +46,8 @@ def summarize(
         _print_statistics(store, over)
         return
     try:
-        note = unchecked_note(store)
         columns = summary_columns(store)
+        note = unchecked_note(store)
     except StoreDamagedError as err:
         typer.echo(f"error: {err}", err=True)
         raise typer.Exit(DAMAGED_EXIT_CODE) from None
@@ -109,13 +109,9 @@ def summarize(
 
 
 def _print_statistics(store: Path, over: str) -> None:
-    import xarray as xr
     from hertzian.studies.realisations import statistics_json
 
-    try:
-        dataset = xr.open_zarr(store)
-    except Exception as err:  # noqa: BLE001  (any unreadable store is bad input)
-        fail(f"store = {str(store)!r}: not a readable Zarr store ({type(err).__name__})")
+    dataset = open_dataset_or_fail(store)
     try:
         numbers = statistics_json(dataset, over)
     except ValueError as err:

@@ -15,19 +15,22 @@ def verify(store: Annotated[Path, typer.Argument(help="A store written by run or
     coordinate, batch. Exit 0 if none is damaged, 1 otherwise; ``sweep --resume`` reruns the damaged batches."""
     from hertzian.sweeping.integrity import damage_lines, verify_store
     from hertzian.sweeping.manifest import is_project_store
-    from hertzian.sweeping.store import open_store, unchecked_note
+    from hertzian.sweeping.storage import MANIFEST
+    from hertzian.sweeping.store import open_store
     from hertzian.sweeping.store_format import DAMAGED_EXIT_CODE
 
-    note = None
     try:
         if not is_project_store(store):  # a store from before manifests, or not a hertzian store at all
             open_store(store, check=False)
-            note = unchecked_note(store)
         verification = verify_store(store)
     except (FileNotFoundError, ValueError, KeyError) as err:
         fail(f"store = {str(store)!r}: {err}")
-    if note:
-        typer.echo(note, err=True)
+    if verification.unchecked:
+        typer.echo(
+            f"note: {store} has no {'manifest' if MANIFEST in verification.unchecked else 'chunk checksums'} "
+            f"(written by an older version): {', '.join(verification.unchecked[:4])} may read silently when damaged",
+            err=True,
+        )
     for line in damage_lines(store, verification):
         typer.echo(f"damaged: {line}")
     count = len(verification.damage)

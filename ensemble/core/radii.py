@@ -191,9 +191,17 @@ def radius_ratios(spec: RadiiSpec | None, grains: int, diameter: float, key: str
         if min(spec.values) <= 0:
             raise SceneError(key, min(spec.values), "radii must be > 0")
         ratios = np.asarray(spec.values, dtype=np.float64) / (0.5 * diameter)
-    if not np.all(np.isfinite(ratios * ratios * ratios)):
+    masses = ratios * ratios * ratios
+    if not np.all(np.isfinite(masses)):
         raise SceneError(
             key, spec.to_plain() if spec.values is None else "…", "gives radii whose masses overflow float64"
+        )
+    if not np.all(masses >= np.finfo(np.float64).tiny):
+        raise SceneError(
+            key,
+            spec.to_plain() if spec.values is None else float(np.min(ratios) * 0.5 * diameter),
+            f"gives a radius of {np.min(ratios):.3g} R0, whose mass (R/R0)³ underflows float64: "
+            "radii must be above about 1e-102 R0",
         )
     return None if np.all(ratios == 1.0) else ratios
 

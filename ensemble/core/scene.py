@@ -26,6 +26,9 @@ BOTTOM_KINDS = ("wall", "fixed", "free")
 METHODS = ("gear4", "gear5", "gear6", "verlet", "yoshida4")
 AUTO_METHOD = "auto"
 """integrator.method with integrator.tolerance: the pilot (ensemble/core/error_estimate.py) picks the method."""
+MIN_TOLERANCE = 1e-12
+"""Smallest ``integrator.tolerance``: the error estimate reaches float64 rounding at about 1e-13
+(ensemble/core/error_estimate.py), so a smaller tolerance can never be shown to be met."""
 SHADOW_STEP_FACTOR = 2
 """record.error_estimate integrates a shadow ensemble at this many times dt (ensemble/core/error_estimate.py)."""
 COMPOSED_METHODS = ("yoshida4",)
@@ -700,8 +703,13 @@ def _validate_integrator(s: Scene) -> None:
     _positive("integrator.dt", i.dt)
     if i.dt > i.duration:
         raise SceneError("integrator.dt", i.dt, f"must not exceed integrator.duration = {i.duration}")
-    if i.tolerance is not None and not (0 < i.tolerance < 1):
-        raise SceneError("integrator.tolerance", i.tolerance, "must be a relative error in (0, 1), e.g. 1e-6")
+    if i.tolerance is not None and not (MIN_TOLERANCE <= i.tolerance < 1):
+        raise SceneError(
+            "integrator.tolerance",
+            i.tolerance,
+            f"must be a relative error in [{MIN_TOLERANCE:g}, 1), e.g. 1e-6 (below {MIN_TOLERANCE:g} the error "
+            "estimate measures float64 rounding, not the step's error)",
+        )
     if i.method not in METHODS and not (i.method == AUTO_METHOD and i.tolerance is not None):
         allowed = ", ".join(METHODS) + ' (or "auto" with integrator.tolerance)'
         raise SceneError("integrator.method", i.method, f"must be one of {allowed}" + _did_you_mean(i.method, METHODS))
@@ -730,6 +738,8 @@ def _validate_record(s: Scene) -> None:
     for name in r.fields:
         if name not in FIELDS:
             raise SceneError("record.fields", name, f"allowed fields: {', '.join(FIELDS)}")
+    if len(set(r.fields)) != len(r.fields):
+        raise SceneError("record.fields", list(r.fields), "fields must not repeat")
     for g in r.traces:
         if not 0 <= g < c.grains:
             raise SceneError("record.traces", g, f"grain index outside the chain: allowed 0 … {c.grains - 1}")

@@ -212,8 +212,8 @@ def verify_store(path: str | Path, *, read: bool = True) -> Verification:
     if BATCHES in root:
         arrays += [(f"{BATCHES}/{name}", arr) for name, arr in root[BATCHES].arrays() if name != "done"]
     for name, arr in arrays:
-        if name in metadata_damage:
-            continue  # named already; its chunks are rewritten with it
+        if any(f"{damaged}/".startswith(f"{name}/") for damaged in metadata_damage):
+            continue  # a file of it is named already (its metadata or a coordinate's chunk): rebuilt from the sweep
         if not has_checksums(arr):
             verification.unchecked.append(name)
         _check_array(path, arr, name, layout, verification, read=read)

@@ -610,7 +610,7 @@ def check_resumable(path: str | Path, sweep: Sweep) -> tuple[int, ...]:
     """Raise SweepStoreError unless ``path`` was made from this sweep by this package; return its block."""
     path = Path(path)
     attrs = _identity(path)
-    if "sweep_fingerprint" not in attrs:
+    if not attrs.get("sweep_fingerprint"):
         raise SweepStoreError(f"{path}: not a hertzian sweep store (no sweep_fingerprint attribute)")
     if attrs.get("schema_version") != SCHEMA_VERSION:
         raise SweepStoreError(

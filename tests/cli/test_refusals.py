@@ -54,6 +54,24 @@ def test_run_refuses_up_front(tmp_path, override, message):
     assert_refused(result, out, message)
 
 
+EXTREME = [
+    ({"integrator": {"duration": 0.01, "tolerance": 1e-30}}, "integrator.tolerance = 1e-30: must be a relative error"),
+    ({"chain": {"grains": 8, "radii": [1e-300] * 8}}, "chain.radii = 1e-300: gives a radius of 2e-302 R0"),
+    ({"record": {"every": 0.005, "fields": ["u", "u"]}}, "record.fields = ['u', 'u']: fields must not repeat"),
+]
+
+
+@pytest.mark.parametrize("change, message", EXTREME)
+def test_extreme_values_are_refused_up_front(tmp_path, change, message):
+    data = {section: {**BASE.get(section, {}), **values} for section, values in {**BASE, **change}.items()}
+    if "tolerance" in data["integrator"]:
+        del data["integrator"]["dt"]
+    scene = tmp_path / "s.toml"
+    scene.write_text(toml_text(data))
+    out = tmp_path / "out.zarr"
+    assert_refused(invoke("run", scene, "--out", out, "--device", "cpu"), out, message)
+
+
 def test_step_counter_limit_is_the_int32_clock():
     just = make_scene(integrator={"duration": MAX_STEPS * 1e-3, "dt": 1e-3})
     assert just.step_count == MAX_STEPS

@@ -11,7 +11,9 @@ import pytest
 import xarray as xr
 import zarr
 from hertzian.core.runner import run_scene
+from hertzian.sweeping.manifest import write_manifest
 from hertzian.sweeping.spec import load_sweep, sweep_scenes
+from hertzian.sweeping.store import consolidate
 from hertzian.sweeping.sweep_store import batch_records, completed_batches, differing_arrays, write_result
 
 from tests.helpers import HERTZIAN, RESUME_BATCHES, RESUME_FLAGS, RESUME_SWEEP, sweep_cli
@@ -137,9 +139,9 @@ def test_resume_refuses_a_store_of_another_package_version(tmp_path, sweep_file)
     assert sweep_cli(sweep_file, "--out", out, *RESUME_FLAGS).exit_code == 0
     root = zarr.open_group(str(out), mode="r+")
     root.attrs["provenance"] = {**root.attrs["provenance"], "package_version": "0.0.1"}
-    from hertzian.sweeping.store import consolidate
 
     consolidate(out)
+    write_manifest(out, finished=completed_batches(out))  # as that version wrote it, manifest and all
     _refused(sweep_cli(sweep_file, "--out", out, "--resume", *RESUME_FLAGS), "package version 0.0.1")
 
 
@@ -150,6 +152,8 @@ def test_resume_refuses_a_run_store(tmp_path, sweep_file):
     _refused(sweep_cli(sweep_file, "--out", out, "--resume", *RESUME_FLAGS), "made from a different sweep")
     root = zarr.open_group(str(out), mode="r+")
     del root.attrs["sweep_fingerprint"]
+    consolidate(out)
+    write_manifest(out, finished=completed_batches(out))
     _refused(sweep_cli(sweep_file, "--out", out, "--resume", *RESUME_FLAGS), "not a hertzian sweep store")
     bogus = tmp_path / "bogus.zarr"
     bogus.mkdir()

@@ -101,7 +101,7 @@ def test_verify_names_the_damaged_point_and_resume_restores_it(store, sweep_file
 def test_resume_rebuilds_a_damaged_coordinate_and_rereads_a_damaged_flag(store, sweep_file, reference):
     flip(chunk_files(store / "l0")[0], 3)
     flip(chunk_files(store / "batches" / "done")[2], 1)
-    assert {d.variable for d in verify_store(store).damage} == {"l0", "batches/done"}
+    assert {d.variable for d in verify_store(store).damage} == {"l0/c/0", "batches/done"}
     resumed = sweep_cli(sweep_file, "--out", store, "--resume", *RESUME_FLAGS)
     assert resumed.exit_code == 0, resumed.stderr
     assert differing_arrays(store, reference) == [] and completed_batches(store) == set(range(RESUME_BATCHES))
