@@ -85,6 +85,18 @@ class PreparedSweep:
     plans; :func:`run_sweep` closes them."""
 
 
+def tls_files(tls) -> Any:
+    """``tls`` as ``distributed.TlsFiles``: one already, or a dict of its fields (``ca_file``, ``cert``, ``key``)."""
+    if tls is None or not isinstance(tls, dict):
+        return tls
+    from hertzian.sweeping.distributed import TlsFiles
+
+    unknown = sorted(set(tls) - {"ca_file", "cert", "key"})
+    if unknown or not {"ca_file", "cert"} <= set(tls):
+        raise OptionError("tls", tls, "a dict of ca_file and cert (and key): PEM file paths")
+    return TlsFiles(**{k: str(v) for k, v in tls.items()})
+
+
 def check_options(*, batch_size, workers, scheduler, resume, overwrite, kernel, tls=None) -> None:
     """Refuse arguments that cannot work together, before anything is read."""
     if tls is not None and not str(scheduler or "").startswith("tls://"):
@@ -171,8 +183,10 @@ def prepare_sweep(
 ) -> PreparedSweep:
     """Load, expand, check and plan a sweep; writes nothing. ``out`` defaults to the sweep's name with ``.zarr`` in
     the current directory; ``strict`` refuses a dt that looks unstable at a corner of the grid (else a warning);
-    ``tls`` (``hertzian.sweeping.distributed.TlsFiles``) secures the connection to a ``tls://`` scheduler."""
+    ``tls`` (``{"ca_file": …, "cert": …, "key": …}`` or a ``hertzian.sweeping.distributed.TlsFiles``) secures the
+    connection to a ``tls://`` scheduler."""
     notify = notify or _warn
+    tls = tls_files(tls)
     check_options(
         batch_size=batch_size,
         workers=workers,
