@@ -17,7 +17,7 @@ from hertzian.core.devices import check_device
 from hertzian.core.errors import OptionError, RefusedError
 from hertzian.core.model import build_model
 from hertzian.core.runner import Runner, RunResult
-from hertzian.core.scene import Scene, apply_overrides, scene_from_dict
+from hertzian.core.scene import Scene, SceneError, apply_overrides, scene_from_dict
 from hertzian.core.scene import load_scene as load_scene_file
 from hertzian.core.shipped import shipped_file
 from hertzian.core.solvers import KERNELS
@@ -41,7 +41,9 @@ def run(
     """Run one scene, or compatible scenes as one ensemble, on ``device`` ('cpu', 'cuda', 'cuda:N'; default: cuda if
     present, else cpu) with the solver ``kernel`` ('auto' or one of hertzian.core.solvers.KERNELS; results are the
     same). ``progress(done_records, total_records)`` is called after each record. Times are in program units
-    (1.0102e-3 s); ``RunResult.to_xarray()`` gives what ``hertzian run --out`` stores."""
+    (1.0102e-3 s); ``RunResult.to_xarray()`` gives what ``hertzian run --out`` stores. Scenes with
+    ``integrator.tolerance`` run as ``hertzian run`` runs them: pilot runs pick the step (and, with
+    ``integrator.method = "auto"``, the method); ``progress`` is not called then."""
     scenes = [scenes] if isinstance(scenes, Scene) else list(scenes)
     if not scenes or not all(isinstance(s, Scene) for s in scenes):
         raise OptionError("scenes", type(scenes).__name__, "a Scene or a non-empty list of Scenes")
@@ -53,8 +55,17 @@ def run(
     too_big = too_big or (memory_refusal(largest, dev, chains=len(scenes)) if dev.startswith("cuda") else None)
     if too_big:
         raise RefusedError(too_big)
+    if scenes[0].integrator.tolerance is not None:  # as hertzian run: pilot runs pick the method and dt
+        from hertzian.core.error_estimate import meet_tolerance
+
+        return meet_tolerance(scenes, lambda chosen: _runner(chosen, dev, kernel).run()).result
+    return _runner(scenes, dev, kernel).run(progress)
+
+
+def _runner(scenes: list[Scene], device: str, kernel: str) -> Runner:
     try:
-        runner = Runner(build_model(scenes, dev), kernel=kernel)
+        return Runner(build_model(scenes, device), kernel=kernel)
+    except SceneError:  # scenes that cannot share one ensemble: names their key
+        raise
     except ValueError as err:  # a forced kernel that cannot run these scenes here
         raise OptionError("kernel", kernel, str(err).split(": ", 1)[-1]) from None
-    return runner.run(progress)

@@ -28,6 +28,9 @@ app = typer.Typer(
 )
 
 EXIT_BAD_INPUT = 2
+EXIT_FLAGGED = 3
+"""Exit code of ``run`` and ``sweep`` when a chain ended NON_FINITE, beyond validity, with energy drift or above its
+tolerance (``hertzian.core.status.FAILED``): the store is written, and the failure is not read as a result."""
 
 DeviceOption = Annotated[
     Optional[str], typer.Option("--device", help="cpu | cuda | cuda:N (default: cuda if present, else cpu).")
@@ -110,6 +113,16 @@ def open_dataset_or_fail(store: Path):
         fail(str(err))
     except Exception as err:  # noqa: BLE001  (any unreadable store is bad input)
         fail(f"store = {str(store)!r}: not a readable Zarr store ({type(err).__name__})")
+
+
+def exit_if_flagged(status) -> None:
+    """After a run or sweep is written: one ``error:`` line and exit code 3 when a chain ended with a FAILED code."""
+    from hertzian.core.status import failure_line
+
+    line = failure_line(status)
+    if line:
+        typer.echo(f"error: {line}", err=True)
+        raise typer.Exit(EXIT_FLAGGED)
 
 
 def resolve_device(device: str | None) -> str:

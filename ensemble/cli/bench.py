@@ -189,7 +189,9 @@ def _end_to_end(scene: Path | None, sweep: Path | None, device, kernel: str, col
 
     if scene is not None and sweep is not None:
         fail(f"--sweep = {str(sweep)!r}: give --scene or --sweep, not both")
-    path = scene if scene is not None else sweep
+    from hertzian.core.shipped import shipped_file
+
+    path = shipped_file(scene if scene is not None else sweep)
     if not path.is_file():
         fail(f"--{'scene' if scene is not None else 'sweep'} = {str(path)!r}: no such file")
     kernel = "auto" if kernel == "all" else kernel
@@ -211,9 +213,9 @@ def _end_to_end(scene: Path | None, sweep: Path | None, device, kernel: str, col
     log = lambda message: typer.echo(message, err=True)  # noqa: E731
     try:
         if scene is not None:
-            record = bench_scene(scene, dev, kernel=kernel, overrides=overrides, log=log)
+            record = bench_scene(path, dev, kernel=kernel, overrides=overrides, log=log)
         else:
-            record = bench_sweep(sweep, dev, kernel=kernel, overrides=overrides, log=log)
+            record = bench_sweep(path, dev, kernel=kernel, overrides=overrides, log=log)
     except SceneError as err:
         fail(str(err))
     except ValueError as err:  # a forced kernel that cannot run these features here

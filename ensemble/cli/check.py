@@ -31,6 +31,10 @@ def check(
     if too_big:
         fail(too_big)
     result = check_scene(loaded)
+    tolerance = loaded.integrator.tolerance
+    if tolerance is not None:  # the pilot runs pick method (with "auto") and dt: no dt to judge yet
+        _print_tolerance_check(loaded, result, as_json)
+        return
     if as_json:
         typer.echo(json.dumps(result.to_dict(), indent=1))
         return
@@ -61,3 +65,27 @@ def check(
     warning = result.warning()
     if warning:
         typer.echo(f"warning: {warning}")
+
+
+TOLERANCE_KEYS = ("largest_overlap", "validity_overlap", "beyond_validity", "stiffest_contact", "stiffness")
+"""What ``check`` reports of a tolerance scene: the contact's scales, which need no dt."""
+
+
+def _print_tolerance_check(scene, result, as_json: bool) -> None:
+    """``check`` of a scene with ``integrator.tolerance``: the stiffest contact and its time scale; the method
+    (with "auto") and dt are chosen by the pilot runs, so there is no dt to judge."""
+    integrator = scene.integrator
+    chooser = f"integrator.tolerance = {integrator.tolerance:g}: pilot runs pick " + (
+        "the method and dt" if integrator.method == "auto" else f"dt for {integrator.method}"
+    )
+    if as_json:
+        numbers = {k: getattr(result, k) for k in TOLERANCE_KEYS}
+        numbers |= {"reduced_mass": result.reduced_mass, "contact_time": result.contact_time}
+        typer.echo(json.dumps({**numbers, "tolerance": integrator.tolerance, "method": integrator.method}, indent=1))
+        return
+    typer.echo(f"largest overlap (bound)   {result.largest_overlap:.4g}  (validity limit {result.validity_overlap:g})")
+    typer.echo(f"stiffest contact          k = {result.stiffness:.4g}, m_red = {result.reduced_mass:.4g}")
+    typer.echo(f"contact time T            {result.contact_time:.4g}  (2π sqrt(m_red/k))")
+    typer.echo(f"dt                        {chooser}")
+    for note in result.notes:
+        typer.echo(f"note: {note}")

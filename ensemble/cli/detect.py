@@ -300,11 +300,16 @@ def detect_study(
     confusion matrices and seconds per detection, written as JSON."""
     # heavy (Warp, Zarr): imported on use, as in ``detect``
     from hertzian.studies.detection.study import load_study, run_study, write_study
+    from hertzian.sweeping.storage import check_writable_folder
 
     if out.exists() and not overwrite:
         fail(f"--out = {str(out)!r}: exists; choose another path or pass --overwrite")
-    if not out.parent.exists():
-        fail(f"--out = {str(out)!r}: parent directory does not exist")
+    if out.is_dir():
+        fail(f"--out = {str(out)!r}: is a folder; --out names the JSON file to write")
+    why = check_writable_folder(out)
+    if why:
+        fail(f"--out = {str(out)!r}: {why}")
+    study = shipped_file(study)
     try:
         load_study(study)
     except SceneError as err:

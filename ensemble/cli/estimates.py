@@ -54,10 +54,12 @@ def estimate_check(
     """Estimate against true error: each point of SWEEP is run with its error estimate (per --events setting)
     and against gear6 at dt/--reference-divisor; prints the fraction of points whose estimate is within 3× of
     the true error, where contacts can open and where none can."""
+    from hertzian.core.shipped import shipped_file
     from hertzian.studies.accuracy import parse_list
     from hertzian.studies.estimates import cost_scenes, estimate_check, estimate_cost, feature_costs
     from hertzian.sweeping.spec import load_sweep
 
+    sweep = None if sweep is None else shipped_file(sweep)
     if defaults == (sweep is not None):
         fail(f"SWEEP = {str(sweep or '')!r}: give a sweep file or --defaults, not both or neither")
     if cost_features and not cost:

@@ -59,7 +59,7 @@ def plot(
     """Draw a store: the depth–time picture of u or v, the traced grains and the energy error of one point
     (program units: length 1e-5 m, time 1.0102e-3 s; the store's sign, + into the chain). With --figure,
     a paper figure group in the paper's representation (profiles in the paper's sign, + toward the surface)."""
-    from hertzian.plotting.figures import FIGURES, PlotError, plot_figure, plot_store
+    from hertzian.plotting.figures import FIGURES, PlotError, not_this_figure, plot_figure, plot_store
 
     if figure == "distribution":
         return _plot_distribution(store, of, out)
@@ -110,11 +110,11 @@ def plot(
         if figure:
             plot_figure(dataset, figure, out)
         else:
-            plot_store(dataset, out, field=field, at=points)
+            plot_store(dataset, out, field=field, at=points, notify=lambda line: typer.echo(line, err=True))
     except PlotError as err:
         fail(f"{what}: {err}")
-    except (KeyError, IndexError, ValueError) as err:  # a store of another sweep than the figure's
-        fail(f"{what}: store {str(store)!r} does not hold this figure's sweep ({err})")
+    except (KeyError, IndexError, ValueError, TypeError, AttributeError):  # a store of another sweep than the figure's
+        fail(f"{what}: {not_this_figure(dataset, figure) if figure else 'cannot draw this store'}")
     typer.echo(f"wrote {out}")
 
 

@@ -19,6 +19,7 @@ from hertzian.cli.app import (
     app,
     check_store_out,
     check_timeline_path,
+    exit_if_flagged,
     fail,
     load_scene_or_fail,
     one_line_errors,
@@ -120,6 +121,7 @@ def run(
     timeline.mark("store_written")
     typer.echo(_summary(loaded, result, runner.solver.describe()))
     typer.echo(f"wrote {out}")
+    exit_if_flagged(result.status)
 
 
 def _run_to_tolerance(scene, device: str, kernel: str, out: Path, *, overwrite: bool) -> None:
@@ -140,6 +142,7 @@ def _run_to_tolerance(scene, device: str, kernel: str, out: Path, *, overwrite: 
         f"error estimate {float(choice.result.error_estimate.max()):.2e}, status {int(choice.result.status[0])}"
     )
     typer.echo(f"wrote {out}")
+    exit_if_flagged(choice.result.status)
 
 
 def _import_in_background(module: str) -> threading.Thread:

@@ -6,7 +6,9 @@ See docs/sweeps.md for the file format, resuming and running on several GPUs or 
 from __future__ import annotations
 
 import json
+import os
 import sys
+import time
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -17,6 +19,8 @@ from hertzian.cli.app import (
     PrecisionOption,
     SetOption,
     app,
+    exit_if_flagged,
+    fail,
     one_line_errors,
     overrides_of,
 )
@@ -81,6 +85,67 @@ class _Progress:
     def stop(self) -> None:
         if self.enabled and hasattr(self, "bar"):
             self.bar.stop()
+
+
+class _LogProgress:
+    """Progress as plain lines on stderr, for a sweep whose output is not a terminal (a log file, a batch job): one
+    line when it starts, then at most one every ``every`` seconds (after a record or a batch), and one at the end."""
+
+    def __init__(self, every: float = 30.0, clock=time.monotonic):
+        self.every, self.clock = every, clock
+        self.total_batches = self.done_batches = self.finished_steps = self.total_steps = 0
+        self.running = 0.0
+
+    def start(self, *, total_batches: int, done_batches: int, grain_steps: int) -> None:
+        self.total_batches, self.done_batches, self.total_steps = total_batches, done_batches, grain_steps
+        self.started = self.last = self.clock()
+        typer.echo(f"sweep: {self._batches()} batches done; {grain_steps:.3g} grain-steps to run", err=True)
+
+    def _batches(self) -> str:
+        return f"{self.done_batches}/{self.total_batches}"
+
+    def _line(self) -> None:
+        self.last = now = self.clock()
+        done = self.finished_steps + self.running
+        rate = done / max(now - self.started, 1e-9)
+        left = (self.total_steps - done) / rate if rate > 0 else float("nan")
+        typer.echo(
+            f"sweep: {self._batches()} batches, {100 * done / max(self.total_steps, 1):.0f} % of the grain-steps, "
+            f"{rate:.3g} grain-steps/s, {now - self.started:.0f} s elapsed, about {left:.0f} s left",
+            err=True,
+        )
+
+    def record(self, job, done: int, total: int) -> None:
+        self.running = (done - 1) / max(total - 1, 1) * job.grain_steps
+        if self.clock() - self.last >= self.every:
+            self._line()
+
+    def batch_done(self, job, record) -> None:
+        self.done_batches += 1
+        self.finished_steps += job.grain_steps
+        self.running = 0.0
+        if self.clock() - self.last >= self.every or self.done_batches == self.total_batches:
+            self._line()
+
+    def stop(self) -> None:
+        pass
+
+
+PROGRESS_SECONDS_ENV = "HERTZIAN_PROGRESS_SECONDS"
+"""Seconds between two progress lines when stderr is not a terminal (default 30)."""
+
+
+def _progress(quiet: bool):
+    """The progress display: a bar on a terminal, plain lines otherwise, nothing with ``--quiet``."""
+    if quiet:
+        return _Progress(False)
+    if sys.stderr.isatty():
+        return _Progress(True)
+    try:
+        every = float(os.environ.get(PROGRESS_SECONDS_ENV, "30"))
+    except ValueError:
+        fail(f"{PROGRESS_SECONDS_ENV} = {os.environ[PROGRESS_SECONDS_ENV]!r}: a number of seconds")
+    return _LogProgress(every)
 
 
 SweepFileArgument = Annotated[
@@ -231,7 +296,7 @@ def sweep(
     from hertzian.sweeping.distributed import BatchFailedError
     from hertzian.sweeping.storage import StorageError
 
-    progress = _Progress(not quiet and sys.stderr.isatty())
+    progress = _progress(quiet)
     try:
         with one_line_errors():
             result = run_sweep(prepared, progress=progress, notify=notify)
@@ -239,8 +304,11 @@ def sweep(
         typer.echo(f"error: {err}", err=True)
         raise typer.Exit(1) from None
     except KeyboardInterrupt:
+        from hertzian.sweeping.sweep_store import completed_batches
+
+        stored = len(completed_batches(prepared.out))  # what the store holds, not what this process saw finish
         typer.echo(
-            f"interrupted after {progress.done_batches}/{len(prepared.plan.batches)} batches; continue with: "
+            f"interrupted with {stored}/{len(prepared.plan.batches)} batches in the store; continue with: "
             f"hertzian sweep {prepared.definition.source} --out {prepared.out} --resume",
             err=True,
         )
@@ -249,6 +317,14 @@ def sweep(
     typer.echo(f"wrote {prepared.out}", err=as_json)
     if as_json:
         typer.echo(json.dumps(result, indent=1))
+    exit_if_flagged(_store_status(prepared.out))
+
+
+def _store_status(path):
+    """Every point's status in the store (all batches, resumed ones included)."""
+    import zarr
+
+    return zarr.open_array(store=str(path), path="status", mode="r")[...]
 
 
 def tls_files(ca_file: Path | None, cert: Path | None, key: Path | None):

@@ -35,6 +35,7 @@ def warmup(
     same device, Warp version and hertzian source reads them from there. One of PATH, --paper or --detect.
     """
     from hertzian.core.scene import SceneError
+    from hertzian.core.shipped import shipped_file
     from hertzian.core.solvers.calibrate import KERNELS
     from hertzian.core.solvers.prepare import kernel_variants, prepare_kernels
 
@@ -42,6 +43,7 @@ def warmup(
         fail("warmup: PATH, --paper, --detect = none or several: give exactly one")
     if kernel not in KERNELS:
         fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)}")
+    path, detect = (None if p is None else shipped_file(p) for p in (path, detect))
     if workers is not None and workers < 1:
         fail(f"--workers = {workers}: must be at least 1")
     dev = resolve_device(device)

@@ -413,14 +413,17 @@ def memory_needed(scene: Scene, chains: int = 1) -> dict[str, int]:
     samples (host); ``setup``: host arrays used to build the chain.
     """
     # kernels.gear loads Warp (≈ 0.6 s), which the other checks do without
-    from hertzian.kernels.gear import state_rows
+    from hertzian.kernels.gear import GEAR_VALUES, state_rows
 
     item = 8 if scene.integrator.precision == "float64" else 4
     n, traced = scene.chain.grains, len(scene.record.traces)
     records = scene.record_count
     ring = scene.steps_per_record // scene.trace_stride if traced else 0
     # float32 state rows include the low parts of u and dt·v (compensated, kernels/gear.py)
-    rows = state_rows(scene.integrator.method, scene.integrator.precision, True)
+    method = scene.integrator.method
+    # "auto" (with integrator.tolerance): the pilot may pick any method; size for the largest state
+    methods = list(GEAR_VALUES) if method not in GEAR_VALUES else [method]
+    rows = max(state_rows(m, scene.integrator.precision, True) for m in methods)
     state = chains * (2 * rows * n + 3 * n + 2 + 2 * ring * traced) * item
     return {
         "state": state,

@@ -45,7 +45,11 @@ def features_of(scenes: list[Scene], statics: list[StaticState] | None = None) -
     for key, get in SHARED_KEYS:
         values = {get(s) for s in scenes}
         if len(values) > 1:
-            raise SceneError(key, sorted(map(str, values)), "chains in one ensemble must share this")
+            raise SceneError(
+                key,
+                sorted(map(str, values)),
+                "chains in one ensemble must share this (run them apart, or as a sweep, which groups them)",
+            )
     statics = statics or [static_state(s) for s in scenes]
     return _features(
         first,

@@ -156,7 +156,7 @@ class Runner:
             raise SceneError(
                 "integrator.tolerance",
                 tolerance,
-                "a tolerance picks dt before the run: use run_ensemble or hertzian run",
+                "a tolerance picks dt before the run: run it with hertzian.run or hertzian run",
             )
         self.model = model
         self.monitor_every = (

@@ -373,6 +373,8 @@ _SECTIONS = {
     "damping": DampingSpec,
 }
 _TOP_KEYS = tuple(_SECTIONS) + ("impurities",)
+SCENE_TABLES = frozenset(_TOP_KEYS)
+"""Top-level tables of a scene file."""
 
 
 def _did_you_mean(word: str, choices) -> str:
@@ -546,10 +548,21 @@ def read_toml(path: str | Path) -> dict:
         raise SceneError(str(path), "…", f"is not valid TOML: {err}") from None
 
 
+SWEEP_TABLES = frozenset({"scene", "axis", "zip"})
+"""Top-level tables of a sweep file (a scene file has none of them)."""
+
+
 def load_scene(path: str | Path, overrides: dict[str, Any] | None = None) -> Scene:
     """Read a scene TOML file, apply ``--set`` overrides, validate. A ``chain.radii`` .npy path is relative to
     the file."""
-    data = apply_overrides(read_toml(path), overrides or {})
+    data = read_toml(path)
+    if isinstance(data, dict) and data.keys() & SWEEP_TABLES and not data.keys() & _TOP_KEYS:
+        raise SceneError(
+            "scene file",
+            str(path),
+            "is a sweep file (it has [scene] and [[axis]] tables): give it to hertzian sweep (or hertzian.sweep)",
+        )
+    data = apply_overrides(data, overrides or {})
     radii = data.get("chain", {}).get("radii") if isinstance(data.get("chain"), dict) else None
     if isinstance(radii, str) and not Path(radii).is_absolute():
         data["chain"]["radii"] = str(Path(path).parent / radii)

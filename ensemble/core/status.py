@@ -44,3 +44,26 @@ STATUS_MESSAGES = {
 def status_attrs() -> dict[str, str]:
     """{code: 'NAME: message'} for store attributes."""
     return {str(int(s)): f"{s.name}: {s.message}" for s in Status}
+
+
+FAILED = (Status.NON_FINITE, Status.OVERLAP_BEYOND_VALIDITY, Status.ENERGY_DRIFT, Status.TOLERANCE_MISSED)
+"""Codes that mean a chain's result cannot be trusted as asked for; ``hertzian run`` and ``hertzian sweep`` exit
+with code 3 when any chain ends with one (ESTIMATE_UNCERTAIN is a caveat on the error estimate, not a failure)."""
+
+
+def failure_line(status) -> str | None:
+    """One line counting the chains of ``status`` (any int array) that ended with a :data:`FAILED` code, by code
+    and with the first one's meaning; None when there are none."""
+    import numpy as np
+
+    codes = np.asarray(status).reshape(-1)
+    counts = {s: int(np.count_nonzero(codes == int(s))) for s in FAILED}
+    counts = {s: k for s, k in counts.items() if k}
+    if not counts:
+        return None
+    first = next(iter(counts))
+    named = ", ".join(f"{s.name} {k}" for s, k in counts.items())
+    return (
+        f"{sum(counts.values())} of {codes.size} chains did not end OK ({named}; {first.name}: {first.message}); "
+        "their status is in the store"
+    )

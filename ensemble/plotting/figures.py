@@ -41,13 +41,18 @@ class PlotError(ValueError):
     """The store does not hold what the figure needs (names the missing piece)."""
 
 
+def store_contents(ds) -> str:
+    """What a store holds, in a few words: its sweep axes (with their lengths) and its data variables."""
+    axes = ds["status"].dims if "status" in ds.variables else tuple(ds.dims)
+    axes_text = ", ".join(f"{d} ({ds.sizes[d]})" for d in axes) or "none (a single run)"
+    names = ", ".join(sorted(map(str, ds.data_vars)))
+    return f"sweep axes {axes_text}; variables {names}"
+
+
 def _require(ds, *names: str, figure: str) -> None:
     missing = [n for n in names if n not in ds.variables and n not in ds.dims]
     if missing:
-        raise PlotError(
-            f"figure {figure} needs {', '.join(missing)} in the store; it has "
-            f"{', '.join(sorted(map(str, ds.variables)))}"
-        )
+        raise PlotError(f"figure {figure} needs {', '.join(missing)} in the store; it has {store_contents(ds)}")
 
 
 def _pyplot():
@@ -686,14 +691,17 @@ def point_dims(ds) -> list[str]:
     return [str(d) for d in ds.status.dims] if "status" in ds.variables else []
 
 
-def select_point(ds, at: dict[str, float] | None = None):
+def select_point(ds, at: dict[str, float] | None = None, notify=None):
     """One point of a store: the coordinate nearest each value in ``at`` {axis: value}, the first along
-    every other axis. Raises PlotError naming an unknown axis."""
+    every other axis. Raises PlotError naming an unknown axis; ``notify(line)`` hears of each value that is not
+    on the axis (a warning when it lies outside the axis' range, else a note), with the point taken instead."""
     at = dict(at or {})
     axes = point_dims(ds)
     for dim in axes:
         if dim in at:
-            ds = ds.sel({dim: at.pop(dim)}, method="nearest")
+            asked, axis = at.pop(dim), ds[dim].values
+            ds = ds.sel({dim: asked}, method="nearest")
+            _tell_nearest(notify, dim, asked, axis, ds[dim].values)
         else:
             ds = ds.isel({dim: 0})
     if at:
@@ -701,15 +709,28 @@ def select_point(ds, at: dict[str, float] | None = None):
     return ds
 
 
-def plot_store(ds, out: str | Path, *, field: str = "v", at: dict[str, float] | None = None) -> Path:
+def _tell_nearest(notify, dim: str, asked: float, axis, taken) -> None:
+    """``notify`` that ``asked`` is not on ``axis`` (its values): a warning outside its range, else a note."""
+    taken = float(taken)
+    if notify is None or taken == asked:
+        return
+    low, high = float(np.min(axis)), float(np.max(axis))
+    line = f"--at {dim}={asked:g} is not on the axis: drew the nearest point, {dim}={taken:g}"
+    if asked < low or asked > high:
+        notify(f"warning: {line} (the axis runs from {low:g} to {high:g})")
+    else:
+        notify(f"note: {line}")
+
+
+def plot_store(ds, out: str | Path, *, field: str = "v", at: dict[str, float] | None = None, notify=None) -> Path:
     """One point of any store: depth–time picture of ``field`` (u or v, the store's sign: + into the chain),
     the traced grains' velocities, and the relative energy error against time."""
     if field not in ("u", "v"):
         raise PlotError(f"field {field!r}: u or v")
     if "response" in ds.variables:
-        return plot_response_point(select_point(ds, at), Path(out))
+        return plot_response_point(select_point(ds, at, notify), Path(out))
     _require(ds, field, "energy", figure=f"a {field} picture")
-    point = select_point(ds, at)
+    point = select_point(ds, at, notify)
     plt = _pyplot()
     traced = "trace_v" in point.variables and point.sizes.get("traced", 0) > 0
     rows = 2 + traced
@@ -899,4 +920,14 @@ def plot_figure(dataset, figure: str, out: str | Path) -> Path:
     """Draw ``figure`` (a key of :data:`FIGURES`) from an xarray dataset into the PNG ``out``."""
     if figure not in FIGURES:
         raise PlotError(f"unknown figure {figure!r}; allowed: {', '.join(FIGURES)}")
-    return FIGURES[figure](dataset, Path(out))
+    try:
+        return FIGURES[figure](dataset, Path(out))
+    except PlotError:
+        raise
+    except (KeyError, IndexError, ValueError, TypeError, AttributeError):  # the right names, another sweep's shape
+        raise PlotError(not_this_figure(dataset, figure)) from None
+
+
+def not_this_figure(dataset, figure: str) -> str:
+    """One line: the store is not ``figure``'s, and what it holds."""
+    return f"the store does not hold figure {figure}'s sweep; it has {store_contents(dataset)}"

@@ -10,6 +10,8 @@ Notes and warnings (a dt that looks unstable, the per-step kernel and why) go to
 from __future__ import annotations
 
 import contextlib
+import difflib
+import inspect
 import itertools
 import time
 import warnings
@@ -536,6 +538,12 @@ def sweep(
 ) -> dict[str, Any]:
     """Prepare (:func:`prepare_sweep`'s ``options``) and run a sweep; returns the summary dict.
     ``progress``: a :class:`SweepProgress`, or ``callback(done_batches, total_batches)``."""
+    known = [p for p in inspect.signature(prepare_sweep).parameters if p not in ("sweep", "out", "notify")]
+    for name in options:
+        if name not in known:
+            close = difflib.get_close_matches(name, known, n=1)
+            hint = f" (did you mean {close[0]}?)" if close else ""
+            raise OptionError(name, options[name], f"not an option of sweep{hint}; options: {', '.join(known)}")
     prepared = prepare_sweep(sweep, out, notify=notify, **options)
     if progress is not None and not isinstance(progress, SweepProgress):
         progress = CallbackProgress(progress)

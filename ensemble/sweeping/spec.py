@@ -27,7 +27,16 @@ from typing import Any
 
 import numpy as np
 from hertzian.core.chains import ChainSet, is_per_chain_key
-from hertzian.core.scene import Scene, SceneError, UnknownKeyError, apply_overrides, read_toml, scene_from_dict
+from hertzian.core.scene import (
+    SCENE_TABLES,
+    SWEEP_TABLES,
+    Scene,
+    SceneError,
+    UnknownKeyError,
+    apply_overrides,
+    read_toml,
+    scene_from_dict,
+)
 
 AXIS_KEYS = ("name", "key", "values", "linspace", "logspace")
 SPACINGS = ("values", "linspace", "logspace")
@@ -402,9 +411,15 @@ def load_sweep(
     path = Path(path)
     if not path.is_file():
         raise SceneError("sweep file", str(path), "no such file")
-    return sweep_from_dict(
-        read_toml(path), base_dir=path.parent, overrides=overrides, source=str(path), max_points=max_points
-    )
+    data = read_toml(path)
+    if isinstance(data, dict) and not data.keys() & SWEEP_TABLES and data.keys() & SCENE_TABLES:
+        raise SceneError(
+            "sweep file",
+            str(path),
+            "is a scene file (no [scene] table or [[axis]]): give it to hertzian run or hertzian check "
+            "(or wrap it as [scene.chain], [scene.integrator], … with [[axis]] tables for a sweep)",
+        )
+    return sweep_from_dict(data, base_dir=path.parent, overrides=overrides, source=str(path), max_points=max_points)
 
 
 # ---- what every point must share ------------------------------------------------------

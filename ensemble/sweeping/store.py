@@ -103,7 +103,8 @@ def unchecked_note(path: str | Path) -> str | None:
 
 def summary_columns(path: str | Path) -> dict[str, np.ndarray]:
     """Per point, as columns over the points in C order (vectorised; reads only the per-point
-    variables, never u/v/traces): every axis value, status, status name, energy error, max overlap,
+    variables, never u/v/traces): every axis value, status, status name, energy error, the error estimate (where
+    the store has one), max overlap,
     wall seconds, grain-steps per second, device and the scheme (method, precision, dt, steps, grains).
 
     Raises :class:`StoreDamagedError` (one line) if a chunk it reads is damaged."""
@@ -139,8 +140,9 @@ def _summary_columns(path: str | Path) -> dict[str, np.ndarray]:
     unique, inverse = np.unique(flat_status, return_inverse=True)
     columns["status_name"] = np.array([names.get(c, "?") for c in unique.tolist()] or ["?"])[inverse.reshape(-1)]
     members = set(group.array_keys())
-    for name in ("energy_error", "max_overlap", "wall_seconds"):
-        columns[name] = np.asarray(group[name][...], dtype=np.float64).reshape(-1)
+    for name in ("energy_error", "error_estimate", "max_overlap", "wall_seconds"):
+        if name in members or name != "error_estimate":  # the error estimate only where the run asked for it
+            columns[name] = np.asarray(group[name][...], dtype=np.float64).reshape(-1)
     if "grain_steps_per_second" in members:
         columns["grain_steps_per_second"] = np.asarray(group["grain_steps_per_second"][...], dtype=np.float64).reshape(
             -1
