@@ -108,10 +108,10 @@ class _LogProgress:
         self.last = now = self.clock()
         done = self.finished_steps + self.running
         rate = done / max(now - self.started, 1e-9)
-        left = (self.total_steps - done) / rate if rate > 0 else float("nan")
+        left = f"about {(self.total_steps - done) / rate:.0f} s left" if rate > 0 else "time left not known yet"
         typer.echo(
             f"sweep: {self._batches()} batches, {100 * done / max(self.total_steps, 1):.0f} % of the grain-steps, "
-            f"{rate:.3g} grain-steps/s, {now - self.started:.0f} s elapsed, about {left:.0f} s left",
+            f"{rate:.3g} grain-steps/s, {now - self.started:.0f} s elapsed, {left}",
             err=True,
         )
 
