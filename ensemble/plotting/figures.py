@@ -722,6 +722,21 @@ def _tell_nearest(notify, dim: str, asked: float, axis, taken) -> None:
         notify(f"note: {line}")
 
 
+MOVED_FRACTION = 1e-3
+"""A grain counts as moved in a picture once its |value| reaches this fraction of the picture's largest."""
+
+
+def moved_extent(data: np.ndarray, limit: float) -> int:
+    """Grains to show of a (record, grain) picture: up to the deepest that moved, with a margin of a tenth of that
+    depth (at least 10 grains), at most all of them."""
+    moved = np.flatnonzero(np.nanmax(np.abs(data), axis=0) >= MOVED_FRACTION * limit)
+    n = data.shape[-1]
+    if moved.size == 0:
+        return n
+    deepest = int(moved[-1]) + 1
+    return min(n, deepest + max(10, deepest // 10))
+
+
 def plot_store(ds, out: str | Path, *, field: str = "v", at: dict[str, float] | None = None, notify=None) -> Path:
     """One point of any store: depth–time picture of ``field`` (u or v, the store's sign: + into the chain),
     the traced grains' velocities, and the relative energy error against time."""
@@ -752,7 +767,13 @@ def plot_store(ds, out: str | Path, *, field: str = "v", at: dict[str, float] | 
         interpolation="nearest",
     )
     fig.colorbar(image, ax=axes[0], label=f"{field} [{'1e-5 m' if field == 'u' else '1e-5 m per time unit'}]")
-    axes[0].set_xlabel("grain (depth; surface = 0)")
+    reached = moved_extent(data, limit)
+    if reached < n:  # the rest of the chain has not moved yet: show where the motion is
+        axes[0].set_xlim(-0.5, reached - 0.5)
+    axes[0].set_xlabel(
+        "grain (depth; surface = 0)"
+        + (f"; grains {reached}–{n - 1}, below 0.1 % of the largest |{field}|, not shown" if reached < n else "")
+    )
     axes[0].set_ylabel(f"t [{TIME_UNIT}]")
     where = ", ".join(f"{d} = {point[d].values:g}" for d in point_dims(ds) if d in point.coords)
     axes[0].set_title(
@@ -778,6 +799,15 @@ def plot_store(ds, out: str | Path, *, field: str = "v", at: dict[str, float] | 
         title += f"; max over the run (records and checks between): {float(point.energy_error):.3g}"
     ax.set_title(title)
     return _finish(fig, Path(out))
+
+
+MAP_TITLES = {
+    "swr": "log10 max|V1| / min|V1| (node contrast,\nnot a standing-wave test: docs/drive.md)",
+    "label": "stroboscopic label: P periodic, QP quasi-periodic,\nC chaotic, ? unknown (too few samples)",
+}
+"""Panel titles of the response map where the number's name alone would mislead."""
+SHORT_LABELS = ("P", "QP", "C", "?")
+"""Cell text of each of analysis.LABELS (the long names overlap in a cell)."""
 
 
 def drive_map(ds, out: Path) -> Path:
@@ -809,11 +839,12 @@ def drive_map(ds, out: Path) -> Path:
         ax.set_yticks(range(len(y)), [f"{v:g}" for v in y])
         ax.set_xlabel(dims[1])
         ax.set_ylabel(dims[0])
-        ax.set_title("log10 standing-wave ratio |V1|" if metric == "swr" else metric)
+        ax.set_title(MAP_TITLES.get(metric, metric), fontsize=8)
         for (i, j), value in np.ndenumerate(data):
-            text = an.LABELS[int(value)] if metric == "label" and np.isfinite(value) else f"{value:.3g}"
-            ax.text(j, i, text, ha="center", va="center", fontsize=7, color="w")
-        fig.colorbar(image, ax=ax)
+            text = SHORT_LABELS[int(value)] if metric == "label" and np.isfinite(value) else f"{value:.3g}"
+            ax.text(j, i, text, ha="center", va="center", fontsize=7, color="w" if metric != "label" else "k")
+        if metric != "label":  # the label's codes are named in its cells and title, not on a scale
+            fig.colorbar(image, ax=ax)
     for ax in list(axes.flat)[len(metrics) :]:
         ax.axis("off")
     return _finish(fig, out)

@@ -187,8 +187,23 @@ def statistics_json(ds, over: str) -> dict:
     }
 
 
+UNITS = {
+    "arrival_time": "program time, 1.0102 ms",
+    "bottom_energy": "program energy, 2.3e-9 J",
+    "bottom_fraction": "of the injected energy",
+    "decay_length": "grains",
+    "bottom_peak_force": "program force, 0.23 mN",
+}
+"""Units of each scalar observable, for axis labels."""
+REALISATION_DIM = "seed"
+"""The sweep dimension whose points are realisations of one disorder: pooled in a histogram; every other sweep
+dimension gets a histogram of its own."""
+
+
 def plot_distribution(ds, of: str, out, *, bins: int = 30) -> None:
-    """Histogram of one scalar observable over every point of the store, written as a PNG to ``out``."""
+    """Histograms of one scalar observable over the realisations of the store, one panel per point of its other
+    sweep dimensions (e.g. one per spread, each over its seeds), each with its own bins, its 5, 50 and 95 %
+    quantiles dashed, and units; written as a PNG to ``out``."""
     if of not in SCALAR_OBSERVABLES:
         raise ValueError(f"--of = {of!r}: allowed: {', '.join(SCALAR_OBSERVABLES)}")
     import matplotlib  # optional, heavy: only plotting needs it
@@ -197,16 +212,22 @@ def plot_distribution(ds, of: str, out, *, bins: int = 30) -> None:
     import matplotlib.pyplot as plt
 
     found = observables(ds)
-    values = (found[of] if of in found else bottom_peak_force(ds)).reshape(-1)  # the latter refuses: not recorded
-    values = values[np.isfinite(values)]
-    fig, ax = plt.subplots(figsize=(5, 3.5))
-    ax.hist(values, bins=bins)
-    q = np.quantile(values, QUANTILES) if values.size else []
-    for x in q:
-        ax.axvline(x, color="k", lw=0.8, ls="--")
-    ax.set_xlabel(of)
-    ax.set_ylabel("points")
-    ax.set_title(f"{values.size} points; 5, 50, 95 % quantiles dashed")
+    values = np.asarray(found[of] if of in found else bottom_peak_force(ds), dtype=np.float64)
+    dims = [str(d) for d in ds.status.dims] if "status" in ds.variables else []
+    groups = [d for d in dims if d != REALISATION_DIM]
+    panels = list(np.ndindex(*[ds.sizes[d] for d in groups]))
+    fig, axes = plt.subplots(len(panels), 1, figsize=(5.5, 1.6 + 1.9 * len(panels)), squeeze=False)
+    for ax, index in zip(axes[:, 0], panels):
+        where = dict(zip(groups, index))
+        part = values[tuple(where.get(d, slice(None)) for d in dims)].reshape(-1)
+        part = part[np.isfinite(part)]
+        ax.hist(part, bins=bins)
+        for x in np.quantile(part, QUANTILES) if part.size else []:
+            ax.axvline(x, color="k", lw=0.8, ls="--")
+        label = ", ".join(f"{d} = {np.asarray(ds[d].values)[k]:g}" for d, k in where.items()) or "every point"
+        ax.set_title(f"{label}: {part.size} realisations; 5, 50, 95 % quantiles dashed", fontsize=8)
+        ax.set_ylabel("realisations")
+    axes[-1, 0].set_xlabel(f"{of} [{UNITS[of]}]")
     fig.tight_layout()
     fig.savefig(out, dpi=120)
     plt.close(fig)

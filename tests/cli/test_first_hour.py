@@ -163,7 +163,9 @@ def test_progress_lines_when_stderr_is_not_a_terminal(tmp_path, monkeypatch):
     result = invoke("sweep", write_sweep(tmp_path, GRID_SWEEP), "--out", out, "--device", "cpu", "--batch-size", "2")
     assert result.exit_code == 0, result.stderr
     lines = [ln for ln in result.stderr.splitlines() if ln.startswith("sweep: ")]
-    assert lines[0] == f"sweep: 0/3 batches done; {12 * 200 * 6:.3g} grain-steps to run", lines  # grains × steps × points
+    assert lines[0] == f"sweep: 0/3 batches done; {12 * 200 * 6:.3g} grain-steps to run", (
+        lines
+    )  # grains × steps × points
     assert lines[-1].startswith("sweep: 3/3 batches, 100 % of the grain-steps")
 
 

@@ -84,3 +84,111 @@ def test_energy_drift_uses_the_injected_energy_or_the_work():
     drift, scale = energy_drift(np.array([0.0, 4.0, -7.0]), work)
     np.testing.assert_allclose(drift, [0.0, 0.0, 1.0 / 8.0])
     assert scale == "max |W|"
+
+
+def captured_figures(monkeypatch):
+    """The figures the drawing functions finish, kept open for the test to read."""
+    import hertzian.plotting.figures as figures
+
+    kept = []
+    monkeypatch.setattr(figures, "_finish", lambda fig, out: kept.append(fig) or out)
+    return kept
+
+
+def test_the_depth_time_picture_shows_the_grains_that_moved(impact_store, monkeypatch):
+    from hertzian.plotting.figures import plot_store
+
+    kept = captured_figures(monkeypatch)
+    with xr.open_zarr(impact_store) as ds:
+        plot_store(ds, "unused.png", field="v")
+        v = np.abs(ds.v.values)
+    picture = kept[0].axes[0]
+    peak = v.max(axis=0)
+    deepest = int(np.flatnonzero(peak >= 1e-3 * v.max())[-1]) + 1  # grains 0 … deepest-1 reach 0.1 % of the peak
+    low, high = picture.get_xlim()
+    assert deepest < 100 and deepest - 0.5 < high <= deepest + max(10, deepest // 10) - 0.5 + 1e-9
+    assert f"grains {round(high + 0.5)}–99" in picture.get_xlabel() and "not shown" in picture.get_xlabel()
+
+
+def test_the_built_in_example_records_enough_snapshots_for_a_picture():
+    import hertzian as hz
+
+    scene = hz.load_scene("impact")
+    spacing = scene.record.every * 17  # the pulse moves about 17 grains per time unit at v_imp = 1e-2, l0 = 1e-4
+    assert scene.record_count >= 100 and spacing <= 2
+
+
+DRIVE_MAP = """
+[scene.chain]
+grains = 10
+l0 = 1e-3
+[scene.boundary]
+surface = "driven"
+bottom = "fixed"
+[scene.excitation]
+drive_amplitude = 1e-4
+drive_period = 0.5
+[scene.integrator]
+dt = 1e-3
+duration = 2.0
+[scene.record]
+every = 0.5
+fields = ["v"]
+traces = [2, 5]
+trace_every = 0.05
+response_start = 0.5
+response_periods = 1
+response_windows = 2
+harmonics = 2
+[[axis]]
+name = "tau"
+key = "excitation.drive_period"
+values = [0.25, 0.5]
+[[axis]]
+name = "A"
+key = "excitation.drive_amplitude"
+values = [1e-4, 3e-3]
+"""
+
+
+def test_the_drive_map_names_its_panels_for_what_they_show(tmp_path, monkeypatch):
+    from hertzian.plotting.figures import drive_map
+    from hertzian.studies.analysis import LABELS
+
+    sweep = tmp_path / "map.toml"
+    sweep.write_text(DRIVE_MAP)
+    out = tmp_path / "map.zarr"
+    assert invoke("sweep", sweep, "--out", out, "--device", "cpu", "--quiet").exit_code == 0
+    kept = captured_figures(monkeypatch)
+    with xr.open_zarr(out) as ds:
+        drive_map(ds, tmp_path / "map.png")
+    titles = [ax.get_title() for ax in kept[0].axes]
+    assert not any("standing-wave ratio" in t for t in titles) and "not a standing-wave test" in titles[0]
+    label_panel = next(ax for ax in kept[0].axes if ax.get_title().startswith("stroboscopic label"))
+    assert all(len(text.get_text()) <= 2 for text in label_panel.texts)  # P, QP, C or ?: fits a cell
+    assert {text.get_text() for text in label_panel.texts} <= {"P", "QP", "C", "?"} and len(LABELS) == 4
+    assert len(kept[0].axes) == 8 + 7  # eight panels, a colour scale on each but the label's
+
+
+def test_the_distribution_has_a_panel_per_spread_with_units(tmp_path, monkeypatch):
+    import matplotlib.pyplot as plt
+    from hertzian.studies import realisations
+
+    sweep = tmp_path / "disorder.toml"
+    sweep.write_text(
+        "[scene.chain]\ngrains = 12\nradii = { spread = 0.0, seed = 0 }\n[scene.excitation]\nimpact = 0.1\n"
+        "[scene.integrator]\ndt = 5e-5\nduration = 0.6\n[scene.record]\nevery = 0.02\nfields = ['v']\n"
+        "[[axis]]\nname = 'spread'\nkey = 'chain.radii.spread'\nvalues = [0.0, 0.2]\n"
+        "[[axis]]\nname = 'seed'\nkey = 'chain.radii.seed'\nvalues = [0, 1, 2, 3]\n"
+    )
+    out = tmp_path / "disorder.zarr"
+    assert invoke("sweep", sweep, "--out", out, "--device", "cpu", "--quiet").exit_code == 0
+    kept = []
+    monkeypatch.setattr(plt.Figure, "savefig", lambda fig, *a, **k: kept.append(fig))
+    monkeypatch.setattr(plt, "close", lambda fig=None: None)
+    with xr.open_zarr(out) as ds:
+        realisations.plot_distribution(ds, "bottom_fraction", tmp_path / "d.png")
+    axes = kept[0].axes
+    assert [ax.get_title().split(":")[0] for ax in axes] == ["spread = 0", "spread = 0.2"]
+    assert all("4 realisations" in ax.get_title() for ax in axes)
+    assert axes[-1].get_xlabel() == "bottom_fraction [of the injected energy]"
