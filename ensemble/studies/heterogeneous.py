@@ -5,6 +5,8 @@ the sweeps at their shipped sizes with plain Gear steps (:data:`SHIPPED_EVENTS`)
 
 ``python -m hertzian.studies.heterogeneous OUT.json [--grains 40] [--seeds 20]``
 ``python -m hertzian.studies.heterogeneous OUT.json --shipped [--device cuda] [--events auto]``
+``python -m hertzian.studies.heterogeneous OUT.json --shipped --only taper --device cpu [--dt 5e-6]`` (the shipped
+taper sweep is a CPU's job: 9 chains of 100 grains)
 """
 
 from __future__ import annotations
@@ -101,47 +103,57 @@ def plan(*, shipped: bool = False, grains: int = 40, seeds: int = 20, events: st
 
 
 def study(grains: int = 40, seeds: int = 20, *, device: str = "cpu", sweeps: dict | None = None) -> dict:
-    """Both sweeps (``sweeps``: :func:`plan`'s; default the CPU size at ``grains`` grains and ``seeds``
-    realisations per spread) on ``device``, and their observables; each sweep's wall time in seconds."""
-    from hertzian.studies.realisations import observables, statistics
-
+    """The sweeps of ``sweeps`` (:func:`plan`'s, or some of them; default both at the CPU size, ``grains`` grains and
+    ``seeds`` realisations per spread) on ``device``, and their observables; each sweep's wall time in seconds."""
     sweeps = sweeps or plan(grains=grains, seeds=seeds)
+    record = {"device": device, "host": platform.node(), "date": date.today().isoformat()}
     with tempfile.TemporaryDirectory() as tmp:
-        taper, taper_s = _run(sweeps["taper"], "taper", Path(tmp), device)
-        found = observables(taper)
-        q = taper.taper.values.tolist()
-        uniform = found["bottom_fraction"][q.index(0.0)]
-        disorder, disorder_s = _run(sweeps["disorder"], "disorder", Path(tmp), device)
-        stats = statistics(disorder, "seed")
-        realisations = disorder.sizes["seed"]
-    n = sweeps["taper"]["scene"]["chain"]["grains"]
+        if "taper" in sweeps:
+            record["grains"] = sweeps["taper"]["scene"]["chain"]["grains"]
+            record["taper"] = _taper(sweeps["taper"], Path(tmp), device)
+        if "disorder" in sweeps:
+            record["disorder"] = _disorder(sweeps["disorder"], Path(tmp), device)
+    return record
+
+
+def _taper(data: dict, work: Path, device: str) -> dict:
+    from hertzian.studies.realisations import observables
+
+    taper, seconds = _run(data, "taper", work, device)
+    found = observables(taper)
+    q = taper.taper.values.tolist()
+    uniform = found["bottom_fraction"][q.index(0.0)]
+    n = data["scene"]["chain"]["grains"]
     return {
-        "device": device,
-        "host": platform.node(),
-        "date": date.today().isoformat(),
-        "grains": n,
-        "taper": {
-            "q": q,
-            "bottom_fraction": found["bottom_fraction"].tolist(),
-            "relative_to_uniform": (found["bottom_fraction"] / uniform).tolist(),
-            "binary_collision_relative": [binary_collision_fraction(x, n) for x in q],
-            "arrival_time": found["arrival_time"].tolist(),
-            "bottom_peak_force": found["bottom_peak_force"].tolist(),
-            **_integrator(sweeps["taper"]),
-            "seconds": taper_s,
+        "q": q,
+        "bottom_fraction": found["bottom_fraction"].tolist(),
+        "relative_to_uniform": (found["bottom_fraction"] / uniform).tolist(),
+        "binary_collision_relative": [binary_collision_fraction(x, n) for x in q],
+        "arrival_time": found["arrival_time"].tolist(),
+        "bottom_peak_force": found["bottom_peak_force"].tolist(),
+        "energy_error": taper.energy_error.values.tolist(),
+        "status": taper.status.values.tolist(),
+        **_integrator(data),
+        "seconds": seconds,
+    }
+
+
+def _disorder(data: dict, work: Path, device: str) -> dict:
+    from hertzian.studies.realisations import statistics
+
+    disorder, seconds = _run(data, "disorder", work, device)
+    stats = statistics(disorder, "seed")
+    return {
+        "grains": data["scene"]["chain"]["grains"],
+        "spread": disorder.spread.values.tolist(),
+        "realisations": disorder.sizes["seed"],
+        **{
+            f"{name}_{k}": np.asarray(stats[name][k]).tolist()
+            for name in ("decay_length", "bottom_fraction", "arrival_time", "bottom_peak_force")
+            for k in ("mean", "std", "q05", "q50", "q95")
         },
-        "disorder": {
-            "grains": sweeps["disorder"]["scene"]["chain"]["grains"],
-            "spread": disorder.spread.values.tolist(),
-            "realisations": realisations,
-            **{
-                f"{name}_{k}": np.asarray(stats[name][k]).tolist()
-                for name in ("decay_length", "bottom_fraction", "arrival_time", "bottom_peak_force")
-                for k in ("mean", "std", "q05", "q50", "q95")
-            },
-            **_integrator(sweeps["disorder"]),
-            "seconds": disorder_s,
-        },
+        **_integrator(data),
+        "seconds": seconds,
     }
 
 
@@ -163,8 +175,12 @@ def arguments(argv: list[str] | None = None) -> tuple[Path, dict, str]:
     parser.add_argument("--shipped", action="store_true", help="the sweeps' shipped sizes (a GPU's run)")
     parser.add_argument("--device", default=None, help="cpu, cuda or cuda:N (default: cuda if present, else cpu)")
     parser.add_argument("--events", choices=("auto", "off"), default=None, help="integrator.events for both sweeps")
+    parser.add_argument("--dt", type=float, default=None, help="integrator.dt for both sweeps (default: shipped)")
+    parser.add_argument("--only", choices=("taper", "disorder"), default=None, help="run one of the two sweeps")
     args = parser.parse_args(argv)
-    sweeps = plan(shipped=args.shipped, grains=args.grains, seeds=args.seeds, events=args.events)
+    sweeps = plan(shipped=args.shipped, grains=args.grains, seeds=args.seeds, events=args.events, dt=args.dt)
+    if args.only:
+        sweeps = {args.only: sweeps[args.only]}
     return args.out, sweeps, check_device(args.device)
 
 

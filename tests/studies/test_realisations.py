@@ -144,3 +144,48 @@ def test_a_store_without_displacements_is_refused_in_one_line(tmp_path, referenc
     assert result.stderr.strip().count("\n") == 0 and "record.fields must include u" in result.stderr
     result = invoke("summarize", str(store), "--over", "taper")
     assert result.exit_code == 0 and "bottom_peak_force" not in result.stdout, result.stderr
+
+
+TAPER_40 = """
+[scene.chain]
+grains = 40
+radii = {{ taper = 0.0 }}
+[scene.boundary]
+bottom = "wall"
+[scene.excitation]
+impact = 0.1
+[scene.integrator]
+method = "gear5"
+dt = {dt}
+duration = 3.0
+events = "off"
+[scene.record]
+every = 0.02
+fields = ["v"]
+traces = [39]
+trace_every = {dt}
+[[axis]]
+name = "taper"
+key = "chain.radii.taper"
+values = [0.0, 0.04]
+"""
+
+
+def test_the_bottom_energy_is_read_from_the_bottom_grains_trace_and_survives_halving_dt(tmp_path):
+    """The bottom grain's pulse is short (at q = 0.04 its smallest grains touch for a few steps' time): its largest
+    kinetic energy comes from its trace, sampled every step, not from the snapshots every 0.02."""
+    from hertzian.studies.realisations import observables
+
+    fractions = []
+    for dt in (5e-5, 2.5e-5):
+        out = run_store(tmp_path, TAPER_40.format(dt=dt), "--quiet", name=f"taper_{dt}.zarr")
+        with xr.open_zarr(out) as ds:
+            found = observables(ds)
+            mass, trace, v = ds.mass.values, np.abs(ds.trace_v.values[..., 0]), np.abs(ds.v.values)
+        injected = 0.5 * mass[:, 0] * 0.1**2
+        from_trace = 0.5 * mass[:, -1] * (trace**2).max(axis=-1) / injected
+        from_snapshots = 0.5 * mass[:, -1] * (v[:, :, -1] ** 2).max(axis=-1) / injected
+        np.testing.assert_array_equal(found["bottom_fraction"], from_trace)
+        assert np.all(from_trace >= from_snapshots)  # the snapshots' times are among the trace's samples
+        fractions.append(from_trace)
+    np.testing.assert_allclose(fractions[0], fractions[1], rtol=1e-4)

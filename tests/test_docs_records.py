@@ -1,0 +1,90 @@
+"""Numbers in the docs against the raw records they cite: each table row checked here is read from the Markdown and
+compared, at the precision the table prints, with the record's values."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+DOCS = Path(__file__).resolve().parents[1] / "docs"
+
+
+def table_after(doc: str, heading: str) -> dict[str, list[str]]:
+    """The first Markdown table after the line that starts with ``heading``: first cell → the other cells."""
+    lines = (DOCS / doc).read_text().splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith(heading))
+    rows: dict[str, list[str]] = {}
+    for line in lines[start + 1 :]:
+        if line.startswith("|"):
+            cells = [c.strip() for c in line.strip().strip("|").split("|")]
+            if not set(cells[0]) <= {"-", " "}:
+                rows[cells[0]] = cells[1:]
+        elif rows:
+            break
+    return rows
+
+
+def record(name: str) -> dict:
+    return json.loads((DOCS / "records" / name).read_text())
+
+
+def shown(cell: str) -> tuple[float, int] | None:
+    """A printed number and its count of significant digits (None for a dash)."""
+    if cell in ("—", "-"):
+        return None
+    match = re.fullmatch(r"[−-]?\d+(\.\d+)?", cell)
+    assert match, cell
+    return float(cell.replace("−", "-")), len(cell.replace("−", "").replace("-", "").replace(".", "").lstrip("0"))
+
+
+def agrees(cell: str, value: float) -> bool:
+    """Whether ``cell`` is ``value`` printed to the cell's own number of decimals."""
+    number = shown(cell)
+    if number is None:
+        return value != value or value == 0  # a dash stands for nothing measured
+    decimals = len(cell.split(".")[1]) if "." in cell else 0
+    return abs(round(value, decimals) - number[0]) < 0.5 * 10**-decimals + 1e-12
+
+
+@pytest.mark.parametrize(
+    "heading, name",
+    [
+        ("Taper, bottom grain's largest kinetic energy", "heterogeneous_cpu.json"),
+        ("At the shipped size (100 grains", "heterogeneous_taper_shipped_cpu.json"),
+    ],
+)
+def test_taper_tables_are_their_records(heading, name):
+    rows = table_after("heterogeneous.md", heading)
+    taper = record(name)["taper"]
+    q = [float(c.replace("−", "-")) for c in rows["q"]]
+    assert q == taper["q"]
+    columns = {
+        "bottom_fraction": "bottom_fraction",
+        "relative to q = 0": "relative_to_uniform",
+        "binary-collision estimate": "binary_collision_relative",
+        "bottom_peak_force": "bottom_peak_force",
+        "arrival time": "arrival_time",
+    }
+    checked = 0
+    for row, key in columns.items():
+        if row not in rows:
+            continue
+        for cell, value in zip(rows[row], taper[key]):
+            assert agrees(cell, value), (row, cell, value)
+            checked += 1
+    assert checked >= 3 * len(q)
+
+
+def test_the_cpu_disorder_energy_share_is_its_record():
+    rows = table_after("heterogeneous.md", "Disorder (20 realisations per spread)")
+    disorder = record("heterogeneous_cpu.json")["disorder"]
+    for cell, mean, std in zip(
+        rows["bottom_fraction mean ± std"], disorder["bottom_fraction_mean"], disorder["bottom_fraction_std"]
+    ):
+        parts = cell.split(" ± ")
+        assert agrees(parts[0], mean), (cell, mean)
+        if len(parts) == 2:
+            assert agrees(parts[1], std), (cell, std)
