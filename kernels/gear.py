@@ -1,4 +1,4 @@
-"""Nordsieck predictor and corrector as ``@wp.func`` (SPEC §4), written once for every kernel.
+"""Nordsieck predictor and corrector as ``@wp.func`` (docs/model.md §4), written once for every kernel.
 
 The state of a grain is its scaled Nordsieck vector x0 = u, x1 = dt·v, x2 = dt²/2·a, x3 = dt³/6·ȧ, …
 (Verlet keeps x0, x1, x2 the same way). Prediction is the Pascal-triangle matrix; the corrector

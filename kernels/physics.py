@@ -1,4 +1,4 @@
-"""Contact-law helpers as ``@wp.func`` (SPEC §1): V(δ) = a·max(δ,0)^n, F = n·a·max(δ,0)^(n−1).
+"""Contact-law helpers as ``@wp.func`` (docs/model.md §1): V(δ) = a·max(δ,0)^n, F = n·a·max(δ,0)^(n−1).
 
 The step kernels work with *excess* forces relative to the static state,
 ``F(δ0 + d) − F(δ0)``: in exact arithmetic this is the full equation of motion (the

@@ -308,7 +308,7 @@ def record_kernels(features: Features) -> RecordKernels:
                     force += wp.float64(damping[c]) * (wp.float64(x[1, c, 0]) - wp.float64(x[1, c, 1])) / dt
             power = force * amplitude * omega * wp.cos(omega * wp.float64(step) * dt)
             # The step kernel integrates the excess force's power; the static force of contact 0–1
-            # does work F0_1·u_0(t) exactly. Adding it to work and energy makes both SPEC's (the
+            # does work F0_1·u_0(t) exactly. Adding it to work and energy makes both docs/model.md's (the
             # energy up to a constant): E − W is unchanged.
             static_work = wp.float64(contact_force(delta0, a_c, n)) * wp.float64(x[0, c, 0])
             closing = dt * wp.float64(0.5) * (power_in[c] + power)

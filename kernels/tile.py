@@ -15,7 +15,7 @@ kernel's own functions; only the loops around them differ, so on
 the same device the results agree to the last bit wherever the compiler contracts alike.
 
 Grains outside the chain (padding of the last lane, or of a window past an end) hold value 0 and are
-never moved, so a padding grain next to a wall *is* the wall (SPEC §1: a wall is a grain at rest at
+never moved, so a padding grain next to a wall *is* the wall (docs/model.md §1: a wall is a grain at rest at
 its static position). Free ends mask the one contact they lack.
 
 Long chains (more grains than a block holds) are cut into windows of ``interior`` grains plus

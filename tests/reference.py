@@ -1,7 +1,7 @@
 """Independent NumPy float64 reference simulator for a Hertzian granular chain.
 
 This module is the *test oracle* for the Warp GPU simulator.  It is written from
-the physics contract (``SPEC.md`` sections 1-5 and 8) and the paper (Sen, Manciu &
+the physics contract (docs/model.md §1–5 and §8) and the paper (Sen, Manciu &
 Wright, PRE 57, 2386 (1998), section II) only; it deliberately imports nothing
 from ``ensemble`` or ``kernels`` so that the two implementations can disagree
 when one of them is wrong.
@@ -29,7 +29,7 @@ Public API
 trace_t, trace_u, trace_v``; helpers ``static_overlaps``, ``contact_constants``,
 ``contact_force``, ``potential``, ``total_energy``.
 
-``scene`` is the nested dict of SPEC section 8 with every key present.
+``scene`` is the nested dict of docs/model.md §8 with every key present.
 The ``integrator.precision`` key is ignored: the oracle is always float64.
 """
 
@@ -92,7 +92,7 @@ def _grain_params(scene):
     m = np.full(N, float(ch["mass"]), dtype=np.float64)
     a = np.full(N, float(ch["a"]), dtype=np.float64)
     ratio = _radius_ratio(scene)
-    if ratio is not None:  # Hertz spheres of radius R_i = ratio·R0 (SPEC section 11)
+    if ratio is not None:  # Hertz spheres of radius R_i = ratio·R0 (docs/heterogeneous.md)
         m = m * ratio**3
         a = a * np.sqrt(ratio)
     own = np.zeros(N, dtype=bool)
@@ -288,7 +288,7 @@ class _Chain:
         return acc
 
     def energy(self, u, v):
-        """SPEC section 5 total energy (driven: grain 0's KE and gravity term excluded)."""
+        """docs/model.md §5 total energy (driven: grain 0's KE and gravity term excluded)."""
         n = self.n
         ke = 0.5 * self.m * v * v
         grav = self.g * self.m * u
@@ -400,7 +400,7 @@ def _taylor_derivatives(ch, u, v, acc):
 
 
 def total_energy(scene, u, v):
-    """SPEC section 5 energy of state (u, v) for this scene."""
+    """docs/model.md §5 energy of state (u, v) for this scene."""
     return _Chain(scene).energy(np.asarray(u, np.float64), np.asarray(v, np.float64))
 
 
@@ -582,7 +582,7 @@ def reference_run(scene: dict, exact_start: bool = True) -> dict:
 
 
 def default_scene(**overrides) -> dict:
-    """A fully filled scene dict (SPEC section 8 defaults); ``overrides`` are
+    """A fully filled scene dict (docs/model.md §8 defaults); ``overrides`` are
     ``section=dict`` updates, e.g. ``default_scene(chain={"grains": 20})``."""
     scene = {
         "chain": {

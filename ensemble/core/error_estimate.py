@@ -1,4 +1,4 @@
-"""Per-chain error estimate of a run (SPEC §12): a shadow ensemble at twice the step, and Richardson.
+"""Per-chain error estimate of a run (docs/accuracy.md): a shadow ensemble at twice the step, and Richardson.
 
 The measure is the one ``hertzian accuracy`` reports: max over records and grains of
 |u − u_exact| / max|u_exact|. A run with ``record.error_estimate = true`` also integrates every chain

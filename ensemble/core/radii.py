@@ -1,4 +1,4 @@
-"""Per-grain radii of a heterogeneous chain (SPEC §11): the forms of ``chain.radii`` and what they give.
+"""Per-grain radii of a heterogeneous chain (docs/heterogeneous.md): the forms of ``chain.radii`` and what they give.
 
 A chain's reference radius is R0 = diameter/2; ``mass`` and ``a`` are those of a grain of radius R0.
 Grain i of radius R_i = r_i·R0 has mass m·r_i³ and wall constant a·√r_i; grains i and j touch with

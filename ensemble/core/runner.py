@@ -60,7 +60,7 @@ class RunResult:
     t: np.ndarray
     """Record times, shape (R,)."""
     energy: np.ndarray
-    """Energy relative to the static state, shape (chains, R). Differs from SPEC §5's E by a constant per chain."""
+    """Energy relative to the static state, shape (chains, R). Differs from docs/model.md §5's E by a constant per chain."""
     work: np.ndarray | None
     """Driver's work up to each record, shape (chains, R), driven scenes only."""
 
@@ -94,7 +94,7 @@ class RunResult:
     """Response windows (ensemble/core/response.py): 'response', 'window_ke', 'driver_open', 'window_start'."""
     error_estimate: np.ndarray | None = None
     """Estimated max over records and grains of |u − u_exact| / max|u_exact| [relative], shape (chains,)
-    (SPEC §12, ensemble/core/error_estimate.py); None unless ``record.error_estimate``. Its shadow run's
+    (docs/accuracy.md, ensemble/core/error_estimate.py); None unless ``record.error_estimate``. Its shadow run's
     seconds are ``timing["error_estimate"]``, not part of ``wall_seconds``."""
 
     @property
@@ -380,7 +380,7 @@ def energy_errors(
     deviation: np.ndarray | None = None,
     dissipated: np.ndarray | None = None,
 ) -> np.ndarray:
-    """SPEC §5: max_t |E(t) − E(0)| / E_inj; driven: |E − E(0) − W| / max|W|; absolute if nothing injected.
+    """docs/model.md §5: max_t |E(t) − E(0)| / E_inj; driven: |E − E(0) − W| / max|W|; absolute if nothing injected.
     With damping the dissipated energy D is added: |E + D − E(0) [− W]|.
 
     ``energy``/``work``/``dissipated`` are the records (chains, R); ``deviation`` (chains,), if given, is the

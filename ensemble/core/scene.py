@@ -1,4 +1,4 @@
-"""Scenes: what a user writes (SPEC §8), as frozen dataclasses that validate themselves.
+"""Scenes: what a user writes (docs/model.md §8), as frozen dataclasses that validate themselves.
 
 A scene file is TOML with the sections ``[chain]``, ``[boundary]``, ``[[impurities]]``,
 ``[excitation]``, ``[integrator]`` and ``[record]``. Every key has the paper's
@@ -84,7 +84,7 @@ class ChainSpec:
     gravity: float = 0.0
     """Gravitational acceleration g (1 ≙ 9.8 m/s²), toward the bottom."""
     radii: RadiiSpec | None = None
-    """Per-grain radii (SPEC §11; hertzian.core.radii): None for equal grains of radius diameter/2."""
+    """Per-grain radii (docs/heterogeneous.md; hertzian.core.radii): None for equal grains of radius diameter/2."""
 
     @property
     def surface_force(self) -> float:
@@ -149,7 +149,7 @@ class IntegratorSpec:
     """auto: Gear steps near a contact opening/closing are event-aware (kernels/events.py) when some
     contact can open; off: plain Gear steps everywhere (the results before event-aware steps)."""
     tolerance: float | None = None
-    """Instead of ``dt``: the largest relative position error allowed (SPEC §12) [relative]; a pilot run picks
+    """Instead of ``dt``: the largest relative position error allowed (docs/accuracy.md) [relative]; a pilot run picks
     dt (and, with ``method = "auto"``, the method and events) before the run (ensemble/core/error_estimate.py)."""
 
 
@@ -188,7 +188,7 @@ class RecordSpec:
     harmonics: int = 1
     """Highest harmonic H of the drive frequency kept in ``response`` (k = 0 … H)."""
     error_estimate: bool = False
-    """Estimate each chain's relative position error (SPEC §12) from a shadow run at 2·dt
+    """Estimate each chain's relative position error (docs/accuracy.md) from a shadow run at 2·dt
     (ensemble/core/error_estimate.py); needs ``u`` among ``fields`` and records on even steps."""
 
 

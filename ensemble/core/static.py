@@ -1,14 +1,14 @@
-"""Static state of a chain (SPEC §2): masses, contact constants, carried forces, static overlaps.
+"""Static state of a chain (docs/model.md §2): masses, contact constants, carried forces, static overlaps.
 
 Contacts are stored *padded*, length N + 1: index ``k`` is the contact between grain
 ``k − 1`` and grain ``k``; ``k = 0`` is the surface wall and ``k = N`` the bottom wall.
-(SPEC numbers the inner contact between grains i and i+1 as ``i``; here it is ``i + 1``.)
+(docs/model.md numbers the inner contact between grains i and i+1 as ``i``; here it is ``i + 1``.)
 A padded slot without a contact (no wall at that end) has constant 0.
 
 Contact ``k`` carries ``F0 + g Σ_{j<k} m_j`` — the paper's sum rule, eq. 4, plus a load —
 and its static overlap is ``δ0 = (carried / (n a_c))^(1/(n−1))``.
 
-Grains of radius R_i = r_i·R0 (``chain.radii``, SPEC §11) have mass m·r_i³, wall constant a·√r_i and
+Grains of radius R_i = r_i·R0 (``chain.radii``, docs/heterogeneous.md) have mass m·r_i³, wall constant a·√r_i and
 contact constant a·√(2 r_i r_j / (r_i + r_j)); an impurity's own mass or ``a`` overrides its grain's.
 """
 

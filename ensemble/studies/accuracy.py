@@ -22,7 +22,7 @@ takes event-aware steps (kernels/events.py) unless only ``events = ["off"]`` is 
 times, so every step (and the reference's) must divide the record interval. The study chooses
 ``record.every`` as a common multiple of all steps (about ``records`` snapshots over the duration),
 keeping the scene's own interval when it already is one. The energy error is the run's own
-(SPEC §5, at every record). Time is the run's wall seconds without kernel compilation; every run
+(docs/model.md §5, at every record). Time is the run's wall seconds without kernel compilation; every run
 of a study uses the same kernel (:func:`study_kernel`), so times compare.
 """
 
@@ -68,7 +68,7 @@ class ReferenceRun:
 
 @dataclass(frozen=True)
 class AccuracyRecord:
-    """One run of a work–precision study (SPEC §7 ``accuracy`` record)."""
+    """One run of a work–precision study (docs/model.md §7 ``accuracy`` record)."""
 
     method: str
     dt: float
@@ -77,7 +77,7 @@ class AccuracyRecord:
     error: float
     """max over records and grains |u − u_ref| / max|u_ref| (inf if the run blew up)."""
     energy_error: float
-    """max_t |E(t) − E(0)| / E_inj over the records (SPEC §5)."""
+    """max_t |E(t) − E(0)| / E_inj over the records (docs/model.md §5)."""
     seconds: float
     """Wall seconds of the run (kernel compilation excluded)."""
     grain_steps_per_second: float
@@ -263,7 +263,7 @@ def parse_steps(text: str) -> list[float]:
 
 
 TARGET_MEASURES = ("energy", "error")
-"""What ``--target`` bounds: the energy error (SPEC §5, the default) or the position error against the reference."""
+"""What ``--target`` bounds: the energy error (docs/model.md §5, the default) or the position error against the reference."""
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,4 @@
-"""Sweep files (SPEC §8): a base scene and the axes along which its keys vary.
+"""Sweep files (docs/model.md §8): a base scene and the axes along which its keys vary.
 
 A sweep is a grid: every axis is a store dimension, and the points are the product of the
 axes in file order (the last axis varies fastest). Axes listed together in one ``[[zip]]``

@@ -1,4 +1,4 @@
-"""Reading Zarr v3 stores (SPEC §6), as ``xarray.open_zarr`` does: open one, and summarize its points.
+"""Reading Zarr v3 stores (docs/model.md §6), as ``xarray.open_zarr`` does: open one, and summarize its points.
 
 The writer is ``hertzian.sweeping.sweep_store`` (``write_result`` writes a run: a sweep with no axes).
 Variables carry the sweep axes first (none for a run), then ``record``/``grain`` or ``sample``/``traced``; each

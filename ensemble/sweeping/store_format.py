@@ -14,7 +14,7 @@ import zarr
 import zarr.codecs
 
 SCHEMA_VERSION = 1
-"""Version of the store layout (SPEC §6); chunk checksums are a codec, read from each array's metadata, and
+"""Version of the store layout (docs/model.md §6); chunk checksums are a codec, read from each array's metadata, and
 change nothing a reader must know."""
 RESULT_ZSTD_LEVEL = 1
 """zstd level of the per-point result arrays: simulated floats barely compress at any level, and level 1 encodes

@@ -1,4 +1,4 @@
-"""A sweep's Zarr v3 store (SPEC §6): one group, sweep dimensions first, filled batch by batch.
+"""A sweep's Zarr v3 store (docs/model.md §6): one group, sweep dimensions first, filled batch by batch.
 
 Layout, as ``hertzian.sweeping.store.write_result`` writes a run, with the sweep dimensions in front:
 ``u``/``v`` (*dims, record, grain), ``energy`` (*dims, record), ``trace_u``/``trace_v``

@@ -1,5 +1,5 @@
 """The Warp kernels against the independent NumPy float64 reference (tests/reference.py), which
-integrates SPEC's direct equation of motion (explicit m·g and F0), while the kernels integrate
+integrates docs/model.md's direct equation of motion (explicit m·g and F0), while the kernels integrate
 excess forces relative to the static state: agreement checks that equivalence too.
 
 Every case runs until the pulse has reached the bottom grain and had time to come back (checked

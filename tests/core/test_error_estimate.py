@@ -1,4 +1,4 @@
-"""The per-chain error estimate (record.error_estimate, SPEC §12) against the true error, measured with the
+"""The per-chain error estimate (record.error_estimate, docs/accuracy.md) against the true error, measured with the
 independent NumPy reference (tests/reference.py): gear6 at a step ``REFERENCE_REFINEMENT`` times smaller, itself
 checked by running it again at twice its step (its error must be far below the error it judges)."""
 

@@ -193,7 +193,7 @@ def linear_chain_motion(scene, times: np.ndarray, *, overlap_factor: float = 1.0
     """Displacements (len(times), N) of a chain struck at grain 0, from linear theory (NumPy only).
 
     Static overlaps from the sum rule (contact k carries F0 + g Σ_{j<k} m_j, δ0 = (F/(n a_c))^(1/(n−1)),
-    times ``overlap_factor``), contact constants from SPEC's rules (harmonic mean, or an impurity's own
+    times ``overlap_factor``), contact constants from docs/model.md's rules (harmonic mean, or an impurity's own
     constant), stiffness k = F'(δ0) = n(n−1) a_c δ0^(n−2); normal modes of M ü = −K u."""
     c, n, N = scene.chain, scene.chain.exponent, scene.chain.grains
     mass, a, own = np.full(N, c.mass), np.full(N, c.a), np.zeros(N, bool)

@@ -1,4 +1,4 @@
-"""Chains of unequal grains (``chain.radii``, SPEC §11): tapered, decorated (pattern) and random radii.
+"""Chains of unequal grains (``chain.radii``, docs/heterogeneous.md): tapered, decorated (pattern) and random radii.
 
 The kernels are compared with the independent NumPy reference (tests/reference.py), given the radii as a list
 computed here from the forms' formulas; the fused kernels with the per-step kernel; the static state with the
@@ -26,7 +26,7 @@ MOVING = 1e-2
 
 
 def radii_of(form: dict, n: int = GRAINS) -> np.ndarray:
-    """Radii [length] of a ``chain.radii`` table form, from SPEC §11's formulas."""
+    """Radii [length] of a ``chain.radii`` table form, from docs/heterogeneous.md's formulas."""
     i = np.arange(n)
     if "taper" in form:
         q = form["taper"]

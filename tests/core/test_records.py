@@ -2,7 +2,7 @@
 
 Energy, largest overlap and the status flags are computed in parts of consecutive grains and then
 added per chain; here they are checked against the NumPy reference's energy (tests/reference.py,
-SPEC §5) and against overlaps computed with NumPy, on a chain of three parts whose impurities, largest
+docs/model.md §5) and against overlaps computed with NumPy, on a chain of three parts whose impurities, largest
 overlap and non-finite grain sit in the later parts (a reduction that dropped or repeated a part fails).
 """
 
@@ -59,7 +59,7 @@ def test_record_sums_every_part_of_a_long_chain(device):
         np.testing.assert_allclose(largest, overlaps.max(), rtol=1e-14)
         assert np.argmax(overlaps) > 2 * RECORD_PART
         assert status == Status.OK
-    # the recorded energy is SPEC's up to a constant per chain: compare differences between states
+    # the recorded energy is docs/model.md's up to a constant per chain: compare differences between states
     got, want = np.diff(energies), np.diff(references)
     np.testing.assert_allclose(got, want, rtol=1e-11, atol=1e-13 * np.max(np.abs(references)))
     assert np.min(np.abs(want)) > 1e-3 * np.max(np.abs(references))

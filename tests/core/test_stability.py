@@ -4,7 +4,7 @@
   members stay bitwise equal to their single runs (same kernel), on every CPU kernel path.
 * Each status code is reached by a scene built to reach it, and named in the store.
 * The extreme cases of sweeps/stability.toml, run at the step ``hertzian check`` suggests, keep
-  the energy conserved (the independent check: SPEC §5's energy) and stay OK.
+  the energy conserved (the independent check: docs/model.md §5's energy) and stay OK.
 * l0 = 0: contacts open and close, the force F ∝ δ^(n−1) is not smooth at δ = 0, and every Gear
   method falls to order ≈ 2.3 (measured), against 4/5/6 on a smooth precompressed chain.
 """

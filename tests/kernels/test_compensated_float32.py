@@ -6,7 +6,7 @@ u and dt·v as hi + lo pairs and forms the contacts' displacements from them. He
 precompressed chain (the paper's l0 = 1e-4, v_imp = 1e-2, walls) runs 160 000 steps in float64, in
 plain float32 and in compensated float32, gear4 and Verlet; the claims checked:
 
-* compensated float32's energy error (SPEC §5) is ≤ 2e-7 (docs/stability.md claims ≤ 1e-6 on the
+* compensated float32's energy error (docs/model.md §5) is ≤ 2e-7 (docs/stability.md claims ≤ 1e-6 on the
   paper's 1000-grain scene to t = 20; this scene measured 5.9e-8 gear4, 9.5e-8 Verlet, whose own
   float64 error is 4.6e-8: docs/records/accuracy/float32.json, "small"), and its positions are within 2e-6
   (relative) of float64's (measured 4.7e-7, 6.7e-7);

@@ -91,7 +91,7 @@ def test_small_study_shows_the_orders():
 
 
 def test_run_reports_energy_error_next_to_wall_seconds(tmp_path):
-    """Store and summarize carry the energy error (SPEC §5, recomputed here from the stored energy) and seconds."""
+    """Store and summarize carry the energy error (docs/model.md §5, recomputed here from the stored energy) and seconds."""
     scene = make_scene(
         chain={"grains": 10, "l0": 1e-4},
         excitation={"impact": 1e-2},

@@ -233,7 +233,7 @@ def test_echo_contrast_and_power_spectrum():
 
 def test_overlap_behind_head_and_rear_level():
     u = np.zeros(300)
-    u[:200] = np.linspace(2e-3, 1e-3, 200)  # displaced region, SPEC sign (+ into the chain)
+    u[:200] = np.linspace(2e-3, 1e-3, 200)  # displaced region, docs/model.md's sign (+ into the chain)
     u[195:200] = np.linspace(1e-3 + 8e-4, 1e-3, 5)  # a step at the head: overlap 2e-4 per contact there
     u[200:] = 0.0
     assert an.overlaps(u, 1e-4)[199] == pytest.approx(1e-4 + 1e-3, rel=1e-12)

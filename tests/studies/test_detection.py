@@ -214,17 +214,24 @@ def test_cli_bad_signals_exit_2_one_line(tmp_path):
     assert out.returncode == 2 and "must have no impurities" in out.stderr
 
 
+DOCS_BASE_TOML = BASE_TOML.replace("dt = 1e-3", "dt = 2.5e-4")
+"""docs/detection.md's example host: the step `hertzian check` passes for it and for the planted chain."""
+
+
 def test_cli_reads_a_store_and_prints_json(tmp_path, cache):
-    """`hertzian run` writes the signal (a store with grain 0 traced); `detect --json` finds the impurity."""
+    """docs/detection.md's example: `hertzian run` writes the signal (a store with grain 0 traced); `detect --json`
+    finds the impurity. Both scenes pass `hertzian check`."""
     scene = tmp_path / "planted.toml"
     scene.write_text(
-        BASE_TOML.replace("duration = 1.0", f"duration = {SPACING * (SAMPLES - 1)!r}")
+        DOCS_BASE_TOML.replace("duration = 1.0", f"duration = {SPACING * (SAMPLES - 1)!r}")
         + f"[record]\ntraces = [0]\ntrace_every = {SPACING}\n[[impurities]]\ngrains = [18]\nmass = 0.4\n"
     )
     store = tmp_path / "planted.zarr"
     assert hertzian("run", str(scene), "--out", str(store), "--device", "cpu").returncode == 0
     base = tmp_path / "base.toml"
-    base.write_text(BASE_TOML)
+    base.write_text(DOCS_BASE_TOML)
+    for checked in (scene, base):
+        assert "verdict                   ok" in hertzian("check", str(checked)).stdout
     import os
 
     env = {**os.environ, "HERTZIAN_DETECT_CACHE": str(cache)}

@@ -26,7 +26,10 @@ def test_shipped_runs_the_sweeps_as_shipped_with_plain_steps(tmp_path):
     assert _seeds(disorder) == 1000 and len(disorder["axis"][0]["values"]) == 6
     for data in sweeps.values():
         assert data["scene"]["integrator"]["events"] == SHIPPED_EVENTS == "off"
-        assert data["scene"]["integrator"]["dt"] == 5e-5
+    assert (taper["scene"]["integrator"]["dt"], disorder["scene"]["integrator"]["dt"]) == (2e-6, 5e-5)
+    _, halved, _ = arguments([str(out), "--shipped", "--only", "taper", "--dt", "1e-6", "--device", "cpu"])
+    assert list(halved) == ["taper"] and halved["taper"]["scene"]["integrator"]["dt"] == 1e-6
+    assert halved["taper"]["scene"]["record"]["trace_every"] == 2e-5  # still 20 steps: the same samples
     _, sweeps, _ = arguments([str(out), "--shipped", "--events", "auto", "--device", "cpu"])
     assert sweeps["disorder"]["scene"]["integrator"]["events"] == "auto"
 

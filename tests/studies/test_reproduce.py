@@ -48,7 +48,7 @@ def test_quick_group_writes_store_png_and_log(tmp_path):
     assert run["name"] == "fig6" and run["figures"] == {"fig6": "fig6.png"}
     assert run["wall_seconds"] > 0 and run["grain_steps_per_second"] > 0
     assert run["grain_steps"] == run["points"] * run["grains"] * run["steps"]
-    assert 0 < run["energy_error_max"] < 1e-6  # SPEC's bound for a gear4 run at this step
+    assert 0 < run["energy_error_max"] < 1e-6  # docs/model.md's bound for a gear4 run at this step
     assert run["status_counts"] == {"0": run["points"]}
     assert (out / "fig6.png").read_bytes()[:4] == b"\x89PNG"
     with xr.open_zarr(out / "fig6.zarr") as ds:

@@ -6,7 +6,7 @@ program units (length 1e-5 m, time 1.0102e-3 s, mass 2.36e-5 kg). Positions alon
 grain indices counted from the surface (grain 0), so speeds are in grains per time unit
 (multiply by the diameter, 100 length units, for length per time).
 
-Sign convention: SPEC §1's displacement ``u`` and velocity ``v`` are positive *into* the chain
+Sign convention: docs/model.md §1's displacement ``u`` and velocity ``v`` are positive *into* the chain
 (toward the bottom). The paper plots grain positions, so its displacements are ``−u``
 (:func:`paper_displacement`), and a pulse moving into the chain compresses the "negative side
 of the y axis".

@@ -87,7 +87,7 @@ def paper_label(grain, grain_count: int):
 def energy_drift(energy, work=None) -> tuple[np.ndarray, str]:
     """Energy conservation over a run: (E(t) − E(0) [− W(t)]) / scale and a label for the scale.
 
-    ``energy`` (and the driver's ``work``) at the records, shape (..., record). The scale is SPEC §5's:
+    ``energy`` (and the driver's ``work``) at the records, shape (..., record). The scale is docs/model.md §5's:
     max|W| for a driven chain, else the injected energy, which is E(0) for an impact (the energy is
     relative to the static state, where the chain starts), else 1 (absolute).
     """

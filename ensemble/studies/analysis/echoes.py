@@ -33,7 +33,7 @@ def backscatter(
     """Arrival, amplitude and leading sign of the backscattered signal at one grain.
 
     ``signal`` and ``reference`` are one grain's velocity traces (sample,) in the chain with and
-    without the impurity (SPEC sign: + into the chain); without a reference the raw signal is used.
+    without the impurity (docs/model.md's sign: + into the chain); without a reference the raw signal is used.
     Only samples with ``after ≤ t ≤ until`` count (skip the incident pulse, stop before the far
     wall's reflection arrives). The leading sign is that of the first sample where |echo| reaches
     ``fraction`` of the echo's largest value.

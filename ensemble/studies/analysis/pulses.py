@@ -140,7 +140,7 @@ def plateau_tilt(profile, *, fraction: float = 0.8) -> float:
 
 
 def overlaps(u, l0: float = 0.0):
-    """Overlap of every contact between neighbouring grains, l0 + u_i − u_(i+1) [length] (SPEC sign:
+    """Overlap of every contact between neighbouring grains, l0 + u_i − u_(i+1) [length] (docs/model.md's sign:
     u + into the chain), (..., grain) → (..., grain − 1); the surface and bottom walls' contacts are left out."""
     u = np.asarray(u, dtype=float)
     return l0 + u[..., :-1] - u[..., 1:]
@@ -199,7 +199,7 @@ def tail_decay(
     u, head: float, *, skip: int = 10, span: float | None = None, envelope: int = 11, baseline: float = 0.0
 ) -> TailFit:
     """Fit ln u = ln A − z/λ over the grains behind the head where the displacement is along the
-    compression (u > 0 in SPEC's sign; the paper's negative side of the y axis).
+    compression (u > 0 in docs/model.md's sign; the paper's negative side of the y axis).
 
     ``z = head − grain``; the first ``skip`` grains behind the head (the head itself) are left out;
     ``span`` limits z (default: back to the surface). The tail oscillates in sign from grain to
