@@ -3,7 +3,8 @@
     import hertzian as hz
 
     scene = hz.load_scene("impact", {"chain.grains": 100, "integrator.duration": 5.0})
-    result = hz.run([scene, scene.replace(...)])      # one ensemble
+    faster = scene.with_overrides({"excitation.impact": 0.02})
+    result = hz.run([scene, faster])                  # one ensemble
     dataset = result.to_xarray()                      # what `hertzian run --out` stores
     summary = hz.sweep("example.toml", "example.zarr") # what `hertzian sweep --json` prints
     dataset = hz.open_store("example.zarr")
@@ -15,16 +16,11 @@ needs none of them).
 from __future__ import annotations
 
 from importlib import import_module
-from importlib.metadata import PackageNotFoundError, version
 
+from hertzian._version import __version__
 # ---- scenes (light: numpy only) ----------------------------------------------------------------
 from hertzian.core.errors import OptionError, RefusedError
 from hertzian.core.scene import Scene, SceneError
-
-try:
-    __version__ = version("hertzian")
-except PackageNotFoundError:  # a source tree that was never installed
-    __version__ = "0+unknown"
 
 # ---- loaded on first use: name → module ---------------------------------------------------------
 _LAZY = {

@@ -32,8 +32,8 @@ RECORD_PART = 128
 STAGED_GRAINS = 2048
 """Chains of at least this many grains are reduced in two stages: each grain's terms by one thread
 (``record_grains``), then summed per part in the same order (``record_parts_of_grains``). A 10 000-grain column's
-parts are 79 threads that each evaluate 128 excess potentials in turn (a series with a division per term): one
-record took 0.5 ms of an H100. The choice depends on the grain count only, so a chain alone and in an ensemble
+parts are 79 threads that each evaluate 128 excess potentials in turn (a series with a division per term), a slow
+record on a GPU. The choice depends on the grain count only, so a chain alone and in an ensemble
 take the same path."""
 RECORD_BLOCK_DIM = 32
 """Threads per block of ``record_parts`` (a thread per part): few threads in all for long chains, so small blocks
@@ -43,8 +43,8 @@ PART_TILE = 32
 """Parts' sums ``record_long`` copies to shared memory at a time."""
 PART_TILE_THREADS = 32
 """Threads of a ``record_parts_of_grains`` block (one block per part; launched with :func:`launch_parts_of_grains`).
-A thread per part summing its terms from device memory took 51-58 µs a record of a 10 000-grain column on an H100
-(ncu), each of its loads waited for in turn."""
+A thread per part summing its terms from device memory waits for each of its loads in turn, which made a
+10 000-grain column's record slow (ncu)."""
 PART_SUMS = 5
 """Per part: kinetic energy, excess potential, largest overlap, finite (1.0 or 0.0), dissipated energy."""
 

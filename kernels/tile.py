@@ -860,7 +860,7 @@ def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rate
                 if k0 >= 0:
                     driver_above = driver_values_at(amplitude, omega, phase_old[0], phase_old[1], dt)
             # each of the lane's G + 1 contacts tested once, without a branch (branches around the tests broke the
-            # step into pieces the compiler could not interleave: the kernel ran 2.3x slower on an H100); a grain is
+            # step into pieces the compiler could not interleave, and the kernel ran several times slower); a grain is
             # flagged when either of its contacts is. Contact c joins grains c - 1 (above) and c of the lane.
             contact_flags = int(0)
             for c in range(G1):
@@ -998,7 +998,7 @@ def trace_function(t: TileLayout, driver_values):
         # kernels/step.py's trace sample after step ``step_new`` (a multiple of the stride): (u, dt·v) of the traced
         # grains this lane keeps (a frozen chain: its frozen state; the driven grain 0: its driver_values at
         # ``phase``), ring slot k % length. Out of line: written into the step loop, this code makes every step of the
-        # traced window kernel 28 % slower on an H100 (measured), though it runs once a stride
+        # traced window kernel slower on a GPU (measured), though it runs once a stride
         if live:
             sample = (step_new / trace_stride) % trace_x.shape[2]
             for k in range(G):
@@ -1353,7 +1353,7 @@ def fused_kernel(t: TileLayout, fused_step, driver_power, work_step, driver_valu
                     if g == n_grains - 1:
                         move_bits = move_bits & (~(1 << k))
             # (written out here and in the event step alike: one shared @wp.func for it makes nvcc schedule the impact
-            # window kernel's step loop worse: measured 0.392 against 0.314 us a step on an H100)
+            # window kernel's step loop worse, measurably)
             m_inv = real(0)
             if wp.static(HETERO):
                 m_inv = inverse_mass[cc, wp.min(wp.max(g, 0), n_grains - 1)]
@@ -1387,7 +1387,7 @@ def fused_kernel(t: TileLayout, fused_step, driver_power, work_step, driver_valu
             # the driver's power is evaluated after the step loop from a log of its state, one row per chain: every
             # lane stores its entry each step, the driver's lane into its chain's row and the others into their
             # block's scratch row (chain_count + block), so the store needs no branch (a branch there, not taken by
-            # 157 of a column's 158 windows, made every window of the driven column's kernel slower on an H100)
+            # 157 of a column's 158 windows, made every window of the driven column's kernel slower)
             log_row = chain_count + block
             if k0 >= 0:
                 log_row = cc

@@ -11,6 +11,7 @@ holds dt·v), as the host computes it.
 import functools
 
 import warp as wp
+from hertzian.kernels.features import KERNEL_OPTIONS
 
 
 @functools.cache
@@ -18,7 +19,7 @@ def window_kernels(precision: str):
     """``(add_window_sample, velocity_snapshot64, velocity_snapshot32)`` for states of ``precision``."""
     real = wp.float64 if precision == "float64" else wp.float32
 
-    @wp.kernel(module="unique", enable_backward=False)
+    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def add_window_sample(
         x: wp.array3d(dtype=real),
         inverse_mass: wp.array2d(dtype=real),
@@ -37,12 +38,12 @@ def window_kernels(precision: str):
         ke_sum[c, w, i] = ke_sum[c, w, i] + wp.float64(0.5) * mass * (v * v)
         v_sum[c, w, i] = v_sum[c, w, i] + v
 
-    @wp.kernel(module="unique", enable_backward=False)
+    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def velocity_snapshot64(x: wp.array3d(dtype=real), dt: wp.float64, row: int, out: wp.array3d(dtype=wp.float64)):
         c, i = wp.tid()
         out[c, row, i] = wp.float64(x[1, c, i]) / dt
 
-    @wp.kernel(module="unique", enable_backward=False)
+    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def velocity_snapshot32(x: wp.array3d(dtype=real), dt: wp.float64, row: int, out: wp.array3d(dtype=wp.float32)):
         c, i = wp.tid()
         out[c, row, i] = wp.float32(wp.float64(x[1, c, i]) / dt)

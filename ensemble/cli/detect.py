@@ -273,8 +273,8 @@ def _warn_if_misfit(result) -> None:
 
 def candidate_events_note(base, dev: str) -> str | None:
     """One line when the candidate chains would run with event-aware steps on a GPU (BASE's
-    ``integrator.events = "auto"`` where a contact can open): on an H100 a cached 1000-grain detection took 1.45 s
-    with them and 0.44 s with plain steps (docs/detection.md); None on a CPU or without event steps."""
+    ``integrator.events = "auto"`` where a contact can open), which cost a GPU several times plain steps (measured:
+    docs/detection.md); None on a CPU or without event steps."""
     if dev.startswith("cpu"):
         return None
     # heavy (Warp): imported on use, as in the command above

@@ -81,8 +81,8 @@ _MAPPER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="hertzian-map")
 class PageMapping:
     """The pages of a run's new host arrays (records along axis 1: fields (chains, records, grains), traces
     (chains, samples, traced)) mapped by a background thread in MAP_BLOCKS blocks along axis 1, first to last, so
-    that an unpack waits only for the blocks it writes into, not for every page (a 320 MB field took the H100 host
-    55 ms to map, and the first record's unpack waited for all of it while the device ran out of work)."""
+    that an unpack waits only for the blocks it writes into, not for every page (mapped at once, the first record's
+    unpack waited for all of a large field's pages while the device ran out of work)."""
 
     def __init__(self, arrays: list[np.ndarray]):
         self.arrays = arrays
@@ -205,7 +205,7 @@ class Recorder:
         if (m.device.is_cuda if map_in_background is None else map_in_background) and (self.fields or self.traces):
             # the host arrays' pages are mapped (written once) by a background thread while the first records run
             # (or, for a detection library's one record after t = 0, while the whole run does): mapping fresh zeroed
-            # pages on first write cost up to ≈ 1 s per GB on the H100 host, and with many short chains the first
+            # pages on first write is slow, and with many short chains the first
             # unpack writes into every page (a record is one row of every chain), so it stalled the device between
             # records. They are mapped in blocks along the record axis; an unpack waits for the blocks it writes
             self._mapping = PageMapping([*self.fields.values(), *self.traces.values()])
@@ -264,9 +264,9 @@ class Recorder:
 
     def _ring_buffer(self) -> wp.array:
         # page-locked on CUDA: allocated at the first record after t = 0, when the launches before it are queued,
-        # so the allocation (≈ 0.4 s per GB on the H100 host) overlaps them (allocated in a background thread from
-        # the start instead, it held up the first launches by as long: CUDA calls wait for it); a pageable copy
-        # of a detection library's 1.2 GB of traces took ≈ 1.9 s there, a page-locked one ≈ 0.1 s
+        # so the (slow) allocation overlaps them (allocated in a background thread from the start instead, it held
+        # up the first launches by as long: CUDA calls wait for it); a pageable copy of a detection library's traces
+        # is many times slower than a page-locked one
         m = self.model
         shape = (len(self.trace_values), m.chain_count, self.capacity, len(self.traced))
         return wp.empty(shape, dtype=m.real, device="cpu", pinned=m.device.is_cuda)
@@ -430,7 +430,7 @@ class Recorder:
                 )
                 # the samples sit in consecutive slots from rows.start % capacity, wrapping at most once (a gap
                 # holds at most ``capacity`` samples): copied from the ring as one or two views, never gathered
-                # (a gathered temporary of a detection library's whole traces cost ≈ 2 s per GB on the H100 host)
+                # (a gathered temporary of a detection library's whole traces is slow to build)
                 ring = buf["ring"].numpy()
                 first, count = rows.start % self.capacity, rows.stop - rows.start
                 head = min(count, self.capacity - first)

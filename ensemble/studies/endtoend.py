@@ -74,8 +74,8 @@ def _summary(
 
 def start_device(device: str) -> float:
     """Make ``device`` ready before a bench's clock starts, as Warp's initialisation is before it: on CUDA the first use
-    creates the context and its memory pool (0.11-0.15 s on an H100, docs/records/bench/h100_endtoend.json, ``startup``), once
-    per process whatever runs after it. Returns its seconds (reported as ``startup``, outside ``total``)."""
+    creates the context and its memory pool (measured: docs/records/bench/h100_endtoend.json, ``startup``), once per
+    process whatever runs after it. Returns its seconds (reported as ``startup``, outside ``total``)."""
     start = time.perf_counter()
     wp.synchronize_device(device)
     wp.zeros(1, device=device)

@@ -4,7 +4,7 @@ must finish (the killed worker's nanny restarts it and its batch runs again) wit
 bit for bit, to a serial run's.
 
 ``python -m hertzian.studies.worker_kill OUT.json [--sweep FILE] [--set KEY=VALUE ...] [--batch-size N]``
-(default: sweeps/scale.toml cut to duration 50 in batches of 1000 points, about 40 s serially on one H200)."""
+(default: sweeps/scale.toml cut to duration 50 in batches of 1000 points)."""
 
 from __future__ import annotations
 

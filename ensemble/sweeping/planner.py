@@ -35,18 +35,18 @@ HOST_MEMORY_BUDGET = 4 << 30
 DEVICE_MEMORY_FRACTION = 0.8
 """Share of a GPU's free memory a batch may take."""
 MAX_GRAIN_THREADS = 1 << 22
-"""Grain-threads per launch beyond which a GPU gains nothing (an H100 holds ~2.7e5 resident
-threads); capping keeps batches small enough to resume and to spread over workers."""
+"""Grain-threads per launch beyond which a GPU gains nothing (a large GPU holds a few 1e5 resident threads); capping
+keeps batches small enough to resume and to spread over workers."""
 LOST_WORK_SECONDS = 60.0
 """A batch holds at most this many seconds of work at ``SAFE_RATE`` (unless 5 % of the sweep is more): what a
 kill loses, since a batch is written whole or not at all."""
 LOST_WORK_FRACTION = 0.05
 """…or at most this share of the sweep's grain-steps, whichever is more (a short sweep stays one batch)."""
 SAFE_RATE = {"cpu": 1.0e7, "cuda": 1.0e10}
-"""Conservative grain-steps per second of one batch [grain-steps/s]: the CPU's per-step kernel ran a 16-chain,
-200-grain sweep at 1.5e7 on 2 shared cores; an H100 runs full batches at 1.9e10 (events auto) to 3.8e11."""
+"""Conservative grain-steps per second of one batch [grain-steps/s], below what the per-step CPU kernel and full GPU
+batches reach (measured rates: docs/benchmarks.md)."""
 GPU_FILL_GRAIN_THREADS = 1 << 18
-"""A GPU batch keeps at least this many grain-threads (an H100 holds ~2.7e5 resident): a smaller one does not
+"""A GPU batch keeps at least this many grain-threads (about what a large GPU holds resident): a smaller one does not
 finish sooner, so cutting below it would lose speed and save no work."""
 
 

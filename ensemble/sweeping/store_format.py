@@ -62,10 +62,7 @@ def consolidate(path: str | Path) -> None:
 
 
 def package_version() -> str:
-    """This package's version (``0+unknown`` when it is not installed)."""
-    from importlib.metadata import PackageNotFoundError, version
+    """This package's version (``hertzian._version``: the same installed or run from a source tree)."""
+    from hertzian._version import __version__
 
-    try:
-        return version("hertzian")
-    except PackageNotFoundError:
-        return "0+unknown"
+    return __version__

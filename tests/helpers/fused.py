@@ -17,7 +17,7 @@ MOVED = 1e-3
 CUDA_ROUNDING = 1e-12
 """On CUDA with FMA contraction (the default), largest |difference| between two kernels over the largest
 |value|: each kernel's a·b + c contractions are the compiler's choice, so results differ in the last bits
-(1.6e-18 on values of 5e-5 after 300 steps measured on an H100, docs/benchmarks.md)."""
+(a few ulps of the largest value after hundreds of steps, docs/benchmarks.md)."""
 
 
 def bitwise(device) -> bool:
@@ -28,8 +28,7 @@ def bitwise(device) -> bool:
 CUDA_ROUNDING_FLOAT32 = float(np.finfo(np.float32).eps)
 """The same for float32 results (compensated float32's fields are the float32 high parts of hi + lo): one float32
 ulp of the largest value. A contraction changes hi + lo by ~1e-16 relative, which moves the rounded hi by an ulp
-wherever hi + lo lies near a rounding boundary (measured on an H100 with a driven, viscous chain: 1.5e-11 on values
-up to 2.9e-4; with contraction off the kernels agree bit for bit)."""
+wherever hi + lo lies near a rounding boundary (with contraction off the kernels agree bit for bit)."""
 
 
 def assert_kernels_agree(got, want, device) -> None:

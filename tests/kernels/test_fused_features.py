@@ -353,8 +353,8 @@ def test_tile_writes_trace_samples_inside_the_launch_frozen_chains_included(wind
 
 def test_driven_kernel_never_indexes_registers_by_the_driven_grain():
     # grain 0's position in its lane (k0) is known only at run time; an array or matrix index of k0 makes CUDA keep
-    # the lane's whole state in local memory, for every lane and step (on an H100 the driven 10 000-grain column
-    # stepped ~3x slower than an undriven one until the drive used selects over the static positions)
+    # the lane's whole state in local memory, for every lane and step (the driven column stepped several times
+    # slower than an undriven one until the drive used selects over the static positions)
     from hertzian.kernels.tile import tile_kernel
 
     model = build_model(driven_scenes(traces=False), "cpu")
@@ -390,7 +390,7 @@ def _entry_uses_local_memory(ptx: str) -> bool:
 def test_fused_kernel_keeps_its_state_in_registers(driven, tmp_path):
     # the CUDA C++ of a windowed kernel compiled to PTX for sm_90 by NVRTC (no GPU needed): a loop Warp does not
     # unroll (e.g. range(G - 1)) or an index known only at run time puts the lane's matrices in local memory —
-    # on an H100 that made the driven 10 000-grain column step 2.7-5x slower than an undriven one
+    # that made the driven column step several times slower than an undriven one
     from hertzian.kernels.tile import tile_kernel
     from warp._src import build
 
@@ -570,8 +570,7 @@ def test_fused_kernels_refuse_the_dashpot_in_compensated_float32():
 
 def test_trace_sample_is_written_out_of_the_step_loop():
     """The fused kernel writes a trace sample through one out-of-line function, called only when a sample is due:
-    written into the step loop, the sample's code slowed every step of the traced window kernel by 28 % on an H100
-    (docs/benchmarks.md). Generated C++ only, nothing compiled."""
+    written into the step loop, the sample's code slowed every step of the traced window kernel (docs/benchmarks.md). Generated C++ only, nothing compiled."""
     from hertzian.kernels.features import Features
     from hertzian.kernels.tile import TileShape, tile_kernel
 

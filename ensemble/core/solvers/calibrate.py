@@ -161,7 +161,7 @@ REGISTERS = {2: 96, 4: 128, 8: 232, 16: 255}
 """Registers per thread of the gear4 float64 fused kernel for G grains per lane, padded/windowed variants
 (ptxas for sm_90 reports 122, 216 and 255 for the plain variants at G = 4, 8, 16; G = 2 is an estimate, used
 only for one-warp windows, where any count fits; launches of 264 lanes at G = 8 and 528 at
-G = 4 were refused on the H100, so windowed variants use a little more)."""
+G = 4 were refused on an sm_90 GPU, so windowed variants use a little more)."""
 
 
 def _fits(lanes: int, G: int, registers: int = 65536) -> bool:

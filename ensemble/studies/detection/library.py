@@ -38,8 +38,8 @@ another value is rebuilt."""
 CACHED_ARRAYS = ("clean", "echoes", "ok", "fronts", "gram", "first_echo_ends", "first_echo_gram")
 """The library's arrays, each saved as ``<name>.npy`` in the library's cache directory."""
 SAVE_THREADS = 8
-"""Threads that copy a large array into its ``.npy`` file (a 1000-grain library's echoes are ≈ 1.2 GB: written by one
-thread, their save took ≈ 0.47 s on the H100 host, and a detection returns once its library is saved)."""
+"""Threads that copy a large array into its ``.npy`` file (a 1000-grain library's echoes are ≈ 1.2 GB, and a detection
+returns once its library is saved: one thread's copy was a large part of a cached detection's time on a GPU host)."""
 SAVE_PIECE_BYTES = 64 << 20
 
 
@@ -324,7 +324,7 @@ def _library_on_device(
     depths, ratios, samples = len(grid.depths), len(grid.log_mass_ratio), forward.trace_sample_count
     host = {}
 
-    def allocate() -> None:  # while the run executes: page-locked allocation costs ≈ 0.4 s per GB on the H100 host
+    def allocate() -> None:  # while the run executes: page-locked allocation is slow, so it overlaps the run
         pinned = model.device.is_cuda
         host["echoes"] = wp.empty((depths * ratios, samples), dtype=wp.float64, device="cpu", pinned=pinned)
 
