@@ -18,6 +18,7 @@ from __future__ import annotations
 from importlib import import_module
 
 from hertzian._version import __version__
+
 # ---- scenes (light: numpy only) ----------------------------------------------------------------
 from hertzian.core.errors import OptionError, RefusedError
 from hertzian.core.scene import Scene, SceneError
