@@ -187,3 +187,11 @@ def test_import_is_light():
     assert loaded.strip() == "[]"
     assert isinstance(hz.__version__, str) and set(hz.__all__) <= set(dir(hz))
     assert np.all([callable(getattr(hz, n)) for n in ("run", "sweep", "load_scene", "load_sweep", "open_store")])
+
+
+def test_to_xarray_keeps_how_a_point_ran_as_coordinates():
+    scene = hz.load_scene("impact", {"chain.grains": 12, "integrator.duration": 0.02, "record.every": 0.01})
+    dataset = hz.run(scene, "cpu").to_xarray()
+    for name in ("launch_group", "grain_steps_per_second"):
+        assert name in dataset.coords and name not in dataset.data_vars, name
+    assert {"u", "v", "energy", "status", "energy_error"} <= set(dataset.data_vars)

@@ -27,6 +27,22 @@ def table_after(doc: str, heading: str) -> dict[str, list[str]]:
     return rows
 
 
+def table_rows(doc: str, heading: str) -> list[list[str]]:
+    """Every row (header first, the separator left out) of the first Markdown table after the line that starts
+    with ``heading``."""
+    lines = (DOCS / doc).read_text().splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith(heading))
+    table = []
+    for line in lines[start:]:
+        if line.startswith("|"):
+            cells = [c.strip() for c in line.strip().strip("|").split("|")]
+            if not all(set(c) <= {"-", " "} for c in cells):
+                table.append(cells)
+        elif table:
+            break
+    return table
+
+
 def record(name: str) -> dict:
     return json.loads((DOCS / "records" / name).read_text())
 
@@ -88,3 +104,60 @@ def test_the_cpu_disorder_energy_share_is_its_record():
         assert agrees(parts[0], mean), (cell, mean)
         if len(parts) == 2:
             assert agrees(parts[1], std), (cell, std)
+
+
+@pytest.mark.parametrize(
+    "heading, dt_name, half_name",
+    [
+        (
+            "The paper's 10 000-grain column to t = 1 000",
+            "reproduction/sec6_standing_h200.json",
+            "reproduction/sec6_standing_half_h200.json",
+        ),
+        (
+            "local wavelength; the statistic reported is",
+            "reproduction/sec6_standing_cpu.json",
+            "reproduction/sec6_standing_half_cpu.json",
+        ),
+    ],
+)
+def test_sec6_standing_tables_are_their_records(heading, dt_name, half_name):
+    table = table_rows("reproduction.md", heading)
+    header, body = table[0], [row for row in table[1:] if row[1] != "any"]
+    at_dt = {(p["tau"], p["A"]): p for p in record(dt_name)["points"]}
+    at_half = {(p["tau"], p["A"]): p for p in record(half_name)["points"]}
+    assert body
+    for row in body:
+        key = (float(row[0]), float(row[1]))
+        for column, point in (("s at dt (quartiles)", at_dt[key]), ("s at dt/2 (quartiles)", at_half[key])):
+            cell = row[header.index(column)]
+            median, quartiles = cell.split(" (")
+            low, high = quartiles.rstrip(")").split("–")
+            assert agrees(median, point["fraction"]), (key, column, cell)
+            assert agrees(low, point["fraction_quartiles"][0]) and agrees(high, point["fraction_quartiles"][1]), cell
+        if "verdict at dt" in header:
+            assert row[header.index("verdict at dt")] == at_dt[key]["verdict"]
+            assert row[header.index("verdict at dt/2")] == at_half[key]["verdict"]
+            null = row[header.index("null at dt: median (95 % band)")]
+            median, band = null.split(" (")
+            low, high = band.rstrip(")").split("–")
+            assert agrees(median, at_dt[key]["null_median"]), null
+            assert agrees(low, at_dt[key]["null_band"][0]) and agrees(high, at_dt[key]["null_band"][1]), null
+
+
+def test_sec6_lag_table_is_its_record():
+    rows = table_rows("reproduction.md", "| τ | t0 | instantaneous v | averaged v |")[1:]
+    runs = {run["name"]: run for run in record("reproduction/sec6_lag_h200.json")["runs"]}
+    run = runs["sec6_lag"]
+    lags = run["lag_steps_at_paper_dt"]
+    columns = ("instantaneous_v", "averaged_v", "instantaneous_ke", "averaged_ke")
+    checked = 0
+    for tau_text, *cells in rows:
+        tau, t0 = float(tau_text), float(cells[0])
+        ti, ki = run["taus"].index(tau), run["t0"].index(t0)
+        for name, cell in zip(columns, cells[1:]):
+            for text, lag in zip(cell.split(", "), (800, 2000, 4000, 8000, 12000)):
+                value = run["correlation"][name][ti][ki][lags.index(lag)]
+                assert agrees(text.replace("−", "-"), value), (tau, t0, name, lag, text, value)
+                checked += 1
+    assert checked == 4 * 4 * 5

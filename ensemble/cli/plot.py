@@ -105,7 +105,7 @@ def plot(
 
             from hertzian.studies import analysis as an
 
-            numbers = {"store": str(store), "points": an.standing_fractions(dataset)}
+            numbers = {**an.store_provenance(dataset, store), "points": an.standing_fractions(dataset)}
             out.with_suffix(".json").write_text(json.dumps(numbers, indent=1))
         if figure:
             plot_figure(dataset, figure, out)

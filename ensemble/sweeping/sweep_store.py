@@ -90,6 +90,8 @@ WHERE_COLUMNS = ("device", "host", "worker", "kernel")
 INNER_CHUNK_BYTES = 1 << 20
 """Target size of an inner chunk (what reading one point costs at least): about 1 MiB."""
 TIMING_VARIABLES = ("wall_seconds", "grain_steps_per_second")
+POINT_COORDINATES = ("launch_group", "grain_steps_per_second")
+"""Per-point arrays that xarray opens as coordinates (named in ``status``'s ``coordinates`` attribute)."""
 """Per-point variables that measure the machine, not the physics (they differ between runs)."""
 
 TIME_UNITS = "program time (1.0102e-3 s)"
@@ -289,7 +291,9 @@ def _point_variables(dims: tuple[str, ...], coords, *, error_estimate: bool = Fa
             (),
             np.int32,
             NOT_RUN,
-            {**coords(), "flag_values": [int(k) for k in codes], "flag_meanings": codes},
+            # the point's launch group and its batch's throughput describe how it ran, not what it is: xarray reads
+            # them as coordinates (CF's "coordinates" attribute), not data variables
+            {**coords(*POINT_COORDINATES), "flag_values": [int(k) for k in codes], "flag_meanings": codes},
         )
     ]
     for name, (units, long_name) in described.items():

@@ -384,15 +384,88 @@ def point_standing_fraction(point) -> dict:
     if fraction.shape[1] == 0:
         return {"window_start": point.window_start.values.tolist(), "fraction": math.nan, "note": "under π of phase"}
     late = fraction[len(fits) // 2 :]
+    observed = float(np.nanmedian(late))
+    null = surrogate_fractions(v1[len(fits) // 2 :], phase)
+    band = np.nanpercentile(null, [2.5, 97.5]).tolist()
     return {
         "window_start": point.window_start.values.tolist(),
         "window_fraction": np.nanmedian(fraction, axis=1).tolist(),
         "window_residual": [float(np.nanmedian(f.residual)) for f in fits],
         "depth": fits[0].centre.tolist(),
         "depth_fraction": np.nanmedian(late, axis=0).tolist(),
-        "fraction": float(np.nanmedian(late)),
+        "fraction": observed,
         "fraction_quartiles": np.nanpercentile(late, [25, 75]).tolist(),
         "residual": float(np.nanmedian([f.residual for f in fits[len(fits) // 2 :]])),
+        "null_median": float(np.nanmedian(null)),
+        "null_band": band,
+        "verdict": standing_verdict(observed, band),
+        **kinetic_energy_shares(point, len(fits) // 2),
+    }
+
+
+NULL_SURROGATES = 200
+"""Phase-randomised surrogates per point for the standing fraction's null distribution."""
+NULL_SEED = 20261129
+"""Seed of the surrogates' phases (a point's null is reproducible)."""
+
+
+def surrogate_fractions(v1, phase, *, count: int = NULL_SURROGATES, seed: int = NULL_SEED) -> np.ndarray:
+    """The standing fraction's null distribution for the windows ``v1`` (window, grain) of one point: each surrogate
+    keeps every grain's |V₁| and draws its phase uniformly and independently, which keeps the amplitude profile and
+    destroys any wave (forward, backward or standing); its statistic is the median s over windows and stretches, as
+    for the data. Returns ``count`` such medians."""
+    rng = np.random.default_rng(seed)
+    rows = np.asarray(v1, dtype=complex)
+    out = np.empty(count)
+    for n in range(count):
+        shuffled = np.abs(rows) * np.exp(2j * math.pi * rng.random(rows.shape))
+        fractions = [fit_two_waves(row, phase).standing_fraction for row in shuffled]
+        out[n] = np.nanmedian(np.concatenate(fractions)) if any(f.size for f in fractions) else math.nan
+    return out
+
+
+def standing_verdict(observed: float, band: list[float]) -> str:
+    """'standing' above the null's 95 % band, 'travelling' below it, else 'not distinguished from the null'."""
+    low, high = band
+    if not math.isfinite(observed) or not (math.isfinite(low) and math.isfinite(high)):
+        return "undetermined"
+    if observed > high:
+        return "standing"
+    if observed < low:
+        return "travelling"
+    return "not distinguished from the null"
+
+
+def kinetic_energy_shares(point, first_window: int) -> dict:
+    """Share of the window-averaged kinetic energy at each harmonic of the drive, summed over the column, median over
+    the windows from ``first_window`` on: ½ m |V₀|² at k = 0 and ½ m |V_k|²/2 at k ≥ 1 (v = V₀ + Σ Re(V_k e^{ikωt}))
+    over ``window_ke``. ``ke_share_other`` is the rest: the energy at frequencies that are not harmonics of the
+    drive (and the harmonics above the highest stored)."""
+    mass = np.asarray(point["mass"].values, dtype=float) if "mass" in point else point_scene_value(point, "chain.mass")
+    response = np.asarray(point.response.values, dtype=complex)[first_window:]  # (window, harmonic, grain)
+    ke = np.asarray(point.window_ke.values, dtype=float)[first_window:].sum(axis=-1)  # (window,)
+    weight = np.where(np.arange(response.shape[1]) == 0, 1.0, 0.5)[None, :, None]
+    per_harmonic = (0.5 * mass * weight * np.abs(response) ** 2).sum(axis=-1) / ke[:, None]  # (window, harmonic)
+    shares = np.nanmedian(per_harmonic, axis=0)
+    other = np.nanmedian(1.0 - per_harmonic.sum(axis=1))
+    return {"ke_share_harmonics": shares.tolist(), "ke_share_drive": float(shares[1]), "ke_share_other": float(other)}
+
+
+def store_provenance(ds, store) -> dict:
+    """What a record of numbers reduced from a store names about it: the store, its device, step, scene's grains
+    and duration, the package version, and the date of the reduction."""
+    from datetime import date
+
+    prov = dict(ds.attrs.get("provenance", {}))
+    scene = json.loads(ds.attrs["scene"]) if "scene" in ds.attrs else {}
+    return {
+        "store": str(store),
+        "device": prov.get("device"),
+        "dt": prov.get("dt"),
+        "grains": prov.get("grains"),
+        "duration": scene.get("integrator", {}).get("duration"),
+        "package_version": prov.get("package_version"),
+        "date": date.today().isoformat(),
     }
 
 
