@@ -74,3 +74,23 @@ def test_lag_correlation_of_a_travelling_pulse_instantaneous_and_averaged():
     assert np.allclose(inst, gauss, atol=0.02)
     assert np.allclose(averaged, box, atol=0.02)
     assert inst[3] < 0.01 and averaged[3] > 0.75
+
+
+def test_the_standing_fractions_null_calls_waves_by_their_kind():
+    """Against its phase-randomised null, a pure standing wave is 'standing', a pure travelling wave 'travelling',
+    and amplitudes with random phases are not distinguished from the null."""
+    from hertzian.studies.analysis import fit_two_waves, standing_verdict, surrogate_fractions
+
+    phase = 0.05 * np.arange(400.0)  # eight local wavelengths and more
+    rng = np.random.default_rng(3)
+    cases = {
+        "standing": np.cos(phase)[None, :] * np.ones((3, 1)),
+        "travelling": np.exp(-1j * phase)[None, :] * np.ones((3, 1)),
+        "not distinguished from the null": np.exp(2j * np.pi * rng.random((3, 400))),
+    }
+    for expected, windows in cases.items():
+        observed = float(np.nanmedian(np.concatenate([fit_two_waves(row, phase).standing_fraction for row in windows])))
+        null = surrogate_fractions(windows, phase, count=100)
+        band = np.nanpercentile(null, [2.5, 97.5]).tolist()
+        assert 0.5 < np.median(null) < 0.9  # random phases: s is far from 0
+        assert standing_verdict(observed, band) == expected, (expected, observed, band)

@@ -76,9 +76,9 @@ from hertzian.studies.analysis.drive import (
     standing_wave_measure,
     standing_wave_ratio,
     store_provenance,
-    surrogate_fractions,
     strobe_label,
     strobe_samples,
+    surrogate_fractions,
     window_average,
 )
 from hertzian.studies.analysis.echoes import (
