@@ -266,7 +266,7 @@ def sweep(
     Times are in program units (1.0102e-3 s). Kill it at any moment and rerun with --resume.
     """
     # the pipeline imports Warp and Zarr: only once a sweep runs, not for `hertzian --help`
-    from hertzian.sweeping.pipeline import plan_summary, prepare_sweep, run_sweep
+    from hertzian.sweeping.pipeline import estimate_line, plan_summary, prepare_sweep, run_sweep
     from hertzian.sweeping.planner import describe
 
     notify = lambda line: typer.echo(line, err=True)  # noqa: E731
@@ -290,6 +290,7 @@ def sweep(
         )
     if dry_run:
         typer.echo(describe(prepared.plan, prepared.definition), err=as_json)
+        typer.echo(estimate_line(prepared), err=as_json)
         if as_json:
             typer.echo(json.dumps(plan_summary(prepared), indent=1))
         return

@@ -287,7 +287,8 @@ def check_kernel(kernel: str, plan: Plan, points: SweepPoints, dev: str) -> None
 
 
 def plan_summary(prepared: PreparedSweep) -> dict[str, Any]:
-    """What ``hertzian sweep --dry-run --json`` prints: points, batches, batch size, grain-steps, device, seconds."""
+    """What ``hertzian sweep --dry-run --json`` prints: points, batches, batch size, grain-steps, device, seconds
+    (of the planning), and the estimated seconds of the run (:func:`estimated_seconds`)."""
     plan = prepared.plan
     return {
         "points": plan.point_count,
@@ -296,7 +297,47 @@ def plan_summary(prepared: PreparedSweep) -> dict[str, Any]:
         "grain_steps": plan.grain_steps,
         "device": prepared.device,
         "seconds": prepared.timing,
+        "estimate": estimated_seconds(prepared),
     }
+
+
+def estimated_seconds(prepared: PreparedSweep) -> dict[str, Any]:
+    """Seconds the sweep's integration should take on its device, and what the figure rests on. On a CPU: each
+    launch group's grain-steps at the warm rate of the kernel ``auto`` picks for it, measured on the reference
+    2-core CPU (``calibrate.CPU_COSTS``), plus its compile where Warp's cache lacks it (a scene with traces,
+    damping or a drive runs slower than that rate: the figure is a lower bound there). On a GPU: an upper bound at
+    the planner's conservative rate (``planner.SAFE_RATE``), which full batches exceed."""
+    from hertzian.core.solvers.calibrate import CPU_COSTS, chain_kernel, cpu_seconds, in_kernel_cache, step_kernel
+    from hertzian.sweeping.planner import SAFE_RATE
+
+    plan = prepared.plan
+    if not wp.get_device(prepared.device).is_cpu:
+        rate = SAFE_RATE["cuda"]
+        return {"seconds": plan.grain_steps / rate, "bound": "upper", "grain_steps_per_second": rate}
+    total = 0.0
+    for group in plan.groups:
+        steps = plan.grain_steps * group.point_count / max(plan.point_count, 1)
+        cached = {
+            "chain": in_kernel_cache(chain_kernel(group.features).module, prepared.device),
+            "step": in_kernel_cache(step_kernel(group.features).module, prepared.device),
+        }
+        total += min(cpu_seconds(kind, steps, cached[kind]) for kind in ("chain", "step"))
+    return {"seconds": total, "bound": "estimate", "grain_steps_per_second": CPU_COSTS["chain"][1]}
+
+
+def estimate_line(prepared: PreparedSweep) -> str:
+    """The estimate as one line of ``--dry-run``'s plan."""
+    found = estimated_seconds(prepared)
+    if found["bound"] == "upper":
+        return (
+            f"estimated integration: at most about {found['seconds']:.3g} s on {prepared.device} (at "
+            f"{found['grain_steps_per_second']:.0e} grain-steps/s, a conservative GPU rate)"
+        )
+    return (
+        f"estimated integration: roughly {found['seconds']:.3g} s on {prepared.device} (the CPU kernels' rates on a "
+        "2-core reference CPU at 200 grains, compiles included where not cached; shorter chains, traces, damping "
+        "and drives run slower)"
+    )
 
 
 def _warn(line: str) -> None:

@@ -203,3 +203,15 @@ def test_failure_line_counts_by_code():
     status = np.array([0, 1, 1, 3, 5])
     assert failure_line(status).startswith("3 of 5 chains did not end OK (NON_FINITE 2, ENERGY_DRIFT 1;")
     assert failure_line(np.array([0, int(Status.ESTIMATE_UNCERTAIN)])) is None
+
+
+def test_a_dry_run_estimates_seconds_on_this_device(tmp_path):
+    import json
+
+    sweep = write_sweep(tmp_path, GRID_SWEEP)
+    result = invoke("sweep", sweep, "--dry-run", "--device", "cpu", "--json")
+    assert result.exit_code == 0, result.stderr
+    estimate = json.loads(result.stdout)["estimate"]
+    assert estimate["seconds"] > 0 and estimate["bound"] == "estimate"
+    assert "estimated integration: roughly" in result.stderr and " s on cpu" in result.stderr
+    assert not (tmp_path / "sweep.zarr").exists()
