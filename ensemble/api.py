@@ -8,10 +8,13 @@ run that cannot fit.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from hertzian.core import timeline
 from hertzian.core.check import memory_refusal
 from hertzian.core.devices import check_device
 from hertzian.core.errors import OptionError, RefusedError
@@ -31,40 +34,104 @@ def load_scene(source: str | Path | dict, overrides: dict[str, Any] | None = Non
     return load_scene_file(shipped_file(source), overrides)
 
 
-def run(
-    scenes: Scene | Iterable[Scene],
-    device: str | None = None,
-    *,
-    kernel: str = "auto",
-    progress: Callable[[int, int], None] | None = None,
-) -> RunResult:
-    """Run one scene, or compatible scenes as one ensemble, on ``device`` ('cpu', 'cuda', 'cuda:N'; default: cuda if
-    present, else cpu) with the solver ``kernel`` ('auto' or one of hertzian.core.solvers.KERNELS; results are the
-    same). ``progress(done_records, total_records)`` is called after each record. Times are in program units
-    (1.0102e-3 s); ``RunResult.to_xarray()`` gives what ``hertzian run --out`` stores. Scenes with
-    ``integrator.tolerance`` run as ``hertzian run`` runs them: pilot runs pick the step (and, with
-    ``integrator.method = "auto"``, the method); ``progress`` is not called then."""
+@dataclass
+class PreparedRun:
+    """A run that passed every check of ``hertzian run`` and ``hz.run`` (the one path of both), built and ready to
+    integrate. ``notes``: what to tell the user before it runs ('warning: …', 'note: …' lines). A scene with
+    ``integrator.tolerance`` has no runner yet: :meth:`run` runs the pilot runs, and keeps their ``choice``."""
+
+    scenes: list[Scene]
+    device: str
+    kernel: str
+    runner: Runner | None
+    notes: list[str] = field(default_factory=list)
+    choice: Any = None
+    """The tolerance's ``ToleranceChoice`` once :meth:`run` has run a tolerance scene, else None."""
+
+    def run(self, progress: Callable[[int, int], None] | None = None) -> RunResult:
+        """Integrate (``progress(done_records, total_records)`` after each record; not for a tolerance run)."""
+        if self.runner is not None:
+            return self.runner.run(progress)
+        from hertzian.core.error_estimate import meet_tolerance
+
+        self.choice = meet_tolerance(self.scenes, lambda chosen: _runner(chosen, self.device, self.kernel).run())
+        return self.choice.result
+
+
+def prepare_run(
+    scenes: Scene | Iterable[Scene], device: str | None = None, *, kernel: str = "auto", strict: bool = False
+) -> PreparedRun:
+    """Check and build a run: the scenes (one, or compatible ones as one ensemble), the kernel, the memory (of the
+    host before Warp starts, then of the GPU), the step (``hertzian check``'s warning: a note, or with ``strict`` a
+    :class:`RefusedError`; a tolerance scene's step is chosen by its pilot runs), the device; then the model and
+    its runner, with a note where ``auto`` leaves a launch group on the per-step kernel or takes event-aware steps.
+    Bad input raises one line (OptionError, SceneError, RefusedError)."""
+    from hertzian.core.check import dt_warning
+    from hertzian.core.devices import open_device
+    from hertzian.core.solvers.calibrate import event_cost_note
+
     scenes = [scenes] if isinstance(scenes, Scene) else list(scenes)
     if not scenes or not all(isinstance(s, Scene) for s in scenes):
         raise OptionError("scenes", type(scenes).__name__, "a Scene or a non-empty list of Scenes")
     if kernel not in KERNELS:
         raise OptionError("kernel", kernel, f"one of {', '.join(KERNELS)}")
     largest = max(scenes, key=lambda s: s.chain.grains)
-    too_big = memory_refusal(largest, chains=len(scenes))
-    dev = check_device(device)
-    too_big = too_big or (memory_refusal(largest, dev, chains=len(scenes)) if dev.startswith("cuda") else None)
+    too_big = memory_refusal(largest, chains=len(scenes))  # the host first, before Warp starts
     if too_big:
         raise RefusedError(too_big)
-    if scenes[0].integrator.tolerance is not None:  # as hertzian run: pilot runs pick the method and dt
-        from hertzian.core.error_estimate import meet_tolerance
+    notes = []
+    tolerance = scenes[0].integrator.tolerance is not None
+    unsafe = None if tolerance else next(filter(None, (dt_warning(s) for s in dict.fromkeys(scenes))), None)
+    if unsafe and strict:
+        raise RefusedError(unsafe)
+    if unsafe:
+        notes.append(f"warning: {unsafe}")
+    dev = check_device(device)
+    open_device(dev)
+    too_big = memory_refusal(largest, dev, chains=len(scenes)) if dev.startswith("cuda") else None
+    if too_big:
+        raise RefusedError(too_big)
+    if tolerance:  # pilot runs pick the step (and, with "auto", the method): nothing to build yet
+        return PreparedRun(scenes, dev, kernel, None, notes)
+    timeline.mark("library_imported")
+    runner = _runner(scenes, dev, kernel, mark=True)
+    if runner.kernel_note:
+        notes.append(f"note: per-step kernel: {runner.kernel_note}")
+    events = event_cost_note(runner.model.features, runner.model.device.is_cpu)
+    if events:
+        notes.append(f"note: {events}")
+    return PreparedRun(scenes, dev, kernel, runner, notes)
 
-        return meet_tolerance(scenes, lambda chosen: _runner(chosen, dev, kernel).run()).result
-    return _runner(scenes, dev, kernel).run(progress)
+
+def run(
+    scenes: Scene | Iterable[Scene],
+    device: str | None = None,
+    *,
+    kernel: str = "auto",
+    progress: Callable[[int, int], None] | None = None,
+    strict: bool = False,
+) -> RunResult:
+    """Run one scene, or compatible scenes as one ensemble, on ``device`` ('cpu', 'cuda', 'cuda:N'; default: cuda if
+    present, else cpu) with the solver ``kernel`` ('auto' or one of hertzian.core.solvers.KERNELS; results are the
+    same), through the checks of ``hertzian run`` (:func:`prepare_run`: its warnings come as Python warnings;
+    ``strict`` refuses a step that looks unstable or inaccurate). ``progress(done_records, total_records)`` is
+    called after each record. Times are in program units (1.0102e-3 s); ``RunResult.to_xarray()`` gives what
+    ``hertzian run --out`` stores. Scenes with ``integrator.tolerance`` run as ``hertzian run`` runs them: pilot runs
+    pick the step (and, with ``integrator.method = "auto"``, the method); ``progress`` is not called then."""
+    prepared = prepare_run(scenes, device, kernel=kernel, strict=strict)
+    for line in prepared.notes:
+        if line.startswith("warning: "):
+            warnings.warn(line.removeprefix("warning: "), stacklevel=2)
+    return prepared.run(progress)
 
 
-def _runner(scenes: list[Scene], device: str, kernel: str) -> Runner:
+def _runner(scenes: list[Scene], device: str, kernel: str, *, mark: bool = False) -> Runner:
+    """The model of ``scenes`` on ``device`` and its runner (``mark``: the timeline's ``model_built`` between)."""
     try:
-        return Runner(build_model(scenes, device), kernel=kernel)
+        model = build_model(scenes, device)
+        if mark:
+            timeline.mark("model_built")
+        return Runner(model, kernel=kernel)
     except SceneError:  # scenes that cannot share one ensemble: names their key
         raise
     except ValueError as err:  # a forced kernel that cannot run these scenes here

@@ -195,3 +195,20 @@ def test_to_xarray_keeps_how_a_point_ran_as_coordinates():
     for name in ("launch_group", "grain_steps_per_second"):
         assert name in dataset.coords and name not in dataset.data_vars, name
     assert {"u", "v", "energy", "status", "energy_error"} <= set(dataset.data_vars)
+
+
+def test_hz_run_checks_as_hertzian_run_does():
+    """hz.run and `hertzian run` share one path (hertzian.api.prepare_run): the same dt warning, as a Python
+    warning, and with strict=True the same refusal; the result is frozen."""
+    import dataclasses
+
+    coarse = hz.load_scene("impact", {"chain.grains": 12, "integrator.dt": 1e-3, "integrator.duration": 0.02,
+                                      "record.every": 0.01})  # fmt: skip
+    with pytest.warns(UserWarning, match=r"integrator.dt = 0.001 looks inaccurate"):
+        result = hz.run(coarse, "cpu")
+    with pytest.raises(hz.RefusedError, match=r"^integrator.dt = 0.001 looks inaccurate"):
+        hz.run(coarse, "cpu", strict=True)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        result.status = None
+    cli = invoke("run", "--device", "cpu", "--out", "unused.zarr", "--strict", "--set", "integrator.dt=1e-3")
+    assert cli.exit_code == 2 and "integrator.dt = 0.001 looks inaccurate" in cli.stderr

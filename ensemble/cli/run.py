@@ -20,10 +20,8 @@ from hertzian.cli.app import (
     check_store_out,
     check_timeline_path,
     exit_if_flagged,
-    fail,
     load_scene_or_fail,
     one_line_errors,
-    resolve_device,
 )
 from hertzian.core import timeline
 
@@ -61,56 +59,23 @@ def run(
     (docs/fixed-costs.md)."""
     timeline.mark("cli_ready")
     check_timeline_path()
-    from hertzian.core.solvers import KERNELS
-
-    if kernel not in KERNELS:
-        fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)}")
     loaded = load_scene_or_fail(
         scene, [*(set_ or []), *(["record.error_estimate=true"] if error_estimate else [])], precision
     )
-    from hertzian.core.check import dt_warning, memory_refusal
-    from hertzian.core.devices import open_device
-
-    too_big = memory_refusal(loaded)  # the host first, before Warp starts
-    if too_big:
-        fail(too_big)
-
-    unsafe = dt_warning(loaded) if loaded.integrator.tolerance is None else None
-    if unsafe and strict:
-        fail(unsafe)
-    if unsafe:
-        typer.echo(f"warning: {unsafe}", err=True)
     check_store_out(out, overwrite=overwrite)
     timeline.mark("scene_loaded")
-    dev = resolve_device(device)
-    open_device(dev)
-    too_big = memory_refusal(loaded, dev) if dev.startswith("cuda") else None
-    if too_big:
-        fail(too_big)
+    from hertzian.api import prepare_run  # hz.run's path: the same checks, warnings and tolerance handling
 
-    if loaded.integrator.tolerance is not None:
-        _run_to_tolerance(loaded, dev, kernel, out, overwrite=overwrite)
+    with one_line_errors():
+        prepared = prepare_run([loaded], device, kernel=kernel, strict=strict)
+    for line in prepared.notes:
+        typer.echo(line, err=True)
+    if prepared.runner is None:
+        _run_to_tolerance(loaded, prepared, out, overwrite=overwrite)
         return
-    from hertzian.core.model import build_model
-    from hertzian.core.runner import Runner
-    from hertzian.core.solvers.calibrate import event_cost_note
-
-    timeline.mark("library_imported")
-    try:
-        model = build_model([loaded], dev)
-        timeline.mark("model_built")
-        runner = Runner(model, kernel=kernel)
-    except ValueError as err:  # a forced kernel that cannot run this scene here
-        fail(f"--kernel = {kernel!r}: {str(err).split(': ', 1)[-1]}")
-
-    if runner.kernel_note:
-        typer.echo(f"note: per-step kernel: {runner.kernel_note}", err=True)
-    events = event_cost_note(runner.model.features, runner.model.device.is_cpu)
-    if events:
-        typer.echo(f"note: {events}", err=True)
     store_import = _import_in_background("hertzian.sweeping.sweep_store")
     with _progress_bar(loaded.record_count, shown=not quiet and sys.stderr.isatty()) as progress:
-        result = runner.run(progress)
+        result = prepared.run(progress)
     timeline.mark("integrated", kernel=result.kernel, seconds_in_run=result.timing)
     store_import.join()
     from hertzian.sweeping.sweep_store import write_result
@@ -119,30 +84,28 @@ def run(
     with one_line_errors():
         write_result(out, result, overwrite=overwrite)
     timeline.mark("store_written")
-    typer.echo(_summary(loaded, result, runner.solver.describe()))
+    typer.echo(_summary(loaded, result, prepared.runner.solver.describe()))
     typer.echo(f"wrote {out}")
     exit_if_flagged(result.status)
 
 
-def _run_to_tolerance(scene, device: str, kernel: str, out: Path, *, overwrite: bool) -> None:
-    """integrator.tolerance: pilot runs choose method and dt (:func:`meet_tolerance`); the chosen run is stored with
+def _run_to_tolerance(scene, prepared, out: Path, *, overwrite: bool) -> None:
+    """integrator.tolerance: pilot runs choose method and dt (``meet_tolerance``); the chosen run is stored with
     the choice in the store's attributes."""
-    from hertzian.core.error_estimate import meet_tolerance
-    from hertzian.core.model import build_model
-    from hertzian.core.runner import Runner
     from hertzian.sweeping.sweep_store import write_result
 
-    choice = meet_tolerance([scene], lambda chosen: Runner(build_model(chosen, device), kernel=kernel).run())
+    result = prepared.run()
+    choice = prepared.choice
     with one_line_errors():
-        write_result(out, choice.result, overwrite=overwrite, attributes=choice.attrs())
-    chosen = choice.result.scenes[0].integrator
+        write_result(out, result, overwrite=overwrite, attributes=choice.attrs())
+    chosen = result.scenes[0].integrator
     typer.echo(
         f"tolerance {chosen.tolerance or scene.integrator.tolerance:g}: {chosen.method} events {chosen.events} "
         f"dt={chosen.dt:g} after {len(choice.pilot)} pilot runs ({sum(p.seconds for p in choice.pilot):.2f} s), "
-        f"error estimate {float(choice.result.error_estimate.max()):.2e}, status {int(choice.result.status[0])}"
+        f"error estimate {float(result.error_estimate.max()):.2e}, status {int(result.status[0])}"
     )
     typer.echo(f"wrote {out}")
-    exit_if_flagged(choice.result.status)
+    exit_if_flagged(result.status)
 
 
 def _import_in_background(module: str) -> threading.Thread:

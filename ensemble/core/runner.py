@@ -50,7 +50,7 @@ max(MONITOR_MIN_STEPS, MONITOR_STEPS_PER_GRAIN · grains) steps (the check loops
 grains in one thread, so its cadence scales with the grain count to cost ≲ 1 %)."""
 
 
-@dataclass
+@dataclass(frozen=True)
 class RunResult:
     """What a run produced, as numpy arrays with a leading chain dimension."""
 
