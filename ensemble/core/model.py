@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import warp as wp
@@ -19,6 +20,27 @@ from hertzian.core.chains import ChainSet, ChainStack, has_radii, per_unique
 from hertzian.core.scene import VALIDITY_FRACTION, Scene, SceneError
 from hertzian.core.static import StaticState, static_state, validity_scale
 from hertzian.kernels.features import EVENT_WINDOW, GEAR_CORRECTOR, GEAR_VALUES, Features
+
+
+class LaunchKey(NamedTuple):
+    """What every chain of one launch shares (a sweep's launch group): each field a scene property, by name."""
+
+    grains: int
+    surface: str
+    bottom: str
+    method: str
+    precision: str
+    dt: float
+    events: str
+    steps_per_record: int
+    record_count: int
+    record_steps: bytes
+    trace_stride: int
+    traces: tuple
+    fields: tuple
+    damping: str
+    response_windows: tuple
+
 
 SHARED_KEYS = (
     ("chain.grains", lambda s: s.chain.grains),
@@ -37,6 +59,12 @@ SHARED_KEYS = (
     ("damping.model", lambda s: s.damping.model),
     ("response windows", lambda s: (s.record.response_start, s.record.response_windows, s.record.harmonics)),
 )
+"""(name in messages, getter) of each :class:`LaunchKey` field, in its order."""
+
+
+def launch_key(scene: Scene) -> LaunchKey:
+    """What ``scene`` shares with every chain it may run with in one launch."""
+    return LaunchKey(*(get(scene) for _, get in SHARED_KEYS))
 
 
 def features_of(scenes: list[Scene], statics: list[StaticState] | None = None) -> Features:

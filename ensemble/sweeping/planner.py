@@ -1,6 +1,6 @@
 """Plan a sweep: launch groups, batch blocks sized by memory, and the work each batch is.
 
-* A **launch group** is the set of points that share ``hertzian.core.model.SHARED_KEYS`` (grain
+* A **launch group** is the set of points that share a ``hertzian.core.model.LaunchKey`` (grain
   count, boundaries, method, precision, dt, record layout): they can share one kernel launch.
   Each group gets one kernel variant (``features_of`` over *all* its points, computed from their
   static configurations without a scene per point), so a point's result
@@ -22,7 +22,7 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from hertzian.core.model import SHARED_KEYS, STATIC_LEVELS, chain_set_features
+from hertzian.core.model import STATIC_LEVELS, LaunchKey, chain_set_features, launch_key
 from hertzian.core.scene import Scene, SceneError
 from hertzian.core.static import static_arrays
 from hertzian.kernels.features import GEAR_CORRECTOR, Features
@@ -54,8 +54,8 @@ finish sooner, so cutting below it would lose speed and save no work."""
 class LaunchGroup:
     """Points that can share one launch, and the kernel variant they all use."""
 
-    key: tuple
-    """Values of SHARED_KEYS common to the group."""
+    key: LaunchKey
+    """What every point of the group shares."""
     features: Features
     """Kernel variant covering every point of the group."""
     point_count: int
@@ -138,11 +138,6 @@ class Plan:
 
     def batch_host_bytes(self, batch: Batch) -> int:
         return batch.size * self.groups[batch.group].host_bytes_per_chain
-
-
-def launch_key(scene: Scene) -> tuple:
-    """What two points must share to run in one launch (hertzian.core.model.SHARED_KEYS)."""
-    return tuple(get(scene) for _, get in SHARED_KEYS)
 
 
 def chain_memory(scene: Scene, features: Features) -> tuple[int, int]:
@@ -251,7 +246,7 @@ def plan_sweep(
         points = expand(sweep)
     shape = sweep.shape
     template_keys = [launch_key(t) for t in points.templates]
-    keys: dict[tuple, int] = {}
+    keys: dict[LaunchKey, int] = {}
     template_group = np.array([keys.setdefault(k, len(keys)) for k in template_keys], dtype=np.int64)
     flat = np.arange(sweep.point_count, dtype=np.int64)
     point_group = template_group[points.template_index(flat)].reshape(shape)
@@ -380,14 +375,12 @@ def describe(plan: Plan, sweep: Sweep, *, max_rows: int = 20) -> str:
 
     dims = " × ".join(dimension(d) for d in sweep.dimensions) or "no axes"
     lines = [f"points: {plan.point_count} over {dims}", f"launch groups: {len(plan.groups)}"]
-    names = [k for k, _ in SHARED_KEYS]
     for g_index, g in enumerate(plan.groups):
-        shared = dict(zip(names, g.key))
-        f = g.features
+        key, f = g.key, g.features
         lines.append(
-            f"  group {g_index}: {g.point_count} points, {shared['chain.grains']} grains, "
-            f"{shared['integrator.method']} {shared['integrator.precision']} dt={shared['integrator.dt']:g}, "
-            f"{g.grain_steps_per_chain // shared['chain.grains']} steps; kernel: static={f.static}, "
+            f"  group {g_index}: {g.point_count} points, {key.grains} grains, "
+            f"{key.method} {key.precision} dt={key.dt:g}, "
+            f"{g.grain_steps_per_chain // key.grains} steps; kernel: static={f.static}, "
             f"heterogeneous={f.heterogeneous}, hertz={f.hertz}, traces={f.traces}"
         )
     lines.append(

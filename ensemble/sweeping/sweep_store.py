@@ -47,7 +47,6 @@ import zarr
 import zarr.errors
 from hertzian.core.chains import ChainSet
 from hertzian.core.error_estimate import ERROR_ESTIMATE_MEANING
-from hertzian.core.model import SHARED_KEYS
 from hertzian.core.scene import Scene
 from hertzian.core.status import status_attrs
 from hertzian.sweeping.grain_store import grain_arrays, grain_variables, records_grains
@@ -154,7 +153,7 @@ def trace_rows_per_record(scene: Scene) -> int | None:
 
 
 def _store_real(plan: Plan) -> np.dtype:
-    precisions = {dict(zip([k for k, _ in SHARED_KEYS], g.key))["integrator.precision"] for g in plan.groups}
+    precisions = {g.key.precision for g in plan.groups}
     return np.dtype(np.float64 if "float64" in precisions else np.float32)
 
 
@@ -420,17 +419,16 @@ def _small(
 
 
 def launch_groups_attr(plan: Plan) -> list[dict[str, Any]]:
-    names = [k for k, _ in SHARED_KEYS]
     out = []
     for g in plan.groups:
-        shared = dict(zip(names, g.key))
+        key = g.key
         out.append(
             {
-                "grains": shared["chain.grains"],
-                "method": shared["integrator.method"],
-                "precision": shared["integrator.precision"],
-                "dt": shared["integrator.dt"],
-                "steps": g.grain_steps_per_chain // shared["chain.grains"],
+                "grains": key.grains,
+                "method": key.method,
+                "precision": key.precision,
+                "dt": key.dt,
+                "steps": g.grain_steps_per_chain // key.grains,
                 "points": g.point_count,
                 "kernel_features": {k: getattr(g.features, k) for k in g.features.__dataclass_fields__},
             }

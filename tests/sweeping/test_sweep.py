@@ -14,6 +14,7 @@ from hertzian.core.scene import SceneError
 from hertzian.sweeping.planner import batches_for, block_for, plan_sweep
 from hertzian.sweeping.spec import load_sweep, sweep_from_dict, sweep_scenes
 from hertzian.sweeping.sweep_store import (
+    POINT_COORDINATES,
     batch_records,
     chunk_layout,
     create_sweep_store,
@@ -109,7 +110,8 @@ def test_store_has_a_runs_variables_with_the_sweep_dims_first(tmp_path):
     ds, run = xr.open_zarr(out), xr.open_zarr(run_path)
     assert set(run.variables) <= set(ds.variables)
     for name, var in run.variables.items():
-        prefix = () if name in run.coords else sweep.dims
+        per_point = name not in run.coords or name in POINT_COORDINATES  # how a point ran: a coordinate, per point
+        prefix = sweep.dims if per_point else ()
         assert ds[name].dims == prefix + var.dims, name
         for key in ("units", "long_name"):
             assert ds[name].attrs.get(key) == var.attrs.get(key), (name, key)
