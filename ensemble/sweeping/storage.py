@@ -173,7 +173,10 @@ def _store_entries(path: Path) -> set[str] | None:
     except (OSError, ValueError):
         return None
     attrs = meta.get("attributes", {}) if isinstance(meta, dict) else {}
-    if not isinstance(attrs, dict) or attrs.get("project") != PROJECT or "schema_version" not in attrs:
+    provenance = attrs.get("provenance", {}) if isinstance(attrs, dict) else {}
+    # stores written before the `project` attribute name the package in their provenance
+    named = attrs.get("project") == PROJECT or (isinstance(provenance, dict) and provenance.get("package") == PROJECT)
+    if not isinstance(attrs, dict) or not named or "schema_version" not in attrs:
         return None
     consolidated = meta.get("consolidated_metadata") or {}
     members = consolidated.get("metadata", {}) if isinstance(consolidated, dict) else {}

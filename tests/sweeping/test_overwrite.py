@@ -130,3 +130,16 @@ def test_a_folder_that_cannot_be_written_is_refused_before_the_run(tmp_path, sce
     one_line(
         invoke("sweep", write_sweep(tmp_path, GRID_SWEEP), "--out", "/sys/x.zarr", "--device", "cpu"), "not writable"
     )
+
+
+def test_a_store_from_before_the_project_attribute_is_replaced(tmp_path, scene, store):
+    import json
+
+    meta = json.loads((store / "zarr.json").read_text())
+    del meta["attributes"]["project"]  # as written before: the package named in the provenance only
+    (store / "zarr.json").write_text(json.dumps(meta))
+    (store / "manifest.json").unlink()
+    assert meta["attributes"]["provenance"]["package"] == "hertzian"
+    result = run_over(scene, store)
+    assert result.exit_code == 0, result.stderr
+    assert json.loads((store / "zarr.json").read_text())["attributes"]["project"] == "hertzian"
