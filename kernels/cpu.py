@@ -31,18 +31,11 @@ from hertzian.kernels.gear import nordsieck_functions, refuse_composed_extras, s
 from hertzian.kernels.physics import contact_functions, contact_parameters, damping_functions, product_rn
 
 
-def chain_kernel_supports(features: Features) -> bool:
-    """True when the chain kernel implements every feature of this set: it implements all of them (traces are
-    sampled inside the launch)."""
-    return True
-
-
 @functools.cache
 def chain_kernel(features: Features):
-    """The chain-per-thread kernel for one feature set (cached)."""
+    """The chain-per-thread kernel for one feature set (cached): it implements every feature (traces are sampled
+    inside the launch)."""
     f = features
-    if not chain_kernel_supports(f):
-        raise ValueError(f"the chain kernel does not implement traces={f.traces} / damping={f.damping!r}")
     real = wp.float64 if f.precision == "float64" else wp.float32
     Q = f.values
     SURFACE_WALL = f.surface == "wall"

@@ -64,7 +64,7 @@ def event_functions(features: Features):
     contact_force, excess_force = contact_functions(f.precision, f.hertz)
     # the two contacts' forces of a substep at once, branchless (float64 Hertz: the sqrt's fast path): the same bits
     # as excess_force's, with F(δ0) computed once an event step instead of once a force (kernels/physics.py)
-    pair_forces = contact_forces(f.precision, f.hertz, 2, branchless=True, fast_sqrt=True)
+    pair_forces = contact_forces(f.precision, f.hertz, 2)
     derivatives = contact_derivatives(f.precision, f.hertz)
 
     @wp.func

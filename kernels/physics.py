@@ -85,18 +85,18 @@ def contact_functions(precision: str, hertz: bool):
 
 
 @functools.cache
-def contact_forces(precision: str, hertz: bool, count: int, *, branchless: bool, fast_sqrt: bool):
+def contact_forces(precision: str, hertz: bool, count: int):
     """``forces(delta, a_c, force0, n) -> F(delta) − force0`` over a vector of ``count`` contacts.
 
-    The fused kernel's form of the contact law (one lane's contacts at once). ``branchless`` (Hertz
-    only): the square root of a safe argument, then a select, instead of a branch per contact — the
-    same bits as :func:`contact_functions`' ``contact_force``. ``fast_sqrt`` (float64 Hertz): on CUDA
-    the sqrt's fast path with one slow-path test for all ``count`` contacts (same bits again).
+    The fused kernel's form of the contact law (one lane's contacts at once). Hertz: the square root of a
+    safe argument, then a select, instead of a branch per contact (the same bits as :func:`contact_functions`'
+    ``contact_force``, more instruction-level parallelism); in float64, on CUDA, the sqrt's fast path with one
+    slow-path test for all ``count`` contacts (same bits again). Other exponents: ``contact_force`` per contact.
     """
     real = wp.float64 if precision == "float64" else wp.float32
     contact_vec = wp.types.vector(length=count, dtype=real)
-    BRANCHLESS = branchless and hertz
-    FAST_SQRT = BRANCHLESS and fast_sqrt and precision == "float64"
+    BRANCHLESS = hertz
+    FAST_SQRT = hertz and precision == "float64"
     contact_force, _ = contact_functions(precision, hertz)
 
     @wp.func

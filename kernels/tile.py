@@ -95,10 +95,6 @@ class TileShape:
     """Long-chain mode: several blocks per chain, each a window with ghost zones (see hertzian.kernels.ghost)."""
     masked: bool = True
     """Compile the padding and free-end masks (off only when every lane is full and both ends are walls)."""
-    branchless: bool = True
-    """Contact law without a branch (sqrt of a safe argument, then a select): same bits, more ILP."""
-    fast_sqrt: bool = True
-    """float64 Hertz on CUDA: the sqrt's fast path without a branch per contact (one test per lane-step)."""
     max_registers: int = 0
     """CUDA register cap per thread (0: the compiler's choice); lower caps fit more blocks per SM."""
     inline_event_step: bool = True
@@ -124,8 +120,6 @@ class TileShape:
             text += f" {windows}"
         if self.max_registers:
             text += f" regs<={self.max_registers}"
-        if not self.fast_sqrt:
-            text += " sqrt=rn"
         if not self.inline_event_step:
             text += " event-step=call"
         return text
@@ -297,8 +291,8 @@ def tile_layout(features: Features, shape: TileShape) -> TileLayout:
         loss_vec=wp.types.vector(length=G, dtype=wp.float64),
         params=contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz),
         contact_force=contact_force,
-        forces=contact_forces(f.precision, f.hertz, G + 1, branchless=shape.branchless, fast_sqrt=shape.fast_sqrt),
-        one_force=contact_forces(f.precision, f.hertz, 1, branchless=shape.branchless, fast_sqrt=shape.fast_sqrt),
+        forces=contact_forces(f.precision, f.hertz, G + 1),
+        one_force=contact_forces(f.precision, f.hertz, 1),
         nordsieck=nordsieck,
         dashpot=damping_functions(f.precision, f.nordsieck_values)[1],
         near_event=near_event,
@@ -1678,8 +1672,6 @@ def plan_tile(
     chains_per_block: int = 1,
     steps_per_launch: int = 64,
     windowed: bool = False,
-    branchless: bool = True,
-    fast_sqrt: bool = True,
     max_registers: int = 0,
     inline_event_step: bool = True,
 ) -> TilePlan:
@@ -1705,8 +1697,6 @@ def plan_tile(
             1,
             windowed=True,
             masked=True,
-            branchless=branchless,
-            fast_sqrt=fast_sqrt,
             max_registers=max_registers,
             inline_event_step=inline_event_step,
         )
@@ -1729,8 +1719,6 @@ def plan_tile(
             chains_per_block,
             windowed=False,
             masked=masked,
-            branchless=branchless,
-            fast_sqrt=fast_sqrt,
             max_registers=max_registers,
             inline_event_step=inline_event_step,
         )

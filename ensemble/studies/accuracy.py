@@ -36,13 +36,11 @@ import numpy as np
 import warp as wp
 from hertzian.core.check import check_scene
 from hertzian.core.devices import default_device, init_warp
-from hertzian.core.model import build_model, features_of
+from hertzian.core.model import build_model
 from hertzian.core.runner import Runner
 from hertzian.core.scene import EVENT_MODES, METHODS, PRECISIONS, Scene, SceneError
 from hertzian.core.solvers import KERNELS
-from hertzian.core.solvers.calibrate import stepping_features
 from hertzian.core.status import Status
-from hertzian.kernels.cpu import chain_kernel_supports
 
 REFERENCE_METHOD = "gear6"
 REFERENCE_ORDER = 6
@@ -189,11 +187,9 @@ def richardson_estimate(
 
 def study_kernel(scene: Scene, device: str | None) -> str:
     """The kernel every run of a study uses, so that their times compare (``auto`` would switch kernels with
-    the run length): on a CPU the chain-per-thread sweep where it applies, else the per-step kernel; on a
-    GPU ``auto`` (ensemble/core/solvers/calibrate.py)."""
-    if not wp.get_device(device).is_cpu:
-        return "auto"
-    return "chain" if chain_kernel_supports(stepping_features(features_of([scene]))) else "step"
+    the run length): on a CPU the chain-per-thread kernel (it implements every feature); on a GPU ``auto``
+    (ensemble/core/solvers/calibrate.py)."""
+    return "auto" if not wp.get_device(device).is_cpu else "chain"
 
 
 def _run(scene: Scene, device: str | None, kernel: str = "auto"):

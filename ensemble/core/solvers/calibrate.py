@@ -37,7 +37,7 @@ from hertzian.core.model import Model, State
 from hertzian.core.solvers.compile import in_cache, load_variants, solver_variants
 from hertzian.core.solvers.config import CHAIN, STEP, SolverConfig
 from hertzian.core.solvers.tile import TileSolver, config_of
-from hertzian.kernels.cpu import chain_kernel, chain_kernel_supports
+from hertzian.kernels.cpu import chain_kernel
 from hertzian.kernels.features import SUBSTEP_WEIGHTS
 from hertzian.kernels.step import step_kernel
 from hertzian.kernels.tile import fusable, plan_tile
@@ -47,9 +47,9 @@ KERNELS = ("auto", "fused", "step", "tile", "window", "chain")
 AUTO_MIN_GRAIN_STEPS_GPU = 5e9
 """Below this many grain-steps in a run, ``auto`` on a GPU does not calibrate (tens of seconds the first time): it
 takes the shape the calibration cache holds for the model, else :func:`default_config`."""
-CALIBRATION_VERSION = 4
+CALIBRATION_VERSION = 5
 """Bumped when the cached fields change (2: a SolverConfig; 3: the event step out of line by default; 4: one-warp
-windows among the candidates)."""
+windows among the candidates; 5: the tile shape without its two never-changed contact-law switches)."""
 
 
 CPU_COSTS = {"step": (1.407, 2.73e7), "chain": (1.412, 1.47e8)}
@@ -75,7 +75,7 @@ def fused_lacks(features, is_cpu: bool) -> str | None:
     if f.method in SUBSTEP_WEIGHTS and not is_cpu:
         return f"method {f.method} (its substeps are in the per-step and CPU chain kernels only)"
     if is_cpu:
-        return None if chain_kernel_supports(f) else f"features {f}"
+        return None  # the chain kernel implements every feature
     return None if fusable(f) else f"features {f}"
 
 
@@ -432,8 +432,6 @@ def choose_config(
     if kernel == "chain":
         if not model.device.is_cpu:
             raise ValueError("kernel = 'chain': a CPU kernel; use --device cpu")
-        if not chain_kernel_supports(stepping_features(f)):
-            raise ValueError(f"kernel = 'chain': not implemented for features {f}")
         return CHAIN
     if kernel in ("tile", "window"):
         if f.method in SUBSTEP_WEIGHTS:

@@ -21,7 +21,7 @@ import warp as wp
 from hertzian.core.solvers.calibrate import cached_config, choose_config
 from hertzian.core.solvers.compile import load_variants, recorder_variants, solver_variants
 from hertzian.core.solvers.config import SolverConfig
-from hertzian.kernels.cpu import chain_kernel, chain_kernel_supports
+from hertzian.kernels.cpu import chain_kernel
 from hertzian.kernels.features import Features
 
 
@@ -66,7 +66,7 @@ def kernel_variants(needs: Iterable[Need | Features | wp.Kernel], device) -> lis
             out[(need.module, None)] = None
             continue
         if isinstance(need, Features):
-            stepping = [(chain_kernel(need).module, None)] if dev.is_cpu and chain_kernel_supports(need) else []
+            stepping = [(chain_kernel(need).module, None)] if dev.is_cpu else []
             for variant in stepping + recorder_variants(need, 1, dev):
                 out[variant] = None
             continue
