@@ -161,3 +161,46 @@ def test_sec6_lag_table_is_its_record():
                 assert agrees(text.replace("−", "-"), value), (tau, t0, name, lag, text, value)
                 checked += 1
     assert checked == 4 * 4 * 5
+
+
+def test_the_cost_table_is_its_record():
+    """reproduction.md's "What each group costs" CPU table against groups_cpu.json, row by row."""
+    table = table_rows("reproduction.md", "| run | chains × grains | steps | device | date |")
+    header, rows = table[0], table[1:]
+    groups = record("reproduction/groups_cpu.json")["groups"]
+    assert len(rows) >= 10
+    for row in rows:
+        cells = dict(zip(header, row))
+        (run,) = [r for r in groups[cells["run"]]["runs"] if r["name"] == cells["run"]]
+        chains, grains = (int(x) for x in cells["chains × grains"].split(" × "))
+        assert (chains, grains) == (int(run["points"]), int(run["grains"])), cells["run"]
+        assert int(cells["steps"].replace(" ", "")) == int(run["steps"]), cells["run"]
+        assert agrees(cells["wall [s]"], float(run["wall_seconds"])), cells["run"]
+        rate, error = float(cells["grain-steps/s"]), float(cells["energy error (max)"])
+        assert abs(rate / float(run["grain_steps_per_second"]) - 1) < 0.06, cells["run"]  # printed to 2 digits
+        assert abs(error / float(run["energy_error_max"]) - 1) < 0.05, cells["run"]
+        count, code = cells["status (chains × code)"].split(" × ")
+        assert run["status_counts"] == {code: int(count)}, cells["run"]
+
+
+def test_the_cpu_lag_table_is_its_record():
+    """Sec. VI's reduced-column lag table: each entry at dt, and the dt/2 value in parentheses where it is given."""
+    table = table_rows(
+        "reproduction.md", "| τ | t0 | instantaneous ½v² | averaged ½v² | instantaneous v | averaged v |"
+    )
+    runs = {run["name"]: run for run in record("reproduction/sec6_lag_cpu.json")["runs"]}
+    at_dt, at_half = runs["sec6_lag"], runs["sec6_lag_dt_check"]
+    names = ("instantaneous_ke", "averaged_ke", "instantaneous_v", "averaged_v")
+    checked = 0
+    for tau_text, t0_text, *cells in table[1:]:
+        tau, t0 = float(tau_text), float(t0_text)
+        for name, cell in zip(names, cells):
+            for text, lag in zip(cell.split(", "), (80, 800, 4000, 8000, 12000)):
+                value, half = (text.replace("−", "-").rstrip(")").split(" (") + [None])[:2]
+                series = at_dt["correlation"][name][at_dt["taus"].index(tau)][at_dt["t0"].index(t0)]
+                assert agrees(value, series[at_dt["lag_steps_at_paper_dt"].index(lag)]), (tau, t0, name, lag, text)
+                if half is not None:
+                    halves = at_half["correlation"][name][at_half["taus"].index(tau)][at_half["t0"].index(t0)]
+                    assert agrees(half, halves[at_half["lag_steps_at_paper_dt"].index(lag)]), (tau, t0, name, lag)
+                checked += 1
+    assert checked == 4 * 4 * 5
