@@ -204,3 +204,15 @@ def test_the_cpu_lag_table_is_its_record():
                     assert agrees(half, halves[at_half["lag_steps_at_paper_dt"].index(lag)]), (tau, t0, name, lag)
                 checked += 1
     assert checked == 4 * 4 * 5
+
+
+def test_the_fig1d_speed_table_is_its_record():
+    table = table_rows("reproduction.md", "| l0 \\ v_imp |")
+    found = record("reproduction/measurements.json")["groups"]["fig1d"]["measurements"]
+    assert all(agrees(cell, v) or f"{v:.3g}" == cell for cell, v in zip(table[0][1:], found["v_imp"]))
+    for row, l0, speeds in zip(table[1:], found["l0"], found["speed"]):
+        assert float(row[0]) == l0
+        for cell, speed in zip(row[1:], speeds):
+            assert agrees(cell, speed), (l0, cell, speed)
+    assert "(1σ fit errors ≤ 0.0012)" in (DOCS / "reproduction.md").read_text()
+    assert max(max(errors) for errors in found["speed_error"]) <= 0.0012
