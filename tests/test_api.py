@@ -212,3 +212,36 @@ def test_hz_run_checks_as_hertzian_run_does():
         result.status = None
     cli = invoke("run", "--device", "cpu", "--out", "unused.zarr", "--strict", "--set", "integrator.dt=1e-3")
     assert cli.exit_code == 2 and "integrator.dt = 0.001 looks inaccurate" in cli.stderr
+
+
+@pytest.mark.parametrize(
+    "overrides, chains",
+    [
+        ({}, 1),
+        ({"record.traces": [0, 5], "record.trace_every": 0.001, "record.error_estimate": True}, 1),
+        ({"chain.radii": {"spread": 0.1, "seed": 3}}, 3),
+    ],
+)
+def test_to_xarray_is_built_in_memory_and_equals_the_store(tmp_path, overrides, chains):
+    """RunResult.to_xarray() writes nothing, and holds what `hertzian run --out` (write_result) stores: the same
+    variables, coordinates, dims, dtypes, values and attributes (the provenance's times and host aside)."""
+    import xarray as xr
+    from hertzian.sweeping.sweep_store import write_result
+
+    small = {"chain.grains": 12, "integrator.duration": 0.02, "record.every": 0.01, **overrides}
+    base = hz.load_scene("impact", small)
+    scenes = [base.with_overrides({"excitation.impact": 0.01 * (1 + k)}) for k in range(chains)]
+    result = hz.run(scenes, "cpu")
+    before = set(tmp_path.iterdir())
+    memory = result.to_xarray()
+    assert set(tmp_path.iterdir()) == before
+    axes = {"chain": np.arange(chains)} if chains > 1 else None
+    with xr.open_zarr(write_result(tmp_path / "run.zarr", result, axes=axes)) as stored:
+        stored = stored.load()
+    timing = ("finished", "created", "write_seconds", "build_seconds", "hosts", "session_wall_seconds")
+    for dataset in (memory, stored):
+        dataset.attrs["provenance"] = {k: v for k, v in dataset.attrs["provenance"].items() if k not in timing}
+    xr.testing.assert_identical(memory, stored)
+    assert {name: v.dtype for name, v in memory.variables.items()} == {
+        name: v.dtype for name, v in stored.variables.items()
+    }

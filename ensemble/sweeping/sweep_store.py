@@ -65,7 +65,6 @@ from hertzian.sweeping.storage import (
     storage_faults,
     store_lock,
 )
-from hertzian.sweeping.store import open_dataset
 from hertzian.sweeping.store_format import SCHEMA_VERSION, chunk_codecs, consolidate, package_version
 
 if TYPE_CHECKING:  # annotations only: the runner imports this module to write its result
@@ -902,10 +901,33 @@ def _write_batch(
             region_left = region
         arr[region_left] = np.asarray(data, dtype=arr.dtype).reshape(shape + data.shape[1:])
 
+    for name, data in batch_arrays(result, grain_steps).items():
+        put(name, data)
+    finished = datetime.now(timezone.utc)
+    record = batch_record(result, grain_steps, finished, build_seconds)
+    record["write_seconds"] = time.perf_counter() - write_start + (rows.seconds if rows is not None else 0.0)
+    where = batch_where(result, worker)
+    batches = zarr.open_group(store=str(path), path=BATCHES, mode="r+")
+    batches["record"][batch.index] = np.array([record[c] for c in RECORD_COLUMNS], dtype=np.float64)
+    batches["where"][batch.index] = np.array([where[c] for c in WHERE_COLUMNS], dtype=object)
+    # the completion flag comes last: a batch without it is rerun on --resume
+    batches["done"][batch.index] = 1
+    codes, counts = np.unique(result.status, return_counts=True)
+    return {
+        "batch": batch.index,
+        **record,
+        "grain_steps": int(grain_steps),
+        **where,
+        "status_counts": {str(int(c)): int(k) for c, k in zip(codes, counts)},
+        "finished": finished.isoformat(timespec="seconds"),
+    }
+
+
+def batch_arrays(result: RunResult, grain_steps: int) -> dict[str, np.ndarray]:
+    """Every store variable a batch writes, from its run's result: name → array with the chains first."""
     scene = result.scenes[0]
     chains = result.chain_count
     wall = float(result.wall_seconds)
-    rate = grain_steps / max(wall, 1e-12)
     arrays = dict(result.fields)
     if scene.record.energy:
         arrays["energy"] = result.energy
@@ -922,44 +944,32 @@ def _write_batch(
             "max_overlap": result.max_overlap,
             **({"error_estimate": result.error_estimate} if result.error_estimate is not None else {}),
             "wall_seconds": np.full(chains, wall / chains),
-            "grain_steps_per_second": np.full(chains, rate),
+            "grain_steps_per_second": np.full(chains, grain_steps / max(wall, 1e-12)),
         }
     )
     if records_grains(scene):
         arrays.update(grain_arrays(result.scenes))
-    for name, data in arrays.items():
-        put(name, data)
-    finished = datetime.now(timezone.utc)
-    record = {
-        "points": chains,
+    return arrays
+
+
+def batch_record(result: RunResult, grain_steps: int, finished: datetime, build_seconds: float) -> dict[str, Any]:
+    """A batch's completion record (``batches/record``'s columns; ``write_seconds`` 0 until it is written)."""
+    wall = float(result.wall_seconds)
+    return {
+        "points": result.chain_count,
         "wall_seconds": wall,
         "grain_steps": int(grain_steps),
-        "grain_steps_per_second": rate,
-        "energy_error_max": float(np.max(result.energy_error)) if chains else 0.0,
+        "grain_steps_per_second": grain_steps / max(wall, 1e-12),
+        "energy_error_max": float(np.max(result.energy_error)) if result.chain_count else 0.0,
         "finished": finished.timestamp(),
         "build_seconds": float(build_seconds),
-        "write_seconds": time.perf_counter() - write_start + (rows.seconds if rows is not None else 0.0),
+        "write_seconds": 0.0,
     }
-    where = {
-        "device": result.device,
-        "host": platform.node(),
-        "worker": worker,
-        "kernel": str(getattr(result, "kernel", "")),
-    }
-    batches = zarr.open_group(store=str(path), path=BATCHES, mode="r+")
-    batches["record"][batch.index] = np.array([record[c] for c in RECORD_COLUMNS], dtype=np.float64)
-    batches["where"][batch.index] = np.array([where[c] for c in WHERE_COLUMNS], dtype=object)
-    # the completion flag comes last: a batch without it is rerun on --resume
-    batches["done"][batch.index] = 1
-    codes, counts = np.unique(result.status, return_counts=True)
-    return {
-        "batch": batch.index,
-        **record,
-        "grain_steps": int(grain_steps),
-        **where,
-        "status_counts": {str(int(c)): int(k) for c, k in zip(codes, counts)},
-        "finished": finished.isoformat(timespec="seconds"),
-    }
+
+
+def batch_where(result: RunResult, worker: str) -> dict[str, str]:
+    """Where a batch ran (``batches/where``'s columns)."""
+    return {"device": result.device, "host": platform.node(), "worker": worker, "kernel": str(result.kernel)}
 
 
 def batch_records(path: str | Path, *, status_counts: bool = False) -> list[dict[str, Any]]:
@@ -1007,32 +1017,37 @@ def _finalize(path: Path, session_seconds: float | None, session_grain_steps: in
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         root = zarr.open_group(store=str(path), mode="r+")
-        prov = dict(root.attrs["provenance"])
-        wall = sum(r["wall_seconds"] for r in records)
-        steps = sum(r["grain_steps"] for r in records)
-        devices = sorted({r["device"] for r in records})
-        kernels = sorted({r["kernel"] for r in records if r["kernel"]})
-        prov.update(
-            {
-                "kernel": ",".join(kernels),
-                "build_seconds": sum(r["build_seconds"] for r in records),
-                "write_seconds": sum(r["write_seconds"] for r in records),
-                "device": ",".join(devices) if devices else prov["device"],
-                "hosts": sorted({r["host"] for r in records}),
-                "wall_seconds": wall,
-                "grain_steps_per_second": steps / wall if wall > 0 else 0.0,
-                "energy_error_max": max((r["energy_error_max"] for r in records), default=0.0),
-                "batches_done": len(records),
-                "complete": len(records) == prov["batches"],
-                "finished": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-            }
-        )
-        if session_seconds is not None:
-            prov["session_wall_seconds"] = session_seconds
-            prov["session_grain_steps_per_second"] = session_grain_steps / max(session_seconds, 1e-12)
+        prov = finished_provenance(dict(root.attrs["provenance"]), records, session_seconds, session_grain_steps)
         root.attrs["provenance"] = prov
     consolidate(path)
     write_manifest(path, finished=[r["batch"] for r in records])
+    return prov
+
+
+def finished_provenance(prov: dict, records: list[dict], session_seconds=None, session_grain_steps: int = 0) -> dict:
+    """``prov`` (a store's provenance) with the sums of its batches' completion ``records`` (:func:`batch_records`'
+    form) and, when given, this session's wall seconds and throughput."""
+    wall = sum(r["wall_seconds"] for r in records)
+    steps = sum(r["grain_steps"] for r in records)
+    devices = sorted({r["device"] for r in records})
+    kernels = sorted({r["kernel"] for r in records if r["kernel"]})
+    prov = {
+        **prov,
+        "kernel": ",".join(kernels),
+        "build_seconds": sum(r["build_seconds"] for r in records),
+        "write_seconds": sum(r["write_seconds"] for r in records),
+        "device": ",".join(devices) if devices else prov["device"],
+        "hosts": sorted({r["host"] for r in records}),
+        "wall_seconds": wall,
+        "grain_steps_per_second": steps / wall if wall > 0 else 0.0,
+        "energy_error_max": max((r["energy_error_max"] for r in records), default=0.0),
+        "batches_done": len(records),
+        "complete": len(records) == prov["batches"],
+        "finished": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+    }
+    if session_seconds is not None:
+        prov["session_wall_seconds"] = session_seconds
+        prov["session_grain_steps_per_second"] = session_grain_steps / max(session_seconds, 1e-12)
     return prov
 
 
@@ -1140,6 +1155,23 @@ def write_result(
 
 def _write_result(path: Path, result, axes: dict, shape: tuple, sweep: dict | None, extra: dict | None) -> Path:
     """:func:`write_result` once the store's lock is held and a store it replaces is known to be one."""
+    definition, scene, plan, attributes = _result_layout(result, axes, shape, sweep, extra)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent if path.parent.exists() else None))
+    try:
+        target = tmp / "store.zarr"
+        create_sweep_store(target, definition, scene, plan, device=result.device, attributes=attributes)
+        write_batch(target, plan.batches[0], result, grain_steps=result.grain_count * result.steps * result.chain_count)
+        finalize(target)
+        if path.exists():
+            shutil.rmtree(path)
+        target.rename(path)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return path
+
+
+def _result_layout(result, axes: dict, shape: tuple, sweep: dict | None, extra: dict | None):
+    """(the sweep a run's store describes, its first scene, its one-batch plan, the root's extra attributes)."""
     scenes = result.scenes
     scene = scenes[0]
     if isinstance(scenes, ChainSet):  # differences straight from the per-chain arrays
@@ -1163,26 +1195,38 @@ def _write_result(path: Path, result, axes: dict, shape: tuple, sweep: dict | No
     attributes = {"scene_overrides": json.dumps(differences), **(extra or {})}
     if sweep is not None:
         attributes["sweep"] = json.dumps(sweep)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent if path.parent.exists() else None))
-    try:
-        target = tmp / "store.zarr"
-        create_sweep_store(target, definition, scene, plan, device=result.device, attributes=attributes)
-        write_batch(target, plan.batches[0], result, grain_steps=result.grain_count * result.steps * result.chain_count)
-        finalize(target)
-        if path.exists():
-            shutil.rmtree(path)
-        target.rename(path)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-    return path
+    return definition, scene, plan, attributes
 
 
 def result_dataset(result: RunResult, axes: dict[str, np.ndarray] | None = None):
-    """``result`` as the ``xarray.Dataset`` (in memory) that ``hertzian run --out`` stores: the same variables,
-    dimensions and attributes, written and read back through :func:`write_result`. ``axes`` as there; an ensemble
-    without them gets one axis ``chain`` (0, 1, …)."""
+    """``result`` as the ``xarray.Dataset`` (in memory) that ``hertzian run --out`` stores, built from the same
+    layout as the store (:func:`variables`, :func:`fixed_arrays`, the root's attributes) without writing one: the
+    same variables, coordinates, dimensions, dtypes and attributes (the provenance's times are this call's).
+    ``axes`` as :func:`write_result`'s; an ensemble without them gets one axis ``chain`` (0, 1, …)."""
+    import xarray as xr  # only where a dataset is asked for
+
     if axes is None and result.chain_count > 1:
         axes = {"chain": np.arange(result.chain_count)}
-    with tempfile.TemporaryDirectory(prefix="hertzian-result-") as tmp:
-        with open_dataset(write_result(Path(tmp) / "run.zarr", result, axes=axes)) as dataset:
-            return dataset.load()
+    axes = {name: np.asarray(values) for name, values in (axes or {}).items()}
+    shape = tuple(len(v) for v in axes.values())
+    if int(np.prod(shape)) != result.chain_count:
+        raise ValueError(f"axes {shape} do not match {result.chain_count} chains")
+    definition, scene, plan, attributes = _result_layout(result, axes, shape, None, None)
+    grain_steps = result.grain_count * result.steps * result.chain_count
+    arrays = batch_arrays(result, grain_steps)
+    data_vars, named = {}, set()
+    for var in variables(definition, scene, plan):
+        attrs = dict(var["attrs"])
+        named |= set(attrs.pop("coordinates", "").split())  # xarray reads the store's CF attribute as coordinates
+        data = np.asarray(arrays[var["name"]], dtype=var["dtype"]).reshape(shape + var["trailing"])
+        data_vars[var["name"]] = (var["dims"], data, attrs)
+    coords = {
+        name: (dims, np.asarray(data), dict(attrs)) for name, data, dims, attrs in fixed_arrays(definition, scene, plan)
+    }
+    dataset = xr.Dataset(data_vars, coords)
+    dataset = dataset.set_coords([name for name in named if name in dataset.data_vars])
+    record = {**batch_record(result, grain_steps, datetime.now(timezone.utc), 0.0), **batch_where(result, "")}
+    root = {**_store_attributes(definition, plan, result.device), **attributes}
+    root["provenance"] = finished_provenance(root["provenance"], [record])
+    dataset.attrs.update(root)
+    return dataset
