@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -19,6 +20,8 @@ def _parse_at(items: list[str] | None) -> dict[str, float]:
             at[key.strip()] = float(value)
         except ValueError:
             fail(f"--at = {item!r}: must be written axis=number, e.g. --at v_imp=0.01")
+        if not math.isfinite(at[key.strip()]):
+            fail(f"--at = {item!r}: the value must be a finite number")
     return at
 
 

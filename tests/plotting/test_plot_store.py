@@ -49,6 +49,7 @@ def test_plot_any_store_writes_a_png(impact_store, tmp_path, monkeypatch):
         (["--field", "w"], "--field = 'w': u or v"),
         (["--at", "v_imp"], "--at = 'v_imp': must be written axis=number"),
         (["--at", "v_imp=0.1"], "no sweep axis v_imp"),
+        (["--at", "v_imp=nan"], "--at = 'v_imp=nan': the value must be a finite number"),
         (["--figure", "fig42"], "--figure = 'fig42'"),
         (["--out", "x.svg"], "must end in .png"),
     ],
