@@ -115,6 +115,27 @@ def lock_path(path: str | Path) -> Path:
     return path.with_name(path.name + ".lock")
 
 
+def lock_holder(path: str | Path) -> str | None:
+    """Who holds the lock of the store at ``path`` (the holder's line, e.g. 'pid 12 on host'), or None when
+    nobody does. Takes no lock."""
+    target = lock_path(path)
+    try:
+        fd = os.open(target, os.O_RDONLY)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return os.pread(fd, 200, 0).decode(errors="replace").strip() or "another process"
+    except OSError:
+        return None
+    else:
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        return None
+    finally:
+        os.close(fd)
+
+
 @contextlib.contextmanager
 def store_lock(path: str | Path):
     """Hold an exclusive lock on the store at ``path`` for the block (raise :class:`StoreLockedError` if another

@@ -43,6 +43,11 @@ def check_intact(path: str | Path) -> None:
 
     verification = verify_store(path, read=False)
     if verification.damage:
+        from hertzian.sweeping.storage import lock_holder
+
+        holder = lock_holder(path)
+        if holder is not None:  # a writer between two of its files (its finish rewrites metadata, then the manifest)
+            raise StoreDamagedError(f"{path} is being written by {holder}; read it once that has finished")
         first = damage_lines(path, verification)[0]
         more = f" (and {len(verification.damage) - 1} more)" if len(verification.damage) > 1 else ""
         raise StoreDamagedError(f"{path} is damaged: {first}{more}; run hertzian verify {path}")

@@ -142,3 +142,19 @@ def test_the_manifest_lists_every_metadata_file(finished):
     on_disk = {p.relative_to(reference).as_posix() for p in reference.rglob("zarr.json")}
     assert on_disk <= set(body["files"])
     assert body["finished"] == [[0, 3]]
+
+
+def test_a_store_being_written_is_not_called_damaged(finished, tmp_path):
+    """A reader that meets a store mid-write (its lock held, a metadata file not yet matching its manifest) says it
+    is being written, not that it is damaged."""
+    from hertzian.sweeping.storage import store_lock
+
+    _, reference, _, _ = finished
+    store = tmp_path / "busy.zarr"
+    shutil.copytree(reference, store)
+    damage(store / "zarr.json", "flip", offset=10)
+    with store_lock(store):
+        with pytest.raises(ValueError, match="is being written by pid"):
+            open_dataset(store)
+    with pytest.raises(ValueError, match="is damaged: zarr.json"):
+        open_dataset(store)
