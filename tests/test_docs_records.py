@@ -216,3 +216,28 @@ def test_the_fig1d_speed_table_is_its_record():
             assert agrees(cell, speed), (l0, cell, speed)
     assert "(1σ fit errors ≤ 0.0012)" in (DOCS / "reproduction.md").read_text()
     assert max(max(errors) for errors in found["speed_error"]) <= 0.0012
+
+
+def test_the_expanding_rectangle_table_is_its_record():
+    table = table_rows("reproduction.md", "| l0, v_imp | c | dW/dt | W ∝ t^β |")
+    fig1 = record("reproduction/measurements.json")["groups"]["fig1"]["measurements"]
+    assert len(table) == 4
+    for label, speed, rate, beta in table[1:]:
+        v_imp = label.split(", ")[1]
+        point, width = fig1[f"v_imp={float(v_imp):g}"], fig1["width"][f"v_imp={float(v_imp):g}"]
+        assert agrees(speed, point["speed"]), (label, speed)
+        value, error = rate.split(" ± ")
+        assert agrees(value, width["dW_dt"][0]) and agrees(error, width["dW_dt"][1]), (label, rate)
+        value, error = beta.removeprefix("β = ").split(" ± ")
+        assert agrees(value, width["beta"][0]) and agrees(error, width["beta"][1]), (label, beta)
+
+
+def test_the_fig6_table_is_its_record():
+    table = table_rows("reproduction.md", "| g | head depth | bumps ≥ 10 % (≥ 30 %) of the head's velocity |")
+    fig6 = record("reproduction/measurements.json")["groups"]["fig6"]["measurements"]
+    assert len(table) == 5
+    for g, head, bumps, largest in table[1:]:
+        point = fig6[f"g={g}"]
+        assert agrees(head, point["head"]), (g, head)
+        assert bumps == f"{point['bumps_10pc']} ({point['bumps_30pc']})", (g, bumps)
+        assert agrees(largest, point["largest_u_below_grain_2"]), (g, largest)
