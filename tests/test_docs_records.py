@@ -241,3 +241,17 @@ def test_the_fig6_table_is_its_record():
         assert agrees(head, point["head"]), (g, head)
         assert bumps == f"{point['bumps_10pc']} ({point['bumps_30pc']})", (g, bumps)
         assert agrees(largest, point["largest_u_below_grain_2"]), (g, largest)
+
+
+def test_the_nesterenko_table_is_its_record():
+    """The soliton table: at dt (rows) and, as the text says, the same to the digits shown at the smaller step."""
+    table = table_rows("reproduction.md", "| v_imp | c | v_m / v_imp | c / Nesterenko(v_m) | FWHM [grains] |")
+    values = record("reproduction/daggers_cpu.json")["items"]["nesterenko"]["values"]
+    steps = [key for key in values if key.startswith("dt=")]
+    assert len(steps) == 2 and len(table) == 4
+    for v_imp, speed, ratio, nesterenko, fwhm in table[1:]:
+        for step in steps:
+            row = values[step]["rows"][f"v_imp={float(v_imp):g}"]
+            expected = (row["speed"], row["v_m_over_v_imp"], row["speed_over_nesterenko"], row["fwhm_grains"])
+            for cell, value in zip((speed, ratio, nesterenko, fwhm), expected):
+                assert agrees(cell, value), (v_imp, step, cell, value)
