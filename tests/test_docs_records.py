@@ -4,6 +4,7 @@ compared, at the precision the table prints, with the record's values."""
 from __future__ import annotations
 
 import json
+import math
 import re
 from pathlib import Path
 
@@ -278,3 +279,36 @@ def test_the_fig9_10_lag_table_is_its_record():
             assert agrees(spacing, window["node_spacing"]), (tau, t0, spacing)
             low, high = shift.split("–")
             assert agrees(low, min(window["node_shift"][1:])) and agrees(high, max(window["node_shift"][1:]))
+
+
+def close_to_shown(cell: str, value: float) -> bool:
+    """Whether ``cell`` (decimal or e-notation, − as minus) is ``value`` to the significant digits it shows."""
+    text = cell.replace("−", "-")
+    mantissa = text.split("e")[0].lstrip("-")
+    digits = len(mantissa.replace(".", "").lstrip("0")) or 1
+    shown_value = float(text)
+    if shown_value == 0 or value == 0:
+        return shown_value == value == 0 or abs(shown_value - value) <= 0.5 * 10 ** -(
+            len(mantissa.split(".")[1]) if "." in mantissa else 0
+        )
+    scale = 10 ** (math.floor(math.log10(abs(shown_value))) - digits + 1)
+    return abs(shown_value - value) <= 0.5 * scale * (1 + 1e-9)
+
+
+def test_the_drive_map_table_is_its_record():
+    table = table_rows("drive.md", "| τ | A | swr (dt / dt/2) | driver open | bottom KE share | late power |")
+    points = {
+        (p["tau"], p["A"]): p for p in record("drive/drive_map_cpu.json")["items"]["drive_map"]["values"]["points"]
+    }
+    assert len(table) == 1 + len(points)
+    for tau, a, swr, open_, bottom, late, part in table[1:]:
+        point = points[(float(tau), float(a))]
+        for cell, name in ((swr, "swr"), (open_, "driver_open"), (bottom, "bottom_ke_fraction"), (late, "late_power")):
+            at_dt, at_half = cell.split(" / ")
+            assert close_to_shown(at_dt, point[name]) and close_to_shown(at_half, point[f"{name}_half_dt"]), (
+                tau,
+                a,
+                name,
+            )
+        parted = point["trajectories_part_at"]
+        assert (part.startswith("never") and parted is None) or float(part) == parted, (tau, a, part)

@@ -1,7 +1,8 @@
 """Numbers of docs/reproduction.md and docs/drive.md that no figure group measures: checks at a second time step,
 reruns of a group with one setting changed, closed forms, and the reduction of the long driven-column runs.
 
-``hertzian reproduce --measure NAME --json RECORD`` runs one item (or ``daggers``: every item but ``settle``)
+``hertzian reproduce --measure NAME --json RECORD`` runs one item (or ``daggers``: every item but ``settle`` and
+``drive_map``, which have records of their own)
 and merges its values into RECORD under ``items.NAME`` with the device, date, command and wall seconds; stores go
 to ``--out-dir``. The scenes are the paper sweeps of ``sweeps/`` (as ``hertzian reproduce`` runs them) with the
 overrides written in each item; the measures are those of :mod:`hertzian.studies.analysis`.
@@ -504,6 +505,42 @@ def settle(work: Path, device: str) -> dict[str, Any]:
     return {"runs": runs}
 
 
+def drive_map(work: Path, device: str) -> dict[str, Any]:
+    """docs/drive.md's reduced response map: ``sweeps/drive_map.toml`` at its step and at half of it (stores
+    ``work``/drive_map.zarr and drive_map_half.zarr), and per point the map's numbers (``analysis.response_map``) at
+    both steps, their relative changes, whether the label agrees, each run's energy error and when the traced
+    velocities of the two runs part (:func:`parting_time`)."""
+    from hertzian.sweeping.pipeline import sweep
+    from hertzian.sweeping.spec import load_sweep
+
+    path = rp.default_sweeps_dir() / "drive_map.toml"
+    dt = load_sweep(path).base.integrator.dt
+    seconds = {}
+    for name, step in (("drive_map", dt), ("drive_map_half", dt / 2)):
+        start = time.perf_counter()
+        overrides = {} if step == dt else {"integrator.dt": step}
+        sweep(path, work / f"{name}.zarr", device=device, overwrite=True, overrides=overrides, notify=lambda line: None)
+        seconds[name] = time.perf_counter() - start
+    with _open(work / "drive_map.zarr") as full, _open(work / "drive_map_half.zarr") as half:
+        numbers, halved = an.response_map(full), an.response_map(half)
+        dims = numbers["dims"]
+        rows = []
+        for index in np.ndindex(*numbers["label"].shape):
+            where = dict(zip(dims, index))
+            a, b = full.isel(where), half.isel(where)
+            row = {d: float(numbers["coords"][d][i]) for d, i in where.items()}
+            for metric in an.MAP_METRICS:
+                x, y = float(numbers[metric][index]), float(halved[metric][index])
+                row |= {metric: x, f"{metric}_half_dt": y}
+                row[f"{metric}_change"] = abs(y - x) / abs(x) if x and math.isfinite(x) and math.isfinite(y) else None
+            row["label_agrees"] = row["label"] == row["label_half_dt"]
+            row["energy_error"], row["energy_error_half_dt"] = float(a.energy_error), float(b.energy_error)
+            same = min(a.trace_t.size, b.trace_t.size)
+            row["trajectories_part_at"] = parting_time(a.trace_t.values[:same], a.trace_v.values, b.trace_v.values)
+            rows.append(row)
+    return {"dt": dt, "dt_half": dt / 2, "sweep_seconds": seconds, "points": rows}
+
+
 # ---- the command -------------------------------------------------------------------------------------
 
 MEASURES: dict[str, Callable[[Path, str], dict[str, Any]]] = {
@@ -518,9 +555,10 @@ MEASURES: dict[str, Callable[[Path, str], dict[str, Any]]] = {
     "drive_tau1_energy": drive_tau1_energy,
     "drive_ripple_scale": drive_ripple_scale,
     "settle": settle,
+    "drive_map": drive_map,
 }
 """``hertzian reproduce --measure NAME``: every item's function (stores in ``work``, device)."""
-DAGGERS = tuple(name for name in MEASURES if name != "settle")
+DAGGERS = tuple(name for name in MEASURES if name not in ("settle", "drive_map"))
 """``--measure daggers``: the items of docs/records/reproduction/daggers_cpu.json."""
 
 
