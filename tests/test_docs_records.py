@@ -312,3 +312,16 @@ def test_the_drive_map_table_is_its_record():
             )
         parted = point["trajectories_part_at"]
         assert (part.startswith("never") and parted is None) or float(part) == parted, (tau, a, part)
+
+
+def test_the_tail_table_is_its_record():
+    """Fig. 3's exponential tails: λ, R² and λ/(c t) at each time, for both chains."""
+    table = table_rows("reproduction.md", "| case | t | head | λ | R² | λ/(c t) |")
+    values = record("reproduction/daggers_cpu.json")["items"]["fig3_raw_tails"]["values"]
+    assert len(table) == 3
+    for case, times, _head, lengths, fits, ratios in table[1:]:
+        envelope = values[f"l0={float(case.split(',')[0].removeprefix('l0 = ')):g}"]["envelope"]
+        assert [float(t) for t in times.split(" / ")] == [e["t"] for e in envelope], case
+        for column, key in ((lengths, "decay_length"), (fits, "r_squared"), (ratios, "decay_over_ct")):
+            for cell, entry in zip(column.split(" / "), envelope):
+                assert agrees(cell, entry[key]), (case, key, cell, entry[key])
