@@ -325,3 +325,45 @@ def test_the_tail_table_is_its_record():
         for column, key in ((lengths, "decay_length"), (fits, "r_squared"), (ratios, "decay_over_ct")):
             for cell, entry in zip(column.split(" / "), envelope):
                 assert agrees(cell, entry[key]), (case, key, cell, entry[key])
+
+
+THRESHOLDS = ("0.05", "0.1", "0.2", "0.3", "0.4", "0.5")
+
+
+def test_the_echo_sign_table_is_its_record():
+    """Figs. 7–8's leading signs at the surface grain for thresholds 5 … 50 %, per run, class and contact rule."""
+    table = table_rows("reproduction.md", "| run | light, harmonic | light, own | heavy, harmonic | heavy, own |")
+    found = record("reproduction/measurements.json")
+    groups, comparisons = found["groups"], found["comparisons"]
+    single = comparisons["fig7_8_single_echo_by_threshold (sign, arrival, amplitude, peak sign)"]
+    signs = {
+        "five, v_imp = 0.1": groups["fig7_8"]["measurements"]["echo"]["grain 0"]["leading_sign_by_threshold"],
+        "five, v_imp = 1e-2": groups["fig7_8_slow"]["measurements"]["echo"]["grain 0"]["leading_sign_by_threshold"],
+        "five, g = 0 (Fig. 5)": groups["fig5"]["measurements"]["echo"]["grain 0"]["leading_sign_by_threshold"],
+        "single, v_imp = 0.1": {case: {t: entry[0] for t, entry in by.items()} for case, by in single.items()},
+    }
+    header = table[0]
+    assert len(table) == 1 + len(signs)
+    for row in table[1:]:
+        for column, cell in zip(header[1:], row[1:]):
+            case = column.replace(", ", "/")
+            expected = " ".join("+" if signs[row[0]][case][t] > 0 else "−" for t in THRESHOLDS)
+            assert cell == expected, (row[0], column, cell, expected)
+
+
+def test_the_contrast_table_is_its_record():
+    table = table_rows("reproduction.md", "| | five impurities, harmonic / own | single impurity, harmonic / own |")
+    contrast = record("reproduction/measurements.json")["comparisons"]["light_heavy_contrast_at_surface"]
+    groups = {
+        "g = 0, l0 = 1e-4, v_imp = 1e-2 (Fig. 5)": ("fig5", "fig5_single"),
+        "g = 1, v_imp = 0.1 (Figs. 7–8)": ("fig7_8", "fig7_8_single"),
+        "g = 1, v_imp = 1e-2": ("fig7_8_slow", None),
+    }
+    assert [row[0] for row in table[1:]] == list(groups)
+    for label, five, single in table[1:]:
+        for cell, name in zip((five, single), groups[label]):
+            if name is None:
+                assert cell == "—"
+                continue
+            harmonic, own = cell.split(" / ")
+            assert agrees(harmonic, contrast[name]["harmonic"]) and agrees(own, contrast[name]["own"]), (label, name)
