@@ -367,3 +367,27 @@ def test_the_contrast_table_is_its_record():
                 continue
             harmonic, own = cell.split(" / ")
             assert agrees(harmonic, contrast[name]["harmonic"]) and agrees(own, contrast[name]["own"]), (label, name)
+
+
+def test_the_fig5_echo_table_is_its_record():
+    """Fig. 5's echoes at the surface: arrival, largest |echo| and leading sign at the 20 % threshold, and the
+    light/heavy contrast, for five and single impurities under both contact rules."""
+    table = table_rows("reproduction.md", "| impurities | contact | light (m 0.5, a 2000) | heavy (m 2, a 1e4) |")
+    found = record("reproduction/measurements.json")
+    five = found["groups"]["fig5"]["measurements"]["echo"]["grain 0"]
+    single = found["comparisons"]["fig5_single_echo_by_threshold (sign, arrival, amplitude, peak sign)"]
+    contrast = found["comparisons"]["light_heavy_contrast_at_surface"]
+    assert len(table) == 5
+    for impurities, contact, light, heavy, ratio in table[1:]:
+        for cell, kind in ((light, "light"), (heavy, "heavy")):
+            case = f"{kind}/{contact}"
+            if impurities == "five":
+                sign = five["leading_sign_by_threshold"][case]["0.2"]
+                arrival, amplitude = five["arrival_by_threshold"][case]["0.2"], five["amplitude"][case]
+            else:
+                sign, arrival, amplitude, _ = single[case]["0.2"]
+            shown_arrival, shown_amplitude, shown_sign = cell.split(" / ")
+            assert agrees(shown_arrival, arrival) and close_to_shown(shown_amplitude, amplitude), (impurities, case)
+            assert shown_sign == ("+" if sign > 0 else "−"), (impurities, case)
+        name = "fig5" if impurities == "five" else "fig5_single"
+        assert agrees(ratio, contrast[name][contact]), (impurities, contact)
