@@ -391,3 +391,22 @@ def test_the_fig5_echo_table_is_its_record():
             assert shown_sign == ("+" if sign > 0 else "−"), (impurities, case)
         name = "fig5" if impurities == "five" else "fig5_single"
         assert agrees(ratio, contrast[name][contact]), (impurities, contact)
+
+
+def test_the_finite_g_table_is_its_record():
+    """Five impurities at g = 0 and g = 1, nothing else different: light/heavy contrast per traced grain (harmonic /
+    own) and the leading signs at the 20 % threshold."""
+    table = table_rows("reproduction.md", "| traced grain | g = 0 | g = 1 | leading sign, 20 % threshold")
+    (run,) = record("reproduction/finite_g.json")["runs"]
+    measured = run["measurements"]
+    assert len(table) == 4
+    for grain, at_zero, at_one, signs in table[1:]:
+        key = f"grain {grain.split()[0]}"
+        for cell, g in ((at_zero, "g=0"), (at_one, "g=1")):
+            harmonic, own = cell.split(" / ")
+            contrast = measured[g][key]["light_heavy_contrast"]
+            assert agrees(harmonic, contrast["harmonic"]) and agrees(own, contrast["own"]), (grain, g, cell)
+        for part, g in zip(signs.split(" / "), ("g=0", "g=1")):
+            leading = measured[g][key]["leading_sign_by_threshold"]
+            expected = ", ".join("+" if leading[f"{kind}/harmonic"]["0.2"] > 0 else "−" for kind in ("light", "heavy"))
+            assert part == expected, (grain, g, part, expected)
