@@ -410,3 +410,30 @@ def test_the_finite_g_table_is_its_record():
             leading = measured[g][key]["leading_sign_by_threshold"]
             expected = ", ".join("+" if leading[f"{kind}/harmonic"]["0.2"] > 0 else "−" for kind in ("light", "heavy"))
             assert part == expected, (grain, g, part, expected)
+
+
+def test_the_measured_items_table_is_its_record():
+    """The items of daggers_cpu.json: each row's date to the minute and wall seconds."""
+    table = table_rows("reproduction.md", "| item | what | date (UTC) | wall [s] | written by |")
+    items = record("reproduction/daggers_cpu.json")["items"]
+    rows = table[1:]
+    assert {row[0].strip("`") for row in rows} == set(items)
+    for name, _what, date, wall, _by in rows:
+        item = items[name.strip("`")]
+        assert item["date"].replace("T", " ").startswith(date), (name, date, item["date"])
+        assert agrees(wall, item["wall_seconds"]), (name, wall, item["wall_seconds"])
+
+
+def test_the_h100_run_table_is_its_record():
+    table = table_rows("reproduction.md", "| run | chains × grains | steps | device | wall [s] | grain-steps/s |")
+    runs = {run["name"]: run for run in record("reproduction/fig9_10_h100.json")["runs"]}
+    assert len(table) == 3
+    for label, size, steps, _device, wall, rate, errors in table[1:]:
+        run = runs[label.split(",")[0]]
+        chains = len(run["energy_error"])
+        assert size == f"{chains} × {int(run['grains']):,}".replace(",", " ")
+        assert int(steps.replace(" ", "")) == int(run["steps"]) and agrees(wall, float(run["wall_seconds"]))
+        grain_steps = chains * int(run["grains"]) * int(run["steps"])
+        assert close_to_shown(rate, run.get("grain_steps_per_second", grain_steps / run["wall_seconds"])), label
+        shown = [float(part.split(" (")[0]) for part in errors.split(" / ")]
+        assert all(any(close_to_shown(f"{x:.2g}", e) for e in run["energy_error"]) for x in shown), (label, errors)
