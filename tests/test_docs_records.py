@@ -437,3 +437,25 @@ def test_the_h100_run_table_is_its_record():
         assert close_to_shown(rate, run.get("grain_steps_per_second", grain_steps / run["wall_seconds"])), label
         shown = [float(part.split(" (")[0]) for part in errors.split(" / ")]
         assert all(any(close_to_shown(f"{x:.2g}", e) for e in run["energy_error"]) for x in shown), (label, errors)
+
+
+def test_the_fig2_overlap_table_is_its_record():
+    """Fig. 2's overlaps behind the front (l0 = 1e-5), the speeds at l0 = 1e-5 and 1e-6, and the profile change."""
+    table = table_rows("reproduction.md", "| v_imp | largest overlap behind the front / at the front |")
+    found = record("reproduction/measurements.json")
+    fig1, fig2 = found["groups"]["fig1"]["measurements"], found["groups"]["fig2"]["measurements"]
+    change = found["comparisons"]["fig2_vs_fig1"]
+    assert len(table) == 4
+    for v_imp, overlap, speed_5, speed_6, profile in table[1:]:
+        key = f"v_imp={float(v_imp):g}"
+        ratio = fig2[key]["overlap_behind_head_over_head"]
+        span, times = overlap.rstrip(")").split(" (t = ")
+        low, high = span.split("–")
+        assert agrees(low, ratio["min"]) and agrees(high, ratio["max"]), (v_imp, overlap)
+        assert [float(t) for t in times.split("–")] == ratio["t_range"], (v_imp, times)
+        assert agrees(speed_5, fig2[key]["speed"]) and agrees(speed_6, fig1[key]["speed"]), v_imp
+        value, rest = profile.split(" at t = ")
+        t, grain = rest.rstrip(")").split(" (largest at grain ")
+        row = change[key]
+        assert agrees(value, row["relative_profile_change"]) and float(t) == row["t"], (v_imp, profile)
+        assert int(grain) == row["largest_change_at_grain"], (v_imp, profile)
