@@ -459,3 +459,15 @@ def test_the_fig2_overlap_table_is_its_record():
         row = change[key]
         assert agrees(value, row["relative_profile_change"]) and float(t) == row["t"], (v_imp, profile)
         assert int(grain) == row["largest_change_at_grain"], (v_imp, profile)
+
+
+def test_the_grain_500_table_is_its_record():
+    """The impurity grain's ringing: RMS velocity over the clean pulse's peak in four windows, and the change."""
+    table = table_rows("reproduction.md", "| grain 500 | 5–15 | 15–25 | 25–35 | 35–45 | change |")
+    modes = record("reproduction/measurements.json")["groups"]["fig5_modes"]["measurements"]
+    masses = {"light (m = 0.5)": "m=0.5", "clean chain": "m=1", "heavy (m = 2)": "m=2"}
+    assert [row[0] for row in table[1:]] == list(masses)
+    for label, *cells, change in table[1:]:
+        rms = modes[masses[label]]["rms_over_clean_peak"]
+        assert all(agrees(cell, value) for cell, value in zip(cells, rms)), (label, cells, rms)
+        assert agrees(change.replace(" %", ""), 100 * (rms[-1] / rms[0] - 1)), (label, change)
