@@ -84,22 +84,11 @@ def check_timeline_path() -> None:
 
 
 def check_store_out(out: Path, *, overwrite: bool) -> None:
-    """Refuse (exit 2) a store path that exists (unless ``overwrite``, and then only a hertzian store that nobody
-    is writing), or whose folder is missing or not writable: before anything runs."""
-    from hertzian.sweeping.storage import check_replaceable, check_writable_folder, resolved_link, store_lock
+    """``run``'s store path, refused (exit 2) as ``storage.check_out`` refuses it, before anything runs."""
+    from hertzian.sweeping.storage import check_out
 
-    if out.exists() and not overwrite:
-        fail(f"--out = {str(out)!r}: exists; choose another path or pass --overwrite")
-    why = check_writable_folder(out)
-    if why:
-        fail(f"--out = {str(out)!r}: {why}")
-    if out.exists() or out.is_symlink():
-        try:
-            check_replaceable(out)
-            with store_lock(resolved_link(out)):  # a sweep writing it now is refused here, not after the run
-                pass
-        except RefusedError as err:
-            fail(f"--out = {str(out)!r}: {err}")
+    with one_line_errors():
+        check_out(out, overwrite=overwrite, hint="choose another path or pass --overwrite")
 
 
 def open_dataset_or_fail(store: Path):

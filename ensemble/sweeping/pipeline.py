@@ -43,14 +43,7 @@ from hertzian.sweeping.distributed import (
 )
 from hertzian.sweeping.planner import Plan, plan_sweep
 from hertzian.sweeping.spec import MAX_POINTS, Sweep, SweepPoints, expand, load_sweep
-from hertzian.sweeping.storage import (
-    NoRoomError,
-    NotReplaceableError,
-    StoreLockedError,
-    check_replaceable,
-    check_writable_folder,
-    resolved_link,
-)
+from hertzian.sweeping.storage import NoRoomError, StoreLockedError, check_out, resolved_link
 from hertzian.sweeping.sweep_store import (
     SweepStoreError,
     batch_records,
@@ -149,20 +142,6 @@ def corner_dt_warnings(definition: Sweep) -> list[str]:
             text = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in names.items())
             lines.append(f"point {index}{' (' + text + ')' if text else ''}: {message}")
     return lines
-
-
-def check_out(out: Path, *, resume: bool, overwrite: bool) -> None:
-    """Refuse a store path that exists (unless resuming or replacing it) or whose folder does not."""
-    if out.exists() and not (resume or overwrite):
-        raise OptionError("out", str(out), "exists; resume to continue it or overwrite to replace it")
-    why = check_writable_folder(out)
-    if why:
-        raise OptionError("out", str(out), why)
-    if overwrite and (out.exists() or out.is_symlink()):
-        try:
-            check_replaceable(out)
-        except NotReplaceableError as err:
-            raise OptionError("out", str(out), str(err)) from None
 
 
 def prepare_sweep(

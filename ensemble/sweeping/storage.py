@@ -251,3 +251,31 @@ def check_writable_folder(path: str | Path) -> str | None:
     except OSError as err:
         return f"its folder is not writable ({os.strerror(err.errno) if err.errno else err})"
     return None
+
+
+def check_out(
+    out: str | Path,
+    *,
+    overwrite: bool,
+    resume: bool = False,
+    hint: str = "resume to continue it or overwrite to replace it",
+) -> None:
+    """Refuse (:class:`~hertzian.core.errors.OptionError` on ``out``, one line) a store path that exists unless it
+    is resumed or replaced; whose folder is missing or cannot be written; or, to be replaced, that is not a hertzian
+    store (:func:`check_replaceable`) or that another process is writing (its lock). ``hint``: what to do about a
+    path that exists. Nothing is written."""
+    from hertzian.core.errors import OptionError
+
+    out = Path(out)
+    if out.exists() and not (resume or overwrite):
+        raise OptionError("out", str(out), f"exists; {hint}")
+    why = check_writable_folder(out)
+    if why:
+        raise OptionError("out", str(out), why)
+    if overwrite and (out.exists() or out.is_symlink()):
+        try:
+            check_replaceable(out)
+            with store_lock(resolved_link(out)):  # a writer of it now is refused here, before any work
+                pass
+        except RefusedError as err:
+            raise OptionError("out", str(out), str(err)) from None
