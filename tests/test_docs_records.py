@@ -471,3 +471,17 @@ def test_the_grain_500_table_is_its_record():
         rms = modes[masses[label]]["rms_over_clean_peak"]
         assert all(agrees(cell, value) for cell, value in zip(cells, rms)), (label, cells, rms)
         assert agrees(change.replace(" %", ""), 100 * (rms[-1] / rms[0] - 1)), (label, change)
+
+
+def test_fixed_costs_readme_rows_are_their_record():
+    """The README command's cold / warm medians with and without prebuilt kernels, and the prebuild's seconds."""
+    rows = table_after("fixed-costs.md", "## Measured on the CPU")
+    bench = record("bench/cpu_auto_rule.json")
+    cells = {key: cells[0] for key, cells in rows.items()}
+    plain = next(v for k, v in cells.items() if "(`readme`," in k)
+    prebuilt = next(v for k, v in cells.items() if "(`readme_prebuilt`," in k)
+    for cell, part in ((plain, "readme"), (prebuilt, "readme_prebuilt")):
+        cold, warm = cell.split(" / ")
+        assert agrees(cold, bench[part]["median_cold_s"]) and agrees(warm, bench[part]["median_warm_s"]), part
+    prebuild = next(v for k, v in cells.items() if "`readme_prebuilt.prebuild_s`" in k)
+    assert agrees(prebuild, bench["readme_prebuilt"]["prebuild_s"])

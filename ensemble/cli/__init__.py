@@ -31,6 +31,7 @@ COMMANDS = (
     "reproduce",
     "detect",
     "warmup",
+    "prebuild",
     "estimates",
 )
 """Command modules of this package, in help order."""

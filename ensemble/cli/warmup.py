@@ -27,6 +27,12 @@ def warmup(
         typer.Option("--workers", help="Compile threads (default: one per core on a CPU, up to 8 on a GPU)."),
     ] = None,
     dry_run: Annotated[bool, typer.Option("--dry-run", help="List the kernel variants; compile nothing.")] = False,
+    list_family: Annotated[
+        bool,
+        typer.Option(
+            "--list", help="Print the default family (what `hertzian prebuild` compiles) by feature set and shape."
+        ),
+    ] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the result as one JSON object.")] = False,
 ):
     """Compile and cache every kernel variant a job will launch, so its first run compiles nothing.
@@ -39,8 +45,15 @@ def warmup(
     from hertzian.core.solvers.calibrate import KERNELS
     from hertzian.core.solvers.prepare import kernel_variants, prepare_kernels
 
+    if list_family:
+        if path is not None or paper or detect is not None:
+            fail(
+                "warmup: --list = with PATH, --paper or --detect: --list prints the whole default family; give it alone"
+            )
+        _print_family(resolve_device(device), as_json)
+        return
     if sum((path is not None, paper, detect is not None)) != 1:
-        fail("warmup: PATH, --paper, --detect = none or several: give exactly one")
+        fail("warmup: PATH, --paper, --detect = none or several: give exactly one (or --list)")
     if kernel not in KERNELS:
         fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)}")
     path, detect = (None if p is None else shipped_file(p) for p in (path, detect))
@@ -66,18 +79,28 @@ def warmup(
         )
 
 
+def _print_family(device: str, as_json: bool) -> None:
+    """``--list``: every kernel variant of the default family on ``device``, with its feature set and shapes."""
+    from hertzian.studies.warmup import family_needs, family_rows
+
+    rows = family_rows(family_needs(device), device)
+    if as_json:
+        typer.echo(json.dumps({"device": device, "modules": rows}, indent=1))
+        return
+    for row in rows:
+        block = row["block_dim"] or "default"
+        shapes = ", ".join(row["shapes"]) or "any"
+        typer.echo(f"{row['module']} (block {block}): {row['features'] or 'any features'}; grains x chains {shapes}")
+    typer.echo(f"{len(rows)} kernel modules on {device}")
+
+
 def _needs(path: Path | None, paper: bool, quick: bool, detect: Path | None, device: str, kernel: str) -> list:
     """The job's needs (hertzian.studies.warmup)."""
-    from hertzian.core.scene import load_scene, read_toml
+    from hertzian.core.scene import load_scene
     from hertzian.studies import warmup as needs
 
     if paper:
         return needs.paper_needs(device, quick=quick, kernel=None if kernel == "auto" else kernel)
     if detect is not None:
         return needs.detect_needs(load_scene(detect))
-    # "auto" warms what a run takes once its kernels are cached: "fused" (a short CPU run on a cold cache may
-    # take the per-step kernel, hertzian.core.solvers.calibrate.cpu_auto_config; once warm it takes the chain one)
-    warm = "fused" if kernel == "auto" else kernel
-    if path.is_file() and "scene" in read_toml(path):  # a sweep file holds its base scene in [scene]
-        return needs.sweep_needs(path, {}, device, warm)
-    return needs.scene_needs(load_scene(path), warm)
+    return needs.file_needs(path, device, kernel)

@@ -80,8 +80,8 @@ def share_precompiled_header() -> None:
     at exit: about 1 s of each compiling process on the 2-core machine, most of a small variant's compile. Shared,
     a later process compiling a new variant reuses it. The folder is keyed by the Warp headers it was built from;
     clang writes it to a temporary file and renames it, so processes compiling at once do not see a partial file.
-    On a machine without CUDA whose cache has no header yet, the header is built at once in the background
-    (:func:`_start_header_primer`). Does nothing where Warp has no CPU compiler or no such hook."""
+    On a machine without CUDA whose cache has no header yet and with no prebuilt kernels
+    (``hertzian.core.solvers.prebuilt``), the header is built at once in the background (:func:`prime_precompiled_header`). Does nothing where Warp has no CPU compiler or no such hook."""
     runtime = wp._src.context.runtime
     if runtime is None or getattr(runtime, "llvm", None) is None or not hasattr(runtime, "get_clang_pch_dir"):
         return
@@ -105,7 +105,9 @@ def share_precompiled_header() -> None:
     runtime.get_clang_pch_dir = header_folder
     global _header_folder
     _header_folder = folder
-    if not wp.is_cuda_available():
+    from hertzian.core.solvers.prebuilt import roots
+
+    if not wp.is_cuda_available() and not roots():  # with a prebuilt family, a run usually compiles nothing
         prime_precompiled_header()
 
 

@@ -8,7 +8,8 @@ stages of building the first batches of ``sweeps/million.toml`` (expand, plan, j
 state buffers).
 
 And the README's first command (``hertzian run --out impact.zarr``) cold and warm, back to back, with each run's
-timeline (part ``readme``; ``--device`` picks the device, a GPU included).
+timeline (part ``readme``; ``--device`` picks the device, a GPU included), and the same after ``hertzian prebuild``
+(part ``readme_prebuilt``).
 
 ``python -m hertzian.studies.fixed_costs --out docs/records/bench/cpu_auto_rule.json`` regenerates the record
 (``--only start,build`` re-measures those parts into the existing file;
@@ -100,22 +101,29 @@ def _timeline_summary(path: Path) -> dict:
     }
 
 
-def time_readme(device: str, repeats: int = 3) -> dict:
+def time_readme(device: str, repeats: int = 3, prebuilt: bool = False) -> dict:
     """Process wall [s] of the README's first command on ``device``, cold then warm, back to back ``repeats`` times.
 
     Cold: a new empty Warp kernel cache (``WARP_CACHE_PATH``) and calibration cache (``HERTZIAN_CACHE``); warm: the
-    same command again with those caches. Each run's timeline (``HERTZIAN_TIMELINE``) is kept in the record."""
+    same command again with those caches. Each run's timeline (``HERTZIAN_TIMELINE``) is kept in the record.
+    ``prebuilt``: first ``hertzian prebuild`` (the default family, its seconds and size recorded) into a folder every
+    run reads (``HERTZIAN_PREBUILT``); else no prebuilt folder is read."""
     pairs = []
     with tempfile.TemporaryDirectory() as tmp:
         args = [*README_COMMAND[:-1], f"{tmp}/impact.zarr", "--device", device, "--quiet", "--overwrite"]
+        folder = f"{tmp}/prebuilt" if prebuilt else "off"
+        built = {}
+        if prebuilt:
+            build_args = ["prebuild", "--device", device, "--out", folder]
+            built = {"prebuild_s": _wall(build_args, f"{tmp}/build-cache", HERTZIAN_PREBUILT="off")}
+            built["prebuilt_bytes"] = sum(p.stat().st_size for p in Path(folder).rglob("*") if p.is_file())
         for repeat in range(repeats):
             cache = f"{tmp}/cache-{repeat}"
             pair = {}
             for state in ("cold", "warm"):
                 timeline = Path(tmp) / f"{state}-{repeat}.json"
-                pair[f"{state}_s"] = _wall(
-                    args, f"{cache}/warp", HERTZIAN_CACHE=f"{cache}/calibration.json", HERTZIAN_TIMELINE=str(timeline)
-                )
+                env = dict(HERTZIAN_CACHE=f"{cache}/calibration.json", HERTZIAN_TIMELINE=str(timeline))
+                pair[f"{state}_s"] = _wall(args, f"{cache}/warp", HERTZIAN_PREBUILT=folder, **env)
                 pair[f"{state}_timeline"] = _timeline_summary(timeline)
             pairs.append(pair)
     cold = statistics.median(p["cold_s"] for p in pairs)
@@ -123,6 +131,8 @@ def time_readme(device: str, repeats: int = 3) -> dict:
     return {
         "command": "hertzian " + " ".join(README_COMMAND) + f" --device {device}",
         "device": device,
+        "prebuilt": prebuilt,
+        **built,
         "median_cold_s": cold,
         "median_warm_s": warm,
         "cold_over_warm": cold / warm,
@@ -251,9 +261,10 @@ PARTS = {
     "start": lambda tmp, args: time_start(),
     "build_million": lambda tmp, args: time_build(),
     "readme": lambda tmp, args: time_readme(args.device, args.repeats),
+    "readme_prebuilt": lambda tmp, args: time_readme(args.device, args.repeats, prebuilt=True),
 }
 """Each part of the record and how it is measured (``--only`` names them by key, or ``start``/``build``). Only
-``readme`` takes ``--device``; the others measure the CPU."""
+``readme`` and ``readme_prebuilt`` take ``--device``; the others measure the CPU."""
 
 
 def _arguments() -> argparse.Namespace:
@@ -269,8 +280,8 @@ def _arguments() -> argparse.Namespace:
         parser.exit(2, f"error: --only = {unknown[0]!r}: one of {', '.join(PARTS)}, start, build\n")
     if args.repeats < 1:
         parser.exit(2, f"error: --repeats = {args.repeats}: must be at least 1\n")
-    if args.device != "cpu" and args.only != ["readme"]:
-        parser.exit(2, f"error: --device = {args.device!r}: only the readme part takes a device; add --only readme\n")
+    if args.device != "cpu" and (not args.only or not set(args.only) <= {"readme", "readme_prebuilt"}):
+        parser.exit(2, f"error: --device = {args.device!r}: only the readme parts take a device; add --only readme\n")
     return args
 
 

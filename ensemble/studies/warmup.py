@@ -15,3 +15,69 @@ from hertzian.sweeping.distributed import sweep_needs  # noqa: F401  (re-exporte
 def scene_needs(scene: Scene, kernel: str = "auto") -> list[Need]:
     """The launch group of one ``hertzian run`` of ``scene``."""
     return [Need(features_of([scene]), scene.chain.grains, 1, scene.step_count, kernel, bool(scene.record.fields))]
+
+
+def file_needs(path, device: str, kernel: str = "auto") -> list[Need]:
+    """The launch groups of a scene or sweep file ``path`` on ``device``. ``auto`` stands for what a run takes once
+    its kernels are cached: ``fused`` (a short CPU run on a cold cache may take the per-step kernel,
+    hertzian.core.solvers.calibrate.cpu_auto_config; once warm it takes the chain one)."""
+    from hertzian.core.scene import load_scene, read_toml
+
+    warm = "fused" if kernel == "auto" else kernel
+    if path.is_file() and "scene" in read_toml(path):  # a sweep file holds its base scene in [scene]
+        return sweep_needs(path, {}, device, warm)
+    return scene_needs(load_scene(path), warm)
+
+
+def family_needs(device: str) -> list[Need]:
+    """The default family's launch groups on ``device``: one ``hertzian run`` of each shipped example scene, every
+    shipped sweep file (each launch group and batch size, with the kernel a warm ``auto`` takes) and both paper
+    reproductions (``reproduce`` and ``reproduce --quick``). What ``hertzian prebuild`` compiles ahead of time."""
+    from hertzian.core.scene import load_scene, read_toml
+    from hertzian.core.shipped import shipped_file, shipped_names
+
+    needs: list = []
+    for name in shipped_names():
+        path = shipped_file(name)
+        table = read_toml(path)
+        if "scene" in table and "study" not in table:  # a sweep file (a detection study is not a sweep)
+            needs.extend(sweep_needs(path, {}, device, "fused"))
+        elif "scene" not in table and "study" not in table:
+            needs.extend(scene_needs(load_scene(path), "fused"))
+    for quick in (False, True):
+        needs.extend(paper_needs(device, quick=quick))
+    return needs
+
+
+def family_rows(needs: list, device: str) -> list[dict]:
+    """One row per kernel variant of ``needs`` on ``device``: {"module", "block_dim", "features" (the fields that
+    differ from the defaults), "shapes" (grains x chains of the launch groups that load it)}."""
+    from hertzian.core.solvers.prepare import kernel_variants
+
+    rows: dict[tuple, dict] = {}
+    for need in needs:
+        for module, block in kernel_variants([need], device):
+            row = rows.setdefault(
+                (module.name, block), {"module": module.name, "block_dim": block, "features": None, "shapes": []}
+            )
+            if isinstance(need, Need):
+                row["features"] = row["features"] or feature_summary(need.features)
+                shape = f"{need.grains}x{need.chains}"
+                if shape not in row["shapes"]:
+                    row["shapes"].append(shape)
+    return list(rows.values())
+
+
+def feature_summary(features) -> str:
+    """The feature switches of ``features`` that differ from a plain float64 gear4 chain, as ``key=value`` pairs."""
+    from dataclasses import fields
+
+    from hertzian.kernels.features import Features
+
+    plain = Features()
+    changed = [
+        f"{f.name}={getattr(features, f.name)}"
+        for f in fields(features)
+        if getattr(features, f.name) != getattr(plain, f.name)
+    ]
+    return " ".join(changed) or "plain"

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import warp as wp
 from hertzian.core.devices import prime_precompiled_header
+from hertzian.core.solvers import prebuilt
 from hertzian.core.solvers.config import SolverConfig
 from hertzian.kernels.cpu import chain_kernel
 from hertzian.kernels.features import Features
@@ -77,30 +78,53 @@ def default_workers(device) -> int:
     return max(1, min(GPU_COMPILE_WORKERS, cores))
 
 
-def _block(device, block_dim: int | None) -> int:
+def block_of(device, block_dim: int | None) -> int:
     """The block size a launch at ``block_dim`` loads (None: Warp's default, 1 on a CPU)."""
     return block_dim if block_dim is not None else (1 if device.is_cpu else 256)
 
 
 def in_cache(module, device, block_dim: int | None = None) -> bool:
-    """Whether Warp's ``module`` at ``block_dim`` is loaded on ``device`` or compiled in Warp's kernel cache
-    (``wp.config.kernel_cache_dir``), so that loading it compiles nothing."""
+    """Whether Warp's ``module`` at ``block_dim`` is loaded on ``device``, compiled in Warp's kernel cache
+    (``wp.config.kernel_cache_dir``) or prebuilt (``hertzian.core.solvers.prebuilt``), so that loading it compiles
+    nothing."""
     dev = wp.get_device(device)
-    block = _block(dev, block_dim)
-    if (dev.context, block) in module.execs:
-        return True
+    block = block_of(dev, block_dim)
+    return (
+        (dev.context, block) in module.execs
+        or in_warp_cache(module, dev, block)
+        or prebuilt.find(module, dev, block) is not None
+    )
+
+
+def in_warp_cache(module, device, block: int) -> bool:
+    """Whether Warp's kernel cache holds ``module``'s binary at ``block`` threads for ``device``."""
     name = module.get_module_identifier(block)
-    return (Path(wp.config.kernel_cache_dir) / name / module._get_compile_output_name(dev, block_dim=block)).is_file()
+    return (
+        Path(wp.config.kernel_cache_dir) / name / module._get_compile_output_name(device, block_dim=block)
+    ).is_file()
 
 
 def _load(device, module, block_dim) -> dict:
-    """Load one variant; {"module", "block_dim", "cached" (nothing compiled), "seconds"}."""
+    """Load one variant: from Warp's kernel cache, else from a prebuilt folder, else compiled.
+    Returns {"module", "block_dim", "cached" (nothing compiled), "prebuilt" (read from a prebuilt folder),
+    "seconds"}."""
     start = time.perf_counter()
-    cached = in_cache(module, device, block_dim)
-    if device.is_cpu and (block_dim or 1) > 1:
+    block = block_of(device, block_dim)
+    if device.is_cpu and block > 1:
         wp.config.enable_cpu_blocks = True  # Warp 1.19 runs CPU blocks as fibers only when asked (Solver.load)
-    module.load(device, block_dim=_block(device, block_dim))
-    return {"module": module.name, "block_dim": block_dim, "cached": cached, "seconds": time.perf_counter() - start}
+    loaded = (device.context, block) in module.execs or in_warp_cache(module, device, block)
+    from_prebuilt = not loaded and prebuilt.load(module, device, block)
+    cached = loaded or from_prebuilt
+    if not from_prebuilt:
+        module.load(device, block_dim=block)
+    seconds = time.perf_counter() - start
+    return {
+        "module": module.name,
+        "block_dim": block_dim,
+        "cached": cached,
+        "prebuilt": from_prebuilt,
+        "seconds": seconds,
+    }
 
 
 def load_variants(variants: list[tuple], device, max_workers: int | None = None) -> tuple[int, list[dict]]:
@@ -109,9 +133,31 @@ def load_variants(variants: list[tuple], device, max_workers: int | None = None)
     {"module", "block_dim", "cached", "seconds"}."""
     dev = wp.get_device(device)
     workers = max(1, min(len(variants), max_workers or default_workers(dev)))
-    if dev.is_cpu and workers > 1:
+    if dev.is_cpu and workers > 1 and not all(in_cache(m, dev, b) for m, b in variants):
         prime_precompiled_header()  # one header, built once, instead of one per compiling thread
     if workers == 1:
         return workers, [_load(dev, module, block_dim) for module, block_dim in variants]
     with ThreadPoolExecutor(max_workers=workers, thread_name_prefix="hertzian-compile") as pool:
         return workers, [future.result() for future in [pool.submit(_load, dev, m, b) for m, b in variants]]
+
+
+def prebuild_variants(
+    variants: list[tuple], device, out: Path, *, archs: list[int] = (), ptx: list[int] = (), max_workers=None
+) -> dict:
+    """Compile each (Warp module, block_dim) of ``variants`` into the prebuilt folder ``out``
+    (``hertzian.core.solvers.prebuilt``): for ``device`` itself (its CPU object, or its GPU's cubin), plus a cubin
+    for each CUDA architecture of ``archs`` and PTX for each of ``ptx`` (neither needs a GPU), ``max_workers`` at a
+    time. Returns {"modules", "binaries", "bytes", "seconds"}."""
+    start = time.perf_counter()
+    dev = wp.get_device(device)
+    archs, ptx = list(archs), list(ptx)
+    out.mkdir(parents=True, exist_ok=True)
+    jobs = [(m, block_of(dev, b), target) for m, b in variants for target in prebuilt.targets(dev, archs, ptx)]
+    if dev.is_cpu:
+        prime_precompiled_header()  # every CPU compile waits for one shared header
+    workers = max(1, min(len(jobs), max_workers or default_workers(dev)))
+    with ThreadPoolExecutor(max_workers=workers, thread_name_prefix="hertzian-prebuild") as pool:
+        list(pool.map(lambda job: prebuilt.compile_into(out, *job), jobs))
+    prebuilt.write_index(out, dev, archs, ptx, {prebuilt.variant_names(m, block)[0] for m, block, _ in jobs})
+    size = sum(p.stat().st_size for p in out.rglob("*") if p.is_file())
+    return {"modules": len(variants), "binaries": len(jobs), "bytes": size, "seconds": time.perf_counter() - start}
