@@ -28,7 +28,7 @@ _LAZY = {
     # scenes and runs
     "load_scene": "hertzian.api",
     "run": "hertzian.api",
-    "RunResult": "hertzian.core.runner",
+    "RunResult": "hertzian.api",
     # sweeps and stores
     "Sweep": "hertzian.sweeping.spec",
     "load_sweep": "hertzian.sweeping.spec",

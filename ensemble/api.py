@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +19,8 @@ from hertzian.core.check import memory_refusal
 from hertzian.core.devices import check_device
 from hertzian.core.errors import OptionError, RefusedError
 from hertzian.core.model import build_model
-from hertzian.core.runner import Runner, RunResult
+from hertzian.core import runner as core_runner
+from hertzian.core.runner import Runner
 from hertzian.core.scene import Scene, SceneError, apply_overrides, scene_from_dict
 from hertzian.core.scene import load_scene as load_scene_file
 from hertzian.core.shipped import shipped_file
@@ -32,6 +33,25 @@ def load_scene(source: str | Path | dict, overrides: dict[str, Any] | None = Non
     if isinstance(source, dict):
         return scene_from_dict(apply_overrides(source, overrides or {}))
     return load_scene_file(shipped_file(source), overrides)
+
+
+@dataclass(frozen=True)
+class RunResult(core_runner.RunResult):
+    """What ``hz.run`` returns: the run's arrays (``hertzian.core.runner.RunResult``: a leading chain dimension) and
+    the dataset ``hertzian run --out`` stores (:meth:`to_xarray`)."""
+
+    def to_xarray(self, axes: dict[str, Any] | None = None):
+        """The result as an in-memory ``xarray.Dataset`` with the variables, dimensions and attributes (units
+        included) of the store ``hertzian run --out`` writes. ``axes`` (name → coordinate values, C order) shape an
+        ensemble's chains; without them an ensemble has one axis ``chain``."""
+        from hertzian.sweeping.sweep_store import result_dataset  # the store layer: xarray and Zarr load here
+
+        return result_dataset(self, axes)
+
+    @classmethod
+    def of(cls, result: core_runner.RunResult) -> RunResult:
+        """``result`` (the same arrays, not copied) as a RunResult with its dataset."""
+        return cls(**{f.name: getattr(result, f.name) for f in fields(result)})
 
 
 @dataclass
@@ -51,11 +71,11 @@ class PreparedRun:
     def run(self, progress: Callable[[int, int], None] | None = None) -> RunResult:
         """Integrate (``progress(done_records, total_records)`` after each record; not for a tolerance run)."""
         if self.runner is not None:
-            return self.runner.run(progress)
+            return RunResult.of(self.runner.run(progress))
         from hertzian.core.error_estimate import meet_tolerance
 
         self.choice = meet_tolerance(self.scenes, lambda chosen: _runner(chosen, self.device, self.kernel).run())
-        return self.choice.result
+        return RunResult.of(self.choice.result)
 
 
 def prepare_run(

@@ -143,3 +143,44 @@ def test_no_function_is_longer_than_the_limit():
                 if lines > MAX_FUNCTION_LINES and (where, node.name) not in ALLOWED_LONG:
                     long.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.name} ({lines} lines)")
     assert not long, "functions over the limit: " + ", ".join(long)
+
+
+LAYERS = (
+    ("hertzian.kernels",),
+    ("hertzian.core",),
+    ("hertzian.sweeping",),
+    ("hertzian.studies", "hertzian.plotting", "hertzian.api"),
+    ("hertzian.cli",),
+)
+"""The package's layers, lowest first: a module imports its own layer and the ones before it. The studies draw
+their figures and the figures read the studies' analysis, so those two (and ``hertzian.api``, the one-import
+namespace) share a layer."""
+
+
+def layer(name: str) -> int | None:
+    """The index in LAYERS of module ``name``'s layer (None for the package's root modules)."""
+    for i, prefixes in enumerate(LAYERS):
+        if any(name == prefix or name.startswith(prefix + ".") for prefix in prefixes):
+            return i
+    return None
+
+
+def upward_imports(graph: dict[str, set[str]]) -> list[tuple[str, str]]:
+    """(module, imported module) pairs where a module imports a layer above its own, lazily or not."""
+    found = []
+    for name, targets in graph.items():
+        own = layer(name)
+        found += [(name, t) for t in sorted(targets) if own is not None and (layer(t) or 0) > own]
+    return found
+
+
+def test_the_layer_check_finds_an_import_upward():
+    graph = {"hertzian.core.runner": {"hertzian.sweeping.sweep_store", "hertzian.kernels.step"}}
+    assert upward_imports(graph) == [("hertzian.core.runner", "hertzian.sweeping.sweep_store")]
+
+
+def test_no_layer_imports_a_layer_above_it():
+    """kernels → core → sweeping → studies, plotting and api → cli: core never imports sweeping, studies,
+    plotting or cli, inside a function or not."""
+    found = upward_imports(import_graph())
+    assert not found, f"imports upward: {found}"

@@ -109,15 +109,6 @@ class RunResult:
     def grain_steps_per_second(self) -> float:
         return self.chain_count * self.grain_count * self.steps / max(self.wall_seconds, 1e-12)
 
-    def to_xarray(self, axes: dict[str, np.ndarray] | None = None):
-        """The result as an in-memory ``xarray.Dataset`` with the variables, dimensions and attributes (units
-        included) of the store ``hertzian run --out`` writes. ``axes`` (name → coordinate values, C order) shape an
-        ensemble's chains; without them an ensemble has one axis ``chain``."""
-        # the store layer imports this module (RunResult): imported here, not at the top
-        from hertzian.sweeping.sweep_store import result_dataset
-
-        return result_dataset(self, axes)
-
     @property
     def u(self) -> np.ndarray:
         return self.fields["u"]
