@@ -14,12 +14,12 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from hertzian.core import runner as core_runner
 from hertzian.core import timeline
 from hertzian.core.check import memory_refusal
 from hertzian.core.devices import check_device
 from hertzian.core.errors import OptionError, RefusedError
 from hertzian.core.model import build_model
-from hertzian.core import runner as core_runner
 from hertzian.core.runner import Runner
 from hertzian.core.scene import Scene, SceneError, apply_overrides, scene_from_dict
 from hertzian.core.scene import load_scene as load_scene_file
