@@ -53,7 +53,12 @@ def check(
         f"contact time T            {result.contact_time:.4g}  (2π sqrt(m_red/k))",
         f"dt                        {result.dt:g} ({result.method}, {loaded.integrator.precision})",
         f"steps per contact time    {result.steps_per_contact_time:.4g}  (accurate ≥ "
-        f"{ACCURATE_STEPS_PER_CONTACT_TIME[result.method]:g})",
+        f"{ACCURATE_STEPS_PER_CONTACT_TIME[result.method]:g}"
+        + (
+            f"; the scene accepts ≥ {result.accepted_steps:g}: integrator.accepted_steps_per_contact)"
+            if result.accepted_steps is not None
+            else ")"
+        ),
         f"ω_max·dt                  {result.omega_dt:.4g}  (stable ≤ {STABLE_OMEGA_DT[result.method]:.3g})",
         f"suggested dt              {result.suggested_dt:.3g}",
         f"verdict                   {result.verdict}",

@@ -95,6 +95,8 @@ class StepCheck:
     validity_contact: int = -1
     """Padded index of the contact whose overlap bound is the largest fraction of its own validity limit (k joins
     grains k−1 and k; 0, N: walls); -1 when nothing touches."""
+    accepted_steps: float | None = None
+    """The scene's ``integrator.accepted_steps_per_contact`` (None: the method's accuracy rule only)."""
 
     @property
     def steps_per_contact_time(self) -> float:
@@ -132,16 +134,19 @@ class StepCheck:
 
     @property
     def verdict(self) -> str:
-        """'unstable', 'inaccurate' or 'ok'."""
+        """'unstable', 'inaccurate', 'accepted' (inaccurate by the rule, with at least the scene's accepted steps per
+        contact time) or 'ok'."""
         if not self.stable:
             return "unstable"
-        if not self.accurate:
-            return "inaccurate"
-        return "ok"
+        if self.accurate:
+            return "ok"
+        if self.accepted_steps is not None and self.steps_per_contact_time >= self.accepted_steps:
+            return "accepted"
+        return "inaccurate"
 
     def warning(self) -> str | None:
-        """One line when dt looks unsafe (unstable or inaccurate), else None."""
-        if self.verdict == "ok":
+        """One line when dt looks unsafe (unstable, or inaccurate and not accepted by the scene), else None."""
+        if self.verdict in ("ok", "accepted"):
             return None
         what = (
             "unstable: ω_max·dt = {:.3g} > {:.3g}".format(self.omega_dt, STABLE_OMEGA_DT[self.method])
@@ -176,6 +181,7 @@ class StepCheck:
             "stable": self.stable,
             "accurate_steps_per_contact_time": ACCURATE_STEPS_PER_CONTACT_TIME[self.method],
             "accurate": self.accurate,
+            "accepted_steps_per_contact": self.accepted_steps,
             "verdict": self.verdict,
             "suggested_dt": self.suggested_dt,
             "notes": list(self.notes),
@@ -302,6 +308,7 @@ def check_scene(scene: Scene) -> StepCheck:
             highest_frequency=0.0,
             validity_overlap=scene.chain.validity_overlap,
             notes=tuple(notes),
+            accepted_steps=scene.integrator.accepted_steps_per_contact,
         )
     k_star = int(np.argmax(omega2))
 
@@ -334,6 +341,7 @@ def check_scene(scene: Scene) -> StepCheck:
         validity_overlap=validity,
         notes=tuple(notes),
         validity_contact=worst,
+        accepted_steps=scene.integrator.accepted_steps_per_contact,
     )
 
 

@@ -148,6 +148,10 @@ class IntegratorSpec:
     events: str = "auto"
     """auto: Gear steps near a contact opening/closing are event-aware (kernels/events.py) when some
     contact can open; off: plain Gear steps everywhere (the results before event-aware steps)."""
+    accepted_steps_per_contact: float | None = None
+    """A step chosen on purpose below the accuracy rule (e.g. a paper's own): ``hertzian check``, ``run`` and ``sweep``
+    do not warn while dt gives at least this many steps per contact time (an unstable dt is always warned about);
+    None: the method's rule (hertzian.core.check.ACCURATE_STEPS_PER_CONTACT_TIME)."""
     tolerance: float | None = None
     """Instead of ``dt``: the largest relative position error allowed (docs/accuracy.md) [relative]; a pilot run picks
     dt (and, with ``method = "auto"``, the method and events) before the run (ensemble/core/error_estimate.py)."""
@@ -722,6 +726,14 @@ def _validate_integrator(s: Scene) -> None:
             i.tolerance,
             f"must be a relative error in [{MIN_TOLERANCE:g}, 1), e.g. 1e-6 (below {MIN_TOLERANCE:g} the error "
             "estimate measures float64 rounding, not the step's error)",
+        )
+    if i.accepted_steps_per_contact is not None and not (
+        isinstance(i.accepted_steps_per_contact, (int, float)) and i.accepted_steps_per_contact >= 1
+    ):
+        raise SceneError(
+            "integrator.accepted_steps_per_contact",
+            i.accepted_steps_per_contact,
+            "must be a number of steps per contact time ≥ 1 (hertzian check prints a scene's)",
         )
     if i.method not in METHODS and not (i.method == AUTO_METHOD and i.tolerance is not None):
         allowed = ", ".join(METHODS) + ' (or "auto" with integrator.tolerance)'

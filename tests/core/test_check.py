@@ -222,3 +222,28 @@ def test_cli_check_and_strict_run(tmp_path):
         cwd=tmp_path,
     )
     assert safe.returncode == 0 and "warning: integrator.dt" not in safe.stderr
+
+
+def test_an_accepted_step_is_not_warned_about_but_an_unstable_one_is():
+    """integrator.accepted_steps_per_contact silences the accuracy warning only down to that many steps per contact
+    time, and never an unstable step."""
+    scene = make_scene(
+        chain={"grains": 50, "l0": 1e-4}, excitation={"impact": 1e-2}, integrator={"dt": 1e-4, "duration": 1.0}
+    )
+    steps = check_scene(scene).contact_time / 1e-4
+    inaccurate = scene.with_overrides({"integrator.dt": check_scene(scene).contact_time / 250})
+    assert check_scene(inaccurate).verdict == "inaccurate" and "looks inaccurate" in dt_warning(inaccurate)
+    accepted = inaccurate.with_overrides({"integrator.accepted_steps_per_contact": 240})
+    assert check_scene(accepted).verdict == "accepted" and dt_warning(accepted) is None
+    short = inaccurate.with_overrides({"integrator.accepted_steps_per_contact": 260})
+    assert check_scene(short).verdict == "inaccurate" and dt_warning(short) is not None
+    unstable = accepted.with_overrides({"integrator.dt": 0.05, "integrator.accepted_steps_per_contact": 1})
+    assert check_scene(unstable).verdict == "unstable" and "looks unstable" in dt_warning(unstable)
+    assert steps > 400  # the base scene itself is accurate
+
+
+@pytest.mark.parametrize("name", ["paper_sec6_standing.toml", "paper_fig9_10.toml", "paper_fig7_8.toml"])
+def test_paper_sweeps_at_the_papers_step_run_without_a_dt_warning(name, tmp_path):
+    result = hertzian("sweep", name, "--out", tmp_path / "s.zarr", "--dry-run", "--device", "cpu")
+    assert result.returncode == 0, result.stderr
+    assert "looks" not in result.stdout + result.stderr
