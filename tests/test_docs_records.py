@@ -485,3 +485,69 @@ def test_fixed_costs_readme_rows_are_their_record():
         assert agrees(cold, bench[part]["median_cold_s"]) and agrees(warm, bench[part]["median_warm_s"]), part
     prebuild = next(v for k, v in cells.items() if "`readme_prebuilt.prebuild_s`" in k)
     assert agrees(prebuild, bench["readme_prebuilt"]["prebuild_s"])
+
+
+def claims_row(claim: str) -> tuple[str, str]:
+    """(measured, verdict) cells of the row of reproduction.md's claims table whose claim starts with ``claim``."""
+    (row,) = [cells for cells in table_rows("reproduction.md", "| claim (section)") if cells[0].startswith(claim)]
+    return row[2], row[3]
+
+
+def measured(group: str) -> dict:
+    """``groups.<group>.measurements`` of reproduction/measurements.json (the claims table's record)."""
+    return record("reproduction/measurements.json")["groups"][group]["measurements"]
+
+
+def test_claims_speed_exponent_and_load_are_their_record():
+    cell, verdict = claims_row("speed exponent")
+    alpha = measured("fig1d")["alpha"]
+    value, sigma = alpha["l0=1e-06"]
+    assert f"α = {value:.4f} ± {sigma:.4f} (l0 = 1e-6)" in cell
+    assert f"({100 * (0.2 - value) / 0.2:.1f} % low; {value:.4f} is {(0.2 - value) / sigma:.1f} σ below 0.2" in verdict
+    for key, label in (("l0=1e-05", "1e-5"), ("l0=0.0001", "1e-4")):
+        value, sigma = alpha[key]
+        assert f"{value:.3f} ± {sigma:.3f} ({label})" in cell
+    value, sigma = alpha["l0=1e-05"]
+    assert f"({value:.3f}, {100 * (0.2 - value) / 0.2:.1f} % low, {(0.2 - value) / sigma:.1f} σ)" in verdict
+    value, sigma = measured("fig1d")["alpha_lumped"]
+    assert f"all lumped {value:.3f} ± {sigma:.3f}" in cell
+    assert f"({100 * (0.2 - value) / 0.2:.0f} % low, {(0.2 - value) / sigma:.1f} σ)" in verdict
+    cell, _ = claims_row("c and the load")
+    speeds = measured("fig1d")["speed"]  # (l0, v_imp) with v_imp from 1e-3 to 0.1
+    for column, v_imp in ((-1, "0.1"), (0, "1e-3")):
+        assert f"v_imp = {v_imp}: " + " / ".join(f"{row[column]:.2f}" for row in speeds) in cell
+
+
+def test_claims_expanding_rectangle_and_sloping_top_are_their_record():
+    cell, verdict = claims_row("expanding rectangle")
+    width = measured("fig1")["width"]
+    for v_imp, printed in (("0.1", "{} (v_imp = 0.1)"), ("0.01", "{} (1e-2)"), ("0.001", "{} at 1e-3")):
+        beta, sigma = width[f"v_imp={v_imp}"]["beta"]
+        assert printed.format(f"{beta:.4f} ± {sigma:.4f}") in cell
+    beta, sigma = width["v_imp=0.001"]["beta"]
+    assert f"{(1 - beta) / sigma:.0f} σ below 1" in cell and f"({100 * (1 - beta):.0f} % below 1)" in verdict
+    ratio = width["v_imp=0.1"]["dW_dt"][0] / measured("fig1")["v_imp=0.1"]["speed"]
+    assert f"dW/dt = {ratio:.2f} c" in cell
+    cell, _ = claims_row("sloping top")
+    tilt = measured("fig4")
+    in_going = [100 * abs(v) for v in tilt["in_going"].values()]
+    reflected = [100 * abs(v) for t, v in tilt["reflected"].items() if t != "t=110.5"]  # t = 110.5: at the wall
+    assert f"{min(in_going):.1f}–{max(in_going):.1f} % in-going, {min(reflected):.1f}–{max(reflected):.1f} %" in cell
+
+
+def test_claims_depth_law_and_echo_amplitude_are_their_record():
+    cell, _ = claims_row("depth law")
+    fits = [measured("depth")[f"v_imp={v}"]["beta"] for v in ("0.001", "0.01", "0.1")]
+    betas, sigmas = [b for b, _ in fits], [s for _, s in fits]
+    assert f"β = {min(betas):.4f}–{max(betas):.4f} ± {max(sigmas):.4f}" in cell
+    above = [100 * (b - 1 / 6) * 6 for b in betas]
+    distance = [(b - 1 / 6) / s for b, s in fits]
+    assert f"{min(above):.1f}–{max(above):.1f} % above 1/6, i.e. {min(distance):.0f}–{max(distance):.0f} σ" in cell
+    closed = [measured("depth")[f"v_imp={v}"]["c_over_closed_form"] for v in ("0.001", "0.01", "0.1")]
+    mean = sum(c[0] for c in closed) / 3
+    assert f"{mean:.3f} on average ({min(c[1] for c in closed):.3f}–{max(c[2] for c in closed):.3f})" in cell
+    cell, _ = claims_row("echo amplitude")
+    fast, slow = (measured(g)["echo"]["grain 0"]["amplitude"] for g in ("fig7_8", "fig7_8_slow"))
+    pairs = [f"{fast[f'light/{r}']:.4f} vs {fast[f'heavy/{r}']:.4f} ({r})" for r in ("harmonic", "own")]
+    assert "surface grain: " + ", ".join(pairs) in cell
+    assert f"v_imp = 1e-2: {slow['light/harmonic']:.5f} vs {slow['heavy/harmonic']:.5f}" in cell
