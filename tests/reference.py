@@ -83,12 +83,62 @@ def potential(delta, a, n):
 # --------------------------------------------------------------------------
 
 
+# program units of the paper (docs/model.md): SI per unit
+LENGTH_M, MASS_KG, TIME_S = 1e-5, 2.36e-5, 1.0102e-3
+
+
+def _material_grains(scene):
+    """Per-grain (E [Pa], nu, rho [kg/m^3]) of ``chain.material`` (names repeated along the chain), read from the
+    scene's own ``materials`` table (the reference knows no shipped table), or None without materials."""
+    names = scene["chain"].get("material")
+    if names is None:
+        return None
+    names = [names] if isinstance(names, str) else list(names)
+    table = scene.get("materials") or {}
+    N = int(scene["chain"]["grains"])
+    return [table[names[i % len(names)]] for i in range(N)]
+
+
+def _hertz_constant_si(p, q, reduced_radius_m):
+    """a [J/m^(5/2)] of V = a delta^(5/2) between materials p and q (dicts E, nu) at reduced radius R* [m]:
+    F = (4/3) E* sqrt(R*) delta^(3/2), 1/E* = (1 - nu_p^2)/E_p + (1 - nu_q^2)/E_q."""
+    e_star = 1.0 / ((1.0 - p["nu"] ** 2) / p["E"] + (1.0 - q["nu"] ** 2) / q["E"])
+    return 0.4 * (4.0 / 3.0) * e_star * np.sqrt(reduced_radius_m)
+
+
+def _material_constants(scene):
+    """(masses (N,), a_surface_wall, a_inner (N-1,), a_bottom_wall) in program units for a chain of materials:
+    computed in SI, then converted (mass / MASS_KG; a · LENGTH_M^(5/2) / (MASS_KG LENGTH_M^2 / TIME_S^2))."""
+    grains = _material_grains(scene)
+    ratio = _radius_ratio(scene)
+    radius_m = 0.5 * float(scene["chain"]["diameter"]) * LENGTH_M * (1.0 if ratio is None else ratio)
+    radius_m = np.broadcast_to(radius_m, (len(grains),)).astype(np.float64)
+    mass = np.array([g["rho"] for g in grains]) * (4.0 / 3.0) * np.pi * radius_m**3 / MASS_KG
+    to_program = LENGTH_M**2.5 / (MASS_KG * LENGTH_M**2 / TIME_S**2)
+    inner = np.array(
+        [
+            _hertz_constant_si(
+                grains[i], grains[i + 1], radius_m[i] * radius_m[i + 1] / (radius_m[i] + radius_m[i + 1])
+            )
+            for i in range(len(grains) - 1)
+        ]
+    )
+    wall_name = scene["boundary"].get("wall_material")
+    walls = []
+    for i in (0, len(grains) - 1):  # a flat wall: R* = R_i
+        wall = grains[i] if wall_name is None else scene["materials"][wall_name]
+        walls.append(_hertz_constant_si(grains[i], wall, radius_m[i]) * to_program)
+    return mass, walls[0], inner * to_program, walls[1]
+
+
 def _grain_params(scene):
     """Per-grain mass, self-constant a and 'own contact rule' flag."""
     ch = scene["chain"]
     N = int(ch["grains"])
     if N < 1:
         raise ValueError(f"chain.grains = {N}: need at least 1 grain")
+    if _material_grains(scene) is not None:  # the contact constants come from _material_constants
+        return _material_constants(scene)[0], np.full(N, np.nan), np.zeros(N, dtype=bool)
     m = np.full(N, float(ch["mass"]), dtype=np.float64)
     a = np.full(N, float(ch["a"]), dtype=np.float64)
     ratio = _radius_ratio(scene)
@@ -150,6 +200,9 @@ def contact_constants(scene):
     (``chain.radii``, a list) the self-constant of grain i is ``a sqrt(R_i/R0)`` (walls) and an inner
     contact ``a sqrt(2 R_i R_j / (R0 (R_i + R_j)))``; its mass is ``m (R_i/R0)^3``.
     """
+    if _material_grains(scene) is not None:
+        _, a_sw, a_in, a_bw = _material_constants(scene)
+        return float(a_sw), a_in, float(a_bw)
     _, a, own = _grain_params(scene)
     ai, aj = a[:-1], a[1:]
     oi, oj = own[:-1], own[1:]

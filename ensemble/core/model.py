@@ -82,7 +82,9 @@ def features_of(scenes: list[Scene], statics: list[StaticState] | None = None) -
     return _features(
         first,
         any_static=any(np.any(st.static_overlap > 0) for st in statics),
-        heterogeneous=any(s.impurities or s.chain.radius_ratios is not None for s in scenes),
+        heterogeneous=any(
+            s.impurities or s.chain.radius_ratios is not None or s.chain.material is not None for s in scenes
+        ),
         gravity=any(s.chain.gravity > 0 for s in scenes),
         hertz=all(s.chain.exponent == 2.5 for s in scenes),
         can_open=lambda: any(contact_can_open(s, st) for s, st in zip(scenes, statics)),
@@ -390,7 +392,9 @@ def chain_set_features(chains: ChainSet, static) -> Features:
     return _features(
         chains.template,
         any_static=bool(np.any(static.configurations.static_overlap > 0)),
-        heterogeneous=bool(chains.template.impurities) or static.radius_ratio is not None,
+        heterogeneous=bool(chains.template.impurities)
+        or static.radius_ratio is not None
+        or chains.template.chain.material is not None,
         gravity=bool(np.any(chains.column("chain.gravity") > 0)),
         hertz=bool(np.all(chains.column("chain.exponent") == 2.5)),
         can_open=lambda: chain_set_can_open(chains, static),

@@ -85,6 +85,10 @@ class ChainSpec:
     """Gravitational acceleration g (1 ≙ 9.8 m/s²), toward the bottom."""
     radii: RadiiSpec | None = None
     """Per-grain radii (docs/heterogeneous.md; hertzian.core.radii): None for equal grains of radius diameter/2."""
+    material: tuple[str, ...] | None = None
+    """Grain materials (hertzian.core.materials): one name, or a pattern of names repeated along the chain; each
+    grain's mass and each contact's Hertz constant then follow from E, ν and ρ (``mass`` and ``a`` are not given).
+    None: the paper's grains (``mass``, ``a``)."""
 
     @property
     def surface_force(self) -> float:
@@ -104,6 +108,27 @@ class BoundarySpec:
     """wall | load | free | driven."""
     bottom: str = "wall"
     """wall | fixed | free."""
+    wall_material: str | None = None
+    """With ``chain.material``: the walls' material (a flat wall); None: each wall of its grain's material."""
+
+
+@dataclass(frozen=True)
+class MaterialSpec:
+    """A material of the scene's own ``[materials.NAME]`` table, in SI units (hertzian.core.materials)."""
+
+    name: str
+    E: float
+    """Young's modulus [Pa]."""
+    nu: float
+    """Poisson's ratio."""
+    rho: float
+    """Density [kg/m³]."""
+
+    def material(self):
+        """The hertzian.core.materials.Material of these values."""
+        from hertzian.core.materials import Material
+
+        return Material(self.E, self.nu, self.rho, "the scene's [materials] table")
 
 
 @dataclass(frozen=True)
@@ -207,6 +232,8 @@ class Scene:
     integrator: IntegratorSpec = field(default_factory=IntegratorSpec)
     record: RecordSpec = field(default_factory=RecordSpec)
     damping: DampingSpec = field(default_factory=DampingSpec)
+    materials: tuple[MaterialSpec, ...] = ()
+    """The scene's own materials (``[materials.NAME]``), beside the shipped ones."""
 
     def __post_init__(self):
         _validate(self)
@@ -330,11 +357,27 @@ class Scene:
         d["record"]["traces"] = list(d["record"]["traces"])
         if self.integrator.tolerance is not None:
             del d["integrator"]["dt"]  # not given: the pilot chooses it
+        _materials_to_dict(self, d)
         return d
 
     def with_overrides(self, overrides: dict[str, Any]) -> "Scene":
         """A copy with dotted keys (``"chain.l0"``) replaced; validated."""
         return scene_from_dict(apply_overrides(self.to_dict(), overrides))
+
+
+def _materials_to_dict(scene: Scene, d: dict) -> None:
+    """The material keys of ``scene.to_dict()``: present only where used, so that scenes without materials keep
+    their plain data; with ``chain.material`` the chain's ``mass`` and ``a`` are left out (they are not used)."""
+    del d["materials"]
+    if scene.materials:
+        d["materials"] = {m.name: {"E": m.E, "nu": m.nu, "rho": m.rho} for m in scene.materials}
+    if scene.chain.material is None:
+        del d["chain"]["material"]
+    else:
+        d["chain"]["material"] = list(scene.chain.material)
+        del d["chain"]["mass"], d["chain"]["a"]
+    if scene.boundary.wall_material is None:
+        del d["boundary"]["wall_material"]
 
 
 def response_stride_of(period_steps) -> int:
@@ -355,7 +398,14 @@ def response_stride_of(period_steps) -> int:
 
 
 def grain_masses_at(scene: Scene, index: int) -> float:
-    """Mass of grain ``index`` [mass]: an impurity's, else m·r³ (r = R_i/R0), else the chain's."""
+    """Mass of grain ``index`` [mass]: an impurity's, else m·r³ (r = R_i/R0), else the chain's; with
+    ``chain.material``, ρ (4/3) π R_i³ of its material."""
+    if scene.chain.material is not None:
+        from hertzian.core.materials import scene_constants
+
+        ratios = scene.chain.radius_ratios
+        rows = None if ratios is None else ratios[None, :]
+        return float(scene_constants(scene, np.array([scene.chain.diameter]), rows, scene.chain.grains)[0][0, index])
     for imp in scene.impurities:
         if index in imp.grains and imp.mass is not None:
             return imp.mass
@@ -376,7 +426,7 @@ _SECTIONS = {
     "record": RecordSpec,
     "damping": DampingSpec,
 }
-_TOP_KEYS = tuple(_SECTIONS) + ("impurities",)
+_TOP_KEYS = tuple(_SECTIONS) + ("impurities", "materials")
 SCENE_TABLES = frozenset(_TOP_KEYS)
 """Top-level tables of a scene file."""
 
@@ -428,7 +478,9 @@ def _coerce(key: str, value: Any, default: Any, annotation: str) -> Any:
         if not isinstance(value, int) or isinstance(value, bool):
             raise SceneError(key, value, "must be an integer")
         return value
-    if annotation == "str":
+    if annotation in ("str", "str | None"):
+        if value is None and "None" in annotation:
+            return None
         if not isinstance(value, str):
             raise SceneError(key, value, "must be a string")
         return value
@@ -470,6 +522,16 @@ def scene_from_dict(data: dict) -> Scene:
     if not isinstance(raw_imps, list):
         raise SceneError("impurities", raw_imps, "must be an array of tables ([[impurities]])")
     imps = tuple(_build(ImpuritySpec, f"impurities[{k}]", imp) for k, imp in enumerate(raw_imps))
+    materials = _parse_materials(data.get("materials", {}))
+    chain = data.get("chain", {})
+    if isinstance(chain, dict) and chain.get("material") is not None:
+        for key in ("mass", "a"):
+            if key in chain:
+                raise SceneError(
+                    f"chain.{key}",
+                    chain[key],
+                    "not with chain.material: the materials set each grain's mass and contacts",
+                )
     integrator = data.get("integrator", {})
     if "duration" not in integrator:
         raise SceneError("integrator.duration", None, "is required (simulated time, > 0)")
@@ -479,7 +541,30 @@ def scene_from_dict(data: dict) -> Scene:
             integrator["tolerance"],
             "give either integrator.dt or integrator.tolerance, not both",
         )
-    return Scene(impurities=imps, **parts)
+    return Scene(impurities=imps, materials=materials, **parts)
+
+
+MATERIAL_KEYS = ("E", "nu", "rho")
+
+
+def _parse_materials(table: Any) -> tuple[MaterialSpec, ...]:
+    """The ``[materials]`` table: NAME → {E [Pa], nu, rho [kg/m³]}."""
+    if not isinstance(table, dict):
+        raise SceneError("materials", table, "must be a table of [materials.NAME] tables with E, nu and rho")
+    out = []
+    for name, values in table.items():
+        key = f"materials.{name}"
+        if not isinstance(values, dict):
+            raise SceneError(key, values, "must be a table with E [Pa], nu and rho [kg/m³]")
+        for k in values:
+            if k not in MATERIAL_KEYS:
+                raise _unknown(f"{key}.{k}", MATERIAL_KEYS)
+        missing = [k for k in MATERIAL_KEYS if k not in values]
+        if missing:
+            raise SceneError(f"{key}.{missing[0]}", None, "is required (E [Pa], nu, rho [kg/m³])")
+        numbers = {k: _coerce(f"{key}.{k}", values[k], None, "float") for k in MATERIAL_KEYS}
+        out.append(MaterialSpec(name=name, **numbers))
+    return tuple(out)
 
 
 def parse_value(text: str) -> Any:
@@ -584,6 +669,7 @@ def _positive(key, value):
 def _validate(s: Scene) -> None:
     """Raise SceneError for the first invalid value of ``s``."""
     _validate_chain(s)
+    _validate_materials(s)
     _validate_boundary_and_excitation(s)
     _validate_impurities(s)
     _validate_integrator(s)
@@ -641,6 +727,42 @@ def _validate_chain(s: Scene) -> None:
     if c.gravity < 0:
         raise SceneError("chain.gravity", c.gravity, "must be ≥ 0 (it points toward the bottom)")
     c.radius_ratios  # raises SceneError for radii that are not > 0 and finite or a list of the wrong length
+
+
+def _validate_materials(s: Scene) -> None:
+    from hertzian.core.materials import MATERIALS
+
+    c, b = s.chain, s.boundary
+    for m in s.materials:
+        if m.name in MATERIALS:
+            raise SceneError(f"materials.{m.name}", m.name, "is a shipped material; give yours another name")
+        if not (m.E > 0):
+            raise SceneError(f"materials.{m.name}.E", m.E, "must be > 0 (Young's modulus in Pa)")
+        if not (-1.0 < m.nu < 0.5):
+            raise SceneError(f"materials.{m.name}.nu", m.nu, "must lie in (-1, 0.5) (Poisson's ratio)")
+        if not (m.rho > 0):
+            raise SceneError(f"materials.{m.name}.rho", m.rho, "must be > 0 (density in kg/m³)")
+    known = [*MATERIALS, *(m.name for m in s.materials)]
+    if b.wall_material is not None:
+        if c.material is None:
+            raise SceneError("boundary.wall_material", b.wall_material, "needs chain.material (the grains' materials)")
+        if b.wall_material not in known:
+            raise SceneError("boundary.wall_material", b.wall_material, f"must be one of {', '.join(known)}")
+    if c.material is None:
+        return
+    if not c.material or len(c.material) > c.grains:
+        raise SceneError("chain.material", list(c.material), f"must name 1 to {c.grains} materials (chain.grains)")
+    for name in c.material:
+        if name not in known:
+            raise SceneError("chain.material", name, f"must be one of {', '.join(known)}" + _did_you_mean(name, known))
+    if c.exponent != 2.5:
+        raise SceneError(
+            "chain.exponent", c.exponent, "must be 2.5 with chain.material (Hertz's law between materials)"
+        )
+    if c.l0 != 0:
+        raise SceneError("chain.l0", c.l0, "not with chain.material: give the load as a force, chain.load")
+    if s.impurities:
+        raise SceneError("impurities", len(s.impurities), "not with chain.material: give those grains a material")
 
 
 def _validate_boundary_and_excitation(s: Scene) -> None:

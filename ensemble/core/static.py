@@ -20,6 +20,7 @@ from functools import cached_property
 
 import numpy as np
 from hertzian.core.chains import RADII_KEYS, per_unique, radius_rows, row_codes
+from hertzian.core.materials import scene_constants
 from hertzian.core.scene import Scene
 
 STATIC_KEYS = ("chain.mass", "chain.a", "chain.exponent", "chain.l0", "chain.load", "chain.gravity") + RADII_KEYS
@@ -88,6 +89,18 @@ def contact_constants(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     """(masses (N,), self-constants (N,), padded contact constants (N+1,)) for a scene."""
     n_grains = scene.chain.grains
     ratios = scene.chain.radius_ratios
+    if scene.chain.material is not None:
+        rows = None if ratios is None else ratios[None, :]
+        mass, self_a, inner, walls = (
+            a[0] for a in scene_constants(scene, np.array([scene.chain.diameter]), rows, n_grains)
+        )
+        padded = np.zeros(n_grains + 1)
+        padded[1:n_grains] = inner
+        if scene.boundary.surface == "wall":
+            padded[0] = walls[0]
+        if scene.boundary.bottom == "wall":
+            padded[n_grains] = walls[1]
+        return mass, self_a, padded
     if ratios is None:
         mass, self_a, hertz_inner = np.full(n_grains, scene.chain.mass), np.full(n_grains, scene.chain.a), None
     else:
@@ -210,10 +223,9 @@ def _static_columns(chains) -> list[str]:
     """The varying per-chain keys that the static state depends on (not the impact, drive, damping or
     diameter, which vary in a sweep without changing it)."""
     radii_listed = chains.template.chain.radii is not None and chains.template.chain.radii.values is not None
+    sized = radii_listed or chains.template.chain.material is not None  # the diameter sets radii or masses
     return [
-        k
-        for k in chains.values
-        if k in STATIC_KEYS or IMPURITY_STATIC.match(k) or (radii_listed and k == "chain.diameter")
+        k for k in chains.values if k in STATIC_KEYS or IMPURITY_STATIC.match(k) or (sized and k == "chain.diameter")
     ]
 
 
@@ -315,13 +327,17 @@ def _static_arrays(chains, grains: int | None) -> StaticArrays:
     cut = window < n_total
     n_grains = window + 1 if cut else n_total  # one grain past the window gives the last contact's constant
     ratios = radius_rows(chains)
-    mass, self_a, inner = _grain_arrays(chains, n_grains, ratios)
+    if scene.chain.material is not None:
+        mass, self_a, inner, walls = scene_constants(scene, chains.column("chain.diameter"), ratios, n_grains)
+    else:
+        mass, self_a, inner = _grain_arrays(chains, n_grains, ratios)
+        walls = self_a[:, [0, -1]]
     a_c = np.zeros((count, n_grains + 1))
     a_c[:, 1:n_grains] = inner
     if scene.boundary.surface == "wall":
-        a_c[:, 0] = self_a[:, 0]
+        a_c[:, 0] = walls[:, 0]
     if scene.boundary.bottom == "wall" and not cut:
-        a_c[:, n_grains] = self_a[:, -1]
+        a_c[:, n_grains] = walls[:, 1]
     if cut:
         mass, self_a, a_c = mass[:, :window], self_a[:, :window], a_c[:, : window + 1]
 

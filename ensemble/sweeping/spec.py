@@ -69,6 +69,11 @@ RESERVED_NAMES = frozenset(
         "window_start",
         "window",
         "harmonic",
+        "radius",
+        "mass",
+        "material",
+        "launch_group",
+        "error_estimate",
     }
 )
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
