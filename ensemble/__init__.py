@@ -28,6 +28,7 @@ _LAZY = {
     # scenes and runs
     "load_scene": "hertzian.api",
     "run": "hertzian.api",
+    "design": "hertzian.api",
     "RunResult": "hertzian.api",
     # sweeps and stores
     "Sweep": "hertzian.sweeping.spec",

@@ -156,3 +156,23 @@ def _runner(scenes: list[Scene], device: str, kernel: str, *, mark: bool = False
         raise
     except ValueError as err:  # a forced kernel that cannot run these scenes here
         raise OptionError("kernel", kernel, str(err).split(": ", 1)[-1]) from None
+
+
+def design(
+    path: str | Path,
+    out: str | Path,
+    device: str | None = None,
+    *,
+    resume: bool = False,
+    overwrite: bool = False,
+    **overrides: Any,
+):
+    """Run ``hertzian design``: the design file ``path`` (``overrides`` replace its ``[design]`` keys, e.g.
+    ``generations=10``) into the store ``out``; returns a ``DesignResult`` (best objective, genome and scene). Bad
+    input raises one line (OptionError, SceneError) before anything runs."""
+    from hertzian.studies.design import load_design, optimise
+    from hertzian.sweeping.storage import check_out
+
+    scene, spec = load_design(shipped_file(path), overrides)
+    check_out(out, overwrite=overwrite, resume=resume)
+    return optimise(scene, spec, out, device=check_device(device), resume=resume)

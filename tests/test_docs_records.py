@@ -551,3 +551,20 @@ def test_claims_depth_law_and_echo_amplitude_are_their_record():
     pairs = [f"{fast[f'light/{r}']:.4f} vs {fast[f'heavy/{r}']:.4f} ({r})" for r in ("harmonic", "own")]
     assert "surface grain: " + ", ".join(pairs) in cell
     assert f"v_imp = 1e-2: {slow['light/harmonic']:.5f} vs {slow['heavy/harmonic']:.5f}" in cell
+
+
+def test_the_design_table_is_its_record():
+    rows = table_after("design.md", "| protector (19 mm long)")
+    chains = record("design/protector_cpu.json")["chains"]
+    names = {
+        "best design": "best",
+        "uniform, stainless steel": "uniform stainless_steel",
+        "tapered, stainless steel": "tapered stainless_steel",
+        "uniform, PTFE": "uniform ptfe",
+        "tapered, PTFE": "tapered ptfe",
+    }
+    assert set(rows) == set(names)
+    for label, key in names.items():
+        peak, mass, impulse = rows[label]
+        row = chains[key]
+        assert agrees(peak, row["peak_wall_force"]) and agrees(mass, row["mass"]) and agrees(impulse, row["impulse"])

@@ -33,6 +33,7 @@ COMMANDS = (
     "warmup",
     "prebuild",
     "estimates",
+    "design",
 )
 """Command modules of this package, in help order."""
 

@@ -82,6 +82,10 @@ def plot(
     why = check_writable_folder(out)
     if why:
         fail(f"--out = {str(out)!r}: {why}")
+    if _is_design(store):
+        if figure is not None or points:
+            fail(f"store = {str(store)!r}: a design store; plot it without --figure and --at")
+        return _plot_design(store, out)
 
     dataset = open_dataset_or_fail(store)
     what = f"--figure = {figure!r}" if figure else f"store = {str(store)!r}"
@@ -119,6 +123,33 @@ def plot(
     except (KeyError, IndexError, ValueError, TypeError, AttributeError):  # a store of another sweep than the figure's
         fail(f"{what}: {not_this_figure(dataset, figure) if figure else 'cannot draw this store'}")
     typer.echo(f"wrote {out}")
+
+
+def _is_design(store: Path) -> bool:
+    """Whether ``store`` is a design store (``hertzian design`` writes one)."""
+    import json
+
+    try:
+        attrs = json.loads((store / "zarr.json").read_text()).get("attributes", {})
+    except (OSError, ValueError, AttributeError):
+        return False
+    return isinstance(attrs, dict) and attrs.get("kind") == "design"
+
+
+def _plot_design(store: Path, out: Path) -> None:
+    """A design store's picture, and its numbers as JSON next to the PNG (hertzian.studies.design.compare)."""
+    import json
+
+    from hertzian.cli.app import resolve_device
+    from hertzian.plotting.design import plot_design
+    from hertzian.studies.design import compare
+
+    summary = compare(store, resolve_device(None))
+    plot_design(summary, out)
+    record = {"command": f"hertzian plot {store.name} --out {out.name}"}
+    record |= {k: v for k, v in summary.items() if k != "traces"}
+    out.with_suffix(".json").write_text(json.dumps(record, indent=1) + "\n")
+    typer.echo(f"wrote {out} and {out.with_suffix('.json')}")
 
 
 def _plot_distribution(store: Path, of: str | None, out: Path | None) -> None:

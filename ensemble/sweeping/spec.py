@@ -69,13 +69,12 @@ RESERVED_NAMES = frozenset(
         "window_start",
         "window",
         "harmonic",
-        "radius",
-        "mass",
-        "material",
         "launch_group",
         "error_estimate",
     }
 )
+GRAIN_NAMES = frozenset({"radius", "mass", "material"})
+"""Store variables of chains with radii or materials (hertzian.sweeping.grain_store): reserved in such sweeps."""
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 MAX_POINTS = 10**7
 """Sweeps with more points are refused unless asked for (``--allow-large``): counted from the axis
@@ -374,6 +373,13 @@ def sweep_from_dict(
             raise SceneError(f"axis[{k}].key", axis.key, f"already swept by axis[{keys[axis.key]}]")
         names[axis.name], keys[axis.key] = k, k
         _check_key(k, axis, base_data)
+    grains = base.chain.radii is not None or base.chain.material is not None
+    grains = grains or any(a.key.startswith("chain.radii") or a.key == "chain.material" for a in axes)
+    for k, axis in enumerate(axes):
+        if grains and axis.name in GRAIN_NAMES:
+            raise SceneError(
+                f"axis[{k}].name", axis.name, "is a store variable of chains with radii or materials; choose another"
+            )
 
     zips = _parse_zips(data.get("zip"), list(names))
     by_name = {a.name: a for a in axes}

@@ -1,0 +1,57 @@
+"""``hertzian design``: evolve a protector (which beads, materials and sizes give the wall the smallest force)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+from hertzian.cli.app import DeviceOption, app, fail, one_line_errors, resolve_device
+
+
+@app.command()
+def design(
+    path: Annotated[Path, typer.Argument(help="A design file: a [scene] table (the base chain) and a [design] table.")],
+    out: Annotated[Path, typer.Option("--out", help="Zarr store of every generation (genomes, objectives, best).")],
+    device: DeviceOption = None,
+    generations: Annotated[Optional[int], typer.Option("--generations", help="Override design.generations.")] = None,
+    population: Annotated[Optional[int], typer.Option("--population", help="Override design.population.")] = None,
+    seed: Annotated[Optional[int], typer.Option("--seed", help="Override design.seed.")] = None,
+    resume: Annotated[bool, typer.Option("--resume", help="Continue a stopped design (same file).")] = False,
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing design store.")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the result as one JSON object.")] = False,
+):
+    """Minimise the peak force on the wall behind a chain (or the impulse, or the mass) over the materials and radii
+    of the grains a design file names, by CMA-ES: every generation is one ensemble run of all its candidates.
+
+    docs/design.md describes the design file and the store."""
+    from hertzian.core.shipped import shipped_file
+    from hertzian.studies.design import load_design, optimise
+    from hertzian.sweeping.storage import check_out
+
+    if resume and overwrite:
+        fail("--resume = --overwrite: give one of them")
+    overrides = {k: v for k, v in (("generations", generations), ("population", population), ("seed", seed)) if v}
+    if seed == 0:
+        overrides["seed"] = 0
+    with one_line_errors():
+        scene, spec = load_design(shipped_file(path), overrides)
+        check_out(out, overwrite=overwrite, resume=resume, hint="resume to continue it or overwrite to replace it")
+    dev = resolve_device(device)
+    with one_line_errors():
+        result = optimise(scene, spec, out, device=dev, resume=resume, progress=None if as_json else _progress)
+    if as_json:
+        typer.echo(json.dumps(result.to_dict()))
+        return
+    typer.echo(
+        f"{spec.generations} generations of {spec.population} on {dev}: best {spec.objective} "
+        f"{result.best_objective:.6g} ({result.seconds:.1f} s)"
+    )
+    typer.echo(f"wrote {out}")
+
+
+def _progress(generation: int, generations: int, best: float) -> None:
+    """One line a generation on stderr."""
+    print(f"generation {generation}/{generations}: best {best:.6g}", file=sys.stderr, flush=True)

@@ -1,0 +1,471 @@
+"""Protector design: which beads, of which materials and sizes, transmit the smallest peak force to the wall behind
+them (Fraternali, Porter & Daraio, Mech. Adv. Mater. Struct. 17, 1 (2010)), by CMA-ES over a whole population per
+launch.
+
+A design file holds a base scene (``[scene]``: the striker is grain 0, struck at ``excitation.impact``; the bottom is a
+wall) and a ``[design]`` table: the grains that vary, the materials they may take, the bounds of their radii
+(r = R/R0), optional mirror symmetry and a fixed total length, the objective, the population, the generations and
+the seed. Every generation is one ensemble run of all its candidates (``hertzian.core.runner.run_ensemble``), stored in a Zarr store
+with its genomes and objectives; a run resumes where it stopped (the stored generations replayed into an optimizer of
+the same seed) and a seed reproduces it. The genes: one per varying grain for its material (an integer, the index into ``materials``), and with
+``radius`` one per varying grain for its radius ratio (scaled to [0, 1]); with ``mirror`` only the first half of the
+varying grains carry genes and the rest mirror them.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+from hertzian.core.errors import SceneError
+from hertzian.core.materials import MATERIALS
+from hertzian.core.scene import Scene, read_toml, scene_from_dict
+
+OBJECTIVES = ("peak_wall_force", "impulse", "mass")
+"""What a design minimises: the largest force on the bottom wall, the impulse it receives (∫ F dt over the run),
+or the protector's mass (the varying grains')."""
+DESIGN_KEYS = (
+    "vary",
+    "materials",
+    "radius",
+    "mirror",
+    "total_length",
+    "objective",
+    "population",
+    "generations",
+    "seed",
+    "sigma",
+)
+
+
+@dataclass(frozen=True)
+class DesignSpec:
+    """The ``[design]`` table, checked."""
+
+    vary: tuple[int, ...]
+    """Grains whose material (and radius) the optimizer chooses (default: every grain but the striker, 0)."""
+    materials: tuple[str, ...]
+    """The materials a varying grain may take."""
+    radius: tuple[float, float] | None = None
+    """Bounds (lo, hi) of a varying grain's radius ratio R/R0; None: radii as in the base scene."""
+    mirror: bool = False
+    """Grain vary[k] takes the genes of vary[n − 1 − k]: a protector symmetric about its middle."""
+    total_length: float | None = None
+    """Sum of the varying grains' diameters [length], kept by rescaling their radii within the bounds."""
+    objective: str = "peak_wall_force"
+    population: int = 64
+    generations: int = 50
+    seed: int = 0
+    sigma: float = 0.3
+    """CMA-ES step size, in units of a gene's range (a material gene's range is the number of choices − 1)."""
+
+    @property
+    def gene_grains(self) -> tuple[int, ...]:
+        """The varying grains that carry genes (the first half with ``mirror``)."""
+        return self.vary[: math.ceil(len(self.vary) / 2)] if self.mirror else self.vary
+
+    @property
+    def gene_names(self) -> list[str]:
+        """One name per gene: ``material[g]`` then ``radius[g]`` for each gene grain g."""
+        names = [f"material[{g}]" for g in self.gene_grains]
+        return names + ([f"radius[{g}]" for g in self.gene_grains] if self.radius else [])
+
+
+def load_design(path: str | Path, overrides: dict[str, Any] | None = None) -> tuple[Scene, DesignSpec]:
+    """(base scene, design) of a design file (``overrides`` replace ``[design]`` keys); bad input raises one line
+    (SceneError) before anything runs."""
+    data = read_toml(path)
+    for key in data:
+        if key not in ("scene", "design"):
+            raise SceneError(key, "(table)", "a design file holds [scene] and [design]")
+    if not isinstance(data.get("scene"), dict) or not isinstance(data.get("design"), dict):
+        raise SceneError("design", str(path), "needs a [scene] table (the base scene) and a [design] table")
+    scene = scene_from_dict(data["scene"])
+    return scene, check_design(scene, {**data["design"], **(overrides or {})})
+
+
+def check_design(scene: Scene, table: dict[str, Any]) -> DesignSpec:
+    """The ``[design]`` table as a DesignSpec for ``scene``, or one line (SceneError) naming the key."""
+    for key in table:
+        if key not in DESIGN_KEYS:
+            raise SceneError(f"design.{key}", table[key], f"unknown key; allowed: {', '.join(DESIGN_KEYS)}")
+    n = scene.chain.grains
+    if scene.boundary.bottom != "wall":
+        raise SceneError("scene.boundary.bottom", scene.boundary.bottom, 'must be "wall": the design reads its force')
+    if scene.boundary.surface != "free":
+        raise SceneError(
+            "scene.boundary.surface", scene.boundary.surface, 'must be "free": the chain must be able to leave the wall'
+        )
+    if scene.chain.gravity != 0 or scene.chain.load is not None:
+        raise SceneError(
+            "scene.chain.gravity",
+            scene.chain.gravity,
+            "must be 0 without a load: nothing may hold the chain on the wall",
+        )
+    if scene.chain.material is None:
+        raise SceneError("scene.chain.material", None, "is required: the base chain's materials (the striker's first)")
+    vary = table.get("vary", list(range(1, n)))
+    if not _int_list(vary) or not vary or len(set(vary)) != len(vary) or min(vary) < 0 or max(vary) >= n:
+        raise SceneError("design.vary", vary, f"must be distinct grain indices in 0 … {n - 1}")
+    known = [*MATERIALS, *(m.name for m in scene.materials)]
+    materials = table.get("materials")
+    if not isinstance(materials, list) or not materials or not all(isinstance(m, str) for m in materials):
+        raise SceneError("design.materials", materials, f"must be a list of material names ({', '.join(known)})")
+    for name in materials:
+        if name not in known:
+            raise SceneError("design.materials", name, f"not a material here; one of {', '.join(known)}")
+    spec = DesignSpec(vary=tuple(int(g) for g in vary), materials=tuple(materials), **_numbers(table))
+    _check_bounds(scene, spec)
+    return spec
+
+
+def _int_list(value) -> bool:
+    return isinstance(value, list) and all(isinstance(g, int) and not isinstance(g, bool) for g in value)
+
+
+def _numbers(table: dict[str, Any]) -> dict[str, Any]:
+    """The design's scalar keys, each checked."""
+    out: dict[str, Any] = {}
+    for key, low in (("population", 2), ("generations", 1)):
+        value = table.get(key, getattr(DesignSpec, key))
+        if not isinstance(value, int) or isinstance(value, bool) or value < low:
+            raise SceneError(f"design.{key}", value, f"must be a whole number ≥ {low}")
+        out[key] = value
+    seed = table.get("seed", 0)
+    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
+        raise SceneError("design.seed", seed, "must be a whole number ≥ 0")
+    sigma = table.get("sigma", DesignSpec.sigma)
+    if isinstance(sigma, bool) or not isinstance(sigma, (int, float)) or not 0 < sigma <= 1:
+        raise SceneError("design.sigma", sigma, "must be a number in (0, 1]")
+    objective = table.get("objective", "peak_wall_force")
+    if objective not in OBJECTIVES:
+        raise SceneError("design.objective", objective, f"one of {', '.join(OBJECTIVES)}")
+    mirror = table.get("mirror", False)
+    if not isinstance(mirror, bool):
+        raise SceneError("design.mirror", mirror, "must be true or false")
+    radius = table.get("radius")
+    if radius is not None:
+        ok = isinstance(radius, list) and len(radius) == 2 and all(_number(r) for r in radius)
+        if not ok or not 0 < radius[0] < radius[1] or not math.isfinite(radius[1]):
+            raise SceneError("design.radius", radius, "must be [lo, hi] with 0 < lo < hi (radius ratios R/R0)")
+        radius = (float(radius[0]), float(radius[1]))
+    length = table.get("total_length")
+    if length is not None and (not _number(length) or not length > 0):
+        raise SceneError("design.total_length", length, "must be a length > 0 (the varying grains' diameters)")
+    return {
+        **out,
+        "seed": seed,
+        "sigma": float(sigma),
+        "objective": objective,
+        "mirror": mirror,
+        "radius": radius,
+        "total_length": length,
+    }
+
+
+def _number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _check_bounds(scene: Scene, spec: DesignSpec) -> None:
+    """A total length the radius bounds cannot reach is refused."""
+    if spec.total_length is None:
+        return
+    if spec.radius is None:
+        raise SceneError("design.total_length", spec.total_length, "needs design.radius (the radii it rescales)")
+    diameter = scene.chain.diameter
+    lo, hi = (len(spec.vary) * diameter * r for r in spec.radius)
+    if not lo <= spec.total_length <= hi:
+        raise SceneError(
+            "design.total_length",
+            spec.total_length,
+            f"out of reach of the radius bounds: {len(spec.vary)} grains span {lo:g} … {hi:g}",
+        )
+
+
+# ---- genomes → scenes ---------------------------------------------------------------------------------------
+
+
+def candidate(scene: Scene, spec: DesignSpec, genes: np.ndarray) -> Scene:
+    """The scene of one genome: the base scene with the varying grains' materials (and radii) set."""
+    n = scene.chain.grains
+    from hertzian.core.materials import pattern_index
+
+    names, index = pattern_index(scene.chain.material, n)
+    materials = [names[i] for i in index]
+    count = len(spec.gene_grains)
+    choice = np.clip(np.rint(genes[:count]), 0, len(spec.materials) - 1).astype(int)
+    for k, g in enumerate(spec.vary):
+        materials[g] = spec.materials[choice[_gene_of(spec, k)]]
+    data = scene.to_dict()
+    data["chain"]["material"] = materials
+    if spec.radius is not None:
+        base = scene.chain.radius_ratios
+        ratios = np.ones(n) if base is None else np.array(base)
+        lo, hi = spec.radius
+        scaled = lo + np.clip(genes[count:], 0.0, 1.0) * (hi - lo)
+        ratios[list(spec.vary)] = [scaled[_gene_of(spec, k)] for k in range(len(spec.vary))]
+        if spec.total_length is not None:
+            ratios[list(spec.vary)] = _rescaled(ratios[list(spec.vary)], spec, scene.chain.diameter)
+        data["chain"]["radii"] = (0.5 * scene.chain.diameter * ratios).tolist()
+    return scene_from_dict(data)
+
+
+def _gene_of(spec: DesignSpec, k: int) -> int:
+    """The gene index of the k-th varying grain (mirrored: the first half's)."""
+    return min(k, len(spec.vary) - 1 - k) if spec.mirror else k
+
+
+def _rescaled(ratios: np.ndarray, spec: DesignSpec, diameter: float) -> np.ndarray:
+    """Ratios scaled to the total length within the bounds (clipped grains keep their bound, the rest take the
+    remainder; at most one pass per grain)."""
+    lo, hi = spec.radius
+    target = spec.total_length / diameter  # the ratios' sum
+    out = ratios.copy()
+    for _ in range(len(out) + 1):
+        free = (out > lo) & (out < hi) if np.any((out > lo) & (out < hi)) else np.ones(len(out), bool)
+        fixed = out[~free].sum()
+        scale = (target - fixed) / out[free].sum()
+        out[free] = np.clip(out[free] * scale, lo, hi)
+        if abs(out.sum() - target) <= 1e-12 * target:
+            break
+    return out
+
+
+# ---- evaluating a generation -------------------------------------------------------------------------------
+
+
+def probe_scene(scene: Scene) -> Scene:
+    """The scene as a design evaluates it: the bottom grain traced every step, u and v at the start and the end."""
+    n = scene.chain.grains
+    data = scene.to_dict()
+    data["record"] = {**data["record"], "traces": [n - 1], "trace_every": None, "fields": ["u", "v"], "every": None}
+    return scene_from_dict(data)
+
+
+LEFTOVER = 1.0
+"""A run has seen a candidate's peak once the energy still able to reach the wall at its end could not press on it
+harder than that peak (:func:`leftover_force` ≤ LEFTOVER × the peak); else the candidate's objective is infinite, so
+``integrator.duration`` must let the slowest design's pulse come back off the wall."""
+
+
+def leftover_force(scene: Scene, u: np.ndarray, v: np.ndarray) -> float:
+    """The largest force the energy left at displacements ``u`` and velocities ``v`` (N,) could put on the bottom
+    wall [force]: the kinetic energy of grains moving toward the wall, of neighbours closing on each other (their
+    relative motion, ½ μ Δv²) and the energy of compressed contacts, all put into the wall contact."""
+    from hertzian.core.static import static_state
+
+    st = static_state(scene)
+    n = scene.chain.exponent
+    toward = 0.5 * float(np.sum(st.mass * np.maximum(v, 0.0) ** 2))
+    reduced = st.mass[:-1] * st.mass[1:] / (st.mass[:-1] + st.mass[1:])
+    closing = 0.5 * float(np.sum(reduced * np.maximum(v[:-1] - v[1:], 0.0) ** 2))
+    overlaps = np.concatenate([st.static_overlap[1:-1] + u[:-1] - u[1:], [st.static_overlap[-1] + u[-1]]])
+    stored = float(np.sum(st.contact_constant[1:] * np.maximum(overlaps, 0.0) ** n))
+    wall = st.contact_constant[-1]
+    return n * wall * ((toward + closing + stored) / wall) ** ((n - 1.0) / n)
+
+
+def wall_forces(scene: Scene, trace_u: np.ndarray) -> np.ndarray:
+    """Force on the bottom wall at each trace sample of the bottom grain's displacement ``trace_u`` (S,) [force]."""
+    from hertzian.core.static import static_state
+
+    st = static_state(scene)
+    n = scene.chain.exponent
+    overlap = np.maximum(st.static_overlap[-1] + trace_u, 0.0)
+    return n * st.contact_constant[-1] * overlap ** (n - 1.0)
+
+
+def objectives(spec: DesignSpec, scenes: list[Scene], result) -> np.ndarray:
+    """The objective of each candidate of a run (``result`` of ``scenes``)."""
+    from hertzian.core.static import static_state
+
+    out = np.empty(len(scenes))
+    for c, scene in enumerate(scenes):
+        st = static_state(scene)
+        force = wall_forces(scene, result.traces["u"][c, :, 0])
+        transmitted = float(np.trapezoid(force - force[0], result.trace_t))
+        if spec.objective == "mass":
+            out[c] = float(st.mass[list(spec.vary)].sum())
+        elif spec.objective == "peak_wall_force":
+            out[c] = float(force.max())
+        else:
+            out[c] = transmitted
+        if leftover_force(scene, result.fields["u"][c, -1], result.fields["v"][c, -1]) > LEFTOVER * force.max():
+            out[c] = np.inf  # the chain may still press on the wall harder after the run: its peak is not known
+    out[result.status != 0] = np.inf  # a candidate that failed is never the best
+    return out
+
+
+def evaluate(scene: Scene, spec: DesignSpec, genomes: np.ndarray, device: str) -> np.ndarray:
+    """Objectives of ``genomes`` (P, genes): one ensemble run of every candidate."""
+    from hertzian.core.runner import run_ensemble
+
+    scenes = [probe_scene(candidate(scene, spec, g)) for g in genomes]
+    return objectives(spec, scenes, run_ensemble(scenes, device))
+
+
+# ---- the optimisation ---------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class DesignResult:
+    """What ``hertzian design`` and ``hz.design`` return."""
+
+    store: str
+    generations: int
+    best_objective: float
+    best_genome: list[float]
+    best_scene: dict
+    seconds: float
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def _optimizer(spec: DesignSpec):
+    """A new CMA-ES of the design (the cma package), seeded."""
+    import cma
+
+    materials = len(spec.gene_grains)
+    radii = materials if spec.radius else 0
+    top = max(len(spec.materials) - 1, 1)
+    x0 = [0.5 * (len(spec.materials) - 1)] * materials + [0.5] * radii
+    options = {
+        "seed": spec.seed + 1,  # cma reads seed 0 as "random"
+        "popsize": spec.population,
+        "bounds": [[0.0] * (materials + radii), [float(len(spec.materials) - 1)] * materials + [1.0] * radii],
+        "CMA_stds": [float(top)] * materials + [1.0] * radii,
+        "integer_variables": list(range(materials)),
+        "verbose": -9,
+    }
+    return cma.CMAEvolutionStrategy(x0, spec.sigma, options)
+
+
+def optimise(
+    scene: Scene,
+    spec: DesignSpec,
+    out: str | Path,
+    *,
+    device: str,
+    resume: bool = False,
+    progress: Callable[[int, int, float], None] | None = None,
+) -> DesignResult:
+    """Run (or resume) the design into the store ``out``; ``progress(generation, generations, best)`` after each."""
+    from hertzian.studies.design_store import best_of, create_store, open_for_resume, told, write_generation
+    from hertzian.sweeping.storage import resolved_link, store_lock
+
+    start = time.perf_counter()
+    with store_lock(resolved_link(out)):
+        if resume:
+            store, es, done = open_for_resume(out, scene, spec, _optimizer)
+        else:
+            store, es, done = create_store(out, scene, spec), _optimizer(spec), 0
+        for generation in range(done, spec.generations):
+            clock = time.perf_counter()
+            genomes = np.asarray(es.ask(), dtype=np.float64)
+            values = evaluate(scene, spec, genomes, device)
+            es.tell(list(genomes), [told(v) for v in values])
+            best = write_generation(store, generation, genomes, values, time.perf_counter() - clock)
+            if progress is not None:
+                progress(generation + 1, spec.generations, best)
+        best_value, best_genome = best_of(store)
+    best_scene = candidate(scene, spec, np.asarray(best_genome)).to_dict()
+    return DesignResult(
+        str(out), spec.generations, best_value, list(best_genome), best_scene, time.perf_counter() - start
+    )
+
+
+# ---- what a design found, against plain chains ------------------------------------------------------------
+
+
+def references(scene: Scene, spec: DesignSpec, best: Scene) -> dict[str, Scene]:
+    """The best design and plain protectors of the same length in each of the design's materials: ``uniform <m>``
+    (equal beads) and ``tapered <m>`` (radii falling linearly from the struck end to the wall, as far as the radius
+    bounds allow)."""
+    from hertzian.core.materials import pattern_index
+
+    n = scene.chain.grains
+    ratios = np.ones(n) if best.chain.radius_ratios is None else np.array(best.chain.radius_ratios)
+    vary = list(spec.vary)
+    mean = float(ratios[vary].mean())
+    names, index = pattern_index(scene.chain.material, n)
+    out = {"best": best}
+    for material in spec.materials:
+        for name, shape in (("uniform", np.zeros(len(vary))), ("tapered", np.linspace(0.5, -0.5, len(vary)))):
+            plain = ratios.copy()
+            plain[vary] = mean * (1.0 + shape * (0.8 if spec.radius is None else _span(spec, mean)))
+            materials = [names[i] for i in index]
+            for g in vary:
+                materials[g] = material
+            data = scene.to_dict()
+            data["chain"]["radii"] = (0.5 * scene.chain.diameter * plain).tolist()
+            data["chain"]["material"] = materials
+            out[f"{name} {material}"] = scene_from_dict(data)
+    return out
+
+
+def _span(spec: DesignSpec, mean: float) -> float:
+    """The relative spread of the tapered protector's radii: as wide as the radius bounds allow about ``mean``."""
+    lo, hi = spec.radius
+    return 2.0 * min(hi / mean - 1.0, 1.0 - lo / mean)
+
+
+def compare(store: str | Path, device: str) -> dict:
+    """The design store's best against uniform and tapered protectors of the same length in each of its materials:
+    each one's objective, peak wall force, transmitted impulse and protector mass, its wall-force trace, and the best
+    design itself."""
+    from hertzian.core.runner import run_scene as run
+    from hertzian.core.static import static_state
+    from hertzian.studies.design_store import read_design
+
+    data = read_design(store)
+    attrs = data["attrs"]
+    scene = scene_from_dict(attrs["scene"])
+    spec = check_design(scene, {k: v for k, v in attrs["design"].items() if v is not None})
+    best = candidate(scene, spec, data["best_genome"][-1])
+    chains = references(scene, spec, best)
+    rows, traces = {}, {}
+    longer = probe_scene(best.with_overrides({"integrator.duration": 2 * scene.integrator.duration}))
+    again = run(longer, device)
+    for name, chain in chains.items():
+        probe = probe_scene(chain)
+        result = run(probe, device)
+        force = wall_forces(probe, result.traces["u"][0, :, 0])
+        rows[name] = {
+            "peak_wall_force": float(force.max()),
+            "impulse": float(np.trapezoid(force - force[0], result.trace_t)),
+            "mass": float(static_state(chain).mass[list(spec.vary)].sum()),
+            "length": float(sum(2 * r for r in _radii(chain)[list(spec.vary)])),
+            "objective": float(objectives(spec, [probe], result)[0]),
+        }
+        traces[name] = (result.trace_t, force)
+    from datetime import datetime, timezone
+
+    return {
+        "store": Path(store).name,
+        "device": device,
+        "date": datetime.now(timezone.utc).date().isoformat(),
+        "package_version": attrs.get("package_version"),
+        "design": attrs["design"],
+        "design_seconds": float(np.sum(data["seconds"])),
+        "generations": len(data["best_objective"]),
+        "best_peak_at_twice_the_duration": float(wall_forces(longer, again.traces["u"][0, :, 0]).max()),
+        "best_objective": data["best_objective"].tolist(),
+        "median_objective": [
+            float(np.median(o[np.isfinite(o)])) if np.any(np.isfinite(o)) else None for o in data["objective"]
+        ],
+        "best_materials": list(best.chain.material),
+        "best_radii": _radii(best).tolist(),
+        "chains": rows,
+        "traces": traces,
+    }
+
+
+def _radii(scene: Scene) -> np.ndarray:
+    ratios = scene.chain.radius_ratios
+    return 0.5 * scene.chain.diameter * (np.ones(scene.chain.grains) if ratios is None else np.asarray(ratios))

@@ -1,0 +1,143 @@
+"""The Zarr store of a protector design (hertzian.studies.design): per generation every candidate's genome and
+objective, the best so far, and the optimizer's state (so that a run resumes where it stopped).
+
+Layout: ``genome`` (generation, candidate, gene), ``objective`` (generation, candidate), ``best_objective``
+(generation), ``best_genome`` (generation, gene) and ``seconds`` (generation: wall time), one chunk per generation; the root's attributes hold the design,
+the base scene, the gene names and ``generations_done``. A generation's rows are written before ``generations_done``
+counts it. A run resumes by replaying the stored generations into a new optimizer of the same seed (what it asks
+must be what the store holds, bit for bit), so a resumed design is the design run straight through."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, replace
+from pathlib import Path
+
+import numpy as np
+import zarr
+from hertzian._version import __version__
+from hertzian.core.errors import OptionError, SceneError
+from hertzian.sweeping.storage import PROJECT
+
+KIND = "design"
+SCHEMA_VERSION = 1
+ARRAYS = ("genome", "objective", "best_genome", "best_objective", "seconds")
+"""The store's arrays, each along ``generation`` first."""
+
+
+def spec_dict(spec) -> dict:
+    """A DesignSpec as plain data (JSON), the form a store keeps."""
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(spec).items()}
+
+
+def same_design(stored: dict, spec, scene, stored_scene: dict) -> str | None:
+    """Why a store cannot be resumed with ``spec`` and ``scene`` (the generations may grow), else None."""
+    now = spec_dict(replace(spec, generations=stored.get("generations", spec.generations)))
+    if json.dumps(now, sort_keys=True) != json.dumps(stored, sort_keys=True):
+        return "its [design] differs from this one (only design.generations may grow on resume)"
+    if json.dumps(scene.to_dict(), sort_keys=True) != json.dumps(stored_scene, sort_keys=True):
+        return "its base scene differs from this one"
+    return None
+
+
+def create_store(out: str | Path, scene, spec):
+    """A new design store at ``out`` (an existing hertzian store there is replaced: the caller checked it and holds
+    its lock)."""
+    import shutil
+
+    out = Path(out)
+    if out.exists():
+        shutil.rmtree(out)
+    root = zarr.open_group(out, mode="w")
+    genes, size, gens = len(spec.gene_names), spec.population, spec.generations
+    for name, shape, chunks, dims in (
+        ("genome", (gens, size, genes), (1, size, genes), ["generation", "candidate", "gene"]),
+        ("objective", (gens, size), (1, size), ["generation", "candidate"]),
+        ("best_genome", (gens, genes), (1, genes), ["generation", "gene"]),
+        ("best_objective", (gens,), (1,), ["generation"]),
+        ("seconds", (gens,), (1,), ["generation"]),
+    ):
+        root.create_array(name, shape=shape, chunks=chunks, dtype="float64", fill_value=np.nan, dimension_names=dims)
+    root.attrs.update(
+        {
+            "project": PROJECT,
+            "schema_version": SCHEMA_VERSION,
+            "kind": KIND,
+            "package_version": __version__,
+            "design": spec_dict(spec),
+            "scene": scene.to_dict(),
+            "genes": spec.gene_names,
+            "generations_done": 0,
+        }
+    )
+    return root
+
+
+def open_for_resume(out: str | Path, scene, spec, new_optimizer):
+    """(store, optimizer, generations done) of the design store at ``out``, grown to ``spec.generations``, the
+    optimizer (``new_optimizer(spec)``) told every stored generation; refused in one line when it is not a design
+    store, holds another design, or its generations do not replay."""
+    try:
+        root = zarr.open_group(out, mode="r+")
+    except Exception:  # noqa: BLE001 (whatever zarr raises for a missing or foreign folder)
+        raise OptionError("out", str(out), "is not a design store to resume") from None
+    attrs = root.attrs.asdict()
+    if attrs.get("kind") != KIND or attrs.get("project") != PROJECT:
+        raise OptionError("out", str(out), "is not a design store to resume")
+    why = same_design(attrs["design"], spec, scene, attrs["scene"])
+    if why:
+        raise OptionError("out", str(out), why)
+    done = int(attrs["generations_done"])
+    if spec.generations < done:
+        raise SceneError("design.generations", spec.generations, f"the store holds {done} generations already")
+    optimizer = new_optimizer(spec)
+    for generation in range(done):
+        genomes, values = root["genome"][generation], root["objective"][generation]
+        if not np.array_equal(np.asarray(optimizer.ask(), dtype=np.float64), genomes):
+            raise OptionError("out", str(out), f"generation {generation} does not replay (another optimizer version?)")
+        optimizer.tell(list(genomes), [told(v) for v in values])
+    for name in ARRAYS:
+        array = root[name]
+        array.resize((spec.generations, *array.shape[1:]))
+    root.attrs["design"] = {**attrs["design"], "generations": spec.generations}
+    return root, optimizer, done
+
+
+def told(value: float) -> float:
+    """What the optimizer is told of an objective: a failed candidate's infinity as a huge finite value."""
+    return value if math.isfinite(value) else 1e300
+
+
+def write_generation(root, generation: int, genomes: np.ndarray, values: np.ndarray, seconds: float) -> float:
+    """Store one generation (``seconds``: its wall time), then count it; returns the best objective so far."""
+    root["seconds"][generation] = seconds
+    root["genome"][generation] = genomes
+    root["objective"][generation] = values
+    previous = root["best_objective"][generation - 1] if generation else np.inf
+    k = int(np.argmin(values))
+    if values[k] < previous:
+        best, genome = float(values[k]), genomes[k]
+    else:
+        best, genome = float(previous), root["best_genome"][generation - 1]
+    root["best_objective"][generation] = best
+    root["best_genome"][generation] = genome
+    root.attrs["generations_done"] = generation + 1
+    return best
+
+
+def best_of(root) -> tuple[float, list[float]]:
+    """(best objective, its genome) over the generations done."""
+    done = int(root.attrs["generations_done"])
+    return float(root["best_objective"][done - 1]), root["best_genome"][done - 1].tolist()
+
+
+def read_design(path: str | Path) -> dict:
+    """A design store as plain data: its attributes and arrays over the generations done."""
+    root = zarr.open_group(path, mode="r")
+    attrs = root.attrs.asdict()
+    if attrs.get("kind") != KIND:
+        raise OptionError("store", str(path), "is not a design store (hertzian design writes one)")
+    done = int(attrs["generations_done"])
+    arrays = {name: root[name][:done] for name in ARRAYS}
+    return {"attrs": json.loads(json.dumps(attrs)), **arrays}

@@ -1,0 +1,173 @@
+"""Protector design (hertzian.studies.design): the stored best is a plain run of that design, bit for bit; the
+optimizer finds the optimum of a problem small enough to enumerate; a resumed design equals one run straight
+through; bad designs are refused in one line before anything runs."""
+
+from __future__ import annotations
+
+import itertools
+
+import hertzian as hz
+import numpy as np
+import pytest
+from hertzian.core.errors import SceneError
+from hertzian.studies.design import candidate, check_design, evaluate, load_design, objectives, optimise, probe_scene
+from hertzian.studies.design_store import read_design
+
+from tests.helpers import hertzian, make_scene
+
+BASE = dict(
+    chain={"grains": 8, "material": "stainless_steel"},
+    boundary={"surface": "free"},
+    excitation={"impact": 1e-2},
+    integrator={"dt": 2.5e-5, "duration": 2.0, "events": "off"},
+)
+DESIGN = {"materials": ["stainless_steel", "ptfe"], "radius": [0.7, 1.3], "population": 8, "generations": 3}
+
+
+def design_file(tmp_path, design: dict, chain: dict | None = None) -> str:
+    lines = ["[scene.chain]", f"grains = {(chain or BASE['chain'])['grains']}", 'material = "stainless_steel"']
+    lines += ["[scene.boundary]", 'surface = "free"', "[scene.excitation]", "impact = 1e-2"]
+    lines += ["[scene.integrator]", "dt = 2.5e-5", "duration = 2.0"]
+    lines += ['events = "off"', "[design]"]
+    lines += [
+        f"{k} = {repr(v).replace(chr(39), chr(34)).lower() if isinstance(v, bool) else _toml(v)}"
+        for k, v in design.items()
+    ]
+    path = tmp_path / "design.toml"
+    path.write_text("\n".join(lines) + "\n")
+    return str(path)
+
+
+def _toml(value) -> str:
+    if isinstance(value, str):
+        return f'"{value}"'
+    if isinstance(value, list):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    return repr(value)
+
+
+def test_the_stored_best_is_a_plain_run_of_that_design_bit_for_bit(tmp_path):
+    scene = make_scene(**BASE)
+    spec = check_design(scene, DESIGN)
+    result = optimise(scene, spec, tmp_path / "d.zarr", device="cpu")
+    stored = read_design(tmp_path / "d.zarr")
+    assert result.best_objective == stored["best_objective"][-1] == np.min(stored["objective"])
+    best = probe_scene(candidate(scene, spec, np.asarray(result.best_genome)))
+    alone = hz.run(best, "cpu")  # the design alone, as `hertzian run` runs it
+    assert objectives(spec, [best], alone)[0] == result.best_objective
+    assert np.all(np.diff(stored["best_objective"]) <= 0)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_optimizer_finds_the_optimum_of_an_enumerable_two_material_chain(seed, tmp_path):
+    """Nine beads of steel or PTFE behind a steel striker: 512 designs, every one run in one launch; CMA-ES with
+    32 candidates a generation finds the best of them within 8 generations (256 runs), whatever the seed."""
+    scene = make_scene(**{**BASE, "chain": {"grains": 10, "material": "stainless_steel"}})
+    spec = check_design(
+        scene, {"materials": ["stainless_steel", "ptfe"], "population": 32, "generations": 8, "seed": seed}
+    )
+    every = np.array(list(itertools.product([0.0, 1.0], repeat=9)))
+    values = evaluate(scene, spec, every, "cpu")
+    assert np.all(np.isfinite(values))
+    best = float(values.min())
+    assert np.sum(values == best) == 1  # one optimum
+    found = optimise(scene, spec, tmp_path / "d.zarr", device="cpu")
+    assert found.best_objective == best
+    np.testing.assert_array_equal(np.rint(found.best_genome), every[np.argmin(values)])
+
+
+def test_a_resumed_design_equals_one_run_straight_through(tmp_path):
+    path = design_file(tmp_path, DESIGN)
+    first = hertzian("design", path, "--out", tmp_path / "a.zarr", "--device", "cpu", "--generations", "2")
+    assert first.returncode == 0, first.stderr
+    more = hertzian("design", path, "--out", tmp_path / "a.zarr", "--device", "cpu", "--generations", "4", "--resume")
+    assert more.returncode == 0, more.stderr
+    straight = hertzian("design", path, "--out", tmp_path / "b.zarr", "--device", "cpu", "--generations", "4")
+    assert straight.returncode == 0, straight.stderr
+    a, b = read_design(tmp_path / "a.zarr"), read_design(tmp_path / "b.zarr")
+    for name in ("genome", "objective", "best_genome", "best_objective"):
+        np.testing.assert_array_equal(a[name], b[name], err_msg=name)
+    assert a["genome"].shape[0] == 4
+
+
+@pytest.mark.parametrize(
+    "change, key",
+    [
+        ({"radius": [0.0, 1.0]}, "design.radius"),
+        ({"materials": ["stainless_steel", "unobtainium"]}, "design.materials"),
+        ({"total_length": 5000.0}, "design.total_length"),
+        ({"vary": [0, 8]}, "design.vary"),
+        ({"population": 1}, "design.population"),
+        ({"objective": "fastest"}, "design.objective"),
+        ({"popsize": 10}, "design.popsize"),
+    ],
+)
+def test_bad_designs_are_one_line_and_write_nothing(tmp_path, change, key):
+    path = design_file(tmp_path, {**DESIGN, **change})
+    result = hertzian("design", path, "--out", tmp_path / "d.zarr", "--device", "cpu")
+    assert result.returncode == 2, result.stderr
+    assert result.stderr.startswith(f"error: {key} = ") and result.stderr.count("\n") == 1, result.stderr
+    assert not (tmp_path / "d.zarr").exists()
+    with pytest.raises(SceneError):
+        load_design(path)
+
+
+@pytest.mark.parametrize(
+    "change, key",
+    [
+        ({"boundary": {"surface": "free", "bottom": "free"}}, "scene.boundary.bottom"),
+        ({"boundary": {"surface": "wall"}}, "scene.boundary.surface"),
+        ({"chain": {"grains": 8, "material": "stainless_steel", "gravity": 1.0}}, "scene.chain.gravity"),
+    ],
+)
+def test_a_design_needs_a_wall_behind_a_chain_that_can_leave_it(change, key):
+    scene = make_scene(**{**BASE, **change})
+    with pytest.raises(SceneError, match=rf"^{key} = "):
+        check_design(scene, DESIGN)
+
+
+def test_the_total_length_is_kept_within_the_bounds():
+    scene = make_scene(**BASE)
+    spec = check_design(scene, {**DESIGN, "total_length": 7 * 100.0 * 1.2})
+    rng = np.random.default_rng(3)
+    for genes in rng.uniform(0, 1, (20, len(spec.gene_names))):
+        ratios = candidate(scene, spec, genes).chain.radius_ratios[1:]
+        assert ratios.sum() == pytest.approx(7 * 1.2, rel=1e-12)
+        assert ratios.min() >= 0.7 - 1e-12 and ratios.max() <= 1.3 + 1e-12
+
+
+def test_a_candidate_is_judged_only_once_its_peak_cannot_be_exceeded():
+    """A run cut while the chain still presses on the wall says nothing (infinite objective); once the energy left
+    could not press harder than the peak seen, that peak is the one a longer run finds."""
+    genes = None
+    values = {}
+    for duration in (0.08, 0.1, 0.3):
+        scene = make_scene(**{**BASE, "integrator": {"dt": 2.5e-5, "duration": duration, "events": "off"}})
+        spec = check_design(scene, DESIGN)
+        genes = np.full((1, len(spec.gene_names)), 0.5) if genes is None else genes
+        values[duration] = evaluate(scene, spec, genes, "cpu")[0]
+    assert np.isinf(values[0.08]) and np.isfinite(values[0.1])
+    assert values[0.1] == values[0.3]
+
+
+def test_plot_draws_a_design_store_and_writes_its_numbers(tmp_path):
+    import json
+
+    path = design_file(tmp_path, {**DESIGN, "generations": 2})
+    made = hertzian("design", path, "--out", tmp_path / "d.zarr", "--device", "cpu")
+    assert made.returncode == 0, made.stderr
+    drawn = hertzian("plot", tmp_path / "d.zarr", "--out", tmp_path / "d.png")
+    assert drawn.returncode == 0, drawn.stderr
+    assert (tmp_path / "d.png").stat().st_size > 10_000
+    numbers = json.loads((tmp_path / "d.json").read_text())
+    stored = read_design(tmp_path / "d.zarr")
+    assert numbers["chains"]["best"]["objective"] == stored["best_objective"][-1]
+    assert set(numbers["chains"]) == {
+        "best",
+        "uniform stainless_steel",
+        "tapered stainless_steel",
+        "uniform ptfe",
+        "tapered ptfe",
+    }
+    refused = hertzian("plot", tmp_path / "d.zarr", "--figure", "fig1", "--out", tmp_path / "e.png")
+    assert refused.returncode == 2 and refused.stderr.count("\n") == 1 and not (tmp_path / "e.png").exists()
