@@ -599,3 +599,25 @@ def test_claims_fig5_tails_row_is_its_record():
     larger = [100 * (echo["amplitude"][f"light/{r}"] / echo["amplitude"][f"heavy/{r}"] - 1) for r in rules]
     assert f"heavy {min(earlier):.2f}–{max(earlier):.2f} t.u. earlier (arrival at 5–50 % of the peak" in cell
     assert f"light {min(larger):.0f}–{max(larger):.0f} % larger" in cell
+
+
+def _range(cell: str, before: str, after: str) -> tuple[str, str]:
+    """The 'low–high' printed between ``before`` and ``after`` in ``cell``."""
+    inner = cell.split(before, 1)[1].split(after, 1)[0]
+    low, high = inner.split("–")
+    return low, high
+
+
+def test_claims_exponential_tails_row_is_its_record():
+    cell, _ = claims_row("exponential tails")
+    wall, load = measured("fig3"), measured("fig3_load")
+    tails = [t for v in wall.values() for t in v["tail"]]
+    low, high = _range(cell, "(R² ", ")")
+    assert agrees(low, min(t["r_squared"] for t in tails)) and agrees(high, max(t["r_squared"] for t in tails))
+    for group, before in ((wall, "λ = ("), (load, "; (")):
+        ratios = [t["decay_over_ct"] for v in group.values() for t in v["tail"]]
+        low, high = _range(cell, before, ")·c t")
+        assert agrees(low, min(ratios)) and agrees(high, max(ratios)), (before, ratios)
+    exponents = [v["decay_length_exponent"][0] for v in wall.values()]
+    low, high = _range(cell, "λ ∝ t^", " (")
+    assert agrees(low, min(exponents)) and agrees(high, max(exponents))
