@@ -621,3 +621,40 @@ def test_claims_exponential_tails_row_is_its_record():
     exponents = [v["decay_length_exponent"][0] for v in wall.values()]
     low, high = _range(cell, "λ ∝ t^", " (")
     assert agrees(low, min(exponents)) and agrees(high, max(exponents))
+
+
+def test_claims_fig2_row_is_its_record():
+    cell, _ = claims_row("Fig. 2(a)")
+    fig2 = measured("fig2")
+    ranges = [fig2[f"v_imp={v}"]["overlap_behind_head_over_head"] for v in ("0.1", "0.01", "0.001")]
+    printed = [f"{r['min']:.2f}–{r['max']:.2f}" for r in ranges]
+    assert f"{printed[0]} (v_imp = 0.1), {printed[1]} (1e-2), {printed[2]} (1e-3)" in cell
+    changes = record("reproduction/measurements.json")["comparisons"]["fig2_vs_fig1"]
+    text = ", ".join(
+        f"{changes[f'v_imp={v}']['relative_profile_change']:.2f} (v_imp = {v})" for v in ("0.1", "0.01", "0.001")
+    )
+    assert text in cell
+
+
+def test_claims_single_impurities_row_is_its_record():
+    cell, _ = claims_row("single impurities")
+    comparisons = record("reproduction/measurements.json")["comparisons"]
+    by_threshold = {
+        group: next(v for k, v in comparisons.items() if k.startswith(f"{group}_echo_by_threshold"))
+        for group in ("fig7_8_single", "fig5_single")
+    }
+    column = by_threshold["fig7_8_single"]  # [sign, arrival, amplitude, peak sign] per threshold
+    echoes = [
+        f"{column[f'light/{r}']['0.1'][2]:.4f} vs {column[f'heavy/{r}']['0.1'][2]:.4f} ({r})"
+        for r in ("harmonic", "own")
+    ]
+    assert "echo " + ", ".join(echoes) in cell
+    chain = by_threshold["fig5_single"]
+    earlier, larger = [], []
+    for rule in ("harmonic", "own"):
+        light, heavy = chain[f"light/{rule}"], chain[f"heavy/{rule}"]
+        earlier += [light[f][1] - heavy[f][1] for f in light]
+        larger += [100 * (light[f][2] / heavy[f][2] - 1) for f in light]
+    low, high = _range(cell, "toward the surface, heavy ", " t.u. earlier")
+    assert agrees(low, min(earlier)) and agrees(high, max(earlier))
+    assert f"light {min(larger):.0f}–{max(larger):.0f} % larger" in cell
