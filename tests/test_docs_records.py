@@ -658,3 +658,24 @@ def test_claims_single_impurities_row_is_its_record():
     low, high = _range(cell, "toward the surface, heavy ", " t.u. earlier")
     assert agrees(low, min(earlier)) and agrees(high, max(earlier))
     assert f"light {min(larger):.0f}–{max(larger):.0f} % larger" in cell
+
+
+def test_claims_fig5_caption_rows_are_their_record():
+    profiles = measured("fig5")["profiles"]
+    rules = ("harmonic", "own")
+    cell, _ = claims_row("Fig. 5 caption (a)")
+    light = [profiles[r]["reflected_tail"]["light"]["r_squared"] for r in rules]
+    heavy = [profiles[r]["reflected_tail"]["heavy"]["r_squared"] for r in rules]
+    assert f"R² = {light[0]:.2f} (harmonic) / {light[1]:.2f} (own) for light, {min(heavy):.2f}–{max(heavy):.2f}" in cell
+    rows = [cells for cells in table_rows("reproduction.md", "| claim (section)") if cells[0] == "Fig. 5 caption (b)"]
+    structure, compression = rows[0][2], rows[1][2]
+    shifts = [profiles[r]["shift_grains"] for r in rules]
+    aligned = [100 * profiles[r]["profile_difference_after_shift"] for r in rules]
+    assert f"different arrival ({min(shifts)}–{max(shifts)} grains)" in structure
+    assert f"tail ({min(aligned):.0f}–{max(aligned):.0f} % after aligning the fronts)" in structure
+    block = {k: [1e4 * profiles[r]["block_dynamic_overlap_max"][k] for r in rules] for k in ("heavy", "clean", "light")}
+    printed = {
+        k: f"{min(v):.1f}–{max(v):.1f}e-4" if f"{min(v):.1f}" != f"{max(v):.1f}" else f"{v[0]:.1f}e-4"
+        for k, v in block.items()
+    }
+    assert f"heavy {printed['heavy']}, clean {printed['clean']}, light {printed['light']}" in compression
