@@ -679,3 +679,30 @@ def test_claims_fig5_caption_rows_are_their_record():
         for k, v in block.items()
     }
     assert f"heavy {printed['heavy']}, clean {printed['clean']}, light {printed['light']}" in compression
+
+
+def test_claims_finite_g_and_nesterenko_rows_are_their_records():
+    cell, _ = claims_row("finite g")
+    runs = record("reproduction/finite_g.json")["runs"][0]["measurements"]
+    contrast = {
+        (g, grain): [runs[f"g={g}"][f"grain {grain}"]["light_heavy_contrast"][r] for r in ("harmonic", "own")]
+        for g in (0, 1)
+        for grain in (0, 100, 250)
+    }
+    deep0 = contrast[(0, 100)] + contrast[(0, 250)]
+    deep1 = contrast[(1, 100)] + contrast[(1, 250)]
+    assert f"contrast {min(deep0):.2f} (g = 0) against {min(deep1):.2f}–{max(deep1):.2f} (g = 1)" in cell
+    assert f"{max(deep0):.2f}" == f"{min(deep0):.2f}"  # one value printed for g = 0
+    surface0, surface1 = contrast[(0, 0)], contrast[(1, 0)]
+    assert (
+        f"{min(surface0):.2f}–{max(surface0):.2f} against {min(surface1):.2f}–{max(surface1):.2f} at the surface"
+        in cell
+    )
+    cell, verdict = claims_row("Nesterenko's soliton")
+    values = record("reproduction/daggers_cpu.json")["items"]["nesterenko"]["values"]
+    rows = values["dt=0.000125"]["rows"].values()
+    ratio = [r["speed_over_nesterenko"] for r in rows]
+    width = [r["fwhm_grains"] for r in rows]
+    assert f"speed = {min(ratio):.4f} × (2a/m)^(2/5) v_m^(1/5)" in cell and f"{max(ratio):.4f}" == f"{min(ratio):.4f}"
+    assert f"FWHM {min(width):.2f} grains vs {values['nesterenko_fwhm']:.2f}" in cell
+    assert f"to {100 * (1 - min(ratio)):.1f} % on the prefactor" in verdict
