@@ -33,9 +33,8 @@ def design(
 
     if resume and overwrite:
         fail("--resume = --overwrite: give one of them")
-    overrides = {k: v for k, v in (("generations", generations), ("population", population), ("seed", seed)) if v}
-    if seed == 0:
-        overrides["seed"] = 0
+    given = (("generations", generations), ("population", population), ("seed", seed))
+    overrides = {k: v for k, v in given if v is not None}
     with one_line_errors():
         scene, spec = load_design(shipped_file(path), overrides)
         check_out(out, overwrite=overwrite, resume=resume, hint="resume to continue it or overwrite to replace it")

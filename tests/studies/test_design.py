@@ -171,3 +171,10 @@ def test_plot_draws_a_design_store_and_writes_its_numbers(tmp_path):
     }
     refused = hertzian("plot", tmp_path / "d.zarr", "--figure", "fig1", "--out", tmp_path / "e.png")
     assert refused.returncode == 2 and refused.stderr.count("\n") == 1 and not (tmp_path / "e.png").exists()
+
+
+def test_a_bad_override_on_the_command_line_is_refused(tmp_path):
+    path = design_file(tmp_path, DESIGN)
+    result = hertzian("design", path, "--out", tmp_path / "d.zarr", "--device", "cpu", "--generations", "0")
+    assert result.returncode == 2 and result.stderr.startswith("error: design.generations = 0"), result.stderr
+    assert not (tmp_path / "d.zarr").exists()
