@@ -309,11 +309,14 @@ def plan_sweep(
 def work_cap(groups: "list[LaunchGroup] | tuple[LaunchGroup, ...]", kind: str, grains: int) -> int:
     """Most points of a batch whose work stays under ``LOST_WORK_SECONDS`` at ``SAFE_RATE[kind]`` or under
     ``LOST_WORK_FRACTION`` of the sweep, whichever is more (at least 1; on a GPU at least
-    ``GPU_FILL_GRAIN_THREADS`` grain-threads)."""
+    ``GPU_FILL_GRAIN_THREADS`` grain-threads; on a CPU at least one chain per thread of the chain kernel, so that
+    every core works)."""
+    from hertzian.core.solvers.chain import cpu_threads
+
     total = sum(g.grain_steps_per_chain * g.point_count for g in groups)
     budget = max(LOST_WORK_SECONDS * SAFE_RATE[kind], LOST_WORK_FRACTION * total)
     points = int(budget // max(1, max(g.grain_steps_per_chain for g in groups)))
-    floor = GPU_FILL_GRAIN_THREADS // max(1, grains) if kind == "cuda" else 1
+    floor = GPU_FILL_GRAIN_THREADS // max(1, grains) if kind == "cuda" else cpu_threads()
     return max(1, floor, points)
 
 

@@ -4,6 +4,7 @@ the store's estimate is checked against the free space, a second writer is refus
 a kill loses a bounded amount of work without changing a bit of the results."""
 
 import errno
+import math
 import shutil
 
 import numpy as np
@@ -11,6 +12,7 @@ import pytest
 import zarr
 import zarr.storage._local as zarr_local
 from hertzian.core.runner import run_scene
+from hertzian.core.solvers.chain import cpu_threads
 from hertzian.sweeping import planner, storage, sweep_store
 from hertzian.sweeping.integrity import verify_store
 from hertzian.sweeping.spec import load_sweep, sweep_from_dict, sweep_scenes
@@ -214,7 +216,20 @@ def test_a_long_sweep_is_cut_into_batches_a_kill_can_afford(kind):
     cap = planner.work_cap(groups, kind, 1000)
     limit = max(planner.LOST_WORK_SECONDS * planner.SAFE_RATE[kind], planner.LOST_WORK_FRACTION * plan.grain_steps)
     per_chain = groups[0].grain_steps_per_chain
-    floor = planner.GPU_FILL_GRAIN_THREADS // 1000 if kind == "cuda" else 1
+    floor = planner.GPU_FILL_GRAIN_THREADS // 1000 if kind == "cuda" else cpu_threads()
     assert cap * per_chain <= max(limit, floor * per_chain) < (cap + 1) * per_chain
     if kind == "cpu":
         assert len(plan.batches) >= 20 and max(plan.batch_grain_steps(b) for b in plan.batches) <= limit
+
+
+def test_a_long_cpu_sweep_keeps_every_core_busy():
+    """Six long chains (the Sec. VI column): each batch holds at least one chain per thread of the chain kernel,
+    though one chain alone is more work than a kill may cost."""
+    definition = sweep_from_dict(
+        {
+            "scene": {"chain": {"grains": 10000}, "integrator": {"dt": 1.25e-4, "duration": 1000.0}},
+            "axis": [{"name": "v_imp", "key": "excitation.impact", "linspace": [1e-3, 1e-1, 6]}],
+        }
+    )
+    plan = planner.plan_sweep(definition, None, "cpu")
+    assert min(math.prod(plan.block), 6) >= min(cpu_threads(), 6)
