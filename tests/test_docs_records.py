@@ -111,14 +111,9 @@ def test_the_cpu_disorder_energy_share_is_its_record():
     "heading, dt_name, half_name",
     [
         (
-            "The paper's 10 000-grain column to t = 1 000",
-            "reproduction/sec6_standing_h200.json",
-            "reproduction/sec6_standing_half_h200.json",
-        ),
-        (
-            "local wavelength; the statistic reported is",
-            "reproduction/sec6_standing_cpu.json",
-            "reproduction/sec6_standing_half_cpu.json",
+            "the share of the kinetic energy at ω says how much",
+            "reproduction/sec6_standing_full_cpu.json",
+            "reproduction/sec6_standing_full_half_cpu.json",
         ),
     ],
 )
@@ -144,6 +139,10 @@ def test_sec6_standing_tables_are_their_records(heading, dt_name, half_name):
             low, high = band.rstrip(")").split("–")
             assert agrees(median, at_dt[key]["null_median"]), null
             assert agrees(low, at_dt[key]["null_band"][0]) and agrees(high, at_dt[key]["null_band"][1]), null
+            shares = row[header.index("kinetic energy at ω (dt / dt/2)")].replace(" %", "").split(" / ")
+            assert agrees(shares[0], 100 * at_dt[key]["ke_share_drive"]), shares
+            assert agrees(shares[1], 100 * at_half[key]["ke_share_drive"]), shares
+            assert agrees(row[header.index("two-wave residual (dt)")], at_dt[key]["residual"])
 
 
 def test_sec6_lag_table_is_its_record():
