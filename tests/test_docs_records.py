@@ -705,3 +705,53 @@ def test_claims_finite_g_and_nesterenko_rows_are_their_records():
     assert f"speed = {min(ratio):.4f} × (2a/m)^(2/5) v_m^(1/5)" in cell and f"{max(ratio):.4f}" == f"{min(ratio):.4f}"
     assert f"FWHM {min(width):.2f} grains vs {values['nesterenko_fwhm']:.2f}" in cell
     assert f"to {100 * (1 - min(ratio)):.1f} % on the prefactor" in verdict
+
+
+def test_claims_echo_sign_row_is_its_record():
+    """The first lobe's share of the largest, and the thresholds up to which the leading sign is the predicted one
+    (light +, heavy −) in every case, with five impurities and with one."""
+    cell, _ = claims_row("echo sign")
+    five = [measured(g)["echo"] for g in ("fig7_8", "fig7_8_slow")]
+    lobes = {
+        grain: [h for echo in five for _, h in echo[f"grain {grain}"]["first_lobe (sign, height / largest)"].values()]
+        for grain in (0, 100, 250)
+    }
+    every = [h for hs in lobes.values() for h in hs]
+    deep = lobes[100] + lobes[250]
+    assert f"the first lobe is {100 * min(every):.0f}–{100 * max(every):.0f} % (five; " in cell
+    assert (
+        f"{100 * min(lobes[0]):.0f}–{100 * max(lobes[0]):.0f} % at the surface, {100 * min(deep):.0f}–{100 * max(deep):.0f} % at grains 100 and 250)"
+        in cell
+    )
+    comparisons = record("reproduction/measurements.json")["comparisons"]
+    single = [h for _, h in comparisons["fig7_8_single_first_lobe (sign, height / largest)"].values()]
+    assert f"and {100 * min(single):.0f}–{100 * max(single):.0f} % (single)" in cell
+
+    def agreeing(signs: dict) -> float:
+        """The largest threshold up to which every case reads the predicted sign."""
+        thresholds = sorted({float(f) for case in signs.values() for f in case})
+        good = [
+            t
+            for t in thresholds
+            if all(
+                (1 if k.startswith("light") else -1) == case[str(t) if str(t) in case else f"{t:g}"]
+                for k, case in signs.items()
+            )
+        ]
+        last = 0.0
+        for t in thresholds:
+            if t not in good:
+                break
+            last = t
+        return last
+
+    five_signs = {
+        f"{k}@{g}{grain}": v
+        for g, echo in enumerate(five)
+        for grain in (0, 100, 250)
+        for k, v in echo[f"grain {grain}"]["leading_sign_by_threshold"].items()
+    }
+    table = comparisons["fig7_8_single_echo_by_threshold (sign, arrival, amplitude, peak sign)"]
+    single_signs = {k: {f: row[0] for f, row in v.items()} for k, v in table.items()}
+    assert f"agrees for thresholds 5–{100 * agreeing(single_signs):.0f} % everywhere" in cell
+    assert f"and up to {100 * agreeing(five_signs):.0f} % with five impurities" in cell
