@@ -755,3 +755,35 @@ def test_claims_echo_sign_row_is_its_record():
     single_signs = {k: {f: row[0] for f, row in v.items()} for k, v in table.items()}
     assert f"agrees for thresholds 5–{100 * agreeing(single_signs):.0f} % everywhere" in cell
     assert f"and up to {100 * agreeing(five_signs):.0f} % with five impurities" in cell
+
+
+def test_claims_standing_waves_row_is_its_records():
+    """The H100 run's shape correlations over 12 000–84 000 steps, and the H200 lag run's correlations after 4 000
+    steps (averaged against instantaneous), after 800 steps (τ = 1), and how far dt/2 moves them."""
+    import numpy as np
+
+    cell, _ = claims_row("standing waves")
+    run = record("reproduction/fig9_10_h100.json")["runs"][0]
+    windows = {tau: [w for w in sw if "correlation" in w] for tau, sw in zip(run["taus"], run["standing_wave"])}
+    later = [c for w in windows[10.0] for c in w["correlation"][1:]]
+    assert f"≤ {max(later):.2f} (τ = 10)" in cell
+    first, last = max((w["correlation"][1], w["correlation"][-1]) for w in windows[1.0])
+    assert f"{first:.2f} → {last:.2f} (τ = 1)" in cell
+    runs = {r["name"]: r for r in record("reproduction/sec6_lag_h200.json")["runs"]}
+    lag, half = runs["sec6_lag"], runs["sec6_lag_dt_check"]
+    steps = np.array(lag["lag_steps_at_paper_dt"])
+    at = {k: np.array(v)[..., list(steps).index(4000)] for k, v in lag["correlation"].items()}
+    averaged = np.concatenate([at["averaged_v"].ravel(), at["averaged_ke"].ravel()])
+    instantaneous = np.concatenate([at["instantaneous_v"][0], at["instantaneous_ke"][0]])
+    assert f"correlate at {averaged.min():.2f}–{averaged.max():.2f} after 4 000 steps" in cell
+    assert f"at {instantaneous.min():.2f}–{instantaneous.max():.2f} (τ = 10)" in cell
+    late = steps >= 800
+    tau1 = [
+        max(np.array(r["correlation"][k])[1][:, late].max() for k in ("instantaneous_v", "instantaneous_ke"))
+        for r in (lag, half)
+    ]
+    assert f"at most {tau1[0]:.2f} from 800 steps on ({tau1[1]:.2f} at dt/2; τ = 1)" in cell
+    moved = max(
+        np.abs(np.array(lag["correlation"][k]) - np.array(half["correlation"][k])).max() for k in lag["correlation"]
+    )
+    assert f"dt/2 agrees to ≤ {moved:.2f}" in cell
