@@ -787,3 +787,28 @@ def test_claims_standing_waves_row_is_its_records():
         np.abs(np.array(lag["correlation"][k]) - np.array(half["correlation"][k])).max() for k in lag["correlation"]
     )
     assert f"dt/2 agrees to ≤ {moved:.2f}" in cell
+
+
+def test_claims_three_decades_row_is_its_records():
+    import numpy as np
+
+    cell, verdict = claims_row("three decades in time")
+    runs = {(r["drive_period"], r["A"]): r for r in record("drive/fig9_10_settle.json")["runs"]}
+    parts = [runs[(tau, 2.0)]["half_dt"]["trajectories_part_at"] for tau in (10.0, 1.0)]
+    assert f"dt and dt/2 part at t = {parts[0]:g} / {parts[1]:g}" in cell
+    windows = runs[(10.0, 2.0)]["windows"]
+    assert f"correlate at {np.nanmedian(windows['ke_correlation_next']):.2f} (τ = 10)" in cell
+    assert f"nodes drift {np.nanmedian(windows['node_drift']):.0f} grains a period" in cell
+    at_dt = {(p["tau"], p["A"]): p for p in record("reproduction/sec6_standing_full_cpu.json")["points"]}
+    at_half = {(p["tau"], p["A"]): p for p in record("reproduction/sec6_standing_full_half_cpu.json")["points"]}
+    for tau, a in ((10.0, 2.0), (10.0, 0.2), (10.0, 0.02), (1.0, 2.0), (1.0, 0.2), (1.0, 0.02)):
+        text = f"A = {a:g}: {at_dt[(tau, a)]['fraction']:.2f} / {at_half[(tau, a)]['fraction']:.2f}"
+        assert text in verdict, text
+    bands = [at_dt[(10.0, a)]["null_band"] for a in (2.0, 0.2)]
+    assert f"band ({min(b[0] for b in bands):.2f}–{max(b[1] for b in bands):.2f})" in verdict
+    shares = {key: 100 * p["ke_share_drive"] for key, p in at_dt.items()}
+    assert f"with {shares[(10.0, 2.0)]:.0f} % and {shares[(10.0, 0.2)]:.0f} % of the kinetic energy at ω" in verdict
+    assert f"{shares[(10.0, 0.02)]:.0f} % at ω" in verdict and f"{shares[(1.0, 0.02)]:.0f} % at ω" in verdict
+    low, high = sorted((shares[(1.0, 2.0)], shares[(1.0, 0.2)]))
+    assert f"with {low:.0f}–{high:.0f} % of the kinetic energy at ω" in verdict
+    assert all(at_dt[k]["verdict"] == at_half[k]["verdict"] for k in at_dt)  # "Every verdict survives dt/2"
