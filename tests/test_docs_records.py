@@ -812,3 +812,37 @@ def test_claims_three_decades_row_is_its_records():
     low, high = sorted((shares[(1.0, 2.0)], shares[(1.0, 0.2)]))
     assert f"with {low:.0f}–{high:.0f} % of the kinetic energy at ω" in verdict
     assert all(at_dt[k]["verdict"] == at_half[k]["verdict"] for k in at_dt)  # "Every verdict survives dt/2"
+
+
+def test_claims_time_step_row_is_its_record():
+    cell, verdict = claims_row("time step")
+    items = record("reproduction/daggers_cpu.json")["items"]
+    velocities = [items["fig4"]["values"]["dt_check"]["max_abs_dv_over_max_abs_v"]]
+    velocities += items["fig7_8_dt"]["values"]["max_abs_dv_over_max_abs_v (snapshots, per chain)"]
+    assert max(velocities) <= float(cell.split("agree to ≤ ")[1].split(" ")[0])
+    energy = items["drive_tau1_energy"]["values"]
+    for dt in ("1.25e-4", "1.25e-5"):
+        key = "dt=0.000125 step" if dt == "1.25e-4" else "dt=1.25e-05 auto"
+        balance = energy[key]["energy_balance_between_records"]
+        numbers = [*balance["change_percentiles (50, 90, 99 %)"], balance["largest_jump"]["relative"]]
+        where = "(median / 90 % / 99 % / largest) at dt = 1.25e-4" if dt == "1.25e-4" else "at 1.25e-5"
+        assert " / ".join(f"{v:.1e}".replace("e-0", "e-") for v in numbers) + f" {where}" in cell
+    coarse, fine = (energy[k]["energy_error_max"] for k in ("dt=0.000125 step", "dt=1.25e-05 auto"))
+    assert f"reaches {coarse:.1e} against {fine:.1e}".replace("e-0", "e-") in cell
+
+
+def test_every_docs_table_row_has_its_headers_cells():
+    """A '|' inside a cell splits it: every row of every table in docs/ has as many cells as its header."""
+    bad = []
+    for doc in sorted(DOCS.glob("*.md")):
+        width = None
+        for number, line in enumerate(doc.read_text().splitlines(), 1):
+            if not line.startswith("|"):
+                width = None
+                continue
+            cells = len(line.replace("\\|", "").strip().strip("|").split("|"))
+            if width is None:
+                width = cells
+            elif cells != width:
+                bad.append(f"{doc.name}:{number}")
+    assert not bad, bad
