@@ -440,7 +440,8 @@ def kinetic_energy_shares(point, first_window: int) -> dict:
     """Share of the window-averaged kinetic energy at each harmonic of the drive, summed over the column, median over
     the windows from ``first_window`` on: ½ m |V₀|² at k = 0 and ½ m |V_k|²/2 at k ≥ 1 (v = V₀ + Σ Re(V_k e^{ikωt}))
     over ``window_ke``. ``ke_share_other`` is the rest: the energy at frequencies that are not harmonics of the
-    drive (and the harmonics above the highest stored)."""
+    drive (and the harmonics above the highest stored). ``ke_share_null``: :func:`shuffled_share_bound`, and
+    ``ke_share_verdict`` whether the share at ω lies above it."""
     mass = np.asarray(point["mass"].values, dtype=float) if "mass" in point else point_scene_value(point, "chain.mass")
     response = np.asarray(point.response.values, dtype=complex)[first_window:]  # (window, harmonic, grain)
     ke = np.asarray(point.window_ke.values, dtype=float)[first_window:].sum(axis=-1)  # (window,)
@@ -448,7 +449,31 @@ def kinetic_energy_shares(point, first_window: int) -> dict:
     per_harmonic = (0.5 * mass * weight * np.abs(response) ** 2).sum(axis=-1) / ke[:, None]  # (window, harmonic)
     shares = np.nanmedian(per_harmonic, axis=0)
     other = np.nanmedian(1.0 - per_harmonic.sum(axis=1))
-    return {"ke_share_harmonics": shares.tolist(), "ke_share_drive": float(shares[1]), "ke_share_other": float(other)}
+    null = shuffled_share_bound(point)
+    return {
+        "ke_share_harmonics": shares.tolist(),
+        "ke_share_drive": float(shares[1]),
+        "ke_share_other": float(other),
+        "ke_share_null": null,
+        "ke_share_verdict": "above the null" if shares[1] > null else "not above the null",
+    }
+
+
+def shuffled_share_bound(point) -> float:
+    """The null of the share of kinetic energy at ω: what a grain's motion keeps at ω once its S samples in a window
+    are shuffled in time (which keeps its values and destroys any frequency). For S samples of mean μ and variance
+    σ², the shuffled V₁ = (2/S) Σ v_s e^(−iωt_s) has E|V₁|² = 4σ²/S, so its share ½ m E|V₁|²/2 over ½ m (μ² + σ²)
+    is 2σ²/(S (μ² + σ²)) ≤ 2/S, summed over the grains as well; this returns 2/S (S: the response samples of one
+    window, ``record.response_periods`` periods at ``response_stride_of``'s stride)."""
+    from hertzian.core.scene import response_stride_of
+
+    period_steps = round(
+        point_scene_value(point, "excitation.drive_period") / point_scene_value(point, "integrator.dt")
+    )
+    samples = (
+        int(point_scene_value(point, "record.response_periods")) * period_steps // response_stride_of([period_steps])
+    )
+    return 2.0 / samples
 
 
 def store_provenance(ds, store) -> dict:
