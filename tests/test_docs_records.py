@@ -143,6 +143,9 @@ def test_sec6_standing_tables_are_their_records(heading, dt_name, half_name):
             assert agrees(shares[0], 100 * at_dt[key]["ke_share_drive"]), shares
             assert agrees(shares[1], 100 * at_half[key]["ke_share_drive"]), shares
             assert agrees(row[header.index("two-wave residual (dt)")], at_dt[key]["residual"])
+            null = row[header.index("its null at dt (shuffled)")].replace(" %", "")
+            assert agrees(null, 100 * at_dt[key]["ke_share_null"]), null
+            assert at_dt[key]["ke_share_verdict"] == at_half[key]["ke_share_verdict"] == "above the null"
 
 
 def test_sec6_lag_table_is_its_record():
