@@ -253,13 +253,14 @@ harder than that peak (:func:`leftover_force` ≤ LEFTOVER × the peak); else th
 ``integrator.duration`` must let the slowest design's pulse come back off the wall."""
 
 
-def leftover_force(scene: Scene, u: np.ndarray, v: np.ndarray) -> float:
+def leftover_force(scene: Scene, u: np.ndarray, v: np.ndarray, st=None) -> float:
     """The largest force the energy left at displacements ``u`` and velocities ``v`` (N,) could put on the bottom
     wall [force]: the kinetic energy of grains moving toward the wall, of neighbours closing on each other (their
-    relative motion, ½ μ Δv²) and the energy of compressed contacts, all put into the wall contact."""
+    relative motion, ½ μ Δv²) and the energy of compressed contacts, all put into the wall contact. ``st``: the
+    scene's static state when the caller has it."""
     from hertzian.core.static import static_state
 
-    st = static_state(scene)
+    st = static_state(scene) if st is None else st
     n = scene.chain.exponent
     toward = 0.5 * float(np.sum(st.mass * np.maximum(v, 0.0) ** 2))
     reduced = st.mass[:-1] * st.mass[1:] / (st.mass[:-1] + st.mass[1:])
@@ -270,11 +271,12 @@ def leftover_force(scene: Scene, u: np.ndarray, v: np.ndarray) -> float:
     return n * wall * ((toward + closing + stored) / wall) ** ((n - 1.0) / n)
 
 
-def wall_forces(scene: Scene, trace_u: np.ndarray) -> np.ndarray:
-    """Force on the bottom wall at each trace sample of the bottom grain's displacement ``trace_u`` (S,) [force]."""
+def wall_forces(scene: Scene, trace_u: np.ndarray, st=None) -> np.ndarray:
+    """Force on the bottom wall at each trace sample of the bottom grain's displacement ``trace_u`` (S,) [force];
+    ``st``: the scene's static state when the caller has it."""
     from hertzian.core.static import static_state
 
-    st = static_state(scene)
+    st = static_state(scene) if st is None else st
     n = scene.chain.exponent
     overlap = np.maximum(st.static_overlap[-1] + trace_u, 0.0)
     return n * st.contact_constant[-1] * overlap ** (n - 1.0)
@@ -287,7 +289,7 @@ def objectives(spec: DesignSpec, scenes: list[Scene], result) -> np.ndarray:
     out = np.empty(len(scenes))
     for c, scene in enumerate(scenes):
         st = static_state(scene)
-        force = wall_forces(scene, result.traces["u"][c, :, 0])
+        force = wall_forces(scene, result.traces["u"][c, :, 0], st)
         transmitted = float(np.trapezoid(force - force[0], result.trace_t))
         if spec.objective == "mass":
             out[c] = float(st.mass[list(spec.vary)].sum())
@@ -295,7 +297,7 @@ def objectives(spec: DesignSpec, scenes: list[Scene], result) -> np.ndarray:
             out[c] = float(force.max())
         else:
             out[c] = transmitted
-        if leftover_force(scene, result.fields["u"][c, -1], result.fields["v"][c, -1]) > LEFTOVER * force.max():
+        if leftover_force(scene, result.fields["u"][c, -1], result.fields["v"][c, -1], st) > LEFTOVER * force.max():
             out[c] = np.inf  # the chain may still press on the wall harder after the run: its peak is not known
     out[result.status != 0] = np.inf  # a candidate that failed is never the best
     return out
@@ -467,5 +469,7 @@ def compare(store: str | Path, device: str) -> dict:
 
 
 def _radii(scene: Scene) -> np.ndarray:
-    ratios = scene.chain.radius_ratios
-    return 0.5 * scene.chain.diameter * (np.ones(scene.chain.grains) if ratios is None else np.asarray(ratios))
+    """Each grain's radius [length], as a store keeps it (hertzian.sweeping.grain_store)."""
+    from hertzian.sweeping.grain_store import grain_arrays
+
+    return grain_arrays([scene])["radius"][0]

@@ -13,7 +13,7 @@ from hertzian.core.errors import SceneError
 from hertzian.studies.design import candidate, check_design, evaluate, load_design, objectives, optimise, probe_scene
 from hertzian.studies.design_store import read_design
 
-from tests.helpers import hertzian, make_scene
+from tests.helpers import hertzian, make_scene, toml_text
 
 BASE = dict(
     chain={"grains": 8, "material": "stainless_steel"},
@@ -24,26 +24,11 @@ BASE = dict(
 DESIGN = {"materials": ["stainless_steel", "ptfe"], "radius": [0.7, 1.3], "population": 8, "generations": 3}
 
 
-def design_file(tmp_path, design: dict, chain: dict | None = None) -> str:
-    lines = ["[scene.chain]", f"grains = {(chain or BASE['chain'])['grains']}", 'material = "stainless_steel"']
-    lines += ["[scene.boundary]", 'surface = "free"', "[scene.excitation]", "impact = 1e-2"]
-    lines += ["[scene.integrator]", "dt = 2.5e-5", "duration = 2.0"]
-    lines += ['events = "off"', "[design]"]
-    lines += [
-        f"{k} = {repr(v).replace(chr(39), chr(34)).lower() if isinstance(v, bool) else _toml(v)}"
-        for k, v in design.items()
-    ]
+def design_file(tmp_path, design: dict) -> str:
+    """A design file of BASE and ``design``."""
     path = tmp_path / "design.toml"
-    path.write_text("\n".join(lines) + "\n")
+    path.write_text(toml_text({"scene": BASE, "design": design}))
     return str(path)
-
-
-def _toml(value) -> str:
-    if isinstance(value, str):
-        return f'"{value}"'
-    if isinstance(value, list):
-        return "[" + ", ".join(_toml(v) for v in value) + "]"
-    return repr(value)
 
 
 def test_the_stored_best_is_a_plain_run_of_that_design_bit_for_bit(tmp_path):
