@@ -17,6 +17,11 @@ The arithmetic is ``kernels/step.py``'s expression for expression (bitwise equal
 and predicted values, which are carried from the previous grain since ``x_out`` already holds its new
 ones. Traces are written inside the launch after each step k·stride, as the per-step kernel writes them.
 
+One chain on several threads: a launch may sweep a window of the chain, in an array of its own, and write back
+the grains far enough from the window's cut ends to be exact (a grain's step reads only its neighbours, so an
+error at a cut end travels one grain a step; ``launch_chain``). The window's bounds are launch values: no shape
+is compiled in.
+
 A composed method (yoshida4) sweeps the chain once per velocity-Verlet substep, each sweep with its
 substep's weight w (kernels/step.py's substep launches, in the same order; the in-place neighbour logic
 is the same per substep).
@@ -29,6 +34,7 @@ from hertzian.kernels.events import event_functions
 from hertzian.kernels.features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
 from hertzian.kernels.gear import nordsieck_functions, refuse_composed_extras, substep_weight_function
 from hertzian.kernels.physics import contact_functions, contact_parameters, damping_functions, product_rn
+from hertzian.kernels.threads import BARRIER_SPIN_LIMIT, barrier
 
 
 @functools.cache
@@ -106,14 +112,46 @@ def chain_kernel(features: Features):
         x: wp.array3d(dtype=real),
         c: int,
         step_new: int,
+        own_lo: int,
+        own_hi: int,
     ):
         # kernels/step.py's trace sample: (u, dt·v) of each traced grain after a step k·stride, ring slot k % length
         if step_new % trace_stride == 0:
             sample = (step_new / trace_stride) % trace_x.shape[2]
             for slot in range(traced_grain.shape[0]):
                 i = traced_grain[slot]
-                trace_x[0, c, sample, slot] = x[0, c, i]
-                trace_x[1, c, sample, slot] = x[1, c, i]
+                if i >= own_lo and i < own_hi:
+                    trace_x[0, c, sample, slot] = x[0, c, i]
+                    trace_x[1, c, sample, slot] = x[1, c, i]
+
+    @wp.func
+    def copy_grains(source: wp.array3d(dtype=real), target: wp.array3d(dtype=real), c: int, first: int, end: int):
+        for i in range(first, end):
+            for q in range(wp.static(Q)):
+                target[q, c, i] = source[q, c, i]
+
+    @wp.func
+    def exchange(
+        x_window: wp.array3d(dtype=real),
+        x_out: wp.array3d(dtype=real),
+        c: int,
+        window: wp.vec4i,
+        barrier_state: wp.array(dtype=wp.uint32),
+        parties: int,
+    ) -> bool:
+        # the owned grains next to each cut go out, the window's grains past each cut come in from the neighbour's
+        lo = window[0]
+        hi = window[1]
+        own_lo = window[2]
+        own_hi = window[3]
+        copy_grains(x_window, x_out, c, own_lo, wp.min(own_lo + (own_lo - lo), own_hi))
+        copy_grains(x_window, x_out, c, wp.max(own_hi - (hi - own_hi), own_lo), own_hi)
+        if not barrier(barrier_state, parties, wp.int64(BARRIER_SPIN_LIMIT)):
+            return False
+        copy_grains(x_out, x_window, c, lo, own_lo)
+        copy_grains(x_out, x_window, c, own_hi, hi)
+        # the next exchange writes what the neighbour has just read
+        return barrier(barrier_state, parties, wp.int64(BARRIER_SPIN_LIMIT))
 
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def chain_steps(
@@ -139,22 +177,41 @@ def chain_kernel(features: Features):
         trace_stride: int,
         trace_x: wp.array4d(dtype=real),
         first_chain: int,
+        window: wp.vec4i,
+        x_window: wp.array3d(dtype=real),
+        exchange_every: int,
+        barrier_state: wp.array(dtype=wp.uint32),
+        parties: int,
     ):
+        # window = (lo, hi, own_lo, own_hi): grains [lo, hi) are swept in x_window, and [own_lo, own_hi) of them
+        # written to x_out (the whole chain: x_window is x_out, and nothing is copied back). Only the sweep's
+        # copy in x_window is written in place; what other windows read or write (x_out, the dissipated energy,
+        # traces, the clock, the driver's work) is written for owned grains only
         c = wp.tid() + first_chain
         n_grains = x_in.shape[2]
-        if c == 0:
+        lo = window[0]
+        hi = window[1]
+        own_lo = window[2]
+        own_hi = window[3]
+        windowed = hi - lo < n_grains
+        if c == 0 and own_lo == 0:
             clock_out[0] = clock_in[0] + steps
-        for i in range(n_grains):
+        for i in range(lo, hi):
             for q in range(wp.static(Q)):
-                x_out[q, c, i] = x_in[q, c, i]
+                x_window[q, c, i] = x_in[q, c, i]
         if wp.static(DRIVEN):
-            work_out[c] = work_in[c]
-            power_out[c] = power_in[c]
+            if lo == 0:
+                work_out[c] = work_in[c]
+                power_out[c] = power_in[c]
         if status[c] == wp.static(STATUS_NON_FINITE):
             # a blown-up chain is frozen (its trace samples repeat the frozen state, as in kernels/step.py)
             if wp.static(TRACES):
                 for _frozen in range(steps):
-                    write_traces(trace_x, traced_grain, trace_stride, x_out, c, clock_in[0] + _frozen + 1)
+                    write_traces(
+                        trace_x, traced_grain, trace_stride, x_window, c, clock_in[0] + _frozen + 1, own_lo, own_hi
+                    )
+            if windowed:
+                copy_grains(x_window, x_out, c, own_lo, own_hi)
             return
 
         n = real(0)
@@ -182,22 +239,22 @@ def chain_kernel(features: Features):
             w = substep_weight(_step % wp.static(SUBSTEPS))
             # compensated float32: positions as (hi, lo) for the contacts (kernels/gear.py)
             if wp.static(COMPOSED):
-                position_here = substep_predicted_at(x_out, c, 0, w)
+                position_here = substep_predicted_at(x_window, c, lo, w)
             else:
-                position_here = predicted_at(x_out, c, 0)
+                position_here = predicted_at(x_window, c, lo)
             if wp.static(DRIVEN):
                 # kernels/step.py's driven grain 0: prescribed u_0, and the driver's work (state at t_n)
                 step_new = step_first + _step + 1
                 t_new = wp.float64(step_new) * dt
                 u_drive = product_rn(amplitude, wp.sin(omega * t_new))
                 t_old = wp.float64(step_new - 1) * dt
-                d_old = x_out[0, c, 0] - x_out[0, c, 1]
+                d_old = x_window[0, c, 0] - x_window[0, c, 1]
                 force_old = wp.float64(
                     contact(static_overlap, contact_constant, c, 1, d_old, a_c0, delta00, force00, n)
                 )
                 if wp.static(DASHPOT):
                     # the driver also pushes through the dashpot of its contact (work includes it)
-                    rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old)) - x_out[1, c, 1]
+                    rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old)) - x_window[1, c, 1]
                     p01 = params(static_overlap, contact_constant, exponent, c, 1)
                     force_old += wp.float64(dashpot(p01[0], d_old, rate_old, damping[c], h))
                 power = force_old * amplitude * omega * wp.cos(omega * t_old)
@@ -208,15 +265,16 @@ def chain_kernel(features: Features):
                     work = work + dt * wp.float64(0.5) * (power_prev + power)
                 power_prev = power
                 x1_drive = real(dt * amplitude * omega * wp.cos(omega * t_new))
-                position_here = nordsieck.exact_position(u_drive)
+                if lo == 0:  # else grain lo is no driven grain, and a wrong position there would reach a grain further
+                    position_here = nordsieck.exact_position(u_drive)
                 if wp.static(EVENTS):
                     driver_old = driver_values(amplitude, omega, t_old, dt)
             if wp.static(EVENTS):
                 u_above = real(0)  # predicted position of the grain above (0: the wall)
-                above_old = values_t()  # its Nordsieck vector at t_n (already overwritten in x_out)
+                above_old = values_t()  # its Nordsieck vector at t_n (already overwritten in x_window)
             force_above = real(0)  # excess force of the contact above the current grain
             if wp.static(DASHPOT):
-                # the grain above at t_n and predicted (its x_out values are already overwritten)
+                # the grain above at t_n and predicted (its x_window values are already overwritten)
                 above_u = real(0)
                 above_u_old = real(0)
                 above_rate = real(0)
@@ -239,16 +297,16 @@ def chain_kernel(features: Features):
                     force_above = contact(
                         static_overlap, contact_constant, c, 0, -rounded(position_here), a_c0, delta00, force00, n
                     )
-            for i in range(n_grains):
+            for i in range(lo, hi):
                 u_here = rounded(position_here)
                 position_next = position_here
                 u_next = real(0)
                 force_below = real(0)
                 if i < last:
                     if wp.static(COMPOSED):
-                        position_next = substep_predicted_at(x_out, c, i + 1, w)
+                        position_next = substep_predicted_at(x_window, c, i + 1, w)
                     else:
-                        position_next = predicted_at(x_out, c, i + 1)
+                        position_next = predicted_at(x_window, c, i + 1)
                     u_next = rounded(position_next)
                     force_below = contact(
                         static_overlap,
@@ -283,19 +341,19 @@ def chain_kernel(features: Features):
                 if wp.static(FIXED):
                     held = i == last
                 if wp.static(EVENTS):
-                    own_old = nordsieck.load(x_out, c, i)
+                    own_old = nordsieck.load(x_window, c, i)
                 if wp.static(DASHPOT):
-                    own_u = predicted_position(x_out, c, i)
-                    own_u_old = x_out[0, c, i]
-                    own_rate_dash = predicted_rate(x_out, c, i)
-                    own_rate_dash_old = x_out[1, c, i]
+                    own_u = predicted_position(x_window, c, i)
+                    own_u_old = x_window[0, c, i]
+                    own_rate_dash = predicted_rate(x_window, c, i)
+                    own_rate_dash_old = x_window[1, c, i]
                 if wp.static(DRIVEN):
                     if i == 0:
                         held = True
-                        x_out[0, c, 0] = real(u_drive)
-                        x_out[1, c, 0] = x1_drive
+                        x_window[0, c, 0] = real(u_drive)
+                        x_window[1, c, 0] = x1_drive
                         for k in range(2, wp.static(Q)):
-                            x_out[k, c, 0] = real(0)
+                            x_window[k, c, 0] = real(0)
                 if not held:
                     m_inv = inv_m
                     if wp.static(HETERO):
@@ -305,10 +363,10 @@ def chain_kernel(features: Features):
                     if wp.static(DAMPED):
                         # step.py's damping block: forces at the predicted velocities, the loss power's
                         # trapezoid (t_n exact, t_n+1 predicted) per grain; grain i's old values are still in
-                        # x_out, grain i+1's too, grain i-1's are carried (above_*)
+                        # x_window, grain i+1's too, grain i-1's are carried (above_*)
                         gamma = damping[c]
-                        own_rate = predicted_rate(x_out, c, i)
-                        own_rate_old = x_out[1, c, i]
+                        own_rate = predicted_rate(x_window, c, i)
+                        own_rate_old = x_window[1, c, i]
                         loss_old = real(0)
                         loss_new = real(0)
                         if wp.static(VISCOUS):
@@ -322,10 +380,10 @@ def chain_kernel(features: Features):
                                 d_new = u_here
                                 d_old_b = own_u_old
                                 if i < last:
-                                    below_rate = predicted_rate(x_out, c, i + 1)
-                                    below_rate_old = x_out[1, c, i + 1]
-                                    d_new = u_here - predicted_position(x_out, c, i + 1)
-                                    d_old_b = own_u_old - x_out[0, c, i + 1]
+                                    below_rate = predicted_rate(x_window, c, i + 1)
+                                    below_rate_old = x_window[1, c, i + 1]
+                                    d_new = u_here - predicted_position(x_window, c, i + 1)
+                                    d_old_b = own_u_old - x_window[0, c, i + 1]
                                 delta0_below = params(static_overlap, contact_constant, exponent, c, i + 1)[0]
                                 f_new = dashpot(delta0_below, d_new, own_rate - below_rate, gamma, h)
                                 down += f_new
@@ -360,18 +418,19 @@ def chain_kernel(features: Features):
                                         delta0_above, a_u_old - own_u_old, a_rate_old - own_rate_old, gamma, h
                                     )
                                     loss_old += f_old_a * (a_rate_old - own_rate_old) / h
-                        dissipated[c, i] = dissipated[c, i] + dt * wp.float64(0.5) * (
-                            wp.float64(loss_old) + wp.float64(loss_new)
-                        )
+                        if i >= own_lo and i < own_hi:
+                            dissipated[c, i] = dissipated[c, i] + dt * wp.float64(0.5) * (
+                                wp.float64(loss_old) + wp.float64(loss_new)
+                            )
                     half_h2_acc = real(0.5) * h * h * (up - down) * m_inv
                     if wp.static(VISCOUS):
-                        half_h2_acc -= real(0.5) * h * damping[c] * predicted_rate(x_out, c, i)  # h²/2 · (−γ v)
+                        half_h2_acc -= real(0.5) * h * damping[c] * predicted_rate(x_window, c, i)  # h²/2 · (−γ v)
                     if wp.static(EVENTS):
                         # kernels/step.py's event test and event step, on the same data
                         below = values_t()
                         has_below = wp.static(BOTTOM_WALL)
                         if i < last:
-                            below = nordsieck.load(x_out, c, i + 1)
+                            below = nordsieck.load(x_window, c, i + 1)
                             has_below = True
                         has_above = wp.static(SURFACE_WALL)
                         if i > 0:
@@ -395,17 +454,17 @@ def chain_kernel(features: Features):
                             )
                         if flagged:
                             nordsieck.store(
-                                x_out,
+                                x_window,
                                 c,
                                 i,
                                 event_step(own_old, above_old, below, has_above, has_below, p_above, p_below, m_inv, h),
                             )
                         else:
-                            correct(x_out, x_out, c, i, u_here, half_h2_acc)
+                            correct(x_window, x_window, c, i, u_here, half_h2_acc)
                     elif wp.static(COMPOSED):
-                        substep_correct(x_out, x_out, c, i, u_here, half_h2_acc, w)
+                        substep_correct(x_window, x_window, c, i, u_here, half_h2_acc, w)
                     else:
-                        correct(x_out, x_out, c, i, u_here, half_h2_acc)
+                        correct(x_window, x_window, c, i, u_here, half_h2_acc)
                 force_above = force_below
                 if wp.static(DASHPOT):
                     above_u = own_u
@@ -424,13 +483,29 @@ def chain_kernel(features: Features):
                 if wp.static(COMPOSED):
                     if _step % wp.static(SUBSTEPS) == wp.static(SUBSTEPS - 1):
                         write_traces(
-                            trace_x, traced_grain, trace_stride, x_out, c, clock_in[0] + _step / wp.static(SUBSTEPS) + 1
+                            trace_x,
+                            traced_grain,
+                            trace_stride,
+                            x_window,
+                            c,
+                            clock_in[0] + _step / wp.static(SUBSTEPS) + 1,
+                            own_lo,
+                            own_hi,
                         )
                 else:
-                    write_traces(trace_x, traced_grain, trace_stride, x_out, c, clock_in[0] + _step + 1)
+                    write_traces(
+                        trace_x, traced_grain, trace_stride, x_window, c, clock_in[0] + _step + 1, own_lo, own_hi
+                    )
+            if windowed:
+                if (_step + 1) % exchange_every == 0 and _step + 1 < passes:
+                    if not exchange(x_window, x_out, c, window, barrier_state, parties):
+                        return
         if wp.static(DRIVEN):
-            work_out[c] = work
-            power_out[c] = power_prev
+            if lo == 0:
+                work_out[c] = work
+                power_out[c] = power_prev
+        if windowed:
+            copy_grains(x_window, x_out, c, own_lo, own_hi)
 
     return chain_steps
 
@@ -461,6 +536,11 @@ def launch_chain(
     trace_stride: int,
     trace_x,
     chains: tuple[int, int] | None = None,
+    window: tuple[int, int, int, int] | None = None,
+    x_window=None,
+    exchange_every: int = 1 << 30,
+    barrier_state=None,
+    parties: int = 1,
 ):
     """Launch ``steps`` steps of the chain kernel for chains ``chains = (first, end)`` (default: all), one
     kernel thread per chain.
@@ -471,8 +551,20 @@ def launch_chain(
     ``drive`` (chains, 2), ``work_*``/``power_*`` (chains,): the model's and states' arrays (size 0 undriven);
     ``damping`` (chains,) γ and ``dissipated`` (chains, grains), updated in place (size 0 undamped);
     ``traced_grain`` (traced,), ``trace_stride`` and the ring ``trace_x`` (2, chains, length, traced): traces
-    (unused, size 0, without them)."""
+    (unused, size 0, without them).
+
+    ``window = (lo, hi, own_lo, own_hi)`` with ``x_window`` (an array shaped as ``x_out``, this launch's own) sweeps
+    only grains [lo, hi) in ``x_window`` and writes grains [own_lo, own_hi) to ``x_out``. An error from a cut end of
+    [lo, hi) travels one grain a pass (a step, or a substep of a composed method), so with ``lo − own_lo`` and
+    ``hi − own_hi`` at least ``exchange_every`` where there is a cut, ``parties`` such launches running at once on
+    as many threads, one per window, exchange the grains next to their cuts every ``exchange_every`` passes
+    (through ``x_out``, two :func:`hertzian.kernels.threads.barrier` waits on ``barrier_state``) and together take
+    the steps of the whole chain (:class:`hertzian.core.solvers.chain.ChainSolver`). Default: the whole chain, swept
+    in ``x_out``."""
     first, end = chains if chains is not None else (0, x_in.shape[1])
+    grains = x_in.shape[2]
+    if window is None:
+        window, x_window = (0, grains, 0, grains), x_out
     wp.launch(
         kernel,
         dim=end - first,
@@ -501,6 +593,11 @@ def launch_chain(
             trace_stride,
             trace_x,
             first,
+            wp.vec4i(*window),
+            x_window,
+            exchange_every,
+            barrier_state,
+            parties,
         ],
         device=device,
     )

@@ -127,3 +127,107 @@ def test_sweep_writes_trace_samples_inside_the_launch_as_the_per_step_kernel():
     np.testing.assert_array_equal(ring, reference.current.traces.numpy())
     np.testing.assert_array_equal(end.x.numpy(), reference.current.x.numpy())
     assert np.max(np.abs(ring[:, 0])) > 0 and np.max(np.abs(ring[:, 1])) > 0
+
+
+WINDOW_CASES = {
+    # name: (scene sections, steps until the pulse has reached the far end)
+    **{
+        short: (CASES[name][0], CASES[name][3])
+        for short, name in (
+            ("walls", "walls, padded lanes"),
+            ("gear6", "gear6, full lanes"),
+            ("fixed bottom, impurities, gravity", "windows, fixed bottom, impurities, gravity"),
+            ("verlet, exponent 2, surface load", "verlet, exponent 2, surface load"),
+            ("float32, events", "float32, walls, padded lanes, events"),
+        )
+    },
+    "free ends": (
+        dict(chain={"grains": 24}, boundary={"surface": "free", "bottom": "free"}, integrator={"dt": 5e-4}),
+        3501,
+    ),
+    "yoshida4": (dict(chain={"grains": 48, "l0": 1e-4}, integrator={"method": "yoshida4", "dt": 5e-4}), 6001),
+}
+
+
+def windowed_solver(model, monkeypatch, windows: int, window_steps: int = 1) -> ChainSolver:
+    """A chain solver that cuts each chain into ``windows`` (as many cores, at least twice as many threads as
+    chains), exchanging every ``window_steps`` steps, even on launches too small to be split by default."""
+    from hertzian.core.solvers import chain as chain_module
+
+    monkeypatch.setattr(chain_module, "MIN_GRAIN_STEPS_TO_SPLIT", 0)
+    monkeypatch.setattr(chain_module, "WINDOW_STEPS", window_steps)
+    monkeypatch.setattr(chain_module, "usable_cores", lambda: windows)
+    solver = ChainSolver(model, threads=max(windows, 2 * model.chain_count))
+    assert len(solver.windows) == windows, solver.windows
+    return solver
+
+
+@pytest.mark.parametrize("case", list(WINDOW_CASES))
+def test_chain_cut_into_windows_changes_no_bit(case, monkeypatch):
+    """One chain on two threads: windows that trade the grains next to their cut every step (the least reach) or
+    every 2 steps give the per-step kernel's bits, over runs that carry the pulse across the cut to the bottom."""
+    sections, steps = WINDOW_CASES[case]
+    model = build_model(chains(1, **sections), "cpu")
+    want = per_step(model, steps)
+    u = np.abs(want[0, 0])
+    assert u[-2] > 1e-3 * u.max()  # the pulse reached the far end
+    for window_steps in (1, 2):
+        solver = windowed_solver(model, monkeypatch, 2, window_steps)
+        start, scratch = model.state_pair()
+        end = solver.advance(start, scratch, steps)
+        assert end.clock.numpy()[0] == steps
+        np.testing.assert_array_equal(end.x.numpy(), want)
+
+
+def test_windows_of_driven_damped_traced_chains_change_no_bit(monkeypatch):
+    """Two driven chains with a dashpot and traces, each cut in two: the records, the driver's work, the
+    dissipated energy and the trace rings are the per-step kernel's bit for bit (each written by one window)."""
+    from tests.kernels.test_fused_features import TRACE_RECORD, assert_same_run, driven_scenes
+
+    scenes = driven_scenes(traces=True, damping={"model": "contact", "gamma": 0.8}, integrator={"events": "off"})
+    assert TRACE_RECORD["traces"]
+    model = build_model(scenes, "cpu")
+    want = Runner(model, kernel="step", use_graph=False).run()
+    windowed_solver(model, monkeypatch, 2, 2)  # the runner's solver is built the same way
+    monkeypatch.setenv("HERTZIAN_CPU_THREADS", str(2 * model.chain_count))
+    runner = Runner(model, kernel="chain")
+    assert len(runner.solver.windows) == 2
+    got = runner.run()
+    assert_same_run(got, want)
+    np.testing.assert_array_equal(got.dissipated, want.dissipated)
+    assert np.max(np.abs(want.work)) > 0 and np.max(want.dissipated) > 0
+
+
+def test_windows_need_chains_long_enough_to_cut():
+    from hertzian.core.solvers.chain import MIN_WINDOW_GRAINS, chain_windows
+
+    assert chain_windows(1000, 2, 16) == [(0, 516, 0, 500), (484, 1000, 500, 1000)]
+    assert chain_windows(1000, 3, 16) == [(0, 350, 0, 334), (318, 683, 334, 667), (651, 1000, 667, 1000)]
+    assert chain_windows(2 * MIN_WINDOW_GRAINS * 16, 2, 16) != []
+    assert chain_windows(2 * MIN_WINDOW_GRAINS * 16 - 1, 2, 16) == []
+    assert chain_windows(1000, 1, 16) == []
+
+
+def test_a_window_left_alone_at_its_barrier_gives_up():
+    """kernels/threads.py's barrier: a party whose partner never comes sets the abort flag after its spin limit and
+    returns False, instead of hanging; two parties pass it."""
+    import threading
+
+    import warp as wp
+    from hertzian.kernels.threads import barrier
+
+    @wp.kernel(module="unique")
+    def meet(state: wp.array(dtype=wp.uint32), parties: int, passed: wp.array(dtype=wp.int32), me: int):
+        if barrier(state, parties, wp.int64(100000)):
+            passed[me] = 1
+
+    state = wp.zeros(3, dtype=wp.uint32, device="cpu")
+    passed = wp.zeros(2, dtype=wp.int32, device="cpu")
+    wp.launch(meet, 1, [state, 2, passed, 0], device="cpu")
+    assert passed.numpy().tolist() == [0, 0] and state.numpy()[2] == 1
+    state.zero_()
+    other = threading.Thread(target=lambda: wp.launch(meet, 1, [state, 2, passed, 1], device="cpu"))
+    other.start()
+    wp.launch(meet, 1, [state, 2, passed, 0], device="cpu")
+    other.join()
+    assert passed.numpy().tolist() == [1, 1] and state.numpy().tolist() == [0, 1, 0]

@@ -4,6 +4,13 @@ A Warp CPU launch runs on one OS thread. The solver splits the chains into conti
 CPU thread (``HERTZIAN_CPU_THREADS``, default: the cores this process may use), and launches them at
 once from a small Python thread pool (Warp releases the GIL while a CPU kernel runs); every chain is
 integrated by one thread with the same arithmetic, so the results do not depend on the split.
+
+Fewer chains than threads: each chain is cut into overlapping windows, one launch per thread, all running at
+once. A window sweeps its grains in an array of its own and, every ``WINDOW_STEPS`` steps, trades the grains next to
+its cuts with its neighbours (kernels/cpu.py, a barrier in kernels/threads.py). It reaches ``WINDOW_STEPS`` ×
+substeps grains past each cut, which no error from the cut can cross between two trades (a grain's step reads only
+its neighbours). Every grain a window owns has the arithmetic of the whole-chain sweep, so the results do not
+depend on the cut either.
 """
 
 from __future__ import annotations
@@ -23,6 +30,13 @@ MIN_GRAIN_STEPS_TO_SPLIT = 1 << 20
 """A launch of fewer grain-steps runs whole on the calling thread: handing ranges to the pool costs more
 than such a launch's kernel time (~1e8 grain-steps/s per core: 1e6 grain-steps ≈ 10 ms)."""
 
+WINDOW_STEPS = 16
+"""Steps between two exchanges of the grains next to the cuts when chains are cut into windows. Each window sweeps
+WINDOW_STEPS × substeps grains more at each cut; an exchange costs two barriers (~0.1 µs each) and the copies."""
+
+MIN_WINDOW_GRAINS = 4
+"""A window writes back at least this many times the grains it sweeps at one cut end: shorter chains stay whole."""
+
 
 def cpu_threads() -> int:
     """Threads for the CPU chain kernel: ``HERTZIAN_CPU_THREADS`` if set (≥ 1), else the cores this process may use."""
@@ -35,6 +49,11 @@ def cpu_threads() -> int:
         if count < 1:
             raise ValueError(f"HERTZIAN_CPU_THREADS = {value!r}: must be a whole number ≥ 1")
         return count
+    return usable_cores()
+
+
+def usable_cores() -> int:
+    """The cores this process may use (its CPU affinity on Linux)."""
     try:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # not Linux
@@ -65,47 +84,88 @@ class ChainSolver(Solver):
 
     kind = "chain"
 
-    def __init__(self, model: Model, config: SolverConfig = CHAIN, *, threads: int | None = None):
+    def __init__(
+        self,
+        model: Model,
+        config: SolverConfig = CHAIN,
+        *,
+        threads: int | None = None,
+        window_steps: int | None = None,
+    ):
         super().__init__(model, config)
         self.kernel = chain_kernel(self.kernel_features)
         traced = model.scenes[0].record.traces if model.features.traces else []
         self.traced_grain = wp.array(np.asarray(traced, dtype=np.int32), dtype=wp.int32, device=model.device)
         self.trace_stride = model.scenes[0].trace_stride if model.features.traces else 1
-        self.ranges = chain_ranges(model.chain_count, threads or cpu_threads())
+        threads = threads or cpu_threads()
+        window_steps = window_steps or WINDOW_STEPS
+        self.ranges = chain_ranges(model.chain_count, threads)
         """The chain ranges launched at once (one per thread)."""
-        self.pool = _pool(len(self.ranges) - 1) if len(self.ranges) > 1 else None
+        parts = min(threads, usable_cores()) if 2 * model.chain_count <= threads else 1
+        self.windows = chain_windows(model.grain_count, parts, window_steps * self.kernel_features.substeps)
+        """(lo, hi, own_lo, own_hi) of each window of a chain cut over the threads, or [] (whole chains): when the
+        chains would leave half the threads idle. A thread sweeps one window of every chain; the windows wait for
+        each other, so there are never more than cores."""
+        self.exchange_every = window_steps * self.kernel_features.substeps
+        """Passes (sweeps of a window) between two exchanges of the grains next to the cuts."""
+        shape = (self.kernel_features.values, model.chain_count, model.grain_count)
+        self.window_x = [wp.zeros(shape, dtype=model.real, device=model.device) for _ in self.windows]
+        """Each window's own sweep array."""
+        self.barrier_state = wp.zeros(3, dtype=wp.uint32, device=model.device)
+        """The windows' barrier: arrivals, generation, abort flag (kernels/threads.py)."""
+        parallel = max(len(self.ranges), len(self.windows))
+        self.pool = _pool(parallel - 1) if parallel > 1 else None
+
+    def _launch(self, state_in: State, state_out: State, steps: int, chains: tuple[int, int], window: int | None):
+        m = self.model
+        windowed = window is not None
+        launch_chain(
+            self.kernel,
+            x_in=state_in.x,
+            clock_in=state_in.clock,
+            inverse_mass=m.inverse_mass,
+            contact_constant=m.contact_constant,
+            static_overlap=m.static_overlap,
+            exponent=m.exponent,
+            status=state_in.status,
+            dt=m.dt,
+            steps=steps,
+            x_out=state_out.x,
+            clock_out=state_out.clock,
+            device=m.device,
+            drive=m.drive,
+            work_in=state_in.work,
+            power_in=state_in.power,
+            work_out=state_out.work,
+            power_out=state_out.power,
+            damping=m.damping,
+            dissipated=state_in.dissipated,
+            traced_grain=self.traced_grain,
+            trace_stride=self.trace_stride,
+            trace_x=state_in.traces,
+            chains=chains,
+            window=self.windows[window] if windowed else None,
+            x_window=self.window_x[window] if windowed else None,
+            exchange_every=self.exchange_every,
+            barrier_state=self.barrier_state,
+            parties=len(self.windows),
+        )
 
     def launch(self, state_in: State, state_out: State, steps: int) -> None:
         m = self.model
 
-        def run(chains: tuple[int, int]) -> None:
-            launch_chain(
-                self.kernel,
-                x_in=state_in.x,
-                clock_in=state_in.clock,
-                inverse_mass=m.inverse_mass,
-                contact_constant=m.contact_constant,
-                static_overlap=m.static_overlap,
-                exponent=m.exponent,
-                status=state_in.status,
-                dt=m.dt,
-                steps=steps,
-                x_out=state_out.x,
-                clock_out=state_out.clock,
-                device=m.device,
-                drive=m.drive,
-                work_in=state_in.work,
-                power_in=state_in.power,
-                work_out=state_out.work,
-                power_out=state_out.power,
-                damping=m.damping,
-                dissipated=state_in.dissipated,
-                traced_grain=self.traced_grain,
-                trace_stride=self.trace_stride,
-                trace_x=state_in.traces,
-                chains=chains,
-            )
+        def run(chains: tuple[int, int], window: int | None = None) -> None:
+            self._launch(state_in, state_out, steps, chains, window)
 
+        if self.windows and m.grain_count * steps >= MIN_GRAIN_STEPS_TO_SPLIT:
+            every = (0, m.chain_count)
+            others = [self.pool.submit(run, every, w) for w in range(1, len(self.windows))]
+            run(every, 0)
+            for future in others:
+                future.result()
+            if self.barrier_state.numpy()[2]:
+                raise RuntimeError("the chain kernel's windows lost each other (a thread waited minutes at a barrier)")
+            return
         if self.pool is None or m.chain_count * m.grain_count * steps < MIN_GRAIN_STEPS_TO_SPLIT:
             run((0, m.chain_count))
             return
@@ -113,3 +173,15 @@ class ChainSolver(Solver):
         run(self.ranges[0])  # this thread takes the first range
         for future in others:
             future.result()
+
+
+def chain_windows(grains: int, parts: int, reach: int) -> list[tuple[int, int, int, int]]:
+    """``parts`` windows (lo, hi, own_lo, own_hi) cutting a chain of ``grains``: the owned ranges tile the chain
+    evenly and each window reaches ``reach`` grains past its owned range on each side that has a neighbour. []
+    when ``parts`` < 2 or an owned range would be shorter than MIN_WINDOW_GRAINS × ``reach``."""
+    if parts < 2 or grains < parts * MIN_WINDOW_GRAINS * reach:
+        return []
+    windows = []
+    for first, end in chain_ranges(grains, parts):
+        windows.append((max(0, first - reach), min(grains, end + reach), first, end))
+    return windows
