@@ -168,8 +168,9 @@ def design(
     **overrides: Any,
 ):
     """Run ``hertzian design``: the design file ``path`` (``overrides`` replace its ``[design]`` keys, e.g.
-    ``generations=10``) into the store ``out``; returns a ``DesignResult`` (best objective, genome and scene). Bad
-    input raises one line (OptionError, SceneError) before anything runs."""
+    ``generations=10``) into the store ``out``; returns a ``DesignResult`` (best objective, genome and scene; with
+    several objectives, the Pareto front). Bad input raises one line (OptionError, SceneError) before anything
+    runs."""
     from hertzian.studies.design import load_design, optimise
     from hertzian.sweeping.storage import check_out
 

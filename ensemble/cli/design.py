@@ -23,8 +23,9 @@ def design(
     overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing design store.")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the result as one JSON object.")] = False,
 ):
-    """Minimise the peak force on the wall behind a chain (or the impulse, or the mass) over the materials and radii
-    of the grains a design file names, by CMA-ES: every generation is one ensemble run of all its candidates.
+    """Minimise the peak force on the wall behind a chain (or the impulse, or the mass, or several of them: their
+    Pareto front) over the materials and radii of the grains a design file names, by CMA-ES or a genetic algorithm: every
+    generation is one ensemble run of all its candidates.
 
     docs/design.md describes the design file and the store."""
     from hertzian.core.shipped import shipped_file
@@ -44,13 +45,15 @@ def design(
     if as_json:
         typer.echo(json.dumps(result.to_dict()))
         return
+    front = f"; Pareto front of {len(result.pareto_objectives)} designs" if len(spec.objective) > 1 else ""
     typer.echo(
-        f"{spec.generations} generations of {spec.population} on {dev}: best {spec.objective} "
-        f"{result.best_objective:.6g} ({result.seconds:.1f} s)"
+        f"{spec.generations} generations of {spec.population} ({spec.optimizer}) on {dev}: best {spec.objective[0]} "
+        f"{result.best_objective:.6g}{front} ({result.seconds:.1f} s)"
     )
     typer.echo(f"wrote {out}")
 
 
-def _progress(generation: int, generations: int, best: float) -> None:
-    """One line a generation on stderr."""
-    print(f"generation {generation}/{generations}: best {best:.6g}", file=sys.stderr, flush=True)
+def _progress(generation: int, generations: int, best) -> None:
+    """One line a generation on stderr: each objective's best so far."""
+    text = ", ".join(f"{value:.6g}" for value in best)
+    print(f"generation {generation}/{generations}: best {text}", file=sys.stderr, flush=True)

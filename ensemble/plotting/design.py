@@ -1,7 +1,7 @@
 """The picture of a protector design store (``hertzian plot DESIGN.zarr``): how the best objective fell over the
 generations, the best protector drawn bead by bead (size to scale, colour by material), and the force on the wall
 behind it against uniform and tapered protectors of the same length in each of its materials
-(hertzian.studies.design.compare)."""
+(hertzian.studies.design.compare); with several objectives, every candidate and the Pareto front of the first two."""
 
 from __future__ import annotations
 
@@ -20,8 +20,11 @@ def plot_design(summary: dict, out: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (conv, beads, force) = plt.subplots(3, 1, figsize=(9, 10), gridspec_kw={"height_ratios": [1, 0.6, 1.2]})
-    objective = summary["design"]["objective"].replace("_", " ")
+    front = "pareto" in summary
+    ratios = [1, 0.6, 1.2] + ([1.2] if front else [])
+    fig, axes = plt.subplots(len(ratios), 1, figsize=(9, 10 + 3.5 * front), gridspec_kw={"height_ratios": ratios})
+    conv, beads, force = axes[:3]
+    objective = summary["objectives"][0].replace("_", " ")
     generations = np.arange(1, summary["generations"] + 1)
     conv.plot(generations, summary["best_objective"], label="best so far")
     median = [np.nan if m is None else m for m in summary["median_objective"]]
@@ -37,6 +40,8 @@ def plot_design(summary: dict, out: Path) -> None:
     force.set_yscale("symlog", linthresh=1e-3)
     force.set_title("the wall's force: best design against plain protectors of the same length")
     force.legend(fontsize=8)
+    if front:
+        _draw_front(axes[3], summary)
     fig.tight_layout()
     fig.savefig(out, dpi=DPI)
     plt.close(fig)
@@ -61,3 +66,14 @@ def _draw_beads(ax, materials: list[str], radii: list[float]) -> None:
     handles = [ax.plot([], [], "o", color=COLOURS[i % len(COLOURS)], label=n)[0] for i, n in enumerate(names)]
     ax.legend(handles=handles, loc="upper left", fontsize=8, ncol=len(names))
     ax.set_title("best protector")
+
+
+def _draw_front(ax, summary: dict) -> None:
+    """Every finite candidate in the plane of the first two objectives, and the Pareto front."""
+    x, y = (name.replace("_", " ") for name in summary["objectives"][:2])
+    every = np.asarray(summary["candidates"])
+    ax.scatter(every[:, 0], every[:, 1], s=6, alpha=0.3, label="every candidate")
+    front = np.asarray([p["objectives"] for p in summary["pareto"]])
+    ax.plot(front[:, 0], front[:, 1], "o-", color="k", ms=4, label=f"Pareto front ({len(front)} designs)")
+    ax.set(xlabel=x, ylabel=y, xscale="log", title="Pareto front")
+    ax.legend(fontsize=8)

@@ -1,11 +1,11 @@
 """Protector design: which beads, of which materials and sizes, transmit the smallest peak force to the wall behind
-them (Fraternali, Porter & Daraio, Mech. Adv. Mater. Struct. 17, 1 (2010)), by CMA-ES over a whole population per
-launch.
+them (Fraternali, Porter & Daraio, Mech. Adv. Mater. Struct. 17, 1 (2010)), by CMA-ES or a genetic algorithm
+(hertzian.studies.design_optimizers) over a whole population per launch; with several objectives, their Pareto front.
 
 A design file holds a base scene (``[scene]``: the striker is grain 0, struck at ``excitation.impact``; the bottom is a
 wall) and a ``[design]`` table: the grains that vary, the materials they may take, the bounds of their radii
-(r = R/R0), optional mirror symmetry and a fixed total length, the objective, the population, the generations and
-the seed. Every generation is one ensemble run of all its candidates (``hertzian.core.runner.run_ensemble``), stored in a Zarr store
+(r = R/R0), optional mirror symmetry and a fixed total length, the objectives, the optimizer, the population, the
+generations and the seed. Every generation is one ensemble run of all its candidates (``hertzian.core.runner.run_ensemble``), stored in a Zarr store
 with its genomes and objectives; a run resumes where it stopped (the stored generations replayed into an optimizer of
 the same seed) and a seed reproduces it. The genes: one per varying grain for its material (an integer, the index into ``materials``), and with
 ``radius`` one per varying grain for its radius ratio (scaled to [0, 1]); with ``mirror`` only the first half of the
@@ -24,6 +24,7 @@ import numpy as np
 from hertzian.core.errors import SceneError
 from hertzian.core.materials import MATERIALS
 from hertzian.core.scene import Scene, read_toml, scene_from_dict
+from hertzian.studies.design_optimizers import OPTIMIZERS, new_optimizer, pareto_front
 
 OBJECTIVES = ("peak_wall_force", "impulse", "mass")
 """What a design minimises: the largest force on the bottom wall, the impulse it receives (∫ F dt over the run),
@@ -35,6 +36,7 @@ DESIGN_KEYS = (
     "mirror",
     "total_length",
     "objective",
+    "optimizer",
     "population",
     "generations",
     "seed",
@@ -56,12 +58,21 @@ class DesignSpec:
     """Grain vary[k] takes the genes of vary[n − 1 − k]: a protector symmetric about its middle."""
     total_length: float | None = None
     """Sum of the varying grains' diameters [length], kept by rescaling their radii within the bounds."""
-    objective: str = "peak_wall_force"
+    objective: tuple[str, ...] = ("peak_wall_force",)
+    """What the design minimises (OBJECTIVES); several: their Pareto front."""
+    optimizer: str = "cma"
+    """cma (one objective) | ga (hertzian.studies.design_optimizers); default: cma for one objective, else ga."""
     population: int = 64
     generations: int = 50
     seed: int = 0
-    sigma: float = 0.3
-    """CMA-ES step size, in units of a gene's range (a material gene's range is the number of choices − 1)."""
+    sigma: float | None = None
+    """CMA-ES step size, in units of a gene's range (a material gene's range is the number of choices − 1); None:
+    0.3 (cma). The genetic algorithm takes none."""
+
+    @property
+    def step_size(self) -> float:
+        """CMA-ES's step size: ``sigma``, or 0.3."""
+        return 0.3 if self.sigma is None else self.sigma
 
     @property
     def gene_grains(self) -> tuple[int, ...]:
@@ -138,12 +149,23 @@ def _numbers(table: dict[str, Any]) -> dict[str, Any]:
     seed = table.get("seed", 0)
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         raise SceneError("design.seed", seed, "must be a whole number ≥ 0")
-    sigma = table.get("sigma", DesignSpec.sigma)
-    if isinstance(sigma, bool) or not isinstance(sigma, (int, float)) or not 0 < sigma <= 1:
-        raise SceneError("design.sigma", sigma, "must be a number in (0, 1]")
     objective = table.get("objective", "peak_wall_force")
-    if objective not in OBJECTIVES:
-        raise SceneError("design.objective", objective, f"one of {', '.join(OBJECTIVES)}")
+    names = [objective] if isinstance(objective, str) else objective
+    if not isinstance(names, list) or not names or len(set(map(str, names))) != len(names):
+        raise SceneError("design.objective", objective, f"one or a list of distinct ones of {', '.join(OBJECTIVES)}")
+    for name in names:
+        if name not in OBJECTIVES:
+            raise SceneError("design.objective", name, f"one of {', '.join(OBJECTIVES)}")
+    optimizer = table.get("optimizer", "cma" if len(names) == 1 else "ga")
+    if optimizer not in OPTIMIZERS:
+        raise SceneError("design.optimizer", optimizer, f"one of {', '.join(OPTIMIZERS)}")
+    if optimizer == "cma" and len(names) > 1:
+        raise SceneError("design.optimizer", optimizer, 'takes one objective; several need "ga" (a Pareto front)')
+    sigma = table.get("sigma")
+    if sigma is not None and optimizer != "cma":
+        raise SceneError("design.sigma", sigma, "is CMA-ES's step size; ga takes none")
+    if sigma is not None and (isinstance(sigma, bool) or not isinstance(sigma, (int, float)) or not 0 < sigma <= 1):
+        raise SceneError("design.sigma", sigma, "must be a number in (0, 1]")
     mirror = table.get("mirror", False)
     if not isinstance(mirror, bool):
         raise SceneError("design.mirror", mirror, "must be true or false")
@@ -159,8 +181,9 @@ def _numbers(table: dict[str, Any]) -> dict[str, Any]:
     return {
         **out,
         "seed": seed,
-        "sigma": float(sigma),
-        "objective": objective,
+        "sigma": None if sigma is None else float(sigma),
+        "objective": tuple(names),
+        "optimizer": optimizer,
         "mirror": mirror,
         "radius": radius,
         "total_length": length,
@@ -283,20 +306,19 @@ def wall_forces(scene: Scene, trace_u: np.ndarray, st=None) -> np.ndarray:
 
 
 def objectives(spec: DesignSpec, scenes: list[Scene], result) -> np.ndarray:
-    """The objective of each candidate of a run (``result`` of ``scenes``)."""
+    """The objectives (candidates, spec.objective) of each candidate of a run (``result`` of ``scenes``)."""
     from hertzian.core.static import static_state
 
-    out = np.empty(len(scenes))
+    out = np.empty((len(scenes), len(spec.objective)))
     for c, scene in enumerate(scenes):
         st = static_state(scene)
         force = wall_forces(scene, result.traces["u"][c, :, 0], st)
-        transmitted = float(np.trapezoid(force - force[0], result.trace_t))
-        if spec.objective == "mass":
-            out[c] = float(st.mass[list(spec.vary)].sum())
-        elif spec.objective == "peak_wall_force":
-            out[c] = float(force.max())
-        else:
-            out[c] = transmitted
+        values = {
+            "peak_wall_force": float(force.max()),
+            "impulse": float(np.trapezoid(force - force[0], result.trace_t)),
+            "mass": float(st.mass[list(spec.vary)].sum()),
+        }
+        out[c] = [values[name] for name in spec.objective]
         if leftover_force(scene, result.fields["u"][c, -1], result.fields["v"][c, -1], st) > LEFTOVER * force.max():
             out[c] = np.inf  # the chain may still press on the wall harder after the run: its peak is not known
     out[result.status != 0] = np.inf  # a candidate that failed is never the best
@@ -304,7 +326,7 @@ def objectives(spec: DesignSpec, scenes: list[Scene], result) -> np.ndarray:
 
 
 def evaluate(scene: Scene, spec: DesignSpec, genomes: np.ndarray, device: str) -> np.ndarray:
-    """Objectives of ``genomes`` (P, genes): one ensemble run of every candidate."""
+    """Objectives (P, objectives) of ``genomes`` (P, genes): one ensemble run of every candidate."""
     from hertzian.core.runner import run_ensemble
 
     scenes = [probe_scene(candidate(scene, spec, g)) for g in genomes]
@@ -316,7 +338,8 @@ def evaluate(scene: Scene, spec: DesignSpec, genomes: np.ndarray, device: str) -
 
 @dataclass(frozen=True)
 class DesignResult:
-    """What ``hertzian design`` and ``hz.design`` return."""
+    """What ``hertzian design`` and ``hz.design`` return: the best of the first objective, and with several
+    objectives the Pareto front of every candidate run (their objectives and genomes)."""
 
     store: str
     generations: int
@@ -324,28 +347,11 @@ class DesignResult:
     best_genome: list[float]
     best_scene: dict
     seconds: float
+    pareto_objectives: list[list[float]]
+    pareto_genomes: list[list[float]]
 
     def to_dict(self) -> dict:
         return asdict(self)
-
-
-def _optimizer(spec: DesignSpec):
-    """A new CMA-ES of the design (the cma package), seeded."""
-    import cma
-
-    materials = len(spec.gene_grains)
-    radii = materials if spec.radius else 0
-    top = max(len(spec.materials) - 1, 1)
-    x0 = [0.5 * (len(spec.materials) - 1)] * materials + [0.5] * radii
-    options = {
-        "seed": spec.seed + 1,  # cma reads seed 0 as "random"
-        "popsize": spec.population,
-        "bounds": [[0.0] * (materials + radii), [float(len(spec.materials) - 1)] * materials + [1.0] * radii],
-        "CMA_stds": [float(top)] * materials + [1.0] * radii,
-        "integer_variables": list(range(materials)),
-        "verbose": -9,
-    }
-    return cma.CMAEvolutionStrategy(x0, spec.sigma, options)
 
 
 def optimise(
@@ -355,31 +361,52 @@ def optimise(
     *,
     device: str,
     resume: bool = False,
-    progress: Callable[[int, int, float], None] | None = None,
+    progress: Callable[[int, int, np.ndarray], None] | None = None,
 ) -> DesignResult:
-    """Run (or resume) the design into the store ``out``; ``progress(generation, generations, best)`` after each."""
-    from hertzian.studies.design_store import best_of, create_store, open_for_resume, told, write_generation
+    """Run (or resume) the design into the store ``out``; ``progress(generation, generations, best)`` after each
+    (``best``: each objective's best so far)."""
+    from hertzian.studies.design_store import best_of, create_store, open_for_resume, read_design, write_generation
     from hertzian.sweeping.storage import resolved_link, store_lock
 
     start = time.perf_counter()
     with store_lock(resolved_link(out)):
         if resume:
-            store, es, done = open_for_resume(out, scene, spec, _optimizer)
+            store, optimizer, done = open_for_resume(out, scene, spec, new_optimizer)
         else:
-            store, es, done = create_store(out, scene, spec), _optimizer(spec), 0
+            store, optimizer, done = create_store(out, scene, spec), new_optimizer(spec), 0
         for generation in range(done, spec.generations):
             clock = time.perf_counter()
-            genomes = np.asarray(es.ask(), dtype=np.float64)
+            genomes = optimizer.ask()
             values = evaluate(scene, spec, genomes, device)
-            es.tell(list(genomes), [told(v) for v in values])
+            optimizer.tell(genomes, values)
             best = write_generation(store, generation, genomes, values, time.perf_counter() - clock)
             if progress is not None:
                 progress(generation + 1, spec.generations, best)
         best_value, best_genome = best_of(store)
+    front_objectives, front_genomes = [], []
+    if len(spec.objective) > 1:
+        front_objectives, front_genomes = front_of(read_design(out))
     best_scene = candidate(scene, spec, np.asarray(best_genome)).to_dict()
     return DesignResult(
-        str(out), spec.generations, best_value, list(best_genome), best_scene, time.perf_counter() - start
+        str(out),
+        spec.generations,
+        best_value,
+        list(best_genome),
+        best_scene,
+        time.perf_counter() - start,
+        front_objectives,
+        front_genomes,
     )
+
+
+def front_of(data: dict) -> tuple[list[list[float]], list[list[float]]]:
+    """(objectives, genomes) of the Pareto front of every candidate a design store holds (``read_design``), sorted
+    by the first objective."""
+    values = data["objective"].reshape(-1, data["objective"].shape[-1])
+    genomes = data["genome"].reshape(-1, data["genome"].shape[-1])
+    front = pareto_front(values)
+    front = front[np.lexsort(values[front].T[::-1])]
+    return values[front].tolist(), genomes[front].tolist()
 
 
 # ---- what a design found, against plain chains ------------------------------------------------------------
@@ -419,8 +446,9 @@ def _span(spec: DesignSpec, mean: float) -> float:
 
 def compare(store: str | Path, device: str) -> dict:
     """The design store's best against uniform and tapered protectors of the same length in each of its materials:
-    each one's objective, peak wall force, transmitted impulse and protector mass, its wall-force trace, and the best
-    design itself."""
+    each one's objective (the first), peak wall force, transmitted impulse and protector mass, its wall-force trace,
+    and the best design itself; with several objectives also every candidate's objectives and the Pareto front, each
+    front design's materials and radii."""
     from hertzian.core.runner import run_scene as run
     from hertzian.core.static import static_state
     from hertzian.studies.design_store import read_design
@@ -443,7 +471,7 @@ def compare(store: str | Path, device: str) -> dict:
             "impulse": float(np.trapezoid(force - force[0], result.trace_t)),
             "mass": float(static_state(chain).mass[list(spec.vary)].sum()),
             "length": float(sum(2 * r for r in _radii(chain)[list(spec.vary)])),
-            "objective": float(objectives(spec, [probe], result)[0]),
+            "objective": float(objectives(spec, [probe], result)[0, 0]),
         }
         traces[name] = (result.trace_t, force)
     from datetime import datetime, timezone
@@ -457,14 +485,30 @@ def compare(store: str | Path, device: str) -> dict:
         "design_seconds": float(np.sum(data["seconds"])),
         "generations": len(data["best_objective"]),
         "best_peak_at_twice_the_duration": float(wall_forces(longer, again.traces["u"][0, :, 0]).max()),
-        "best_objective": data["best_objective"].tolist(),
+        "objectives": list(spec.objective),
+        "best_objective": data["best_objective"][:, 0].tolist(),
         "median_objective": [
-            float(np.median(o[np.isfinite(o)])) if np.any(np.isfinite(o)) else None for o in data["objective"]
+            float(np.median(o[np.isfinite(o)])) if np.any(np.isfinite(o)) else None for o in data["objective"][..., 0]
         ],
+        **(_front_summary(scene, spec, data) if len(spec.objective) > 1 else {}),
         "best_materials": list(best.chain.material),
         "best_radii": _radii(best).tolist(),
         "chains": rows,
         "traces": traces,
+    }
+
+
+def _front_summary(scene: Scene, spec: DesignSpec, data: dict) -> dict:
+    """Every finite candidate's objectives, and the Pareto front's designs (objectives, materials, radii)."""
+    values = data["objective"].reshape(-1, len(spec.objective))
+    front_values, front_genomes = front_of(data)
+    designs = [candidate(scene, spec, np.asarray(g)) for g in front_genomes]
+    return {
+        "candidates": values[np.all(np.isfinite(values), axis=1)].tolist(),
+        "pareto": [
+            {"objectives": v, "materials": list(d.chain.material), "radii": _radii(d).tolist()}
+            for v, d in zip(front_values, designs)
+        ],
     }
 
 

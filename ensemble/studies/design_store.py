@@ -1,16 +1,16 @@
 """The Zarr store of a protector design (hertzian.studies.design): per generation every candidate's genome and
 objective, the best so far, and the optimizer's state (so that a run resumes where it stopped).
 
-Layout: ``genome`` (generation, candidate, gene), ``objective`` (generation, candidate), ``best_objective``
-(generation), ``best_genome`` (generation, gene) and ``seconds`` (generation: wall time), one chunk per generation; the root's attributes hold the design,
-the base scene, the gene names and ``generations_done``. A generation's rows are written before ``generations_done``
+Layout: ``genome`` (generation, candidate, gene), ``objective`` (generation, candidate, objective),
+``best_objective`` (generation, objective: each one's best so far), ``best_genome`` (generation, gene: the genome
+of the first objective's best so far) and ``seconds`` (generation: wall time), one chunk per generation; the root's
+attributes hold the design, the base scene, the gene names, the objective names and ``generations_done``. A generation's rows are written before ``generations_done``
 counts it. A run resumes by replaying the stored generations into a new optimizer of the same seed (what it asks
 must be what the store holds, bit for bit), so a resumed design is the design run straight through."""
 
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import asdict, replace
 from pathlib import Path
 
@@ -21,7 +21,7 @@ from hertzian.core.errors import OptionError, SceneError
 from hertzian.sweeping.storage import PROJECT
 
 KIND = "design"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 ARRAYS = ("genome", "objective", "best_genome", "best_objective", "seconds")
 """The store's arrays, each along ``generation`` first."""
 
@@ -50,12 +50,12 @@ def create_store(out: str | Path, scene, spec):
     if out.exists():
         shutil.rmtree(out)
     root = zarr.open_group(out, mode="w")
-    genes, size, gens = len(spec.gene_names), spec.population, spec.generations
+    genes, size, gens, m = len(spec.gene_names), spec.population, spec.generations, len(spec.objective)
     for name, shape, chunks, dims in (
         ("genome", (gens, size, genes), (1, size, genes), ["generation", "candidate", "gene"]),
-        ("objective", (gens, size), (1, size), ["generation", "candidate"]),
+        ("objective", (gens, size, m), (1, size, m), ["generation", "candidate", "objective"]),
         ("best_genome", (gens, genes), (1, genes), ["generation", "gene"]),
-        ("best_objective", (gens,), (1,), ["generation"]),
+        ("best_objective", (gens, m), (1, m), ["generation", "objective"]),
         ("seconds", (gens,), (1,), ["generation"]),
     ):
         root.create_array(name, shape=shape, chunks=chunks, dtype="float64", fill_value=np.nan, dimension_names=dims)
@@ -68,6 +68,7 @@ def create_store(out: str | Path, scene, spec):
             "design": spec_dict(spec),
             "scene": scene.to_dict(),
             "genes": spec.gene_names,
+            "objectives": list(spec.objective),
             "generations_done": 0,
         }
     )
@@ -94,9 +95,9 @@ def open_for_resume(out: str | Path, scene, spec, new_optimizer):
     optimizer = new_optimizer(spec)
     for generation in range(done):
         genomes, values = root["genome"][generation], root["objective"][generation]
-        if not np.array_equal(np.asarray(optimizer.ask(), dtype=np.float64), genomes):
+        if not np.array_equal(optimizer.ask(), genomes):
             raise OptionError("out", str(out), f"generation {generation} does not replay (another optimizer version?)")
-        optimizer.tell(list(genomes), [told(v) for v in values])
+        optimizer.tell(genomes, values)
     for name in ARRAYS:
         array = root[name]
         array.resize((spec.generations, *array.shape[1:]))
@@ -104,22 +105,16 @@ def open_for_resume(out: str | Path, scene, spec, new_optimizer):
     return root, optimizer, done
 
 
-def told(value: float) -> float:
-    """What the optimizer is told of an objective: a failed candidate's infinity as a huge finite value."""
-    return value if math.isfinite(value) else 1e300
-
-
-def write_generation(root, generation: int, genomes: np.ndarray, values: np.ndarray, seconds: float) -> float:
-    """Store one generation (``seconds``: its wall time), then count it; returns the best objective so far."""
+def write_generation(root, generation: int, genomes: np.ndarray, values: np.ndarray, seconds: float) -> np.ndarray:
+    """Store one generation (``values``: (candidates, objectives); ``seconds``: its wall time), then count it;
+    returns each objective's best so far."""
     root["seconds"][generation] = seconds
     root["genome"][generation] = genomes
     root["objective"][generation] = values
-    previous = root["best_objective"][generation - 1] if generation else np.inf
-    k = int(np.argmin(values))
-    if values[k] < previous:
-        best, genome = float(values[k]), genomes[k]
-    else:
-        best, genome = float(previous), root["best_genome"][generation - 1]
+    previous = root["best_objective"][generation - 1] if generation else np.full(values.shape[1], np.inf)
+    best = np.minimum(previous, values.min(axis=0))
+    k = int(np.argmin(values[:, 0]))
+    genome = genomes[k] if generation == 0 or values[k, 0] < previous[0] else root["best_genome"][generation - 1]
     root["best_objective"][generation] = best
     root["best_genome"][generation] = genome
     root.attrs["generations_done"] = generation + 1
@@ -127,9 +122,9 @@ def write_generation(root, generation: int, genomes: np.ndarray, values: np.ndar
 
 
 def best_of(root) -> tuple[float, list[float]]:
-    """(best objective, its genome) over the generations done."""
+    """(the first objective's best, its genome) over the generations done."""
     done = int(root.attrs["generations_done"])
-    return float(root["best_objective"][done - 1]), root["best_genome"][done - 1].tolist()
+    return float(root["best_objective"][done - 1][0]), root["best_genome"][done - 1].tolist()
 
 
 def read_design(path: str | Path) -> dict:
