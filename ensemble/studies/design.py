@@ -35,6 +35,7 @@ DESIGN_KEYS = (
     "radius",
     "mirror",
     "total_length",
+    "total_mass",
     "objective",
     "optimizer",
     "population",
@@ -58,6 +59,9 @@ class DesignSpec:
     """Grain vary[k] takes the genes of vary[n − 1 − k]: a protector symmetric about its middle."""
     total_length: float | None = None
     """Sum of the varying grains' diameters [length], kept by rescaling their radii within the bounds."""
+    total_mass: float | None = None
+    """Sum of the varying grains' masses [mass], kept by rescaling their radii within the bounds; a candidate whose
+    materials cannot reach it there is infinite."""
     objective: tuple[str, ...] = ("peak_wall_force",)
     """What the design minimises (OBJECTIVES); several: their Pareto front."""
     optimizer: str = "cma"
@@ -178,6 +182,11 @@ def _numbers(table: dict[str, Any]) -> dict[str, Any]:
     length = table.get("total_length")
     if length is not None and (not _number(length) or not length > 0):
         raise SceneError("design.total_length", length, "must be a length > 0 (the varying grains' diameters)")
+    mass = table.get("total_mass")
+    if mass is not None and (not _number(mass) or not mass > 0):
+        raise SceneError("design.total_mass", mass, "must be a mass > 0 (the varying grains' masses)")
+    if mass is not None and length is not None:
+        raise SceneError("design.total_mass", mass, "give one of design.total_length and design.total_mass")
     return {
         **out,
         "seed": seed,
@@ -187,6 +196,7 @@ def _numbers(table: dict[str, Any]) -> dict[str, Any]:
         "mirror": mirror,
         "radius": radius,
         "total_length": length,
+        "total_mass": None if mass is None else float(mass),
     }
 
 
@@ -195,19 +205,31 @@ def _number(value) -> bool:
 
 
 def _check_bounds(scene: Scene, spec: DesignSpec) -> None:
-    """A total length the radius bounds cannot reach is refused."""
-    if spec.total_length is None:
+    """A total length, or a total mass, that the radius bounds cannot reach with any of the materials is refused."""
+    key, target = ("total_length", spec.total_length) if spec.total_mass is None else ("total_mass", spec.total_mass)
+    if target is None:
         return
     if spec.radius is None:
-        raise SceneError("design.total_length", spec.total_length, "needs design.radius (the radii it rescales)")
-    diameter = scene.chain.diameter
-    lo, hi = (len(spec.vary) * diameter * r for r in spec.radius)
-    if not lo <= spec.total_length <= hi:
+        raise SceneError(f"design.{key}", target, "needs design.radius (the radii it rescales)")
+    count = len(spec.vary)
+    if key == "total_length":
+        lo, hi = (count * scene.chain.diameter * r for r in spec.radius)
+        what = "span"
+    else:
+        masses = _reference_masses(scene, list(spec.materials))
+        lo, hi = count * masses.min() * spec.radius[0] ** 3, count * masses.max() * spec.radius[1] ** 3
+        what = "weigh"
+    if not lo <= target <= hi:
         raise SceneError(
-            "design.total_length",
-            spec.total_length,
-            f"out of reach of the radius bounds: {len(spec.vary)} grains span {lo:g} … {hi:g}",
+            f"design.{key}", target, f"out of reach of the radius bounds: {count} grains {what} {lo:g} … {hi:g}"
         )
+
+
+def _reference_masses(scene: Scene, names: list[str]) -> np.ndarray:
+    """The mass of a grain of the base diameter in each material of ``names`` [mass]."""
+    from hertzian.core.materials import reference_masses, scene_material
+
+    return reference_masses([scene_material(scene, name) for name in names], [scene.chain.diameter])[0]
 
 
 # ---- genomes → scenes ---------------------------------------------------------------------------------------
@@ -232,8 +254,13 @@ def candidate(scene: Scene, spec: DesignSpec, genes: np.ndarray) -> Scene:
         lo, hi = spec.radius
         scaled = lo + np.clip(genes[count:], 0.0, 1.0) * (hi - lo)
         ratios[list(spec.vary)] = [scaled[_gene_of(spec, k)] for k in range(len(spec.vary))]
+        vary = list(spec.vary)
         if spec.total_length is not None:
-            ratios[list(spec.vary)] = _rescaled(ratios[list(spec.vary)], spec, scene.chain.diameter)
+            target = spec.total_length / scene.chain.diameter  # the ratios' sum
+            ratios[vary] = _rescaled(ratios[vary], spec.radius, np.ones(len(vary)), 1.0, target)
+        if spec.total_mass is not None:
+            weights = _reference_masses(scene, [materials[g] for g in vary])
+            ratios[vary] = _rescaled(ratios[vary], spec.radius, weights, 3.0, spec.total_mass)
         data["chain"]["radii"] = (0.5 * scene.chain.diameter * ratios).tolist()
     return scene_from_dict(data)
 
@@ -243,18 +270,18 @@ def _gene_of(spec: DesignSpec, k: int) -> int:
     return min(k, len(spec.vary) - 1 - k) if spec.mirror else k
 
 
-def _rescaled(ratios: np.ndarray, spec: DesignSpec, diameter: float) -> np.ndarray:
-    """Ratios scaled to the total length within the bounds (clipped grains keep their bound, the rest take the
-    remainder; at most one pass per grain)."""
-    lo, hi = spec.radius
-    target = spec.total_length / diameter  # the ratios' sum
+def _rescaled(ratios: np.ndarray, bounds: tuple[float, float], weights: np.ndarray, power: float, target: float):
+    """Ratios r scaled so that Σ w r^power is ``target``, within the bounds (clipped grains keep their bound, the
+    rest take the remainder; at most one pass per grain). A target these materials cannot reach within the bounds
+    is missed: the caller checks."""
+    lo, hi = bounds
     out = ratios.copy()
     for _ in range(len(out) + 1):
         free = (out > lo) & (out < hi) if np.any((out > lo) & (out < hi)) else np.ones(len(out), bool)
-        fixed = out[~free].sum()
-        scale = (target - fixed) / out[free].sum()
+        terms = weights * out**power
+        scale = ((target - terms[~free].sum()) / terms[free].sum()) ** (1.0 / power)
         out[free] = np.clip(out[free] * scale, lo, hi)
-        if abs(out.sum() - target) <= 1e-12 * target:
+        if abs(np.sum(weights * out**power) - target) <= 1e-12 * target:
             break
     return out
 
@@ -319,6 +346,8 @@ def objectives(spec: DesignSpec, scenes: list[Scene], result) -> np.ndarray:
             "mass": float(st.mass[list(spec.vary)].sum()),
         }
         out[c] = [values[name] for name in spec.objective]
+        if spec.total_mass is not None and abs(values["mass"] - spec.total_mass) > 1e-9 * spec.total_mass:
+            out[c] = np.inf  # its materials cannot reach the total mass within the radius bounds
         if leftover_force(scene, result.fields["u"][c, -1], result.fields["v"][c, -1], st) > LEFTOVER * force.max():
             out[c] = np.inf  # the chain may still press on the wall harder after the run: its peak is not known
     out[result.status != 0] = np.inf  # a candidate that failed is never the best

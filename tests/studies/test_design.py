@@ -11,6 +11,7 @@ import hertzian as hz
 import numpy as np
 import pytest
 from hertzian.core.errors import SceneError
+from hertzian.core.static import static_state
 from hertzian.studies.design import candidate, check_design, evaluate, load_design, objectives, optimise, probe_scene
 from hertzian.studies.design_optimizers import pareto_front
 from hertzian.studies.design_store import read_design
@@ -121,6 +122,9 @@ def test_a_resumed_design_equals_one_run_straight_through(objective, tmp_path):
         ({"radius": [0.0, 1.0]}, "design.radius"),
         ({"materials": ["stainless_steel", "unobtainium"]}, "design.materials"),
         ({"total_length": 5000.0}, "design.total_length"),
+        ({"total_mass": 5.0}, "design.total_mass"),
+        ({"total_mass": 0.6, "total_length": 700.0}, "design.total_mass"),
+        ({"total_mass": -1.0}, "design.total_mass"),
         ({"vary": [0, 8]}, "design.vary"),
         ({"population": 1}, "design.population"),
         ({"objective": "fastest"}, "design.objective"),
@@ -163,6 +167,25 @@ def test_the_total_length_is_kept_within_the_bounds():
         ratios = candidate(scene, spec, genes).chain.radius_ratios[1:]
         assert ratios.sum() == pytest.approx(7 * 1.2, rel=1e-12)
         assert ratios.min() >= 0.7 - 1e-12 and ratios.max() <= 1.3 + 1e-12
+
+
+def test_the_total_mass_is_kept_within_the_bounds_or_the_candidate_is_out():
+    """Seven beads of steel (0.178 at R0) or PTFE (0.049) with R/R0 in [0.7, 1.3]: a mass every mix can reach is met
+    to 1e-12 by rescaling the radii; a mass that all-PTFE cannot reach makes that design infinite, not the others."""
+    scene = make_scene(**BASE)
+    reachable = check_design(scene, {**DESIGN, "total_mass": 0.6})
+    rng = np.random.default_rng(4)
+    for genes in rng.uniform(0, 1, (20, len(reachable.gene_names))):
+        genes[:7] = np.rint(genes[:7])
+        design = candidate(scene, reachable, genes)
+        ratios = design.chain.radius_ratios[1:]
+        assert static_state(design).mass[1:].sum() == pytest.approx(0.6, rel=1e-12)
+        assert ratios.min() >= 0.7 - 1e-12 and ratios.max() <= 1.3 + 1e-12
+    heavy = check_design(scene, {**DESIGN, "total_mass": 1.0, "objective": ["peak_wall_force", "mass"]})
+    steel, ptfe = np.r_[np.zeros(7), np.full(7, 0.5)], np.r_[np.ones(7), np.full(7, 0.5)]
+    values = evaluate(scene, heavy, np.array([steel, ptfe]), "cpu")
+    assert np.all(np.isfinite(values[0])) and values[0, 1] == pytest.approx(1.0, rel=1e-9)
+    assert np.all(np.isinf(values[1]))
 
 
 def test_a_candidate_is_judged_only_once_its_peak_cannot_be_exceeded():
