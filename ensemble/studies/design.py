@@ -501,6 +501,7 @@ def compare(store: str | Path, device: str) -> dict:
             "mass": float(static_state(chain).mass[list(spec.vary)].sum()),
             "length": float(sum(2 * r for r in _radii(chain)[list(spec.vary)])),
             "objective": float(objectives(spec, [probe], result)[0, 0]),
+            "time_above_half_peak": time_above(force, result.trace_t, 0.5),
         }
         traces[name] = (result.trace_t, force)
     from datetime import datetime, timezone
@@ -521,10 +522,53 @@ def compare(store: str | Path, device: str) -> dict:
         ],
         **(_front_summary(scene, spec, data) if len(spec.objective) > 1 else {}),
         "best_materials": list(best.chain.material),
+        "arrangement": arrangement([best.chain.material[g] for g in spec.vary], list(spec.materials)),
         "best_radii": _radii(best).tolist(),
         "chains": rows,
         "traces": traces,
     }
+
+
+SHUFFLES = 20_000
+"""Random orders of the best design's beads that make the null of :func:`arrangement`."""
+
+
+def arrangement(materials: list[str], names: list[str], seed: int = 0) -> dict:
+    """Where each material sits in a protector (``materials``: the varying beads' from the striker to the wall),
+    against the same beads in random order (SHUFFLES of them, seeded): each material's mean position (0 next to the
+    striker, 1 next to the wall) with the fraction of shuffles at least as close to the wall (``p_toward_wall``) and
+    at least as close to the striker (``p_toward_striker``); and the number of neighbours of unlike materials
+    (``switches``) with the fractions of shuffles having at least as many and at most as many."""
+    index = np.array([names.index(m) for m in materials])
+    position = np.linspace(0.0, 1.0, len(index)) if len(index) > 1 else np.zeros(1)
+    shuffled = np.random.default_rng(seed).permuted(np.tile(index, (SHUFFLES, 1)), axis=1)
+    out: dict[str, Any] = {"materials": {}}
+    for k, name in enumerate(names):
+        if not np.any(index == k):
+            continue
+        mean = float(position[index == k].mean())
+        null = (shuffled == k) @ position / np.count_nonzero(index == k)
+        out["materials"][name] = {
+            "beads": int(np.count_nonzero(index == k)),
+            "mean_position": mean,
+            "p_toward_wall": float(np.mean(null >= mean - 1e-12)),
+            "p_toward_striker": float(np.mean(null <= mean + 1e-12)),
+        }
+    switches = int(np.count_nonzero(np.diff(index)))
+    null_switches = np.count_nonzero(np.diff(shuffled, axis=1), axis=1)
+    out["switches"] = {
+        "count": switches,
+        "null_mean": float(null_switches.mean()),
+        "p_at_least": float(np.mean(null_switches >= switches)),
+        "p_at_most": float(np.mean(null_switches <= switches)),
+    }
+    return out
+
+
+def time_above(force: np.ndarray, t: np.ndarray, fraction: float) -> float:
+    """How long the wall's force stays above ``fraction`` of its peak [time]: a long, low pulse against a spike."""
+    above = force > fraction * force.max()
+    return float(np.sum(np.diff(t)[above[1:] & above[:-1]]))
 
 
 def _front_summary(scene: Scene, spec: DesignSpec, data: dict) -> dict:

@@ -215,6 +215,8 @@ def test_plot_draws_a_design_store_and_writes_its_numbers(tmp_path):
     stored = read_design(tmp_path / "d.zarr")
     assert numbers["chains"]["best"]["objective"] == stored["best_objective"][-1, 0]
     assert "pareto" not in numbers
+    assert sum(m["beads"] for m in numbers["arrangement"]["materials"].values()) == 7
+    assert 0 < numbers["chains"]["best"]["time_above_half_peak"] < BASE["integrator"]["duration"]
     assert set(numbers["chains"]) == {
         "best",
         "uniform stainless_steel",
@@ -224,6 +226,31 @@ def test_plot_draws_a_design_store_and_writes_its_numbers(tmp_path):
     }
     refused = hertzian("plot", tmp_path / "d.zarr", "--figure", "fig1", "--out", tmp_path / "e.png")
     assert refused.returncode == 2 and refused.stderr.count("\n") == 1 and not (tmp_path / "e.png").exists()
+
+
+def test_arrangement_is_read_against_the_same_beads_shuffled():
+    """Closed forms: k beads of one kind among n in random order have 2k(n − k)/n unlike neighbours on average and a
+    mean position of 1/2; beads sorted to one end are further than any but a few of the shuffles."""
+    from hertzian.studies.design import arrangement
+
+    sorted_beads = ["S"] * 7 + ["P"] * 12
+    found = arrangement(sorted_beads, ["S", "P"])
+    assert found["switches"]["count"] == 1
+    assert found["switches"]["null_mean"] == pytest.approx(2 * 7 * 12 / 19, rel=0.01)
+    assert found["switches"]["p_at_most"] < 1e-3 and found["switches"]["p_at_least"] == 1.0
+    assert found["materials"]["S"]["mean_position"] == pytest.approx(3 / 18)
+    assert found["materials"]["P"]["p_toward_wall"] < 1e-3 and found["materials"]["S"]["p_toward_striker"] < 1e-3
+    alternating = arrangement(["S", "P"] * 9 + ["S"], ["S", "P"])
+    assert alternating["switches"]["count"] == 18 and alternating["switches"]["p_at_least"] < 1e-3
+    assert 0.05 < alternating["materials"]["P"]["p_toward_wall"] < 0.95
+
+
+def test_time_above_a_fraction_of_the_peak_of_a_triangle():
+    from hertzian.studies.design import time_above
+
+    t = np.linspace(0.0, 2.0, 2001)
+    force = 1.0 - np.abs(t - 1.0)
+    assert time_above(force, t, 0.5) == pytest.approx(1.0, abs=2e-3)
 
 
 def test_plot_of_two_objectives_draws_their_front(tmp_path):
