@@ -18,6 +18,7 @@ the largest energy error and the status counts, and the PNGs written.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import platform
@@ -970,12 +971,11 @@ def measure(name: str, ds) -> dict[str, Any]:
 
 def compare(out_dir: Path) -> dict[str, Any]:
     """Measurements across groups (stores ``out_dir/<group>/<group>.zarr`` or ``out_dir/<group>.zarr``)."""
-    import xarray as xr
 
     def store(group: str):
         for path in (out_dir / group / f"{group}.zarr", out_dir / f"{group}.zarr"):
             if path.exists():
-                return xr.open_zarr(path)
+                return read_store(path)
         return None
 
     out: dict[str, Any] = {}
@@ -1057,7 +1057,6 @@ def measure_stores(root: Path, *, figures_dir: Path | None = None, command: str 
     group's run (from its log.json: device, date, command, wall seconds) and measurements, and
     :func:`compare` across groups."""
     import warp as wp
-    import xarray as xr
     from hertzian.plotting.figures import plot_figure
 
     log: dict[str, Any] = {
@@ -1086,7 +1085,7 @@ def measure_stores(root: Path, *, figures_dir: Path | None = None, command: str 
             "energy_error_max": run["energy_error_max"],
             "status_counts": run["status_counts"],
         }
-        with xr.open_zarr(store) as ds:
+        with opened(store) as ds:
             entry["measurements"] = measure(name, ds)
             if figures_dir is not None:
                 entry["figures"] = {}
@@ -1207,17 +1206,36 @@ def reproduce(
     return log
 
 
+IN_MEMORY_BYTES = 4 << 30
+"""A store up to this size is read into memory once before its figures and measurements, which read its arrays
+many times over (each read of a lazy Zarr array decompresses its chunks again)."""
+
+
+def read_store(path: Path):
+    """The store at ``path`` as an xarray Dataset: in memory up to IN_MEMORY_BYTES, else lazy."""
+    import xarray as xr
+
+    lazy = xr.open_zarr(path)
+    return lazy.load() if lazy.nbytes <= IN_MEMORY_BYTES else lazy
+
+
+@contextlib.contextmanager
+def opened(path: Path):
+    """:func:`read_store`, closed after use."""
+    with read_store(path) as dataset:
+        yield dataset
+
+
 def draw_and_measure(out_dir: str, name: str, store: str) -> dict[str, Any]:
     """Group ``name``'s figures (PNGs in ``out_dir``) and measurements from its store; a figure that cannot be
     drawn is reported, not raised. Runs in the reproducing process or in a worker process."""
-    import xarray as xr
     from hertzian.plotting.figures import plot_figure
 
     group = GROUPS[name]
     out = Path(out_dir)
     drawn: dict[str, Any] = {"figures": {}, "failures": [], "seconds": {}}
     clock = time.perf_counter()
-    with xr.open_zarr(out / store) as dataset:
+    with opened(out / store) as dataset:
         for figure in group.figures:
             png = out / (f"{name}.png" if len(group.figures) == 1 else f"{figure}.png")
             try:

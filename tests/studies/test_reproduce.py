@@ -56,6 +56,23 @@ def test_quick_group_writes_store_png_and_log(tmp_path):
         assert float(ds.energy_error.max()) == pytest.approx(run["energy_error_max"], rel=0, abs=0)
 
 
+def test_a_store_read_into_memory_measures_as_its_lazy_reading(tmp_path, monkeypatch):
+    """The figures and measurements read a store once into memory (each read of a lazy array decompresses its chunks
+    again); a store above the size limit stays lazy. Both give the same measurements."""
+    from hertzian.studies import reproduce
+
+    out = tmp_path / "out"
+    result = invoke("reproduce", "--quick", "--figure", "fig7_8", "--out-dir", str(out), "--device", "cpu")
+    assert result.exit_code == 0, result.output
+    with reproduce.opened(out / "fig7_8.zarr") as loaded:
+        assert loaded.u.chunks is None  # numpy, in memory
+        in_memory = reproduce.measure("fig7_8", loaded)
+    monkeypatch.setattr(reproduce, "IN_MEMORY_BYTES", 0)
+    with reproduce.opened(out / "fig7_8.zarr") as lazy:
+        assert lazy.u.chunks is not None
+        assert json.dumps(reproduce.measure("fig7_8", lazy), default=str) == json.dumps(in_memory, default=str)
+
+
 def test_kernel_option_and_the_split_of_each_runs_seconds(tmp_path):
     # --kernel step against --kernel fused (the CPU chain kernel): the option reaches the group's runs
     logs = {}
