@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
-GEAR_VALUES = {"gear4": 4, "gear5": 5, "gear6": 6, "verlet": 3, "yoshida4": 3}
+GEAR_VALUES = {"gear4": 4, "gear5": 5, "gear6": 6, "verlet": 3, "yoshida4": 3, "yoshida6": 3}
 """Values of the scaled Nordsieck vector per method (Verlet and its compositions keep u, dt·v, dt²/2·a)."""
 
 _CUBE_ROOT_2 = 2.0 ** (1.0 / 3.0)
@@ -15,9 +15,19 @@ YOSHIDA4_INNER = 1.0 - 2.0 * YOSHIDA4_OUTER
 """w0 = −2^(1/3)/(2 − 2^(1/3)) ≈ −1.7024: the middle (backward) substep of yoshida4, computed as 1 − 2·w1 so
 that the three substeps add up to exactly one step in float64 (w1 + w0 + w1 == 1.0)."""
 
-SUBSTEP_WEIGHTS = {"yoshida4": (YOSHIDA4_OUTER, YOSHIDA4_INNER, YOSHIDA4_OUTER)}
+YOSHIDA6_OUTER = (0.784513610477560, 0.235573213359357, -1.17767998417887)
+"""w3, w2, w1 of yoshida6 (Yoshida 1990, solution A; Hairer, Lubich & Wanner, Geometric Numerical Integration,
+§V.3.2): its first three substeps, as fractions of dt; the last three mirror them."""
+YOSHIDA6_MIDDLE = 1.0 - 2.0 * sum(YOSHIDA6_OUTER)
+"""w0 = 1 − 2(w1 + w2 + w3) ≈ 1.3152: the middle substep, so that the seven add up to one step."""
+
+SUBSTEP_WEIGHTS = {
+    "yoshida4": (YOSHIDA4_OUTER, YOSHIDA4_INNER, YOSHIDA4_OUTER),
+    "yoshida6": (*YOSHIDA6_OUTER, YOSHIDA6_MIDDLE, *YOSHIDA6_OUTER[::-1]),
+}
 """Composed methods: one step is velocity-Verlet substeps of w_k·dt in this order (Yoshida 1990,
-Forest & Ruth 1990: the symmetric triple composition of a second-order method is fourth order).
+Forest & Ruth 1990: the symmetric triple composition of a second-order method is fourth order; Yoshida's
+seven-substep composition is sixth order). Each is symmetric, its middle weight 1 − 2·(the others of one half).
 Methods not listed take one substep of their own kind per step."""
 
 # Allen & Tildesley corrector coefficients for a second-order ODE, as exact fractions
@@ -79,7 +89,7 @@ class Features:
 
     @property
     def substeps(self) -> int:
-        """Substeps per step: 3 for yoshida4 (SUBSTEP_WEIGHTS), else 1."""
+        """Substeps per step: 3 for yoshida4, 7 for yoshida6 (SUBSTEP_WEIGHTS), else 1."""
         return len(SUBSTEP_WEIGHTS.get(self.method, (1.0,)))
 
     @property

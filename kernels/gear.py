@@ -397,21 +397,29 @@ def nordsieck_functions(method: str, precision: str, compensated: bool = False) 
 def substep_weight_function(method: str, precision: str):
     """``substep_weight(substep) -> real``: the weight w_k of substep k of a composed method (1 for the others).
 
-    For the symmetric triple composition (w1, w0, w1) w1 is the float64 constant rounded to the state's
-    precision and w0 = 1 − 2·w1 is computed in that precision (exact), so the substeps add up to exactly dt
-    in float32 too (rounding w0 on its own would leave a clock error of 1.2e-7 per step in float32)."""
+    The compositions are symmetric with an odd count: each outer weight is the float64 constant rounded to the
+    state's precision and the middle one, 1 − 2·(the outer weights of one half), is computed in that precision, so
+    the substeps add up to one step in float32 too (rounding the middle weight on its own would leave a clock error
+    of 1.2e-7 per step in float32)."""
     real = wp.float64 if precision == "float64" else wp.float32
     composed = method in SUBSTEP_WEIGHTS
     weights = SUBSTEP_WEIGHTS.get(method, (1.0,))
-    assert not composed or (len(weights) == 3 and weights[0] == weights[2] and weights[1] == 1.0 - 2.0 * weights[0])
+    half = len(weights) // 2
+    assert not composed or (
+        len(weights) % 2 == 1 and weights == weights[::-1] and weights[half] == 1.0 - 2.0 * sum(weights[:half])
+    )
 
     @wp.func
     def substep_weight(substep: int) -> real:
         w = real(1)
         if wp.static(composed):
-            w = real(wp.static(weights[0]))
-            if substep == 1:
-                w = real(1) - real(2) * w
+            outer = real(0)
+            for k in range(wp.static(half)):
+                outer += real(wp.static(weights[k]))
+            w = real(1) - real(2) * outer
+            for k in range(wp.static(half)):
+                if substep == k or substep == wp.static(len(weights) - 1) - k:
+                    w = real(wp.static(weights[k]))
         return w
 
     return substep_weight

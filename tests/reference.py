@@ -50,6 +50,15 @@ __all__ = [
     "default_scene",
 ]
 
+_CUBE_ROOT_2 = 2.0 ** (1.0 / 3.0)
+_W4 = 1.0 / (2.0 - _CUBE_ROOT_2)
+_W6 = (-1.17767998417887, 0.235573213359357, 0.784513610477560)  # w1, w2, w3: Yoshida (1990), solution A
+YOSHIDA = {
+    "yoshida4": (_W4, -_CUBE_ROOT_2 * _W4, _W4),
+    "yoshida6": (_W6[2], _W6[1], _W6[0], 1.0 - 2.0 * sum(_W6), _W6[0], _W6[1], _W6[2]),
+}
+"""Velocity-Verlet substep weights of the Yoshida compositions, from their published forms."""
+
 # Allen & Tildesley corrector coefficients for a second-order ODE.
 GEAR_COEFFS = {
     "gear4": (1.0 / 6.0, 5.0 / 6.0, 1.0, 1.0 / 3.0),
@@ -497,10 +506,12 @@ def reference_run(scene: dict, exact_start: bool = True) -> dict:
     """
     ch = _Chain(scene)
     method = scene["integrator"]["method"]
-    if method not in GEAR_COEFFS and method not in ("verlet", "yoshida4"):
-        raise ValueError(f"integrator.method = {method!r}: allowed gear4 | gear5 | gear6 | verlet | yoshida4")
-    if method == "yoshida4" and ch.driven:
-        raise ValueError("integrator.method = 'yoshida4': no driven surface")
+    if method not in GEAR_COEFFS and method not in ("verlet", *YOSHIDA):
+        raise ValueError(
+            f"integrator.method = {method!r}: allowed gear4 | gear5 | gear6 | verlet | yoshida4 | yoshida6"
+        )
+    if method in YOSHIDA and ch.driven:
+        raise ValueError(f"integrator.method = {method!r}: no driven surface")
     dt, k, n_int, total, s = _schedule(scene)
     N = ch.N
     rec = scene.get("record") or {}
@@ -548,14 +559,11 @@ def reference_run(scene: dict, exact_start: bool = True) -> dict:
 
     record(0, u, v)
 
-    if method == "yoshida4":
-        # Yoshida (1990) / Forest–Ruth: velocity Verlet (kick–drift–kick) over w1·dt, w0·dt, w1·dt in (u, v)
-        cube_root_2 = 2.0 ** (1.0 / 3.0)
-        w1 = 1.0 / (2.0 - cube_root_2)
-        w0 = -cube_root_2 * w1
+    if method in YOSHIDA:
+        # Yoshida (1990) / Forest–Ruth: velocity Verlet (kick–drift–kick) over w·dt for each weight, in (u, v)
         for step in range(1, total + 1):
             t1 = step * dt
-            for w in (w1, w0, w1):
+            for w in YOSHIDA[method]:
                 h = w * dt
                 u = u + h * v + (0.5 * h * h) * acc
                 ch.enforce(u, t1)

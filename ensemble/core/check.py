@@ -53,16 +53,30 @@ from hertzian.core.scene import VALIDITY_FRACTION, Scene
 from hertzian.core.static import static_state, validity_scale
 from hertzian.kernels.features import GEAR_CORRECTOR, SUBSTEP_WEIGHTS
 
-STABLE_OMEGA_DT = {"verlet": 2.0, "gear4": math.sqrt(2.0), "gear5": 1.12, "gear6": 0.85, "yoshida4": 1.5734}
+STABLE_OMEGA_DT = {
+    "verlet": 2.0,
+    "gear4": math.sqrt(2.0),
+    "gear5": 1.12,
+    "gear6": 0.85,
+    "yoshida4": 1.5734,
+    "yoshida6": 2.2690,
+}
 """Largest ω_max·dt for which each method is stable on a linear chain (see the module docstring).
 yoshida4: the one-step matrix on ü = −ω²u is the product of its three velocity-Verlet substep matrices
 (w1, w0, w1)·dt (:func:`amplification_matrix`); it has determinant 1 on (u, v), so it is stable while
 |trace/2| ≤ 1. Bisection of |trace/2| = 1 gives ω dt = 1.573402 (first crossing; rounded down here,
-recomputed by tests/core/test_check.py)."""
+recomputed by tests/core/test_check.py). yoshida6 likewise, over its seven substeps: ω dt = 2.269058."""
 
-ACCURATE_STEPS_PER_CONTACT_TIME = {"gear4": 400.0, "gear5": 300.0, "gear6": 400.0, "verlet": 3200.0, "yoshida4": 400.0}
+ACCURATE_STEPS_PER_CONTACT_TIME = {
+    "gear4": 400.0,
+    "gear5": 300.0,
+    "gear6": 400.0,
+    "verlet": 3200.0,
+    "yoshida4": 400.0,
+    "yoshida6": 150.0,
+}
 """Steps per contact time T/dt that keep the energy error below 1e-6 in every case of the extreme-case suite
-(docs/stability.md §3 "Accuracy thresholds" and §5; yoshida4: §2c)."""
+(hertzian.studies.thresholds; docs/stability.md §3 "Accuracy thresholds" and §5; yoshida4 and yoshida6: §2c)."""
 
 STABILITY_MARGIN = 2.0
 """The suggested dt stays this factor below the stability limit."""

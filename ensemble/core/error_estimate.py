@@ -49,7 +49,7 @@ ERROR_ESTIMATE_MEANING = (
 )
 """What ``error_estimate`` holds (store attribute ``long_name``)."""
 
-SMOOTH_ORDER = {"gear4": 4.0, "gear5": 5.0, "gear6": 6.0, "verlet": 2.0, "yoshida4": 4.0}
+SMOOTH_ORDER = {"gear4": 4.0, "gear5": 5.0, "gear6": 6.0, "verlet": 2.0, "yoshida4": 4.0, "yoshida6": 6.0}
 """Order of the positions where no contact opens (tests/core/test_order_of_accuracy.py, docs/stability.md §2c, §6)."""
 EVENT_ORDER = 4.0
 """Gear methods with event-aware steps where contacts open (docs/stability.md §6b: 3.5–4.1)."""

@@ -23,7 +23,7 @@ from hertzian.core.radii import RadiiSpec, parse_radii, radius_ratios
 
 SURFACE_KINDS = ("wall", "load", "free", "driven")
 BOTTOM_KINDS = ("wall", "fixed", "free")
-METHODS = ("gear4", "gear5", "gear6", "verlet", "yoshida4")
+METHODS = ("gear4", "gear5", "gear6", "verlet", "yoshida4", "yoshida6")
 AUTO_METHOD = "auto"
 """integrator.method with integrator.tolerance: the pilot (ensemble/core/error_estimate.py) picks the method."""
 MIN_TOLERANCE = 1e-12
@@ -31,7 +31,7 @@ MIN_TOLERANCE = 1e-12
 (ensemble/core/error_estimate.py), so a smaller tolerance can never be shown to be met."""
 SHADOW_STEP_FACTOR = 2
 """record.error_estimate integrates a shadow ensemble at this many times dt (ensemble/core/error_estimate.py)."""
-COMPOSED_METHODS = ("yoshida4",)
+COMPOSED_METHODS = ("yoshida4", "yoshida6")
 """Methods composed of velocity-Verlet substeps (kernels/features.py SUBSTEP_WEIGHTS): no drive, no damping."""
 EVENT_MODES = ("auto", "off")
 PRECISIONS = ("float64", "float32")
@@ -165,7 +165,8 @@ class IntegratorSpec:
     """Simulated time [time]; required."""
     method: str = "gear4"
     """gear4 | gear5 | gear6 (Gear predictor–corrector, orders 4–6) | verlet (velocity Verlet, order 2) |
-    yoshida4 (three velocity-Verlet substeps per step, symplectic, order 4; no drive or damping)."""
+    yoshida4 | yoshida6 (three or seven velocity-Verlet substeps per step, symplectic, order 4 or 6; no drive or
+    damping)."""
     dt: float = 1.25e-5
     """Time step [time]."""
     precision: str = "float64"

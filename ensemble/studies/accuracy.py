@@ -517,14 +517,14 @@ def plot_work_precision(
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.8), constrained_layout=True)
-    colours = {"gear4": "C0", "gear5": "C1", "gear6": "C2", "verlet": "C3", "yoshida4": "C4"}
+    colours = {"gear4": "C0", "gear5": "C1", "gear6": "C2", "verlet": "C3", "yoshida4": "C4", "yoshida6": "C5"}
     lines = sorted(
         {(r.method, r.precision, r.events) for r in records}, key=lambda k: (k[2], k[1], METHODS.index(k[0]))
     )
     several_events = len({k[2] for k in lines}) > 1
     methods = {m for m, _, _ in lines}
-    labelled = {m for m in methods if m in ("verlet", "yoshida4")} | {
-        min((m for m in methods if m not in ("verlet", "yoshida4")), default="")
+    labelled = {m for m in methods if m in ("verlet", "yoshida4", "yoshida6")} | {
+        min((m for m in methods if m not in ("verlet", "yoshida4", "yoshida6")), default="")
     }
     for method, precision, events in lines:
         rows = sorted(

@@ -169,9 +169,11 @@ def test_other_methods_match_reference(method, name):
         "free ends",
     ],
 )
-def test_yoshida4_matches_reference(name):
-    """yoshida4's substeps in the kernels' scaled Nordsieck form against the reference's kick–drift–kick in (u, v)."""
-    check(build(name, method="yoshida4"))
+@pytest.mark.parametrize("method", ["yoshida4", "yoshida6"])
+def test_yoshida_compositions_match_reference(name, method):
+    """The Yoshida compositions' substeps in the kernels' scaled Nordsieck form against the reference's
+    kick–drift–kick in (u, v), with the reference's own weights."""
+    check(build(name, method=method))
 
 
 def test_reference_agreement_on_device(device):

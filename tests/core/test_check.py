@@ -27,7 +27,7 @@ from hertzian.core.static import static_state
 from tests.helpers import hertzian, make_scene
 
 A = 5657.0
-METHODS = ["gear4", "gear5", "gear6", "verlet", "yoshida4"]
+METHODS = ["gear4", "gear5", "gear6", "verlet", "yoshida4", "yoshida6"]
 
 
 def linear_pair(method: str, omega_dt: float, steps: int):
@@ -72,9 +72,10 @@ def test_stability_limits(method):
     limit = STABLE_OMEGA_DT[method]
     for z in np.linspace(0.05, 0.97, 24) * limit:
         assert growth_per_period(method, z) < 0.1, z
-    assert growth_per_period(method, 1.03 * limit) > 0.1
-    if method in ("gear4", "verlet", "yoshida4"):
-        # no growth at all below the limit (gear4 damps, Verlet and yoshida4 conserve)
+    # just above: yoshida6's first unstable band is narrow (ω dt 2.269-2.327, stable again up to 2.818)
+    assert growth_per_period(method, (1.01 if method == "yoshida6" else 1.03) * limit) > 0.1
+    if method in ("gear4", "verlet", "yoshida4", "yoshida6"):
+        # no growth at all below the limit (gear4 damps, Verlet and the Yoshida compositions conserve)
         for z in np.linspace(0.05, 0.99, 24) * limit:
             rho = np.max(np.abs(np.linalg.eigvals(amplification_matrix(method, z))))
             assert rho <= 1 + 1e-12, (z, rho)

@@ -14,8 +14,8 @@ DTS = np.array([2e-3, 1e-3, 5e-4])
 # Expected orders: velocity Verlet is second order; the q-value Gear methods (A&T coefficients)
 # show order q in the positions here, as the independent NumPy reference does too
 # (tests/reference.py with exact start: slopes 4.0, 5.0, 6.0, 2.0).
-# yoshida4 (three Verlet substeps, Yoshida 1990) is fourth order (measured 4.00 here).
-EXPECTED = {"verlet": 2.0, "gear4": 4.0, "gear5": 5.0, "gear6": 6.0, "yoshida4": 4.0}
+# yoshida4 (three Verlet substeps, Yoshida 1990) is fourth order (measured 4.00 here), yoshida6 (seven) sixth.
+EXPECTED = {"verlet": 2.0, "gear4": 4.0, "gear5": 5.0, "gear6": 6.0, "yoshida4": 4.0, "yoshida6": 6.0}
 
 
 def smooth_scene(method, dt):

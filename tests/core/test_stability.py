@@ -3,7 +3,7 @@
 * Per-chain status, never a crash: a member that blows up is flagged and frozen, and the other
   members stay bitwise equal to their single runs (same kernel), on every CPU kernel path.
 * Each status code is reached by a scene built to reach it, and named in the store.
-* The extreme cases of sweeps/stability.toml, run at the step ``hertzian check`` suggests, keep
+* The extreme cases (hertzian.studies.thresholds), run at the step ``hertzian check`` suggests, keep
   the energy conserved (the independent check: docs/model.md §5's energy) and stay OK.
 * l0 = 0: contacts open and close, the force F ∝ δ^(n−1) is not smooth at δ = 0, and every Gear
   method falls to order ≈ 2.3 (measured), against 4/5/6 on a smooth precompressed chain.
@@ -21,6 +21,7 @@ from hertzian.core.runner import Runner, run_ensemble, run_scene
 from hertzian.core.static import static_state
 from hertzian.core.status import Status
 from hertzian.studies.accuracy import work_precision
+from hertzian.studies.thresholds import EXTREMES, extreme
 from hertzian.sweeping.sweep_store import write_result
 
 from tests.helpers import DEVICES, make_scene, slope
@@ -110,39 +111,7 @@ def test_energy_drift_is_flagged():
     assert np.all(np.isfinite(result.u)) and 1e-2 < result.energy_error[0] < 1
 
 
-IMPURITY = {"grains": [3], "contact": "own"}
-EXTREMES = {  # the cases of sweeps/stability.toml (impact speed, precompression, impurity, exponent, gravity)
-    "v_imp=1e-6": dict(excitation={"impact": 1e-6}),
-    "v_imp=10": dict(excitation={"impact": 10.0}),
-    "l0=0": dict(chain={"l0": 0.0}),
-    "l0=0,v_imp=10": dict(chain={"l0": 0.0}, excitation={"impact": 10.0}),
-    "l0=1e-2": dict(chain={"l0": 1e-2}),
-    "mass=1e-3": dict(impurities=[{**IMPURITY, "mass": 1e-3}]),
-    "mass=1e3": dict(impurities=[{**IMPURITY, "mass": 1e3}]),
-    "a=1e-3": dict(impurities=[{**IMPURITY, "a": 5.657}]),
-    "a=1e3": dict(impurities=[{**IMPURITY, "a": 5.657e6}]),
-    "n=2": dict(chain={"exponent": 2.0}),
-    "n=3": dict(chain={"exponent": 3.0}),
-    "g=100": dict(chain={"gravity": 100.0}),
-}
-
-
-def extreme(case: str, method: str):
-    spec = json.loads(json.dumps(EXTREMES[case]))
-    chain = {"grains": 30, "l0": 1e-4, **spec.pop("chain", {})}
-    excitation = spec.pop("excitation", {"impact": 1e-2})
-    scene = make_scene(
-        chain=chain,
-        excitation=excitation,
-        **spec,
-        integrator={"method": method, "duration": 0.3},
-        record={"every": 0.01, "fields": ["u"]},
-    )
-    step = check_scene(scene).suggested_dt
-    return scene.with_overrides({"integrator.dt": 0.01 / math.ceil(0.01 / step - 1e-9)})
-
-
-@pytest.mark.parametrize("method", ["gear4", "verlet", "yoshida4"])
+@pytest.mark.parametrize("method", ["gear4", "verlet", "yoshida4", "yoshida6"])
 @pytest.mark.parametrize("case", list(EXTREMES))
 def test_extreme_case_at_the_suggested_step_conserves_energy(case, method):
     """At check's suggested dt (≈ its 'accurate' steps per contact time) every extreme keeps E to ≤ 1e-6,

@@ -49,7 +49,7 @@ def run(method: str, precision: str, compensated: bool):
     return float(result.energy_error[0]), np.asarray(result.fields["u"][0], dtype=np.float64)
 
 
-@pytest.mark.parametrize("method", ["gear4", "verlet", "yoshida4"])
+@pytest.mark.parametrize("method", ["gear4", "verlet", "yoshida4", "yoshida6"])
 def test_compensated_float32_keeps_float64_accuracy(method):
     _, u64 = run(method, "float64", False)
     plain_energy, u_plain = run(method, "float32", False)
