@@ -274,3 +274,23 @@ def test_a_bad_override_on_the_command_line_is_refused(tmp_path):
     result = hertzian("design", path, "--out", tmp_path / "d.zarr", "--device", "cpu", "--generations", "0")
     assert result.returncode == 2 and result.stderr.startswith("error: design.generations = 0"), result.stderr
     assert not (tmp_path / "d.zarr").exists()
+
+
+def test_the_study_record_merges_each_part_under_its_name(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    path = design_file(tmp_path, {**DESIGN, "generations": 2})
+    out = tmp_path / "record.json"
+    out.write_text(json.dumps({"other": {"kept": True}}))
+    command = [sys.executable, "-m", "hertzian.studies.design_record", "--out", str(out), "--part", "small"]
+    command += ["--design", path, "--set", "design.population=4", "--store", str(tmp_path / "s.zarr")]
+    done = subprocess.run(command, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    record = json.loads(out.read_text())
+    assert record["other"] == {"kept": True}
+    part = record["small"]
+    assert part["design"]["population"] == 4 and len(part["best_objective"]) == 2
+    assert "--set design.population=4" in part["command"] and "traces" not in part
+    assert part["chains"]["best"]["objective"] == read_design(tmp_path / "s.zarr")["best_objective"][-1, 0]
