@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import sys
 from pathlib import Path
@@ -40,8 +41,9 @@ def design(
         scene, spec = load_design(shipped_file(path), overrides)
         check_out(out, overwrite=overwrite, resume=resume, hint="resume to continue it or overwrite to replace it")
     dev = resolve_device(device)
-    with one_line_errors():
-        result = optimise(scene, spec, out, device=dev, resume=resume, progress=None if as_json else _progress)
+    with one_line_errors(), _generations_bar(spec.generations, shown=not as_json and sys.stderr.isatty()) as bar:
+        progress = bar or (None if as_json else _progress)
+        result = optimise(scene, spec, out, device=dev, resume=resume, progress=progress)
     if as_json:
         typer.echo(json.dumps(result.to_dict()))
         return
@@ -51,6 +53,31 @@ def design(
         f"{result.best_objective:.6g}{front} ({result.seconds:.1f} s)"
     )
     typer.echo(f"wrote {out}")
+
+
+@contextlib.contextmanager
+def _generations_bar(total: int, *, shown: bool):
+    """On a terminal, a transient rich bar of the generations done with each objective's best so far, as a
+    ``progress(generation, generations, best)`` callback (None when not shown: then one line a generation)."""
+    if not shown:
+        yield None
+        return
+    from rich.progress import BarColumn, Progress, TimeRemainingColumn
+
+    bar = Progress(
+        "[progress.description]{task.description}", BarColumn(), "{task.completed}/{task.total}", TimeRemainingColumn()
+    )
+    bar.start()
+    task = bar.add_task("generations", total=total)
+
+    def update(generation: int, generations: int, best) -> None:
+        text = ", ".join(f"{value:.4g}" for value in best)
+        bar.update(task, completed=generation, description=f"best {text}")
+
+    try:
+        yield update
+    finally:
+        bar.stop()
 
 
 def _progress(generation: int, generations: int, best) -> None:
