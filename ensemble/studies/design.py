@@ -354,12 +354,38 @@ def objectives(spec: DesignSpec, scenes: list[Scene], result) -> np.ndarray:
     return out
 
 
+MEMORY_SHARE = 0.25
+"""The share of the memory free on the host (and on a GPU) one ensemble run of a generation may take."""
+
+
 def evaluate(scene: Scene, spec: DesignSpec, genomes: np.ndarray, device: str) -> np.ndarray:
-    """Objectives (P, objectives) of ``genomes`` (P, genes): one ensemble run of every candidate."""
+    """Objectives (P, objectives) of ``genomes`` (P, genes): one ensemble run of every candidate, or of as many as
+    fit in memory at once (:func:`candidates_per_run`) and then the next."""
     from hertzian.core.runner import run_ensemble
 
     scenes = [probe_scene(candidate(scene, spec, g)) for g in genomes]
-    return objectives(spec, scenes, run_ensemble(scenes, device))
+    size = candidates_per_run(scenes[0], device)
+    return np.concatenate([objectives(spec, part, run_ensemble(part, device)) for part in _parts(scenes, size)], axis=0)
+
+
+def candidates_per_run(probe: Scene, device: str) -> int:
+    """How many candidates like ``probe`` one ensemble run takes: MEMORY_SHARE of the free memory (each candidate
+    keeps its wall grain's trace at every step), and fewer than 2³¹ elements in its trace arrays."""
+    from hertzian.core.check import available_host_bytes, memory_needed
+
+    need = memory_needed(probe, 1)
+    free = available_host_bytes()
+    per = sum(need.values())
+    if str(device).startswith("cuda"):
+        import warp as wp
+
+        free, per = min(free, int(wp.get_device(device).free_memory)), max(per, need["state"])
+    elements = 2 * max(probe.trace_sample_count, 1)
+    return max(1, min(int(MEMORY_SHARE * free) // max(per, 1), (2**31 - 1) // elements))
+
+
+def _parts(items: list, size: int) -> list[list]:
+    return [items[k : k + size] for k in range(0, len(items), size)]
 
 
 # ---- the optimisation ---------------------------------------------------------------------------------------

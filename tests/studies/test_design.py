@@ -294,3 +294,30 @@ def test_the_study_record_merges_each_part_under_its_name(tmp_path):
     assert part["design"]["population"] == 4 and len(part["best_objective"]) == 2
     assert "--set design.population=4" in part["command"] and "traces" not in part
     assert part["chains"]["best"]["objective"] == read_design(tmp_path / "s.zarr")["best_objective"][-1, 0]
+
+
+def test_a_generation_too_big_for_memory_runs_in_parts_with_the_same_objectives(monkeypatch):
+    """Each candidate keeps its wall grain's trace at every step: a generation that would not fit in memory at once
+    runs as several ensembles, and every candidate's objectives are those of one run of all."""
+    from hertzian.studies import design
+
+    scene = make_scene(**BASE)
+    spec = check_design(scene, DESIGN)
+    genomes = np.random.default_rng(5).uniform(0, 1, (7, len(spec.gene_names)))
+    genomes[:, :7] = np.rint(genomes[:, :7])
+    whole = evaluate(scene, spec, genomes, "cpu")
+    assert design.candidates_per_run(probe_scene(scene), "cpu") >= 7
+    monkeypatch.setattr(design, "candidates_per_run", lambda probe, device: 3)
+    np.testing.assert_array_equal(evaluate(scene, spec, genomes, "cpu"), whole)
+
+
+def test_candidates_per_run_follows_the_free_memory(monkeypatch):
+    from hertzian.core import check
+    from hertzian.studies import design
+
+    probe = probe_scene(make_scene(**BASE))
+    per = sum(check.memory_needed(probe, 1).values())
+    monkeypatch.setattr(check, "available_host_bytes", lambda: int(40 * per / design.MEMORY_SHARE))
+    assert design.candidates_per_run(probe, "cpu") == 40
+    monkeypatch.setattr(check, "available_host_bytes", lambda: 0)
+    assert design.candidates_per_run(probe, "cpu") == 1
