@@ -555,9 +555,12 @@ def test_claims_depth_law_and_echo_amplitude_are_their_record():
     assert f"v_imp = 1e-2: {slow['light/harmonic']:.5f} vs {slow['heavy/harmonic']:.5f}" in cell
 
 
-def test_the_design_table_is_its_record():
-    rows = table_after("design.md", "| protector (19 mm long)")
-    chains = record("design/protector_cpu.json")["chains"]
+@pytest.mark.parametrize(
+    "header, part", [("| protector (19 mm long)", "beads_20"), ("| protector (99 mm long)", "beads_100")]
+)
+def test_the_design_tables_are_their_record(header, part):
+    rows = table_after("design.md", header)
+    chains = record("design/protector_cpu.json")[part]["chains"]
     names = {
         "best design": "best",
         "uniform, stainless steel": "uniform stainless_steel",

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import warp as wp
 from hertzian.core.model import build_model
 from hertzian.core.runner import Runner
 from hertzian.core.solvers import CHAIN, STEP, ChainSolver, SolverConfig, choose_config
@@ -213,21 +214,23 @@ def test_a_window_left_alone_at_its_barrier_gives_up():
     returns False, instead of hanging; two parties pass it."""
     import threading
 
-    import warp as wp
     from hertzian.kernels.threads import barrier
 
     @wp.kernel(module="unique")
-    def meet(state: wp.array(dtype=wp.uint32), parties: int, passed: wp.array(dtype=wp.int32), me: int):
-        if barrier(state, parties, wp.int64(100000)):
+    def meet(
+        state: wp.array(dtype=wp.uint32), parties: int, passed: wp.array(dtype=wp.int32), me: int, limit: wp.int64
+    ):
+        if barrier(state, parties, limit):
             passed[me] = 1
 
     state = wp.zeros(3, dtype=wp.uint32, device="cpu")
     passed = wp.zeros(2, dtype=wp.int32, device="cpu")
-    wp.launch(meet, 1, [state, 2, passed, 0], device="cpu")
+    wp.launch(meet, 1, [state, 2, passed, 0, wp.int64(100_000)], device="cpu")
     assert passed.numpy().tolist() == [0, 0] and state.numpy()[2] == 1
     state.zero_()
-    other = threading.Thread(target=lambda: wp.launch(meet, 1, [state, 2, passed, 1], device="cpu"))
+    patient = wp.int64(1 << 40)  # the partner's thread may start late on a busy machine
+    other = threading.Thread(target=lambda: wp.launch(meet, 1, [state, 2, passed, 1, patient], device="cpu"))
     other.start()
-    wp.launch(meet, 1, [state, 2, passed, 0], device="cpu")
+    wp.launch(meet, 1, [state, 2, passed, 0, patient], device="cpu")
     other.join()
     assert passed.numpy().tolist() == [1, 1] and state.numpy().tolist() == [0, 1, 0]
