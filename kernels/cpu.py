@@ -34,7 +34,7 @@ from hertzian.kernels.events import event_functions
 from hertzian.kernels.features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
 from hertzian.kernels.gear import nordsieck_functions, refuse_composed_extras, substep_weight_function
 from hertzian.kernels.physics import contact_functions, contact_parameters, damping_functions, product_rn
-from hertzian.kernels.threads import BARRIER_SPIN_LIMIT, barrier
+from hertzian.kernels.threads import BARRIER_SPIN_LIMIT, FIRST_WAIT_FACTOR, barrier
 
 
 @functools.cache
@@ -138,6 +138,7 @@ def chain_kernel(features: Features):
         window: wp.vec4i,
         barrier_state: wp.array(dtype=wp.uint32),
         parties: int,
+        patience: wp.int64,
     ) -> bool:
         # the owned grains next to each cut go out, the window's grains past each cut come in from the neighbour's
         lo = window[0]
@@ -146,12 +147,12 @@ def chain_kernel(features: Features):
         own_hi = window[3]
         copy_grains(x_window, x_out, c, own_lo, wp.min(own_lo + (own_lo - lo), own_hi))
         copy_grains(x_window, x_out, c, wp.max(own_hi - (hi - own_hi), own_lo), own_hi)
-        if not barrier(barrier_state, parties, wp.int64(BARRIER_SPIN_LIMIT)):
+        if not barrier(barrier_state, parties, patience):
             return False
         copy_grains(x_out, x_window, c, lo, own_lo)
         copy_grains(x_out, x_window, c, own_hi, hi)
         # the next exchange writes what the neighbour has just read
-        return barrier(barrier_state, parties, wp.int64(BARRIER_SPIN_LIMIT))
+        return barrier(barrier_state, parties, patience)
 
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def chain_steps(
@@ -182,6 +183,7 @@ def chain_kernel(features: Features):
         exchange_every: int,
         barrier_state: wp.array(dtype=wp.uint32),
         parties: int,
+        patience: wp.int64,
     ):
         # window = (lo, hi, own_lo, own_hi): grains [lo, hi) are swept in x_window, and [own_lo, own_hi) of them
         # written to x_out (the whole chain: x_window is x_out, and nothing is copied back). Only the sweep's
@@ -498,7 +500,11 @@ def chain_kernel(features: Features):
                     )
             if windowed:
                 if (_step + 1) % exchange_every == 0 and _step + 1 < passes:
-                    if not exchange(x_window, x_out, c, window, barrier_state, parties):
+                    # the first wait also covers the other threads' start: a generous patience for it
+                    wait = patience
+                    if _step + 1 == exchange_every:
+                        wait = patience * wp.int64(FIRST_WAIT_FACTOR)
+                    if not exchange(x_window, x_out, c, window, barrier_state, parties, wait):
                         return
         if wp.static(DRIVEN):
             if lo == 0:
@@ -541,6 +547,7 @@ def launch_chain(
     exchange_every: int = 1 << 30,
     barrier_state=None,
     parties: int = 1,
+    patience: int = BARRIER_SPIN_LIMIT,
 ):
     """Launch ``steps`` steps of the chain kernel for chains ``chains = (first, end)`` (default: all), one
     kernel thread per chain.
@@ -558,7 +565,8 @@ def launch_chain(
     [lo, hi) travels one grain a pass (a step, or a substep of a composed method), so with ``lo − own_lo`` and
     ``hi − own_hi`` at least ``exchange_every`` where there is a cut, ``parties`` such launches running at once on
     as many threads, one per window, exchange the grains next to their cuts every ``exchange_every`` passes
-    (through ``x_out``, two :func:`hertzian.kernels.threads.barrier` waits on ``barrier_state``) and together take
+    (through ``x_out``, two :func:`hertzian.kernels.threads.barrier` waits on ``barrier_state``, each giving up after
+    ``patience`` spins) and together take
     the steps of the whole chain (:class:`hertzian.core.solvers.chain.ChainSolver`). Default: the whole chain, swept
     in ``x_out``."""
     first, end = chains if chains is not None else (0, x_in.shape[1])
@@ -598,6 +606,7 @@ def launch_chain(
             exchange_every,
             barrier_state,
             parties,
+            wp.int64(patience),
         ],
         device=device,
     )

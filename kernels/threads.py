@@ -4,14 +4,20 @@ Warp's CPU atomics are plain loads and stores (a CPU launch runs on one thread),
 with the compiler's ``__atomic`` builtins: the last of ``parties`` to arrive resets the count and advances the
 generation (release); the others spin until the generation moves (acquire), so every write before the barrier is
 seen after it. A party that waits longer than ``limit`` spins sets the abort flag and returns False, and so does
-every party that sees the flag: a launch whose partner never came ends instead of hanging, and the host reads the
-flag (``state[2]``). CPU kernels only: the snippet is plain C++.
+every party that sees the flag: a launch whose partner is not running (more threads than free cores: a spinning
+party would then hold the core its partner needs) or never came ends instead of hanging, and the host reads the flag
+(``state[2]``). CPU kernels only: the snippet is plain C++ (Warp's CPU compiler takes no inline assembly).
 """
 
 import warp as wp
 
-BARRIER_SPIN_LIMIT = 1 << 32
-"""Spins before a waiting party gives up (one spin is a load and a pause: minutes, far beyond any exchange)."""
+BARRIER_SPIN_LIMIT = 1 << 16
+"""Spins before a waiting party gives up (one spin is a load and a pause, 20–40 ns: 1–3 ms). A running partner
+arrives within microseconds; one that shares its core with other work waits for its time slice, and the
+windows are better given up then: every exchange would wait milliseconds."""
+
+FIRST_WAIT_FACTOR = 64
+"""The first wait of a launch may last this many times longer: it also covers the start of the other threads."""
 
 _BARRIER = r"""
 unsigned int* count = &state[0];

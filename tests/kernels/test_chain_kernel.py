@@ -234,3 +234,30 @@ def test_a_window_left_alone_at_its_barrier_gives_up():
     wp.launch(meet, 1, [state, 2, passed, 0, patient], device="cpu")
     other.join()
     assert passed.numpy().tolist() == [1, 1] and state.numpy().tolist() == [0, 1, 0]
+
+
+def test_windows_that_give_up_leave_the_run_as_whole_chains_would(monkeypatch):
+    """Windows whose partner is not running give up at once (here: no patience at all): each such launch runs again
+    as whole chains from the same state, the dissipated energy restored, and windows are tried again later. The run
+    is the per-step kernel's bit for bit."""
+    from hertzian.core.solvers import chain as chain_module
+
+    from tests.kernels.test_fused_features import assert_same_run, driven_scenes
+
+    scenes = driven_scenes(traces=True, damping={"model": "contact", "gamma": 0.8}, integrator={"events": "off"})
+    model = build_model(scenes, "cpu")
+    want = Runner(model, kernel="step", use_graph=False).run()
+    windowed_solver(model, monkeypatch, 2, 2)
+    monkeypatch.setenv("HERTZIAN_CPU_THREADS", str(2 * model.chain_count))
+    monkeypatch.setattr(chain_module, "BARRIER_SPIN_LIMIT", 0)
+    attempts = []
+    windowed = chain_module.ChainSolver._windowed
+    monkeypatch.setattr(
+        chain_module.ChainSolver, "_windowed", lambda self, *a: attempts.append(windowed(self, *a)) or attempts[-1]
+    )
+    runner = Runner(model, kernel="chain")
+    assert len(runner.solver.windows) == 2 and runner.solver.patience == 0
+    got = runner.run()
+    assert_same_run(got, want)
+    np.testing.assert_array_equal(got.dissipated, want.dissipated)
+    assert attempts.count(False) >= 3 and len(attempts) < runner.solver.model.scenes[0].record_count

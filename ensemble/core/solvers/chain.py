@@ -25,6 +25,7 @@ from hertzian.core.model import Model, State
 from hertzian.core.solvers.base import Solver
 from hertzian.core.solvers.config import CHAIN, SolverConfig
 from hertzian.kernels.cpu import chain_kernel, launch_chain
+from hertzian.kernels.threads import BARRIER_SPIN_LIMIT
 
 MIN_GRAIN_STEPS_TO_SPLIT = 1 << 20
 """A launch of fewer grain-steps runs whole on the calling thread: handing ranges to the pool costs more
@@ -33,6 +34,9 @@ than such a launch's kernel time (~1e8 grain-steps/s per core: 1e6 grain-steps �
 WINDOW_STEPS = 16
 """Steps between two exchanges of the grains next to the cuts when chains are cut into windows. Each window sweeps
 WINDOW_STEPS × substeps grains more at each cut; an exchange costs two barriers (~0.1 µs each) and the copies."""
+
+MAX_BACKOFF = 4
+"""After windows gave up, whole-chain launches before they are tried again (the wait doubles up to this)."""
 
 MIN_WINDOW_GRAINS = 4
 """A window writes back at least this many times the grains it sweeps at one cut end: shorter chains stay whole."""
@@ -113,6 +117,17 @@ class ChainSolver(Solver):
         """Each window's own sweep array."""
         self.barrier_state = wp.zeros(3, dtype=wp.uint32, device=model.device)
         """The windows' barrier: arrivals, generation, abort flag (kernels/threads.py)."""
+        self.patience = BARRIER_SPIN_LIMIT
+        """Spins a window waits at a barrier before the windows give up (kernels/threads.py)."""
+        self._skip_windows, self._backoff = 0, 1
+        """Launches to run as whole chains before windows are tried again, and the next such wait."""
+        damped = model.features.damping != "none"
+        self._dissipated_before = wp.zeros(
+            (model.chain_count, model.grain_count) if damped and self.windows else (0, 0),
+            dtype=wp.float64,
+            device=model.device,
+        )
+        """A launch's dissipated energy before it, to restore when its windows give up."""
         parallel = max(len(self.ranges), len(self.windows))
         self.pool = _pool(parallel - 1) if parallel > 1 else None
 
@@ -149,6 +164,7 @@ class ChainSolver(Solver):
             exchange_every=self.exchange_every,
             barrier_state=self.barrier_state,
             parties=len(self.windows),
+            patience=self.patience,
         )
 
     def launch(self, state_in: State, state_out: State, steps: int) -> None:
@@ -158,14 +174,13 @@ class ChainSolver(Solver):
             self._launch(state_in, state_out, steps, chains, window)
 
         if self.windows and m.grain_count * steps >= MIN_GRAIN_STEPS_TO_SPLIT:
-            every = (0, m.chain_count)
-            others = [self.pool.submit(run, every, w) for w in range(1, len(self.windows))]
-            run(every, 0)
-            for future in others:
-                future.result()
-            if self.barrier_state.numpy()[2]:
-                raise RuntimeError("the chain kernel's windows lost each other (a thread waited minutes at a barrier)")
-            return
+            if self._skip_windows > 0:
+                self._skip_windows -= 1
+            elif self._windowed(state_in, steps, run):
+                self._backoff = 1
+                return
+            else:  # other work holds a core: whole chains for a while, then windows again (twice as long a while)
+                self._skip_windows, self._backoff = self._backoff, min(2 * self._backoff, MAX_BACKOFF)
         if self.pool is None or m.chain_count * m.grain_count * steps < MIN_GRAIN_STEPS_TO_SPLIT:
             run((0, m.chain_count))
             return
@@ -173,6 +188,25 @@ class ChainSolver(Solver):
         run(self.ranges[0])  # this thread takes the first range
         for future in others:
             future.result()
+
+    def _windowed(self, state_in: State, steps: int, run) -> bool:
+        """One launch per window, all at once; False (nothing of it kept: the launch is then run as whole chains from
+        the same state) when a window waited too long at a barrier: its partner was not running."""
+        m = self.model
+        damped = state_in.dissipated.shape[0] > 0
+        if damped:
+            wp.copy(self._dissipated_before, state_in.dissipated)  # updated in place by the windows
+        every = (0, m.chain_count)
+        others = [self.pool.submit(run, every, w) for w in range(1, len(self.windows))]
+        run(every, 0)
+        for future in others:
+            future.result()
+        if not self.barrier_state.numpy()[2]:
+            return True
+        if damped:
+            wp.copy(state_in.dissipated, self._dissipated_before)
+        self.barrier_state.zero_()
+        return False
 
 
 def chain_windows(grains: int, parts: int, reach: int) -> list[tuple[int, int, int, int]]:
