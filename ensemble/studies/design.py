@@ -468,9 +468,10 @@ def front_of(data: dict) -> tuple[list[list[float]], list[list[float]]]:
 
 
 def references(scene: Scene, spec: DesignSpec, best: Scene) -> dict[str, Scene]:
-    """The best design and plain protectors of the same length in each of the design's materials: ``uniform <m>``
-    (equal beads) and ``tapered <m>`` (radii falling linearly from the struck end to the wall, as far as the radius
-    bounds allow)."""
+    """The best design and plain protectors in each of the design's materials: ``uniform <m>`` (equal beads) and
+    ``tapered <m>`` (radii falling linearly from the struck end to the wall, as far as the radius bounds allow), of
+    the best design's length; with ``design.total_mass``, of its mass instead (scaled as a whole, past the radius
+    bounds if that material needs it)."""
     from hertzian.core.materials import pattern_index
 
     n = scene.chain.grains
@@ -483,6 +484,9 @@ def references(scene: Scene, spec: DesignSpec, best: Scene) -> dict[str, Scene]:
         for name, shape in (("uniform", np.zeros(len(vary))), ("tapered", np.linspace(0.5, -0.5, len(vary)))):
             plain = ratios.copy()
             plain[vary] = mean * (1.0 + shape * (0.8 if spec.radius is None else _span(spec, mean)))
+            if spec.total_mass is not None:
+                weight = _reference_masses(scene, [material])[0]
+                plain[vary] *= (spec.total_mass / (weight * np.sum(plain[vary] ** 3))) ** (1.0 / 3.0)
             materials = [names[i] for i in index]
             for g in vary:
                 materials[g] = material

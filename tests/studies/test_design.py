@@ -321,3 +321,19 @@ def test_candidates_per_run_follows_the_free_memory(monkeypatch):
     assert design.candidates_per_run(probe, "cpu") == 40
     monkeypatch.setattr(check, "available_host_bytes", lambda: 0)
     assert design.candidates_per_run(probe, "cpu") == 1
+
+
+def test_plain_protectors_share_the_designs_length_or_its_mass():
+    from hertzian.studies.design import references
+
+    scene = make_scene(**BASE)
+    genes = np.r_[np.array([0, 1, 0, 1, 1, 0, 1.0]), np.linspace(0.1, 0.9, 7)]
+    for table, measure, target in (
+        ({"total_length": 7 * 100.0 * 1.1}, lambda s: 2 * np.sum(s.chain.radius_ratios[1:]) * 50.0, 770.0),
+        ({"total_mass": 0.6}, lambda s: static_state(s).mass[1:].sum(), 0.6),
+    ):
+        spec = check_design(scene, {**DESIGN, **table})
+        chains = references(scene, spec, candidate(scene, spec, genes))
+        assert len(chains) == 5
+        for name, chain in chains.items():
+            assert measure(chain) == pytest.approx(target, rel=1e-12), name
