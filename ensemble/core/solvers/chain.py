@@ -105,6 +105,13 @@ class ChainSolver(Solver):
         window_steps = window_steps or WINDOW_STEPS
         self.ranges = chain_ranges(model.chain_count, threads)
         """The chain ranges launched at once (one per thread)."""
+        self._set_up_windows(threads, window_steps)
+        parallel = max(len(self.ranges), len(self.windows))
+        self.pool = _pool(parallel - 1) if parallel > 1 else None
+
+    def _set_up_windows(self, threads: int, window_steps: int) -> None:
+        """The windows of each chain, their arrays and their barrier (none when the chains fill the threads)."""
+        model = self.model
         parts = min(threads, usable_cores()) if 2 * model.chain_count <= threads else 1
         self.windows = chain_windows(model.grain_count, parts, window_steps * self.kernel_features.substeps)
         """(lo, hi, own_lo, own_hi) of each window of a chain cut over the threads, or [] (whole chains): when the
@@ -128,8 +135,6 @@ class ChainSolver(Solver):
             device=model.device,
         )
         """A launch's dissipated energy before it, to restore when its windows give up."""
-        parallel = max(len(self.ranges), len(self.windows))
-        self.pool = _pool(parallel - 1) if parallel > 1 else None
 
     def _launch(self, state_in: State, state_out: State, steps: int, chains: tuple[int, int], window: int | None):
         m = self.model
