@@ -165,15 +165,17 @@ def design(
     *,
     resume: bool = False,
     overwrite: bool = False,
+    scene_overrides: dict[str, Any] | None = None,
     **overrides: Any,
 ):
     """Run ``hertzian design``: the design file ``path`` (``overrides`` replace its ``[design]`` keys, e.g.
-    ``generations=10``) into the store ``out``; returns a ``DesignResult`` (best objective, genome and scene; with
+    ``generations=10``; ``scene_overrides`` dotted keys of its ``[scene]``, e.g. ``{"chain.grains": 40}``) into the
+    store ``out``; returns a ``DesignResult`` (best objective, genome and scene; with
     several objectives, the Pareto front). Bad input raises one line (OptionError, SceneError) before anything
     runs."""
     from hertzian.studies.design import load_design, optimise
     from hertzian.sweeping.storage import check_out
 
-    scene, spec = load_design(shipped_file(path), overrides)
+    scene, spec = load_design(shipped_file(path), overrides, scene_overrides)
     check_out(out, overwrite=overwrite, resume=resume)
     return optimise(scene, spec, out, device=check_device(device), resume=resume)

@@ -20,6 +20,10 @@ def design(
     generations: Annotated[Optional[int], typer.Option("--generations", help="Override design.generations.")] = None,
     population: Annotated[Optional[int], typer.Option("--population", help="Override design.population.")] = None,
     seed: Annotated[Optional[int], typer.Option("--seed", help="Override design.seed.")] = None,
+    set_: Annotated[
+        Optional[list[str]],
+        typer.Option("--set", help="Override design.KEY=VALUE or scene.SECTION.KEY=VALUE (repeatable)."),
+    ] = None,
     resume: Annotated[bool, typer.Option("--resume", help="Continue a stopped design (same file).")] = False,
     overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing design store.")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the result as one JSON object.")] = False,
@@ -29,16 +33,18 @@ def design(
     generation is one ensemble run of all its candidates.
 
     docs/design.md describes the design file and the store."""
+    from hertzian.core.scene import parse_overrides
     from hertzian.core.shipped import shipped_file
-    from hertzian.studies.design import load_design, optimise
+    from hertzian.studies.design import load_design, optimise, split_overrides
     from hertzian.sweeping.storage import check_out
 
     if resume and overwrite:
         fail("--resume = --overwrite: give one of them")
     given = (("generations", generations), ("population", population), ("seed", seed))
-    overrides = {k: v for k, v in given if v is not None}
     with one_line_errors():
-        scene, spec = load_design(shipped_file(path), overrides)
+        overrides, scene_overrides = split_overrides(parse_overrides(set_))
+        overrides |= {k: v for k, v in given if v is not None}
+        scene, spec = load_design(shipped_file(path), overrides, scene_overrides)
         check_out(out, overwrite=overwrite, resume=resume, hint="resume to continue it or overwrite to replace it")
     dev = resolve_device(device)
     with one_line_errors(), _generations_bar(spec.generations, shown=not as_json and sys.stderr.isatty()) as bar:

@@ -90,17 +90,36 @@ class DesignSpec:
         return names + ([f"radius[{g}]" for g in self.gene_grains] if self.radius else [])
 
 
-def load_design(path: str | Path, overrides: dict[str, Any] | None = None) -> tuple[Scene, DesignSpec]:
-    """(base scene, design) of a design file (``overrides`` replace ``[design]`` keys); bad input raises one line
-    (SceneError) before anything runs."""
+def load_design(
+    path: str | Path, overrides: dict[str, Any] | None = None, scene_overrides: dict[str, Any] | None = None
+) -> tuple[Scene, DesignSpec]:
+    """(base scene, design) of a design file (``overrides`` replace ``[design]`` keys, ``scene_overrides`` dotted
+    keys of its ``[scene]``, e.g. ``chain.grains``); bad input raises one line (SceneError) before anything runs."""
+    from hertzian.core.scene import apply_overrides
+
     data = read_toml(path)
     for key in data:
         if key not in ("scene", "design"):
             raise SceneError(key, "(table)", "a design file holds [scene] and [design]")
     if not isinstance(data.get("scene"), dict) or not isinstance(data.get("design"), dict):
         raise SceneError("design", str(path), "needs a [scene] table (the base scene) and a [design] table")
-    scene = scene_from_dict(data["scene"])
+    scene = scene_from_dict(apply_overrides(data["scene"], scene_overrides or {}))
     return scene, check_design(scene, {**data["design"], **(overrides or {})})
+
+
+def split_overrides(overrides: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """``--set`` keys of a design run as ([design] keys, [scene] keys): ``design.KEY`` and ``scene.SECTION.KEY``;
+    any other key is refused in one line (SceneError)."""
+    design, scene = {}, {}
+    for key, value in overrides.items():
+        head, _, rest = key.partition(".")
+        if head == "design" and rest:
+            design[rest] = value
+        elif head == "scene" and rest:
+            scene[rest] = value
+        else:
+            raise SceneError(key, value, "a design run takes design.KEY or scene.SECTION.KEY")
+    return design, scene
 
 
 def check_design(scene: Scene, table: dict[str, Any]) -> DesignSpec:

@@ -337,3 +337,22 @@ def test_plain_protectors_share_the_designs_length_or_its_mass():
         assert len(chains) == 5
         for name, chain in chains.items():
             assert measure(chain) == pytest.approx(target, rel=1e-12), name
+
+
+def test_set_overrides_design_and_scene_keys_and_refuses_others(tmp_path):
+    path = design_file(tmp_path, DESIGN)
+    out = tmp_path / "d.zarr"
+    args = ["design", path, "--out", out, "--device", "cpu", "--set", "design.generations=1"]
+    made = hertzian(*args, "--set", "scene.chain.grains=6", "--set", "design.population=3")
+    assert made.returncode == 0, made.stderr
+    stored = read_design(out)
+    assert stored["attrs"]["scene"]["chain"]["grains"] == 6 and stored["objective"].shape == (1, 3, 1)
+    for key, message in (
+        ("chain.grains=6", "error: chain.grains = 6: a design run takes design.KEY"),
+        ("scene.chain.color=3", "error: chain.color"),
+    ):
+        refused = hertzian("design", path, "--out", tmp_path / "e.zarr", "--set", key)
+        assert refused.returncode == 2 and refused.stderr.startswith(message), refused.stderr
+        assert refused.stderr.count("\n") == 1 and not (tmp_path / "e.zarr").exists()
+    result = hz.design(path, tmp_path / "f.zarr", "cpu", scene_overrides={"chain.grains": 6}, generations=1)
+    assert len(result.best_scene["chain"]["material"]) == 6
