@@ -10,6 +10,12 @@ from pathlib import Path
 import numpy as np
 
 DPI = 110
+LABELS = {
+    "peak_wall_force": "peak wall force (program units, 2.3e-4 N)",
+    "impulse": "impulse on the wall (program units, 2.3e-7 N s)",
+    "mass": "protector mass (program units, 2.36e-5 kg)",
+}
+"""Each objective's axis label, with its unit."""
 COLOURS = ("#4c72b0", "#dd8452", "#55a868", "#c44e52", "#8172b3", "#937860", "#da8bc3", "#8c8c8c")
 
 
@@ -29,7 +35,7 @@ def plot_design(summary: dict, out: Path) -> None:
     conv.plot(generations, summary["best_objective"], label="best so far")
     median = [np.nan if m is None else m for m in summary["median_objective"]]
     conv.plot(generations, median, label="median of the generation", alpha=0.6)
-    conv.set(xlabel="generation", ylabel=objective, title=f"{objective}: convergence")
+    conv.set(xlabel="generation", ylabel=LABELS[summary["objectives"][0]], title=f"{objective}: convergence")
     conv.legend()
     _draw_beads(beads, summary["best_materials"], summary["best_radii"])
     for name, (t, f) in summary["traces"].items():
@@ -70,7 +76,7 @@ def _draw_beads(ax, materials: list[str], radii: list[float]) -> None:
 
 def _draw_front(ax, summary: dict) -> None:
     """Every finite candidate in the plane of the first two objectives, and the Pareto front."""
-    x, y = (name.replace("_", " ") for name in summary["objectives"][:2])
+    x, y = (LABELS[name] for name in summary["objectives"][:2])
     every = np.asarray(summary["candidates"])
     ax.scatter(every[:, 0], every[:, 1], s=6, alpha=0.3, label="every candidate")
     front = np.asarray([p["objectives"] for p in summary["pareto"]])
