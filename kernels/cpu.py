@@ -33,7 +33,13 @@ import warp as wp
 from hertzian.kernels.events import event_functions
 from hertzian.kernels.features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
 from hertzian.kernels.gear import nordsieck_functions, refuse_composed_extras, substep_weight_function
-from hertzian.kernels.physics import contact_functions, contact_parameters, damping_functions, product_rn
+from hertzian.kernels.physics import (
+    contact_functions,
+    contact_parameters,
+    damping_functions,
+    loss_functions,
+    product_rn,
+)
 from hertzian.kernels.threads import BARRIER_SPIN_LIMIT, FIRST_WAIT_FACTOR, barrier
 
 
@@ -70,6 +76,7 @@ def chain_kernel(features: Features):
     TRACES = f.traces
 
     predicted_rate, dashpot = damping_functions(f.precision, ORDER)
+    viscous_losses, dashpot_losses = loss_functions(f.precision, ORDER)
     COMPOSED = f.method in SUBSTEP_WEIGHTS
     WEIGHTS = SUBSTEP_WEIGHTS.get(f.method, (1.0,))
     SUBSTEPS = len(WEIGHTS)
@@ -372,9 +379,9 @@ def chain_kernel(features: Features):
                         loss_old = real(0)
                         loss_new = real(0)
                         if wp.static(VISCOUS):
-                            m_i = real(1) / m_inv
-                            loss_old = gamma * m_i * own_rate_old * own_rate_old / (h * h)
-                            loss_new = gamma * m_i * own_rate * own_rate / (h * h)
+                            own_losses = viscous_losses(gamma, m_inv, own_rate, own_rate_old, h)
+                            loss_old = own_losses[0]
+                            loss_new = own_losses[1]
                         if wp.static(DASHPOT):
                             if i < last or wp.static(BOTTOM_WALL):
                                 below_rate = real(0)
@@ -387,11 +394,18 @@ def chain_kernel(features: Features):
                                     d_new = u_here - predicted_position(x_window, c, i + 1)
                                     d_old_b = own_u_old - x_window[0, c, i + 1]
                                 delta0_below = params(static_overlap, contact_constant, exponent, c, i + 1)[0]
-                                f_new = dashpot(delta0_below, d_new, own_rate - below_rate, gamma, h)
-                                down += f_new
-                                loss_new += f_new * (own_rate - below_rate) / h
-                                f_old = dashpot(delta0_below, d_old_b, own_rate_old - below_rate_old, gamma, h)
-                                loss_old += f_old * (own_rate_old - below_rate_old) / h
+                                below_losses = dashpot_losses(
+                                    delta0_below,
+                                    d_new,
+                                    d_old_b,
+                                    own_rate - below_rate,
+                                    own_rate_old - below_rate_old,
+                                    gamma,
+                                    h,
+                                )
+                                down += below_losses[0]
+                                loss_new += below_losses[1]
+                                loss_old += below_losses[2]
                             if i > 0 or wp.static(SURFACE_WALL):
                                 a_u = real(0)
                                 a_u_old = real(0)
@@ -412,14 +426,20 @@ def chain_kernel(features: Features):
                                             a_rate = real(dt * amplitude * omega * wp.cos(omega * t_new))
                                             a_rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old_d))
                                 delta0_above = params(static_overlap, contact_constant, exponent, c, i)[0]
-                                f_new_a = dashpot(delta0_above, a_u - u_here, a_rate - own_rate, gamma, h)
-                                up += f_new_a
-                                if outer:
-                                    loss_new += f_new_a * (a_rate - own_rate) / h
-                                    f_old_a = dashpot(
-                                        delta0_above, a_u_old - own_u_old, a_rate_old - own_rate_old, gamma, h
+                                force_above_dashpot = dashpot(delta0_above, a_u - u_here, a_rate - own_rate, gamma, h)
+                                up += force_above_dashpot
+                                if outer:  # else the grain above counts this contact's loss as its own
+                                    above_losses = dashpot_losses(
+                                        delta0_above,
+                                        a_u - u_here,
+                                        a_u_old - own_u_old,
+                                        a_rate - own_rate,
+                                        a_rate_old - own_rate_old,
+                                        gamma,
+                                        h,
                                     )
-                                    loss_old += f_old_a * (a_rate_old - own_rate_old) / h
+                                    loss_new += above_losses[1]
+                                    loss_old += above_losses[2]
                         if i >= own_lo and i < own_hi:
                             dissipated[c, i] = dissipated[c, i] + dt * wp.float64(0.5) * (
                                 wp.float64(loss_old) + wp.float64(loss_new)

@@ -160,6 +160,35 @@ def damping_functions(precision: str, order: int):
 
 
 @functools.cache
+def loss_functions(precision: str, order: int):
+    """``(viscous_losses, dashpot_losses)`` ``@wp.func``s: the damping forces and dissipated powers of one grain that
+    the per-step and CPU chain kernels share, on values each kernel gathers its own way (cached).
+
+    ``viscous_losses(gamma, inv_m, rate, rate_old, h) -> (P(t_n), P(t_n+1))``: the grain's power γ m v² at t_n and at
+    the predicted t_n+1 (rates are dt·v). ``dashpot_losses(delta0, d, d_old, rate, rate_old, gamma, h) -> (F, P,
+    P(t_n))``: the dashpot of one contact, its force at the predicted t_n+1 and its power there and at t_n, from the
+    relative displacement d and relative rate (dt·δ̇) at both times (a grain that does not count the contact's loss
+    takes its force from ``dashpot`` alone).
+    """
+    real = wp.float64 if precision == "float64" else wp.float32
+    vec2 = wp.types.vector(2, real)
+    vec3 = wp.types.vector(3, real)
+    _, dashpot = damping_functions(precision, order)
+
+    @wp.func
+    def viscous_losses(gamma: real, inv_m: real, rate: real, rate_old: real, h: real) -> vec2:
+        m_i = real(1) / inv_m
+        return vec2(gamma * m_i * rate_old * rate_old / (h * h), gamma * m_i * rate * rate / (h * h))
+
+    @wp.func
+    def dashpot_losses(delta0: real, d: real, d_old: real, rate: real, rate_old: real, gamma: real, h: real) -> vec3:
+        force = dashpot(delta0, d, rate, gamma, h)
+        return vec3(force, force * rate / h, dashpot(delta0, d_old, rate_old, gamma, h) * rate_old / h)
+
+    return viscous_losses, dashpot_losses
+
+
+@functools.cache
 def contact_parameters(precision: str, static: str, heterogeneous: bool, hertz: bool):
     """``params(static_overlap, contact_constant, exponent, c, k) -> (δ0, a_c, n)`` of padded contact k.
 

@@ -16,7 +16,13 @@ import warp as wp
 from hertzian.kernels.events import event_functions
 from hertzian.kernels.features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
 from hertzian.kernels.gear import nordsieck_functions, refuse_composed_extras, substep_weight_function
-from hertzian.kernels.physics import contact_functions, contact_parameters, damping_functions, product_rn
+from hertzian.kernels.physics import (
+    contact_functions,
+    contact_parameters,
+    damping_functions,
+    loss_functions,
+    product_rn,
+)
 
 
 @functools.cache
@@ -49,6 +55,7 @@ def step_kernel(features: Features):
     DASHPOT = f.damping == "contact"
 
     predicted_rate, dashpot = damping_functions(f.precision, ORDER)
+    viscous_losses, dashpot_losses = loss_functions(f.precision, ORDER)
 
     driver_values = nordsieck.driver_values
     COMPOSED = f.method in SUBSTEP_WEIGHTS
@@ -292,9 +299,9 @@ def step_kernel(features: Features):
             loss_old = real(0)
             loss_new = real(0)
             if wp.static(VISCOUS):
-                m_i = real(1) / inv_m
-                loss_old = gamma * m_i * own_rate_old * own_rate_old / (h * h)
-                loss_new = gamma * m_i * own_rate * own_rate / (h * h)
+                own_losses = viscous_losses(gamma, inv_m, own_rate, own_rate_old, h)
+                loss_old = own_losses[0]
+                loss_new = own_losses[1]
             if wp.static(DASHPOT):
                 if i < n_grains - 1 or wp.static(BOTTOM_WALL):
                     below_rate = real(0)
@@ -307,11 +314,18 @@ def step_kernel(features: Features):
                         d_new = u_p - predicted_position(x_in, c, i + 1)
                         d_old = x_in[0, c, i] - x_in[0, c, i + 1]
                     delta0_below = params(static_overlap, contact_constant, exponent, c, i + 1)[0]
-                    f_new = dashpot(delta0_below, d_new, own_rate - below_rate, gamma, h)
-                    down += f_new
-                    loss_new += f_new * (own_rate - below_rate) / h
-                    f_old = dashpot(delta0_below, d_old, own_rate_old - below_rate_old, gamma, h)
-                    loss_old += f_old * (own_rate_old - below_rate_old) / h
+                    below_losses = dashpot_losses(
+                        delta0_below,
+                        d_new,
+                        d_old,
+                        own_rate - below_rate,
+                        own_rate_old - below_rate_old,
+                        gamma,
+                        h,
+                    )
+                    down += below_losses[0]
+                    loss_new += below_losses[1]
+                    loss_old += below_losses[2]
                 if i > 0 or wp.static(SURFACE_WALL):
                     above_rate = real(0)
                     above_rate_old = real(0)
@@ -332,14 +346,20 @@ def step_kernel(features: Features):
                                 above_rate = real(dt * amplitude * omega * wp.cos(omega * t_new))
                                 above_rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old_d))
                     delta0_above = params(static_overlap, contact_constant, exponent, c, i)[0]
-                    f_new = dashpot(delta0_above, above_u - u_p, above_rate - own_rate, gamma, h)
-                    up += f_new
-                    if outer:
-                        loss_new += f_new * (above_rate - own_rate) / h
-                        f_old = dashpot(
-                            delta0_above, above_u_old - x_in[0, c, i], above_rate_old - own_rate_old, gamma, h
+                    force_above_dashpot = dashpot(delta0_above, above_u - u_p, above_rate - own_rate, gamma, h)
+                    up += force_above_dashpot
+                    if outer:  # else the grain above counts this contact's loss as its own
+                        above_losses = dashpot_losses(
+                            delta0_above,
+                            above_u - u_p,
+                            above_u_old - x_in[0, c, i],
+                            above_rate - own_rate,
+                            above_rate_old - own_rate_old,
+                            gamma,
+                            h,
                         )
-                        loss_old += f_old * (above_rate_old - own_rate_old) / h
+                        loss_new += above_losses[1]
+                        loss_old += above_losses[2]
             dissipated[c, i] = dissipated[c, i] + dt * wp.float64(0.5) * (wp.float64(loss_old) + wp.float64(loss_new))
         half_h2_acc = real(0.5) * h * h * (up - down) * inv_m
         if wp.static(VISCOUS):
