@@ -42,13 +42,21 @@ EVENT_WINDOW = 1e-2
 """Default event window [time] (kernels/events.py): a fixed time, so that the treatment keeps the
 method's order as dt shrinks; about 1/20 of a contact time at v_imp = 1e-2 (program units)."""
 
-# Per-chain status codes, defined here only (kernels write them; hertzian.core.status.Status names them).
-KERNEL_OPTIONS = {"fuse_fp": os.environ.get("HERTZIAN_FUSE_FP", "1") != "0"}
-"""Warp module options of every kernel factory. ``HERTZIAN_FUSE_FP=0`` forbids the compiler to contract
-``a·b + c`` into fused multiply-adds: CUDA then rounds every operation as written, the same in every kernel
-(the per-step and fused kernels agree bit for bit, as on the CPU), at some cost in speed. By default each
-kernel's contractions are the compiler's choice, so on CUDA kernels agree to rounding, not bitwise."""
+CPU_COMPILER_FLAGS = "-march=native -ffp-contract=off"
+"""Clang flags of every CPU build: Warp's default target (the host's instruction set) with no contraction of
+``a·b + c`` into fused multiply-adds, so every CPU kernel rounds each operation as written and kernels that do the
+same arithmetic agree bit for bit, whatever the optimiser makes of their surroundings."""
+KERNEL_OPTIONS = {
+    "fuse_fp": os.environ.get("HERTZIAN_FUSE_FP", "1") != "0",
+    "cpu_compiler_flags": CPU_COMPILER_FLAGS,
+}
+"""Warp module options of every kernel factory. On the CPU nothing is contracted (``CPU_COMPILER_FLAGS``). On CUDA
+``HERTZIAN_FUSE_FP=0`` forbids the compiler to contract ``a·b + c`` into fused multiply-adds: CUDA then rounds every
+operation as written, the same in every kernel (the per-step and fused kernels agree bit for bit, as on the CPU), at
+some cost in speed. By default each CUDA kernel's contractions are the compiler's choice, so there kernels agree to
+rounding, not bitwise."""
 
+# Per-chain status codes, defined here only (kernels write them; hertzian.core.status.Status names them).
 STATUS_OK = 0
 STATUS_NON_FINITE = 1
 """The state became NaN/inf (record kernel); the step kernels then freeze the chain."""

@@ -449,7 +449,7 @@ def record_kernels(features: Features) -> RecordKernels:
     return RecordKernels(record_parts, record, record_grains, record_parts_of_grains, record_long)
 
 
-@wp.kernel(enable_backward=False)
+@wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
 def track_extremes(
     energy: wp.array(dtype=wp.float64),
     work: wp.array(dtype=wp.float64),

@@ -32,7 +32,7 @@ def sample_window(offset: wp.int64, stride: wp.int64, window_steps: wp.int64, wi
     return w
 
 
-@wp.kernel(enable_backward=False)
+@wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
 def response_phases(
     drive: wp.array2d(dtype=wp.float64),
     window_steps: wp.array(dtype=wp.int64),

@@ -51,7 +51,7 @@ def window_kernels(precision: str):
     return add_window_sample, velocity_snapshot64, velocity_snapshot32
 
 
-@wp.kernel(enable_backward=False)
+@wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
 def keep_chain_values(values: wp.array(dtype=wp.float64), row: int, history: wp.array2d(dtype=wp.float64)):
     c = wp.tid()
     history[row, c] = values[c]

@@ -213,11 +213,12 @@ PCH_PROBE = """
 import sys
 import warp as wp
 from hertzian.core.devices import init_warp
+from hertzian.kernels.features import KERNEL_OPTIONS
 
 init_warp()
 scale = float(sys.argv[1])
 
-@wp.kernel(module="unique")
+@wp.kernel(module="unique", module_options=KERNEL_OPTIONS)
 def scaled(x: wp.array(dtype=wp.float64)):
     x[wp.tid()] = x[wp.tid()] * wp.float64(scale)
 
@@ -251,6 +252,7 @@ import warp as wp
 import warp._src.build as build
 from hertzian.core import devices
 from hertzian.core.solvers.compile import load_variants
+from hertzian.kernels.features import KERNEL_OPTIONS
 
 seen = []  # (thread, whether the header existed when that compile began)
 original = build.build_cpu
@@ -266,7 +268,7 @@ if not started:  # a machine with CUDA: the compiles below start it
     assert wp.is_cuda_available()
 
 def unique_kernel(scale):
-    @wp.kernel(module="unique")
+    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS)
     def scaled(x: wp.array(dtype=wp.float64)):
         x[wp.tid()] = x[wp.tid()] * wp.float64(scale)
     return scaled
