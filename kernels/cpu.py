@@ -58,13 +58,15 @@ def chain_kernel(features: Features):
     PROFILE = f.static == "profile"
     HETERO = f.heterogeneous
     HERTZ = f.hertz
-    contact_force, excess_force = contact_functions(f.precision, f.hertz)
+    contact_force, excess_force = contact_functions(f.precision, f.hertz, f.potential)
+    LATTICE = f.potential != "hertz"
+    shape_t = wp.types.vector(2, real) if LATTICE else real
     nordsieck = nordsieck_functions(f.method, f.precision, f.compensation)
     predicted_position, correct = nordsieck.predicted_position, nordsieck.correct
     predicted_at, gap, rounded = nordsieck.predicted_at, nordsieck.gap, nordsieck.rounded
     EVENTS = f.event_window > 0
     values_t = nordsieck.values
-    params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz)
+    params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz, f.potential)
     if EVENTS:
         near_event, event_step = event_functions(f)
     else:
@@ -94,7 +96,7 @@ def chain_kernel(features: Features):
         a_c0: real,
         delta00: real,
         force00: real,
-        n: real,
+        n: shape_t,
     ) -> real:
         # excess force of padded contact k at relative displacement d (step.py's `contact`)
         if wp.static(PROFILE or HETERO):
@@ -108,6 +110,17 @@ def chain_kernel(features: Features):
         else:
             # one δ0 and one a_c per chain: F(δ0) is the same for every contact, computed once
             return contact_force(delta00 + d, a_c0, n) - force00
+
+    @wp.func
+    def chain_shape(law_parameters: wp.array(dtype=real), c: int) -> shape_t:
+        # the law's shape of chain c: n (5/2 compiled in for Hertz) or a lattice law's (p0, p1)
+        if wp.static(LATTICE):
+            return shape_t(law_parameters[2 * c], law_parameters[2 * c + 1])
+        else:
+            n = real(0)
+            if wp.static(not HERTZ):
+                n = law_parameters[c]
+            return n
 
     driver_values = nordsieck.driver_values
 
@@ -168,7 +181,7 @@ def chain_kernel(features: Features):
         inverse_mass: wp.array2d(dtype=real),
         contact_constant: wp.array2d(dtype=real),
         static_overlap: wp.array2d(dtype=real),
-        exponent: wp.array(dtype=real),
+        law_parameters: wp.array(dtype=real),
         status: wp.array(dtype=wp.int32),
         dt: wp.float64,
         steps: int,
@@ -223,9 +236,7 @@ def chain_kernel(features: Features):
                 copy_grains(x_window, x_out, c, own_lo, own_hi)
             return
 
-        n = real(0)
-        if wp.static(not HERTZ):
-            n = exponent[c]
+        n = chain_shape(law_parameters, c)
         a_c0 = contact_constant[c, 0]
         delta00 = real(0)
         if wp.static(STATIC):
@@ -264,7 +275,7 @@ def chain_kernel(features: Features):
                 if wp.static(DASHPOT):
                     # the driver also pushes through the dashpot of its contact (work includes it)
                     rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old)) - x_window[1, c, 1]
-                    p01 = params(static_overlap, contact_constant, exponent, c, 1)
+                    p01 = params(static_overlap, contact_constant, law_parameters, c, 1)
                     force_old += wp.float64(dashpot(p01[0], d_old, rate_old, damping[c], h))
                 power = force_old * amplitude * omega * wp.cos(omega * t_old)
                 if wp.static(DASHPOT):
@@ -393,7 +404,7 @@ def chain_kernel(features: Features):
                                     below_rate_old = x_window[1, c, i + 1]
                                     d_new = u_here - predicted_position(x_window, c, i + 1)
                                     d_old_b = own_u_old - x_window[0, c, i + 1]
-                                delta0_below = params(static_overlap, contact_constant, exponent, c, i + 1)[0]
+                                delta0_below = params(static_overlap, contact_constant, law_parameters, c, i + 1)[0]
                                 below_losses = dashpot_losses(
                                     delta0_below,
                                     d_new,
@@ -425,7 +436,7 @@ def chain_kernel(features: Features):
                                             a_u_old = real(product_rn(amplitude, wp.sin(omega * t_old_d)))
                                             a_rate = real(dt * amplitude * omega * wp.cos(omega * t_new))
                                             a_rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old_d))
-                                delta0_above = params(static_overlap, contact_constant, exponent, c, i)[0]
+                                delta0_above = params(static_overlap, contact_constant, law_parameters, c, i)[0]
                                 force_above_dashpot = dashpot(delta0_above, a_u - u_here, a_rate - own_rate, gamma, h)
                                 up += force_above_dashpot
                                 if outer:  # else the grain above counts this contact's loss as its own
@@ -457,8 +468,8 @@ def chain_kernel(features: Features):
                         has_above = wp.static(SURFACE_WALL)
                         if i > 0:
                             has_above = True
-                        p_above = params(static_overlap, contact_constant, exponent, c, i)
-                        p_below = params(static_overlap, contact_constant, exponent, c, i + 1)
+                        p_above = params(static_overlap, contact_constant, law_parameters, c, i)
+                        p_below = params(static_overlap, contact_constant, law_parameters, c, i + 1)
                         flagged = False
                         if has_above:
                             flagged = near_event(
@@ -544,7 +555,7 @@ def launch_chain(
     inverse_mass,
     contact_constant,
     static_overlap,
-    exponent,
+    law_parameters,
     status,
     dt: float,
     steps: int,
@@ -602,7 +613,7 @@ def launch_chain(
             inverse_mass,
             contact_constant,
             static_overlap,
-            exponent,
+            law_parameters,
             status,
             dt,
             steps,

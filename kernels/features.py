@@ -38,6 +38,11 @@ GEAR_CORRECTOR = {
     "gear6": ((3, 20), (251, 360), (1, 1), (11, 18), (1, 6), (1, 60)),
 }
 
+POTENTIALS = ("hertz", "fput", "toda", "morse", "lj", "harmonic")
+"""The contact laws (``chain.potential``; docs/lattices.md). hertz is the power law of the paper; the others are
+nearest-neighbour lattice laws that carry tension."""
+LATTICE_LAWS = POTENTIALS[1:]
+
 EVENT_WINDOW = 1e-2
 """Default event window [time] (kernels/events.py): a fixed time, so that the treatment keeps the
 method's order as dt shrinks; about 1/20 of a contact time at v_imp = 1e-2 (program units)."""
@@ -94,6 +99,9 @@ class Features:
     compensated: bool = True
     """float32 only: u and dt·v carried as hi + lo float32 pairs, updated by TwoSum (kernels/gear.py), two
     more state rows; False: the plain float32 update (kept for comparison). Ignored in float64."""
+    potential: str = "hertz"
+    """The contact law (POTENTIALS): hertz, the power law V = a·max(δ, 0)^n without tension (``hertz`` then says
+    whether n = 5/2); or a lattice law with tension, fput | toda | morse | lj | harmonic (kernels/physics.py)."""
 
     @property
     def substeps(self) -> int:

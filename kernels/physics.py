@@ -63,25 +63,113 @@ def sqrt_fast_path(x: wp.float64) -> wp.float64: ...
 def sqrt_needs_slow_path(x: wp.float64) -> int: ...
 
 
+LJ_MINIMUM = 2.0 ** (1.0 / 6.0)
+"""ρ_e/σ: the Lennard-Jones pair at rest sits at the potential's minimum, ρ_e = 2^(1/6)·σ."""
+
+
 @functools.cache
-def contact_functions(precision: str, hertz: bool):
-    """(force, excess_force) for one precision; ``hertz`` uses δ·sqrt(δ) instead of pow."""
+def expm1_function(precision: str):
+    """``expm1(x) -> e^x − 1`` without the cancellation of ``exp(x) − 1`` near 0 (Kahan's form (u − 1)·x / log u,
+    a few ulps; Warp has no expm1)."""
     real = wp.float64 if precision == "float64" else wp.float32
 
     @wp.func
-    def contact_force(delta: real, a_c: real, n: real) -> real:
-        if delta <= real(0):
-            return real(0)  # no tension
-        if wp.static(hertz):
-            return real(5) / real(2) * a_c * delta * wp.sqrt(delta)
-        else:
-            return n * a_c * wp.pow(delta, n - real(1))
+    def expm1(x: real) -> real:
+        u = wp.exp(x)
+        if u == real(1) or wp.abs(x) > real(0.5):
+            if u == real(1):
+                return x
+            return u - real(1)
+        return (u - real(1)) * x / wp.log(u)
+
+    return expm1
+
+
+@functools.cache
+def contact_functions(precision: str, hertz: bool, potential: str = "hertz"):
+    """(force, excess_force) for one precision and contact law (docs/model.md §1, docs/lattices.md).
+
+    hertz: the power law without tension, ``force(δ, a_c, n)``; ``hertz`` uses δ·sqrt(δ) instead of pow. A lattice
+    law takes its per-chain shape as a vec2 ``p`` (``contact_parameters``' ``shape``): with δ the compression and
+    a = a_c its strength,
+
+    * harmonic: F = a·δ;
+    * fput: F = a·(δ − α δ² + β δ³), p = (α, β) (V = a(δ²/2 − αδ³/3 + βδ⁴/4): the FPUT V(r) at r = −δ);
+    * toda: F = a·(e^{bδ} − 1), p = (b, ·);
+    * morse: F = 2 a α (e^{2αδ} − e^{αδ}), p = (α, ·) (a is the well depth D);
+    * lj: F = (24 a / ρ)(2 (σ/ρ)^12 − (σ/ρ)^6) at the distance ρ = 2^(1/6) σ − δ, p = (σ, ·) (a is ε).
+
+    ``excess_force(δ0, d, a, p) = F(δ0 + d) − F(δ0)`` is written without the cancellation of that difference where
+    the law allows it (all but lj).
+    """
+    real = wp.float64 if precision == "float64" else wp.float32
+    if potential == "hertz":
+
+        @wp.func
+        def contact_force(delta: real, a_c: real, n: real) -> real:
+            if delta <= real(0):
+                return real(0)  # no tension
+            if wp.static(hertz):
+                return real(5) / real(2) * a_c * delta * wp.sqrt(delta)
+            else:
+                return n * a_c * wp.pow(delta, n - real(1))
+
+        @wp.func
+        def excess_force(delta0: real, d: real, a_c: real, n: real) -> real:
+            return contact_force(delta0 + d, a_c, n) - contact_force(delta0, a_c, n)
+
+        return contact_force, excess_force
+    return _lattice_functions(precision, potential)
+
+
+@functools.cache
+def _lattice_functions(precision: str, potential: str):
+    """contact_functions of a lattice law (cached)."""
+    real = wp.float64 if precision == "float64" else wp.float32
+    vec2 = wp.types.vector(2, real)
+    expm1 = expm1_function(precision)
+    LAW = LATTICE_INDEX[potential]
 
     @wp.func
-    def excess_force(delta0: real, d: real, a_c: real, n: real) -> real:
-        return contact_force(delta0 + d, a_c, n) - contact_force(delta0, a_c, n)
+    def contact_force(delta: real, a_c: real, p: vec2) -> real:
+        out = real(0)
+        if wp.static(LAW == 0):  # fput
+            out = a_c * delta * (real(1) - p[0] * delta + p[1] * delta * delta)
+        elif wp.static(LAW == 1):  # toda
+            out = a_c * expm1(p[0] * delta)
+        elif wp.static(LAW == 2):  # morse
+            t = wp.exp(p[0] * delta)
+            out = real(2) * a_c * p[0] * t * (t - real(1))
+        elif wp.static(LAW == 3):  # lj
+            rho = real(wp.static(LJ_MINIMUM)) * p[0] - delta
+            s2 = (p[0] / rho) * (p[0] / rho)
+            s6 = s2 * s2 * s2
+            out = real(24) * a_c / rho * (real(2) * s6 * s6 - s6)
+        else:  # harmonic
+            out = a_c * delta
+        return out
+
+    @wp.func
+    def excess_force(delta0: real, d: real, a_c: real, p: vec2) -> real:
+        out = real(0)
+        if wp.static(LAW == 0):  # a·d·(1 − α(2δ0 + d) + β(3δ0² + 3δ0 d + d²))
+            out = a_c * d * (real(1) - p[0] * (real(2) * delta0 + d) + p[1] * (real(3) * delta0 * (delta0 + d) + d * d))
+        elif wp.static(LAW == 1):  # a e^{bδ0} (e^{bd} − 1)
+            out = a_c * wp.exp(p[0] * delta0) * expm1(p[0] * d)
+        elif wp.static(LAW == 2):  # 2aα (e^{2αδ0}(e^{2αd} − 1) − e^{αδ0}(e^{αd} − 1))
+            t0 = wp.exp(p[0] * delta0)
+            out = real(2) * a_c * p[0] * (t0 * t0 * expm1(real(2) * p[0] * d) - t0 * expm1(p[0] * d))
+        elif wp.static(LAW == 3):
+            out = contact_force(delta0 + d, a_c, p) - contact_force(delta0, a_c, p)
+        else:
+            out = a_c * d
+        return out
 
     return contact_force, excess_force
+
+
+LATTICE_INDEX = {"fput": 0, "toda": 1, "morse": 2, "lj": 3, "harmonic": 4}
+"""The branch of each lattice law in the generated code (only its own is compiled)."""
 
 
 @functools.cache
@@ -189,21 +277,57 @@ def loss_functions(precision: str, order: int):
 
 
 @functools.cache
-def contact_parameters(precision: str, static: str, heterogeneous: bool, hertz: bool):
-    """``params(static_overlap, contact_constant, exponent, c, k) -> (δ0, a_c, n)`` of padded contact k.
+def contact_parameters(precision: str, static: str, heterogeneous: bool, hertz: bool, potential: str = "hertz"):
+    """``params(static_overlap, contact_constant, law_parameters, c, k) -> (δ0, a_c, n)`` of padded contact k.
 
     Reads only the arrays the features use: one δ0 per contact ('profile') or per chain
-    ('uniform') or none; a_c per contact (impurities) or per chain; n per chain or 5/2.
+    ('uniform') or none; a_c per contact (impurities) or per chain; n per chain or 5/2. A lattice law
+    (``potential`` other than hertz) returns (δ0, a_c, p0, p1), its two per-chain shape parameters
+    (``law_parameters[2c]``, ``[2c + 1]``); :func:`shape_function` picks the law's shape out of either.
     """
     real = wp.float64 if precision == "float64" else wp.float32
     vec3 = wp.types.vector(3, real)
+    vec4 = wp.types.vector(4, real)
+    vec2 = wp.types.vector(2, real)
     STATIC, PROFILE = static != "none", static == "profile"
+    LATTICE = potential != "hertz"
+
+    @wp.func
+    def overlap_and_constant(
+        static_overlap: wp.array2d(dtype=real), contact_constant: wp.array2d(dtype=real), c: int, k: int
+    ) -> vec2:
+        delta0 = real(0)
+        if wp.static(PROFILE):
+            delta0 = static_overlap[c, k]
+        elif wp.static(STATIC):
+            delta0 = static_overlap[c, 0]
+        a_c = real(0)
+        if wp.static(heterogeneous):
+            a_c = contact_constant[c, k]
+        else:
+            a_c = contact_constant[c, 0]
+        return vec2(delta0, a_c)
+
+    if LATTICE:
+
+        @wp.func
+        def params(
+            static_overlap: wp.array2d(dtype=real),
+            contact_constant: wp.array2d(dtype=real),
+            law_parameters: wp.array(dtype=real),
+            c: int,
+            k: int,
+        ) -> vec4:
+            both = overlap_and_constant(static_overlap, contact_constant, c, k)
+            return vec4(both[0], both[1], law_parameters[2 * c], law_parameters[2 * c + 1])
+
+        return params
 
     @wp.func
     def params(
         static_overlap: wp.array2d(dtype=real),
         contact_constant: wp.array2d(dtype=real),
-        exponent: wp.array(dtype=real),
+        law_parameters: wp.array(dtype=real),
         c: int,
         k: int,
     ) -> vec3:
@@ -219,10 +343,31 @@ def contact_parameters(precision: str, static: str, heterogeneous: bool, hertz: 
             a_c = contact_constant[c, 0]
         n = real(5) / real(2)
         if wp.static(not hertz):
-            n = exponent[c]
+            n = law_parameters[c]
         return vec3(delta0, a_c, n)
 
     return params
+
+
+@functools.cache
+def shape_function(precision: str, potential: str = "hertz"):
+    """``shape(p)``: the law's shape out of ``params``' vector, what ``contact_functions``' forces take: n
+    (hertz) or the vec2 (p0, p1) of a lattice law. ``chain_shape(law_parameters, c)`` reads chain c's."""
+    real = wp.float64 if precision == "float64" else wp.float32
+    vec2 = wp.types.vector(2, real)
+    if potential == "hertz":
+
+        @wp.func
+        def shape(p: wp.types.vector(3, real)) -> real:
+            return p[2]
+
+        return shape
+
+    @wp.func
+    def shape(p: wp.types.vector(4, real)) -> vec2:
+        return vec2(p[2], p[3])
+
+    return shape
 
 
 @wp.func
@@ -252,6 +397,64 @@ def excess_potential(delta0: wp.float64, d: wp.float64, a_c: wp.float64, n: wp.f
             total = total + term
         return scale * total
     return scale * (wp.pow(wp.float64(1.0) + r, n) - wp.float64(1.0) - n * r)
+
+
+@functools.cache
+def lattice_excess_potential(potential: str):
+    """``excess(δ0, d, a, p) -> V(δ0 + d) − V(δ0) − F(δ0)·d`` of a lattice law in float64 (the record kernels' energy
+    relative to the static state; laws as in ``contact_functions``), written without the cancellation of that
+    difference where the law allows it: with ε(x) = e^x − 1 − x,
+
+    * harmonic: a d²/2;  fput: a (d²/2 − α(δ0 d² + d³/3) + β(3/2 δ0² d² + δ0 d³ + d⁴/4));
+    * toda: (a/b) e^{bδ0} ε(bd);  morse: a (e^{2αδ0} ε(2αd) − 2 e^{αδ0} ε(αd));
+    * lj: the difference itself, V(ρ) = 4a((σ/ρ)^12 − (σ/ρ)^6) + a.
+    """
+    LAW = LATTICE_INDEX[potential]
+    real = wp.float64
+    force, _ = contact_functions("float64", False, potential)
+    expm1 = expm1_function("float64")
+
+    @wp.func
+    def exp_excess(x: real) -> real:
+        # e^x − 1 − x: its series where the subtraction would cancel
+        if wp.abs(x) < real(0.1):
+            term = x * x / real(2)
+            total = term
+            for k in range(3, 14):
+                term = term * x / real(k)
+                total = total + term
+            return total
+        return expm1(x) - x
+
+    @wp.func
+    def lj_potential(delta: real, a_c: real, sigma: real) -> real:
+        rho = real(wp.static(LJ_MINIMUM)) * sigma - delta
+        s2 = (sigma / rho) * (sigma / rho)
+        s6 = s2 * s2 * s2
+        return real(4) * a_c * (s6 * s6 - s6) + a_c
+
+    @wp.func
+    def excess(delta0: real, d: real, a_c: real, p: wp.vec2d) -> real:
+        out = real(0)
+        if wp.static(LAW == 0):
+            d2 = d * d
+            out = a_c * (
+                d2 / real(2)
+                - p[0] * (delta0 * d2 + d2 * d / real(3))
+                + p[1] * (real(1.5) * delta0 * delta0 * d2 + delta0 * d2 * d + d2 * d2 / real(4))
+            )
+        elif wp.static(LAW == 1):
+            out = a_c / p[0] * wp.exp(p[0] * delta0) * exp_excess(p[0] * d)
+        elif wp.static(LAW == 2):
+            t0 = wp.exp(p[0] * delta0)
+            out = a_c * (t0 * t0 * exp_excess(real(2) * p[0] * d) - real(2) * t0 * exp_excess(p[0] * d))
+        elif wp.static(LAW == 3):
+            out = lj_potential(delta0 + d, a_c, p[0]) - lj_potential(delta0, a_c, p[0]) - force(delta0, a_c, p) * d
+        else:
+            out = a_c * d * d / real(2)
+        return out
+
+    return excess
 
 
 @functools.cache

@@ -24,7 +24,13 @@ from hertzian.kernels.features import (
     STATUS_OVERLAP_BEYOND_VALIDITY,
     Features,
 )
-from hertzian.kernels.physics import contact_functions, contact_parameters, excess_potential
+from hertzian.kernels.physics import (
+    contact_functions,
+    contact_parameters,
+    excess_potential,
+    lattice_excess_potential,
+    shape_function,
+)
 from hertzian.kernels.tile import block_sync
 
 RECORD_PART = 128
@@ -82,8 +88,12 @@ def record_kernels(features: Features) -> RecordKernels:
     HETERO = f.heterogeneous
     DAMPED = f.damping != "none"
     DASHPOT = f.damping == "contact"
-    contact_force, excess_force = contact_functions(f.precision, f.hertz)
-    params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz)
+    contact_force, excess_force = contact_functions(f.precision, f.hertz, f.potential)
+    params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz, f.potential)
+    shape = shape_function(f.precision, f.potential)
+    LATTICE = f.potential != "hertz"
+    lattice_excess = lattice_excess_potential(f.potential) if LATTICE else None
+    VALIDITY = not LATTICE  # the Hertz law's overlap limit; a lattice law has none
     COMP = f.compensation
     LO_U = f.nordsieck_values  # compensated float32: rows of the low parts of u and dt·v (kernels/gear.py)
     LO_RATE = LO_U + 1
@@ -106,15 +116,19 @@ def record_kernels(features: Features) -> RecordKernels:
     def contact_terms(
         static_overlap: wp.array2d(dtype=real),
         contact_constant: wp.array2d(dtype=real),
-        exponent: wp.array(dtype=real),
+        law_parameters: wp.array(dtype=real),
         c: int,
         k: int,
         d: wp.float64,
     ) -> wp.vec2d:
         # (excess potential, absolute overlap) of padded contact k at relative displacement d
-        p = params(static_overlap, contact_constant, exponent, c, k)
+        p = params(static_overlap, contact_constant, law_parameters, c, k)
         delta0 = wp.float64(p[0])
-        return wp.vec2d(excess_potential(delta0, d, wp.float64(p[1]), wp.float64(p[2])), delta0 + d)
+        if wp.static(LATTICE):
+            shape64 = wp.vec2d(wp.float64(p[2]), wp.float64(p[3]))
+            return wp.vec2d(lattice_excess(delta0, d, wp.float64(p[1]), shape64), delta0 + d)
+        else:
+            return wp.vec2d(excess_potential(delta0, d, wp.float64(p[1]), wp.float64(p[2])), delta0 + d)
 
     @wp.func
     def store_part(
@@ -141,7 +155,7 @@ def record_kernels(features: Features) -> RecordKernels:
         inverse_mass: wp.array2d(dtype=real),
         contact_constant: wp.array2d(dtype=real),
         static_overlap: wp.array2d(dtype=real),
-        exponent: wp.array(dtype=real),
+        law_parameters: wp.array(dtype=real),
         validity_scale: wp.array2d(dtype=wp.float64),
         dt: wp.float64,
         c: int,
@@ -169,7 +183,7 @@ def record_kernels(features: Features) -> RecordKernels:
         potential = wp.float64(0.0)
         overlap = wp.float64(-1.0e300)
         if i > 0:
-            terms = contact_terms(static_overlap, contact_constant, exponent, c, i, position(x, c, i - 1) - u)
+            terms = contact_terms(static_overlap, contact_constant, law_parameters, c, i, position(x, c, i - 1) - u)
             potential = terms[0]
             overlap = terms[1]
             if wp.static(HETERO):
@@ -187,7 +201,7 @@ def record_kernels(features: Features) -> RecordKernels:
         inverse_mass: wp.array2d(dtype=real),
         contact_constant: wp.array2d(dtype=real),
         static_overlap: wp.array2d(dtype=real),
-        exponent: wp.array(dtype=real),
+        law_parameters: wp.array(dtype=real),
         validity_scale: wp.array2d(dtype=wp.float64),
         dt: wp.float64,
         dissipated_grain: wp.array2d(dtype=wp.float64),
@@ -202,7 +216,9 @@ def record_kernels(features: Features) -> RecordKernels:
         for i in range(start, end):
             sums = add_terms(
                 sums,
-                grain_terms_of(x, inverse_mass, contact_constant, static_overlap, exponent, validity_scale, dt, c, i),
+                grain_terms_of(
+                    x, inverse_mass, contact_constant, static_overlap, law_parameters, validity_scale, dt, c, i
+                ),
             )
         store_part(parts, c, part, sums, dissipated_grain, start, end)
 
@@ -212,7 +228,7 @@ def record_kernels(features: Features) -> RecordKernels:
         inverse_mass: wp.array2d(dtype=real),
         contact_constant: wp.array2d(dtype=real),
         static_overlap: wp.array2d(dtype=real),
-        exponent: wp.array(dtype=real),
+        law_parameters: wp.array(dtype=real),
         validity_scale: wp.array2d(dtype=wp.float64),
         dt: wp.float64,
         terms_out: wp.array2d(dtype=wp.vec4d),
@@ -220,7 +236,7 @@ def record_kernels(features: Features) -> RecordKernels:
         # long chains, first stage: grain i's terms of record_parts' sums, one thread per grain
         c, i = wp.tid()
         terms_out[c, i] = grain_terms_of(
-            x, inverse_mass, contact_constant, static_overlap, exponent, validity_scale, dt, c, i
+            x, inverse_mass, contact_constant, static_overlap, law_parameters, validity_scale, dt, c, i
         )
 
     part_block = wp.types.matrix(shape=(4, 5), dtype=wp.float64)  # four parts' sums, loaded together
@@ -251,7 +267,7 @@ def record_kernels(features: Features) -> RecordKernels:
         x: wp.array3d(dtype=real),
         contact_constant: wp.array2d(dtype=real),
         static_overlap: wp.array2d(dtype=real),
-        exponent: wp.array(dtype=real),
+        law_parameters: wp.array(dtype=real),
         drive: wp.array2d(dtype=wp.float64),
         work_in: wp.array(dtype=wp.float64),
         power_in: wp.array(dtype=wp.float64),
@@ -276,14 +292,16 @@ def record_kernels(features: Features) -> RecordKernels:
         largest = sums[2]
         finite = sums[3]
         if wp.static(SURFACE_WALL):
-            terms = contact_terms(static_overlap, contact_constant, exponent, c, 0, -position(x, c, 0))
+            terms = contact_terms(static_overlap, contact_constant, law_parameters, c, 0, -position(x, c, 0))
             potential += terms[0]
             if wp.static(HETERO):
                 largest = wp.max(largest, terms[1] * validity_scale[c, 0])
             else:
                 largest = wp.max(largest, terms[1])
         if wp.static(BOTTOM_WALL):
-            terms = contact_terms(static_overlap, contact_constant, exponent, c, n_grains, position(x, c, n_grains - 1))
+            terms = contact_terms(
+                static_overlap, contact_constant, law_parameters, c, n_grains, position(x, c, n_grains - 1)
+            )
             potential += terms[0]
             if wp.static(HETERO):
                 largest = wp.max(largest, terms[1] * validity_scale[c, n_grains])
@@ -297,10 +315,10 @@ def record_kernels(features: Features) -> RecordKernels:
             amplitude = drive[c, 0]
             omega = drive[c, 1]
             d = x[0, c, 0] - x[0, c, 1]
-            p = params(static_overlap, contact_constant, exponent, c, 1)
+            p = params(static_overlap, contact_constant, law_parameters, c, 1)
             delta0 = p[0]
             a_c = p[1]
-            n = p[2]
+            n = shape(p)
             force = wp.float64(excess_force(delta0, d, a_c, n))
             if wp.static(DASHPOT):
                 # the dashpot of the driver's contact (as in the step kernel's work)
@@ -323,15 +341,16 @@ def record_kernels(features: Features) -> RecordKernels:
 
         if finite == wp.float64(0.0):
             status[c] = wp.static(STATUS_NON_FINITE)
-        elif status[c] == wp.static(STATUS_OK) and largest > validity_overlap[c]:
-            status[c] = wp.static(STATUS_OVERLAP_BEYOND_VALIDITY)
+        elif wp.static(VALIDITY):
+            if status[c] == wp.static(STATUS_OK) and largest > validity_overlap[c]:
+                status[c] = wp.static(STATUS_OVERLAP_BEYOND_VALIDITY)
 
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def record(
         x: wp.array3d(dtype=real),
         contact_constant: wp.array2d(dtype=real),
         static_overlap: wp.array2d(dtype=real),
-        exponent: wp.array(dtype=real),
+        law_parameters: wp.array(dtype=real),
         drive: wp.array2d(dtype=wp.float64),
         work_in: wp.array(dtype=wp.float64),
         power_in: wp.array(dtype=wp.float64),
@@ -367,7 +386,7 @@ def record_kernels(features: Features) -> RecordKernels:
             x,
             contact_constant,
             static_overlap,
-            exponent,
+            law_parameters,
             drive,
             work_in,
             power_in,
@@ -391,7 +410,7 @@ def record_kernels(features: Features) -> RecordKernels:
         x: wp.array3d(dtype=real),
         contact_constant: wp.array2d(dtype=real),
         static_overlap: wp.array2d(dtype=real),
-        exponent: wp.array(dtype=real),
+        law_parameters: wp.array(dtype=real),
         drive: wp.array2d(dtype=wp.float64),
         work_in: wp.array(dtype=wp.float64),
         power_in: wp.array(dtype=wp.float64),
@@ -427,7 +446,7 @@ def record_kernels(features: Features) -> RecordKernels:
                 x,
                 contact_constant,
                 static_overlap,
-                exponent,
+                law_parameters,
                 drive,
                 work_in,
                 power_in,

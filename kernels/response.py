@@ -70,7 +70,7 @@ def response_kernel(features: Features):
         inverse_mass: wp.array2d(dtype=real),
         contact_constant: wp.array2d(dtype=real),
         static_overlap: wp.array2d(dtype=real),
-        exponent: wp.array(dtype=real),
+        law_parameters: wp.array(dtype=real),
         window_steps: wp.array(dtype=wp.int64),
         stride: wp.array(dtype=wp.int64),
         start_step: wp.int64,
@@ -100,7 +100,7 @@ def response_kernel(features: Features):
             inv_m = wp.float64(inverse_mass[c, 0])
         kinetic[c, w, i] = kinetic[c, w, i] + wp.float64(0.5) * v * v / inv_m
         if i == 1:
-            delta0 = params(static_overlap, contact_constant, exponent, c, 1)[0]
+            delta0 = params(static_overlap, contact_constant, law_parameters, c, 1)[0]
             if delta0 + (x[0, c, 0] - x[0, c, 1]) <= real(0):
                 open_count[c, w] = open_count[c, w] + wp.float64(1.0)
 

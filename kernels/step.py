@@ -22,6 +22,7 @@ from hertzian.kernels.physics import (
     damping_functions,
     loss_functions,
     product_rn,
+    shape_function,
 )
 
 
@@ -38,8 +39,9 @@ def step_kernel(features: Features):
     FIXED = f.bottom == "fixed"
     HETERO = f.heterogeneous
     TRACES = f.traces
-    _, excess_force = contact_functions(f.precision, f.hertz)
-    params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz)
+    _, excess_force = contact_functions(f.precision, f.hertz, f.potential)
+    params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz, f.potential)
+    shape = shape_function(f.precision, f.potential)
     nordsieck = nordsieck_functions(f.method, f.precision, f.compensation)
     predicted_position, correct = nordsieck.predicted_position, nordsieck.correct
     predicted_at, gap, rounded = nordsieck.predicted_at, nordsieck.gap, nordsieck.rounded
@@ -69,14 +71,14 @@ def step_kernel(features: Features):
     def contact(
         static_overlap: wp.array2d(dtype=real),
         contact_constant: wp.array2d(dtype=real),
-        exponent: wp.array(dtype=real),
+        law_parameters: wp.array(dtype=real),
         c: int,
         k: int,
         d: real,
     ) -> real:
         # excess force of padded contact k (between grains k-1 and k) at relative displacement d
-        p = params(static_overlap, contact_constant, exponent, c, k)
-        return excess_force(p[0], d, p[1], p[2])
+        p = params(static_overlap, contact_constant, law_parameters, c, k)
+        return excess_force(p[0], d, p[1], shape(p))
 
     @wp.func
     def write_trace(
@@ -104,7 +106,7 @@ def step_kernel(features: Features):
         inverse_mass: wp.array2d(dtype=real),
         contact_constant: wp.array2d(dtype=real),
         static_overlap: wp.array2d(dtype=real),
-        exponent: wp.array(dtype=real),
+        law_parameters: wp.array(dtype=real),
         drive: wp.array2d(dtype=wp.float64),
         status: wp.array(dtype=wp.int32),
         trace_slot: wp.array(dtype=wp.int32),
@@ -155,11 +157,11 @@ def step_kernel(features: Features):
                 # driver's work on the rest of the chain: trapezoid of P = ΔF_01 · v_0 (state at t_n)
                 t_old = wp.float64(step_new - 1) * dt
                 d_old = x_in[0, c, 0] - x_in[0, c, 1]
-                force_old = wp.float64(contact(static_overlap, contact_constant, exponent, c, 1, d_old))
+                force_old = wp.float64(contact(static_overlap, contact_constant, law_parameters, c, 1, d_old))
                 if wp.static(DASHPOT):
                     # the driver also pushes through the dashpot of its contact (work includes it)
                     rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old)) - x_in[1, c, 1]
-                    p01 = params(static_overlap, contact_constant, exponent, c, 1)
+                    p01 = params(static_overlap, contact_constant, law_parameters, c, 1)
                     force_old += wp.float64(dashpot(p01[0], d_old, rate_old, damping[c], h))
                 power = force_old * amplitude * omega * wp.cos(omega * t_old)
                 if wp.static(DASHPOT):
@@ -213,8 +215,8 @@ def step_kernel(features: Features):
                 u_below_p = nordsieck.predict_position(below)
             else:
                 has_below = wp.static(BOTTOM_WALL)
-            p_above = params(static_overlap, contact_constant, exponent, c, i)
-            p_below = params(static_overlap, contact_constant, exponent, c, i + 1)
+            p_above = params(static_overlap, contact_constant, law_parameters, c, i)
+            p_below = params(static_overlap, contact_constant, law_parameters, c, i + 1)
             flagged = False
             if has_above:
                 flagged = near_event(
@@ -248,7 +250,7 @@ def step_kernel(features: Features):
                     position_above = substep_predicted_at(x_in, c, i - 1, w)
                 else:
                     position_above = predicted_at(x_in, c, i - 1)
-            up = contact(static_overlap, contact_constant, exponent, c, i, gap(position_above, position_p))
+            up = contact(static_overlap, contact_constant, law_parameters, c, i, gap(position_above, position_p))
         else:
             if wp.static(SURFACE_WALL):
                 if wp.static(f.compensation):
@@ -256,33 +258,33 @@ def step_kernel(features: Features):
                     up = contact(
                         static_overlap,
                         contact_constant,
-                        exponent,
+                        law_parameters,
                         c,
                         0,
                         gap(nordsieck.exact_position(wp.float64(0.0)), position_p),
                     )
                 else:
-                    up = contact(static_overlap, contact_constant, exponent, c, 0, -u_p)
+                    up = contact(static_overlap, contact_constant, law_parameters, c, 0, -u_p)
         if i < n_grains - 1:
             position_below = position_p
             if wp.static(COMPOSED):
                 position_below = substep_predicted_at(x_in, c, i + 1, w)
             else:
                 position_below = predicted_at(x_in, c, i + 1)
-            down = contact(static_overlap, contact_constant, exponent, c, i + 1, gap(position_p, position_below))
+            down = contact(static_overlap, contact_constant, law_parameters, c, i + 1, gap(position_p, position_below))
         else:
             if wp.static(BOTTOM_WALL):
                 if wp.static(f.compensation):
                     down = contact(
                         static_overlap,
                         contact_constant,
-                        exponent,
+                        law_parameters,
                         c,
                         n_grains,
                         gap(position_p, nordsieck.exact_position(wp.float64(0.0))),
                     )
                 else:
-                    down = contact(static_overlap, contact_constant, exponent, c, n_grains, u_p)
+                    down = contact(static_overlap, contact_constant, law_parameters, c, n_grains, u_p)
 
         inv_m = real(0)
         if wp.static(HETERO):
@@ -313,7 +315,7 @@ def step_kernel(features: Features):
                         below_rate_old = x_in[1, c, i + 1]
                         d_new = u_p - predicted_position(x_in, c, i + 1)
                         d_old = x_in[0, c, i] - x_in[0, c, i + 1]
-                    delta0_below = params(static_overlap, contact_constant, exponent, c, i + 1)[0]
+                    delta0_below = params(static_overlap, contact_constant, law_parameters, c, i + 1)[0]
                     below_losses = dashpot_losses(
                         delta0_below,
                         d_new,
@@ -345,7 +347,7 @@ def step_kernel(features: Features):
                                 above_u_old = real(product_rn(amplitude, wp.sin(omega * t_old_d)))
                                 above_rate = real(dt * amplitude * omega * wp.cos(omega * t_new))
                                 above_rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old_d))
-                    delta0_above = params(static_overlap, contact_constant, exponent, c, i)[0]
+                    delta0_above = params(static_overlap, contact_constant, law_parameters, c, i)[0]
                     force_above_dashpot = dashpot(delta0_above, above_u - u_p, above_rate - own_rate, gamma, h)
                     up += force_above_dashpot
                     if outer:  # else the grain above counts this contact's loss as its own

@@ -157,7 +157,7 @@ def fused_kernel(t: TileLayout, fused_step, driver_power, work_step, driver_valu
         inverse_mass: wp.array2d(dtype=real),
         contact_constant: wp.array2d(dtype=real),
         static_overlap: wp.array2d(dtype=real),
-        exponent: wp.array(dtype=real),
+        law_parameters: wp.array(dtype=real),
         status: wp.array(dtype=wp.int32),
         dt: wp.float64,
         steps: int,
@@ -214,7 +214,7 @@ def fused_kernel(t: TileLayout, fused_step, driver_power, work_step, driver_valu
         # per-contact and per-grain constants (contact base + k joins grains base + k − 1 and base + k)
         n = real(0)
         if wp.static(not HERTZ):
-            n = exponent[cc]
+            n = law_parameters[cc]
         delta0 = contact_vec()
         a_c = contact_vec()
         force0 = contact_vec()
@@ -231,7 +231,7 @@ def fused_kernel(t: TileLayout, fused_step, driver_power, work_step, driver_valu
             kk = wp.min(wp.max(base + k, 0), n_grains)
             if base + k >= lo and base + k <= hi:
                 contact_bits = contact_bits | (1 << k)
-            p = params(static_overlap, contact_constant, exponent, cc, kk)
+            p = params(static_overlap, contact_constant, law_parameters, cc, kk)
             d0 = p[0]
             ac = p[1]
             delta0[k] = d0
@@ -330,7 +330,7 @@ def fused_kernel(t: TileLayout, fused_step, driver_power, work_step, driver_valu
                 n_grains,
                 static_overlap,
                 contact_constant,
-                exponent,
+                law_parameters,
                 inverse_mass,
                 has_left,
                 has_right,
@@ -384,7 +384,7 @@ def fused_kernel(t: TileLayout, fused_step, driver_power, work_step, driver_valu
                 n_grains,
                 static_overlap,
                 contact_constant,
-                exponent,
+                law_parameters,
                 inverse_mass,
                 has_left,
                 has_right,
@@ -438,7 +438,7 @@ def fused_kernel(t: TileLayout, fused_step, driver_power, work_step, driver_valu
                 n_grains,
                 static_overlap,
                 contact_constant,
-                exponent,
+                law_parameters,
                 inverse_mass,
                 has_left,
                 has_right,
@@ -485,7 +485,7 @@ def fused_kernel(t: TileLayout, fused_step, driver_power, work_step, driver_valu
                 # path, where the driver's lane alone evaluated a contact force every step while its block waited
                 # the powers go through shared memory: the sum's loads are the driver lane's serial path
                 block_sync(0)
-                p01 = params(static_overlap, contact_constant, exponent, cc, 1)
+                p01 = params(static_overlap, contact_constant, law_parameters, cc, 1)
                 below0 = p01[0]
                 below_ac = p01[1]
                 below_f0 = contact_force(below0, below_ac, n)
@@ -552,7 +552,7 @@ def launch_tile(
     inverse_mass,
     contact_constant,
     static_overlap,
-    exponent,
+    law_parameters,
     status,
     dt: float,
     steps: int,
@@ -608,7 +608,7 @@ def launch_tile(
             inverse_mass,
             contact_constant,
             static_overlap,
-            exponent,
+            law_parameters,
             status,
             dt,
             steps,

@@ -75,7 +75,7 @@ def event_steps_function(t: TileLayout, shared_column):
         n_grains: int,
         static_overlap: wp.array2d(dtype=real),
         contact_constant: wp.array2d(dtype=real),
-        exponent: wp.array(dtype=real),
+        law_parameters: wp.array(dtype=real),
         inverse_mass: wp.array2d(dtype=real),
         n: real,
         h: real,
@@ -116,8 +116,12 @@ def event_steps_function(t: TileLayout, shared_column):
                             above = driver_values_at(amplitude, omega, phase_old[0], phase_old[1], dt)
                     has_above = g >= LO_CONTACT and g <= n_grains - HI_OFFSET
                     has_below = g + 1 >= LO_CONTACT and g + 1 <= n_grains - HI_OFFSET
-                    p_above = params(static_overlap, contact_constant, exponent, cc, wp.min(wp.max(g, 0), n_grains))
-                    p_below = params(static_overlap, contact_constant, exponent, cc, wp.min(wp.max(g + 1, 0), n_grains))
+                    p_above = params(
+                        static_overlap, contact_constant, law_parameters, cc, wp.min(wp.max(g, 0), n_grains)
+                    )
+                    p_below = params(
+                        static_overlap, contact_constant, law_parameters, cc, wp.min(wp.max(g + 1, 0), n_grains)
+                    )
                     inside = g >= 0 and g < n_grains
                     inv_m_event = real(0)
                     if wp.static(HETERO):
@@ -187,7 +191,7 @@ def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rate
         n_grains: int,
         static_overlap: wp.array2d(dtype=real),
         contact_constant: wp.array2d(dtype=real),
-        exponent: wp.array(dtype=real),
+        law_parameters: wp.array(dtype=real),
         inverse_mass: wp.array2d(dtype=real),
         has_left: bool,
         has_right: bool,
@@ -345,7 +349,7 @@ def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rate
                     n_grains,
                     static_overlap,
                     contact_constant,
-                    exponent,
+                    law_parameters,
                     inverse_mass,
                     n,
                     h,
@@ -437,7 +441,7 @@ def step_function(t: TileLayout, *, advance, dissipation, dashpot_losses, write_
         n_grains: int,
         static_overlap: wp.array2d(dtype=real),
         contact_constant: wp.array2d(dtype=real),
-        exponent: wp.array(dtype=real),
+        law_parameters: wp.array(dtype=real),
         inverse_mass: wp.array2d(dtype=real),
         has_left: bool,
         has_right: bool,
@@ -490,7 +494,7 @@ def step_function(t: TileLayout, *, advance, dissipation, dashpot_losses, write_
             n_grains,
             static_overlap,
             contact_constant,
-            exponent,
+            law_parameters,
             inverse_mass,
             has_left,
             has_right,

@@ -40,6 +40,7 @@ class LaunchKey(NamedTuple):
     fields: tuple
     damping: str
     response_windows: tuple
+    potential: str
 
 
 SHARED_KEYS = (
@@ -58,6 +59,7 @@ SHARED_KEYS = (
     ("record.fields", lambda s: s.record.fields),
     ("damping.model", lambda s: s.damping.model),
     ("response windows", lambda s: (s.record.response_start, s.record.response_windows, s.record.harmonics)),
+    ("chain.potential", lambda s: s.chain.potential),
 )
 """(name in messages, getter) of each :class:`LaunchKey` field, in its order."""
 
@@ -86,7 +88,7 @@ def features_of(scenes: list[Scene], statics: list[StaticState] | None = None) -
             s.impurities or s.chain.radius_ratios is not None or s.chain.material is not None for s in scenes
         ),
         gravity=any(s.chain.gravity > 0 for s in scenes),
-        hertz=all(s.chain.exponent == 2.5 for s in scenes),
+        hertz=all(s.chain.exponent == 2.5 for s in scenes) and first.chain.potential == "hertz",
         can_open=lambda: any(contact_can_open(s, st) for s, st in zip(scenes, statics)),
     )
 
@@ -101,8 +103,10 @@ def _features(first: Scene, *, any_static: bool, heterogeneous: bool, gravity: b
         static = "uniform"
     # event steps carry no damping: a damped scene takes plain steps (docs/drive.md); they are Gear steps
     # (Verlet and its composition yoshida4 take none)
+    # a lattice law carries tension: its contacts never open, its force is smooth, no event steps
     events = (
-        first.integrator.events == "auto"
+        first.chain.potential == "hertz"
+        and first.integrator.events == "auto"
         and first.integrator.method in GEAR_CORRECTOR
         and first.damping.model == "none"
         and can_open()
@@ -118,7 +122,18 @@ def _features(first: Scene, *, any_static: bool, heterogeneous: bool, gravity: b
         traces=bool(first.record.traces),
         event_window=EVENT_WINDOW if events else 0.0,
         damping=first.damping.model,
+        potential=first.chain.potential,
     )
+
+
+def law_parameters_of(scenes: list[Scene], f: Features) -> np.ndarray:
+    """Model.law_parameters of ``scenes``: n per chain (a power law other than Hertz), (p0, p1) per chain (a lattice
+    law, hertzian.core.potentials.law_of), or none."""
+    if f.potential != "hertz":
+        from hertzian.core.potentials import law_of
+
+        return np.array([(law.p0, law.p1) for law in (law_of(s.chain) for s in scenes)], dtype=np.float64).ravel()
+    return np.zeros(0) if f.hertz else np.array([s.chain.exponent for s in scenes])
 
 
 def contact_can_open(scene: Scene, static: StaticState) -> bool:
@@ -130,6 +145,8 @@ def contact_can_open(scene: Scene, static: StaticState) -> bool:
     energy for every contact, none can open. A drive (energy not bounded) or a contact without static
     overlap may always open.
     """
+    if scene.chain.potential != "hertz":
+        return False  # a lattice law's contacts carry tension: they never open
     if scene.boundary.surface == "driven":
         return True
     present = static.contact_constant > 0
@@ -184,8 +201,10 @@ class Model:
     """a_c per padded contact, shape (chains, grains + 1) with impurities, else (chains, 1)."""
     static_overlap: wp.array
     """δ0 per padded contact (chains, grains + 1) ('profile'), (chains, 1) ('uniform') or (0, 0)."""
-    exponent: wp.array
-    """n per chain, shape (chains,), or (0,) for Hertz (n = 5/2 compiled in)."""
+    law_parameters: wp.array
+    """The contact law's per-chain shape: n per chain, shape (chains,), for a power law other than Hertz; (α, β),
+    (b, 0), (α, 0) or (σ, 0) per chain, shape (2·chains,), for fput, toda, morse or lj (kernels/physics.py
+    ``contact_parameters``); (0,) for Hertz (n = 5/2 compiled in) and the harmonic law."""
     drive: wp.array
     """(amplitude, angular frequency) per chain, shape (chains, 2), float64, or (0, 2)."""
     trace_slot: wp.array
@@ -302,8 +321,16 @@ def covers(wider: Features, needed: Features) -> bool:
     # wherever no contact comes near opening), not the other way round; ``compensated`` is not compared:
     # a forced plain float32 variant runs float32 scenes, less accurately (kept for comparison)
     return (
-        (wider.method, wider.precision, wider.surface, wider.bottom, wider.traces, wider.damping)
-        == (needed.method, needed.precision, needed.surface, needed.bottom, needed.traces, needed.damping)
+        (wider.method, wider.precision, wider.surface, wider.bottom, wider.traces, wider.damping, wider.potential)
+        == (
+            needed.method,
+            needed.precision,
+            needed.surface,
+            needed.bottom,
+            needed.traces,
+            needed.damping,
+            needed.potential,
+        )
         and (wider.event_window == needed.event_window or needed.event_window == 0.0)
         and (
             STATIC_LEVELS.index(wider.static) >= STATIC_LEVELS.index(needed.static)
@@ -358,7 +385,7 @@ def build_model(
         static_overlap = np.array([[st.static_overlap.max()] for st in statics])
     else:
         static_overlap = np.zeros((0, 0))
-    exponent = np.zeros(0) if f.hertz else np.array([s.chain.exponent for s in scenes])
+    law_parameters = law_parameters_of(scenes, f)
     if f.surface == "driven":
         drive = np.array([[s.excitation.drive_amplitude, 2.0 * math.pi / s.excitation.drive_period] for s in scenes])
     else:
@@ -377,7 +404,7 @@ def build_model(
         inverse_mass=upload(inverse_mass.astype(np_real, copy=False)),
         contact_constant=upload(contact_constant.astype(np_real, copy=False)),
         static_overlap=upload(static_overlap.astype(np_real, copy=False)),
-        exponent=upload(exponent.astype(np_real, copy=False)),
+        law_parameters=upload(law_parameters.astype(np_real, copy=False)),
         drive=upload(drive, wp.float64),
         trace_slot=upload(trace_slot, wp.int32),
         validity_overlap=upload(np.array([s.chain.validity_overlap for s in scenes]), wp.float64),
@@ -454,6 +481,12 @@ def prepare_model(chains: ChainSet, *, features: Features | None = None) -> Host
     if len(chains) == 0:
         raise SceneError("scenes", [], "an ensemble needs at least one scene")
     scene = chains.template
+    if scene.chain.potential != "hertz":
+        raise SceneError(
+            "chain.potential",
+            scene.chain.potential,
+            "sweeps run the hertz law only: run lattice chains with hertzian run or hz.run (a list of scenes)",
+        )
     # Homogeneous chains without gravity carry the same static force on every contact, so their
     # static state (all a uniform or absent static overlap needs) and the Taylor start come from the
     # first grains alone; impurities, radii or gravity need every grain's.
@@ -504,7 +537,7 @@ def prepare_model(chains: ChainSet, *, features: Features | None = None) -> Host
         "inverse_mass": inverse_mass.astype(np_real, copy=False),
         "contact_constant": contact_constant.astype(np_real, copy=False),
         "static_overlap": static_overlap.astype(np_real, copy=False),
-        "exponent": exponent.astype(np_real, copy=False),
+        "law_parameters": exponent.astype(np_real, copy=False),
         "drive": drive,
         "trace_slot": trace_slot,
         "validity_overlap": per_unique(lambda d: VALIDITY_FRACTION * d, chains.column("chain.diameter")),
@@ -624,7 +657,7 @@ def _build_model_of(chains: ChainSet, device, features: Features | None, prepare
         inverse_mass=upload(a["inverse_mass"]),
         contact_constant=upload(a["contact_constant"]),
         static_overlap=upload(a["static_overlap"]),
-        exponent=upload(a["exponent"]),
+        law_parameters=upload(a["law_parameters"]),
         drive=upload(a["drive"], wp.float64),
         trace_slot=upload(a["trace_slot"], wp.int32),
         validity_overlap=upload(a["validity_overlap"], wp.float64),

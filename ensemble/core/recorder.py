@@ -291,7 +291,15 @@ class Recorder:
         """Energy, work, largest overlap and status of every chain at ``step`` (device only, no sync)."""
         m = self.model
         # what every grain's terms need (record_grains and record_parts)
-        terms = [state.x, m.inverse_mass, m.contact_constant, m.static_overlap, m.exponent, m.validity_scale, m.dt]
+        terms = [
+            state.x,
+            m.inverse_mass,
+            m.contact_constant,
+            m.static_overlap,
+            m.law_parameters,
+            m.validity_scale,
+            m.dt,
+        ]
         if self.staged:
             wp.launch(
                 self.kernels.grains,
@@ -318,7 +326,7 @@ class Recorder:
                 state.x,
                 m.contact_constant,
                 m.static_overlap,
-                m.exponent,
+                m.law_parameters,
                 m.drive,
                 state.work,
                 state.power,

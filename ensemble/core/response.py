@@ -116,7 +116,7 @@ class ResponseAccumulator:
                 m.inverse_mass,
                 m.contact_constant,
                 m.static_overlap,
-                m.exponent,
+                m.law_parameters,
                 self.window_steps_device,
                 self.stride_device,
                 self.start_step,

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 from hertzian.core.errors import SceneError
 from hertzian.core.radii import RadiiSpec, parse_radii, radius_ratios
+from hertzian.kernels.features import POTENTIALS
 
 SURFACE_KINDS = ("wall", "load", "free", "driven")
 BOTTOM_KINDS = ("wall", "fixed", "free")
@@ -85,6 +86,18 @@ class ChainSpec:
     """Gravitational acceleration g (1 ≙ 9.8 m/s²), toward the bottom."""
     radii: RadiiSpec | None = None
     """Per-grain radii (docs/heterogeneous.md; hertzian.core.radii): None for equal grains of radius diameter/2."""
+    potential: str = "hertz"
+    """The contact law (docs/lattices.md): hertz (V = a·max(δ, 0)^n, no tension) | harmonic | fput | toda | morse |
+    lj, the lattice laws, which carry tension. ``a`` is every law's strength: the spring constant of harmonic and
+    fput, Toda's a, Morse's well depth D, Lennard-Jones' ε."""
+    alpha: float = 0.0
+    """fput: α of V(r) = r²/2 + α r³/3 + β r⁴/4 (times a); morse: α of D (1 − e^{−αr})² [1/length]."""
+    beta: float = 0.0
+    """fput: β."""
+    b: float = 1.0
+    """toda: b of V(r) = (a/b) e^{−br} + a r [1/length]."""
+    sigma: float = 1.0
+    """lj: σ of 4ε((σ/ρ)^12 − (σ/ρ)^6) [length]; the grains sit at the minimum, ρ = 2^(1/6) σ, at rest."""
     material: tuple[str, ...] | None = None
     """Grain materials (hertzian.core.materials): one name, or a pattern of names repeated along the chain; each
     grain's mass and each contact's Hertz constant then follow from E, ν and ρ (``mass`` and ``a`` are not given).
@@ -97,6 +110,10 @@ class ChainSpec:
             return float(self.load)
         if self.l0 == 0.0:
             return 0.0
+        if self.potential != "hertz":
+            from hertzian.core.potentials import law_of
+
+            return float(law_of(self).force(self.l0, self.a))
         return self.exponent * self.a * self.l0 ** (self.exponent - 1.0)
 
 
@@ -710,7 +727,48 @@ def _validate_composed_and_overflow(s: Scene) -> None:
             raise SceneError(key, value, "too large: the load or energy it gives overflows float64")
 
 
+LAW_SHAPE_KEYS = {"alpha": ("fput", "morse"), "beta": ("fput",), "b": ("toda",), "sigma": ("lj",)}
+"""The shape keys of the lattice laws and the laws that read each (hertzian.core.potentials.law_of)."""
+
+
+def _validate_potential(s: Scene) -> None:
+    """The contact law: a known name, the shape keys of that law only, and what a lattice law cannot carry."""
+    c = s.chain
+    if c.potential not in POTENTIALS:
+        raise SceneError(
+            "chain.potential",
+            c.potential,
+            f"must be one of {', '.join(POTENTIALS)}" + _did_you_mean(c.potential, POTENTIALS),
+        )
+    defaults = ChainSpec()
+    for key, laws in LAW_SHAPE_KEYS.items():
+        value = getattr(c, key)
+        if value != getattr(defaults, key) and c.potential not in laws:
+            raise SceneError(f"chain.{key}", value, f"is read by chain.potential = {' or '.join(laws)} only")
+        if not math.isfinite(value):
+            raise SceneError(f"chain.{key}", value, "must be finite")
+    if c.potential == "hertz":
+        return
+    positive = {"toda": "b", "morse": "alpha", "lj": "sigma"}.get(c.potential)
+    if positive and not getattr(c, positive) > 0:
+        raise SceneError(f"chain.{positive}", getattr(c, positive), f"must be > 0 for chain.potential = {c.potential}")
+    refused = {
+        "chain.exponent": (c.exponent != 2.5, c.exponent, "is the hertz law's: a lattice law has its own shape keys"),
+        "chain.radii": (c.radii is not None, "given", "sets Hertz contact constants: give a lattice law's a directly"),
+        "chain.material": (c.material is not None, c.material, "sets Hertz contact constants: not with a lattice law"),
+        "damping.model": (
+            s.damping.model == "contact",
+            "contact",
+            "the dashpot acts on closed Hertz contacts: use damping.model = viscous with a lattice law",
+        ),
+    }
+    for key, (bad, value, why) in refused.items():
+        if bad:
+            raise SceneError(key, value, f"{why} (chain.potential = {c.potential})")
+
+
 def _validate_chain(s: Scene) -> None:
+    _validate_potential(s)
     c = s.chain
     if c.grains < 2:
         raise SceneError("chain.grains", c.grains, "must be an integer ≥ 2")

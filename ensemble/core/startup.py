@@ -18,6 +18,7 @@ import math
 
 import numpy as np
 from hertzian.core.chains import per_unique
+from hertzian.core.potentials import law_of
 from hertzian.core.scene import Scene
 from hertzian.core.static import StaticState, static_arrays, static_state
 
@@ -33,6 +34,24 @@ def _power_series(delta: np.ndarray, p: float) -> np.ndarray:
             acc += ((p + 1.0) * j - k) * delta[j] * w[k - j]
         w[k] = acc / (k * delta[0])
     return w
+
+
+def _composed_series(delta: np.ndarray, derivatives: np.ndarray, k: int) -> np.ndarray:
+    """Coefficient k ≥ 1 of F(δ(t)) − F(δ_0) from δ's coefficients (rows 0 … k) and F^(m)(δ_0) (rows m):
+    Σ_{m=1..k} F^(m)/m! · [(δ − δ_0)^m]_k, the powers by repeated products of the series (0 for k = 0)."""
+    if k == 0:
+        return np.zeros_like(delta[0])
+    shift = delta[: k + 1].copy()
+    shift[0] = 0.0
+    power = shift.copy()
+    total = derivatives[1] * power[k]
+    for m in range(2, k + 1):
+        product = np.zeros_like(power)
+        for j in range(k + 1):
+            product[j] = sum(power[i] * shift[j - i] for i in range(j + 1))
+        power = product
+        total = total + derivatives[m] / math.factorial(m) * power[k]
+    return total
 
 
 def taylor_coefficients(scene: Scene, order: int, static: StaticState | None = None) -> np.ndarray:
@@ -53,6 +72,9 @@ def taylor_coefficients(scene: Scene, order: int, static: StaticState | None = N
         u[1, 0] = scene.excitation.impact
     a_c, delta0 = st.contact_constant, st.static_overlap
     loaded = (a_c > 0) & (delta0 > 0)
+    law = law_of(scene.chain)
+    if law.lattice:  # F^(m)(δ0), m < order: the force series of a smooth law by Faà di Bruno
+        derivatives = law.derivatives(delta0, np.where(a_c > 0, a_c, 1.0), max(order, 1))
     inv_mass = 1.0 / st.mass
     damping, gamma = scene.damping.model, scene.damping.gamma
     for k in range(0, order - 1):
@@ -63,7 +85,9 @@ def taylor_coefficients(scene: Scene, order: int, static: StaticState | None = N
         d[1:, 0] = -u[1 : k + 1, 0]
         d[1:, n_grains] = u[1 : k + 1, -1]
         force_k = np.zeros(n_grains + 1)
-        if k >= 1 and np.any(loaded):
+        if law.lattice:
+            force_k = np.where(a_c > 0, _composed_series(d, derivatives, k), 0.0)
+        elif k >= 1 and np.any(loaded):
             w = _power_series(d[:, loaded], n - 1.0)
             force_k[loaded] = n * a_c[loaded] * w[k]
         if damping == "contact":

@@ -136,8 +136,11 @@ def static_state(scene: Scene) -> StaticState:
     carried[1:] = f0 + g * np.cumsum(mass)
     carried[0] = f0
     carried[a_c == 0.0] = 0.0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        overlap = np.where(carried > 0, (carried / (n * np.where(a_c > 0, a_c, 1.0))) ** (1.0 / (n - 1.0)), 0.0)
+    if scene.chain.potential != "hertz":
+        overlap = _lattice_overlap(scene, carried, a_c)
+    else:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            overlap = np.where(carried > 0, (carried / (n * np.where(a_c > 0, a_c, 1.0))) ** (1.0 / (n - 1.0)), 0.0)
     return StaticState(
         mass=mass,
         self_constant=self_a,
@@ -148,6 +151,26 @@ def static_state(scene: Scene) -> StaticState:
         surface_force=f0,
         radius_ratio=scene.chain.radius_ratios,
     )
+
+
+def _lattice_overlap(scene: Scene, carried: np.ndarray, a_c: np.ndarray) -> np.ndarray:
+    """δ0 of each contact of a lattice law, F(δ0) = carried force; SceneError where the law cannot carry it."""
+    from hertzian.core.errors import SceneError
+    from hertzian.core.potentials import law_of
+
+    law = law_of(scene.chain)
+    overlap = law.static_overlap(carried, np.where(a_c > 0, a_c, 1.0))
+    if np.any(np.isnan(overlap)):
+        k = int(np.argmax(np.isnan(overlap)))
+        key = "chain.load" if scene.chain.load is not None else "chain.l0" if scene.chain.l0 else "chain.gravity"
+        value = getattr(scene.chain, key.split(".")[1])
+        limit = float(law.force(law.rising_limit(), a_c[k]))
+        raise SceneError(
+            key,
+            value,
+            f"contact {k} would carry {carried[k]:.6g}, beyond the {law.name} law's largest force {limit:.6g}",
+        )
+    return overlap
 
 
 # ---- many chains at once -------------------------------------------------------------------

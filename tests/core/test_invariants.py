@@ -325,7 +325,7 @@ def test_unused_features_generate_no_code():
         "drive",
         "trace_slot",
         "trace_x",
-        "exponent",
+        "law_parameters",
         "work_in",
         "work_out",
         "power_in",
@@ -343,7 +343,7 @@ def test_unused_features_allocate_no_memory():
     model = build_model([impact_scene(chain={"l0": 0.0})], "cpu")
     # l0 = 0: contacts open, so gear4 steps are event-aware (no array of their own)
     assert model.features == Features(static="none", traces=True, event_window=EVENT_WINDOW)
-    assert model.static_overlap.size == 0 and model.exponent.size == 0 and model.drive.size == 0
+    assert model.static_overlap.size == 0 and model.law_parameters.size == 0 and model.drive.size == 0
     assert model.inverse_mass.shape == (1, 1) and model.contact_constant.shape == (1, 1)
     assert model.state().work.size == 0
 

@@ -204,7 +204,7 @@ def model_arrays(model):
         "inverse_mass": model.inverse_mass.numpy(),
         "contact_constant": model.contact_constant.numpy(),
         "static_overlap": model.static_overlap.numpy(),
-        "exponent": model.exponent.numpy(),
+        "law_parameters": model.law_parameters.numpy(),
         "drive": model.drive.numpy(),
         "trace_slot": model.trace_slot.numpy(),
         "validity_overlap": model.validity_overlap.numpy(),

@@ -146,7 +146,7 @@ class ChainSolver(Solver):
             inverse_mass=m.inverse_mass,
             contact_constant=m.contact_constant,
             static_overlap=m.static_overlap,
-            exponent=m.exponent,
+            law_parameters=m.law_parameters,
             status=state_in.status,
             dt=m.dt,
             steps=steps,

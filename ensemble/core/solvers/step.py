@@ -34,7 +34,7 @@ class StepSolver(Solver):
             m.inverse_mass,
             m.contact_constant,
             m.static_overlap,
-            m.exponent,
+            m.law_parameters,
             m.drive,
             state_in.status,
             m.trace_slot,

@@ -106,7 +106,7 @@ class TileSolver(Solver):
             inverse_mass=m.inverse_mass,
             contact_constant=m.contact_constant,
             static_overlap=m.static_overlap,
-            exponent=m.exponent,
+            law_parameters=m.law_parameters,
             status=state_in.status,
             dt=m.dt,
             steps=steps,
