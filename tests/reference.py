@@ -13,7 +13,11 @@ Model (all quantities in program units, float64 throughout):
 * Inner contact ``i`` joins grains ``i`` and ``i+1``: overlap
   ``delta = delta0_i + u_i - u_{i+1}``.  Surface wall contact:
   ``delta = delta0_sw - u_0``.  Bottom wall contact: ``delta = delta0_bw + u_{N-1}``.
-* ``V(delta) = a_c max(delta, 0)^n``; force ``n a_c max(delta, 0)^(n-1)``; no tension.
+* ``V(delta) = a_c max(delta, 0)^n``; force ``n a_c max(delta, 0)^(n-1)``; no tension. With
+  ``chain.potential`` a lattice law instead (docs/lattices.md), written here in the textbook form of the
+  extension ``r = -delta`` with ``a`` its strength: FPUT ``a (r^2/2 + alpha r^3/3 + beta r^4/4)``, Toda
+  ``(a/b) e^{-b r} + a r``, Morse ``a (1 - e^{-alpha r})^2``, Lennard-Jones ``4a ((s/rho)^12 - (s/rho)^6)`` at
+  ``rho = 2^(1/6) s + r``, harmonic ``a r^2/2``; the force pushing the grains apart is ``-dV/dr``.
 * Equation of motion, in the DIRECT form (no reformulation about the static
   state): ``m_i u_i'' = F_above - F_below + m_i g`` (+ ``F0`` on grain 0 for a
   surface ``load``).
@@ -85,6 +89,87 @@ def potential(delta, a, n):
     """Contact energy ``a max(delta,0)^n``."""
     d = np.maximum(np.asarray(delta, dtype=np.float64), 0.0)
     return np.asarray(a, dtype=np.float64) * d**n
+
+
+class _Lattice:
+    """A lattice law in the extension r = -delta (module docstring): force -dV/dr, V, and d^m F/d delta^m."""
+
+    def __init__(self, chain):
+        self.name = chain["potential"]
+        self.alpha, self.beta = float(chain.get("alpha", 0.0)), float(chain.get("beta", 0.0))
+        self.b, self.sigma = float(chain.get("b", 1.0)), float(chain.get("sigma", 1.0))
+
+    def _rho(self, r):
+        return 2.0 ** (1.0 / 6.0) * self.sigma + r
+
+    def force(self, delta, a):
+        r = -np.asarray(delta, dtype=np.float64)
+        if self.name == "fput":
+            return -a * (r + self.alpha * r**2 + self.beta * r**3)
+        if self.name == "toda":
+            return a * (np.exp(-self.b * r) - 1.0)
+        if self.name == "morse":
+            return -2.0 * a * self.alpha * (np.exp(-self.alpha * r) - np.exp(-2.0 * self.alpha * r))
+        if self.name == "lj":
+            rho = self._rho(r)
+            return 24.0 * a / rho * (2.0 * (self.sigma / rho) ** 12 - (self.sigma / rho) ** 6)
+        return -a * r
+
+    def potential(self, delta, a):
+        r = -np.asarray(delta, dtype=np.float64)
+        if self.name == "fput":
+            return a * (r**2 / 2.0 + self.alpha * r**3 / 3.0 + self.beta * r**4 / 4.0)
+        if self.name == "toda":
+            return a / self.b * np.exp(-self.b * r) + a * r
+        if self.name == "morse":
+            return a * (1.0 - np.exp(-self.alpha * r)) ** 2
+        if self.name == "lj":
+            rho = self._rho(r)
+            return 4.0 * a * ((self.sigma / rho) ** 12 - (self.sigma / rho) ** 6)
+        return a * r**2 / 2.0
+
+    def derivs(self, d0, a):
+        """F', F'', F''' in delta: (-d/dr)^m of the force."""
+        r = -np.asarray(d0, dtype=np.float64)
+        a = np.asarray(a, dtype=np.float64)
+        if self.name == "fput":
+            first = a * (1.0 + 2.0 * self.alpha * r + 3.0 * self.beta * r**2)
+            return first, -a * (2.0 * self.alpha + 6.0 * self.beta * r), 6.0 * a * self.beta + 0.0 * r
+        if self.name == "toda":
+            e = a * np.exp(-self.b * r)
+            return self.b * e, self.b**2 * e, self.b**3 * e
+        if self.name == "morse":
+            e1, e2 = np.exp(-self.alpha * r), np.exp(-2.0 * self.alpha * r)
+            return tuple(2.0 * a * self.alpha ** (m + 1) * (2.0**m * e2 - e1) for m in (1, 2, 3))
+        if self.name == "lj":
+            rho, s12, s6 = self._rho(r), self.sigma**12, self.sigma**6
+            return (
+                24.0 * a * (26.0 * s12 * rho**-14 - 7.0 * s6 * rho**-8),
+                24.0 * a * (2.0 * 13 * 14 * s12 * rho**-15 - 7.0 * 8 * s6 * rho**-9),
+                24.0 * a * (2.0 * 13 * 14 * 15 * s12 * rho**-16 - 7.0 * 8 * 9 * s6 * rho**-10),
+            )
+        return a + 0.0 * r, 0.0 * r, 0.0 * r
+
+    def overlap(self, F, a_c):
+        """delta >= 0 with force(delta) = F >= 0, by bisection up to where the force first exceeds F."""
+        F = np.asarray(F, dtype=np.float64) + 0.0 * np.asarray(a_c, dtype=np.float64)
+        a_c = np.broadcast_to(np.asarray(a_c, dtype=np.float64), F.shape)
+        contact = 2.0 ** (1.0 / 6.0) * self.sigma  # lj: the grains touch there
+        lo, hi = np.zeros(F.shape), np.full(F.shape, 1e-3)
+        for _ in range(100):
+            short = self.force(hi, a_c) < F
+            hi = np.where(short, 0.5 * (hi + contact) if self.name == "lj" else 2.0 * hi, hi)
+        for _ in range(200):
+            mid = 0.5 * (lo + hi)
+            below = self.force(mid, a_c) < F
+            lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+        return np.where(F > 0, hi, 0.0)
+
+
+def _lattice(scene):
+    """The scene's lattice law, or None for the power law."""
+    chain = scene["chain"]
+    return _Lattice(chain) if chain.get("potential", "hertz") != "hertz" else None
 
 
 # --------------------------------------------------------------------------
@@ -196,6 +281,8 @@ def _F0(scene):
         return float(ch["load"])
     n = float(ch["exponent"])
     l0 = float(ch.get("l0") or 0.0)
+    if _lattice(scene) is not None:
+        return float(_lattice(scene).force(l0, float(ch["a"]))) if l0 > 0.0 else 0.0
     return n * float(ch["a"]) * l0 ** (n - 1.0) if l0 > 0.0 else 0.0
 
 
@@ -249,9 +336,11 @@ def static_overlaps(scene):
     m, _, _ = _grain_params(scene)
     a_sw, a_in, a_bw = contact_constants(scene)
     carried_in = F0 + g * np.cumsum(m)[:-1]  # contact (k-1, k) carries F0 + g sum_{j<k} m_j
-    d_in = _overlap_from_force(carried_in, a_in, n)
-    d_sw = float(_overlap_from_force(F0, a_sw, n)) if surface == "wall" else None
-    d_bw = float(_overlap_from_force(F0 + g * m.sum(), a_bw, n)) if bottom == "wall" else None
+    lattice = _lattice(scene)
+    overlap = lattice.overlap if lattice is not None else (lambda F, a_c: _overlap_from_force(F, a_c, n))
+    d_in = overlap(carried_in, a_in)
+    d_sw = float(overlap(F0, a_sw)) if surface == "wall" else None
+    d_bw = float(overlap(F0 + g * m.sum(), a_bw)) if bottom == "wall" else None
     return d_sw, d_in, d_bw
 
 
@@ -295,6 +384,7 @@ class _Chain:
         self.m, _, _ = _grain_params(scene)
         self.a_sw, self.a_in, self.a_bw = contact_constants(scene)
         self.d_sw, self.d_in, self.d_bw = static_overlaps(scene)
+        self.lattice = _lattice(scene)
         ex = scene.get("excitation") or {}
         self.impact = float(ex.get("impact") or 0.0)
         self.A = float(ex.get("drive_amplitude") or 0.0)
@@ -325,23 +415,34 @@ class _Chain:
         if self.fixed:
             u[-1] = 0.0
 
+    def force(self, delta, a):
+        """The contact law's force at overlap delta."""
+        if self.lattice is not None:
+            return self.lattice.force(delta, a)
+        return contact_force(delta, a, self.n)
+
+    def potential(self, delta, a):
+        """The contact law's energy at overlap delta."""
+        if self.lattice is not None:
+            return self.lattice.potential(delta, a)
+        return potential(delta, a, self.n)
+
     def inner_force(self, u):
-        return contact_force(self.d_in + u[:-1] - u[1:], self.a_in, self.n)
+        return self.force(self.d_in + u[:-1] - u[1:], self.a_in)
 
     def accel(self, u, t):
         """Acceleration of every grain at positions u (constraints already imposed)."""
-        n = self.n
         f = self.m * self.g  # gravity, +m g (u grows downward)
         F = self.inner_force(u)  # F[i]: contact (i, i+1)
         f = f.copy()
         f[1:] += F  # contact above pushes down (+)
         f[:-1] -= F  # contact below pushes up (-)
         if self.surface == "wall":
-            f[0] += contact_force(self.d_sw - u[0], self.a_sw, n)
+            f[0] += self.force(self.d_sw - u[0], self.a_sw)
         elif self.surface == "load":
             f[0] += self.F0
         if self.bottom == "wall":
-            f[-1] -= contact_force(self.d_bw + u[-1], self.a_bw, n)
+            f[-1] -= self.force(self.d_bw + u[-1], self.a_bw)
         acc = f / self.m
         if self.driven:
             acc[0] = self.drive_a(t)
@@ -351,27 +452,26 @@ class _Chain:
 
     def energy(self, u, v):
         """docs/model.md §5 total energy (driven: grain 0's KE and gravity term excluded)."""
-        n = self.n
         ke = 0.5 * self.m * v * v
         grav = self.g * self.m * u
         if self.driven:
             ke = ke[1:]
             grav = grav[1:]
         E = ke.sum() - grav.sum()
-        E += potential(self.d_in + u[:-1] - u[1:], self.a_in, n).sum()
+        E += self.potential(self.d_in + u[:-1] - u[1:], self.a_in).sum()
         if self.surface == "wall":
-            E += float(potential(self.d_sw - u[0], self.a_sw, n))
+            E += float(self.potential(self.d_sw - u[0], self.a_sw))
         elif self.surface == "load":
             E -= self.F0 * u[0]
         if self.bottom == "wall":
-            E += float(potential(self.d_bw + u[-1], self.a_bw, n))
+            E += float(self.potential(self.d_bw + u[-1], self.a_bw))
         return float(E)
 
     def drive_power(self, u, t):
         """F_01 * v_0: power delivered by the driven grain 0 to the rest of the chain."""
         if not self.driven or self.N < 2:
             return 0.0
-        F01 = float(contact_force(self.d_in[0] + u[0] - u[1], self.a_in[0], self.n))
+        F01 = float(self.force(self.d_in[0] + u[0] - u[1], self.a_in[0]))
         return F01 * self.drive_v(t)
 
 
@@ -415,9 +515,10 @@ def _taylor_derivatives(ch, u, v, acc):
     n = ch.n
     sw = ch.surface == "wall"
     bw = ch.bottom == "wall"
-    F1_in, F2_in, F3_in = _force_derivs(ch.d_in, ch.a_in, n)
-    F1_sw, F2_sw, F3_sw = _force_derivs(ch.d_sw if sw else 0.0, ch.a_sw, n)
-    F1_bw, F2_bw, F3_bw = _force_derivs(ch.d_bw if bw else 0.0, ch.a_bw, n)
+    derivs = ch.lattice.derivs if ch.lattice is not None else (lambda d0, a_c: _force_derivs(d0, a_c, n))
+    F1_in, F2_in, F3_in = derivs(ch.d_in, ch.a_in)
+    F1_sw, F2_sw, F3_sw = derivs(ch.d_sw if sw else 0.0, ch.a_sw)
+    F1_bw, F2_bw, F3_bw = derivs(ch.d_bw if bw else 0.0, ch.a_bw)
 
     def ddelta(U):
         """k-th derivatives of the (inner, surface-wall, bottom-wall) overlaps from u^(k)."""

@@ -112,7 +112,7 @@ class Law:
         a = np.broadcast_to(np.asarray(a, dtype=np.float64), force.shape)
         top = np.full(force.shape, self.rising_limit())
         lo, hi = np.zeros(force.shape), np.where(np.isfinite(top), top, 1.0)
-        with np.errstate(over="ignore", invalid="ignore"):
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             grow = ~np.isfinite(top)
             for _ in range(200):  # an upper bracket where the branch is unbounded
                 short = grow & (self.force(hi, a) < force)

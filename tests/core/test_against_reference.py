@@ -189,3 +189,34 @@ def test_compare_is_per_grain():
     result.fields["u"][0, -1, quiet] += 1e-6 * np.abs(ref["u"][:, quiet]).max()
     with pytest.raises(AssertionError, match=f"grain {quiet}"):
         compare(result, ref)
+
+
+# lattice laws (docs/lattices.md): strength a = 1 (lj: ε = 1), unit masses; (chain keys, impact, dt, duration)
+LATTICE_CASES = {
+    "fput α–β, fixed ends (walls)": (dict(potential="fput", a=1.0, alpha=0.25, beta=0.5), 0.4, 0.01, 30.0),
+    "fput α, precompressed by a load": (dict(potential="fput", a=1.0, alpha=0.25, l0=0.2), 0.3, 0.01, 30.0),
+    "toda, precompressed": (dict(potential="toda", a=1.0, b=2.0, l0=0.1), 0.5, 0.01, 30.0),
+    "morse": (dict(potential="morse", a=1.0, alpha=1.0), 0.3, 0.01, 25.0),
+    "lj, precompressed": (dict(potential="lj", a=1.0, sigma=1.0, l0=0.02), 0.3, 0.002, 6.0),
+    "harmonic, impurities": (dict(potential="harmonic", a=1.0), 0.3, 0.01, 30.0),
+}
+
+
+def build_lattice(name: str, method: str) -> object:
+    chain, impact, dt, duration = LATTICE_CASES[name]
+    impurities = [{"grains": [3, 4], "mass": 0.5, "a": 2.0}, {"grains": [8], "mass": 2.0}] if "impurities" in name else []
+    return make_scene(
+        chain={"grains": GRAINS, **chain},
+        impurities=impurities,
+        excitation={"impact": impact},
+        integrator={"method": method, "dt": dt, "duration": duration},
+        record={"every": duration / 20, "traces": [0, GRAINS // 2, GRAINS - 2, GRAINS - 1]},
+    )
+
+
+@pytest.mark.parametrize("method", ["gear4", "gear6", "verlet", "yoshida6"])
+@pytest.mark.parametrize("name", list(LATTICE_CASES))
+def test_lattice_laws_match_reference(name, method):
+    """Every lattice law against the reference's own textbook form of it (V of the extension r = −δ), with a static
+    load where the case has one, on a Gear method, Verlet and yoshida6."""
+    check(build_lattice(name, method))
