@@ -487,6 +487,16 @@ def prepare_model(chains: ChainSet, *, features: Features | None = None) -> Host
             scene.chain.potential,
             "sweeps run the hertz law only: run lattice chains with hertzian run or hz.run (a list of scenes)",
         )
+    if scene.record.modes:
+        raise SceneError("record.modes", True, "sweeps do not record mode energies: run such chains with hertzian run")
+    if scene.excitation.modes or scene.excitation.thermal:
+        key = "excitation.modes" if scene.excitation.modes else "excitation.thermal"
+        raise SceneError(
+            key,
+            getattr(scene.excitation, key.split(".")[1]),
+            "sweeps start from an impact or a drive: "
+            "run modal and thermal starts with hertzian run or hz.run (a list of scenes)",
+        )
     # Homogeneous chains without gravity carry the same static force on every contact, so their
     # static state (all a uniform or absent static overlap needs) and the Taylor start come from the
     # first grains alone; impurities, radii or gravity need every grain's.

@@ -20,6 +20,7 @@ import numpy as np
 import warp as wp
 from hertzian.core.model import Model, State
 from hertzian.core.response import ResponseAccumulator
+from hertzian.core.spectrum import SpectrumRecorder
 from hertzian.kernels.records import (
     PART_SUMS,
     RECORD_BLOCK_DIM,
@@ -190,6 +191,8 @@ class Recorder:
         self.work = np.zeros((c, records)) if m.features.surface == "driven" else None
         self.dissipated = np.zeros((c, records)) if damped else None
         self.response = ResponseAccumulator(m) if scene.has_response else None
+        self.spectrum = SpectrumRecorder(m) if scene.record.modes else None
+        """The mode energies, spectral entropy and participation number (``record.modes``), or None."""
 
         self.snapshot_values = tuple(
             name for name in ("u", "v") if name in self.fields or (self.fields and name in self.traces)
@@ -286,6 +289,8 @@ class Recorder:
             wp.load_module(traced_start_kernel(self.model.features.precision).module, device=self.model.device)
         if self.response is not None:
             self.response.load()
+        if self.spectrum is not None:
+            self.spectrum.load()
 
     def check(self, state: State, step: int) -> None:
         """Energy, work, largest overlap and status of every chain at ``step`` (device only, no sync)."""
@@ -368,6 +373,8 @@ class Recorder:
         The device → host copies are queued into staging buffer r % depth (asynchronous on CUDA); the host
         arrays hold record r after ``finish()`` (or once the buffer is reused at record r + depth)."""
         self.check(state, step)
+        if self.spectrum is not None:
+            self.spectrum.sample(state, r)
         slot = r % self.depth
         if self.pending[slot] is not None:
             self._unpack(slot)

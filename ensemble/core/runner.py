@@ -92,6 +92,9 @@ class RunResult:
     """Energy dissipated by damping up to each record, shape (chains, R), damped scenes only."""
     response: dict[str, np.ndarray] = field(default_factory=dict)
     """Response windows (ensemble/core/response.py): 'response', 'window_ke', 'driver_open', 'window_start'."""
+    spectrum: dict[str, np.ndarray] = field(default_factory=dict)
+    """With ``record.modes`` (ensemble/core/spectrum.py): 'mode_energy' (chains, R, modes), 'spectral_entropy' and
+    'participation' (chains, R)."""
     error_estimate: np.ndarray | None = None
     """Estimated max over records and grains of |u − u_exact| / max|u_exact| [relative], shape (chains,)
     (docs/accuracy.md, ensemble/core/error_estimate.py); None unless ``record.error_estimate``. Its shadow run's
@@ -349,6 +352,7 @@ class Runner:
             timing=timing,
             dissipated=rec.dissipated,
             response=rec.response.result() if rec.response is not None else {},
+            spectrum=rec.spectrum.result() if rec.spectrum is not None else {},
             error_estimate=error_estimate,
         )
 

@@ -172,6 +172,18 @@ class ExcitationSpec:
     """A in u_0(t) = A sin(2πt/τ) [length]; needs ``boundary.surface = "driven"``."""
     drive_period: float = 10.0
     """τ [time]."""
+    modes: tuple[int, ...] = ()
+    """Harmonic normal modes (hertzian.core.modes: 1 … N with walls at both ends, 1 … N − 1 with free ends) that
+    start with ``mode_energy`` each, as displacements at rest: the Fermi–Pasta–Ulam–Tsingou experiment."""
+    mode_energy: float = 0.0
+    """Harmonic energy of each of ``modes`` at t = 0 [energy]."""
+    thermal: float = 0.0
+    """Energy per grain ε [energy] shared equally by the normal modes ``thermal_modes``, each with a random phase
+    (``seed``): half kinetic, half potential on average."""
+    thermal_modes: tuple[int, ...] = ()
+    """[first, last] of the modes ``thermal`` fills; () for every mode."""
+    seed: int = 0
+    """Seed of the thermal phases (numpy's default generator): the same seed, the same start."""
 
 
 @dataclass(frozen=True)
@@ -234,6 +246,10 @@ class RecordSpec:
     """Consecutive response windows."""
     harmonics: int = 1
     """Highest harmonic H of the drive frequency kept in ``response`` (k = 0 … H)."""
+    modes: bool = False
+    """Record every chain's harmonic normal-mode energies E_k, spectral entropy and participation number at every
+    record, computed on the device (hertzian.core.modes; the chain must have normal modes, as for
+    ``excitation.modes``)."""
     error_estimate: bool = False
     """Estimate each chain's relative position error (docs/accuracy.md) from a shadow run at 2·dt
     (ensemble/core/error_estimate.py); needs ``u`` among ``fields`` and records on even steps."""
@@ -352,7 +368,12 @@ class Scene:
 
     @property
     def injected_energy(self) -> float:
-        """Energy put in at t = 0 by an impact (½ m_0 v_imp²); 0 for other scenes."""
+        """Energy put in at t = 0: by an impact ½ m_0 v_imp²; by modes or thermal phases the start's whole energy
+        (kinetic plus the contact law's, hertzian.core.modes); 0 for other scenes."""
+        if self.excitation.modes or self.excitation.thermal:
+            from hertzian.core.modes import start_energy
+
+            return start_energy(self)
         return 0.5 * grain_masses_at(self, 0) * self.excitation.impact**2
 
     def to_dict(self) -> dict:
@@ -690,6 +711,7 @@ def _validate(s: Scene) -> None:
     _validate_materials(s)
     _validate_boundary_and_excitation(s)
     _validate_impurities(s)
+    _validate_modal_start(s)
     _validate_integrator(s)
     _validate_record(s)
     _validate_damping_and_response(s)
@@ -871,6 +893,60 @@ def _validate_boundary_and_excitation(s: Scene) -> None:
         raise SceneError("excitation.impact", e.impact, "must be ≥ 0 (toward the bottom)")
     if b.bottom == "fixed" and c.grains < 3 and b.surface == "driven":
         raise SceneError("chain.grains", c.grains, "a driven chain with a fixed bottom needs ≥ 3 grains")
+
+
+def _validate_normal_modes(s: Scene, key: str, value) -> None:
+    """The chain has harmonic normal modes (hertzian.core.modes): walls or free ends at both ends, equal grains and
+    springs, a stiffness at rest."""
+    c, b = s.chain, s.boundary
+    if (b.surface, b.bottom) not in (("wall", "wall"), ("free", "free")):
+        raise SceneError(key, value, "normal modes need walls at both ends or free ends at both ends (boundary)")
+    if s.impurities or c.radii is not None or c.material is not None or c.gravity:
+        raise SceneError(
+            key, value, "normal modes need equal grains and springs: no impurities, radii, materials or gravity"
+        )
+    if c.potential == "hertz" and c.l0 == 0 and not c.load:
+        raise SceneError(
+            key, value, "normal modes of a Hertz chain need a precompression, chain.l0 (a stiffness at rest)"
+        )
+
+
+def _validate_modal_start(s: Scene) -> None:
+    """Modes or thermal phases at t = 0: harmonic normal modes exist (equal grains and springs, walls or free ends at
+    both ends, a stiffness at rest) and the numbers are in range."""
+    e, c, b = s.excitation, s.chain, s.boundary
+    if not (e.modes or e.thermal or e.mode_energy or e.thermal_modes or s.record.modes):
+        return
+    given = [
+        (name, value)
+        for name, value in (
+            ("excitation.modes", list(e.modes)),
+            ("excitation.mode_energy", e.mode_energy),
+            ("excitation.thermal", e.thermal),
+            ("excitation.thermal_modes", list(e.thermal_modes)),
+            ("record.modes", s.record.modes),
+        )
+        if value
+    ]
+    key, value = given[0]
+    _validate_normal_modes(s, key, value)
+    if bool(e.modes) != (e.mode_energy > 0):
+        raise SceneError(
+            "excitation.mode_energy", e.mode_energy, "give excitation.modes and a mode_energy > 0 together"
+        )
+    if e.thermal < 0 or (e.thermal_modes and not e.thermal):
+        raise SceneError("excitation.thermal", e.thermal, "must be > 0 (energy per grain), with thermal_modes if given")
+    if (e.modes or e.thermal) and (e.impact or b.surface == "driven"):
+        raise SceneError("excitation.impact", e.impact, "not with excitation.modes or thermal: one start at a time")
+    first = 1
+    last = c.grains if b.surface == "wall" else c.grains - 1
+    for k in e.modes:
+        if not first <= k <= last:
+            raise SceneError("excitation.modes", k, f"mode numbers run {first} … {last} here")
+    if e.thermal_modes:
+        pair = e.thermal_modes
+        if len(pair) != 2 or not first <= pair[0] <= pair[1] <= last:
+            raise SceneError("excitation.thermal_modes", list(pair), f"must be [first, last] within {first} … {last}")
 
 
 def _validate_impurities(s: Scene) -> None:

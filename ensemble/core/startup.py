@@ -18,6 +18,7 @@ import math
 
 import numpy as np
 from hertzian.core.chains import per_unique
+from hertzian.core.modes import start
 from hertzian.core.potentials import law_of
 from hertzian.core.scene import Scene
 from hertzian.core.static import StaticState, static_arrays, static_state
@@ -37,10 +38,8 @@ def _power_series(delta: np.ndarray, p: float) -> np.ndarray:
 
 
 def _composed_series(delta: np.ndarray, derivatives: np.ndarray, k: int) -> np.ndarray:
-    """Coefficient k ≥ 1 of F(δ(t)) − F(δ_0) from δ's coefficients (rows 0 … k) and F^(m)(δ_0) (rows m):
-    Σ_{m=1..k} F^(m)/m! · [(δ − δ_0)^m]_k, the powers by repeated products of the series (0 for k = 0)."""
-    if k == 0:
-        return np.zeros_like(delta[0])
+    """Coefficient k ≥ 1 of F(δ(t)) from δ's coefficients (rows 0 … k) and F^(m)(δ_0) (rows m):
+    Σ_{m=1..k} F^(m)/m! · [(δ − δ_0)^m]_k, the powers by repeated products of the series."""
     shift = delta[: k + 1].copy()
     shift[0] = 0.0
     power = shift.copy()
@@ -70,22 +69,32 @@ def taylor_coefficients(scene: Scene, order: int, static: StaticState | None = N
             u[k, 0] = amplitude * omega**k * round(math.sin(k * math.pi / 2)) / math.factorial(k)
     elif order >= 1:
         u[1, 0] = scene.excitation.impact
+    modal = start(scene)
+    if modal is not None:  # displacements and velocities of every grain (hertzian.core.modes)
+        u[0] = modal[0]
+        if order >= 1:
+            u[1] = modal[1]
     a_c, delta0 = st.contact_constant, st.static_overlap
-    loaded = (a_c > 0) & (delta0 > 0)
+    # the overlaps at t = 0 (the static ones unless the start displaces grains)
+    overlap = delta0 + np.concatenate([[-u[0, 0]], u[0, :-1] - u[0, 1:], [u[0, -1]]])
+    loaded = (a_c > 0) & (overlap > 0)
     law = law_of(scene.chain)
-    if law.lattice:  # F^(m)(δ0), m < order: the force series of a smooth law by Faà di Bruno
-        derivatives = law.derivatives(delta0, np.where(a_c > 0, a_c, 1.0), max(order, 1))
+    strength = np.where(a_c > 0, a_c, 1.0)
+    if law.lattice:  # F^(m) at the overlaps at t = 0, m < order: the force series of a smooth law (Faà di Bruno)
+        derivatives = law.derivatives(overlap, strength, max(order, 1))
+    # the excess force at t = 0 (zero unless the start displaces grains)
+    force0 = np.where(a_c > 0, law.force(overlap, strength) - law.force(delta0, strength), 0.0)
     inv_mass = 1.0 / st.mass
     damping, gamma = scene.damping.model, scene.damping.gamma
     for k in range(0, order - 1):
         # overlap series of every padded contact up to order k
         d = np.zeros((k + 1, n_grains + 1))
-        d[0] = delta0
+        d[0] = overlap
         d[1:, 1:n_grains] = u[1 : k + 1, :-1] - u[1 : k + 1, 1:]
         d[1:, 0] = -u[1 : k + 1, 0]
         d[1:, n_grains] = u[1 : k + 1, -1]
-        force_k = np.zeros(n_grains + 1)
-        if law.lattice:
+        force_k = force0.copy() if k == 0 else np.zeros(n_grains + 1)
+        if law.lattice and k >= 1:
             force_k = np.where(a_c > 0, _composed_series(d, derivatives, k), 0.0)
         elif k >= 1 and np.any(loaded):
             w = _power_series(d[:, loaded], n - 1.0)

@@ -196,6 +196,52 @@ def _record_variables(scene: Scene, dims: tuple[str, ...], coords, real: np.dtyp
     return out
 
 
+def _spectrum_variables(scene: Scene, dims: tuple[str, ...], coords) -> list[dict]:
+    """The normal-mode energies and their summaries (``record.modes``; hertzian.core.spectrum)."""
+    if not scene.record.modes:
+        return []
+    records, modes = scene.record_count, mode_count(scene)
+    return [
+        _variable(
+            "mode_energy",
+            dims + ("record", "mode"),
+            (records, modes),
+            np.float64,
+            np.nan,
+            {
+                **coords("t mode"),
+                "units": ENERGY_UNITS,
+                "long_name": "harmonic normal-mode energy ½ m (P_k² + ω_k² Q_k²)",
+            },
+        ),
+        _variable(
+            "spectral_entropy",
+            dims + ("record",),
+            (records,),
+            np.float64,
+            np.nan,
+            {
+                **coords("t"),
+                "units": DIMENSIONLESS,
+                "long_name": "−Σ e_k ln e_k, e_k = E_k / Σ E over modes with ω_k > 0",
+            },
+        ),
+        _variable(
+            "participation",
+            dims + ("record",),
+            (records,),
+            np.float64,
+            np.nan,
+            {**coords("t"), "units": DIMENSIONLESS, "long_name": "participation number 1 / Σ e_k²"},
+        ),
+    ]
+
+
+def mode_count(scene: Scene) -> int:
+    """Normal modes of a chain (hertzian.core.modes): N with walls, N (the translation, k = 0, included) free."""
+    return scene.chain.grains
+
+
 def _response_variables(scene: Scene, dims: tuple[str, ...], coords) -> list[dict]:
     """The drive's response windows (``response``, ``window_ke``, ``driver_open``, ``window_start``)."""
     if not scene.has_response:
@@ -317,6 +363,7 @@ def variables(sweep: Sweep, scene: Scene, plan: Plan) -> list[dict[str, Any]]:
     return (
         _record_variables(scene, dims, coords, real, block_points)
         + _response_variables(scene, dims, coords)
+        + _spectrum_variables(scene, dims, coords)
         + _trace_variables(scene, dims, coords, real, block_points)
         + _point_variables(dims, coords, error_estimate=scene.record.error_estimate)
         + grain_variables(sweep, scene, coords())
@@ -474,6 +521,12 @@ def fixed_arrays(sweep: Sweep, scene: Scene, plan: Plan) -> list[tuple[str, np.n
     out.append(("t", record_times(scene), ("record",), {"units": TIME_UNITS}))
     grains = np.arange(scene.chain.grains, dtype=np.int32)
     out.append(("grain", grains, ("grain",), {"long_name": "grain index from the surface"}))
+    if scene.record.modes:
+        from hertzian.core.modes import normal_modes
+
+        numbers, _, frequency = normal_modes(scene)
+        out.append(("mode", numbers.astype(np.int32), ("mode",), {"long_name": "harmonic normal mode number k"}))
+        out.append(("mode_frequency", frequency, ("mode",), {"units": "1/time", "long_name": "ω_k"}))
     if scene.has_response:
         harmonics = np.arange(scene.record.harmonics + 1, dtype=np.int32)
         out.append(("harmonic", harmonics, ("harmonic",), {"long_name": "harmonic k of the drive frequency"}))
@@ -936,6 +989,7 @@ def batch_arrays(result: RunResult, grain_steps: int) -> dict[str, np.ndarray]:
     if scene.record.energy and result.dissipated is not None:
         arrays["dissipated"] = result.dissipated
     arrays.update(result.response)
+    arrays.update(result.spectrum)
     arrays.update({f"trace_{name}": data for name, data in result.traces.items()})
     arrays.update(
         {
