@@ -54,6 +54,7 @@ def chain_kernel(features: Features):
     DRIVEN = f.surface == "driven"
     BOTTOM_WALL = f.bottom == "wall"
     FIXED = f.bottom == "fixed"
+    RING = f.surface == "periodic"  # grain N − 1 touches grain 0 (padded contacts 0 and N); whole chains, no windows
     STATIC = f.static != "none"
     PROFILE = f.static == "profile"
     HETERO = f.heterogeneous
@@ -98,8 +99,9 @@ def chain_kernel(features: Features):
         force00: real,
         n: shape_t,
     ) -> real:
-        # excess force of padded contact k at relative displacement d (step.py's `contact`)
-        if wp.static(PROFILE or HETERO):
+        # excess force of padded contact k at relative displacement d (step.py's `contact`; a lattice law's excess
+        # force is not the difference of two forces)
+        if wp.static(PROFILE or HETERO or LATTICE):
             delta0 = delta00
             if wp.static(PROFILE):
                 delta0 = static_overlap[c, k]
@@ -317,6 +319,25 @@ def chain_kernel(features: Features):
                     force_above = contact(
                         static_overlap, contact_constant, c, 0, -rounded(position_here), a_c0, delta00, force00, n
                     )
+            if wp.static(RING):
+                # the closing contact: grain N − 1's and grain 0's positions predicted before this pass overwrites
+                # grain 0; grain N − 1 takes the same force as the contact below it
+                if wp.static(COMPOSED):
+                    position_last = substep_predicted_at(x_window, c, last, w)
+                else:
+                    position_last = predicted_at(x_window, c, last)
+                force_above = contact(
+                    static_overlap,
+                    contact_constant,
+                    c,
+                    0,
+                    gap(position_last, position_here),
+                    a_c0,
+                    delta00,
+                    force00,
+                    n,
+                )
+                force_ring = force_above
             for i in range(lo, hi):
                 u_here = rounded(position_here)
                 position_next = position_here
@@ -357,6 +378,8 @@ def chain_kernel(features: Features):
                             force_below = contact(
                                 static_overlap, contact_constant, c, n_grains, u_here, a_c0, delta00, force00, n
                             )
+                    elif wp.static(RING):
+                        force_below = force_ring
                 held = False
                 if wp.static(FIXED):
                     held = i == last

@@ -85,6 +85,7 @@ def record_kernels(features: Features) -> RecordKernels:
     SURFACE_WALL = f.surface == "wall"
     DRIVEN = f.surface == "driven"
     BOTTOM_WALL = f.bottom == "wall"
+    RING = f.surface == "periodic"  # the closing contact (grains N − 1 and 0), padded contact 0
     HETERO = f.heterogeneous
     DAMPED = f.damping != "none"
     DASHPOT = f.damping == "contact"
@@ -298,6 +299,11 @@ def record_kernels(features: Features) -> RecordKernels:
                 largest = wp.max(largest, terms[1] * validity_scale[c, 0])
             else:
                 largest = wp.max(largest, terms[1])
+        if wp.static(RING):
+            closing = position(x, c, n_grains - 1) - position(x, c, 0)
+            terms = contact_terms(static_overlap, contact_constant, law_parameters, c, 0, closing)
+            potential += terms[0]
+            largest = wp.max(largest, terms[1])
         if wp.static(BOTTOM_WALL):
             terms = contact_terms(
                 static_overlap, contact_constant, law_parameters, c, n_grains, position(x, c, n_grains - 1)

@@ -37,6 +37,7 @@ def step_kernel(features: Features):
     DRIVEN = f.surface == "driven"
     BOTTOM_WALL = f.bottom == "wall"
     FIXED = f.bottom == "fixed"
+    RING = f.surface == "periodic"  # grain N − 1 touches grain 0 (padded contacts 0 and N are that contact)
     HETERO = f.heterogeneous
     TRACES = f.traces
     _, excess_force = contact_functions(f.precision, f.hertz, f.potential)
@@ -265,6 +266,13 @@ def step_kernel(features: Features):
                     )
                 else:
                     up = contact(static_overlap, contact_constant, law_parameters, c, 0, -u_p)
+            elif wp.static(RING):
+                position_last = position_p
+                if wp.static(COMPOSED):
+                    position_last = substep_predicted_at(x_in, c, n_grains - 1, w)
+                else:
+                    position_last = predicted_at(x_in, c, n_grains - 1)
+                up = contact(static_overlap, contact_constant, law_parameters, c, 0, gap(position_last, position_p))
         if i < n_grains - 1:
             position_below = position_p
             if wp.static(COMPOSED):
@@ -285,6 +293,15 @@ def step_kernel(features: Features):
                     )
                 else:
                     down = contact(static_overlap, contact_constant, law_parameters, c, n_grains, u_p)
+            elif wp.static(RING):
+                position_first = position_p
+                if wp.static(COMPOSED):
+                    position_first = substep_predicted_at(x_in, c, 0, w)
+                else:
+                    position_first = predicted_at(x_in, c, 0)
+                down = contact(
+                    static_overlap, contact_constant, law_parameters, c, n_grains, gap(position_p, position_first)
+                )
 
         inv_m = real(0)
         if wp.static(HETERO):

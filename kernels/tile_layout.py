@@ -18,12 +18,12 @@ from hertzian.kernels.physics import (
 
 def fusable(features: Features) -> bool:
     """True when the fused kernels implement every feature of this set (traces: written inside the launch;
-    composed methods such as yoshida4, the lattice laws, and the contact dashpot in compensated float32, are not
+    composed methods such as yoshida4, the lattice laws, rings, and the contact dashpot in compensated float32, are not
     implemented here:
     the per-step kernel runs them on CUDA)."""
     if features.damping == "contact" and features.compensation:
         return False
-    if features.potential != "hertz":
+    if features.potential != "hertz" or features.surface == "periodic":
         return False
     return features.method not in SUBSTEP_WEIGHTS
 

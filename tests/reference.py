@@ -70,8 +70,8 @@ GEAR_COEFFS = {
     "gear6": (3.0 / 20.0, 251.0 / 360.0, 1.0, 11.0 / 18.0, 1.0 / 6.0, 1.0 / 60.0),
 }
 
-SURFACES = ("wall", "load", "free", "driven")
-BOTTOMS = ("wall", "fixed", "free")
+SURFACES = ("wall", "load", "free", "driven", "periodic")
+BOTTOMS = ("wall", "fixed", "free", "periodic")
 
 
 # --------------------------------------------------------------------------
@@ -385,6 +385,16 @@ class _Chain:
         self.a_sw, self.a_in, self.a_bw = contact_constants(scene)
         self.d_sw, self.d_in, self.d_bw = static_overlaps(scene)
         self.lattice = _lattice(scene)
+        # a ring (periodic ends): grain N-1 and grain 0 touch through one more contact, like an inner one
+        self.ring = self.surface == "periodic"
+        if self.ring:
+            _, a, _ = _grain_params(scene)
+            self.a_ring = 2.0 * a[-1] * a[0] / (a[-1] + a[0]) if a[-1] != a[0] else a[0]
+            self.d_ring = float(
+                self.lattice.overlap(self.F0, self.a_ring)
+                if self.lattice
+                else _overlap_from_force(self.F0, self.a_ring, self.n)
+            )
         ex = scene.get("excitation") or {}
         self.impact = float(ex.get("impact") or 0.0)
         self.A = float(ex.get("drive_amplitude") or 0.0)
@@ -443,6 +453,10 @@ class _Chain:
             f[0] += self.F0
         if self.bottom == "wall":
             f[-1] -= self.force(self.d_bw + u[-1], self.a_bw)
+        if self.ring:
+            closing = self.force(self.d_ring + u[-1] - u[0], self.a_ring)
+            f[0] += closing
+            f[-1] -= closing
         acc = f / self.m
         if self.driven:
             acc[0] = self.drive_a(t)
@@ -465,6 +479,8 @@ class _Chain:
             E -= self.F0 * u[0]
         if self.bottom == "wall":
             E += float(self.potential(self.d_bw + u[-1], self.a_bw))
+        if self.ring:
+            E += float(self.potential(self.d_ring + u[-1] - u[0], self.a_ring))
         return float(E)
 
     def drive_power(self, u, t):
@@ -517,12 +533,13 @@ def _taylor_derivatives(ch, u, v, acc):
     bw = ch.bottom == "wall"
     derivs = ch.lattice.derivs if ch.lattice is not None else (lambda d0, a_c: _force_derivs(d0, a_c, n))
     F1_in, F2_in, F3_in = derivs(ch.d_in, ch.a_in)
-    F1_sw, F2_sw, F3_sw = derivs(ch.d_sw if sw else 0.0, ch.a_sw)
+    F1_sw, F2_sw, F3_sw = derivs(ch.d_ring, ch.a_ring) if ch.ring else derivs(ch.d_sw if sw else 0.0, ch.a_sw)
     F1_bw, F2_bw, F3_bw = derivs(ch.d_bw if bw else 0.0, ch.a_bw)
 
     def ddelta(U):
-        """k-th derivatives of the (inner, surface-wall, bottom-wall) overlaps from u^(k)."""
-        return U[:-1] - U[1:], -U[0], U[-1]
+        """k-th derivatives of the (inner, surface-wall, bottom-wall) overlaps from u^(k); a ring's closing contact
+        takes the surface-wall slot."""
+        return U[:-1] - U[1:], (U[-1] - U[0]) if ch.ring else -U[0], U[-1]
 
     def net(t_in, t_sw, t_bw):
         """M^-1 times the signed sum of per-contact force derivatives."""
@@ -531,6 +548,9 @@ def _taylor_derivatives(ch, u, v, acc):
         f[:-1] -= t_in  # contact below pushes up (-)
         if sw:
             f[0] += t_sw
+        if ch.ring:
+            f[0] += t_sw
+            f[-1] -= t_sw
         if bw:
             f[-1] -= t_bw
         return f / ch.m

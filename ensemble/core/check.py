@@ -319,8 +319,9 @@ def check_scene(scene: Scene) -> StepCheck:
     if fixed:
         inverse_mass[-1] = 0.0
     # padded contact k joins grains k-1 and k; walls are held
-    above = np.concatenate([[0.0], inverse_mass])
-    below = np.concatenate([inverse_mass, [0.0]])
+    ring = scene.boundary.surface == "periodic"  # the end slots are the contact of grains N − 1 and 0
+    above = np.concatenate([[inverse_mass[-1] if ring else 0.0], inverse_mass])
+    below = np.concatenate([inverse_mass, [inverse_mass[0] if ring else 0.0]])
     inverse_reduced = above + below
     exists = (a_c > 0) & (inverse_reduced > 0)
 
@@ -373,6 +374,9 @@ def check_scene(scene: Scene) -> StepCheck:
     off = np.zeros(n_grains)
     off[1:] += k_above[1:] * sqrt_inv[1:] * sqrt_inv[:-1]
     off[:-1] += k_below[:-1] * sqrt_inv[:-1] * sqrt_inv[1:]
+    if ring:
+        off[0] += k_above[0] * sqrt_inv[0] * sqrt_inv[-1]
+        off[-1] += k_below[-1] * sqrt_inv[-1] * sqrt_inv[0]
     omega_max = math.sqrt(float(np.max(diagonal + off)))
 
     if law.lattice:

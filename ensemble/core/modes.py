@@ -7,7 +7,9 @@ has orthonormal normal modes S_k (rows of :func:`normal_modes`' basis) and frequ
 * walls at both ends (the FPUT chain with fixed ends), k = 1 … N:
   S_k(n) = √(2/(N+1)) sin(π k (n+1)/(N+1)), ω_k = 2 √(K/m) sin(π k / (2(N+1)));
 * free ends, k = 0 … N − 1 (k = 0 the rigid translation):
-  S_k(n) = c_k cos(π k (n + ½)/N), c_0 = √(1/N), c_k = √(2/N), ω_k = 2 √(K/m) sin(π k / (2N)).
+  S_k(n) = c_k cos(π k (n + ½)/N), c_0 = √(1/N), c_k = √(2/N), ω_k = 2 √(K/m) sin(π k / (2N));
+* a ring (periodic ends), k = 0 … N − 1 with q = ⌈k/2⌉ the wavenumber: S_0 = √(1/N), S_{2q−1}(n) = √(2/N) cos(2π q n/N),
+  S_{2q}(n) = √(2/N) sin(2π q n/N), and for even N S_{N−1}(n) = (−1)^n/√N; ω_k = 2 √(K/m) |sin(π q/N)|.
 
 A mode's amplitude and rate are Q_k = S_k·u and P_k = S_k·v, its harmonic energy E_k = ½ m (P_k² + ω_k² Q_k²). The
 spectral entropy of the normalised energies e_k = E_k / Σ E is S = −Σ e_k ln e_k, the participation number
@@ -34,6 +36,14 @@ def normal_modes(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         basis = np.sqrt(2.0 / (n_grains + 1)) * np.sin(np.pi * np.outer(k, grain + 1) / (n_grains + 1))
         return k, basis, rate * np.sin(np.pi * k / (2.0 * (n_grains + 1)))
     k = np.arange(n_grains)
+    if scene.boundary.surface == "periodic":
+        q = (k + 1) // 2
+        phase = 2.0 * np.pi * np.outer(q, grain) / n_grains
+        basis = np.sqrt(2.0 / n_grains) * np.where((k % 2 == 1)[:, None], np.cos(phase), np.sin(phase))
+        basis[0] = np.sqrt(1.0 / n_grains)
+        if n_grains % 2 == 0:
+            basis[-1] = (-1.0) ** grain / np.sqrt(n_grains)
+        return k, basis, rate * np.abs(np.sin(np.pi * q / n_grains))
     basis = np.sqrt(2.0 / n_grains) * np.cos(np.pi * np.outer(k, grain + 0.5) / n_grains)
     basis[0] = np.sqrt(1.0 / n_grains)
     return k, basis, rate * np.sin(np.pi * k / (2.0 * n_grains))
@@ -71,7 +81,11 @@ def start_energy(scene: Scene) -> float:
     st = static_state(scene)
     law = law_of(scene.chain)
     d = np.concatenate([[-u[0]], u[:-1] - u[1:], [u[-1]]])
+    if scene.boundary.surface == "periodic":
+        d[0] = d[-1] = u[-1] - u[0]
     present = st.contact_constant > 0
+    if scene.boundary.surface == "periodic":
+        present[-1] = False  # the closing contact once
     delta0, a = st.static_overlap[present], st.contact_constant[present]
     excess = law.potential(delta0 + d[present], a) - law.potential(delta0, a) - law.force(delta0, a) * d[present]
     return float(0.5 * np.sum(st.mass * v * v) + np.sum(excess))

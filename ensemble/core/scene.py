@@ -22,8 +22,8 @@ from hertzian.core.errors import SceneError
 from hertzian.core.radii import RadiiSpec, parse_radii, radius_ratios
 from hertzian.kernels.features import POTENTIALS
 
-SURFACE_KINDS = ("wall", "load", "free", "driven")
-BOTTOM_KINDS = ("wall", "fixed", "free")
+SURFACE_KINDS = ("wall", "load", "free", "driven", "periodic")
+BOTTOM_KINDS = ("wall", "fixed", "free", "periodic")
 METHODS = ("gear4", "gear5", "gear6", "verlet", "yoshida4", "yoshida6")
 AUTO_METHOD = "auto"
 """integrator.method with integrator.tolerance: the pilot (ensemble/core/error_estimate.py) picks the method."""
@@ -122,9 +122,9 @@ class BoundarySpec:
     """How each end of the chain is held."""
 
     surface: str = "wall"
-    """wall | load | free | driven."""
+    """wall | load | free | driven | periodic (with a periodic bottom: a ring, grain N − 1 touching grain 0)."""
     bottom: str = "wall"
-    """wall | fixed | free."""
+    """wall | fixed | free | periodic."""
     wall_material: str | None = None
     """With ``chain.material``: the walls' material (a flat wall); None: each wall of its grain's material."""
 
@@ -870,6 +870,11 @@ def _validate_boundary_and_excitation(s: Scene) -> None:
             c.l0 if c.load is None else c.load,
             "too large: the load it gives overflows float64",
         )
+    if (b.surface == "periodic") != (b.bottom == "periodic"):
+        key, value = ("boundary.surface", b.surface) if b.surface != "periodic" else ("boundary.bottom", b.bottom)
+        raise SceneError(key, value, 'a ring has both ends "periodic" (grain N − 1 touches grain 0)')
+    if b.surface == "periodic":
+        _validate_ring(s)
     if b.surface == "free" and f0 > 0:
         raise SceneError(
             "boundary.surface",
@@ -899,8 +904,8 @@ def _validate_normal_modes(s: Scene, key: str, value) -> None:
     """The chain has harmonic normal modes (hertzian.core.modes): walls or free ends at both ends, equal grains and
     springs, a stiffness at rest."""
     c, b = s.chain, s.boundary
-    if (b.surface, b.bottom) not in (("wall", "wall"), ("free", "free")):
-        raise SceneError(key, value, "normal modes need walls at both ends or free ends at both ends (boundary)")
+    if (b.surface, b.bottom) not in (("wall", "wall"), ("free", "free"), ("periodic", "periodic")):
+        raise SceneError(key, value, "normal modes need walls, free ends or a ring at both ends (boundary)")
     if s.impurities or c.radii is not None or c.material is not None or c.gravity:
         raise SceneError(
             key, value, "normal modes need equal grains and springs: no impurities, radii, materials or gravity"
@@ -939,7 +944,7 @@ def _validate_modal_start(s: Scene) -> None:
     if (e.modes or e.thermal) and (e.impact or b.surface == "driven"):
         raise SceneError("excitation.impact", e.impact, "not with excitation.modes or thermal: one start at a time")
     first = 1
-    last = c.grains if b.surface == "wall" else c.grains - 1
+    last = c.grains if b.surface == "wall" else c.grains - 1  # free ends and rings: mode 0 is the translation
     for k in e.modes:
         if not first <= k <= last:
             raise SceneError("excitation.modes", k, f"mode numbers run {first} … {last} here")
@@ -947,6 +952,22 @@ def _validate_modal_start(s: Scene) -> None:
         pair = e.thermal_modes
         if len(pair) != 2 or not first <= pair[0] <= pair[1] <= last:
             raise SceneError("excitation.thermal_modes", list(pair), f"must be [first, last] within {first} … {last}")
+
+
+def _validate_ring(s: Scene) -> None:
+    """What a ring cannot carry: gravity (no bottom holds it), a contact dashpot, Hertz event steps."""
+    c = s.chain
+    if c.gravity:
+        raise SceneError("chain.gravity", c.gravity, "a ring (periodic ends) has no bottom to hold gravity")
+    if s.damping.model == "contact":
+        raise SceneError("damping.model", "contact", "the contact dashpot is not implemented on a ring: use viscous")
+    if c.radii is not None or c.material is not None:
+        key = "chain.radii" if c.radii is not None else "chain.material"
+        raise SceneError(key, "given", "radii and materials are not implemented on a ring (periodic ends)")
+    if c.potential == "hertz" and s.integrator.events != "off":
+        raise SceneError(
+            "integrator.events", s.integrator.events, 'event steps are not implemented on a ring: set "off"'
+        )
 
 
 def _validate_impurities(s: Scene) -> None:

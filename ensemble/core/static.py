@@ -122,6 +122,9 @@ def contact_constants(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]
         padded[0] = self_a[0]
     if scene.boundary.bottom == "wall":
         padded[n_grains] = self_a[-1]
+    if scene.boundary.surface == "periodic":  # a ring: grain N − 1 touches grain 0, in both end slots
+        closing = _inner_contacts(self_a[[-1, 0]], own[[-1, 0]])
+        padded[0] = padded[n_grains] = closing[0]
     return mass, self_a, padded
 
 

@@ -153,19 +153,27 @@ def test_energy_is_conserved(law):
     assert np.abs(energy - injected).max() <= 1e-9 * injected
 
 
+LAYOUTS = {
+    "impurities": (dict(impurities=[{"grains": [5, 6], "mass": 0.5, "a": 2.0}]), "profile"),
+    "uniform ring": (dict(boundary={"surface": "periodic", "bottom": "periodic"}), "uniform"),
+}
+
+
+@pytest.mark.parametrize("layout", list(LAYOUTS))
 @pytest.mark.parametrize("method", ["gear5", "yoshida6"])
 @pytest.mark.parametrize("law", LATTICE_LAWS)
-def test_chain_kernel_equals_per_step(law, method):
-    """Three chains (loaded to a static overlap, two impurities) swept by the CPU chain kernel, bit for bit the
-    per-step kernel's state, once the pulse has reached the bottom."""
+def test_chain_kernel_equals_per_step(law, method, layout):
+    """Three chains loaded to a static overlap (with two impurities, or a uniform ring) swept by the CPU chain
+    kernel, bit for bit the per-step kernel's state, once the pulse has reached the bottom."""
+    extra, static = LAYOUTS[layout]
     sections = dict(
         chain={"grains": 20, **lattice_chain(law), "l0": 0.01},
-        impurities=[{"grains": [5, 6], "mass": 0.5, "a": 2.0}],
         excitation={"impact": IMPACT[law] / 2},
         integrator={"method": method, "dt": 0.01},
+        **extra,
     )
     model = build_model(chains(3, **sections), "cpu")
-    assert model.features.potential == law and model.features.static == "profile"
+    assert model.features.potential == law and model.features.static == static
     steps = 3001
     want = per_step(model, steps)
     assert np.abs(want[1, :, -1]).max() > 1e-3 * np.abs(want[1]).max()  # the pulse reached the bottom

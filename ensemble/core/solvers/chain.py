@@ -112,7 +112,8 @@ class ChainSolver(Solver):
     def _set_up_windows(self, threads: int, window_steps: int) -> None:
         """The windows of each chain, their arrays and their barrier (none when the chains fill the threads)."""
         model = self.model
-        parts = min(threads, usable_cores()) if 2 * model.chain_count <= threads else 1
+        ring = model.features.surface == "periodic"  # a ring's closing contact joins its two ends: whole chains
+        parts = min(threads, usable_cores()) if 2 * model.chain_count <= threads and not ring else 1
         self.windows = chain_windows(model.grain_count, parts, window_steps * self.kernel_features.substeps)
         """(lo, hi, own_lo, own_hi) of each window of a chain cut over the threads, or [] (whole chains): when the
         chains would leave half the threads idle. A thread sweeps one window of every chain; the windows wait for
