@@ -739,11 +739,16 @@ def moved_extent(data: np.ndarray, limit: float) -> int:
 
 def plot_store(ds, out: str | Path, *, field: str = "v", at: dict[str, float] | None = None, notify=None) -> Path:
     """One point of any store: depth–time picture of ``field`` (u or v, the store's sign: + into the chain),
-    the traced grains' velocities, and the relative energy error against time."""
+    the traced grains' velocities, and the relative energy error against time (a store with mode energies: those,
+    the spectral entropy and the participation number against time)."""
     if field not in ("u", "v"):
         raise PlotError(f"field {field!r}: u or v")
     if "response" in ds.variables:
         return plot_response_point(select_point(ds, at, notify), Path(out))
+    if "mode_energy" in ds.variables:
+        from hertzian.plotting.spectrum import plot_spectrum_point
+
+        return plot_spectrum_point(select_point(ds, at, notify), Path(out))
     _require(ds, field, "energy", figure=f"a {field} picture")
     point = select_point(ds, at, notify)
     plt = _pyplot()

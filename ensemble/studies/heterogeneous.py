@@ -172,9 +172,9 @@ def _integrator(data: dict) -> dict:
     return {"events": integrator.get("events", "auto"), "dt": integrator["dt"], "duration": integrator["duration"]}
 
 
-def arguments(argv: list[str] | None = None) -> tuple[Path, dict, str]:
-    """(output path, :func:`plan`'s sweeps, device) from the command line; the device is checked here (default:
-    CUDA when present, else the CPU)."""
+def arguments(argv: list[str] | None = None) -> tuple[Path, dict, str, str | None]:
+    """(output path, :func:`plan`'s sweeps, device, part) from the command line; the device is checked here
+    (default: CUDA when present, else the CPU); a part's result goes under ``parts[PART]`` of the output record."""
     from hertzian.core.devices import check_device
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -186,17 +186,23 @@ def arguments(argv: list[str] | None = None) -> tuple[Path, dict, str]:
     parser.add_argument("--events", choices=("auto", "off"), default=None, help="integrator.events for both sweeps")
     parser.add_argument("--dt", type=float, default=None, help="integrator.dt for both sweeps (default: shipped)")
     parser.add_argument("--only", choices=("taper", "disorder"), default=None, help="run one of the two sweeps")
+    parser.add_argument("--part", default=None, help="store the result as parts[PART] of OUT, beside what it holds")
     args = parser.parse_args(argv)
     sweeps = plan(shipped=args.shipped, grains=args.grains, seeds=args.seeds, events=args.events, dt=args.dt)
     if args.only:
         sweeps = {args.only: sweeps[args.only]}
-    return args.out, sweeps, check_device(args.device)
+    return args.out, sweeps, check_device(args.device), args.part
 
 
 def main() -> None:
-    out, sweeps, device = arguments()
-    out.write_text(json.dumps(study(device=device, sweeps=sweeps), indent=1) + "\n")
-    print(f"wrote {out}")
+    out, sweeps, device, part = arguments()
+    result = study(device=device, sweeps=sweeps)
+    if part:  # kept beside the record's own result, under "parts"
+        record = json.loads(out.read_text()) if out.exists() else {}
+        record.setdefault("parts", {})[part] = result
+        result = record
+    out.write_text(json.dumps(result, indent=1) + "\n")
+    print(f"wrote {out}" + (f" (part {part})" if part else ""))
 
 
 if __name__ == "__main__":

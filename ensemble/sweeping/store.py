@@ -148,6 +148,9 @@ def _summary_columns(path: str | Path) -> dict[str, np.ndarray]:
     for name in ("energy_error", "error_estimate", "max_overlap", "wall_seconds"):
         if name in members or name != "error_estimate":  # the error estimate only where the run asked for it
             columns[name] = np.asarray(group[name][...], dtype=np.float64).reshape(-1)
+    for name, column in (("spectral_entropy", "final_entropy"), ("participation", "final_participation")):
+        if name in members:  # record.modes: the last record's
+            columns[column] = np.asarray(group[name][..., -1], dtype=np.float64).reshape(-1)
     if "grain_steps_per_second" in members:
         columns["grain_steps_per_second"] = np.asarray(group["grain_steps_per_second"][...], dtype=np.float64).reshape(
             -1

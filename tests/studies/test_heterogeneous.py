@@ -17,7 +17,7 @@ def _seeds(data: dict) -> int:
 
 
 def test_shipped_runs_the_sweeps_as_shipped_with_plain_steps(tmp_path):
-    out, sweeps, device = arguments([str(tmp_path / "out.json"), "--shipped", "--device", "cpu"])
+    out, sweeps, device, _ = arguments([str(tmp_path / "out.json"), "--shipped", "--device", "cpu"])
     assert device == "cpu"
     taper, disorder = sweeps["taper"], sweeps["disorder"]
     assert taper["scene"]["chain"]["grains"] == 100 and taper["scene"]["record"]["traces"] == [99]
@@ -27,15 +27,18 @@ def test_shipped_runs_the_sweeps_as_shipped_with_plain_steps(tmp_path):
     for data in sweeps.values():
         assert data["scene"]["integrator"]["events"] == SHIPPED_EVENTS == "off"
     assert (taper["scene"]["integrator"]["dt"], disorder["scene"]["integrator"]["dt"]) == (2e-6, 5e-5)
-    _, halved, _ = arguments([str(out), "--shipped", "--only", "taper", "--dt", "1e-6", "--device", "cpu"])
+    _, halved, _, part = arguments(
+        [str(out), "--shipped", "--only", "taper", "--dt", "1e-6", "--device", "cpu", "--part", "dt2"]
+    )
+    assert part == "dt2"
     assert list(halved) == ["taper"] and halved["taper"]["scene"]["integrator"]["dt"] == 1e-6
     assert halved["taper"]["scene"]["record"]["trace_every"] == 2e-5  # still 20 steps: the same samples
-    _, sweeps, _ = arguments([str(out), "--shipped", "--events", "auto", "--device", "cpu"])
+    _, sweeps, _, _ = arguments([str(out), "--shipped", "--events", "auto", "--device", "cpu"])
     assert sweeps["disorder"]["scene"]["integrator"]["events"] == "auto"
 
 
 def test_the_cpu_size_is_the_default_and_keeps_the_shipped_events(tmp_path):
-    _, sweeps, device = arguments([str(tmp_path / "out.json"), "--device", "cpu"])
+    _, sweeps, device, _ = arguments([str(tmp_path / "out.json"), "--device", "cpu"])
     assert device == "cpu"
     taper, disorder = sweeps["taper"], sweeps["disorder"]
     assert taper["scene"]["chain"]["grains"] == disorder["scene"]["chain"]["grains"] == 40
@@ -52,7 +55,7 @@ def test_the_device_reaches_the_sweep_and_the_file_round_trips(tmp_path, monkeyp
     seen = {}
     monkeypatch.setattr(pipeline, "sweep", lambda path, out, **options: seen.update(path=path, **options))
     monkeypatch.setattr(xr, "open_zarr", lambda path: path)
-    _, sweeps, _ = arguments([str(tmp_path / "out.json"), "--shipped", "--device", "cpu"])
+    _, sweeps, _, _ = arguments([str(tmp_path / "out.json"), "--shipped", "--device", "cpu"])
     heterogeneous._run(sweeps["disorder"], "disorder", tmp_path, "cuda:3")
     assert seen["device"] == "cuda:3"
     assert tomllib.loads(seen["path"].read_text()) == sweeps["disorder"]
@@ -64,7 +67,7 @@ def test_an_absent_device_is_one_clear_line(tmp_path):
 
 
 def test_a_small_cpu_study_reports_each_sweeps_wall_time_and_settings():
-    _, sweeps, device = arguments(["out.json", "--device", "cpu", "--grains", "12", "--seeds", "2"])
+    _, sweeps, device, _ = arguments(["out.json", "--device", "cpu", "--grains", "12", "--seeds", "2"])
     record = study(device=device, sweeps=sweeps)
     assert record["device"] == "cpu" and record["grains"] == 12
     for name in ("taper", "disorder"):
