@@ -104,7 +104,7 @@ def test_prepared_arrays_equal_the_per_scene_model_byte_for_byte(name):
         "inverse_mass",
         "contact_constant",
         "static_overlap",
-        "exponent",
+        "law_parameters",
         "validity_overlap",
         "validity_scale",
     ):
