@@ -49,6 +49,7 @@ import os
 from dataclasses import dataclass, field
 
 import numpy as np
+from hertzian.core.modes import injected_energy
 from hertzian.core.potentials import law_of
 from hertzian.core.scene import VALIDITY_FRACTION, Scene
 from hertzian.core.static import static_state, validity_scale
@@ -296,7 +297,7 @@ def injected_energy_bound(scene: Scene, mass: np.ndarray) -> tuple[float, list[s
             "(a resonant drive can pump in more over many periods)"
         ]
     if e.modes or e.thermal:
-        return scene.injected_energy, []
+        return injected_energy(scene), []
     return 0.5 * mass[0] * e.impact**2, []
 
 

@@ -17,6 +17,7 @@ from typing import NamedTuple
 import numpy as np
 import warp as wp
 from hertzian.core.chains import ChainSet, ChainStack, has_radii, per_unique
+from hertzian.core.modes import injected_energy
 from hertzian.core.scene import VALIDITY_FRACTION, Scene, SceneError
 from hertzian.core.static import StaticState, static_state, validity_scale
 from hertzian.kernels.features import EVENT_WINDOW, GEAR_CORRECTOR, GEAR_VALUES, Features
@@ -157,7 +158,7 @@ def contact_can_open(scene: Scene, static: StaticState) -> bool:
     n = static.exponent
     if np.any(delta0 <= 0):
         return True
-    return bool(np.any((n - 1) * a_c * delta0**n <= scene.injected_energy))
+    return bool(np.any((n - 1) * a_c * delta0**n <= injected_energy(scene)))
 
 
 @dataclass(frozen=True)
@@ -409,7 +410,7 @@ def build_model(
         trace_slot=upload(trace_slot, wp.int32),
         validity_overlap=upload(np.array([s.chain.validity_overlap for s in scenes]), wp.float64),
         validity_scale=upload(_scales(f, _stacked_ratios(scenes), c_count, n), wp.float64),
-        injected_energy=np.array([s.injected_energy for s in scenes]),
+        injected_energy=np.array([injected_energy(s) for s in scenes]),
         damping=upload(np.array([s.damping.gamma for s in scenes] if f.damping != "none" else [], dtype=np_real)),
     )
 

@@ -91,6 +91,13 @@ def start_energy(scene: Scene) -> float:
     return float(0.5 * np.sum(st.mass * v * v) + np.sum(excess))
 
 
+def injected_energy(scene: Scene) -> float:
+    """The energy a scene starts with: a modal or thermal start's (:func:`start_energy`), else the impact's."""
+    if scene.excitation.modes or scene.excitation.thermal:
+        return start_energy(scene)
+    return scene.injected_energy
+
+
 def mode_energies(scene: Scene, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """E_k of displacements and velocities ``u``, ``v`` (…, N): shape (…, K), in :func:`normal_modes`' order."""
     _, basis, omega = normal_modes(scene)

@@ -368,12 +368,8 @@ class Scene:
 
     @property
     def injected_energy(self) -> float:
-        """Energy put in at t = 0: by an impact ½ m_0 v_imp²; by modes or thermal phases the start's whole energy
-        (kinetic plus the contact law's, hertzian.core.modes); 0 for other scenes."""
-        if self.excitation.modes or self.excitation.thermal:
-            from hertzian.core.modes import start_energy
-
-            return start_energy(self)
+        """Energy put in at t = 0 by an impact (½ m_0 v_imp²); 0 for other scenes (a modal or thermal start's is
+        hertzian.core.modes.injected_energy)."""
         return 0.5 * grain_masses_at(self, 0) * self.excitation.impact**2
 
     def to_dict(self) -> dict:
@@ -393,6 +389,8 @@ class Scene:
         ]
         d["chain"]["radii"] = None if self.chain.radii is None else self.chain.radii.to_plain()
         d["record"]["fields"] = list(d["record"]["fields"])
+        d["excitation"]["modes"] = list(d["excitation"]["modes"])
+        d["excitation"]["thermal_modes"] = list(d["excitation"]["thermal_modes"])
         d["record"]["traces"] = list(d["record"]["traces"])
         if self.integrator.tolerance is not None:
             del d["integrator"]["dt"]  # not given: the pilot chooses it

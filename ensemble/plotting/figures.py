@@ -748,7 +748,8 @@ def plot_store(ds, out: str | Path, *, field: str = "v", at: dict[str, float] | 
     if "mode_energy" in ds.variables:
         from hertzian.plotting.spectrum import plot_spectrum_point
 
-        return plot_spectrum_point(select_point(ds, at, notify), Path(out))
+        point = select_point(ds, at, notify)
+        return plot_spectrum_point(point, Path(out), _pyplot(), time_unit=TIME_UNIT, energy_unit=ENERGY_UNIT)
     _require(ds, field, "energy", figure=f"a {field} picture")
     point = select_point(ds, at, notify)
     plt = _pyplot()

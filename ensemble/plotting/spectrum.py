@@ -8,11 +8,9 @@ from pathlib import Path
 import numpy as np
 
 
-def plot_spectrum_point(point, out: Path) -> Path:
-    """One point: E_k(t) coloured by mode number, then S(t) and the participation number (its own axis)."""
-    from hertzian.plotting.figures import ENERGY_UNIT, TIME_UNIT, _pyplot
-
-    plt = _pyplot()
+def plot_spectrum_point(point, out: Path, plt, *, time_unit: str, energy_unit: str) -> Path:
+    """One point: E_k(t) coloured by mode number, then S(t) and the participation number (its own axis); ``plt`` is
+    the caller's pyplot, the units its labels."""
     fig, axes = plt.subplots(2, 1, figsize=(7.0, 6.5), squeeze=False)
     axes = axes[:, 0]
     t = point.t.values
@@ -23,14 +21,14 @@ def plot_spectrum_point(point, out: Path) -> Path:
     for k, colour in zip(range(len(modes)), colours):
         axes[0].plot(t, np.maximum(energy[:, k], floor), color=colour, lw=0.7)
     axes[0].set_yscale("log")
-    axes[0].set_ylabel(f"E_k [{ENERGY_UNIT}]")
+    axes[0].set_ylabel(f"E_k [{energy_unit}]")
     axes[0].set_title(f"harmonic mode energies, modes {modes[0]} (dark) … {modes[-1]} (light)")
     axes[1].plot(t, point.spectral_entropy.values, color="C0", label="spectral entropy S")
     axes[1].set_ylabel("S = −Σ e_k ln e_k", color="C0")
     twin = axes[1].twinx()
     twin.plot(t, point.participation.values, color="C3", lw=0.8, label="participation number")
     twin.set_ylabel("participation 1/Σ e_k²", color="C3")
-    axes[1].set_xlabel(f"t [{TIME_UNIT}]")
+    axes[1].set_xlabel(f"t [{time_unit}]")
     fig.tight_layout()
     fig.savefig(out, dpi=120)
     plt.close(fig)
