@@ -11,8 +11,9 @@ its normalised spectral entropy
 falls to ``--threshold`` (0.1), where N' counts the modes and S_eq is the mean entropy of energies drawn from an
 exponential distribution (equipartition in the canonical ensemble; γ is Euler's constant). The record keeps, per ε,
 the ensemble mean with its standard error, the quantiles, the chains that had not equilibrated by the end, and the
-seconds; then the power law fitted to the means, and the same ε at dt/2 (a chaotic chain's trajectory does not
-survive halving dt; the statistics must).
+seconds; then power laws fitted to the means at the weak (ε ≤ 0.05) and strong (ε ≥ 0.2) ends and the local
+exponents between neighbouring densities, and the densities of ``--halved`` again at dt/2 (a chaotic chain's
+trajectory does not survive halving dt; the statistics must).
 """
 
 from __future__ import annotations
@@ -28,6 +29,20 @@ from pathlib import Path
 import numpy as np
 
 EULER_GAMMA = 0.5772156649015329
+RECORDS = 1000
+"""Records per run: the equilibration time's resolution is the run's length / RECORDS."""
+DENSITIES = {
+    0.02: (2.0e5, 0.1),
+    0.03: (8.0e4, 0.1),
+    0.05: (2.0e4, 0.1),
+    0.1: (4.0e3, 0.1),
+    0.2: (2.0e3, 0.1),
+    0.5: (1.0e3, 0.05),
+    1.0: (1.0e3, 0.025),
+}
+"""Energy density ε → (run length, dt): the run several times the slowest of 20 chains of a trial (none left
+unequilibrated); dt such that the energy error stays below 1e-3 (at dt = 0.1 it reaches 7.5e-3 at ε = 0.5 and
+2.6e-2 at ε = 1)."""
 
 
 def scenes(density: float, realisations: int, *, grains: int, packet: int, dt: float, duration: float, every: float):
@@ -54,8 +69,8 @@ def equilibration_times(t: np.ndarray, entropy: np.ndarray, modes: int, threshol
     return np.where(reached.any(axis=1), t[first], np.nan)
 
 
-def measure(density: float, args, dt: float) -> dict:
-    """One energy density's ensemble: its equilibration-time statistics."""
+def measure(density: float, duration: float, dt: float, args) -> dict:
+    """One energy density's ensemble, run to ``duration`` with RECORDS records: its equilibration-time statistics."""
     from hertzian.core.runner import run_ensemble
 
     ensemble = scenes(
@@ -64,8 +79,8 @@ def measure(density: float, args, dt: float) -> dict:
         grains=args.grains,
         packet=args.packet,
         dt=dt,
-        duration=args.duration / density**2 if args.scaled else args.duration,
-        every=args.every / density**2 if args.scaled else args.every,
+        duration=duration,
+        every=duration / RECORDS,
     )
     clock = time.perf_counter()
     result = run_ensemble(ensemble, args.device)
@@ -182,16 +197,22 @@ def fput_recurrence(dt: float, device: str) -> dict:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True)
-    parser.add_argument("--densities", type=lambda s: [float(v) for v in s.split(",")], default=[0.1, 0.2, 0.4, 0.8])
+    parser.add_argument(
+        "--points",
+        type=lambda s: {float(p.split(":")[0]): tuple(map(float, p.split(":")[1:])) for p in s.split(",")},
+        default=DENSITIES,
+        help="ε:duration:dt triples, comma-separated (default: DENSITIES)",
+    )
     parser.add_argument("--realisations", type=int, default=1000)
     parser.add_argument("--grains", type=int, default=32)
     parser.add_argument("--packet", type=int, default=4, help="the lowest modes that share the energy at t = 0")
-    parser.add_argument("--dt", type=float, default=0.1)
-    parser.add_argument("--duration", type=float, default=400.0, help="run length at ε = 1 (× ε⁻² with --scaled)")
-    parser.add_argument("--every", type=float, default=2.0, help="record interval at ε = 1 (× ε⁻² with --scaled)")
-    parser.add_argument("--scaled", action=argparse.BooleanOptionalAction, default=True)
     parser.add_argument("--threshold", type=float, default=0.1)
-    parser.add_argument("--halved", type=float, default=None, help="also run this density at dt/2")
+    parser.add_argument(
+        "--halved",
+        type=lambda s: [float(v) for v in s.split(",")],
+        default=[],
+        help="densities (of --points) also run at dt/2",
+    )
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--validation-only", action="store_true", help="only the soliton and the FPUT recurrence")
     args = parser.parse_args(argv)
@@ -204,7 +225,7 @@ def main(argv: list[str] | None = None) -> None:
         args.out.write_text(json.dumps({**record, "validation": validation}, indent=1) + "\n")
         print(f"wrote {args.out}")
         return
-    points = [measure(density, args, args.dt) for density in args.densities]
+    points = [measure(density, duration, dt, args) for density, (duration, dt) in args.points.items()]
     record = {
         "device": args.device,
         "host": platform.node(),
@@ -212,14 +233,24 @@ def main(argv: list[str] | None = None) -> None:
         "command": "python -m hertzian.studies.lattices " + " ".join(argv or __import__("sys").argv[1:]),
         "chain": {"grains": args.grains, "potential": "fput", "a": 1.0, "beta": 1.0, "ends": "walls"},
         "start": {"packet": [1, args.packet], "phases": "uniform, one seed per chain"},
-        "integrator": {"method": "yoshida4", "dt": args.dt},
+        "integrator": {"method": "yoshida4"},
         "criterion": {"threshold": args.threshold, "equilibrium_entropy": f"ln {args.grains} − (1 − γ)"},
         "points": points,
-        "fit": fit(points),
+        "fit": {
+            "weak": fit([p for p in points if p["density"] <= 0.05]),
+            "strong": fit([p for p in points if p["density"] >= 0.2]),
+            "local": [
+                {
+                    "densities": [a["density"], b["density"]],
+                    "exponent": math.log(b["mean"] / a["mean"]) / math.log(b["density"] / a["density"]),
+                }
+                for a, b in zip(points, points[1:])
+            ],
+        },
         "validation": validation,
     }
-    if args.halved is not None:
-        record["halved"] = [measure(args.halved, args, args.dt), measure(args.halved, args, args.dt / 2)]
+    if args.halved:
+        record["halved"] = [measure(d, args.points[d][0], args.points[d][1] / 2, args) for d in args.halved]
     args.out.write_text(json.dumps(record, indent=1) + "\n")
     print(f"wrote {args.out}")
 

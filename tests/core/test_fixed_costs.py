@@ -178,6 +178,17 @@ def test_cpu_auto_rule_counts_only_uncached_compiles(monkeypatch, chain_cached, 
         assert cpu_auto_config(features, work, "cpu", costs) == expected, work
 
 
+def test_cpu_auto_rule_counts_a_composed_method_s_substeps(monkeypatch):
+    """yoshida6 takes seven substeps per step (seven per-step launches): its work is seven times its grain-steps, so
+    the chain kernel pays where gear4's same grain-steps would not."""
+    costs = {"step": (2.0, 1e6), "chain": (5.0, 4e6)}  # crossover 4e6 grain-steps, neither cached
+    monkeypatch.setattr(calibrate, "in_kernel_cache", lambda module, device: False)
+    composed = build_model([make_scene(chain={"grains": 20}, integrator={"method": "yoshida6"})], "cpu").features
+    plain = build_model([make_scene(chain={"grains": 20})], "cpu").features
+    assert cpu_auto_config(plain, 1e6, "cpu", costs) == STEP
+    assert cpu_auto_config(composed, 1e6, "cpu", costs) == CHAIN
+
+
 PROBE = """
 import sys
 from hertzian.core.model import build_model, features_of

@@ -134,13 +134,15 @@ def cpu_crossovers(costs: dict = CPU_COSTS) -> dict[str, float]:
 
 def cpu_auto_config(features, grain_steps: float, device, costs: dict = CPU_COSTS) -> SolverConfig:
     """``auto`` on a CPU for features the chain kernel supports: the kernel of the fewer estimated seconds
-    (:func:`cpu_seconds`), a kernel in Warp's kernel cache counting no compile; the chain kernel on a tie. So a
+    (:func:`cpu_seconds`, on the grain-substeps of a composed method), a kernel in Warp's kernel cache counting no
+    compile; the chain kernel on a tie. So a
     cached chain kernel always runs, and a short run on a cold cache takes whichever compiles and runs sooner."""
     if math.isinf(grain_steps) or in_kernel_cache(chain_kernel(features).module, device):
         return CHAIN
     step_cached = in_kernel_cache(step_kernel(features).module, device)
-    chain_s = cpu_seconds("chain", grain_steps, False, costs)
-    return STEP if cpu_seconds("step", grain_steps, step_cached, costs) < chain_s else CHAIN
+    work = grain_steps * features.substeps  # a composed method's step is several substeps (launches) of work
+    chain_s = cpu_seconds("chain", work, False, costs)
+    return STEP if cpu_seconds("step", work, step_cached, costs) < chain_s else CHAIN
 
 
 def step_reason(model: Model, run_steps: int | None = None) -> str | None:
