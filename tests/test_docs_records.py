@@ -852,3 +852,22 @@ def test_every_docs_table_row_has_its_headers_cells():
             elif cells != width:
                 bad.append(f"{doc.name}:{number}")
     assert not bad, bad
+
+
+def test_lattice_study_table_is_its_record():
+    """docs/lattices.md §5: every cell of the equilibration-time table is the record's number as printed."""
+    rows = table_after("lattices.md", "## 5. Study")
+    study = record("lattices/fput_equilibration_cpu.json")
+    points = study["points"]
+    assert [float(c) for c in rows["ε"]] == [p["density"] for p in points]
+    columns = {"mean T_eq": "mean", "standard error": "standard_error", "5 %": "q05", "median": "q50", "95 %": "q95"}
+    for row, key in columns.items():
+        for cell, point in zip(rows[row], points, strict=True):
+            assert agrees(cell, point[key]), (row, cell, point[key])
+    halved = {p["density"]: p for p in study["halved"]}
+    for cell, point in zip(rows["mean at dt/2"], points, strict=True):
+        assert agrees(cell, halved[point["density"]]["mean"]) if point["density"] in halved else cell == "—", cell
+    assert all(p["realisations"] == 1000 and p["not_equilibrated"] == 0 for p in points + study["halved"])
+    text = (DOCS / "lattices.md").read_text()
+    for h in study["halved"]:
+        assert f"{100 * h['same_chain_within_one_record']:.1f} %" in text
