@@ -24,6 +24,7 @@ from hertzian.core.scene import Scene, SceneError
 from hertzian.core.solvers import SolverConfig, choose_config, make_solver
 from hertzian.core.solvers.calibrate import fused_lacks, step_reason
 from hertzian.core.solvers.prepare import Need, prepare_kernels
+from hertzian.core.spectrum import spectrum_kernels
 from hertzian.core.status import Status
 from hertzian.kernels.features import Features
 
@@ -188,7 +189,8 @@ class Runner:
                     model.chain_count,
                     kernel=config,
                     fields=bool(model.scenes[0].record.fields),
-                )
+                ),
+                *(spectrum_kernels(model.features) if model.scenes[0].record.modes else []),
             ],
             model.device,
         )

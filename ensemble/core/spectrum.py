@@ -17,6 +17,14 @@ DEVICE_BYTES = 1 << 30
 """Largest device memory the recorded mode energies may take [bytes] (records × chains × modes × 8)."""
 
 
+def spectrum_kernels(features) -> list:
+    """The Warp kernels ``record.modes`` launches for ``features`` (named ahead by hertzian warmup and the runner)."""
+    return [
+        mode_energy_kernel(features.precision, features.nordsieck_values if features.compensation else 0),
+        spectral_summary,
+    ]
+
+
 class SpectrumRecorder:
     """The mode energies, spectral entropy and participation number of every chain at every record."""
 
@@ -43,8 +51,7 @@ class SpectrumRecorder:
         self.energy = wp.zeros((records, c, len(numbers)), dtype=wp.float64, device=dev)
         self.entropy = wp.zeros((records, c), dtype=wp.float64, device=dev)
         self.participation = wp.zeros((records, c), dtype=wp.float64, device=dev)
-        f = model.features
-        self.kernel = mode_energy_kernel(f.precision, f.nordsieck_values if f.compensation else 0)
+        self.kernel = spectrum_kernels(model.features)[0]
         self.mass = float(scene.chain.mass)
 
     def load(self) -> None:

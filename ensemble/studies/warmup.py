@@ -7,14 +7,17 @@ from __future__ import annotations
 from hertzian.core.model import features_of
 from hertzian.core.scene import Scene
 from hertzian.core.solvers.prepare import Need
+from hertzian.core.spectrum import spectrum_kernels
 from hertzian.studies.detection.forward import detect_needs  # noqa: F401  (re-exported: hertzian warmup --detect)
 from hertzian.studies.reproduce import paper_needs  # noqa: F401  (re-exported: hertzian warmup --paper)
 from hertzian.sweeping.distributed import sweep_needs  # noqa: F401  (re-exported: hertzian warmup SWEEP)
 
 
 def scene_needs(scene: Scene, kernel: str = "auto") -> list[Need]:
-    """The launch group of one ``hertzian run`` of ``scene``."""
-    return [Need(features_of([scene]), scene.chain.grains, 1, scene.step_count, kernel, bool(scene.record.fields))]
+    """The launch group of one ``hertzian run`` of ``scene`` (and the mode-energy kernels of ``record.modes``)."""
+    features = features_of([scene])
+    need = Need(features, scene.chain.grains, 1, scene.step_count, kernel, bool(scene.record.fields))
+    return [need, *(spectrum_kernels(features) if scene.record.modes else [])]
 
 
 def file_needs(path, device: str, kernel: str = "auto") -> list[Need]:

@@ -89,12 +89,19 @@ def _hertzian(*args, cache: Path) -> subprocess.CompletedProcess:
     )
 
 
-def test_warmup_then_run_compiles_nothing(tmp_path):
+WARMUP_SCENES = {
+    "hertz, traces": "[chain]\ngrains = 40\n[integrator]\nduration = 0.2\n"
+    '[record]\nevery = 0.1\ntraces = [0, 39]\ntrace_every = 0.01\nfields = ["u"]\n',
+    "fput ring, mode energies": '[chain]\ngrains = 16\npotential = "fput"\na = 1.0\nbeta = 1.0\n'
+    '[boundary]\nsurface = "periodic"\nbottom = "periodic"\n[excitation]\nthermal = 0.1\n'
+    '[integrator]\nmethod = "yoshida6"\ndt = 0.05\nduration = 100.0\n[record]\nevery = 5.0\nfields = ["u"]\nmodes = true\n',
+}
+
+
+@pytest.mark.parametrize("case", list(WARMUP_SCENES))
+def test_warmup_then_run_compiles_nothing(tmp_path, case):
     scene = tmp_path / "scene.toml"
-    scene.write_text(
-        "[chain]\ngrains = 40\n[integrator]\nduration = 0.2\n"
-        '[record]\nevery = 0.1\ntraces = [0, 39]\ntrace_every = 0.01\nfields = ["u"]\n'
-    )
+    scene.write_text(WARMUP_SCENES[case])
     cache = tmp_path / "warp-cache"
     warm = _hertzian("warmup", scene, "--device", "cpu", cache=cache)
     assert warm.returncode == 0, warm.stderr
