@@ -113,7 +113,8 @@ class ChainSpec:
         if self.potential != "hertz":
             from hertzian.core.potentials import law_of
 
-            return float(law_of(self).force(self.l0, self.a))
+            with np.errstate(over="ignore", invalid="ignore"):  # an overflow is refused by the scene's checks
+                return float(law_of(self).force(self.l0, self.a))
         return self.exponent * self.a * self.l0 ** (self.exponent - 1.0)
 
 
@@ -918,6 +919,8 @@ def _validate_modal_start(s: Scene) -> None:
     """Modes or thermal phases at t = 0: harmonic normal modes exist (equal grains and springs, walls or free ends at
     both ends, a stiffness at rest) and the numbers are in range."""
     e, c, b = s.excitation, s.chain, s.boundary
+    if e.seed < 0:
+        raise SceneError("excitation.seed", e.seed, "must be an integer ≥ 0")
     if not (e.modes or e.thermal or e.mode_energy or e.thermal_modes or s.record.modes):
         return
     given = [
@@ -937,6 +940,9 @@ def _validate_modal_start(s: Scene) -> None:
         raise SceneError(
             "excitation.mode_energy", e.mode_energy, "give excitation.modes and a mode_energy > 0 together"
         )
+    for key in ("mode_energy", "thermal"):
+        if not math.isfinite(getattr(e, key)):
+            raise SceneError(f"excitation.{key}", getattr(e, key), "must be finite")
     if e.thermal < 0 or (e.thermal_modes and not e.thermal):
         raise SceneError("excitation.thermal", e.thermal, "must be > 0 (energy per grain), with thermal_modes if given")
     if (e.modes or e.thermal) and (e.impact or b.surface == "driven"):

@@ -175,6 +175,14 @@ REFUSED = {
         {"chain": {"l0": 1e-4}, "boundary": {"surface": "periodic", "bottom": "periodic"}},
         "integrator.events",
     ),
+    "a negative seed": (
+        {"chain": {"potential": "fput"}, "excitation": {"thermal": 0.1, "seed": -1}},
+        "excitation.seed",
+    ),
+    "an infinite thermal energy": (
+        {"chain": {"potential": "fput"}, "excitation": {"thermal": 1e400}},
+        "excitation.thermal",
+    ),
     "a wall and a free end": (
         {"chain": {"potential": "fput"}, "boundary": {"bottom": "free"}, "excitation": {"thermal": 0.1}},
         "excitation.thermal",

@@ -198,6 +198,7 @@ REFUSED = {
     "an unknown law": ({"potential": "fpu"}, "chain.potential"),
     "an exponent with a lattice law": ({"potential": "harmonic", "exponent": 3.0}, "chain.exponent"),
     "a load beyond fput-α's largest force": ({"potential": "fput", "a": 1.0, "alpha": 1.0, "load": 1.0}, "chain.load"),
+    "a precompression whose Toda force overflows": ({"potential": "toda", "l0": 1e9}, "chain.l0"),
 }
 
 
