@@ -99,9 +99,8 @@ def chain_kernel(features: Features):
         force00: real,
         n: shape_t,
     ) -> real:
-        # excess force of padded contact k at relative displacement d (step.py's `contact`; a lattice law's excess
-        # force is not the difference of two forces)
-        if wp.static(PROFILE or HETERO or LATTICE):
+        # excess force of padded contact k at relative displacement d (step.py's `contact`)
+        if wp.static(PROFILE or HETERO):
             delta0 = delta00
             if wp.static(PROFILE):
                 delta0 = static_overlap[c, k]

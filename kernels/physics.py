@@ -99,8 +99,9 @@ def contact_functions(precision: str, hertz: bool, potential: str = "hertz"):
     * morse: F = 2 a α (e^{2αδ} − e^{αδ}), p = (α, ·) (a is the well depth D);
     * lj: F = (24 a / ρ)(2 (σ/ρ)^12 − (σ/ρ)^6) at the distance ρ = 2^(1/6) σ − δ, p = (σ, ·) (a is ε).
 
-    ``excess_force(δ0, d, a, p) = F(δ0 + d) − F(δ0)`` is written without the cancellation of that difference where
-    the law allows it (all but lj).
+    ``excess_force(δ0, d, a, p) = F(δ0 + d) − F(δ0)``, the difference itself, as for Hertz: every kernel (per-step,
+    CPU chain, fused) computes it alike, and at δ0 = 0 it is F(d) exactly (F(0) = 0 for every law but lj, where the
+    difference removes F's rounding at its minimum).
     """
     real = wp.float64 if precision == "float64" else wp.float32
     if potential == "hertz":
@@ -151,19 +152,7 @@ def _lattice_functions(precision: str, potential: str):
 
     @wp.func
     def excess_force(delta0: real, d: real, a_c: real, p: vec2) -> real:
-        out = real(0)
-        if wp.static(LAW == 0):  # a·d·(1 − α(2δ0 + d) + β(3δ0² + 3δ0 d + d²))
-            out = a_c * d * (real(1) - p[0] * (real(2) * delta0 + d) + p[1] * (real(3) * delta0 * (delta0 + d) + d * d))
-        elif wp.static(LAW == 1):  # a e^{bδ0} (e^{bd} − 1)
-            out = a_c * wp.exp(p[0] * delta0) * expm1(p[0] * d)
-        elif wp.static(LAW == 2):  # 2aα (e^{2αδ0}(e^{2αd} − 1) − e^{αδ0}(e^{αd} − 1))
-            t0 = wp.exp(p[0] * delta0)
-            out = real(2) * a_c * p[0] * (t0 * t0 * expm1(real(2) * p[0] * d) - t0 * expm1(p[0] * d))
-        elif wp.static(LAW == 3):
-            out = contact_force(delta0 + d, a_c, p) - contact_force(delta0, a_c, p)
-        else:
-            out = a_c * d
-        return out
+        return contact_force(delta0 + d, a_c, p) - contact_force(delta0, a_c, p)
 
     return contact_force, excess_force
 
@@ -173,22 +162,25 @@ LATTICE_INDEX = {"fput": 0, "toda": 1, "morse": 2, "lj": 3, "harmonic": 4}
 
 
 @functools.cache
-def contact_forces(precision: str, hertz: bool, count: int):
+def contact_forces(precision: str, hertz: bool, count: int, potential: str = "hertz"):
     """``forces(delta, a_c, force0, n) -> F(delta) − force0`` over a vector of ``count`` contacts.
 
     The fused kernel's form of the contact law (one lane's contacts at once). Hertz: the square root of a
     safe argument, then a select, instead of a branch per contact (the same bits as :func:`contact_functions`'
     ``contact_force``, more instruction-level parallelism); in float64, on CUDA, the sqrt's fast path with one
-    slow-path test for all ``count`` contacts (same bits again). Other exponents: ``contact_force`` per contact.
+    slow-path test for all ``count`` contacts (same bits again). Other exponents and the lattice laws (``n`` then
+    their vec2 shape): ``contact_force`` per contact.
     """
     real = wp.float64 if precision == "float64" else wp.float32
     contact_vec = wp.types.vector(length=count, dtype=real)
-    BRANCHLESS = hertz
-    FAST_SQRT = hertz and precision == "float64"
-    contact_force, _ = contact_functions(precision, hertz)
+    LATTICE = potential != "hertz"
+    BRANCHLESS = hertz and not LATTICE
+    FAST_SQRT = BRANCHLESS and precision == "float64"
+    contact_force, _ = contact_functions(precision, hertz, potential)
+    shape_t = wp.types.vector(2, real) if LATTICE else real
 
     @wp.func
-    def forces(delta: contact_vec, a_c: contact_vec, force0: contact_vec, n: real) -> contact_vec:
+    def forces(delta: contact_vec, a_c: contact_vec, force0: contact_vec, n: shape_t) -> contact_vec:
         force = contact_vec()
         if wp.static(BRANCHLESS):
             # F = 5/2 a δ sqrt(δ), 0 for δ ≤ 0 (no tension), without a branch per contact

@@ -141,6 +141,7 @@ def fused_kernel(t: TileLayout, fused_step, driver_power, work_step, driver_valu
         t.loss_vec,
     )
     params, contact_force = t.params, t.contact_force
+    LATTICE, shape_t = t.LATTICE, t.shape_t
 
     # the module's block size is the launch's: Warp hashes a module's source for its default block size when the
     # kernel is made and again for each other size it is loaded with (each hash walks every function the kernel calls)
@@ -212,9 +213,12 @@ def fused_kernel(t: TileLayout, fused_step, driver_power, work_step, driver_valu
                     s[q, k] = x_in[q, cc, g]
 
         # per-contact and per-grain constants (contact base + k joins grains base + k − 1 and base + k)
-        n = real(0)
-        if wp.static(not HERTZ):
-            n = law_parameters[cc]
+        if wp.static(LATTICE):  # the law's per-chain shape: a lattice law's (p0, p1), else n (5/2 compiled in)
+            n = shape_t(law_parameters[2 * cc], law_parameters[2 * cc + 1])
+        else:
+            n = real(0)
+            if wp.static(not HERTZ):
+                n = law_parameters[cc]
         delta0 = contact_vec()
         a_c = contact_vec()
         force0 = contact_vec()

@@ -58,6 +58,7 @@ def event_steps_function(t: TileLayout, shared_column):
     if not t.EVENTS:
         return None
     G, L, real, DRIVEN, HETERO, MASKED, FIXED = t.G, t.L, t.real, t.DRIVEN, t.HETERO, t.MASKED, t.FIXED
+    shape_t = t.shape_t
     value_vec, vec3, params, event_step = t.value_vec, t.vec3, t.params, t.event_step
     driver_values_at = t.nordsieck.driver_values_at
     LO_CONTACT = 0 if t.SURFACE_WALL else 1  # padded contacts c with LO_CONTACT <= c <= n_grains - HI_OFFSET exist
@@ -77,7 +78,7 @@ def event_steps_function(t: TileLayout, shared_column):
         contact_constant: wp.array2d(dtype=real),
         law_parameters: wp.array(dtype=real),
         inverse_mass: wp.array2d(dtype=real),
-        n: real,
+        n: shape_t,
         h: real,
         amplitude: wp.float64,
         omega: wp.float64,
@@ -155,6 +156,7 @@ def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rate
     """One step of a lane: predict, exchange the edge positions, (event-aware steps: test, vote, step the flagged
     grains), contact forces, correct."""
     Q, G, G1, real, EDGE_LO = t.Q, t.G, t.G1, t.real, t.EDGE_LO
+    shape_t = t.shape_t
     COMP, DRIVEN, EVENTS, DASHPOT, VISCOUS, MASKED, FREE_END, FIXED = (
         t.COMP,
         t.DRIVEN,
@@ -198,7 +200,7 @@ def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rate
         delta0: contact_vec,
         a_c: contact_vec,
         force0: contact_vec,
-        n: real,
+        n: shape_t,
         inv_m: grain_vec,
         hh: real,
         contact_bits: int,
@@ -422,6 +424,7 @@ def step_function(t: TileLayout, *, advance, dissipation, dashpot_losses, write_
     driver's log entry, the viscous loss, ``advance``, the contact dashpot's loss and the trace sample; returns the
     lane's new state, its grains' dissipated energy and the next trace step."""
     real, DRIVEN, VISCOUS, DASHPOT, TRACES = t.real, t.DRIVEN, t.VISCOUS, t.DASHPOT, t.TRACES
+    shape_t = t.shape_t
     state_t, grain_vec, contact_vec, loss_vec = t.state_t, t.grain_vec, t.contact_vec, t.loss_vec
 
     @wp.func(inline=True)
@@ -448,7 +451,7 @@ def step_function(t: TileLayout, *, advance, dissipation, dashpot_losses, write_
         delta0: contact_vec,
         a_c: contact_vec,
         force0: contact_vec,
-        n: real,
+        n: shape_t,
         inv_m: grain_vec,
         hh: real,
         contact_bits: int,

@@ -13,6 +13,7 @@ def driver_functions(t: TileLayout):
     """A driven surface's per-step log entry, its power at t_n from that entry, one trapezoid step of its work, and
     its (u_0, dt·v_0) from its phases."""
     G, real, DRIVER_SLOT, DASHPOT, state_t, vec2 = t.G, t.real, t.DRIVER_SLOT, t.DASHPOT, t.state_t, t.vec2
+    shape_t = t.shape_t
     one_force, one_vec, dashpot = t.one_force, t.one_vec, t.dashpot
 
     @wp.func
@@ -43,7 +44,7 @@ def driver_functions(t: TileLayout):
         below0: real,
         below_ac: real,
         below_f0: real,
-        n: real,
+        n: shape_t,
         amplitude: wp.float64,
         omega: wp.float64,
         dt: wp.float64,

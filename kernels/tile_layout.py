@@ -18,12 +18,12 @@ from hertzian.kernels.physics import (
 
 def fusable(features: Features) -> bool:
     """True when the fused kernels implement every feature of this set (traces: written inside the launch;
-    composed methods such as yoshida4, the lattice laws, rings, and the contact dashpot in compensated float32, are not
+    composed methods such as yoshida4, rings, and the contact dashpot in compensated float32, are not
     implemented here:
     the per-step kernel runs them on CUDA)."""
     if features.damping == "contact" and features.compensation:
         return False
-    if features.potential != "hertz" or features.surface == "periodic":
+    if features.surface == "periodic":
         return False
     return features.method not in SUBSTEP_WEIGHTS
 
@@ -164,6 +164,8 @@ class TileLayout:
     value_vec: Any  # one grain's values
     loss_vec: Any  # the lane's grains' dissipated energy (float64)
     params: Any
+    shape_t: Any  # the contact law's per-chain shape: n (real), or a lattice law's vec2
+    LATTICE: bool
     contact_force: Any
     forces: Any  # the lane's G + 1 contact forces
     one_force: Any  # one contact's force, with the lane's contact law
@@ -188,7 +190,8 @@ def tile_layout(features: Features, shape: TileShape) -> TileLayout:
     G = shape.grains_per_lane
     DRIVEN = f.surface == "driven"
     EVENTS = f.event_window > 0
-    contact_force, _ = contact_functions(f.precision, f.hertz)
+    contact_force, _ = contact_functions(f.precision, f.hertz, f.potential)
+    LATTICE = f.potential != "hertz"
     nordsieck = nordsieck_functions(f.method, f.precision, f.compensation)
     vec3 = wp.types.vector(3, real)
     near_event = event_step = None
@@ -236,10 +239,12 @@ def tile_layout(features: Features, shape: TileShape) -> TileLayout:
         one_vec=wp.types.vector(length=1, dtype=real),
         value_vec=nordsieck.values,
         loss_vec=wp.types.vector(length=G, dtype=wp.float64),
-        params=contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz),
+        params=contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz, f.potential),
+        shape_t=wp.types.vector(2, real) if LATTICE else real,
+        LATTICE=LATTICE,
         contact_force=contact_force,
-        forces=contact_forces(f.precision, f.hertz, G + 1),
-        one_force=contact_forces(f.precision, f.hertz, 1),
+        forces=contact_forces(f.precision, f.hertz, G + 1, f.potential),
+        one_force=contact_forces(f.precision, f.hertz, 1, f.potential),
         nordsieck=nordsieck,
         dashpot=damping_functions(f.precision, f.nordsieck_values)[1],
         near_event=near_event,

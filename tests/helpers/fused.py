@@ -148,6 +148,23 @@ CASES = {
         dict(grains_per_lane=4),
         4501,
     ),
+    # lattice laws (docs/lattices.md): a law's shape per chain, tension; sound speed √(a/m) = 1 grain per time unit
+    "fput α–β, walls, padded lanes": (
+        dict(chain={"grains": 21, "potential": "fput", "a": 1.0, "alpha": 0.25, "beta": 0.5}, integrator={"dt": 0.05}),
+        2,
+        dict(grains_per_lane=4),
+        601,
+    ),
+    "toda, windows, precompressed, impurities": (
+        dict(
+            chain={"grains": 40, "potential": "toda", "a": 1.0, "b": 2.0, "l0": 0.05},
+            impurities=[{"grains": [10, 11, 25], "mass": 0.5, "a": 2.0}],
+            integrator={"method": "gear5", "dt": 0.02},
+        ),
+        2,
+        dict(grains_per_lane=4, lanes_per_chain=10, steps_per_launch=6, windowed=True),
+        1601,
+    ),
     "float32, verlet, windows, fixed bottom, impurities, gravity": (
         dict(
             chain={"grains": 50, "gravity": 1.0, "l0": 1e-4},
