@@ -159,11 +159,11 @@ CASES = {
         dict(
             chain={"grains": 40, "potential": "toda", "a": 1.0, "b": 2.0, "l0": 0.05},
             impurities=[{"grains": [10, 11, 25], "mass": 0.5, "a": 2.0}],
-            integrator={"method": "gear5", "dt": 0.02},
+            integrator={"method": "gear5", "dt": 0.04},
         ),
         2,
         dict(grains_per_lane=4, lanes_per_chain=10, steps_per_launch=6, windowed=True),
-        1601,
+        801,
     ),
     "float32, verlet, windows, fixed bottom, impurities, gravity": (
         dict(
