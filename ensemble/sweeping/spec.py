@@ -273,8 +273,41 @@ def _parse_axis(k: int, raw: Any, max_points: int | None = MAX_POINTS) -> Axis:
     return Axis(name=name, key=key, values=values)
 
 
+SCENE_PATH_ONLY = (
+    "chain.potential",
+    "chain.alpha",
+    "chain.beta",
+    "chain.b",
+    "chain.sigma",
+    "excitation.modes",
+    "excitation.mode_energy",
+    "excitation.thermal",
+    "excitation.thermal_modes",
+    "excitation.seed",
+    "record.modes",
+)
+"""Keys of what sweeps do not run (lattice laws, modal and thermal starts, mode records: docs/lattices.md)."""
+SCENE_PATH = "sweeps run the hertz law from an impact or a drive: run lattice chains, modal or thermal starts and "
+SCENE_PATH += "mode records with hertzian run or hz.run (a list of scenes)"
+
+
+def _refuse_scene_path_only(base: Scene) -> None:
+    """One line, before anything runs, for a base scene a sweep cannot run (SCENE_PATH_ONLY)."""
+    e = base.excitation
+    for key, value in (
+        ("chain.potential", base.chain.potential if base.chain.potential != "hertz" else None),
+        ("excitation.modes", list(e.modes) or None),
+        ("excitation.thermal", e.thermal or None),
+        ("record.modes", base.record.modes or None),
+    ):
+        if value is not None:
+            raise SceneError(key, value, SCENE_PATH)
+
+
 def _check_key(k: int, axis: Axis, base_data: dict) -> None:
     """The key must name a scene key; checked by applying the axis's first value to the base scene."""
+    if axis.key in SCENE_PATH_ONLY:
+        raise SceneError(f"axis[{k}].key", axis.key, SCENE_PATH)
     try:
         data = apply_overrides(base_data, {axis.key: axis.values[0]})
     except SceneError as err:
@@ -359,6 +392,7 @@ def sweep_from_dict(
     base = scene_from_dict(base_data)
     if base.integrator.tolerance is not None:
         raise SceneError("integrator.tolerance", base.integrator.tolerance, SWEEP_TOLERANCE)
+    _refuse_scene_path_only(base)
     base_data = base.to_dict()
 
     raw_axes = data.get("axis", [])
