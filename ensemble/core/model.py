@@ -486,16 +486,19 @@ def prepare_model(chains: ChainSet, *, features: Features | None = None) -> Host
         raise SceneError(
             "chain.potential",
             scene.chain.potential,
-            "sweeps run the hertz law only: run lattice chains with hertzian run or hz.run (a list of scenes)",
+            "sweeps, detection and design run the hertz law only: run lattice chains with hertzian run or hz.run "
+            "(a list of scenes)",
         )
     if scene.record.modes:
-        raise SceneError("record.modes", True, "sweeps do not record mode energies: run such chains with hertzian run")
+        raise SceneError(
+            "record.modes", True, "sweeps, detection and design do not record mode energies: use hertzian run"
+        )
     if scene.excitation.modes or scene.excitation.thermal:
         key = "excitation.modes" if scene.excitation.modes else "excitation.thermal"
         raise SceneError(
             key,
             getattr(scene.excitation, key.split(".")[1]),
-            "sweeps start from an impact or a drive: "
+            "sweeps, detection and design start from an impact or a drive: "
             "run modal and thermal starts with hertzian run or hz.run (a list of scenes)",
         )
     # Homogeneous chains without gravity carry the same static force on every contact, so their

@@ -265,3 +265,15 @@ def test_sweeps_refuse_what_only_runs_take(case, tmp_path):
     result = invoke("sweep", sweep, "--out", out, "--device", "cpu")
     assert_refused(result, out, key)
     assert "hertzian run" in result.stderr
+
+
+def test_detection_refuses_a_lattice_host_in_one_line(tmp_path):
+    """``hertzian detect`` builds its library through the sweeps' path: a lattice base scene is refused, one line."""
+    signal = tmp_path / "signal.csv"
+    signal.write_text("t,v\n0,0.1\n0.1,0.09\n0.2,0.08\n0.3,0.05\n")
+    base = tmp_path / "base.toml"
+    scene = {"chain": {"grains": 20, **lattice_chain("fput")}, "excitation": {"impact": 0.1}}
+    base.write_text(toml_text({**scene, "integrator": {"duration": 1.0, "dt": 0.01}}))
+    result = invoke("detect", signal, "--scene", base)
+    assert result.exit_code == 2, (result.stdout, result.stderr)
+    assert result.stderr.strip().startswith("error: chain.potential") and len(result.stderr.strip().splitlines()) == 1
