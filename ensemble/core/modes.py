@@ -18,6 +18,8 @@ spectral entropy of the normalised energies e_k = E_k / Σ E is S = −Σ e_k ln
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from hertzian.core.potentials import law_of
 from hertzian.core.scene import Scene
@@ -25,28 +27,40 @@ from hertzian.core.static import static_state
 
 
 def normal_modes(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(mode numbers (K,), orthonormal basis (K, N), ω_k (K,)) of ``scene``'s harmonic chain (module docstring)."""
-    n_grains = scene.chain.grains
+    """(mode numbers (K,), orthonormal basis (K, N), ω_k (K,)) of ``scene``'s harmonic chain (module docstring);
+    read-only arrays, shared by the scenes of one chain length and ends."""
     st = static_state(scene)
     stiffness = float(law_of(scene.chain).stiffness(st.static_overlap[1], scene.chain.a))
-    rate = 2.0 * np.sqrt(stiffness / scene.chain.mass)
+    numbers, basis, shape = _unit_modes(scene.chain.grains, scene.boundary.surface)
+    return numbers, basis, 2.0 * np.sqrt(stiffness / scene.chain.mass) * shape
+
+
+@functools.lru_cache(maxsize=8)
+def _unit_modes(n_grains: int, ends: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(mode numbers, basis, ω_k / (2 √(K/m))) of ``n_grains`` grains with walls, free ends or a ring (cached: an
+    ensemble of thermal starts builds the same basis once)."""
     grain = np.arange(n_grains)
-    if scene.boundary.surface == "wall":
+    if ends == "wall":
         k = np.arange(1, n_grains + 1)
         basis = np.sqrt(2.0 / (n_grains + 1)) * np.sin(np.pi * np.outer(k, grain + 1) / (n_grains + 1))
-        return k, basis, rate * np.sin(np.pi * k / (2.0 * (n_grains + 1)))
-    k = np.arange(n_grains)
-    if scene.boundary.surface == "periodic":
+        shape = np.sin(np.pi * k / (2.0 * (n_grains + 1)))
+    elif ends == "periodic":
+        k = np.arange(n_grains)
         q = (k + 1) // 2
         phase = 2.0 * np.pi * np.outer(q, grain) / n_grains
         basis = np.sqrt(2.0 / n_grains) * np.where((k % 2 == 1)[:, None], np.cos(phase), np.sin(phase))
         basis[0] = np.sqrt(1.0 / n_grains)
         if n_grains % 2 == 0:
             basis[-1] = (-1.0) ** grain / np.sqrt(n_grains)
-        return k, basis, rate * np.abs(np.sin(np.pi * q / n_grains))
-    basis = np.sqrt(2.0 / n_grains) * np.cos(np.pi * np.outer(k, grain + 0.5) / n_grains)
-    basis[0] = np.sqrt(1.0 / n_grains)
-    return k, basis, rate * np.sin(np.pi * k / (2.0 * n_grains))
+        shape = np.abs(np.sin(np.pi * q / n_grains))
+    else:
+        k = np.arange(n_grains)
+        basis = np.sqrt(2.0 / n_grains) * np.cos(np.pi * np.outer(k, grain + 0.5) / n_grains)
+        basis[0] = np.sqrt(1.0 / n_grains)
+        shape = np.sin(np.pi * k / (2.0 * n_grains))
+    for array in (k, basis, shape):
+        array.flags.writeable = False
+    return k, basis, shape
 
 
 def start(scene: Scene) -> tuple[np.ndarray, np.ndarray] | None:
@@ -74,15 +88,22 @@ def start(scene: Scene) -> tuple[np.ndarray, np.ndarray] | None:
     return amplitude @ basis, rate @ basis
 
 
+def overlap_changes(u: np.ndarray, ring: bool) -> np.ndarray:
+    """The change of every padded contact's overlap from grain rows ``u`` (…, N): u_{k−1} − u_k inside, −u_0 and
+    u_{N−1} at walls, u_{N−1} − u_0 in both end slots of a ring. Shape (…, N + 1)."""
+    out = np.concatenate([-u[..., :1], u[..., :-1] - u[..., 1:], u[..., -1:]], axis=-1)
+    if ring:
+        out[..., 0] = out[..., -1] = u[..., -1] - u[..., 0]
+    return out
+
+
 def start_energy(scene: Scene) -> float:
     """The whole energy of a modal or thermal start: kinetic plus the contact law's excess potential relative to
     the static state (what the record kernels' energy is at t = 0)."""
     u, v = start(scene)
     st = static_state(scene)
     law = law_of(scene.chain)
-    d = np.concatenate([[-u[0]], u[:-1] - u[1:], [u[-1]]])
-    if scene.boundary.surface == "periodic":
-        d[0] = d[-1] = u[-1] - u[0]
+    d = overlap_changes(u, scene.boundary.surface == "periodic")
     present = st.contact_constant > 0
     if scene.boundary.surface == "periodic":
         present[-1] = False  # the closing contact once

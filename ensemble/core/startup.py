@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 from hertzian.core.chains import per_unique
-from hertzian.core.modes import start
+from hertzian.core.modes import overlap_changes, start
 from hertzian.core.potentials import law_of
 from hertzian.core.scene import Scene
 from hertzian.core.static import StaticState, static_arrays, static_state
@@ -35,15 +35,6 @@ def _power_series(delta: np.ndarray, p: float) -> np.ndarray:
             acc += ((p + 1.0) * j - k) * delta[j] * w[k - j]
         w[k] = acc / (k * delta[0])
     return w
-
-
-def _relative(u: np.ndarray, ring: bool) -> np.ndarray:
-    """The change of every padded contact's overlap from grain rows ``u`` (…, N): u_{k−1} − u_k inside, −u_0 and
-    u_{N−1} at walls, u_{N−1} − u_0 in both end slots of a ring. Shape (…, N + 1)."""
-    out = np.concatenate([-u[..., :1], u[..., :-1] - u[..., 1:], u[..., -1:]], axis=-1)
-    if ring:
-        out[..., 0] = out[..., -1] = u[..., -1] - u[..., 0]
-    return out
 
 
 def _composed_series(delta: np.ndarray, derivatives: np.ndarray, k: int) -> np.ndarray:
@@ -86,7 +77,7 @@ def taylor_coefficients(scene: Scene, order: int, static: StaticState | None = N
     a_c, delta0 = st.contact_constant, st.static_overlap
     # the overlaps at t = 0 (the static ones unless the start displaces grains)
     ring = scene.boundary.surface == "periodic"
-    overlap = delta0 + _relative(u[:1], ring)[0]
+    overlap = delta0 + overlap_changes(u[:1], ring)[0]
     loaded = (a_c > 0) & (overlap > 0)
     law = law_of(scene.chain)
     strength = np.where(a_c > 0, a_c, 1.0)
@@ -100,7 +91,7 @@ def taylor_coefficients(scene: Scene, order: int, static: StaticState | None = N
         # overlap series of every padded contact up to order k
         d = np.zeros((k + 1, n_grains + 1))
         d[0] = overlap
-        d[1:] = _relative(u[1 : k + 1], ring)
+        d[1:] = overlap_changes(u[1 : k + 1], ring)
         force_k = force0.copy() if k == 0 else np.zeros(n_grains + 1)
         if law.lattice and k >= 1:
             force_k = np.where(a_c > 0, _composed_series(d, derivatives, k), 0.0)
@@ -108,7 +99,7 @@ def taylor_coefficients(scene: Scene, order: int, static: StaticState | None = N
             w = _power_series(d[:, loaded], n - 1.0)
             force_k[loaded] = n * a_c[loaded] * w[k]
         if damping == "contact":
-            rate = _relative(u[k + 1 : k + 2], ring)[0]  # δ̇_k = (k+1) δ_{k+1}
+            rate = overlap_changes(u[k + 1 : k + 2], ring)[0]  # δ̇_k = (k+1) δ_{k+1}
             force_k = force_k + np.where(loaded, gamma * (k + 1) * rate, 0.0)
         accel_k = (force_k[:-1] - force_k[1:]) * inv_mass
         if damping == "viscous":
