@@ -108,49 +108,22 @@ def tile_kernel(features: Features, shape: TileShape):
 def fused_kernel(t: TileLayout, fused_step, driver_power, work_step, driver_values):
     """The ``@wp.kernel`` of the fused steps: a lane's grains and constants loaded, ``fused_step`` taken ``steps``
     times, the driver's work summed and the interior written back."""
-    shape, real, Q, G, G1, L, CPB, B, BG, MAX_UNROLL = (
-        t.shape,
-        t.real,
-        t.Q,
-        t.G,
-        t.G1,
-        t.L,
-        t.CPB,
-        t.B,
-        t.BG,
-        t.MAX_UNROLL,
-    )
-    WINDOWED, MASKED, TRACES, SURFACE_WALL, BOTTOM_WALL, DRIVEN, FIXED, HETERO, HERTZ = (
-        t.WINDOWED,
-        t.MASKED,
-        t.TRACES,
-        t.SURFACE_WALL,
-        t.BOTTOM_WALL,
-        t.DRIVEN,
-        t.FIXED,
-        t.HETERO,
-        t.HERTZ,
-    )
+    real, Q, G, G1, L, CPB, B, BG = t.real, t.Q, t.G, t.G1, t.L, t.CPB, t.B, t.BG
+    WINDOWED, MASKED, TRACES, SURFACE_WALL, BOTTOM_WALL = t.WINDOWED, t.MASKED, t.TRACES, t.SURFACE_WALL, t.BOTTOM_WALL
+    DRIVEN, FIXED, HETERO, HERTZ, LATTICE = t.DRIVEN, t.FIXED, t.HETERO, t.HERTZ, t.LATTICE
     DISSIPATES, EVENTS = t.DISSIPATES, t.EVENTS
-    state_t, grain_vec, contact_vec, edge_t, value_vec, loss_vec = (
-        t.state_t,
-        t.grain_vec,
-        t.contact_vec,
-        t.edge_t,
-        t.value_vec,
-        t.loss_vec,
-    )
+    state_t, grain_vec, contact_vec, edge_t = t.state_t, t.grain_vec, t.contact_vec, t.edge_t
+    value_vec, loss_vec, shape_t, lane_t, arrays_t = t.value_vec, t.loss_vec, t.shape_t, t.lane_t, t.arrays_t
     params, contact_force = t.params, t.contact_force
-    LATTICE, shape_t = t.LATTICE, t.shape_t
 
     # the module's block size is the launch's: Warp hashes a module's source for its default block size when the
     # kernel is made and again for each other size it is loaded with (each hash walks every function the kernel calls)
     @wp.kernel(
         module="unique",
-        module_options=dict(KERNEL_OPTIONS, block_dim=B, max_unroll=MAX_UNROLL),
+        module_options=dict(KERNEL_OPTIONS, block_dim=B, max_unroll=t.MAX_UNROLL),
         enable_backward=False,
         grid_stride=False,
-        cuda_max_registers=shape.max_registers or None,
+        cuda_max_registers=t.shape.max_registers or None,
     )
     def fused(
         x_in: wp.array3d(dtype=real),
@@ -314,167 +287,66 @@ def fused_kernel(t: TileLayout, fused_step, driver_power, work_step, driver_valu
                 g = base + k
                 if live and g >= keep_lo and g < keep_hi:
                     lost[k] = dissipated[cc, g]
+        ln = lane_t()  # the lane's values for the steps (and the arrays they read)
+        ln.lane = lane
+        ln.lane_c = lane_c
+        ln.segment = segment
+        ln.first = first
+        ln.base = base
+        ln.cc = cc
+        ln.n_grains = n_grains
+        ln.keep_lo = keep_lo
+        ln.keep_hi = keep_hi
+        ln.live = live
+        ln.frozen = frozen
+        ln.has_left = has_left
+        ln.has_right = has_right
+        ln.delta0 = delta0
+        ln.a_c = a_c
+        ln.force0 = force0
+        ln.n = n
+        ln.inv_m = inv_m
+        ln.contact_bits = contact_bits
+        ln.move_bits = move_bits
+        ln.h = h
+        ln.hh = hh
+        ln.gamma = gamma
+        ln.k0 = k0
+        ln.log_row = log_row
+        ln.step0 = step0
+        ln.trace_stride = trace_stride
+        ln.dt = dt
+        ln.amplitude = amplitude
+        ln.omega = omega
+        ar = arrays_t()
+        ar.static_overlap = static_overlap
+        ar.contact_constant = contact_constant
+        ar.law_parameters = law_parameters
+        ar.inverse_mass = inverse_mass
+        ar.x_in = x_in
+        ar.driver_log = driver_log
+        ar.trace_slot = trace_slot
+        ar.trace_x = trace_x
         for _pair in range(steps / 2):
             if wp.static(DRIVEN):
                 phase_new = phase_next
                 phase_next = phases[cc, first_row + 2 * _pair + 1 + 1]  # (a row past the launch's last)
             s, lost, next_trace = fused_step(
-                s,
-                edges_even,
-                states,
-                flags,
-                results,
-                lost,
-                next_trace,
-                lane,
-                lane_c,
-                segment,
-                first,
-                cc,
-                n_grains,
-                static_overlap,
-                contact_constant,
-                law_parameters,
-                inverse_mass,
-                has_left,
-                has_right,
-                delta0,
-                a_c,
-                force0,
-                n,
-                inv_m,
-                hh,
-                contact_bits,
-                move_bits,
-                h,
-                k0,
-                amplitude,
-                omega,
-                phase_old,
-                phase_new,
-                dt,
-                gamma,
-                driver_log,
-                log_row,
-                2 * _pair,
-                step0,
-                x_in,
-                frozen,
-                live,
-                base,
-                keep_lo,
-                keep_hi,
-                trace_slot,
-                trace_stride,
-                trace_x,
+                s, edges_even, states, flags, results, lost, next_trace, ln, ar, phase_old, phase_new, 2 * _pair
             )
             phase_old = phase_new
             if wp.static(DRIVEN):
                 phase_new = phase_next
                 phase_next = phases[cc, first_row + 2 * _pair + 2 + 1]  # (a row past the launch's last)
             s, lost, next_trace = fused_step(
-                s,
-                edges_odd,
-                states,
-                flags,
-                results,
-                lost,
-                next_trace,
-                lane,
-                lane_c,
-                segment,
-                first,
-                cc,
-                n_grains,
-                static_overlap,
-                contact_constant,
-                law_parameters,
-                inverse_mass,
-                has_left,
-                has_right,
-                delta0,
-                a_c,
-                force0,
-                n,
-                inv_m,
-                hh,
-                contact_bits,
-                move_bits,
-                h,
-                k0,
-                amplitude,
-                omega,
-                phase_old,
-                phase_new,
-                dt,
-                gamma,
-                driver_log,
-                log_row,
-                2 * _pair + 1,
-                step0,
-                x_in,
-                frozen,
-                live,
-                base,
-                keep_lo,
-                keep_hi,
-                trace_slot,
-                trace_stride,
-                trace_x,
+                s, edges_odd, states, flags, results, lost, next_trace, ln, ar, phase_old, phase_new, 2 * _pair + 1
             )
             phase_old = phase_new
         if steps % 2 == 1:
             if wp.static(DRIVEN):
                 phase_new = phase_next
             s, lost, next_trace = fused_step(
-                s,
-                edges_even,
-                states,
-                flags,
-                results,
-                lost,
-                next_trace,
-                lane,
-                lane_c,
-                segment,
-                first,
-                cc,
-                n_grains,
-                static_overlap,
-                contact_constant,
-                law_parameters,
-                inverse_mass,
-                has_left,
-                has_right,
-                delta0,
-                a_c,
-                force0,
-                n,
-                inv_m,
-                hh,
-                contact_bits,
-                move_bits,
-                h,
-                k0,
-                amplitude,
-                omega,
-                phase_old,
-                phase_new,
-                dt,
-                gamma,
-                driver_log,
-                log_row,
-                steps - 1,
-                step0,
-                x_in,
-                frozen,
-                live,
-                base,
-                keep_lo,
-                keep_hi,
-                trace_slot,
-                trace_stride,
-                trace_x,
+                s, edges_even, states, flags, results, lost, next_trace, ln, ar, phase_old, phase_new, steps - 1
             )
             phase_old = phase_new
 

@@ -58,9 +58,9 @@ def event_steps_function(t: TileLayout, shared_column):
     if not t.EVENTS:
         return None
     G, L, real, DRIVEN, HETERO, MASKED, FIXED = t.G, t.L, t.real, t.DRIVEN, t.HETERO, t.MASKED, t.FIXED
-    shape_t = t.shape_t
     value_vec, vec3, params, event_step = t.value_vec, t.vec3, t.params, t.event_step
     driver_values_at = t.nordsieck.driver_values_at
+    lane_t, arrays_t = t.lane_t, t.arrays_t
     LO_CONTACT = 0 if t.SURFACE_WALL else 1  # padded contacts c with LO_CONTACT <= c <= n_grains - HI_OFFSET exist
     HI_OFFSET = 0 if t.BOTTOM_WALL else 1
 
@@ -69,21 +69,9 @@ def event_steps_function(t: TileLayout, shared_column):
         states: Any,
         flags: Any,
         results: Any,
-        lane_c: int,
-        segment: int,
-        first: int,
-        cc: int,
-        n_grains: int,
-        static_overlap: wp.array2d(dtype=real),
-        contact_constant: wp.array2d(dtype=real),
-        law_parameters: wp.array(dtype=real),
-        inverse_mass: wp.array2d(dtype=real),
-        n: shape_t,
-        h: real,
-        amplitude: wp.float64,
-        omega: wp.float64,
+        ln: lane_t,
+        ar: arrays_t,
         phase_old: wp.vec2d,
-        dt: wp.float64,
     ):
         # The event steps of a chain's flagged grains, shared among the chain's L lanes: in round m lane j takes
         # the chain's grain j + m·L (neighbouring flagged grains, which sit in one lane, go to neighbouring
@@ -92,15 +80,15 @@ def event_steps_function(t: TileLayout, shared_column):
         # no lane needs are skipped by one vote.
         m = int(0)
         while m < G:  # (a loop: one copy of the event step)
-            chain_grain = lane_c + m * L
+            chain_grain = ln.lane_c + m * L
             owner_c = chain_grain / G
             k = chain_grain - owner_c * G
-            owner = segment * L + owner_c
+            owner = ln.segment * L + owner_c
             mine = (wp.tile_extract(flags, owner) >> k) & 1
             if block_any(mine) != 0:
                 new = value_vec()
                 if mine != 0:
-                    g = first + owner_c * G + k
+                    g = ln.first + owner_c * G + k
                     own = shared_column(states, owner, k)
                     above = value_vec()
                     if k > 0:
@@ -114,21 +102,29 @@ def event_steps_function(t: TileLayout, shared_column):
                         below = shared_column(states, owner + 1, 0)
                     if wp.static(DRIVEN):
                         if g == 1:  # grain 1 sees the driver's vector at t_n above it
-                            above = driver_values_at(amplitude, omega, phase_old[0], phase_old[1], dt)
-                    has_above = g >= LO_CONTACT and g <= n_grains - HI_OFFSET
-                    has_below = g + 1 >= LO_CONTACT and g + 1 <= n_grains - HI_OFFSET
+                            above = driver_values_at(ln.amplitude, ln.omega, phase_old[0], phase_old[1], ln.dt)
+                    has_above = g >= LO_CONTACT and g <= ln.n_grains - HI_OFFSET
+                    has_below = g + 1 >= LO_CONTACT and g + 1 <= ln.n_grains - HI_OFFSET
                     p_above = params(
-                        static_overlap, contact_constant, law_parameters, cc, wp.min(wp.max(g, 0), n_grains)
+                        ar.static_overlap,
+                        ar.contact_constant,
+                        ar.law_parameters,
+                        ln.cc,
+                        wp.min(wp.max(g, 0), ln.n_grains),
                     )
                     p_below = params(
-                        static_overlap, contact_constant, law_parameters, cc, wp.min(wp.max(g + 1, 0), n_grains)
+                        ar.static_overlap,
+                        ar.contact_constant,
+                        ar.law_parameters,
+                        ln.cc,
+                        wp.min(wp.max(g + 1, 0), ln.n_grains),
                     )
-                    inside = g >= 0 and g < n_grains
+                    inside = g >= 0 and g < ln.n_grains
                     inv_m_event = real(0)
                     if wp.static(HETERO):
-                        inv_m_event = inverse_mass[cc, wp.min(wp.max(g, 0), n_grains - 1)]
+                        inv_m_event = ar.inverse_mass[ln.cc, wp.min(wp.max(g, 0), ln.n_grains - 1)]
                     else:
-                        inv_m_event = inverse_mass[cc, 0]
+                        inv_m_event = ar.inverse_mass[ln.cc, 0]
                     if wp.static(MASKED):
                         if not inside:
                             inv_m_event = real(0)
@@ -138,13 +134,13 @@ def event_steps_function(t: TileLayout, shared_column):
                         below,
                         has_above,
                         has_below,
-                        vec3(p_above[0], p_above[1], n),
-                        vec3(p_below[0], p_below[1], n),
+                        vec3(p_above[0], p_above[1], ln.n),
+                        vec3(p_below[0], p_below[1], ln.n),
                         inv_m_event,
-                        h,
+                        ln.h,
                     )
                     if wp.static(FIXED):
-                        if not inside or g == n_grains - 1:  # a held bottom grain (or padding) stays
+                        if not inside or g == ln.n_grains - 1:  # a held bottom grain (or padding) stays
                             new = own
                 wp.tile_scatter_masked(results, owner * G + k, new, mine != 0)
             m += 1
@@ -156,7 +152,6 @@ def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rate
     """One step of a lane: predict, exchange the edge positions, (event-aware steps: test, vote, step the flagged
     grains), contact forces, correct."""
     Q, G, G1, real, EDGE_LO = t.Q, t.G, t.G1, t.real, t.EDGE_LO
-    shape_t = t.shape_t
     COMP, DRIVEN, EVENTS, DASHPOT, VISCOUS, MASKED, FREE_END, FIXED = (
         t.COMP,
         t.DRIVEN,
@@ -176,6 +171,7 @@ def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rate
         t.vec2,
     )
     nordsieck, forces, near_event = t.nordsieck, t.forces, t.near_event
+    lane_t, arrays_t = t.lane_t, t.arrays_t
     driver_values_at = nordsieck.driver_values_at
 
     @wp.func
@@ -185,34 +181,10 @@ def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rate
         states: Any,
         flags: Any,
         results: Any,
-        lane: int,
-        lane_c: int,
-        segment: int,
-        first: int,
-        cc: int,
-        n_grains: int,
-        static_overlap: wp.array2d(dtype=real),
-        contact_constant: wp.array2d(dtype=real),
-        law_parameters: wp.array(dtype=real),
-        inverse_mass: wp.array2d(dtype=real),
-        has_left: bool,
-        has_right: bool,
-        delta0: contact_vec,
-        a_c: contact_vec,
-        force0: contact_vec,
-        n: shape_t,
-        inv_m: grain_vec,
-        hh: real,
-        contact_bits: int,
-        move_bits: int,
-        h: real,
-        k0: int,
-        amplitude: wp.float64,
-        omega: wp.float64,
+        ln: lane_t,
+        ar: arrays_t,
         phase_old: wp.vec2d,
         phase_new: wp.vec2d,
-        dt: wp.float64,
-        gamma: real,
     ) -> state_t:
         # k0: grain 0's index in this lane, or -1 (undriven, or grain 0 elsewhere); phase_old, phase_new:
         # (sin ωt, cos ωt) of the driver at t_n and t_{n+1}
@@ -230,15 +202,15 @@ def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rate
             # selects over the static positions, false in every lane but the driver's (k0 = -1): no branch, whose
             # reconvergence every block of the driven kernel paid each step
             if wp.static(COMP):
-                driver_position = nordsieck.exact_position(product_rn(amplitude, phase_new[0]))
+                driver_position = nordsieck.exact_position(product_rn(ln.amplitude, phase_new[0]))
                 for k in range(G):
-                    if at_driver(k, k0):
+                    if at_driver(k, ln.k0):
                         up[k] = driver_position[0]
                         up_lo[k] = driver_position[1]
             else:
-                driver_u = real(product_rn(amplitude, phase_new[0]))
+                driver_u = real(product_rn(ln.amplitude, phase_new[0]))
                 for k in range(G):
-                    if at_driver(k, k0):
+                    if at_driver(k, ln.k0):
                         up[k] = driver_u
         # 2. exchange the lane's edge positions with its neighbours (virtual grains outside sit at 0)
         if wp.static(EVENTS):
@@ -257,7 +229,7 @@ def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rate
         elif wp.static(COMP):
             wp.tile_assign(edges, wp.tile(edge_t(up[0], up[G - 1], up_lo[0], up_lo[G - 1]), preserve_type=True))
         elif wp.static(DASHPOT):
-            rates = lane_rates(s, k0, amplitude, omega, phase_new, dt)
+            rates = lane_rates(s, ln.k0, ln.amplitude, ln.omega, phase_new, ln.dt)
             wp.tile_assign(
                 edges, wp.tile(edge_t(up[0], up[G - 1], rates[0], rates[G - 1], s[0, 0], s[1, 0]), preserve_type=True)
             )
@@ -267,45 +239,45 @@ def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rate
         u_right = real(0)
         u_left_lo = real(0)
         u_right_lo = real(0)
-        if has_left:
-            u_left = wp.tile_extract(edges, lane - 1, 1)
+        if ln.has_left:
+            u_left = wp.tile_extract(edges, ln.lane - 1, 1)
             if wp.static(COMP):
-                u_left_lo = wp.tile_extract(edges, lane - 1, wp.static(EDGE_LO + 1))
-        if has_right:
-            u_right = wp.tile_extract(edges, lane + 1, 0)
+                u_left_lo = wp.tile_extract(edges, ln.lane - 1, wp.static(EDGE_LO + 1))
+        if ln.has_right:
+            u_right = wp.tile_extract(edges, ln.lane + 1, 0)
             if wp.static(COMP):
-                u_right_lo = wp.tile_extract(edges, lane + 1, wp.static(EDGE_LO))
+                u_right_lo = wp.tile_extract(edges, ln.lane + 1, wp.static(EDGE_LO))
         if wp.static(EVENTS):
             left_values = vec2()  # (u, dt·v) at t_n of the grains beyond the lane's edges (0: none)
             right_values = vec2()
-            if has_left:
-                left_values = vec2(wp.tile_extract(edges, lane - 1, 4), wp.tile_extract(edges, lane - 1, 5))
-            if has_right:
-                right_values = vec2(wp.tile_extract(edges, lane + 1, 2), wp.tile_extract(edges, lane + 1, 3))
+            if ln.has_left:
+                left_values = vec2(wp.tile_extract(edges, ln.lane - 1, 4), wp.tile_extract(edges, ln.lane - 1, 5))
+            if ln.has_right:
+                right_values = vec2(wp.tile_extract(edges, ln.lane + 1, 2), wp.tile_extract(edges, ln.lane + 1, 3))
         # 3. every contact of the lane once (the two edge contacts also in the neighbour lane)
         delta = contact_vec()
         if wp.static(COMP):
             # the contacts' relative displacements from (hi, lo) pairs (kernels/gear.py gap)
-            delta[0] = delta0[0] + nordsieck.gap(vec2(u_left, u_left_lo), vec2(up[0], up_lo[0]))
+            delta[0] = ln.delta0[0] + nordsieck.gap(vec2(u_left, u_left_lo), vec2(up[0], up_lo[0]))
             for k in range(G):
                 position_below = vec2(u_right, u_right_lo)
                 if k < G - 1:
                     position_below = vec2(up[wp.min(k + 1, G - 1)], up_lo[wp.min(k + 1, G - 1)])
-                delta[k + 1] = delta0[k + 1] + nordsieck.gap(vec2(up[k], up_lo[k]), position_below)
+                delta[k + 1] = ln.delta0[k + 1] + nordsieck.gap(vec2(up[k], up_lo[k]), position_below)
         else:
-            delta[0] = delta0[0] + (u_left - up[0])
+            delta[0] = ln.delta0[0] + (u_left - up[0])
             for k in range(G):
                 u_below = u_right
                 if k < G - 1:
                     u_below = up[wp.min(k + 1, G - 1)]
-                delta[k + 1] = delta0[k + 1] + (up[k] - u_below)
+                delta[k + 1] = ln.delta0[k + 1] + (up[k] - u_below)
         if wp.static(EVENTS):
             # grains touching a contact near an opening or closing (kernels/step.py's event test), from t_n's (u, dt·v)
             # and the predicted positions, before the corrector, so that t_n's state need not outlive it
             driver_above = value_vec()  # the driver's vector at t_n: what grain 1 sees above it
             if wp.static(DRIVEN):
-                if k0 >= 0:
-                    driver_above = driver_values_at(amplitude, omega, phase_old[0], phase_old[1], dt)
+                if ln.k0 >= 0:
+                    driver_above = driver_values_at(ln.amplitude, ln.omega, phase_old[0], phase_old[1], ln.dt)
             # each of the lane's G + 1 contacts tested once, without a branch (branches around the tests broke the
             # step into pieces the compiler could not interleave, and the kernel ran several times slower); a grain is
             # flagged when either of its contacts is. Contact c joins grains c - 1 (above) and c of the lane.
@@ -326,13 +298,16 @@ def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rate
                     lower_hv = s[1, wp.min(c, G - 1)]
                     lower_pred = up[wp.min(c, G - 1)]
                 if wp.static(DRIVEN):
-                    driver_above_here = at_driver(c - 1, k0)
+                    driver_above_here = at_driver(c - 1, ln.k0)
                     upper_u = wp.where(driver_above_here, driver_above[0], upper_u)
                     upper_hv = wp.where(driver_above_here, driver_above[1], upper_hv)
                 hit = near_event(
-                    delta0[c] + (upper_u - lower_u), delta0[c] + (upper_pred - lower_pred), upper_hv - lower_hv, h
+                    ln.delta0[c] + (upper_u - lower_u),
+                    ln.delta0[c] + (upper_pred - lower_pred),
+                    upper_hv - lower_hv,
+                    ln.h,
                 )
-                contact_flags = contact_flags | ((int(hit) & ((contact_bits >> c) & 1)) << c)
+                contact_flags = contact_flags | ((int(hit) & ((ln.contact_bits >> c) & 1)) << c)
             event_bits = (contact_flags | (contact_flags >> 1)) & ((1 << G) - 1)
             # one vote a step: a block with no flagged grain (most steps) skips the rest; otherwise every lane
             # publishes its t_n state to shared memory, where the event steps read their neighbours
@@ -340,33 +315,14 @@ def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rate
             if any_event != 0:
                 wp.tile_assign(states, wp.tile(s, preserve_type=True))
                 wp.tile_assign(flags, wp.tile(event_bits))
-                shared_event_steps(
-                    states,
-                    flags,
-                    results,
-                    lane_c,
-                    segment,
-                    first,
-                    cc,
-                    n_grains,
-                    static_overlap,
-                    contact_constant,
-                    law_parameters,
-                    inverse_mass,
-                    n,
-                    h,
-                    amplitude,
-                    omega,
-                    phase_old,
-                    dt,
-                )
-                s = wp.tile_extract(states, lane)  # (so that the lane's registers need not hold s meanwhile)
+                shared_event_steps(states, flags, results, ln, ar, phase_old)
+                s = wp.tile_extract(states, ln.lane)  # (so that the lane's registers need not hold s meanwhile)
         # the contact forces after the event section (which needs only the overlaps), so that with event-aware steps
         # the forces and the corrector are scheduled together, not split by the section's branch
-        force = forces(delta, a_c, force0, n)
+        force = forces(delta, ln.a_c, ln.force0, ln.n)
         if wp.static(MASKED and FREE_END):
             for k in range(G1):
-                if (contact_bits & (1 << k)) == 0:
+                if (ln.contact_bits & (1 << k)) == 0:
                     force[k] = real(0)
         if wp.static(DASHPOT):
             # each contact's dashpot at the predicted t_n+1 (kernels/step.py: added to its Hertz force). The lane's
@@ -374,33 +330,33 @@ def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rate
             # registers (sm_90, ptxas: 255 against 251 on gpu_10k's tile kernel)
             rate_left = real(0)
             rate_right = real(0)
-            if has_left:
-                rate_left = wp.tile_extract(edges, lane - 1, 3)
-            if has_right:
-                rate_right = wp.tile_extract(edges, lane + 1, 2)
+            if ln.has_left:
+                rate_left = wp.tile_extract(edges, ln.lane - 1, 3)
+            if ln.has_right:
+                rate_right = wp.tile_extract(edges, ln.lane + 1, 2)
             damp = dashpot_forces(
                 up,
-                lane_rates(s, k0, amplitude, omega, phase_new, dt),
+                lane_rates(s, ln.k0, ln.amplitude, ln.omega, phase_new, ln.dt),
                 u_left,
                 rate_left,
                 u_right,
                 rate_right,
-                delta0,
-                contact_bits,
-                gamma,
-                h,
+                ln.delta0,
+                ln.contact_bits,
+                ln.gamma,
+                ln.h,
             )
             for k in range(G1):
                 force[k] = force[k] + damp[k]
         # 4. corrector. Padding grains have 1/m = 0: at rest they stay exactly 0. A fixed bottom grain is held.
         out = s
         for k in range(G):
-            half_h2_acc = hh * (force[k] - force[k + 1]) * inv_m[k]
+            half_h2_acc = ln.hh * (force[k] - force[k + 1]) * ln.inv_m[k]
             if wp.static(VISCOUS):
-                half_h2_acc -= real(0.5) * h * gamma * predicted_rate(column(s, k))  # h²/2 · (−γ v)
+                half_h2_acc -= real(0.5) * ln.h * ln.gamma * predicted_rate(column(s, k))  # h²/2 · (−γ v)
             new = nordsieck.corrected(column(s, k), up[k], half_h2_acc)
             if wp.static(FIXED):
-                moving = (move_bits & (1 << k)) != 0
+                moving = (ln.move_bits & (1 << k)) != 0
                 for q in range(Q):
                     out[q, k] = wp.where(moving, new[q], s[q, k])
             else:
@@ -410,7 +366,7 @@ def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rate
             if any_event != 0:
                 for k in range(G):  # the lane's flagged grains take their event steps' results
                     if ((event_bits >> k) & 1) != 0:
-                        taken = wp.tile_extract(results, lane * G + k)
+                        taken = wp.tile_extract(results, ln.lane * G + k)
                         for q in range(Q):
                             out[q, k] = taken[q]
         # (the driver's own column is left to its corrector: see driver_values)
@@ -424,8 +380,7 @@ def step_function(t: TileLayout, *, advance, dissipation, dashpot_losses, write_
     driver's log entry, the viscous loss, ``advance``, the contact dashpot's loss and the trace sample; returns the
     lane's new state, its grains' dissipated energy and the next trace step."""
     real, DRIVEN, VISCOUS, DASHPOT, TRACES = t.real, t.DRIVEN, t.VISCOUS, t.DASHPOT, t.TRACES
-    shape_t = t.shape_t
-    state_t, grain_vec, contact_vec, loss_vec = t.state_t, t.grain_vec, t.contact_vec, t.loss_vec
+    state_t, loss_vec, lane_t, arrays_t = t.state_t, t.loss_vec, t.lane_t, t.arrays_t
 
     @wp.func(inline=True)
     def fused_step(
@@ -436,128 +391,39 @@ def step_function(t: TileLayout, *, advance, dissipation, dashpot_losses, write_
         results: Any,
         lost: loss_vec,
         next_trace: int,
-        lane: int,
-        lane_c: int,
-        segment: int,
-        first: int,
-        cc: int,
-        n_grains: int,
-        static_overlap: wp.array2d(dtype=real),
-        contact_constant: wp.array2d(dtype=real),
-        law_parameters: wp.array(dtype=real),
-        inverse_mass: wp.array2d(dtype=real),
-        has_left: bool,
-        has_right: bool,
-        delta0: contact_vec,
-        a_c: contact_vec,
-        force0: contact_vec,
-        n: shape_t,
-        inv_m: grain_vec,
-        hh: real,
-        contact_bits: int,
-        move_bits: int,
-        h: real,
-        k0: int,
-        amplitude: wp.float64,
-        omega: wp.float64,
+        ln: lane_t,
+        ar: arrays_t,
         phase_old: wp.vec2d,
         phase_new: wp.vec2d,
-        dt: wp.float64,
-        gamma: real,
-        driver_log: wp.array2d(dtype=wp.vec2d),
-        log_row: int,
         step: int,
-        step0: int,
-        x_in: wp.array3d(dtype=real),
-        frozen: bool,
-        live: bool,
-        base: int,
-        keep_lo: int,
-        keep_hi: int,
-        trace_slot: wp.array(dtype=wp.int32),
-        trace_stride: int,
-        trace_x: wp.array4d(dtype=real),
     ):
         # ``step``: the launch's step taken from phase_old's t_n to phase_new's t_n+1
         if wp.static(DRIVEN):
-            driver_log[log_row, step] = driver_log_entry(s, k0, real(product_rn(amplitude, phase_old[0])))
+            ar.driver_log[ln.log_row, step] = driver_log_entry(s, ln.k0, real(product_rn(ln.amplitude, phase_old[0])))
         if wp.static(VISCOUS):
-            lost = dissipation(s, lost, inv_m, move_bits, k0, gamma, h, dt)
-        s_new = advance(
-            s,
-            edges,
-            states,
-            flags,
-            results,
-            lane,
-            lane_c,
-            segment,
-            first,
-            cc,
-            n_grains,
-            static_overlap,
-            contact_constant,
-            law_parameters,
-            inverse_mass,
-            has_left,
-            has_right,
-            delta0,
-            a_c,
-            force0,
-            n,
-            inv_m,
-            hh,
-            contact_bits,
-            move_bits,
-            h,
-            k0,
-            amplitude,
-            omega,
-            phase_old,
-            phase_new,
-            dt,
-            gamma,
-        )
+            lost = dissipation(s, lost, ln.inv_m, ln.move_bits, ln.k0, ln.gamma, ln.h, ln.dt)
+        s_new = advance(s, edges, states, flags, results, ln, ar, phase_old, phase_new)
         if wp.static(DASHPOT):
-            lost = dashpot_losses(
-                s,
-                lost,
-                edges,
-                lane,
-                base,
-                has_left,
-                has_right,
-                delta0,
-                contact_bits,
-                move_bits,
-                k0,
-                amplitude,
-                omega,
-                phase_old,
-                phase_new,
-                gamma,
-                h,
-                dt,
-            )
+            lost = dashpot_losses(s, lost, edges, ln, phase_old, phase_new)
         if wp.static(TRACES):
             next_trace = write_traces(
                 s_new,
-                x_in,
-                frozen,
-                live,
-                cc,
-                base,
-                keep_lo,
-                keep_hi,
-                trace_slot,
-                trace_stride,
-                step0 + step + 1,
+                ar.x_in,
+                ln.frozen,
+                ln.live,
+                ln.cc,
+                ln.base,
+                ln.keep_lo,
+                ln.keep_hi,
+                ar.trace_slot,
+                ln.trace_stride,
+                ln.step0 + step + 1,
                 next_trace,
-                trace_x,
-                amplitude,
-                omega,
+                ar.trace_x,
+                ln.amplitude,
+                ln.omega,
                 phase_new,
-                dt,
+                ln.dt,
             )
         return s_new, lost, next_trace
 

@@ -173,6 +173,8 @@ class TileLayout:
     dashpot: Any
     near_event: Any  # event-aware steps (None without them)
     event_step: Any
+    lane_t: Any  # a lane's values fixed for the launch (lane_struct)
+    arrays_t: Any  # the launch's arrays a step reads (arrays_struct)
 
 
 def tile_layout(features: Features, shape: TileShape) -> TileLayout:
@@ -249,7 +251,67 @@ def tile_layout(features: Features, shape: TileShape) -> TileLayout:
         dashpot=damping_functions(f.precision, f.nordsieck_values)[1],
         near_event=near_event,
         event_step=event_step,
+        lane_t=lane_struct(real, G, wp.types.vector(2, real) if LATTICE else real),
+        arrays_t=arrays_struct(real),
     )
+
+
+def lane_struct(real, G: int, shape_t):
+    """The ``@wp.struct`` of a lane's values that stay fixed through a launch: where its grains are, its contacts'
+    constants, the driver's amplitude and frequency, the step's size and the damping rate."""
+
+    @wp.struct
+    class Lane:
+        lane: int  # the thread's index in its block
+        lane_c: int  # ... among its chain's (or window's) lanes
+        segment: int  # the block's chain this lane works on (chains per block > 1)
+        first: int  # the window's first grain (0 for whole chains)
+        base: int  # the lane's first grain
+        cc: int  # the chain (clamped to the launch's chains)
+        n_grains: int
+        keep_lo: int  # the interior written back: [keep_lo, keep_hi)
+        keep_hi: int
+        live: wp.bool  # the lane holds grains of a chain of the launch
+        frozen: wp.bool  # the chain is NON_FINITE: it keeps its state
+        has_left: wp.bool  # a lane above in the chain (or window)
+        has_right: wp.bool  # ... below
+        delta0: wp.types.vector(length=G + 1, dtype=real)  # the lane's contacts' static overlaps
+        a_c: wp.types.vector(length=G + 1, dtype=real)  # ... their constants
+        force0: wp.types.vector(length=G + 1, dtype=real)  # ... their static forces
+        n: shape_t  # the contact law's per-chain shape
+        inv_m: wp.types.vector(length=G, dtype=real)  # the lane's grains' 1/m (0 for padding)
+        contact_bits: int  # bit k: contact k of the lane exists
+        move_bits: int  # bit k: grain k of the lane is integrated
+        h: real  # dt in the state's precision
+        hh: real  # h²/2
+        gamma: real  # viscous damping rate
+        k0: int  # grain 0's index in this lane (a driven surface), else -1
+        log_row: int  # the driver log's row this lane writes
+        step0: int  # the clock at the launch's start
+        trace_stride: int
+        dt: wp.float64
+        amplitude: wp.float64  # the driver's amplitude and angular frequency
+        omega: wp.float64
+
+    return Lane
+
+
+def arrays_struct(real):
+    """The ``@wp.struct`` of the launch's arrays that a step reads: the contacts' parameters, the masses, the state
+    at the launch's start, the driver's log and the traces."""
+
+    @wp.struct
+    class Arrays:
+        static_overlap: wp.array2d(dtype=real)
+        contact_constant: wp.array2d(dtype=real)
+        law_parameters: wp.array(dtype=real)
+        inverse_mass: wp.array2d(dtype=real)
+        x_in: wp.array3d(dtype=real)
+        driver_log: wp.array2d(dtype=wp.vec2d)
+        trace_slot: wp.array(dtype=wp.int32)
+        trace_x: wp.array4d(dtype=real)
+
+    return Arrays
 
 
 def edge_values(features: Features) -> int:

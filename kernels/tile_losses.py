@@ -24,6 +24,7 @@ def loss_functions(t: TileLayout, predicted_rate, column, at_driver):
     )
     state_t, grain_vec, contact_vec, loss_vec = t.state_t, t.grain_vec, t.contact_vec, t.loss_vec
     nordsieck, dashpot = t.nordsieck, t.dashpot
+    lane_t = t.lane_t
 
     @wp.func
     def dissipation(
@@ -96,21 +97,9 @@ def loss_functions(t: TileLayout, predicted_rate, column, at_driver):
         s: state_t,
         lost: loss_vec,
         edges: Any,
-        lane: int,
-        base: int,
-        has_left: bool,
-        has_right: bool,
-        delta0: contact_vec,
-        contact_bits: int,
-        move_bits: int,
-        k0: int,
-        amplitude: wp.float64,
-        omega: wp.float64,
+        ln: lane_t,
         phase_old: wp.vec2d,
         phase_new: wp.vec2d,
-        gamma: real,
-        h: real,
-        dt: wp.float64,
     ) -> loss_vec:
         # kernels/step.py's dissipated energy of one step (contact dashpot) from the state at t_n and this step's
         # edge tile (read before the next step's barrier): per integrated grain the trapezoid of the power of the
@@ -119,36 +108,38 @@ def loss_functions(t: TileLayout, predicted_rate, column, at_driver):
         for k in range(G):
             up[k] = nordsieck.predict_position(column(s, k))
         if wp.static(DRIVEN):
-            if k0 >= 0:
+            if ln.k0 >= 0:
                 for k in range(G):
-                    if at_driver(k, k0):
-                        up[k] = real(product_rn(amplitude, phase_new[0]))
-        rates = lane_rates(s, k0, amplitude, omega, phase_new, dt)
+                    if at_driver(k, ln.k0):
+                        up[k] = real(product_rn(ln.amplitude, phase_new[0]))
+        rates = lane_rates(s, ln.k0, ln.amplitude, ln.omega, phase_new, ln.dt)
         u_left = real(0)
         rate_left = real(0)
         u_right = real(0)
         rate_right = real(0)
         u_right_old = real(0)
         rate_right_old = real(0)
-        if has_left:
-            u_left = wp.tile_extract(edges, lane - 1, 1)
-            rate_left = wp.tile_extract(edges, lane - 1, 3)
-        if has_right:
-            u_right = wp.tile_extract(edges, lane + 1, 0)
-            rate_right = wp.tile_extract(edges, lane + 1, 2)
-            u_right_old = wp.tile_extract(edges, lane + 1, 4)
-            rate_right_old = wp.tile_extract(edges, lane + 1, 5)
-        damp = dashpot_forces(up, rates, u_left, rate_left, u_right, rate_right, delta0, contact_bits, gamma, h)
+        if ln.has_left:
+            u_left = wp.tile_extract(edges, ln.lane - 1, 1)
+            rate_left = wp.tile_extract(edges, ln.lane - 1, 3)
+        if ln.has_right:
+            u_right = wp.tile_extract(edges, ln.lane + 1, 0)
+            rate_right = wp.tile_extract(edges, ln.lane + 1, 2)
+            u_right_old = wp.tile_extract(edges, ln.lane + 1, 4)
+            rate_right_old = wp.tile_extract(edges, ln.lane + 1, 5)
+        damp = dashpot_forces(
+            up, rates, u_left, rate_left, u_right, rate_right, ln.delta0, ln.contact_bits, ln.gamma, ln.h
+        )
         out = lost
         for k in range(G):
-            if (move_bits & (1 << k)) != 0 and not at_driver(k, k0):
+            if (ln.move_bits & (1 << k)) != 0 and not at_driver(k, ln.k0):
                 own_rate = rates[k]
                 own_rate_old = s[1, k]
                 loss_old = real(0)
                 loss_new = real(0)
                 below = True
                 if wp.static(MASKED and FREE_END):
-                    below = (contact_bits & (1 << (k + 1))) != 0
+                    below = (ln.contact_bits & (1 << (k + 1))) != 0
                 if below:
                     below_rate = rate_right
                     below_rate_old = rate_right_old
@@ -157,26 +148,28 @@ def loss_functions(t: TileLayout, predicted_rate, column, at_driver):
                         below_rate = rates[wp.min(k + 1, G - 1)]
                         below_rate_old = s[1, wp.min(k + 1, G - 1)]
                         below_u_old = s[0, wp.min(k + 1, G - 1)]
-                    loss_new += damp[k + 1] * (own_rate - below_rate) / h
-                    f_old = dashpot(delta0[k + 1], s[0, k] - below_u_old, own_rate_old - below_rate_old, gamma, h)
-                    loss_old += f_old * (own_rate_old - below_rate_old) / h
+                    loss_new += damp[k + 1] * (own_rate - below_rate) / ln.h
+                    f_old = dashpot(
+                        ln.delta0[k + 1], s[0, k] - below_u_old, own_rate_old - below_rate_old, ln.gamma, ln.h
+                    )
+                    loss_old += f_old * (own_rate_old - below_rate_old) / ln.h
                 outer = False
                 above_rate = real(0)
                 above_rate_old = real(0)
                 above_u_old = real(0)
                 if wp.static(SURFACE_WALL):
-                    outer = base + k == 0
+                    outer = ln.base + k == 0
                 if wp.static(DRIVEN):
-                    if k0 >= 0 and at_driver(k - 1, k0):
+                    if ln.k0 >= 0 and at_driver(k - 1, ln.k0):
                         outer = True
-                        above_rate = real(dt * amplitude * omega * phase_new[1])
-                        above_u_old = real(product_rn(amplitude, phase_old[0]))
-                        above_rate_old = real(dt * amplitude * omega * phase_old[1])
+                        above_rate = real(ln.dt * ln.amplitude * ln.omega * phase_new[1])
+                        above_u_old = real(product_rn(ln.amplitude, phase_old[0]))
+                        above_rate_old = real(ln.dt * ln.amplitude * ln.omega * phase_old[1])
                 if outer:
-                    loss_new += damp[k] * (above_rate - own_rate) / h
-                    f_old = dashpot(delta0[k], above_u_old - s[0, k], above_rate_old - own_rate_old, gamma, h)
-                    loss_old += f_old * (above_rate_old - own_rate_old) / h
-                out[k] = out[k] + dt * wp.float64(0.5) * (wp.float64(loss_old) + wp.float64(loss_new))
+                    loss_new += damp[k] * (above_rate - own_rate) / ln.h
+                    f_old = dashpot(ln.delta0[k], above_u_old - s[0, k], above_rate_old - own_rate_old, ln.gamma, ln.h)
+                    loss_old += f_old * (above_rate_old - own_rate_old) / ln.h
+                out[k] = out[k] + ln.dt * wp.float64(0.5) * (wp.float64(loss_old) + wp.float64(loss_new))
         return out
 
     return dissipation, lane_rates, dashpot_forces, dashpot_losses
