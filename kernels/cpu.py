@@ -28,6 +28,7 @@ is the same per substep).
 """
 
 import functools
+from types import SimpleNamespace
 
 import warp as wp
 from hertzian.kernels.events import event_functions
@@ -47,6 +48,19 @@ from hertzian.kernels.threads import BARRIER_SPIN_LIMIT, FIRST_WAIT_FACTOR, barr
 def chain_kernel(features: Features):
     """The chain-per-thread kernel for one feature set (cached): it implements every feature (traces are sampled
     inside the launch)."""
+    layout = _chain_layout(features)
+    return _chain_steps_kernel(layout, _chain_functions(layout))
+
+
+def _take(namespace: SimpleNamespace, names: str) -> list:
+    """The values of ``namespace`` named in ``names`` (space-separated), in order."""
+    return [getattr(namespace, name) for name in names.split()]
+
+
+def _chain_layout(features: Features) -> SimpleNamespace:
+    """The chain kernel's compile-time constants and the device functions it takes from kernels/gear.py,
+    kernels/physics.py and kernels/events.py, for one feature set."""
+    f = features
     f = features
     real = wp.float64 if f.precision == "float64" else wp.float32
     Q = f.values
@@ -62,6 +76,7 @@ def chain_kernel(features: Features):
     contact_force, excess_force = contact_functions(f.precision, f.hertz, f.potential)
     LATTICE = f.potential != "hertz"
     shape_t = wp.types.vector(2, real) if LATTICE else real
+    vec4 = wp.types.vector(4, real)
     nordsieck = nordsieck_functions(f.method, f.precision, f.compensation)
     predicted_position, correct = nordsieck.predicted_position, nordsieck.correct
     predicted_at, gap, rounded = nordsieck.predicted_at, nordsieck.gap, nordsieck.rounded
@@ -86,6 +101,19 @@ def chain_kernel(features: Features):
     refuse_composed_extras(f)
     substep_predicted_at, substep_correct = nordsieck.substep_predicted_at, nordsieck.substep_correct
     substep_weight = substep_weight_function(f.method, f.precision)
+    return SimpleNamespace(**{name: value for name, value in locals().items() if name != "features"})
+
+
+def _chain_functions(layout: SimpleNamespace) -> SimpleNamespace:
+    """The chain kernel's own device functions: a contact's excess force, the law's shape, traces, the window
+    exchange, the damping forces and losses, and the event-aware corrector."""
+    real, Q, SURFACE_WALL, DRIVEN, BOTTOM_WALL = _take(layout, "real Q SURFACE_WALL DRIVEN BOTTOM_WALL")
+    PROFILE, HETERO, HERTZ, contact_force = _take(layout, "PROFILE HETERO HERTZ contact_force")
+    excess_force, LATTICE, shape_t, vec4, nordsieck = _take(layout, "excess_force LATTICE shape_t vec4 nordsieck")
+    predicted_position, correct, values_t, params = _take(layout, "predicted_position correct values_t params")
+    near_event, event_step, VISCOUS, DASHPOT = _take(layout, "near_event event_step VISCOUS DASHPOT")
+    predicted_rate, dashpot, viscous_losses = _take(layout, "predicted_rate dashpot viscous_losses")
+    (dashpot_losses,) = _take(layout, "dashpot_losses")
 
     @wp.func
     def contact(
@@ -175,6 +203,194 @@ def chain_kernel(features: Features):
         # the next exchange writes what the neighbour has just read
         return barrier(barrier_state, parties, patience)
 
+    @wp.func(inline=True)
+    def damped_forces(
+        up: real,
+        down: real,
+        x_window: wp.array3d(dtype=real),
+        c: int,
+        i: int,
+        last: int,
+        u_here: real,
+        own_u_old: real,
+        above: vec4,
+        m_inv: real,
+        damping: wp.array(dtype=real),
+        dissipated: wp.array2d(dtype=wp.float64),
+        static_overlap: wp.array2d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        law_parameters: wp.array(dtype=real),
+        h: real,
+        dt: wp.float64,
+        own_lo: int,
+        own_hi: int,
+        driver: wp.vec4d,
+        step_new: int,
+    ):
+        # step.py's damping block for grain i: (up, down) with the dashpot's forces at the predicted velocities, and
+        # the loss power's trapezoid (t_n exact, t_n+1 predicted) added to the grain's dissipated energy. Grain i's
+        # old values are still in x_window, grain i+1's too; grain i-1's are carried: above = (u, u at t_n, dt·v,
+        # dt·v at t_n); driver = (u_0 at t_n+1, amplitude, omega, t_n+1) of a driven surface
+        above_u = above[0]
+        above_u_old = above[1]
+        above_rate = above[2]
+        above_rate_old = above[3]
+        u_drive = driver[0]
+        amplitude = driver[1]
+        omega = driver[2]
+        t_new = driver[3]
+        gamma = damping[c]
+        own_rate = predicted_rate(x_window, c, i)
+        own_rate_old = x_window[1, c, i]
+        loss_old = real(0)
+        loss_new = real(0)
+        if wp.static(VISCOUS):
+            own_losses = viscous_losses(gamma, m_inv, own_rate, own_rate_old, h)
+            loss_old = own_losses[0]
+            loss_new = own_losses[1]
+        if wp.static(DASHPOT):
+            if i < last or wp.static(BOTTOM_WALL):
+                below_rate = real(0)
+                below_rate_old = real(0)
+                d_new = u_here
+                d_old_b = own_u_old
+                if i < last:
+                    below_rate = predicted_rate(x_window, c, i + 1)
+                    below_rate_old = x_window[1, c, i + 1]
+                    d_new = u_here - predicted_position(x_window, c, i + 1)
+                    d_old_b = own_u_old - x_window[0, c, i + 1]
+                delta0_below = params(static_overlap, contact_constant, law_parameters, c, i + 1)[0]
+                below_losses = dashpot_losses(
+                    delta0_below,
+                    d_new,
+                    d_old_b,
+                    own_rate - below_rate,
+                    own_rate_old - below_rate_old,
+                    gamma,
+                    h,
+                )
+                down += below_losses[0]
+                loss_new += below_losses[1]
+                loss_old += below_losses[2]
+            if i > 0 or wp.static(SURFACE_WALL):
+                a_u = real(0)
+                a_u_old = real(0)
+                a_rate = real(0)
+                a_rate_old = real(0)
+                outer = i == 0  # the contact above belongs to no integrated grain above
+                if i > 0:
+                    a_u = above_u
+                    a_u_old = above_u_old
+                    a_rate = above_rate
+                    a_rate_old = above_rate_old
+                    if wp.static(DRIVEN):
+                        if i == 1:
+                            outer = True
+                            t_old_d = wp.float64(step_new - 1) * dt
+                            a_u = real(u_drive)
+                            a_u_old = real(product_rn(amplitude, wp.sin(omega * t_old_d)))
+                            a_rate = real(dt * amplitude * omega * wp.cos(omega * t_new))
+                            a_rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old_d))
+                delta0_above = params(static_overlap, contact_constant, law_parameters, c, i)[0]
+                force_above_dashpot = dashpot(delta0_above, a_u - u_here, a_rate - own_rate, gamma, h)
+                up += force_above_dashpot
+                if outer:  # else the grain above counts this contact's loss as its own
+                    above_losses = dashpot_losses(
+                        delta0_above,
+                        a_u - u_here,
+                        a_u_old - own_u_old,
+                        a_rate - own_rate,
+                        a_rate_old - own_rate_old,
+                        gamma,
+                        h,
+                    )
+                    loss_new += above_losses[1]
+                    loss_old += above_losses[2]
+        if i >= own_lo and i < own_hi:
+            dissipated[c, i] = dissipated[c, i] + dt * wp.float64(0.5) * (wp.float64(loss_old) + wp.float64(loss_new))
+        return up, down
+
+    @wp.func(inline=True)
+    def event_correct(
+        x_window: wp.array3d(dtype=real),
+        c: int,
+        i: int,
+        last: int,
+        own_old: values_t,
+        above_old: values_t,
+        u_above: real,
+        u_here: real,
+        u_next: real,
+        m_inv: real,
+        h: real,
+        half_h2_acc: real,
+        static_overlap: wp.array2d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        law_parameters: wp.array(dtype=real),
+    ):
+        # kernels/step.py's event test and event step for grain i, on the same data: its corrector, or its event step
+        # when a contact of it is near opening or closing
+        below = values_t()
+        has_below = wp.static(BOTTOM_WALL)
+        if i < last:
+            below = nordsieck.load(x_window, c, i + 1)
+            has_below = True
+        has_above = wp.static(SURFACE_WALL)
+        if i > 0:
+            has_above = True
+        p_above = params(static_overlap, contact_constant, law_parameters, c, i)
+        p_below = params(static_overlap, contact_constant, law_parameters, c, i + 1)
+        flagged = False
+        if has_above:
+            flagged = near_event(
+                p_above[0] + (above_old[0] - own_old[0]),
+                p_above[0] + (u_above - u_here),
+                above_old[1] - own_old[1],
+                h,
+            )
+        if has_below:
+            flagged = flagged or near_event(
+                p_below[0] + (own_old[0] - below[0]),
+                p_below[0] + (u_here - u_next),
+                own_old[1] - below[1],
+                h,
+            )
+        if flagged:
+            nordsieck.store(
+                x_window,
+                c,
+                i,
+                event_step(own_old, above_old, below, has_above, has_below, p_above, p_below, m_inv, h),
+            )
+        else:
+            correct(x_window, x_window, c, i, u_here, half_h2_acc)
+
+    return SimpleNamespace(
+        contact=contact,
+        chain_shape=chain_shape,
+        driver_values=driver_values,
+        write_traces=write_traces,
+        copy_grains=copy_grains,
+        exchange=exchange,
+        damped_forces=damped_forces,
+        event_correct=event_correct,
+    )
+
+
+def _chain_steps_kernel(layout: SimpleNamespace, functions: SimpleNamespace):
+    """The ``@wp.kernel`` of the chain-per-thread steps (module docstring)."""
+    f, real, Q, SURFACE_WALL, DRIVEN, BOTTOM_WALL = _take(layout, "f real Q SURFACE_WALL DRIVEN BOTTOM_WALL")
+    FIXED, RING, STATIC, HETERO, contact_force, vec4 = _take(layout, "FIXED RING STATIC HETERO contact_force vec4")
+    nordsieck, predicted_position, correct = _take(layout, "nordsieck predicted_position correct")
+    predicted_at, gap, rounded, EVENTS, values_t = _take(layout, "predicted_at gap rounded EVENTS values_t")
+    params, DAMPED, VISCOUS, DASHPOT, TRACES = _take(layout, "params DAMPED VISCOUS DASHPOT TRACES")
+    predicted_rate, dashpot, COMPOSED, SUBSTEPS = _take(layout, "predicted_rate dashpot COMPOSED SUBSTEPS")
+    substep_predicted_at, substep_correct = _take(layout, "substep_predicted_at substep_correct")
+    (substep_weight,) = _take(layout, "substep_weight")
+    contact, chain_shape, driver_values = _take(functions, "contact chain_shape driver_values")
+    write_traces, copy_grains, exchange = _take(functions, "write_traces copy_grains exchange")
+    damped_forces, event_correct = _take(functions, "damped_forces event_correct")
+
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def chain_steps(
         x_in: wp.array3d(dtype=real),
@@ -246,6 +462,8 @@ def chain_kernel(features: Features):
         inv_m = inverse_mass[c, 0]
         h = real(dt)
         last = n_grains - 1
+        amplitude = wp.float64(0)
+        omega = wp.float64(0)
         if wp.static(DRIVEN):
             amplitude = drive[c, 0]
             omega = drive[c, 1]
@@ -263,6 +481,9 @@ def chain_kernel(features: Features):
                 position_here = substep_predicted_at(x_window, c, lo, w)
             else:
                 position_here = predicted_at(x_window, c, lo)
+            step_new = int(0)
+            t_new = wp.float64(0)
+            u_drive = wp.float64(0)
             if wp.static(DRIVEN):
                 # kernels/step.py's driven grain 0: prescribed u_0, and the driver's work (state at t_n)
                 step_new = step_first + _step + 1
@@ -294,12 +515,11 @@ def chain_kernel(features: Features):
                 u_above = real(0)  # predicted position of the grain above (0: the wall)
                 above_old = values_t()  # its Nordsieck vector at t_n (already overwritten in x_window)
             force_above = real(0)  # excess force of the contact above the current grain
-            if wp.static(DASHPOT):
-                # the grain above at t_n and predicted (its x_window values are already overwritten)
-                above_u = real(0)
-                above_u_old = real(0)
-                above_rate = real(0)
-                above_rate_old = real(0)
+            # (dashpot) the grain above at t_n and predicted (its x_window values are already overwritten)
+            above_u = real(0)
+            above_u_old = real(0)
+            above_rate = real(0)
+            above_rate_old = real(0)
             if wp.static(SURFACE_WALL):
                 if wp.static(f.compensation):
                     # a wall is a grain at rest at 0 (as the fused kernel's padding grains)
@@ -384,6 +604,7 @@ def chain_kernel(features: Features):
                     held = i == last
                 if wp.static(EVENTS):
                     own_old = nordsieck.load(x_window, c, i)
+                own_u_old = real(0)
                 if wp.static(DASHPOT):
                     own_u = predicted_position(x_window, c, i)
                     own_u_old = x_window[0, c, i]
@@ -403,119 +624,50 @@ def chain_kernel(features: Features):
                     up = force_above
                     down = force_below
                     if wp.static(DAMPED):
-                        # step.py's damping block: forces at the predicted velocities, the loss power's
-                        # trapezoid (t_n exact, t_n+1 predicted) per grain; grain i's old values are still in
-                        # x_window, grain i+1's too, grain i-1's are carried (above_*)
-                        gamma = damping[c]
-                        own_rate = predicted_rate(x_window, c, i)
-                        own_rate_old = x_window[1, c, i]
-                        loss_old = real(0)
-                        loss_new = real(0)
-                        if wp.static(VISCOUS):
-                            own_losses = viscous_losses(gamma, m_inv, own_rate, own_rate_old, h)
-                            loss_old = own_losses[0]
-                            loss_new = own_losses[1]
-                        if wp.static(DASHPOT):
-                            if i < last or wp.static(BOTTOM_WALL):
-                                below_rate = real(0)
-                                below_rate_old = real(0)
-                                d_new = u_here
-                                d_old_b = own_u_old
-                                if i < last:
-                                    below_rate = predicted_rate(x_window, c, i + 1)
-                                    below_rate_old = x_window[1, c, i + 1]
-                                    d_new = u_here - predicted_position(x_window, c, i + 1)
-                                    d_old_b = own_u_old - x_window[0, c, i + 1]
-                                delta0_below = params(static_overlap, contact_constant, law_parameters, c, i + 1)[0]
-                                below_losses = dashpot_losses(
-                                    delta0_below,
-                                    d_new,
-                                    d_old_b,
-                                    own_rate - below_rate,
-                                    own_rate_old - below_rate_old,
-                                    gamma,
-                                    h,
-                                )
-                                down += below_losses[0]
-                                loss_new += below_losses[1]
-                                loss_old += below_losses[2]
-                            if i > 0 or wp.static(SURFACE_WALL):
-                                a_u = real(0)
-                                a_u_old = real(0)
-                                a_rate = real(0)
-                                a_rate_old = real(0)
-                                outer = i == 0  # the contact above belongs to no integrated grain above
-                                if i > 0:
-                                    a_u = above_u
-                                    a_u_old = above_u_old
-                                    a_rate = above_rate
-                                    a_rate_old = above_rate_old
-                                    if wp.static(DRIVEN):
-                                        if i == 1:
-                                            outer = True
-                                            t_old_d = wp.float64(step_new - 1) * dt
-                                            a_u = real(u_drive)
-                                            a_u_old = real(product_rn(amplitude, wp.sin(omega * t_old_d)))
-                                            a_rate = real(dt * amplitude * omega * wp.cos(omega * t_new))
-                                            a_rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old_d))
-                                delta0_above = params(static_overlap, contact_constant, law_parameters, c, i)[0]
-                                force_above_dashpot = dashpot(delta0_above, a_u - u_here, a_rate - own_rate, gamma, h)
-                                up += force_above_dashpot
-                                if outer:  # else the grain above counts this contact's loss as its own
-                                    above_losses = dashpot_losses(
-                                        delta0_above,
-                                        a_u - u_here,
-                                        a_u_old - own_u_old,
-                                        a_rate - own_rate,
-                                        a_rate_old - own_rate_old,
-                                        gamma,
-                                        h,
-                                    )
-                                    loss_new += above_losses[1]
-                                    loss_old += above_losses[2]
-                        if i >= own_lo and i < own_hi:
-                            dissipated[c, i] = dissipated[c, i] + dt * wp.float64(0.5) * (
-                                wp.float64(loss_old) + wp.float64(loss_new)
-                            )
+                        up, down = damped_forces(
+                            up,
+                            down,
+                            x_window,
+                            c,
+                            i,
+                            last,
+                            u_here,
+                            own_u_old,
+                            vec4(above_u, above_u_old, above_rate, above_rate_old),
+                            m_inv,
+                            damping,
+                            dissipated,
+                            static_overlap,
+                            contact_constant,
+                            law_parameters,
+                            h,
+                            dt,
+                            own_lo,
+                            own_hi,
+                            wp.vec4d(u_drive, amplitude, omega, t_new),
+                            step_new,
+                        )
                     half_h2_acc = real(0.5) * h * h * (up - down) * m_inv
                     if wp.static(VISCOUS):
                         half_h2_acc -= real(0.5) * h * damping[c] * predicted_rate(x_window, c, i)  # h²/2 · (−γ v)
                     if wp.static(EVENTS):
-                        # kernels/step.py's event test and event step, on the same data
-                        below = values_t()
-                        has_below = wp.static(BOTTOM_WALL)
-                        if i < last:
-                            below = nordsieck.load(x_window, c, i + 1)
-                            has_below = True
-                        has_above = wp.static(SURFACE_WALL)
-                        if i > 0:
-                            has_above = True
-                        p_above = params(static_overlap, contact_constant, law_parameters, c, i)
-                        p_below = params(static_overlap, contact_constant, law_parameters, c, i + 1)
-                        flagged = False
-                        if has_above:
-                            flagged = near_event(
-                                p_above[0] + (above_old[0] - own_old[0]),
-                                p_above[0] + (u_above - u_here),
-                                above_old[1] - own_old[1],
-                                h,
-                            )
-                        if has_below:
-                            flagged = flagged or near_event(
-                                p_below[0] + (own_old[0] - below[0]),
-                                p_below[0] + (u_here - u_next),
-                                own_old[1] - below[1],
-                                h,
-                            )
-                        if flagged:
-                            nordsieck.store(
-                                x_window,
-                                c,
-                                i,
-                                event_step(own_old, above_old, below, has_above, has_below, p_above, p_below, m_inv, h),
-                            )
-                        else:
-                            correct(x_window, x_window, c, i, u_here, half_h2_acc)
+                        event_correct(
+                            x_window,
+                            c,
+                            i,
+                            last,
+                            own_old,
+                            above_old,
+                            u_above,
+                            u_here,
+                            u_next,
+                            m_inv,
+                            h,
+                            half_h2_acc,
+                            static_overlap,
+                            contact_constant,
+                            law_parameters,
+                        )
                     elif wp.static(COMPOSED):
                         substep_correct(x_window, x_window, c, i, u_here, half_h2_acc, w)
                     else:
@@ -534,23 +686,9 @@ def chain_kernel(features: Features):
                             above_old = driver_old  # step.py: grain 1 sees the driver's vector at t_n
                 position_here = position_next
             if wp.static(TRACES):
-                # after a whole step (a composed method: after its last substep)
-                if wp.static(COMPOSED):
-                    if _step % wp.static(SUBSTEPS) == wp.static(SUBSTEPS - 1):
-                        write_traces(
-                            trace_x,
-                            traced_grain,
-                            trace_stride,
-                            x_window,
-                            c,
-                            clock_in[0] + _step / wp.static(SUBSTEPS) + 1,
-                            own_lo,
-                            own_hi,
-                        )
-                else:
-                    write_traces(
-                        trace_x, traced_grain, trace_stride, x_window, c, clock_in[0] + _step + 1, own_lo, own_hi
-                    )
+                if _step % wp.static(SUBSTEPS) == wp.static(SUBSTEPS - 1):  # after a whole step (all its substeps)
+                    step_done = clock_in[0] + _step / wp.static(SUBSTEPS) + 1
+                    write_traces(trace_x, traced_grain, trace_stride, x_window, c, step_done, own_lo, own_hi)
             if windowed:
                 if (_step + 1) % exchange_every == 0 and _step + 1 < passes:
                     # the first wait also covers the other threads' start: a generous patience for it
