@@ -32,7 +32,7 @@ from types import SimpleNamespace
 
 import warp as wp
 from hertzian.kernels.events import event_functions
-from hertzian.kernels.features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features
+from hertzian.kernels.features import KERNEL_OPTIONS, STATUS_NON_FINITE, SUBSTEP_WEIGHTS, Features, take
 from hertzian.kernels.gear import nordsieck_functions, refuse_composed_extras, substep_weight_function
 from hertzian.kernels.physics import (
     contact_functions,
@@ -50,11 +50,6 @@ def chain_kernel(features: Features):
     inside the launch)."""
     layout = _chain_layout(features)
     return _chain_steps_kernel(layout, _chain_functions(layout))
-
-
-def _take(namespace: SimpleNamespace, names: str) -> list:
-    """The values of ``namespace`` named in ``names`` (space-separated), in order."""
-    return [getattr(namespace, name) for name in names.split()]
 
 
 def _chain_layout(features: Features) -> SimpleNamespace:
@@ -107,13 +102,13 @@ def _chain_layout(features: Features) -> SimpleNamespace:
 def _chain_functions(layout: SimpleNamespace) -> SimpleNamespace:
     """The chain kernel's own device functions: a contact's excess force, the law's shape, traces, the window
     exchange, the damping forces and losses, and the event-aware corrector."""
-    real, Q, SURFACE_WALL, DRIVEN, BOTTOM_WALL = _take(layout, "real Q SURFACE_WALL DRIVEN BOTTOM_WALL")
-    PROFILE, HETERO, HERTZ, contact_force = _take(layout, "PROFILE HETERO HERTZ contact_force")
-    excess_force, LATTICE, shape_t, vec4, nordsieck = _take(layout, "excess_force LATTICE shape_t vec4 nordsieck")
-    predicted_position, correct, values_t, params = _take(layout, "predicted_position correct values_t params")
-    near_event, event_step, VISCOUS, DASHPOT = _take(layout, "near_event event_step VISCOUS DASHPOT")
-    predicted_rate, dashpot, viscous_losses = _take(layout, "predicted_rate dashpot viscous_losses")
-    (dashpot_losses,) = _take(layout, "dashpot_losses")
+    real, Q, SURFACE_WALL, DRIVEN, BOTTOM_WALL = take(layout, "real Q SURFACE_WALL DRIVEN BOTTOM_WALL")
+    PROFILE, HETERO, HERTZ, contact_force = take(layout, "PROFILE HETERO HERTZ contact_force")
+    excess_force, LATTICE, shape_t, vec4, nordsieck = take(layout, "excess_force LATTICE shape_t vec4 nordsieck")
+    predicted_position, correct, values_t, params = take(layout, "predicted_position correct values_t params")
+    near_event, event_step, VISCOUS, DASHPOT = take(layout, "near_event event_step VISCOUS DASHPOT")
+    predicted_rate, dashpot, viscous_losses = take(layout, "predicted_rate dashpot viscous_losses")
+    (dashpot_losses,) = take(layout, "dashpot_losses")
 
     @wp.func
     def contact(
@@ -379,17 +374,17 @@ def _chain_functions(layout: SimpleNamespace) -> SimpleNamespace:
 
 def _chain_steps_kernel(layout: SimpleNamespace, functions: SimpleNamespace):
     """The ``@wp.kernel`` of the chain-per-thread steps (module docstring)."""
-    f, real, Q, SURFACE_WALL, DRIVEN, BOTTOM_WALL = _take(layout, "f real Q SURFACE_WALL DRIVEN BOTTOM_WALL")
-    FIXED, RING, STATIC, HETERO, contact_force, vec4 = _take(layout, "FIXED RING STATIC HETERO contact_force vec4")
-    nordsieck, predicted_position, correct = _take(layout, "nordsieck predicted_position correct")
-    predicted_at, gap, rounded, EVENTS, values_t = _take(layout, "predicted_at gap rounded EVENTS values_t")
-    params, DAMPED, VISCOUS, DASHPOT, TRACES = _take(layout, "params DAMPED VISCOUS DASHPOT TRACES")
-    predicted_rate, dashpot, COMPOSED, SUBSTEPS = _take(layout, "predicted_rate dashpot COMPOSED SUBSTEPS")
-    substep_predicted_at, substep_correct = _take(layout, "substep_predicted_at substep_correct")
-    (substep_weight,) = _take(layout, "substep_weight")
-    contact, chain_shape, driver_values = _take(functions, "contact chain_shape driver_values")
-    write_traces, copy_grains, exchange = _take(functions, "write_traces copy_grains exchange")
-    damped_forces, event_correct = _take(functions, "damped_forces event_correct")
+    f, real, Q, SURFACE_WALL, DRIVEN, BOTTOM_WALL = take(layout, "f real Q SURFACE_WALL DRIVEN BOTTOM_WALL")
+    FIXED, RING, STATIC, HETERO, contact_force, vec4 = take(layout, "FIXED RING STATIC HETERO contact_force vec4")
+    nordsieck, predicted_position, correct = take(layout, "nordsieck predicted_position correct")
+    predicted_at, gap, rounded, EVENTS, values_t = take(layout, "predicted_at gap rounded EVENTS values_t")
+    params, DAMPED, VISCOUS, DASHPOT, TRACES = take(layout, "params DAMPED VISCOUS DASHPOT TRACES")
+    predicted_rate, dashpot, COMPOSED, SUBSTEPS = take(layout, "predicted_rate dashpot COMPOSED SUBSTEPS")
+    substep_predicted_at, substep_correct = take(layout, "substep_predicted_at substep_correct")
+    (substep_weight,) = take(layout, "substep_weight")
+    contact, chain_shape, driver_values = take(functions, "contact chain_shape driver_values")
+    write_traces, copy_grains, exchange = take(functions, "write_traces copy_grains exchange")
+    damped_forces, event_correct = take(functions, "damped_forces event_correct")
 
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def chain_steps(

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 GEAR_VALUES = {"gear4": 4, "gear5": 5, "gear6": 6, "verlet": 3, "yoshida4": 3, "yoshida6": 3}
 """Values of the scaled Nordsieck vector per method (Verlet and its compositions keep u, dt·v, dt²/2·a)."""
@@ -123,3 +124,9 @@ class Features:
         """Values per grain in the state: the Nordsieck vector, then (compensated float32) the low parts
         of u and dt·v (rows Q and Q + 1)."""
         return GEAR_VALUES[self.method] + (2 if self.compensation else 0)
+
+
+def take(layout: SimpleNamespace, names: str) -> list:
+    """The values of a kernel factory's ``layout`` named in ``names`` (space-separated), in order: how a builder
+    unpacks the compile-time constants and device functions it uses."""
+    return [getattr(layout, name) for name in names.split()]
