@@ -49,331 +49,7 @@ def chain_kernel(features: Features):
     """The chain-per-thread kernel for one feature set (cached): it implements every feature (traces are sampled
     inside the launch)."""
     layout = _chain_layout(features)
-    return _chain_steps_kernel(layout, _chain_functions(layout))
-
-
-def _chain_layout(features: Features) -> SimpleNamespace:
-    """The chain kernel's compile-time constants and the device functions it takes from kernels/gear.py,
-    kernels/physics.py and kernels/events.py, for one feature set."""
-    f = features
-    f = features
-    real = wp.float64 if f.precision == "float64" else wp.float32
-    Q = f.values
-    SURFACE_WALL = f.surface == "wall"
-    DRIVEN = f.surface == "driven"
-    BOTTOM_WALL = f.bottom == "wall"
-    FIXED = f.bottom == "fixed"
-    RING = f.surface == "periodic"  # grain N − 1 touches grain 0 (padded contacts 0 and N); whole chains, no windows
-    STATIC = f.static != "none"
-    PROFILE = f.static == "profile"
-    HETERO = f.heterogeneous
-    HERTZ = f.hertz
-    contact_force, excess_force = contact_functions(f.precision, f.hertz, f.potential)
-    LATTICE = f.potential != "hertz"
-    shape_t = wp.types.vector(2, real) if LATTICE else real
-    vec4 = wp.types.vector(4, real)
-    nordsieck = nordsieck_functions(f.method, f.precision, f.compensation)
-    predicted_position, correct = nordsieck.predicted_position, nordsieck.correct
-    predicted_at, gap, rounded = nordsieck.predicted_at, nordsieck.gap, nordsieck.rounded
-    EVENTS = f.event_window > 0
-    values_t = nordsieck.values
-    params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz, f.potential)
-    if EVENTS:
-        near_event, event_step = event_functions(f)
-    else:
-        near_event = event_step = None
-    DAMPED = f.damping != "none"
-    VISCOUS = f.damping == "viscous"
-    DASHPOT = f.damping == "contact"
-    ORDER = f.nordsieck_values  # rows of the Nordsieck vector (kernels/gear.py)
-    TRACES = f.traces
-
-    predicted_rate, dashpot = damping_functions(f.precision, ORDER)
-    viscous_losses, dashpot_losses = loss_functions(f.precision, ORDER)
-    COMPOSED = f.method in SUBSTEP_WEIGHTS
-    WEIGHTS = SUBSTEP_WEIGHTS.get(f.method, (1.0,))
-    SUBSTEPS = len(WEIGHTS)
-    refuse_composed_extras(f)
-    substep_predicted_at, substep_correct = nordsieck.substep_predicted_at, nordsieck.substep_correct
-    substep_weight = substep_weight_function(f.method, f.precision)
-    return SimpleNamespace(**{name: value for name, value in locals().items() if name != "features"})
-
-
-def _chain_functions(layout: SimpleNamespace) -> SimpleNamespace:
-    """The chain kernel's own device functions: a contact's excess force, the law's shape, traces, the window
-    exchange, the damping forces and losses, and the event-aware corrector."""
-    real, Q, SURFACE_WALL, DRIVEN, BOTTOM_WALL = take(layout, "real Q SURFACE_WALL DRIVEN BOTTOM_WALL")
-    PROFILE, HETERO, HERTZ, contact_force = take(layout, "PROFILE HETERO HERTZ contact_force")
-    excess_force, LATTICE, shape_t, vec4, nordsieck = take(layout, "excess_force LATTICE shape_t vec4 nordsieck")
-    predicted_position, correct, values_t, params = take(layout, "predicted_position correct values_t params")
-    near_event, event_step, VISCOUS, DASHPOT = take(layout, "near_event event_step VISCOUS DASHPOT")
-    predicted_rate, dashpot, viscous_losses = take(layout, "predicted_rate dashpot viscous_losses")
-    (dashpot_losses,) = take(layout, "dashpot_losses")
-
-    @wp.func
-    def contact(
-        static_overlap: wp.array2d(dtype=real),
-        contact_constant: wp.array2d(dtype=real),
-        c: int,
-        k: int,
-        d: real,
-        a_c0: real,
-        delta00: real,
-        force00: real,
-        n: shape_t,
-    ) -> real:
-        # excess force of padded contact k at relative displacement d (step.py's `contact`)
-        if wp.static(PROFILE or HETERO):
-            delta0 = delta00
-            if wp.static(PROFILE):
-                delta0 = static_overlap[c, k]
-            a_c = a_c0
-            if wp.static(HETERO):
-                a_c = contact_constant[c, k]
-            return excess_force(delta0, d, a_c, n)
-        else:
-            # one δ0 and one a_c per chain: F(δ0) is the same for every contact, computed once
-            return contact_force(delta00 + d, a_c0, n) - force00
-
-    @wp.func
-    def chain_shape(law_parameters: wp.array(dtype=real), c: int) -> shape_t:
-        # the law's shape of chain c: n (5/2 compiled in for Hertz) or a lattice law's (p0, p1)
-        if wp.static(LATTICE):
-            return shape_t(law_parameters[2 * c], law_parameters[2 * c + 1])
-        else:
-            n = real(0)
-            if wp.static(not HERTZ):
-                n = law_parameters[c]
-            return n
-
-    driver_values = nordsieck.driver_values
-
-    @wp.func
-    def write_traces(
-        trace_x: wp.array4d(dtype=real),
-        traced_grain: wp.array(dtype=wp.int32),
-        trace_stride: int,
-        x: wp.array3d(dtype=real),
-        c: int,
-        step_new: int,
-        own_lo: int,
-        own_hi: int,
-    ):
-        # kernels/step.py's trace sample: (u, dt·v) of each traced grain after a step k·stride, ring slot k % length
-        if step_new % trace_stride == 0:
-            sample = (step_new / trace_stride) % trace_x.shape[2]
-            for slot in range(traced_grain.shape[0]):
-                i = traced_grain[slot]
-                if i >= own_lo and i < own_hi:
-                    trace_x[0, c, sample, slot] = x[0, c, i]
-                    trace_x[1, c, sample, slot] = x[1, c, i]
-
-    @wp.func
-    def copy_grains(source: wp.array3d(dtype=real), target: wp.array3d(dtype=real), c: int, first: int, end: int):
-        for i in range(first, end):
-            for q in range(wp.static(Q)):
-                target[q, c, i] = source[q, c, i]
-
-    @wp.func
-    def exchange(
-        x_window: wp.array3d(dtype=real),
-        x_out: wp.array3d(dtype=real),
-        c: int,
-        window: wp.vec4i,
-        barrier_state: wp.array(dtype=wp.uint32),
-        parties: int,
-        patience: wp.int64,
-    ) -> bool:
-        # the owned grains next to each cut go out, the window's grains past each cut come in from the neighbour's
-        lo = window[0]
-        hi = window[1]
-        own_lo = window[2]
-        own_hi = window[3]
-        copy_grains(x_window, x_out, c, own_lo, wp.min(own_lo + (own_lo - lo), own_hi))
-        copy_grains(x_window, x_out, c, wp.max(own_hi - (hi - own_hi), own_lo), own_hi)
-        if not barrier(barrier_state, parties, patience):
-            return False
-        copy_grains(x_out, x_window, c, lo, own_lo)
-        copy_grains(x_out, x_window, c, own_hi, hi)
-        # the next exchange writes what the neighbour has just read
-        return barrier(barrier_state, parties, patience)
-
-    @wp.func(inline=True)
-    def damped_forces(
-        up: real,
-        down: real,
-        x_window: wp.array3d(dtype=real),
-        c: int,
-        i: int,
-        last: int,
-        u_here: real,
-        own_u_old: real,
-        above: vec4,
-        m_inv: real,
-        damping: wp.array(dtype=real),
-        dissipated: wp.array2d(dtype=wp.float64),
-        static_overlap: wp.array2d(dtype=real),
-        contact_constant: wp.array2d(dtype=real),
-        law_parameters: wp.array(dtype=real),
-        h: real,
-        dt: wp.float64,
-        own_lo: int,
-        own_hi: int,
-        driver: wp.vec4d,
-        step_new: int,
-    ):
-        # step.py's damping block for grain i: (up, down) with the dashpot's forces at the predicted velocities, and
-        # the loss power's trapezoid (t_n exact, t_n+1 predicted) added to the grain's dissipated energy. Grain i's
-        # old values are still in x_window, grain i+1's too; grain i-1's are carried: above = (u, u at t_n, dt·v,
-        # dt·v at t_n); driver = (u_0 at t_n+1, amplitude, omega, t_n+1) of a driven surface
-        above_u = above[0]
-        above_u_old = above[1]
-        above_rate = above[2]
-        above_rate_old = above[3]
-        u_drive = driver[0]
-        amplitude = driver[1]
-        omega = driver[2]
-        t_new = driver[3]
-        gamma = damping[c]
-        own_rate = predicted_rate(x_window, c, i)
-        own_rate_old = x_window[1, c, i]
-        loss_old = real(0)
-        loss_new = real(0)
-        if wp.static(VISCOUS):
-            own_losses = viscous_losses(gamma, m_inv, own_rate, own_rate_old, h)
-            loss_old = own_losses[0]
-            loss_new = own_losses[1]
-        if wp.static(DASHPOT):
-            if i < last or wp.static(BOTTOM_WALL):
-                below_rate = real(0)
-                below_rate_old = real(0)
-                d_new = u_here
-                d_old_b = own_u_old
-                if i < last:
-                    below_rate = predicted_rate(x_window, c, i + 1)
-                    below_rate_old = x_window[1, c, i + 1]
-                    d_new = u_here - predicted_position(x_window, c, i + 1)
-                    d_old_b = own_u_old - x_window[0, c, i + 1]
-                delta0_below = params(static_overlap, contact_constant, law_parameters, c, i + 1)[0]
-                below_losses = dashpot_losses(
-                    delta0_below,
-                    d_new,
-                    d_old_b,
-                    own_rate - below_rate,
-                    own_rate_old - below_rate_old,
-                    gamma,
-                    h,
-                )
-                down += below_losses[0]
-                loss_new += below_losses[1]
-                loss_old += below_losses[2]
-            if i > 0 or wp.static(SURFACE_WALL):
-                a_u = real(0)
-                a_u_old = real(0)
-                a_rate = real(0)
-                a_rate_old = real(0)
-                outer = i == 0  # the contact above belongs to no integrated grain above
-                if i > 0:
-                    a_u = above_u
-                    a_u_old = above_u_old
-                    a_rate = above_rate
-                    a_rate_old = above_rate_old
-                    if wp.static(DRIVEN):
-                        if i == 1:
-                            outer = True
-                            t_old_d = wp.float64(step_new - 1) * dt
-                            a_u = real(u_drive)
-                            a_u_old = real(product_rn(amplitude, wp.sin(omega * t_old_d)))
-                            a_rate = real(dt * amplitude * omega * wp.cos(omega * t_new))
-                            a_rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old_d))
-                delta0_above = params(static_overlap, contact_constant, law_parameters, c, i)[0]
-                force_above_dashpot = dashpot(delta0_above, a_u - u_here, a_rate - own_rate, gamma, h)
-                up += force_above_dashpot
-                if outer:  # else the grain above counts this contact's loss as its own
-                    above_losses = dashpot_losses(
-                        delta0_above,
-                        a_u - u_here,
-                        a_u_old - own_u_old,
-                        a_rate - own_rate,
-                        a_rate_old - own_rate_old,
-                        gamma,
-                        h,
-                    )
-                    loss_new += above_losses[1]
-                    loss_old += above_losses[2]
-        if i >= own_lo and i < own_hi:
-            dissipated[c, i] = dissipated[c, i] + dt * wp.float64(0.5) * (wp.float64(loss_old) + wp.float64(loss_new))
-        return up, down
-
-    @wp.func(inline=True)
-    def event_correct(
-        x_window: wp.array3d(dtype=real),
-        c: int,
-        i: int,
-        last: int,
-        own_old: values_t,
-        above_old: values_t,
-        u_above: real,
-        u_here: real,
-        u_next: real,
-        m_inv: real,
-        h: real,
-        half_h2_acc: real,
-        static_overlap: wp.array2d(dtype=real),
-        contact_constant: wp.array2d(dtype=real),
-        law_parameters: wp.array(dtype=real),
-    ):
-        # kernels/step.py's event test and event step for grain i, on the same data: its corrector, or its event step
-        # when a contact of it is near opening or closing
-        below = values_t()
-        has_below = wp.static(BOTTOM_WALL)
-        if i < last:
-            below = nordsieck.load(x_window, c, i + 1)
-            has_below = True
-        has_above = wp.static(SURFACE_WALL)
-        if i > 0:
-            has_above = True
-        p_above = params(static_overlap, contact_constant, law_parameters, c, i)
-        p_below = params(static_overlap, contact_constant, law_parameters, c, i + 1)
-        flagged = False
-        if has_above:
-            flagged = near_event(
-                p_above[0] + (above_old[0] - own_old[0]),
-                p_above[0] + (u_above - u_here),
-                above_old[1] - own_old[1],
-                h,
-            )
-        if has_below:
-            flagged = flagged or near_event(
-                p_below[0] + (own_old[0] - below[0]),
-                p_below[0] + (u_here - u_next),
-                own_old[1] - below[1],
-                h,
-            )
-        if flagged:
-            nordsieck.store(
-                x_window,
-                c,
-                i,
-                event_step(own_old, above_old, below, has_above, has_below, p_above, p_below, m_inv, h),
-            )
-        else:
-            correct(x_window, x_window, c, i, u_here, half_h2_acc)
-
-    return SimpleNamespace(
-        contact=contact,
-        chain_shape=chain_shape,
-        driver_values=driver_values,
-        write_traces=write_traces,
-        copy_grains=copy_grains,
-        exchange=exchange,
-        damped_forces=damped_forces,
-        event_correct=event_correct,
-    )
-
-
-def _chain_steps_kernel(layout: SimpleNamespace, functions: SimpleNamespace):
-    """The ``@wp.kernel`` of the chain-per-thread steps (module docstring)."""
+    functions = _chain_functions(layout)
     f, real, Q, SURFACE_WALL, DRIVEN, BOTTOM_WALL = take(layout, "f real Q SURFACE_WALL DRIVEN BOTTOM_WALL")
     FIXED, RING, STATIC, HETERO, contact_force, vec4 = take(layout, "FIXED RING STATIC HETERO contact_force vec4")
     nordsieck, predicted_position, correct = take(layout, "nordsieck predicted_position correct")
@@ -700,6 +376,326 @@ def _chain_steps_kernel(layout: SimpleNamespace, functions: SimpleNamespace):
             copy_grains(x_window, x_out, c, own_lo, own_hi)
 
     return chain_steps
+
+
+def _chain_layout(features: Features) -> SimpleNamespace:
+    """The chain kernel's compile-time constants and the device functions it takes from kernels/gear.py,
+    kernels/physics.py and kernels/events.py, for one feature set."""
+    f = features
+    f = features
+    real = wp.float64 if f.precision == "float64" else wp.float32
+    Q = f.values
+    SURFACE_WALL = f.surface == "wall"
+    DRIVEN = f.surface == "driven"
+    BOTTOM_WALL = f.bottom == "wall"
+    FIXED = f.bottom == "fixed"
+    RING = f.surface == "periodic"  # grain N − 1 touches grain 0 (padded contacts 0 and N); whole chains, no windows
+    STATIC = f.static != "none"
+    PROFILE = f.static == "profile"
+    HETERO = f.heterogeneous
+    HERTZ = f.hertz
+    contact_force, excess_force = contact_functions(f.precision, f.hertz, f.potential)
+    LATTICE = f.potential != "hertz"
+    shape_t = wp.types.vector(2, real) if LATTICE else real
+    vec4 = wp.types.vector(4, real)
+    nordsieck = nordsieck_functions(f.method, f.precision, f.compensation)
+    predicted_position, correct = nordsieck.predicted_position, nordsieck.correct
+    predicted_at, gap, rounded = nordsieck.predicted_at, nordsieck.gap, nordsieck.rounded
+    EVENTS = f.event_window > 0
+    values_t = nordsieck.values
+    params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz, f.potential)
+    if EVENTS:
+        near_event, event_step = event_functions(f)
+    else:
+        near_event = event_step = None
+    DAMPED = f.damping != "none"
+    VISCOUS = f.damping == "viscous"
+    DASHPOT = f.damping == "contact"
+    ORDER = f.nordsieck_values  # rows of the Nordsieck vector (kernels/gear.py)
+    TRACES = f.traces
+
+    predicted_rate, dashpot = damping_functions(f.precision, ORDER)
+    viscous_losses, dashpot_losses = loss_functions(f.precision, ORDER)
+    COMPOSED = f.method in SUBSTEP_WEIGHTS
+    WEIGHTS = SUBSTEP_WEIGHTS.get(f.method, (1.0,))
+    SUBSTEPS = len(WEIGHTS)
+    refuse_composed_extras(f)
+    substep_predicted_at, substep_correct = nordsieck.substep_predicted_at, nordsieck.substep_correct
+    substep_weight = substep_weight_function(f.method, f.precision)
+    return SimpleNamespace(**{name: value for name, value in locals().items() if name != "features"})
+
+
+def _chain_functions(layout: SimpleNamespace) -> SimpleNamespace:
+    """The chain kernel's own device functions: a contact's excess force, the law's shape, traces, the window
+    exchange, the damping forces and losses, and the event-aware corrector."""
+    real, Q, SURFACE_WALL, DRIVEN, BOTTOM_WALL = take(layout, "real Q SURFACE_WALL DRIVEN BOTTOM_WALL")
+    PROFILE, HETERO, HERTZ, contact_force = take(layout, "PROFILE HETERO HERTZ contact_force")
+    excess_force, LATTICE, shape_t, vec4, nordsieck = take(layout, "excess_force LATTICE shape_t vec4 nordsieck")
+    predicted_position, correct, values_t, params = take(layout, "predicted_position correct values_t params")
+    near_event, event_step, VISCOUS, DASHPOT = take(layout, "near_event event_step VISCOUS DASHPOT")
+    predicted_rate, dashpot, viscous_losses = take(layout, "predicted_rate dashpot viscous_losses")
+    (dashpot_losses,) = take(layout, "dashpot_losses")
+
+    @wp.func
+    def contact(
+        static_overlap: wp.array2d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        c: int,
+        k: int,
+        d: real,
+        a_c0: real,
+        delta00: real,
+        force00: real,
+        n: shape_t,
+    ) -> real:
+        # excess force of padded contact k at relative displacement d (step.py's `contact`)
+        if wp.static(PROFILE or HETERO):
+            delta0 = delta00
+            if wp.static(PROFILE):
+                delta0 = static_overlap[c, k]
+            a_c = a_c0
+            if wp.static(HETERO):
+                a_c = contact_constant[c, k]
+            return excess_force(delta0, d, a_c, n)
+        else:
+            # one δ0 and one a_c per chain: F(δ0) is the same for every contact, computed once
+            return contact_force(delta00 + d, a_c0, n) - force00
+
+    @wp.func
+    def chain_shape(law_parameters: wp.array(dtype=real), c: int) -> shape_t:
+        # the law's shape of chain c: n (5/2 compiled in for Hertz) or a lattice law's (p0, p1)
+        if wp.static(LATTICE):
+            return shape_t(law_parameters[2 * c], law_parameters[2 * c + 1])
+        else:
+            n = real(0)
+            if wp.static(not HERTZ):
+                n = law_parameters[c]
+            return n
+
+    driver_values = nordsieck.driver_values
+
+    @wp.func
+    def write_traces(
+        trace_x: wp.array4d(dtype=real),
+        traced_grain: wp.array(dtype=wp.int32),
+        trace_stride: int,
+        x: wp.array3d(dtype=real),
+        c: int,
+        step_new: int,
+        own_lo: int,
+        own_hi: int,
+    ):
+        # kernels/step.py's trace sample: (u, dt·v) of each traced grain after a step k·stride, ring slot k % length
+        if step_new % trace_stride == 0:
+            sample = (step_new / trace_stride) % trace_x.shape[2]
+            for slot in range(traced_grain.shape[0]):
+                i = traced_grain[slot]
+                if i >= own_lo and i < own_hi:
+                    trace_x[0, c, sample, slot] = x[0, c, i]
+                    trace_x[1, c, sample, slot] = x[1, c, i]
+
+    @wp.func
+    def copy_grains(source: wp.array3d(dtype=real), target: wp.array3d(dtype=real), c: int, first: int, end: int):
+        for i in range(first, end):
+            for q in range(wp.static(Q)):
+                target[q, c, i] = source[q, c, i]
+
+    @wp.func
+    def exchange(
+        x_window: wp.array3d(dtype=real),
+        x_out: wp.array3d(dtype=real),
+        c: int,
+        window: wp.vec4i,
+        barrier_state: wp.array(dtype=wp.uint32),
+        parties: int,
+        patience: wp.int64,
+    ) -> bool:
+        # the owned grains next to each cut go out, the window's grains past each cut come in from the neighbour's
+        lo = window[0]
+        hi = window[1]
+        own_lo = window[2]
+        own_hi = window[3]
+        copy_grains(x_window, x_out, c, own_lo, wp.min(own_lo + (own_lo - lo), own_hi))
+        copy_grains(x_window, x_out, c, wp.max(own_hi - (hi - own_hi), own_lo), own_hi)
+        if not barrier(barrier_state, parties, patience):
+            return False
+        copy_grains(x_out, x_window, c, lo, own_lo)
+        copy_grains(x_out, x_window, c, own_hi, hi)
+        # the next exchange writes what the neighbour has just read
+        return barrier(barrier_state, parties, patience)
+
+    @wp.func(inline=True)
+    def damped_forces(
+        up: real,
+        down: real,
+        x_window: wp.array3d(dtype=real),
+        c: int,
+        i: int,
+        last: int,
+        u_here: real,
+        own_u_old: real,
+        above: vec4,
+        m_inv: real,
+        damping: wp.array(dtype=real),
+        dissipated: wp.array2d(dtype=wp.float64),
+        static_overlap: wp.array2d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        law_parameters: wp.array(dtype=real),
+        h: real,
+        dt: wp.float64,
+        own_lo: int,
+        own_hi: int,
+        driver: wp.vec4d,
+        step_new: int,
+    ):
+        # step.py's damping block for grain i: (up, down) with the dashpot's forces at the predicted velocities, and
+        # the loss power's trapezoid (t_n exact, t_n+1 predicted) added to the grain's dissipated energy. Grain i's
+        # old values are still in x_window, grain i+1's too; grain i-1's are carried: above = (u, u at t_n, dt·v,
+        # dt·v at t_n); driver = (u_0 at t_n+1, amplitude, omega, t_n+1) of a driven surface
+        above_u = above[0]
+        above_u_old = above[1]
+        above_rate = above[2]
+        above_rate_old = above[3]
+        u_drive = driver[0]
+        amplitude = driver[1]
+        omega = driver[2]
+        t_new = driver[3]
+        gamma = damping[c]
+        own_rate = predicted_rate(x_window, c, i)
+        own_rate_old = x_window[1, c, i]
+        loss_old = real(0)
+        loss_new = real(0)
+        if wp.static(VISCOUS):
+            own_losses = viscous_losses(gamma, m_inv, own_rate, own_rate_old, h)
+            loss_old = own_losses[0]
+            loss_new = own_losses[1]
+        if wp.static(DASHPOT):
+            if i < last or wp.static(BOTTOM_WALL):
+                below_rate = real(0)
+                below_rate_old = real(0)
+                d_new = u_here
+                d_old_b = own_u_old
+                if i < last:
+                    below_rate = predicted_rate(x_window, c, i + 1)
+                    below_rate_old = x_window[1, c, i + 1]
+                    d_new = u_here - predicted_position(x_window, c, i + 1)
+                    d_old_b = own_u_old - x_window[0, c, i + 1]
+                delta0_below = params(static_overlap, contact_constant, law_parameters, c, i + 1)[0]
+                below_losses = dashpot_losses(
+                    delta0_below,
+                    d_new,
+                    d_old_b,
+                    own_rate - below_rate,
+                    own_rate_old - below_rate_old,
+                    gamma,
+                    h,
+                )
+                down += below_losses[0]
+                loss_new += below_losses[1]
+                loss_old += below_losses[2]
+            if i > 0 or wp.static(SURFACE_WALL):
+                a_u = real(0)
+                a_u_old = real(0)
+                a_rate = real(0)
+                a_rate_old = real(0)
+                outer = i == 0  # the contact above belongs to no integrated grain above
+                if i > 0:
+                    a_u = above_u
+                    a_u_old = above_u_old
+                    a_rate = above_rate
+                    a_rate_old = above_rate_old
+                    if wp.static(DRIVEN):
+                        if i == 1:
+                            outer = True
+                            t_old_d = wp.float64(step_new - 1) * dt
+                            a_u = real(u_drive)
+                            a_u_old = real(product_rn(amplitude, wp.sin(omega * t_old_d)))
+                            a_rate = real(dt * amplitude * omega * wp.cos(omega * t_new))
+                            a_rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old_d))
+                delta0_above = params(static_overlap, contact_constant, law_parameters, c, i)[0]
+                force_above_dashpot = dashpot(delta0_above, a_u - u_here, a_rate - own_rate, gamma, h)
+                up += force_above_dashpot
+                if outer:  # else the grain above counts this contact's loss as its own
+                    above_losses = dashpot_losses(
+                        delta0_above,
+                        a_u - u_here,
+                        a_u_old - own_u_old,
+                        a_rate - own_rate,
+                        a_rate_old - own_rate_old,
+                        gamma,
+                        h,
+                    )
+                    loss_new += above_losses[1]
+                    loss_old += above_losses[2]
+        if i >= own_lo and i < own_hi:
+            dissipated[c, i] = dissipated[c, i] + dt * wp.float64(0.5) * (wp.float64(loss_old) + wp.float64(loss_new))
+        return up, down
+
+    @wp.func(inline=True)
+    def event_correct(
+        x_window: wp.array3d(dtype=real),
+        c: int,
+        i: int,
+        last: int,
+        own_old: values_t,
+        above_old: values_t,
+        u_above: real,
+        u_here: real,
+        u_next: real,
+        m_inv: real,
+        h: real,
+        half_h2_acc: real,
+        static_overlap: wp.array2d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        law_parameters: wp.array(dtype=real),
+    ):
+        # kernels/step.py's event test and event step for grain i, on the same data: its corrector, or its event step
+        # when a contact of it is near opening or closing
+        below = values_t()
+        has_below = wp.static(BOTTOM_WALL)
+        if i < last:
+            below = nordsieck.load(x_window, c, i + 1)
+            has_below = True
+        has_above = wp.static(SURFACE_WALL)
+        if i > 0:
+            has_above = True
+        p_above = params(static_overlap, contact_constant, law_parameters, c, i)
+        p_below = params(static_overlap, contact_constant, law_parameters, c, i + 1)
+        flagged = False
+        if has_above:
+            flagged = near_event(
+                p_above[0] + (above_old[0] - own_old[0]),
+                p_above[0] + (u_above - u_here),
+                above_old[1] - own_old[1],
+                h,
+            )
+        if has_below:
+            flagged = flagged or near_event(
+                p_below[0] + (own_old[0] - below[0]),
+                p_below[0] + (u_here - u_next),
+                own_old[1] - below[1],
+                h,
+            )
+        if flagged:
+            nordsieck.store(
+                x_window,
+                c,
+                i,
+                event_step(own_old, above_old, below, has_above, has_below, p_above, p_below, m_inv, h),
+            )
+        else:
+            correct(x_window, x_window, c, i, u_here, half_h2_acc)
+
+    return SimpleNamespace(
+        contact=contact,
+        chain_shape=chain_shape,
+        driver_values=driver_values,
+        write_traces=write_traces,
+        copy_grains=copy_grains,
+        exchange=exchange,
+        damped_forces=damped_forces,
+        event_correct=event_correct,
+    )
 
 
 def launch_chain(

@@ -31,7 +31,202 @@ from hertzian.kernels.physics import (
 def step_kernel(features: Features):
     """The step kernel for one feature set (cached; a feature that is off generates no code)."""
     layout = _step_layout(features)
-    return _step_kernel(layout, _step_functions(layout))
+    functions = _step_functions(layout)
+    real, Q, SURFACE_WALL, DRIVEN, BOTTOM_WALL, FIXED = take(layout, "real Q SURFACE_WALL DRIVEN BOTTOM_WALL FIXED")
+    HETERO, params, nordsieck, correct, predicted_at = take(layout, "HETERO params nordsieck correct predicted_at")
+    rounded, EVENTS, values_t, near_event, event_step = take(layout, "rounded EVENTS values_t near_event event_step")
+    DAMPED, VISCOUS, predicted_rate, driver_values = take(layout, "DAMPED VISCOUS predicted_rate driver_values")
+    COMPOSED, LAST_SUBSTEP, substep_predicted_at = take(layout, "COMPOSED LAST_SUBSTEP substep_predicted_at")
+    substep_correct, substep_weight = take(layout, "substep_correct substep_weight")
+    write_trace, driven_grain, contact_forces = take(functions, "write_trace driven_grain contact_forces")
+    (damped_forces,) = take(functions, "damped_forces")
+
+    # grid_stride=False: one thread per (chain, grain), no grid-stride loop (less index work per thread)
+    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False, grid_stride=False)
+    def step(
+        x_in: wp.array3d(dtype=real),
+        clock_in: wp.array(dtype=wp.int32),
+        inverse_mass: wp.array2d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        static_overlap: wp.array2d(dtype=real),
+        law_parameters: wp.array(dtype=real),
+        drive: wp.array2d(dtype=wp.float64),
+        status: wp.array(dtype=wp.int32),
+        trace_slot: wp.array(dtype=wp.int32),
+        trace_stride: int,
+        work_in: wp.array(dtype=wp.float64),
+        power_in: wp.array(dtype=wp.float64),
+        dt: wp.float64,
+        substep: int,
+        x_out: wp.array3d(dtype=real),
+        clock_out: wp.array(dtype=wp.int32),
+        trace_x: wp.array4d(dtype=real),
+        work_out: wp.array(dtype=wp.float64),
+        power_out: wp.array(dtype=wp.float64),
+        damping: wp.array(dtype=real),
+        dissipated: wp.array2d(dtype=wp.float64),
+    ):
+        c, i = wp.tid()
+        n_grains = x_in.shape[2]
+        step_new = clock_in[0] + 1
+        ends_step = True  # a composed method's step ends with its last substep
+        if wp.static(COMPOSED):
+            ends_step = substep == wp.static(LAST_SUBSTEP)
+            if not ends_step:
+                step_new = clock_in[0]
+        if c == 0 and i == 0:
+            clock_out[0] = step_new
+        h = real(dt)
+        w = substep_weight(substep)
+
+        frozen = status[c] == wp.static(STATUS_NON_FINITE)
+        held = frozen
+        if wp.static(FIXED):
+            held = held or i == n_grains - 1
+        if held:
+            # a blown-up chain is frozen; a fixed bottom grain never moves
+            for k in range(wp.static(Q)):
+                x_out[k, c, i] = x_in[k, c, i]
+            if ends_step:
+                write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, x_in[0, c, i], x_in[1, c, i])
+            return
+
+        amplitude = wp.float64(0)  # a driven surface: the driver's amplitude, ω, t_n+1 and u_0(t_n+1)
+        omega = wp.float64(0)
+        t_new = wp.float64(0)
+        u_drive = wp.float64(0)
+        if wp.static(DRIVEN):
+            amplitude = drive[c, 0]
+            omega = drive[c, 1]
+            t_new = wp.float64(step_new) * dt
+            u_drive = product_rn(amplitude, wp.sin(omega * t_new))
+            if i == 0:
+                driven_grain(
+                    x_in,
+                    static_overlap,
+                    contact_constant,
+                    law_parameters,
+                    c,
+                    i,
+                    step_new,
+                    dt,
+                    h,
+                    amplitude,
+                    omega,
+                    t_new,
+                    u_drive,
+                    damping,
+                    work_in,
+                    power_in,
+                    work_out,
+                    power_out,
+                    x_out,
+                    trace_x,
+                    trace_slot,
+                    trace_stride,
+                )
+                return
+
+        # compensated float32: positions as (hi, lo) for the contacts (kernels/gear.py)
+        if wp.static(COMPOSED):
+            position_p = substep_predicted_at(x_in, c, i, w)
+        else:
+            position_p = predicted_at(x_in, c, i)
+        u_p = rounded(position_p)
+        if wp.static(EVENTS):
+            # a grain touching a contact near an opening or closing takes an event step (kernels/events.py)
+            own = nordsieck.load(x_in, c, i)
+            above = values_t()
+            below = values_t()
+            u_above_p = real(0)
+            u_below_p = real(0)
+            has_above = False
+            has_below = False
+            if i > 0:
+                has_above = True
+                if wp.static(DRIVEN):
+                    if i == 1:
+                        above = driver_values(amplitude, omega, wp.float64(step_new - 1) * dt, dt)
+                        u_above_p = real(u_drive)
+                    else:
+                        above = nordsieck.load(x_in, c, i - 1)
+                        u_above_p = nordsieck.predict_position(above)
+                else:
+                    above = nordsieck.load(x_in, c, i - 1)
+                    u_above_p = nordsieck.predict_position(above)
+            else:
+                has_above = wp.static(SURFACE_WALL)
+            if i < n_grains - 1:
+                has_below = True
+                below = nordsieck.load(x_in, c, i + 1)
+                u_below_p = nordsieck.predict_position(below)
+            else:
+                has_below = wp.static(BOTTOM_WALL)
+            p_above = params(static_overlap, contact_constant, law_parameters, c, i)
+            p_below = params(static_overlap, contact_constant, law_parameters, c, i + 1)
+            flagged = False
+            if has_above:
+                flagged = near_event(
+                    p_above[0] + (above[0] - own[0]), p_above[0] + (u_above_p - u_p), above[1] - own[1], h
+                )
+            if has_below:
+                flagged = flagged or near_event(
+                    p_below[0] + (own[0] - below[0]), p_below[0] + (u_p - u_below_p), own[1] - below[1], h
+                )
+            if flagged:
+                inv_m_event = real(0)
+                if wp.static(HETERO):
+                    inv_m_event = inverse_mass[c, i]
+                else:
+                    inv_m_event = inverse_mass[c, 0]
+                new_values = event_step(own, above, below, has_above, has_below, p_above, p_below, inv_m_event, h)
+                nordsieck.store(x_out, c, i, new_values)
+                write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, new_values[0], new_values[1])
+                return
+        up, down = contact_forces(
+            x_in, static_overlap, contact_constant, law_parameters, c, i, n_grains, position_p, u_p, w, u_drive
+        )
+        inv_m = real(0)
+        if wp.static(HETERO):
+            inv_m = inverse_mass[c, i]
+        else:
+            inv_m = inverse_mass[c, 0]
+        if wp.static(DAMPED):
+            up, down = damped_forces(
+                up,
+                down,
+                x_in,
+                static_overlap,
+                contact_constant,
+                law_parameters,
+                c,
+                i,
+                n_grains,
+                u_p,
+                inv_m,
+                h,
+                dt,
+                step_new,
+                amplitude,
+                omega,
+                t_new,
+                u_drive,
+                damping,
+                dissipated,
+            )
+        half_h2_acc = real(0.5) * h * h * (up - down) * inv_m
+        if wp.static(VISCOUS):
+            half_h2_acc -= real(0.5) * h * damping[c] * predicted_rate(x_in, c, i)  # h²/2 · (−γ v)
+
+        if wp.static(COMPOSED):
+            new = substep_correct(x_in, x_out, c, i, u_p, half_h2_acc, w)
+            if ends_step:
+                write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, new[0], new[1])
+        else:
+            new = correct(x_in, x_out, c, i, u_p, half_h2_acc)
+            write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, new[0], new[1])
+
+    return step
 
 
 def _step_layout(features: Features) -> SimpleNamespace:
@@ -358,202 +553,3 @@ def _step_functions(layout: SimpleNamespace) -> SimpleNamespace:
         contact_forces=contact_forces,
         damped_forces=damped_forces,
     )
-
-
-def _step_kernel(layout: SimpleNamespace, functions: SimpleNamespace):
-    """The ``@wp.kernel`` of one step (or substep) per launch over (chain, grain)."""
-    real, Q, SURFACE_WALL, DRIVEN, BOTTOM_WALL, FIXED = take(layout, "real Q SURFACE_WALL DRIVEN BOTTOM_WALL FIXED")
-    HETERO, params, nordsieck, correct, predicted_at = take(layout, "HETERO params nordsieck correct predicted_at")
-    rounded, EVENTS, values_t, near_event, event_step = take(layout, "rounded EVENTS values_t near_event event_step")
-    DAMPED, VISCOUS, predicted_rate, driver_values = take(layout, "DAMPED VISCOUS predicted_rate driver_values")
-    COMPOSED, LAST_SUBSTEP, substep_predicted_at = take(layout, "COMPOSED LAST_SUBSTEP substep_predicted_at")
-    substep_correct, substep_weight = take(layout, "substep_correct substep_weight")
-    write_trace, driven_grain, contact_forces = take(functions, "write_trace driven_grain contact_forces")
-    (damped_forces,) = take(functions, "damped_forces")
-
-    # grid_stride=False: one thread per (chain, grain), no grid-stride loop (less index work per thread)
-    @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False, grid_stride=False)
-    def step(
-        x_in: wp.array3d(dtype=real),
-        clock_in: wp.array(dtype=wp.int32),
-        inverse_mass: wp.array2d(dtype=real),
-        contact_constant: wp.array2d(dtype=real),
-        static_overlap: wp.array2d(dtype=real),
-        law_parameters: wp.array(dtype=real),
-        drive: wp.array2d(dtype=wp.float64),
-        status: wp.array(dtype=wp.int32),
-        trace_slot: wp.array(dtype=wp.int32),
-        trace_stride: int,
-        work_in: wp.array(dtype=wp.float64),
-        power_in: wp.array(dtype=wp.float64),
-        dt: wp.float64,
-        substep: int,
-        x_out: wp.array3d(dtype=real),
-        clock_out: wp.array(dtype=wp.int32),
-        trace_x: wp.array4d(dtype=real),
-        work_out: wp.array(dtype=wp.float64),
-        power_out: wp.array(dtype=wp.float64),
-        damping: wp.array(dtype=real),
-        dissipated: wp.array2d(dtype=wp.float64),
-    ):
-        c, i = wp.tid()
-        n_grains = x_in.shape[2]
-        step_new = clock_in[0] + 1
-        ends_step = True  # a composed method's step ends with its last substep
-        if wp.static(COMPOSED):
-            ends_step = substep == wp.static(LAST_SUBSTEP)
-            if not ends_step:
-                step_new = clock_in[0]
-        if c == 0 and i == 0:
-            clock_out[0] = step_new
-        h = real(dt)
-        w = substep_weight(substep)
-
-        frozen = status[c] == wp.static(STATUS_NON_FINITE)
-        held = frozen
-        if wp.static(FIXED):
-            held = held or i == n_grains - 1
-        if held:
-            # a blown-up chain is frozen; a fixed bottom grain never moves
-            for k in range(wp.static(Q)):
-                x_out[k, c, i] = x_in[k, c, i]
-            if ends_step:
-                write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, x_in[0, c, i], x_in[1, c, i])
-            return
-
-        amplitude = wp.float64(0)  # a driven surface: the driver's amplitude, ω, t_n+1 and u_0(t_n+1)
-        omega = wp.float64(0)
-        t_new = wp.float64(0)
-        u_drive = wp.float64(0)
-        if wp.static(DRIVEN):
-            amplitude = drive[c, 0]
-            omega = drive[c, 1]
-            t_new = wp.float64(step_new) * dt
-            u_drive = product_rn(amplitude, wp.sin(omega * t_new))
-            if i == 0:
-                driven_grain(
-                    x_in,
-                    static_overlap,
-                    contact_constant,
-                    law_parameters,
-                    c,
-                    i,
-                    step_new,
-                    dt,
-                    h,
-                    amplitude,
-                    omega,
-                    t_new,
-                    u_drive,
-                    damping,
-                    work_in,
-                    power_in,
-                    work_out,
-                    power_out,
-                    x_out,
-                    trace_x,
-                    trace_slot,
-                    trace_stride,
-                )
-                return
-
-        # compensated float32: positions as (hi, lo) for the contacts (kernels/gear.py)
-        if wp.static(COMPOSED):
-            position_p = substep_predicted_at(x_in, c, i, w)
-        else:
-            position_p = predicted_at(x_in, c, i)
-        u_p = rounded(position_p)
-        if wp.static(EVENTS):
-            # a grain touching a contact near an opening or closing takes an event step (kernels/events.py)
-            own = nordsieck.load(x_in, c, i)
-            above = values_t()
-            below = values_t()
-            u_above_p = real(0)
-            u_below_p = real(0)
-            has_above = False
-            has_below = False
-            if i > 0:
-                has_above = True
-                if wp.static(DRIVEN):
-                    if i == 1:
-                        above = driver_values(amplitude, omega, wp.float64(step_new - 1) * dt, dt)
-                        u_above_p = real(u_drive)
-                    else:
-                        above = nordsieck.load(x_in, c, i - 1)
-                        u_above_p = nordsieck.predict_position(above)
-                else:
-                    above = nordsieck.load(x_in, c, i - 1)
-                    u_above_p = nordsieck.predict_position(above)
-            else:
-                has_above = wp.static(SURFACE_WALL)
-            if i < n_grains - 1:
-                has_below = True
-                below = nordsieck.load(x_in, c, i + 1)
-                u_below_p = nordsieck.predict_position(below)
-            else:
-                has_below = wp.static(BOTTOM_WALL)
-            p_above = params(static_overlap, contact_constant, law_parameters, c, i)
-            p_below = params(static_overlap, contact_constant, law_parameters, c, i + 1)
-            flagged = False
-            if has_above:
-                flagged = near_event(
-                    p_above[0] + (above[0] - own[0]), p_above[0] + (u_above_p - u_p), above[1] - own[1], h
-                )
-            if has_below:
-                flagged = flagged or near_event(
-                    p_below[0] + (own[0] - below[0]), p_below[0] + (u_p - u_below_p), own[1] - below[1], h
-                )
-            if flagged:
-                inv_m_event = real(0)
-                if wp.static(HETERO):
-                    inv_m_event = inverse_mass[c, i]
-                else:
-                    inv_m_event = inverse_mass[c, 0]
-                new_values = event_step(own, above, below, has_above, has_below, p_above, p_below, inv_m_event, h)
-                nordsieck.store(x_out, c, i, new_values)
-                write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, new_values[0], new_values[1])
-                return
-        up, down = contact_forces(
-            x_in, static_overlap, contact_constant, law_parameters, c, i, n_grains, position_p, u_p, w, u_drive
-        )
-        inv_m = real(0)
-        if wp.static(HETERO):
-            inv_m = inverse_mass[c, i]
-        else:
-            inv_m = inverse_mass[c, 0]
-        if wp.static(DAMPED):
-            up, down = damped_forces(
-                up,
-                down,
-                x_in,
-                static_overlap,
-                contact_constant,
-                law_parameters,
-                c,
-                i,
-                n_grains,
-                u_p,
-                inv_m,
-                h,
-                dt,
-                step_new,
-                amplitude,
-                omega,
-                t_new,
-                u_drive,
-                damping,
-                dissipated,
-            )
-        half_h2_acc = real(0.5) * h * h * (up - down) * inv_m
-        if wp.static(VISCOUS):
-            half_h2_acc -= real(0.5) * h * damping[c] * predicted_rate(x_in, c, i)  # h²/2 · (−γ v)
-
-        if wp.static(COMPOSED):
-            new = substep_correct(x_in, x_out, c, i, u_p, half_h2_acc, w)
-            if ends_step:
-                write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, new[0], new[1])
-        else:
-            new = correct(x_in, x_out, c, i, u_p, half_h2_acc)
-            write_trace(trace_x, trace_slot, trace_stride, c, i, step_new, new[0], new[1])
-
-    return step
