@@ -14,6 +14,7 @@ state precision.
 """
 
 import functools
+from types import SimpleNamespace
 from typing import Any, NamedTuple
 
 import warp as wp
@@ -23,6 +24,7 @@ from hertzian.kernels.features import (
     STATUS_OK,
     STATUS_OVERLAP_BEYOND_VALIDITY,
     Features,
+    take,
 )
 from hertzian.kernels.physics import (
     contact_functions,
@@ -80,121 +82,11 @@ class RecordKernels(NamedTuple):
 def record_kernels(features: Features) -> RecordKernels:
     """The record kernels for one feature set: energy (relative to the static state), work, max overlap and
     status, as described in the module docstring."""
-    f = features
-    real = wp.float64 if f.precision == "float64" else wp.float32
-    SURFACE_WALL = f.surface == "wall"
-    DRIVEN = f.surface == "driven"
-    BOTTOM_WALL = f.bottom == "wall"
-    RING = f.surface == "periodic"  # the closing contact (grains N − 1 and 0), padded contact 0
-    HETERO = f.heterogeneous
-    DAMPED = f.damping != "none"
-    DASHPOT = f.damping == "contact"
-    contact_force, excess_force = contact_functions(f.precision, f.hertz, f.potential)
-    params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz, f.potential)
-    shape = shape_function(f.precision, f.potential)
-    LATTICE = f.potential != "hertz"
-    lattice_excess = lattice_excess_potential(f.potential) if LATTICE else None
-    VALIDITY = not LATTICE  # the Hertz law's overlap limit; a lattice law has none
-    COMP = f.compensation
-    LO_U = f.nordsieck_values  # compensated float32: rows of the low parts of u and dt·v (kernels/gear.py)
-    LO_RATE = LO_U + 1
-
-    @wp.func
-    def position(x: wp.array3d(dtype=real), c: int, i: int) -> wp.float64:
-        # u of grain i in float64 (compensated: hi + lo)
-        if wp.static(COMP):
-            return wp.float64(x[0, c, i]) + wp.float64(x[wp.static(LO_U), c, i])
-        return wp.float64(x[0, c, i])
-
-    @wp.func
-    def rate(x: wp.array3d(dtype=real), c: int, i: int) -> wp.float64:
-        # dt·v of grain i in float64 (compensated: hi + lo)
-        if wp.static(COMP):
-            return wp.float64(x[1, c, i]) + wp.float64(x[wp.static(LO_RATE), c, i])
-        return wp.float64(x[1, c, i])
-
-    @wp.func
-    def contact_terms(
-        static_overlap: wp.array2d(dtype=real),
-        contact_constant: wp.array2d(dtype=real),
-        law_parameters: wp.array(dtype=real),
-        c: int,
-        k: int,
-        d: wp.float64,
-    ) -> wp.vec2d:
-        # (excess potential, absolute overlap) of padded contact k at relative displacement d
-        p = params(static_overlap, contact_constant, law_parameters, c, k)
-        delta0 = wp.float64(p[0])
-        if wp.static(LATTICE):
-            shape64 = wp.vec2d(wp.float64(p[2]), wp.float64(p[3]))
-            return wp.vec2d(lattice_excess(delta0, d, wp.float64(p[1]), shape64), delta0 + d)
-        else:
-            return wp.vec2d(excess_potential(delta0, d, wp.float64(p[1]), wp.float64(p[2])), delta0 + d)
-
-    @wp.func
-    def store_part(
-        parts: wp.array3d(dtype=wp.float64),
-        c: int,
-        part: int,
-        sums: wp.vec4d,
-        dissipated_grain: wp.array2d(dtype=wp.float64),
-        start: int,
-        end: int,
-    ):
-        # a part's (kinetic, potential, largest overlap, finite) and, damped, its grains' dissipated energy in order
-        lost = wp.float64(0.0)
-        if wp.static(DAMPED):
-            for i in range(start, end):
-                lost += dissipated_grain[c, i]
-        for q in range(4):
-            parts[c, part, q] = sums[q]
-        parts[c, part, 4] = lost
-
-    @wp.func
-    def grain_terms_of(
-        x: wp.array3d(dtype=real),
-        inverse_mass: wp.array2d(dtype=real),
-        contact_constant: wp.array2d(dtype=real),
-        static_overlap: wp.array2d(dtype=real),
-        law_parameters: wp.array(dtype=real),
-        validity_scale: wp.array2d(dtype=wp.float64),
-        dt: wp.float64,
-        c: int,
-        i: int,
-    ) -> wp.vec4d:
-        # grain i's terms of a chain's sums: kinetic energy (0 for the driven grain, whose motion is prescribed),
-        # excess potential and overlap of the contact above it (0 and -1e300 for grain 0; heterogeneous: times the
-        # contact's validity scale R0/min(R_i, R_j)), finite (1.0 or 0.0)
-        u = position(x, c, i)
-        v = rate(x, c, i) / dt
-        finite = wp.float64(1.0)
-        if not (wp.isfinite(u) and wp.isfinite(v)):
-            finite = wp.float64(0.0)
-        first = int(0)
-        if wp.static(DRIVEN):
-            first = 1
-        kinetic = wp.float64(0.0)
-        if i >= first:
-            inv_m = wp.float64(0.0)
-            if wp.static(HETERO):
-                inv_m = wp.float64(inverse_mass[c, i])
-            else:
-                inv_m = wp.float64(inverse_mass[c, 0])
-            kinetic = wp.float64(0.5) * v * v / inv_m
-        potential = wp.float64(0.0)
-        overlap = wp.float64(-1.0e300)
-        if i > 0:
-            terms = contact_terms(static_overlap, contact_constant, law_parameters, c, i, position(x, c, i - 1) - u)
-            potential = terms[0]
-            overlap = terms[1]
-            if wp.static(HETERO):
-                overlap = overlap * validity_scale[c, i]
-        return wp.vec4d(kinetic, potential, overlap, finite)
-
-    @wp.func
-    def add_terms(sums: wp.vec4d, terms: wp.vec4d) -> wp.vec4d:
-        # a part's running sums (kinetic, potential), largest overlap and finite flag, one grain further
-        return wp.vec4d(sums[0] + terms[0], sums[1] + terms[1], wp.max(sums[2], terms[2]), wp.min(sums[3], terms[3]))
+    layout = _record_layout(features)
+    functions = _record_functions(layout)
+    (real,) = take(layout, "real")
+    store_part, grain_terms_of, add_terms = take(functions, "store_part grain_terms_of add_terms")
+    (close_record,) = take(functions, "close_record")
 
     @wp.kernel(module="unique", module_options=dict(KERNEL_OPTIONS, block_dim=RECORD_BLOCK_DIM), enable_backward=False)
     def record_parts(
@@ -262,94 +154,6 @@ def record_kernels(features: Features) -> RecordKernels:
             for i in range(end - start):
                 sums = add_terms(sums, terms[0, i])
             store_part(parts, c, part, sums, dissipated_grain, start, end)
-
-    @wp.func
-    def close_record(
-        x: wp.array3d(dtype=real),
-        contact_constant: wp.array2d(dtype=real),
-        static_overlap: wp.array2d(dtype=real),
-        law_parameters: wp.array(dtype=real),
-        drive: wp.array2d(dtype=wp.float64),
-        work_in: wp.array(dtype=wp.float64),
-        power_in: wp.array(dtype=wp.float64),
-        step: int,
-        dt: wp.float64,
-        validity_overlap: wp.array(dtype=wp.float64),
-        validity_scale: wp.array2d(dtype=wp.float64),
-        energy: wp.array(dtype=wp.float64),
-        work: wp.array(dtype=wp.float64),
-        max_overlap: wp.array(dtype=wp.float64),
-        status: wp.array(dtype=wp.int32),
-        damping: wp.array(dtype=real),
-        dissipated: wp.array(dtype=wp.float64),
-        c: int,
-        sums: wp.vec4d,
-        lost: wp.float64,
-    ):
-        # chain c's record from the sums of its parts: the walls, the driver's work and the status
-        n_grains = x.shape[2]
-        kinetic = sums[0]
-        potential = sums[1]
-        largest = sums[2]
-        finite = sums[3]
-        if wp.static(SURFACE_WALL):
-            terms = contact_terms(static_overlap, contact_constant, law_parameters, c, 0, -position(x, c, 0))
-            potential += terms[0]
-            if wp.static(HETERO):
-                largest = wp.max(largest, terms[1] * validity_scale[c, 0])
-            else:
-                largest = wp.max(largest, terms[1])
-        if wp.static(RING):
-            closing = position(x, c, n_grains - 1) - position(x, c, 0)
-            terms = contact_terms(static_overlap, contact_constant, law_parameters, c, 0, closing)
-            potential += terms[0]
-            largest = wp.max(largest, terms[1])
-        if wp.static(BOTTOM_WALL):
-            terms = contact_terms(
-                static_overlap, contact_constant, law_parameters, c, n_grains, position(x, c, n_grains - 1)
-            )
-            potential += terms[0]
-            if wp.static(HETERO):
-                largest = wp.max(largest, terms[1] * validity_scale[c, n_grains])
-            else:
-                largest = wp.max(largest, terms[1])
-        energy[c] = kinetic + potential
-        max_overlap[c] = largest
-
-        if wp.static(DRIVEN):
-            # close the trapezoid of the driver's power up to this record's time
-            amplitude = drive[c, 0]
-            omega = drive[c, 1]
-            d = x[0, c, 0] - x[0, c, 1]
-            p = params(static_overlap, contact_constant, law_parameters, c, 1)
-            delta0 = p[0]
-            a_c = p[1]
-            n = shape(p)
-            force = wp.float64(excess_force(delta0, d, a_c, n))
-            if wp.static(DASHPOT):
-                # the dashpot of the driver's contact (as in the step kernel's work)
-                if delta0 + d > real(0):
-                    force += wp.float64(damping[c]) * (wp.float64(x[1, c, 0]) - wp.float64(x[1, c, 1])) / dt
-            power = force * amplitude * omega * wp.cos(omega * wp.float64(step) * dt)
-            # The step kernel integrates the excess force's power; the static force of contact 0–1
-            # does work F0_1·u_0(t) exactly. Adding it to work and energy makes both docs/model.md's (the
-            # energy up to a constant): E − W is unchanged.
-            static_work = wp.float64(contact_force(delta0, a_c, n)) * wp.float64(x[0, c, 0])
-            closing = dt * wp.float64(0.5) * (power_in[c] + power)
-            if wp.static(DASHPOT):
-                if step == 0:
-                    closing = wp.float64(0.0)  # W(0) = 0 (the dashpot's power at t = 0 is not zero)
-            work[c] = work_in[c] + closing + static_work
-            energy[c] = energy[c] + static_work
-
-        if wp.static(DAMPED):
-            dissipated[c] = lost
-
-        if finite == wp.float64(0.0):
-            status[c] = wp.static(STATUS_NON_FINITE)
-        elif wp.static(VALIDITY):
-            if status[c] == wp.static(STATUS_OK) and largest > validity_overlap[c]:
-                status[c] = wp.static(STATUS_OVERLAP_BEYOND_VALIDITY)
 
     @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
     def record(
@@ -472,6 +276,234 @@ def record_kernels(features: Features) -> RecordKernels:
             )
 
     return RecordKernels(record_parts, record, record_grains, record_parts_of_grains, record_long)
+
+
+def _record_layout(features: Features) -> SimpleNamespace:
+    """The record kernels' compile-time constants and the contact law's device functions, for one feature set."""
+    f = features
+    f = features
+    real = wp.float64 if f.precision == "float64" else wp.float32
+    SURFACE_WALL = f.surface == "wall"
+    DRIVEN = f.surface == "driven"
+    BOTTOM_WALL = f.bottom == "wall"
+    RING = f.surface == "periodic"  # the closing contact (grains N − 1 and 0), padded contact 0
+    HETERO = f.heterogeneous
+    DAMPED = f.damping != "none"
+    DASHPOT = f.damping == "contact"
+    contact_force, excess_force = contact_functions(f.precision, f.hertz, f.potential)
+    params = contact_parameters(f.precision, f.static, f.heterogeneous, f.hertz, f.potential)
+    shape = shape_function(f.precision, f.potential)
+    LATTICE = f.potential != "hertz"
+    lattice_excess = lattice_excess_potential(f.potential) if LATTICE else None
+    VALIDITY = not LATTICE  # the Hertz law's overlap limit; a lattice law has none
+    COMP = f.compensation
+    LO_U = f.nordsieck_values  # compensated float32: rows of the low parts of u and dt·v (kernels/gear.py)
+    LO_RATE = LO_U + 1
+    return SimpleNamespace(**{name: value for name, value in locals().items() if name != "features"})
+
+
+def _record_functions(layout: SimpleNamespace) -> SimpleNamespace:
+    """The record kernels' device functions: a grain's position and rate in float64, a contact's excess potential
+    and overlap, a grain's terms, a part's sums stored, and a chain's record closed."""
+    real, SURFACE_WALL, DRIVEN, BOTTOM_WALL, RING = take(layout, "real SURFACE_WALL DRIVEN BOTTOM_WALL RING")
+    HETERO, DAMPED, DASHPOT, contact_force = take(layout, "HETERO DAMPED DASHPOT contact_force")
+    excess_force, params, shape, LATTICE = take(layout, "excess_force params shape LATTICE")
+    lattice_excess, VALIDITY, COMP, LO_U, LO_RATE = take(layout, "lattice_excess VALIDITY COMP LO_U LO_RATE")
+
+    @wp.func
+    def position(x: wp.array3d(dtype=real), c: int, i: int) -> wp.float64:
+        # u of grain i in float64 (compensated: hi + lo)
+        if wp.static(COMP):
+            return wp.float64(x[0, c, i]) + wp.float64(x[wp.static(LO_U), c, i])
+        return wp.float64(x[0, c, i])
+
+    @wp.func
+    def rate(x: wp.array3d(dtype=real), c: int, i: int) -> wp.float64:
+        # dt·v of grain i in float64 (compensated: hi + lo)
+        if wp.static(COMP):
+            return wp.float64(x[1, c, i]) + wp.float64(x[wp.static(LO_RATE), c, i])
+        return wp.float64(x[1, c, i])
+
+    @wp.func
+    def contact_terms(
+        static_overlap: wp.array2d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        law_parameters: wp.array(dtype=real),
+        c: int,
+        k: int,
+        d: wp.float64,
+    ) -> wp.vec2d:
+        # (excess potential, absolute overlap) of padded contact k at relative displacement d
+        p = params(static_overlap, contact_constant, law_parameters, c, k)
+        delta0 = wp.float64(p[0])
+        if wp.static(LATTICE):
+            shape64 = wp.vec2d(wp.float64(p[2]), wp.float64(p[3]))
+            return wp.vec2d(lattice_excess(delta0, d, wp.float64(p[1]), shape64), delta0 + d)
+        else:
+            return wp.vec2d(excess_potential(delta0, d, wp.float64(p[1]), wp.float64(p[2])), delta0 + d)
+
+    @wp.func
+    def store_part(
+        parts: wp.array3d(dtype=wp.float64),
+        c: int,
+        part: int,
+        sums: wp.vec4d,
+        dissipated_grain: wp.array2d(dtype=wp.float64),
+        start: int,
+        end: int,
+    ):
+        # a part's (kinetic, potential, largest overlap, finite) and, damped, its grains' dissipated energy in order
+        lost = wp.float64(0.0)
+        if wp.static(DAMPED):
+            for i in range(start, end):
+                lost += dissipated_grain[c, i]
+        for q in range(4):
+            parts[c, part, q] = sums[q]
+        parts[c, part, 4] = lost
+
+    @wp.func
+    def grain_terms_of(
+        x: wp.array3d(dtype=real),
+        inverse_mass: wp.array2d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        static_overlap: wp.array2d(dtype=real),
+        law_parameters: wp.array(dtype=real),
+        validity_scale: wp.array2d(dtype=wp.float64),
+        dt: wp.float64,
+        c: int,
+        i: int,
+    ) -> wp.vec4d:
+        # grain i's terms of a chain's sums: kinetic energy (0 for the driven grain, whose motion is prescribed),
+        # excess potential and overlap of the contact above it (0 and -1e300 for grain 0; heterogeneous: times the
+        # contact's validity scale R0/min(R_i, R_j)), finite (1.0 or 0.0)
+        u = position(x, c, i)
+        v = rate(x, c, i) / dt
+        finite = wp.float64(1.0)
+        if not (wp.isfinite(u) and wp.isfinite(v)):
+            finite = wp.float64(0.0)
+        first = int(0)
+        if wp.static(DRIVEN):
+            first = 1
+        kinetic = wp.float64(0.0)
+        if i >= first:
+            inv_m = wp.float64(0.0)
+            if wp.static(HETERO):
+                inv_m = wp.float64(inverse_mass[c, i])
+            else:
+                inv_m = wp.float64(inverse_mass[c, 0])
+            kinetic = wp.float64(0.5) * v * v / inv_m
+        potential = wp.float64(0.0)
+        overlap = wp.float64(-1.0e300)
+        if i > 0:
+            terms = contact_terms(static_overlap, contact_constant, law_parameters, c, i, position(x, c, i - 1) - u)
+            potential = terms[0]
+            overlap = terms[1]
+            if wp.static(HETERO):
+                overlap = overlap * validity_scale[c, i]
+        return wp.vec4d(kinetic, potential, overlap, finite)
+
+    @wp.func
+    def add_terms(sums: wp.vec4d, terms: wp.vec4d) -> wp.vec4d:
+        # a part's running sums (kinetic, potential), largest overlap and finite flag, one grain further
+        return wp.vec4d(sums[0] + terms[0], sums[1] + terms[1], wp.max(sums[2], terms[2]), wp.min(sums[3], terms[3]))
+
+    @wp.func
+    def close_record(
+        x: wp.array3d(dtype=real),
+        contact_constant: wp.array2d(dtype=real),
+        static_overlap: wp.array2d(dtype=real),
+        law_parameters: wp.array(dtype=real),
+        drive: wp.array2d(dtype=wp.float64),
+        work_in: wp.array(dtype=wp.float64),
+        power_in: wp.array(dtype=wp.float64),
+        step: int,
+        dt: wp.float64,
+        validity_overlap: wp.array(dtype=wp.float64),
+        validity_scale: wp.array2d(dtype=wp.float64),
+        energy: wp.array(dtype=wp.float64),
+        work: wp.array(dtype=wp.float64),
+        max_overlap: wp.array(dtype=wp.float64),
+        status: wp.array(dtype=wp.int32),
+        damping: wp.array(dtype=real),
+        dissipated: wp.array(dtype=wp.float64),
+        c: int,
+        sums: wp.vec4d,
+        lost: wp.float64,
+    ):
+        # chain c's record from the sums of its parts: the walls, the driver's work and the status
+        n_grains = x.shape[2]
+        kinetic = sums[0]
+        potential = sums[1]
+        largest = sums[2]
+        finite = sums[3]
+        if wp.static(SURFACE_WALL):
+            terms = contact_terms(static_overlap, contact_constant, law_parameters, c, 0, -position(x, c, 0))
+            potential += terms[0]
+            if wp.static(HETERO):
+                largest = wp.max(largest, terms[1] * validity_scale[c, 0])
+            else:
+                largest = wp.max(largest, terms[1])
+        if wp.static(RING):
+            closing = position(x, c, n_grains - 1) - position(x, c, 0)
+            terms = contact_terms(static_overlap, contact_constant, law_parameters, c, 0, closing)
+            potential += terms[0]
+            largest = wp.max(largest, terms[1])
+        if wp.static(BOTTOM_WALL):
+            terms = contact_terms(
+                static_overlap, contact_constant, law_parameters, c, n_grains, position(x, c, n_grains - 1)
+            )
+            potential += terms[0]
+            if wp.static(HETERO):
+                largest = wp.max(largest, terms[1] * validity_scale[c, n_grains])
+            else:
+                largest = wp.max(largest, terms[1])
+        energy[c] = kinetic + potential
+        max_overlap[c] = largest
+
+        if wp.static(DRIVEN):
+            # close the trapezoid of the driver's power up to this record's time
+            amplitude = drive[c, 0]
+            omega = drive[c, 1]
+            d = x[0, c, 0] - x[0, c, 1]
+            p = params(static_overlap, contact_constant, law_parameters, c, 1)
+            delta0 = p[0]
+            a_c = p[1]
+            n = shape(p)
+            force = wp.float64(excess_force(delta0, d, a_c, n))
+            if wp.static(DASHPOT):
+                # the dashpot of the driver's contact (as in the step kernel's work)
+                if delta0 + d > real(0):
+                    force += wp.float64(damping[c]) * (wp.float64(x[1, c, 0]) - wp.float64(x[1, c, 1])) / dt
+            power = force * amplitude * omega * wp.cos(omega * wp.float64(step) * dt)
+            # The step kernel integrates the excess force's power; the static force of contact 0–1
+            # does work F0_1·u_0(t) exactly. Adding it to work and energy makes both docs/model.md's (the
+            # energy up to a constant): E − W is unchanged.
+            static_work = wp.float64(contact_force(delta0, a_c, n)) * wp.float64(x[0, c, 0])
+            closing = dt * wp.float64(0.5) * (power_in[c] + power)
+            if wp.static(DASHPOT):
+                if step == 0:
+                    closing = wp.float64(0.0)  # W(0) = 0 (the dashpot's power at t = 0 is not zero)
+            work[c] = work_in[c] + closing + static_work
+            energy[c] = energy[c] + static_work
+
+        if wp.static(DAMPED):
+            dissipated[c] = lost
+
+        if finite == wp.float64(0.0):
+            status[c] = wp.static(STATUS_NON_FINITE)
+        elif wp.static(VALIDITY):
+            if status[c] == wp.static(STATUS_OK) and largest > validity_overlap[c]:
+                status[c] = wp.static(STATUS_OVERLAP_BEYOND_VALIDITY)
+
+    return SimpleNamespace(
+        position=position,
+        rate=rate,
+        contact_terms=contact_terms,
+        store_part=store_part,
+        grain_terms_of=grain_terms_of,
+        add_terms=add_terms,
+        close_record=close_record,
+    )
 
 
 @wp.kernel(module="unique", module_options=KERNEL_OPTIONS, enable_backward=False)
