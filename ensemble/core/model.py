@@ -473,6 +473,34 @@ class HostModel:
     """Host seconds it took."""
 
 
+PER_SCENE_ONLY = (
+    "detection and design build chain sets of the hertz law from an impact or a drive: run lattice laws, modal or "
+    "thermal starts and mode records with hertzian run, hz.run or a sweep"
+)
+"""Why :func:`prepare_model` refuses a scene that :func:`scene_path_key` names."""
+
+
+def scene_path_key(scene: Scene) -> str | None:
+    """The key of ``scene`` that the vectorised chain sets do not build (a lattice law, a modal or thermal start,
+    mode records), or None. Such scenes are built one by one (:func:`build_model` of a list of scenes): a sweep
+    runs each of their points as a scene of its own (``hertzian.sweeping.spec.SweepPoints.chains``)."""
+    if scene.chain.potential != "hertz":
+        return "chain.potential"
+    if scene.excitation.modes:
+        return "excitation.modes"
+    if scene.excitation.thermal:
+        return "excitation.thermal"
+    if scene.record.modes:
+        return "record.modes"
+    return None
+
+
+def _key_value(scene: Scene, key: str):
+    section, name = key.split(".")
+    value = getattr(getattr(scene, section), name)
+    return list(value) if isinstance(value, tuple) else value
+
+
 def prepare_model(chains: ChainSet, *, features: Features | None = None) -> HostModel:
     """The host half of ``build_model(chains, …)``: numpy only, no device (safe in a background thread)."""
     from hertzian.core.startup import initial_nordsieck_of, taylor_window
@@ -482,25 +510,9 @@ def prepare_model(chains: ChainSet, *, features: Features | None = None) -> Host
     if len(chains) == 0:
         raise SceneError("scenes", [], "an ensemble needs at least one scene")
     scene = chains.template
-    if scene.chain.potential != "hertz":
-        raise SceneError(
-            "chain.potential",
-            scene.chain.potential,
-            "sweeps, detection and design run the hertz law only: run lattice chains with hertzian run or hz.run "
-            "(a list of scenes)",
-        )
-    if scene.record.modes:
-        raise SceneError(
-            "record.modes", True, "sweeps, detection and design do not record mode energies: use hertzian run"
-        )
-    if scene.excitation.modes or scene.excitation.thermal:
-        key = "excitation.modes" if scene.excitation.modes else "excitation.thermal"
-        raise SceneError(
-            key,
-            getattr(scene.excitation, key.split(".")[1]),
-            "sweeps, detection and design start from an impact or a drive: "
-            "run modal and thermal starts with hertzian run or hz.run (a list of scenes)",
-        )
+    key = scene_path_key(scene)
+    if key is not None:
+        raise SceneError(key, _key_value(scene, key), PER_SCENE_ONLY)
     # Homogeneous chains without gravity carry the same static force on every contact, so their
     # static state (all a uniform or absent static overlap needs) and the Taylor start come from the
     # first grains alone; impurities, radii or gravity need every grain's.

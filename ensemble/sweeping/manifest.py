@@ -21,7 +21,7 @@ from hertzian.sweeping.storage import MANIFEST, PROJECT
 
 FORMAT = 1
 """Version of the manifest's layout."""
-FIXED_NAMES = ("t", "grain", "harmonic", "trace_t", "traced_grain", "launch_group")
+FIXED_NAMES = ("t", "grain", "harmonic", "trace_t", "traced_grain", "mode", "mode_frequency", "launch_group")
 """Arrays written once, when the store is created (with every sweep axis's coordinate)."""
 IDENTITY_KEYS = ("schema_version", "sweep_fingerprint", "sweep_block")
 """Root attributes the manifest keeps, so that a store whose root metadata is damaged can still be named."""

@@ -22,7 +22,7 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from hertzian.core.model import STATIC_LEVELS, LaunchKey, chain_set_features, launch_key
+from hertzian.core.model import STATIC_LEVELS, LaunchKey, chain_set_features, features_of, launch_key, scene_path_key
 from hertzian.core.scene import Scene, SceneError
 from hertzian.core.static import static_arrays
 from hertzian.kernels.features import GEAR_CORRECTOR, Features
@@ -166,6 +166,10 @@ def chain_memory(scene: Scene, features: Features) -> tuple[int, int]:
     host += 2 * samples * traced * 8 + 2 * 2 * capacity * traced * item  # traces and a buffer copy
     host += 2 * records * 8 + 64  # energy, work, per-chain scalars
     host += 2 * response  # response windows and their reduction
+    if scene.record.modes:  # mode energies, spectral entropy and participation per record (core/spectrum.py)
+        spectrum = records * (n + 2) * 8
+        device += spectrum
+        host += spectrum
     return device, host
 
 
@@ -326,6 +330,10 @@ def _group_features(points: SweepPoints, templates: list[int]) -> Features:
     static key — exponent and gravity included — at every index, the others at index 0), in chunks."""
     combined = None
     for t in templates:
+        if scene_path_key(points.templates[t]) is not None:
+            found = _scene_features(points, t)
+            combined = found if combined is None else _widen(combined, found)
+            continue
         chains = static_subgrid(points, t)
         # homogeneous chains without gravity carry one static force on every contact: the first
         # contacts decide (as in build_model); otherwise every contact is scanned. Without event-aware
@@ -344,6 +352,21 @@ def _group_features(points: SweepPoints, templates: list[int]) -> Features:
             found = chain_set_features(part, static_arrays(part, grains=window))
             combined = found if combined is None else _widen(combined, found)
     return combined
+
+
+def _scene_features(points: SweepPoints, template: int) -> Features:
+    """``features_of`` over every point of a template that runs one scene per point (``scene_path_key``), in
+    chunks of scenes."""
+    members = np.flatnonzero(points.template_index(np.arange(points.point_count)) == template)
+    combined = None
+    for start in range(0, len(members), SCENE_CHUNK):
+        found = features_of([points.scene(int(p)) for p in members[start : start + SCENE_CHUNK]])
+        combined = found if combined is None else _widen(combined, found)
+    return combined
+
+
+SCENE_CHUNK = 4096
+"""Scenes built at a time for the kernel variant of a template that runs one scene per point."""
 
 
 def _widen(a: Features, b: Features) -> Features:

@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 from hertzian.core.chains import ChainSet, is_per_chain_key
+from hertzian.core.model import scene_path_key
 from hertzian.core.scene import (
     SCENE_TABLES,
     SWEEP_TABLES,
@@ -273,41 +274,8 @@ def _parse_axis(k: int, raw: Any, max_points: int | None = MAX_POINTS) -> Axis:
     return Axis(name=name, key=key, values=values)
 
 
-SCENE_PATH_ONLY = (
-    "chain.potential",
-    "chain.alpha",
-    "chain.beta",
-    "chain.b",
-    "chain.sigma",
-    "excitation.modes",
-    "excitation.mode_energy",
-    "excitation.thermal",
-    "excitation.thermal_modes",
-    "excitation.seed",
-    "record.modes",
-)
-"""Keys of what sweeps do not run (lattice laws, modal and thermal starts, mode records: docs/lattices.md)."""
-SCENE_PATH = "sweeps run the hertz law from an impact or a drive: run lattice chains, modal or thermal starts and "
-SCENE_PATH += "mode records with hertzian run or hz.run (a list of scenes)"
-
-
-def _refuse_scene_path_only(base: Scene) -> None:
-    """One line, before anything runs, for a base scene a sweep cannot run (SCENE_PATH_ONLY)."""
-    e = base.excitation
-    for key, value in (
-        ("chain.potential", base.chain.potential if base.chain.potential != "hertz" else None),
-        ("excitation.modes", list(e.modes) or None),
-        ("excitation.thermal", e.thermal or None),
-        ("record.modes", base.record.modes or None),
-    ):
-        if value is not None:
-            raise SceneError(key, value, SCENE_PATH)
-
-
 def _check_key(k: int, axis: Axis, base_data: dict) -> None:
     """The key must name a scene key; checked by applying the axis's first value to the base scene."""
-    if axis.key in SCENE_PATH_ONLY:
-        raise SceneError(f"axis[{k}].key", axis.key, SCENE_PATH)
     try:
         data = apply_overrides(base_data, {axis.key: axis.values[0]})
     except SceneError as err:
@@ -392,7 +360,6 @@ def sweep_from_dict(
     base = scene_from_dict(base_data)
     if base.integrator.tolerance is not None:
         raise SceneError("integrator.tolerance", base.integrator.tolerance, SWEEP_TOLERANCE)
-    _refuse_scene_path_only(base)
     base_data = base.to_dict()
 
     raw_axes = data.get("axis", [])
@@ -481,6 +448,7 @@ LAYOUT_KEYS = (
     ("record.traces", lambda s: s.record.traces),
     ("trace samples", lambda s: s.trace_sample_count),
     ("record.energy", lambda s: s.record.energy),
+    ("record.modes", lambda s: s.record.modes),
     ("boundary.surface (driven or not)", lambda s: s.boundary.surface == "driven"),
 )
 """Scene properties that shape the store's record/grain dimensions: every point must share them."""
@@ -569,9 +537,10 @@ class SweepPoints:
         """The points (flat indices) as a ChainSet in the given order (a list of scenes when they span templates)."""
         points = np.asarray(points, dtype=np.int64)
         templates = np.unique(self.template_index(points))
-        if len(templates) != 1:
+        if len(templates) != 1 or scene_path_key(self.templates[int(templates[0])]) is not None:
             # a launch group may join templates that differ only in a key that changes no kernel
-            # (an impurity's contact rule): such a batch runs as one scene per point, as before
+            # (an impurity's contact rule): such a batch runs as one scene per point, as before; so do the points
+            # of a lattice law, a modal or thermal start or mode records, which chain sets do not build
             return [self.scene(int(p)) for p in points]
         index = self.grid_index(points)
         values = {}

@@ -512,7 +512,8 @@ def _provenance(plan: Plan, device: str) -> dict[str, Any]:
 
 def fixed_arrays(sweep: Sweep, scene: Scene, plan: Plan) -> list[tuple[str, np.ndarray, tuple[str, ...], dict]]:
     """The arrays a store holds from its creation on, never written by a batch: (name, data, dims, attributes) of
-    every axis coordinate, ``t``, ``grain``, ``harmonic``, ``trace_t``, ``traced_grain`` and ``launch_group``."""
+    every axis coordinate, ``t``, ``grain``, ``harmonic``, ``trace_t``, ``traced_grain``, ``mode``, ``mode_frequency``
+    and ``launch_group``."""
     out = [
         (axis.name, axis.coordinate(), (d.name,), {"scene_key": axis.key, "long_name": f"scene key {axis.key}"})
         for d in sweep.dimensions
