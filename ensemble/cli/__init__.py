@@ -59,6 +59,8 @@ def main() -> None:
         code = 0
     except SystemExit as done:
         code = done.code
+    if "hertzian.core.solvers.chain" in sys.modules:  # the CPU chain kernel's idle threads: nothing left to run
+        sys.modules["hertzian.core.solvers.chain"].close_pools()
     others = [t for t in threading.enumerate() if t is not threading.current_thread() and not t.daemon]
     if others or (code is not None and not isinstance(code, int)):
         sys.exit(code)  # the interpreter's own shutdown: it stops thread pools before joining their threads

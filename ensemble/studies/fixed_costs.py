@@ -76,8 +76,10 @@ example scene at the given grains, then its warm rate over the given steps [grai
 
 def _wall(args: list[str], cache: str, **env) -> float:
     """Process wall [s] of ``hertzian ARGS`` with Warp's kernel cache in ``cache`` and ``env`` set (a command that
-    fails ends this process with its message and exit code)."""
-    env = {**os.environ, "WARP_CACHE_PATH": cache, **env}
+    fails ends this process with its message and exit code). Python's bytecode cache is on, as for an installed
+    package (pip compiles it): ``PYTHONDONTWRITEBYTECODE`` would recompile an editable install's modules each start."""
+    inherited = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    env = {**inherited, "WARP_CACHE_PATH": cache, **env}
     start = time.perf_counter()
     result = subprocess.run([sys.executable, "-m", "hertzian.cli", *args], env=env, capture_output=True, text=True)
     if result.returncode:

@@ -15,7 +15,6 @@ depend on the cut either.
 
 from __future__ import annotations
 
-import functools
 import os
 from concurrent.futures import ThreadPoolExecutor
 
@@ -76,10 +75,21 @@ def chain_ranges(chain_count: int, threads: int) -> list[tuple[int, int]]:
     return ranges
 
 
-@functools.cache
+_POOLS: dict[int, ThreadPoolExecutor] = {}
+"""The process's thread pools, by size (``_pool``)."""
+
+
 def _pool(workers: int) -> ThreadPoolExecutor:
     """A process-wide pool of ``workers`` threads for the launches beyond the caller's own."""
-    return ThreadPoolExecutor(max_workers=workers, thread_name_prefix="hertzian-chain")
+    if workers not in _POOLS:
+        _POOLS[workers] = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="hertzian-chain")
+    return _POOLS[workers]
+
+
+def close_pools() -> None:
+    """Stop the pools' idle threads, for a process about to exit (a later launch starts a new pool)."""
+    while _POOLS:
+        _POOLS.popitem()[1].shutdown(wait=True)
 
 
 class ChainSolver(Solver):
