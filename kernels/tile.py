@@ -111,7 +111,7 @@ def fused_kernel(t: TileLayout, fused_step, driver_power, work_step, driver_valu
     real, Q, G, G1, L, CPB, B, BG = t.real, t.Q, t.G, t.G1, t.L, t.CPB, t.B, t.BG
     WINDOWED, MASKED, TRACES, SURFACE_WALL, BOTTOM_WALL = t.WINDOWED, t.MASKED, t.TRACES, t.SURFACE_WALL, t.BOTTOM_WALL
     DRIVEN, FIXED, HETERO, HERTZ, LATTICE = t.DRIVEN, t.FIXED, t.HETERO, t.HERTZ, t.LATTICE
-    DISSIPATES, EVENTS = t.DISSIPATES, t.EVENTS
+    DISSIPATES, EVENTS, RING = t.DISSIPATES, t.EVENTS, t.RING
     state_t, grain_vec, contact_vec, edge_t = t.state_t, t.grain_vec, t.contact_vec, t.edge_t
     value_vec, loss_vec, shape_t, lane_t, arrays_t = t.value_vec, t.loss_vec, t.shape_t, t.lane_t, t.arrays_t
     params, contact_force = t.params, t.contact_force
@@ -238,6 +238,9 @@ def fused_kernel(t: TileLayout, fused_step, driver_power, work_step, driver_valu
         hh = real(0.5) * h * h
         has_left = lane_c > 0
         has_right = lane_c < L - 1
+        if wp.static(RING):  # the first and last lanes are neighbours
+            has_left = True
+            has_right = True
         k0 = int(-1)  # grain 0's index in this lane (driven surface), else -1
         amplitude = wp.float64(0)
         omega = wp.float64(0)

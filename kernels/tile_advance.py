@@ -151,7 +151,7 @@ def event_steps_function(t: TileLayout, shared_column):
 def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rates, dashpot_forces, shared_event_steps):
     """One step of a lane: predict, exchange the edge positions, (event-aware steps: test, vote, step the flagged
     grains), contact forces, correct."""
-    Q, G, G1, real, EDGE_LO = t.Q, t.G, t.G1, t.real, t.EDGE_LO
+    Q, G, G1, L, real, EDGE_LO, RING = t.Q, t.G, t.G1, t.L, t.real, t.EDGE_LO, t.RING
     COMP, DRIVEN, EVENTS, DASHPOT, VISCOUS, MASKED, FREE_END, FIXED = (
         t.COMP,
         t.DRIVEN,
@@ -239,14 +239,21 @@ def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rate
         u_right = real(0)
         u_left_lo = real(0)
         u_right_lo = real(0)
+        left = ln.lane - 1
+        right = ln.lane + 1
+        if wp.static(RING):  # the ring closes over its chain's lanes
+            if ln.lane_c == 0:
+                left = ln.lane + wp.static(L - 1)
+            if ln.lane_c == wp.static(L - 1):
+                right = ln.lane - wp.static(L - 1)
         if ln.has_left:
-            u_left = wp.tile_extract(edges, ln.lane - 1, 1)
+            u_left = wp.tile_extract(edges, left, 1)
             if wp.static(COMP):
-                u_left_lo = wp.tile_extract(edges, ln.lane - 1, wp.static(EDGE_LO + 1))
+                u_left_lo = wp.tile_extract(edges, left, wp.static(EDGE_LO + 1))
         if ln.has_right:
-            u_right = wp.tile_extract(edges, ln.lane + 1, 0)
+            u_right = wp.tile_extract(edges, right, 0)
             if wp.static(COMP):
-                u_right_lo = wp.tile_extract(edges, ln.lane + 1, wp.static(EDGE_LO))
+                u_right_lo = wp.tile_extract(edges, right, wp.static(EDGE_LO))
         if wp.static(EVENTS):
             left_values = vec2()  # (u, dt·v) at t_n of the grains beyond the lane's edges (0: none)
             right_values = vec2()

@@ -18,12 +18,9 @@ from hertzian.kernels.physics import (
 
 def fusable(features: Features) -> bool:
     """True when the fused kernels implement every feature of this set (traces: written inside the launch;
-    composed methods such as yoshida4, rings, and the contact dashpot in compensated float32, are not
-    implemented here:
-    the per-step kernel runs them on CUDA)."""
+    composed methods such as yoshida4 and the contact dashpot in compensated float32 are not implemented here:
+    the per-step kernel runs them on CUDA). A ring fuses in whole chains of full lanes only (``plan_tile``)."""
     if features.damping == "contact" and features.compensation:
-        return False
-    if features.surface == "periodic":
         return False
     return features.method not in SUBSTEP_WEIGHTS
 
@@ -145,6 +142,7 @@ class TileLayout:
     BOTTOM_WALL: bool
     FIXED: bool  # a held bottom grain
     FREE_END: bool  # a free end's missing contact is masked out of the forces
+    RING: bool  # a ring: the first lane's upper neighbour is the last lane, whose lower one is the first
     HETERO: bool
     HERTZ: bool
     VISCOUS: bool
@@ -222,7 +220,8 @@ def tile_layout(features: Features, shape: TileShape) -> TileLayout:
         FIXED=f.bottom == "fixed",
         # a driven surface is no free end: the contact above the driven grain 0 acts on grain 0, whose corrected
         # column no output reads (driver_values), and on padding (1/m = 0)
-        FREE_END=(f.surface != "wall" and not DRIVEN) or f.bottom == "free",
+        FREE_END=(f.surface not in ("wall", "periodic") and not DRIVEN) or f.bottom == "free",
+        RING=f.surface == "periodic",
         HETERO=f.heterogeneous,
         HERTZ=f.hertz,
         VISCOUS=f.damping == "viscous",

@@ -49,7 +49,13 @@ def plan_tile(
 
     n = grain_count
     G = grains_per_lane
-    free_end = features.surface != "wall" or features.bottom == "free"
+    ring = features.surface == "periodic"
+    free_end = features.surface not in ("wall", "periodic") or features.bottom == "free"
+    if ring and (windowed or n % G or (lanes_per_chain or n // G) * G != n):
+        raise ValueError(
+            f"a ring fuses as whole chains in full lanes: {G} grains per lane do not fill {n} grains "
+            f"{'in windows' if windowed else 'exactly'}"
+        )
     if windowed:
         if lanes_per_chain is None:
             raise ValueError("a windowed plan needs lanes_per_chain")

@@ -165,6 +165,27 @@ CASES = {
         dict(grains_per_lane=4, lanes_per_chain=10, steps_per_launch=6, windowed=True),
         801,
     ),
+    # rings (boundary periodic): whole chains in full lanes, the first and last lanes neighbours
+    "fput ring, 2 chains per block": (
+        dict(
+            chain={"grains": 24, "potential": "fput", "a": 1.0, "alpha": 0.25, "beta": 0.5},
+            boundary={"surface": "periodic", "bottom": "periodic"},
+            integrator={"dt": 0.05},
+        ),
+        3,
+        dict(grains_per_lane=4, chains_per_block=2),
+        301,
+    ),
+    "hertz ring, precompressed, gear5": (
+        dict(
+            chain={"grains": 16, "l0": 1e-4},
+            boundary={"surface": "periodic", "bottom": "periodic"},
+            integrator={"method": "gear5", "dt": 5e-4, "events": "off"},
+        ),
+        2,
+        dict(grains_per_lane=8),
+        1501,
+    ),
     "float32, verlet, windows, fixed bottom, impurities, gravity": (
         dict(
             chain={"grains": 50, "gravity": 1.0, "l0": 1e-4},

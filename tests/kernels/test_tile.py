@@ -86,3 +86,27 @@ def test_plan_rejects_uncovered_chains():
         plan_tile(model_features, 100, 1, grains_per_lane=4, lanes_per_chain=8)
     with pytest.raises(ValueError):
         plan_tile(model_features, 5000, 1, grains_per_lane=4)  # 1250 threads in a block
+
+
+def test_a_ring_fuses_in_full_lanes_only():
+    """A ring's first and last lanes are neighbours: every lane full, whole chains (no windows); on a GPU a ring no
+    timed lane size fills takes the per-step kernel, decided without a GPU on a stand-in model."""
+    from types import SimpleNamespace
+
+    from hertzian.core.solvers import calibrate
+
+    ring = {"boundary": {"surface": "periodic", "bottom": "periodic"}, "integrator": {"events": "off"}}
+    features = build_model(chains(1, chain={"grains": 24}, **ring), "cpu").features
+    assert plan_tile(features, 24, 1, grains_per_lane=4).shape.lanes_per_chain == 6
+    for keywords in (
+        dict(grains_per_lane=8, chains_per_block=1, grains=20),
+        dict(grains_per_lane=4, grains=24, lanes_per_chain=4, windowed=True),
+    ):
+        grains = keywords.pop("grains")
+        with pytest.raises(ValueError, match="ring"):
+            plan_tile(features, grains, 1, **keywords)
+    gpu = SimpleNamespace(name="cuda:0", is_cpu=False, is_cuda=True, sm_count=132)
+    for grains, fuses in ((24, True), (30, False)):
+        model = SimpleNamespace(features=features, device=gpu, grain_count=grains, chain_count=4096)
+        assert (calibrate.step_reason(model) is None) == fuses, grains
+        assert (calibrate.choose_config(model, "fused", calibrate_now=False).kind != "step") == fuses, grains

@@ -148,7 +148,15 @@ def cpu_auto_config(features, grain_steps: float, device, costs: dict = CPU_COST
 def step_reason(model: Model, run_steps: int | None = None) -> str | None:
     """Why ``auto`` picks the per-step kernel for ``model`` (one line), or None when it picks a fused one."""
     work = model.chain_count * model.grain_count * (run_steps if run_steps is not None else math.inf)
-    return step_reason_of(model.features, model.device.is_cpu, work)
+    return step_reason_of(model.features, model.device.is_cpu, work) or _ring_unfused(model)
+
+
+def _ring_unfused(model: Model) -> str | None:
+    """Why a ring takes the per-step kernel on a GPU (one line), or None: the tile kernel holds a ring whole, in full
+    lanes (``plan_tile``), so some lane size it times must divide the grain count."""
+    if model.device.is_cpu or model.features.surface != "periodic" or whole_chain_configs(model):
+        return None
+    return f"the tile kernel holds a ring in full lanes of 4, 8 or 16 grains: none divides {model.grain_count}"
 
 
 def is_calibrated(model: Model) -> bool:
@@ -445,12 +453,16 @@ def choose_config(
             raise ValueError(f"kernel = {kernel!r}: not implemented for surface = {f.surface!r} (features {f})")
         configs = whole_chain_configs(model) if kernel == "tile" else window_configs(model)
         if not configs:
-            raise ValueError(f"kernel = {kernel!r}: no launch shape fits {model.grain_count} grains")
+            ring = " (a ring fuses whole, in full lanes of 4, 8 or 16 grains: use --kernel tile on a grain count one of them divides, or step)"
+            raise ValueError(
+                f"kernel = {kernel!r}: no launch shape fits {model.grain_count} grains"
+                + (ring if f.surface == "periodic" else "")
+            )
         if model.device.is_cuda and calibrate_now and len(configs) > 1:
             return calibrate(model, configs=configs, states=states, log=log)[0]
         return configs[0]
     if kernel == "fused":
-        if fused_lacks(f, model.device.is_cpu):
+        if fused_lacks(f, model.device.is_cpu) or _ring_unfused(model):
             return STEP
         if model.device.is_cpu:
             return CHAIN
