@@ -109,6 +109,8 @@ class Law:
         """δ0 with F(δ0) = ``force`` ≥ 0 on every contact (0 where the force is 0), by bisection on the rising branch
         of F from δ = 0; NaN where F never reaches the force there (fput with α > 0 peaks at a finite δ)."""
         force = np.asarray(force, dtype=np.float64)
+        if not np.any(force > 0):
+            return np.zeros(force.shape)  # no contact carries a force (no load, no gravity): every δ0 is 0
         a = np.broadcast_to(np.asarray(a, dtype=np.float64), force.shape)
         top = np.full(force.shape, self.rising_limit())
         lo, hi = np.zeros(force.shape), np.where(np.isfinite(top), top, 1.0)
@@ -121,6 +123,8 @@ class Law:
                 hi = np.where(short, 2.0 * hi, hi)
             for _ in range(200):
                 mid = 0.5 * (lo + hi)
+                if np.all((mid == lo) | (mid == hi) | (force <= 0)):
+                    break  # every bracket that counts is two neighbouring floats: more halvings change nothing
                 below = self.force(mid, a) < force
                 lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
             reached = self.force(hi, a) >= force * (1.0 - 1e-12)

@@ -550,7 +550,10 @@ class SweepPoints:
         return ChainSet.of(self.templates[int(templates[0])], values, len(points))
 
     def scene(self, point: int) -> Scene:
-        """The validated scene of one flat point index (as ``Sweep.scene_at``)."""
+        """The validated scene of one flat point index (as ``Sweep.scene_at``; a sweep without parameter dimensions
+        has a template per point: that one)."""
+        if not self.parameter:
+            return self.templates[int(self.template_index(np.asarray([point]))[0])]
         index = np.unravel_index(int(point), self.sweep.shape) if self.sweep.shape else ()
         return self.sweep.scene_at(tuple(int(i) for i in index))
 
@@ -600,6 +603,8 @@ def validate_grid(expanded: SweepPoints) -> int:
     tests/sweeping/test_vectorised_expansion.py checks this against validating every point on generated grids.
     """
     points = corner_points(expanded)
+    if not expanded.parameter:
+        return 0  # every point is a template, built and validated by expand
     for index in points:
         expanded.sweep.scene_at(index)
     return len(points)
