@@ -239,3 +239,22 @@ def test_detection_refuses_a_lattice_host_in_one_line(tmp_path):
     result = invoke("detect", signal, "--scene", base)
     assert result.exit_code == 2, (result.stdout, result.stderr)
     assert result.stderr.strip().startswith("error: chain.potential") and len(result.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("law", LATTICE_LAWS)
+def test_static_overlap_is_the_smallest_float_that_carries_the_force(law):
+    """δ0 solves F(δ0) = force on the law's rising branch to the last float: F of the float below δ0 is short of the
+    force, F(δ0) is not (an unloaded contact: exactly 0)."""
+    from hertzian.core.potentials import Law
+
+    shape = {"fput": (0.25, 0.5), "toda": (2.0, 0.0), "morse": (1.0, 0.0), "lj": (1.0, 0.0)}.get(law, (0.0, 0.0))
+    rule = Law(law, *shape)
+    rng = np.random.default_rng(3)
+    force = np.concatenate([[0.0], rng.uniform(1e-4, 0.1, 40)])
+    a = rng.uniform(0.5, 2.0, force.shape)
+    delta = rule.static_overlap(force, a)
+    assert delta[0] == 0.0 and np.all(delta[1:] > 0)
+    below = np.nextafter(delta[1:], 0.0)
+    assert np.all(rule.force(below, a[1:]) < force[1:])
+    assert np.all(rule.force(delta[1:], a[1:]) >= force[1:])
+    np.testing.assert_array_equal(rule.static_overlap(np.zeros(5), np.ones(5)), np.zeros(5))
