@@ -70,6 +70,10 @@ class Nordsieck(NamedTuple):
     substep_correct: object
     """Composed methods: ``substep_correct(x_src, x_dst, c, i, u_pred, half_h2_acc, w) -> vec2(u, dt·v)``:
     the substep's corrector, dt·v += w·(x2 + x2_new), x2 = x2_new (``half_h2_acc`` = dt²/2·a(u_pred))."""
+    substep_predicted: object
+    """Composed methods: ``substep_predicted(v, w) -> position``: substep_predicted_at on a register column."""
+    substep_corrected: object
+    """Composed methods: ``substep_corrected(v, u_pred, half_h2_acc, w) -> values``: substep_correct's new vector."""
 
 
 def state_rows(method: str, precision: str, compensated: bool) -> int:
@@ -377,7 +381,12 @@ def nordsieck_functions(method: str, precision: str, compensated: bool = False) 
         position_api = (vec2, predicted_pair, predicted_pair_at, gap_pair, rounded_pair, exact_pair)
     else:
         position_api = (real, predict_position, predicted_position, gap_plain, rounded_plain, exact_plain)
-    substep_api = (substep_pair_at if COMP else substep_position_at, substep_correct)
+    substep_api = (
+        substep_pair_at if COMP else substep_position_at,
+        substep_correct,
+        substep_pair if COMP else substep_position,
+        substep_corrected,
+    )
     return Nordsieck(
         values_t,
         predict_position,

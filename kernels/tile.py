@@ -267,17 +267,18 @@ def fused_kernel(t: TileLayout, fused_step, driver_power, work_step, driver_valu
             first_row = step0 - phase_first[0]
             phase_old = phases[cc, first_row]
             phase_next = phases[cc, first_row + 1]
-        edges_even = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
-        edges_odd = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
+        # the lanes' edge tiles: one for the even steps, one for the odd (a composed step: its substeps alternate)
+        even = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
+        odd = wp.tile_zeros(shape=B, dtype=edge_t, storage="shared")
         if wp.static(EVENTS):
             # event steps: every lane's state at t_n, its flagged grains, one event step's result per lane
             states = wp.tile_empty(shape=B, dtype=state_t, storage="shared")
             flags = wp.tile_zeros(shape=B, dtype=int, storage="shared")
             results = wp.tile_empty(shape=BG, dtype=value_vec, storage="shared")
         else:
-            states = edges_even  # (unused)
-            flags = edges_even
-            results = edges_even
+            states = even  # (unused)
+            flags = even
+            results = even
         frozen = status[cc] == wp.static(STATUS_NON_FINITE)
         next_trace = int(0)  # the first step after step0 that takes a trace sample (a multiple of the stride)
         if wp.static(TRACES):
@@ -335,21 +336,21 @@ def fused_kernel(t: TileLayout, fused_step, driver_power, work_step, driver_valu
                 phase_new = phase_next
                 phase_next = phases[cc, first_row + 2 * _pair + 1 + 1]  # (a row past the launch's last)
             s, lost, next_trace = fused_step(
-                s, edges_even, states, flags, results, lost, next_trace, ln, ar, phase_old, phase_new, 2 * _pair
+                s, even, odd, states, flags, results, lost, next_trace, ln, ar, phase_old, phase_new, 2 * _pair
             )
             phase_old = phase_new
             if wp.static(DRIVEN):
                 phase_new = phase_next
                 phase_next = phases[cc, first_row + 2 * _pair + 2 + 1]  # (a row past the launch's last)
             s, lost, next_trace = fused_step(
-                s, edges_odd, states, flags, results, lost, next_trace, ln, ar, phase_old, phase_new, 2 * _pair + 1
+                s, odd, even, states, flags, results, lost, next_trace, ln, ar, phase_old, phase_new, 2 * _pair + 1
             )
             phase_old = phase_new
         if steps % 2 == 1:
             if wp.static(DRIVEN):
                 phase_new = phase_next
             s, lost, next_trace = fused_step(
-                s, edges_even, states, flags, results, lost, next_trace, ln, ar, phase_old, phase_new, steps - 1
+                s, even, odd, states, flags, results, lost, next_trace, ln, ar, phase_old, phase_new, steps - 1
             )
             phase_old = phase_new
 

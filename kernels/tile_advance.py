@@ -151,7 +151,7 @@ def event_steps_function(t: TileLayout, shared_column):
 def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rates, dashpot_forces, shared_event_steps):
     """One step of a lane: predict, exchange the edge positions, (event-aware steps: test, vote, step the flagged
     grains), contact forces, correct."""
-    Q, G, G1, L, real, EDGE_LO, RING = t.Q, t.G, t.G1, t.L, t.real, t.EDGE_LO, t.RING
+    Q, G, G1, L, real, EDGE_LO, RING, COMPOSED = t.Q, t.G, t.G1, t.L, t.real, t.EDGE_LO, t.RING, t.COMPOSED
     COMP, DRIVEN, EVENTS, DASHPOT, VISCOUS, MASKED, FREE_END, FIXED = (
         t.COMP,
         t.DRIVEN,
@@ -185,6 +185,7 @@ def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rate
         ar: arrays_t,
         phase_old: wp.vec2d,
         phase_new: wp.vec2d,
+        w: real,
     ) -> state_t:
         # k0: grain 0's index in this lane, or -1 (undriven, or grain 0 elsewhere); phase_old, phase_new:
         # (sin ωt, cos ωt) of the driver at t_n and t_{n+1}
@@ -193,11 +194,17 @@ def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rate
         up_lo = grain_vec()  # compensated: the low parts (0 otherwise, unused)
         for k in range(G):
             if wp.static(COMP):
-                position = nordsieck.predicted(column(s, k))
+                if wp.static(COMPOSED):
+                    position = nordsieck.substep_predicted(column(s, k), w)
+                else:
+                    position = nordsieck.predicted(column(s, k))
                 up[k] = position[0]
                 up_lo[k] = position[1]
             else:
-                up[k] = nordsieck.predict_position(column(s, k))
+                if wp.static(COMPOSED):
+                    up[k] = nordsieck.substep_predicted(column(s, k), w)
+                else:
+                    up[k] = nordsieck.predict_position(column(s, k))
         if wp.static(DRIVEN):
             # selects over the static positions, false in every lane but the driver's (k0 = -1): no branch, whose
             # reconvergence every block of the driven kernel paid each step
@@ -361,7 +368,10 @@ def advance_function(t: TileLayout, predicted_rate, column, at_driver, lane_rate
             half_h2_acc = ln.hh * (force[k] - force[k + 1]) * ln.inv_m[k]
             if wp.static(VISCOUS):
                 half_h2_acc -= real(0.5) * ln.h * ln.gamma * predicted_rate(column(s, k))  # h²/2 · (−γ v)
-            new = nordsieck.corrected(column(s, k), up[k], half_h2_acc)
+            if wp.static(COMPOSED):
+                new = nordsieck.substep_corrected(column(s, k), up[k], half_h2_acc, w)
+            else:
+                new = nordsieck.corrected(column(s, k), up[k], half_h2_acc)
             if wp.static(FIXED):
                 moving = (ln.move_bits & (1 << k)) != 0
                 for q in range(Q):
@@ -387,12 +397,14 @@ def step_function(t: TileLayout, *, advance, dissipation, dashpot_losses, write_
     driver's log entry, the viscous loss, ``advance``, the contact dashpot's loss and the trace sample; returns the
     lane's new state, its grains' dissipated energy and the next trace step."""
     real, DRIVEN, VISCOUS, DASHPOT, TRACES = t.real, t.DRIVEN, t.VISCOUS, t.DASHPOT, t.TRACES
+    COMPOSED, SUBSTEPS, substep_weight = t.COMPOSED, t.SUBSTEPS, t.substep_weight
     state_t, loss_vec, lane_t, arrays_t = t.state_t, t.loss_vec, t.lane_t, t.arrays_t
 
     @wp.func(inline=True)
     def fused_step(
         s: state_t,
         edges: Any,
+        edges_next: Any,
         states: Any,
         flags: Any,
         results: Any,
@@ -409,7 +421,19 @@ def step_function(t: TileLayout, *, advance, dissipation, dashpot_losses, write_
             ar.driver_log[ln.log_row, step] = driver_log_entry(s, ln.k0, real(product_rn(ln.amplitude, phase_old[0])))
         if wp.static(VISCOUS):
             lost = dissipation(s, lost, ln.inv_m, ln.move_bits, ln.k0, ln.gamma, ln.h, ln.dt)
-        s_new = advance(s, edges, states, flags, results, ln, ar, phase_old, phase_new)
+        if wp.static(COMPOSED):
+            # the step's substeps, each exchanging its lanes' edges through the other buffer than the one before (an
+            # odd count: the step ends on ``edges``, and the next step starts on ``edges_next``)
+            s_new = advance(s, edges, states, flags, results, ln, ar, phase_old, phase_new, substep_weight(0))
+            j = int(1)
+            while j < wp.static(SUBSTEPS):
+                w = substep_weight(j)
+                s_new = advance(s_new, edges_next, states, flags, results, ln, ar, phase_old, phase_new, w)
+                w = substep_weight(j + 1)
+                s_new = advance(s_new, edges, states, flags, results, ln, ar, phase_old, phase_new, w)
+                j += 2
+        else:
+            s_new = advance(s, edges, states, flags, results, ln, ar, phase_old, phase_new, real(1))
         if wp.static(DASHPOT):
             lost = dashpot_losses(s, lost, edges, ln, phase_old, phase_new)
         if wp.static(TRACES):

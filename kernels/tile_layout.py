@@ -7,7 +7,7 @@ from typing import Any
 import warp as wp
 from hertzian.kernels.events import event_functions
 from hertzian.kernels.features import SUBSTEP_WEIGHTS, Features
-from hertzian.kernels.gear import nordsieck_functions
+from hertzian.kernels.gear import nordsieck_functions, substep_weight_function
 from hertzian.kernels.physics import (
     contact_forces,
     contact_functions,
@@ -17,12 +17,11 @@ from hertzian.kernels.physics import (
 
 
 def fusable(features: Features) -> bool:
-    """True when the fused kernels implement every feature of this set (traces: written inside the launch;
-    composed methods such as yoshida4 and the contact dashpot in compensated float32 are not implemented here:
-    the per-step kernel runs them on CUDA). A ring fuses in whole chains of full lanes only (``plan_tile``)."""
-    if features.damping == "contact" and features.compensation:
-        return False
-    return features.method not in SUBSTEP_WEIGHTS
+    """True when the fused kernels implement every feature of this set (traces: written inside the launch; the
+    contact dashpot in compensated float32 is not implemented here: the per-step kernel runs it on CUDA). A ring, and
+    a composed method (yoshida4, yoshida6: a step of several velocity-Verlet substeps), fuse in whole chains only
+    (``plan_tile``)."""
+    return not (features.damping == "contact" and features.compensation)
 
 
 @dataclass(frozen=True)
@@ -143,6 +142,9 @@ class TileLayout:
     FIXED: bool  # a held bottom grain
     FREE_END: bool  # a free end's missing contact is masked out of the forces
     RING: bool  # a ring: the first lane's upper neighbour is the last lane, whose lower one is the first
+    COMPOSED: bool  # a step is SUBSTEPS velocity-Verlet substeps of w_j·dt (yoshida4, yoshida6)
+    SUBSTEPS: int
+    substep_weight: Any  # substep_weight(j) -> w_j (kernels/gear.py)
     HETERO: bool
     HERTZ: bool
     VISCOUS: bool
@@ -222,6 +224,9 @@ def tile_layout(features: Features, shape: TileShape) -> TileLayout:
         # column no output reads (driver_values), and on padding (1/m = 0)
         FREE_END=(f.surface not in ("wall", "periodic") and not DRIVEN) or f.bottom == "free",
         RING=f.surface == "periodic",
+        COMPOSED=f.method in SUBSTEP_WEIGHTS,
+        SUBSTEPS=f.substeps,
+        substep_weight=substep_weight_function(f.method, f.precision),
         HETERO=f.heterogeneous,
         HERTZ=f.hertz,
         VISCOUS=f.damping == "viscous",

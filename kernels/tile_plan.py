@@ -50,6 +50,11 @@ def plan_tile(
     n = grain_count
     G = grains_per_lane
     ring = features.surface == "periodic"
+    if windowed and features.substeps > 1:
+        raise ValueError(
+            f"method {features.method}: a composed step fuses in whole chains only (a window's ghost zone would have "
+            "to cover every substep)"
+        )
     free_end = features.surface not in ("wall", "periodic") or features.bottom == "free"
     if ring and (windowed or n % G or (lanes_per_chain or n // G) * G != n):
         raise ValueError(

@@ -186,6 +186,22 @@ CASES = {
         dict(grains_per_lane=8),
         1501,
     ),
+    # composed methods (yoshida4, yoshida6): a step of velocity-Verlet substeps, each exchanging the lanes' edges
+    "yoshida6, fput, padded lanes": (
+        dict(
+            chain={"grains": 21, "potential": "fput", "a": 1.0, "alpha": 0.25, "beta": 0.5},
+            integrator={"method": "yoshida6", "dt": 0.05},
+        ),
+        2,
+        dict(grains_per_lane=4),
+        301,
+    ),
+    "yoshida4, float32, precompressed, 2 chains per block": (
+        dict(chain={"grains": 12, "l0": 1e-4}, integrator={"method": "yoshida4", "dt": 5e-4, "precision": "float32"}),
+        3,
+        dict(grains_per_lane=4, chains_per_block=2),
+        1501,
+    ),
     "float32, verlet, windows, fixed bottom, impurities, gravity": (
         dict(
             chain={"grains": 50, "gravity": 1.0, "l0": 1e-4},

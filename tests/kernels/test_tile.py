@@ -110,3 +110,21 @@ def test_a_ring_fuses_in_full_lanes_only():
         model = SimpleNamespace(features=features, device=gpu, grain_count=grains, chain_count=4096)
         assert (calibrate.step_reason(model) is None) == fuses, grains
         assert (calibrate.choose_config(model, "fused", calibrate_now=False).kind != "step") == fuses, grains
+
+
+def test_a_composed_method_fuses_in_whole_chains_only():
+    """yoshida4 and yoshida6 fuse with no window (a window's ghost zone would have to cover every substep); on a GPU a
+    composed chain too long for one block takes the per-step kernel, decided without a GPU on a stand-in model."""
+    from types import SimpleNamespace
+
+    from hertzian.core.solvers import calibrate
+
+    features = build_model(chains(1, chain={"grains": 24}, integrator={"method": "yoshida6"}), "cpu").features
+    assert fusable(features)
+    with pytest.raises(ValueError, match="whole chains"):
+        plan_tile(features, 24, 1, grains_per_lane=4, lanes_per_chain=4, windowed=True)
+    gpu = SimpleNamespace(name="cuda:0", is_cpu=False, is_cuda=True, sm_count=132)
+    for grains, fuses in ((1024, True), (100_000, False)):
+        model = SimpleNamespace(features=features, device=gpu, grain_count=grains, chain_count=4096)
+        assert (calibrate.step_reason(model) is None) == fuses, grains
+        assert (calibrate.choose_config(model, "fused", calibrate_now=False).kind != "step") == fuses, grains

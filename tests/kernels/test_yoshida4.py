@@ -14,7 +14,8 @@ Claims checked here, each against something independent of the kernels' own outp
   harmonic oscillator reaches 1, recomputed here from Verlet's 2×2 kick–drift–kick matrices
   (tests/core/test_check.py also checks the scaled-Nordsieck matrix against the Warp kernel, and that runs
   blow up beyond the limit);
-* a drive, damping and the fused CUDA kernels are refused with one line (exit code 2 in the CLI).
+* a drive, damping and the window kernel are refused with one line (exit code 2 in the CLI); the tile kernel runs
+  it (tests/kernels/test_tile.py).
 """
 
 from __future__ import annotations
@@ -238,19 +239,20 @@ def test_drive_and_damping_are_refused(tmp_path, data, message):
         make_scene(**{k: v for k, v in data.items()})
 
 
-def test_fused_cuda_kernels_are_refused(tmp_path):
+def test_the_window_kernel_is_refused_and_the_tile_kernel_taken(tmp_path):
+    """A composed step fuses in whole chains only (kernels/tile_plan.py): ``--kernel window`` is refused in one line,
+    the tile kernel runs it (its equality with the per-step kernel: tests/kernels/test_tile.py)."""
     model = build_model([make_scene(chain={"grains": 8}, integrator={"method": "yoshida4", "dt": 5e-4})], "cpu")
-    assert fused_lacks(model.features, is_cpu=False).startswith("method yoshida4")  # auto: per-step kernel on CUDA
-    assert fused_lacks(model.features, is_cpu=True) is None  # the CPU chain kernel has it
-    for kernel in ("tile", "window"):
-        with pytest.raises(ValueError, match="not implemented for integrator.method = 'yoshida4'"):
-            choose_config(model, kernel)
+    assert fused_lacks(model.features, is_cpu=False) is None
+    assert choose_config(model, "tile").kind == "tile"
+    with pytest.raises(ValueError, match="fuses in whole chains only"):
+        choose_config(model, "window")
     scene = tmp_path / "s.toml"
     scene.write_text(toml_text(BASE))
     out = tmp_path / "out.zarr"
-    result = invoke("run", scene, "--out", out, "--device", "cpu", "--kernel", "tile")
+    result = invoke("run", scene, "--out", out, "--device", "cpu", "--kernel", "window")
     assert_refused(result, out, "--kernel")
-    assert "not implemented for integrator.method = 'yoshida4'" in result.stderr
+    assert "fuses in whole chains only" in result.stderr
 
 
 def test_no_event_steps():

@@ -72,8 +72,6 @@ def fused_lacks(features, is_cpu: bool) -> str | None:
     f = stepping_features(features)
     if f.damping == "contact" and f.compensation and not is_cpu:
         return "damping (damping.model = 'contact' in compensated float32; only the per-step kernel carries it on CUDA)"
-    if f.method in SUBSTEP_WEIGHTS and not is_cpu:
-        return f"method {f.method} (its substeps are in the per-step and CPU chain kernels only)"
     if is_cpu:
         return None  # the chain kernel implements every feature
     return None if fusable(f) else f"features {f}"
@@ -148,15 +146,21 @@ def cpu_auto_config(features, grain_steps: float, device, costs: dict = CPU_COST
 def step_reason(model: Model, run_steps: int | None = None) -> str | None:
     """Why ``auto`` picks the per-step kernel for ``model`` (one line), or None when it picks a fused one."""
     work = model.chain_count * model.grain_count * (run_steps if run_steps is not None else math.inf)
-    return step_reason_of(model.features, model.device.is_cpu, work) or _ring_unfused(model)
+    return step_reason_of(model.features, model.device.is_cpu, work) or _whole_chains_unfused(model)
 
 
-def _ring_unfused(model: Model) -> str | None:
-    """Why a ring takes the per-step kernel on a GPU (one line), or None: the tile kernel holds a ring whole, in full
-    lanes (``plan_tile``), so some lane size it times must divide the grain count."""
-    if model.device.is_cpu or model.features.surface != "periodic" or whole_chain_configs(model):
+def _whole_chains_unfused(model: Model) -> str | None:
+    """Why a ring or a composed method takes the per-step kernel on a GPU (one line), or None. Both fuse in whole
+    chains only (``plan_tile``: a ring in full lanes, a composed step with no window), so some whole-chain shape must
+    fit: a lane size of 4, 8 or 16 grains that divides a ring's grain count, a block of at most 1 024 lanes."""
+    f = model.features
+    if model.device.is_cpu or (f.surface != "periodic" and f.method not in SUBSTEP_WEIGHTS):
         return None
-    return f"the tile kernel holds a ring in full lanes of 4, 8 or 16 grains: none divides {model.grain_count}"
+    if whole_chain_configs(model):
+        return None
+    if f.surface == "periodic":
+        return f"the tile kernel holds a ring in full lanes of 4, 8 or 16 grains: none divides {model.grain_count}"
+    return f"the tile kernel holds a {f.method} chain whole: {model.grain_count} grains do not fit one block"
 
 
 def is_calibrated(model: Model) -> bool:
@@ -444,10 +448,10 @@ def choose_config(
             raise ValueError("kernel = 'chain': a CPU kernel; use --device cpu")
         return CHAIN
     if kernel in ("tile", "window"):
-        if f.method in SUBSTEP_WEIGHTS:
+        if f.method in SUBSTEP_WEIGHTS and kernel == "window":
             raise ValueError(
-                f"kernel = {kernel!r}: not implemented for integrator.method = {f.method!r}; use "
-                f"--kernel step{', chain' if model.device.is_cpu else ''} or auto"
+                f"kernel = 'window': integrator.method = {f.method!r} fuses in whole chains only; use "
+                f"--kernel tile, step{', chain' if model.device.is_cpu else ''} or auto"
             )
         if not fusable(stepping_features(f)):
             raise ValueError(f"kernel = {kernel!r}: not implemented for surface = {f.surface!r} (features {f})")
@@ -462,7 +466,7 @@ def choose_config(
             return calibrate(model, configs=configs, states=states, log=log)[0]
         return configs[0]
     if kernel == "fused":
-        if fused_lacks(f, model.device.is_cpu) or _ring_unfused(model):
+        if fused_lacks(f, model.device.is_cpu) or _whole_chains_unfused(model):
             return STEP
         if model.device.is_cpu:
             return CHAIN
