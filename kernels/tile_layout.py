@@ -181,13 +181,11 @@ def tile_layout(features: Features, shape: TileShape) -> TileLayout:
     """The fused kernel's constants, types and device functions for ``features`` and ``shape``; raises ValueError
     for a feature set the fused kernels do not implement (``fusable``)."""
     f = features
-    if f.damping == "contact" and f.compensation:
+    if not fusable(f):
         raise ValueError(
             "fused kernels do not implement damping='contact' in compensated float32 (the per-step and CPU "
             "chain kernels do)"
         )
-    if not fusable(f):
-        raise ValueError(f"fused kernels do not implement method={f.method!r}")
     real = wp.float64 if f.precision == "float64" else wp.float32
     G = shape.grains_per_lane
     DRIVEN = f.surface == "driven"

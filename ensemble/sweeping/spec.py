@@ -602,9 +602,9 @@ def validate_grid(expanded: SweepPoints) -> int:
     everywhere; zipped axes pair up, so they are checked per sign pattern (:func:`_extreme_indices`).
     tests/sweeping/test_vectorised_expansion.py checks this against validating every point on generated grids.
     """
-    points = corner_points(expanded)
     if not expanded.parameter:
         return 0  # every point is a template, built and validated by expand
+    points = corner_points(expanded)
     for index in points:
         expanded.sweep.scene_at(index)
     return len(points)
