@@ -580,3 +580,24 @@ def test_trace_sample_is_written_out_of_the_step_loop():
         source = generated_source(tile_kernel(features, shape), block_dim=shape.block_dim)
         assert re.search(r"^static WP_NOINLINE [^\n]*__locals__write_trace_sample_\d+\(", source, re.MULTILINE)
         assert call_count(function_body(source, "write_traces"), "write_trace_sample") == 1
+
+
+def test_a_composed_ring_keeps_its_state_in_registers(tmp_path):
+    """The whole-chain kernel of a yoshida6 β-FPUT ring of 1 024 sites (128 lanes of 8): its substeps run in a loop,
+    the first and last lanes exchange edges, and still no register array is indexed at run time (sm_90 PTX by
+    NVRTC, no GPU needed)."""
+    from hertzian.kernels.tile import tile_kernel
+    from warp._src import build
+
+    ring = {"surface": "periodic", "bottom": "periodic"}
+    scenes = chains(1, chain={"grains": 1024, "potential": "fput", "a": 1.0, "beta": 1.0}, boundary=ring)
+    f = replace(build_model(scenes, "cpu").features, method="yoshida6")
+    plan = plan_tile(f, 1024, 4096, grains_per_lane=8)
+    assert plan.shape.lanes_per_chain == 128
+    cu = tmp_path / "ring.cu"
+    cu.write_text(generated_source(tile_kernel(f, plan.shape), "cuda", block_dim=plan.shape.block_dim))
+    try:
+        build.build_cuda(str(cu), 90, str(tmp_path / "ring.ptx"), pch_dir=None, use_precompiled_headers=False)
+    except Exception as err:  # a Warp without NVRTC
+        pytest.skip(f"no CUDA compiler: {err}")
+    assert not _entry_uses_local_memory((tmp_path / "ring.ptx").read_text(errors="replace"))
