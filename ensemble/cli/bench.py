@@ -90,6 +90,14 @@ def bench(
     repeats: Annotated[int, typer.Option("--repeats", help="Timed runs per implementation; the median counts.")] = 5,
     peers: Annotated[bool, typer.Option("--peers/--no-peers", help="Time the NumPy (and JAX) peers.")] = True,
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list of records.")] = False,
+    law: Annotated[
+        str,
+        typer.Option(
+            "--law",
+            help="The benchmark ensemble's contact law: hertz (the paper's chain) or fput (β-FPUT between walls, "
+            "a = m = 1, β = 1, dt = 0.05).",
+        ),
+    ] = "hertz",
     scene: Annotated[
         Optional[Path],
         typer.Option(
@@ -149,7 +157,7 @@ def bench(
     warmed up and timed; rates are medians. Ratios: to the memory wall (measured copy bandwidth over
     64 bytes per grain-step) and to the best implementation of the size.
     """
-    from hertzian.studies.bench import KERNEL_CHOICES, run_bench
+    from hertzian.studies.bench import KERNEL_CHOICES, LAWS, run_bench
 
     if scale_out is not None:
         _scale_out(scale_out, sweep, device, set_, as_json, weak=scale_weak, budget=scale_budget, path=scale_json)
@@ -158,6 +166,8 @@ def bench(
         _end_to_end(scene, sweep, device, kernel, cold, set_, as_json)
         return
     sizes = _sizes(chains, grains)
+    if law not in LAWS:
+        fail(f"--law = {law!r}: one of {', '.join(LAWS)}")
     if kernel not in KERNEL_CHOICES:
         fail(f"--kernel = {kernel!r}: one of {', '.join(KERNEL_CHOICES)}")
     if steps is not None and steps < 1:
@@ -172,7 +182,7 @@ def bench(
 
     log = lambda message: typer.echo(message, err=True)  # noqa: E731  (progress on stderr; --json on stdout)
     try:
-        records = run_bench(dev, sizes, kernel=kernel, steps=steps, repeats=repeats, peers=peers, log=log)
+        records = run_bench(dev, sizes, kernel=kernel, steps=steps, repeats=repeats, peers=peers, log=log, law=law)
     except RuntimeError as err:
         typer.echo(f"error: {err}", err=True)
         raise typer.Exit(1)

@@ -21,7 +21,7 @@ import math
 import os
 import statistics
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 
 import numpy as np
@@ -32,7 +32,7 @@ from hertzian.core.runner import Runner
 from hertzian.core.scene import Scene, scene_from_dict
 from hertzian.core.solvers import choose_config, make_solver
 from hertzian.core.solvers.calibrate import states_equal, whole_chain_configs
-from hertzian.studies.peers import JaxGear4, NumpyGear4, PeerProblem, jax_available
+from hertzian.studies.peers import JaxGear4, NumpyGear4, PeerProblem, jax_available, problem_from_model
 
 
 def today() -> str:
@@ -49,20 +49,31 @@ NUMPY_MAX_GRAINS = 1 << 18
 """The NumPy peer runs on at most this many chains × grains (the first chains of the ensemble)."""
 
 
-def bench_scenes(chains: int, grains: int) -> list[Scene]:
-    """The benchmark ensemble: the paper's chain (l0 = 1e-4, walls), gear4 float64 dt 1.25e-5, v_imp 1e-2…2e-2.
+LAWS = ("hertz", "fput")
+"""Contact laws of the benchmark ensemble (``bench_scenes``)."""
+
+
+def bench_scenes(chains: int, grains: int, law: str = "hertz") -> list[Scene]:
+    """The benchmark ensemble: the paper's chain (l0 = 1e-4, walls), gear4 float64 dt 1.25e-5, v_imp 1e-2…2e-2; or
+    (``law = "fput"``) a β-FPUT chain between walls (a = m = 1, α = 0, β = 1, dt = 0.05, the fastest mode's ω·dt
+    ≈ 0.1), v_imp 0.5…1.
 
     Plain Gear steps (``integrator.events = "off"``): the peers implement those, and the bench measures them.
     """
+    if law not in LAWS:
+        raise ValueError(f"law = {law!r}: one of {', '.join(LAWS)}")
+    chain, dt, impact = {"grains": grains, "l0": 1e-4}, 1.25e-5, 1e-2
+    if law == "fput":
+        chain, dt, impact = {"grains": grains, "potential": "fput", "a": 1.0, "alpha": 0.0, "beta": 1.0}, 0.05, 0.5
     base = scene_from_dict(
         {
-            "chain": {"grains": grains, "l0": 1e-4},
-            "excitation": {"impact": 1e-2},
-            "integrator": {"method": "gear4", "dt": 1.25e-5, "duration": 1.0, "precision": "float64", "events": "off"},
+            "chain": chain,
+            "excitation": {"impact": impact},
+            "integrator": {"method": "gear4", "dt": dt, "duration": 400 * dt, "precision": "float64", "events": "off"},
             "record": {"fields": ["u", "v"]},
         }
     )
-    return [base.with_overrides({"excitation.impact": 1e-2 * (1.0 + c / max(chains, 1))}) for c in range(chains)]
+    return [base.with_overrides({"excitation.impact": impact * (1.0 + c / max(chains, 1))}) for c in range(chains)]
 
 
 def copy_bandwidth(device) -> float:
@@ -171,8 +182,10 @@ def run_bench(
     peers: bool = True,
     min_seconds: float | None = None,
     log=None,
+    law: str = "hertz",
 ) -> list[dict]:
-    """Bench every implementation at every (chains, grains); returns one record (dict) per implementation and size."""
+    """Bench every implementation at every (chains, grains) on the ensemble of ``law`` (:func:`bench_scenes`);
+    returns one record (dict) per implementation and size."""
     if kernel not in KERNEL_CHOICES:
         raise ValueError(f"kernel = {kernel!r}: one of {', '.join(KERNEL_CHOICES)}")
     init_warp()
@@ -184,7 +197,7 @@ def run_bench(
     log(f"{dev.name}: copy bandwidth {bandwidth / 1e9:.0f} GB/s (read + write)")
     records = []
     for chains, grains in sizes:
-        scenes = bench_scenes(chains, grains)
+        scenes = bench_scenes(chains, grains, law)
         model = build_model(scenes, dev)
         size = _SizeBench(
             dev=dev,
@@ -210,6 +223,7 @@ def run_bench(
         best = max(r["grain_steps_per_second"] for r in size.records)
         for r in size.records:
             r["ratio_to_best"] = r["grain_steps_per_second"] / best
+            r["law"] = law
         records.extend(size.records)
         model = size = initial = None
         gc.collect()
@@ -324,13 +338,7 @@ def _bench_peers(size: _SizeBench, model, chains: int, initial: np.ndarray, wall
     """Bench the peers from the same initial state: NumPy (one core, at most NUMPY_MAX_GRAINS grains in all) and,
     where it is installed, JAX."""
     grains, check_steps = size.grains, size.check_steps
-    problem = PeerProblem(
-        x=initial,
-        contact_constant=model.contact_constant.numpy().reshape(chains, 1),
-        static_overlap=model.static_overlap.numpy().reshape(chains, 1),
-        inverse_mass=model.inverse_mass.numpy().reshape(chains, 1),
-        dt=model.dt,
-    )
+    problem = problem_from_model(model, initial)
     numpy_chains = max(1, min(chains, NUMPY_MAX_GRAINS // grains))
     peer = NumpyGear4(_first_chains(problem, numpy_chains))
     peer.run(check_steps)
@@ -364,12 +372,10 @@ def _bench_peers(size: _SizeBench, model, chains: int, initial: np.ndarray, wall
 
 
 def _first_chains(problem: PeerProblem, chains: int) -> PeerProblem:
-    return PeerProblem(
+    return replace(
+        problem,
         x=problem.x[:, :chains].copy(),
         contact_constant=problem.contact_constant[:chains],
         static_overlap=problem.static_overlap[:chains],
         inverse_mass=problem.inverse_mass[:chains],
-        dt=problem.dt,
-        surface_wall=problem.surface_wall,
-        bottom_wall=problem.bottom_wall,
     )

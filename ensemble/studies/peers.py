@@ -1,7 +1,8 @@
 """Peer implementations for ``hertzian bench``: what a user would otherwise write.
 
 Both integrate the benchmark ensemble — gear4 (Allen & Tildesley coefficients), Hertz contacts
-(n = 5/2), one contact constant, one mass and one static overlap per chain, walls or free ends —
+(n = 5/2) or the α–β FPUT law (``chain.potential = "fput"``, with tension), one contact constant, one mass and one
+static overlap per chain, walls or free ends —
 as whole-array operations on a (chains, grains) state, the same equation of motion as the
 project's kernels (excess contact forces about the static state, ``docs/architecture.md``):
 
@@ -40,6 +41,8 @@ class PeerProblem:
     dt: float
     surface_wall: bool = True
     bottom_wall: bool = True
+    fput: tuple[float, float] | None = None
+    """(α, β) of the FPUT law F(δ) = a (δ − α δ² + β δ³), one for every chain; None: Hertz."""
 
     @property
     def chain_count(self) -> int:
@@ -50,32 +53,37 @@ class PeerProblem:
         return self.x.shape[2]
 
 
-def problem_from_model(model) -> PeerProblem:
-    """The peer problem equivalent to an ensemble :class:`~hertzian.core.model.Model` (benchmark features only)."""
+def problem_from_model(model, x: np.ndarray | None = None) -> PeerProblem:
+    """The peer problem equivalent to an ensemble :class:`~hertzian.core.model.Model` (benchmark features only),
+    from state ``x`` (default: the model's initial state)."""
     f = model.features
+    c = model.chain_count
+    shapes = model.law_parameters.numpy().reshape(c, 2) if f.potential == "fput" else None
     if (
         f.method != "gear4"
         or f.heterogeneous
         or f.static == "profile"
-        or not f.hertz
+        or not (f.hertz or f.potential == "fput")
+        or (shapes is not None and np.any(shapes != shapes[0]))
         or f.traces
-        or f.surface == "driven"
+        or f.surface in ("driven", "periodic")
         or f.bottom == "fixed"
         or f.precision != "float64"
     ):
         raise ValueError(
-            f"peers implement gear4/float64/Hertz, homogeneous, uniform static, walls or free ends; got {f}"
+            "peers implement gear4/float64, Hertz or one FPUT law, homogeneous, uniform static, walls or free ends; "
+            f"got {f}"
         )
-    c = model.chain_count
     static = model.static_overlap.numpy() if f.static == "uniform" else np.zeros((c, 1))
     return PeerProblem(
-        x=model.initial_state().x.numpy(),
+        x=model.initial_state().x.numpy() if x is None else x,
         contact_constant=model.contact_constant.numpy().reshape(c, 1),
         static_overlap=static.reshape(c, 1),
         inverse_mass=model.inverse_mass.numpy().reshape(c, 1),
         dt=model.dt,
         surface_wall=f.surface == "wall",
         bottom_wall=f.bottom == "wall",
+        fput=None if shapes is None else (float(shapes[0, 0]), float(shapes[0, 1])),
     )
 
 
@@ -83,6 +91,18 @@ def _hertz(delta: np.ndarray, a_c: np.ndarray) -> np.ndarray:
     """5/2 a δ^(3/2) for δ > 0, else 0 (no tension), as in kernels/physics.py."""
     with np.errstate(invalid="ignore"):
         return np.where(delta > 0.0, 2.5 * a_c * delta * np.sqrt(np.where(delta > 0.0, delta, 1.0)), 0.0)
+
+
+def _fput(delta: np.ndarray, a_c: np.ndarray, alpha: float, beta: float) -> np.ndarray:
+    """a δ (1 + δ (β δ − α)), the FPUT force with tension."""
+    return a_c * delta * (1.0 + delta * (beta * delta - alpha))
+
+
+def _force0(p: PeerProblem) -> np.ndarray:
+    """The static force of each chain's contacts, F(δ0)."""
+    if p.fput is None:
+        return _hertz(p.static_overlap, p.contact_constant)
+    return _fput(p.static_overlap, p.contact_constant, *p.fput)
 
 
 class NumpyGear4:
@@ -97,7 +117,7 @@ class NumpyGear4:
         self.x = p.x.astype(np.float64).copy()
         self.delta0 = p.static_overlap
         self.a_c = p.contact_constant
-        self.force0 = _hertz(self.delta0, self.a_c)
+        self.force0 = _force0(p)
         self.half_h2 = 0.5 * p.dt * p.dt
         self.inverse_mass = p.inverse_mass
         self.u = np.zeros((c, n + 2))  # predicted positions with a virtual grain at rest at each end
@@ -118,10 +138,19 @@ class NumpyGear4:
         inner += x3
         np.subtract(u[:, :-1], u[:, 1:], out=delta)
         np.add(self.delta0, delta, out=delta)
-        np.maximum(delta, 0.0, out=root)
-        np.sqrt(root, out=root)
-        np.multiply(2.5 * self.a_c, delta, out=force)
-        force *= root  # root = 0 where δ ≤ 0: no tension
+        if self.problem.fput is None:
+            np.maximum(delta, 0.0, out=root)
+            np.sqrt(root, out=root)
+            np.multiply(2.5 * self.a_c, delta, out=force)
+            force *= root  # root = 0 where δ ≤ 0: no tension
+        else:  # a δ (1 + δ (β δ − α)), with tension
+            alpha, beta = self.problem.fput
+            np.multiply(beta, delta, out=root)
+            root -= alpha
+            root *= delta
+            root += 1.0
+            np.multiply(self.a_c, delta, out=force)
+            force *= root
         force -= self.force0
         if not self.problem.surface_wall:
             force[:, 0] = 0.0
@@ -193,16 +222,24 @@ class JaxGear4:
             return float(a.flat[0]) if np.all(a == a.flat[0]) else put(a)
 
         delta0, a_c, inv_m = (constant(a) for a in (p.static_overlap, p.contact_constant, p.inverse_mass))
-        force0 = constant(_hertz(p.static_overlap, p.contact_constant))
+        force0 = constant(_force0(p))
         half_h2 = 0.5 * p.dt * p.dt
         c0, c1, c3 = GEAR4[0], GEAR4[1], GEAR4[3]
         chains = p.chain_count
         surface_wall, bottom_wall = p.surface_wall, p.bottom_wall
         wall_u = jnp.zeros((chains, 1), dtype=jnp.float64)
 
-        def excess(delta):
-            closed = delta <= 0.0
-            return jnp.where(closed, 0.0, 2.5 * a_c * delta * jnp.sqrt(jnp.where(closed, 1.0, delta))) - force0
+        if p.fput is None:
+
+            def excess(delta):
+                closed = delta <= 0.0
+                return jnp.where(closed, 0.0, 2.5 * a_c * delta * jnp.sqrt(jnp.where(closed, 1.0, delta))) - force0
+
+        else:
+            alpha, beta = p.fput
+
+            def excess(delta):
+                return a_c * delta * (1.0 + delta * (beta * delta - alpha)) - force0
 
         def step(carry, _):
             x0, x1, x2, x3 = carry

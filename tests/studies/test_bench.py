@@ -54,6 +54,23 @@ def test_numpy_peer_matches_per_step_kernel():
     assert np.max(np.abs(peer.state() - want)) <= 1e-13 * np.max(np.abs(want))
 
 
+def test_numpy_peer_matches_per_step_kernel_on_fput():
+    # the β-FPUT ensemble of ``bench --law fput``: the peer's FPUT force against the kernels', after 50 steps of a
+    # nonlinear pulse (a Hertz force in its place would be far off: the comparison sees the law)
+    from dataclasses import replace
+
+    model = build_model(plain_gear(bench_scenes(4, 30, "fput")), "cpu")
+    problem = problem_from_model(model)
+    assert problem.fput == (0.0, 1.0)
+    want = per_step(model, 50)
+    peer = NumpyGear4(problem)
+    peer.run(50)
+    assert np.max(np.abs(peer.state() - want)) <= 1e-13 * np.max(np.abs(want))
+    harmonic = NumpyGear4(replace(problem, fput=(0.0, 0.0)))
+    harmonic.run(50)
+    assert np.max(np.abs(harmonic.state() - want)) > 1e-6 * np.max(np.abs(want))
+
+
 def test_bench_bad_input():
     for args, key in (
         (["--chains", "0"], "--chains"),
@@ -61,6 +78,7 @@ def test_bench_bad_input():
         (["--kernel", "fastest"], "--kernel"),
         (["--device", "cpu", "--kernel", "tile"], "--kernel"),
         (["--chains", "1,2", "--grains", "5,6,7"], "--grains"),
+        (["--law", "toda"], "--law"),
     ):
         result = invoke("bench", *args)
         assert result.exit_code == 2, (args, result.output)
@@ -127,3 +145,15 @@ def test_end_to_end_bad_input(tmp_path):
         assert result.exit_code == 2, (args, result.output)
         assert result.output.strip().startswith(f"error: {key} = ")
         assert "Traceback" not in result.output
+
+
+def test_jax_peer_matches_per_step_kernel_on_fput():
+    # the JAX peer's FPUT force against the kernels' (skipped without JAX)
+    pytest.importorskip("jax")
+    from hertzian.studies.peers import JaxGear4
+
+    model = build_model(plain_gear(bench_scenes(3, 20, "fput")), "cpu")
+    peer = JaxGear4(problem_from_model(model), "cpu")
+    peer.run(50)
+    want = per_step(model, 50)
+    assert np.max(np.abs(peer.state() - want)) <= 1e-12 * np.max(np.abs(want))
