@@ -57,7 +57,7 @@ def chain_kernel(features: Features):
     params, DAMPED, VISCOUS, DASHPOT, TRACES = take(layout, "params DAMPED VISCOUS DASHPOT TRACES")
     predicted_rate, dashpot, COMPOSED, SUBSTEPS = take(layout, "predicted_rate dashpot COMPOSED SUBSTEPS")
     substep_predicted_at, substep_correct = take(layout, "substep_predicted_at substep_correct")
-    (substep_weight,) = take(layout, "substep_weight")
+    substep_weight, contacts_t = take(layout, "substep_weight contacts_t")
     contact, chain_shape, driver_values = take(functions, "contact chain_shape driver_values")
     write_traces, copy_grains, exchange = take(functions, "write_traces copy_grains exchange")
     damped_forces, event_correct = take(functions, "damped_forces event_correct")
@@ -130,6 +130,14 @@ def chain_kernel(features: Features):
         if wp.static(STATIC):
             delta00 = static_overlap[c, 0]
         force00 = contact_force(delta00, a_c0, n)
+        cs = contacts_t()  # what a contact's force reads
+        cs.static_overlap = static_overlap
+        cs.contact_constant = contact_constant
+        cs.c = c
+        cs.a_c0 = a_c0
+        cs.delta00 = delta00
+        cs.force00 = force00
+        cs.n = n
         inv_m = inverse_mass[c, 0]
         h = real(dt)
         last = n_grains - 1
@@ -162,9 +170,7 @@ def chain_kernel(features: Features):
                 u_drive = product_rn(amplitude, wp.sin(omega * t_new))
                 t_old = wp.float64(step_new - 1) * dt
                 d_old = x_window[0, c, 0] - x_window[0, c, 1]
-                force_old = wp.float64(
-                    contact(static_overlap, contact_constant, c, 1, d_old, a_c0, delta00, force00, n)
-                )
+                force_old = wp.float64(contact(cs, 1, d_old))
                 if wp.static(DASHPOT):
                     # the driver also pushes through the dashpot of its contact (work includes it)
                     rate_old = real(dt * amplitude * omega * wp.cos(omega * t_old)) - x_window[1, c, 1]
@@ -194,21 +200,9 @@ def chain_kernel(features: Features):
             if wp.static(SURFACE_WALL):
                 if wp.static(f.compensation):
                     # a wall is a grain at rest at 0 (as the fused kernel's padding grains)
-                    force_above = contact(
-                        static_overlap,
-                        contact_constant,
-                        c,
-                        0,
-                        gap(nordsieck.exact_position(wp.float64(0.0)), position_here),
-                        a_c0,
-                        delta00,
-                        force00,
-                        n,
-                    )
+                    force_above = contact(cs, 0, gap(nordsieck.exact_position(wp.float64(0.0)), position_here))
                 else:
-                    force_above = contact(
-                        static_overlap, contact_constant, c, 0, -rounded(position_here), a_c0, delta00, force00, n
-                    )
+                    force_above = contact(cs, 0, -rounded(position_here))
             if wp.static(RING):
                 # the closing contact: grain N − 1's and grain 0's positions predicted before this pass overwrites
                 # grain 0; grain N − 1 takes the same force as the contact below it
@@ -216,17 +210,7 @@ def chain_kernel(features: Features):
                     position_last = substep_predicted_at(x_window, c, last, w)
                 else:
                     position_last = predicted_at(x_window, c, last)
-                force_above = contact(
-                    static_overlap,
-                    contact_constant,
-                    c,
-                    0,
-                    gap(position_last, position_here),
-                    a_c0,
-                    delta00,
-                    force00,
-                    n,
-                )
+                force_above = contact(cs, 0, gap(position_last, position_here))
                 force_ring = force_above
             for i in range(lo, hi):
                 u_here = rounded(position_here)
@@ -239,35 +223,15 @@ def chain_kernel(features: Features):
                     else:
                         position_next = predicted_at(x_window, c, i + 1)
                     u_next = rounded(position_next)
-                    force_below = contact(
-                        static_overlap,
-                        contact_constant,
-                        c,
-                        i + 1,
-                        gap(position_here, position_next),
-                        a_c0,
-                        delta00,
-                        force00,
-                        n,
-                    )
+                    force_below = contact(cs, i + 1, gap(position_here, position_next))
                 else:
                     if wp.static(BOTTOM_WALL):
                         if wp.static(f.compensation):
                             force_below = contact(
-                                static_overlap,
-                                contact_constant,
-                                c,
-                                n_grains,
-                                gap(position_here, nordsieck.exact_position(wp.float64(0.0))),
-                                a_c0,
-                                delta00,
-                                force00,
-                                n,
+                                cs, n_grains, gap(position_here, nordsieck.exact_position(wp.float64(0.0)))
                             )
                         else:
-                            force_below = contact(
-                                static_overlap, contact_constant, c, n_grains, u_here, a_c0, delta00, force00, n
-                            )
+                            force_below = contact(cs, n_grains, u_here)
                     elif wp.static(RING):
                         force_below = force_ring
                 held = False
@@ -398,6 +362,21 @@ def _chain_layout(features: Features) -> SimpleNamespace:
     LATTICE = f.potential != "hertz"
     shape_t = wp.types.vector(2, real) if LATTICE else real
     vec4 = wp.types.vector(4, real)
+
+    @wp.struct
+    class ChainContacts:
+        """What a chain's contact force reads: the per-contact arrays, the chain, and its first contact's constant,
+        static overlap and static force (one for every contact of a uniform chain), and the law's shape."""
+
+        static_overlap: wp.array2d(dtype=real)
+        contact_constant: wp.array2d(dtype=real)
+        c: int
+        a_c0: real
+        delta00: real
+        force00: real
+        n: shape_t
+
+    contacts_t = ChainContacts
     nordsieck = nordsieck_functions(f.method, f.precision, f.compensation)
     predicted_position, correct = nordsieck.predicted_position, nordsieck.correct
     predicted_at, gap, rounded = nordsieck.predicted_at, nordsieck.gap, nordsieck.rounded
@@ -429,37 +408,27 @@ def _chain_functions(layout: SimpleNamespace) -> SimpleNamespace:
     """The chain kernel's own device functions: a contact's excess force, the law's shape, traces, the window
     exchange, the damping forces and losses, and the event-aware corrector."""
     real, Q, SURFACE_WALL, DRIVEN, BOTTOM_WALL = take(layout, "real Q SURFACE_WALL DRIVEN BOTTOM_WALL")
-    PROFILE, HETERO, HERTZ, contact_force = take(layout, "PROFILE HETERO HERTZ contact_force")
+    PROFILE, HETERO, HERTZ, contact_force, contacts_t = take(layout, "PROFILE HETERO HERTZ contact_force contacts_t")
     excess_force, LATTICE, shape_t, vec4, nordsieck = take(layout, "excess_force LATTICE shape_t vec4 nordsieck")
     predicted_position, correct, values_t, params = take(layout, "predicted_position correct values_t params")
     near_event, event_step, VISCOUS, DASHPOT = take(layout, "near_event event_step VISCOUS DASHPOT")
     predicted_rate, dashpot, viscous_losses = take(layout, "predicted_rate dashpot viscous_losses")
     (dashpot_losses,) = take(layout, "dashpot_losses")
 
-    @wp.func
-    def contact(
-        static_overlap: wp.array2d(dtype=real),
-        contact_constant: wp.array2d(dtype=real),
-        c: int,
-        k: int,
-        d: real,
-        a_c0: real,
-        delta00: real,
-        force00: real,
-        n: shape_t,
-    ) -> real:
-        # excess force of padded contact k at relative displacement d (step.py's `contact`)
+    @wp.func(inline=True)
+    def contact(cs: contacts_t, k: int, d: real) -> real:
+        # excess force of padded contact k of chain cs.c at relative displacement d (step.py's `contact`)
         if wp.static(PROFILE or HETERO):
-            delta0 = delta00
+            delta0 = cs.delta00
             if wp.static(PROFILE):
-                delta0 = static_overlap[c, k]
-            a_c = a_c0
+                delta0 = cs.static_overlap[cs.c, k]
+            a_c = cs.a_c0
             if wp.static(HETERO):
-                a_c = contact_constant[c, k]
-            return excess_force(delta0, d, a_c, n)
+                a_c = cs.contact_constant[cs.c, k]
+            return excess_force(delta0, d, a_c, cs.n)
         else:
             # one δ0 and one a_c per chain: F(δ0) is the same for every contact, computed once
-            return contact_force(delta00 + d, a_c0, n) - force00
+            return contact_force(cs.delta00 + d, cs.a_c0, cs.n) - cs.force00
 
     @wp.func
     def chain_shape(law_parameters: wp.array(dtype=real), c: int) -> shape_t:
