@@ -10,16 +10,18 @@ import typer
 from hertzian.cli.app import app, fail, open_dataset_or_fail
 
 
-def _parse_at(items: list[str] | None) -> dict[str, float]:
-    at = {}
+def _parse_at(items: list[str] | None) -> dict[str, float | str]:
+    """``axis=value`` items: a number, or a word for an axis of names (a law, a material)."""
+    at: dict[str, float | str] = {}
     for item in items or []:
         key, sep, value = item.partition("=")
+        if not sep or not key.strip() or not value.strip():
+            fail(f"--at = {item!r}: must be written axis=value, e.g. --at v_imp=0.01 or --at law=fput")
         try:
-            if not sep or not key:
-                raise ValueError
             at[key.strip()] = float(value)
         except ValueError:
-            fail(f"--at = {item!r}: must be written axis=number, e.g. --at v_imp=0.01")
+            at[key.strip()] = value.strip()
+            continue
         if not math.isfinite(at[key.strip()]):
             fail(f"--at = {item!r}: the value must be a finite number")
     return at
@@ -46,8 +48,8 @@ def plot(
         Optional[list[str]],
         typer.Option(
             "--at",
-            help="Which point of a sweep store: axis=value, nearest coordinate (repeatable; default: the "
-            "first along each axis).",
+            help="Which point of a sweep store: axis=value, the nearest coordinate of a number axis or the name on "
+            "an axis of names such as law=fput (repeatable; default: the first along each axis).",
         ),
     ] = None,
     of: Annotated[

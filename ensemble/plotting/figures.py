@@ -700,13 +700,30 @@ def select_point(ds, at: dict[str, float] | None = None, notify=None):
     for dim in axes:
         if dim in at:
             asked, axis = at.pop(dim), ds[dim].values
-            ds = ds.sel({dim: asked}, method="nearest")
-            _tell_nearest(notify, dim, asked, axis, ds[dim].values)
+            if axis.dtype.kind in "fiu":
+                if isinstance(asked, str):
+                    raise PlotError(f"--at {dim}={asked}: {dim} is a number axis ({_axis_text(axis)})")
+                ds = ds.sel({dim: asked}, method="nearest")
+                _tell_nearest(notify, dim, asked, axis, ds[dim].values)
+            elif str(asked) in [str(v) for v in axis]:  # an axis of names: the one asked
+                ds = ds.isel({dim: [str(v) for v in axis].index(str(asked))})
+            else:
+                raise PlotError(f"--at {dim}={asked}: not on the axis ({_axis_text(axis)})")
         else:
             ds = ds.isel({dim: 0})
     if at:
         raise PlotError(f"no sweep axis {', '.join(at)}; the store's axes: {', '.join(axes) or 'none'}")
     return ds
+
+
+def _axis_text(axis) -> str:
+    """An axis' values for a message."""
+    return ", ".join(f"{v:g}" if isinstance(v, (int, float, np.number)) else str(v) for v in axis)
+
+
+def point_label(ds, point) -> str:
+    """``axis = value`` of each sweep axis of ``point`` (a point of ``ds``), comma-separated ('' for a run)."""
+    return ", ".join(f"{d} = {_axis_text([point[d].values.item()])}" for d in point_dims(ds) if d in point.coords)
 
 
 def _tell_nearest(notify, dim: str, asked: float, axis, taken) -> None:
@@ -749,7 +766,9 @@ def plot_store(ds, out: str | Path, *, field: str = "v", at: dict[str, float] | 
         from hertzian.plotting.spectrum import plot_spectrum_point
 
         point = select_point(ds, at, notify)
-        return plot_spectrum_point(point, Path(out), _pyplot(), time_unit=TIME_UNIT, energy_unit=ENERGY_UNIT)
+        return plot_spectrum_point(
+            point, Path(out), _pyplot(), time_unit=TIME_UNIT, energy_unit=ENERGY_UNIT, where=point_label(ds, point)
+        )
     _require(ds, field, "energy", figure=f"a {field} picture")
     point = select_point(ds, at, notify)
     plt = _pyplot()
@@ -781,7 +800,7 @@ def plot_store(ds, out: str | Path, *, field: str = "v", at: dict[str, float] | 
         + (f"; grains {reached}–{n - 1}, below 0.1 % of the largest |{field}|, not shown" if reached < n else "")
     )
     axes[0].set_ylabel(f"t [{TIME_UNIT}]")
-    where = ", ".join(f"{d} = {point[d].values:g}" for d in point_dims(ds) if d in point.coords)
+    where = point_label(ds, point)
     axes[0].set_title(
         f"{field}(grain, t), + into the chain; {n} grains, {len(t)} records" + (f"; {where}" if where else "")
     )

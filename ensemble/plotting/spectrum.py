@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 
 
-def plot_spectrum_point(point, out: Path, plt, *, time_unit: str, energy_unit: str) -> Path:
+def plot_spectrum_point(point, out: Path, plt, *, time_unit: str, energy_unit: str, where: str = "") -> Path:
     """One point: E_k(t) coloured by mode number, then S(t) and the participation number (its own axis); ``plt`` is
-    the caller's pyplot, the units its labels."""
+    the caller's pyplot, the units its labels, ``where`` the point's sweep coordinates (empty for a run)."""
     fig, axes = plt.subplots(2, 1, figsize=(7.0, 6.5), squeeze=False)
     axes = axes[:, 0]
     t = point.t.values
@@ -22,7 +22,9 @@ def plot_spectrum_point(point, out: Path, plt, *, time_unit: str, energy_unit: s
         axes[0].plot(t, np.maximum(energy[:, k], floor), color=colour, lw=0.7)
     axes[0].set_yscale("log")
     axes[0].set_ylabel(f"E_k [{energy_unit}]")
-    axes[0].set_title(f"harmonic mode energies, modes {modes[0]} (dark) … {modes[-1]} (light)")
+    axes[0].set_title(
+        f"harmonic mode energies, modes {modes[0]} (dark) … {modes[-1]} (light)" + (f"; {where}" if where else "")
+    )
     axes[1].plot(t, point.spectral_entropy.values, color="C0", label="spectral entropy S")
     axes[1].set_ylabel("S = −Σ e_k ln e_k", color="C0")
     twin = axes[1].twinx()

@@ -47,7 +47,7 @@ def test_plot_any_store_writes_a_png(impact_store, tmp_path, monkeypatch):
     "args,message",
     [
         (["--field", "w"], "--field = 'w': u or v"),
-        (["--at", "v_imp"], "--at = 'v_imp': must be written axis=number"),
+        (["--at", "v_imp"], "--at = 'v_imp': must be written axis=value"),
         (["--at", "v_imp=0.1"], "no sweep axis v_imp"),
         (["--at", "v_imp=nan"], "--at = 'v_imp=nan': the value must be a finite number"),
         (["--figure", "fig42"], "--figure = 'fig42'"),
@@ -60,6 +60,28 @@ def test_plot_bad_input_is_one_line_exit_2(impact_store, tmp_path, monkeypatch, 
     assert result.exit_code == 2
     assert message in result.output and "Traceback" not in result.output
     assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob("*.svg"))
+
+
+def test_select_point_takes_a_named_value_on_an_axis_of_names():
+    """An axis of names (a sweep over chain.potential or a material): --at law=toda picks that point; a name not on
+    the axis, or a word on a number axis, is refused naming the axis' values; the picture's title names the point."""
+    from hertzian.plotting.figures import point_label
+
+    ds = xr.Dataset(
+        {
+            "status": (("law", "v_imp"), np.zeros((3, 2), dtype=np.int32)),
+            "u": (("law", "v_imp", "record"), np.arange(12, dtype=float).reshape(3, 2, 2)),
+        },
+        coords={"law": ["hertz", "harmonic", "toda"], "v_imp": [0.1, 0.2]},
+    )
+    point = select_point(ds, {"law": "toda", "v_imp": 0.2})
+    assert str(point.law.values) == "toda" and float(point.v_imp) == 0.2
+    np.testing.assert_array_equal(point.u.values, [10.0, 11.0])
+    assert point_label(ds, point) == "law = toda, v_imp = 0.2"
+    with pytest.raises(PlotError, match=r"law=lj: not on the axis \(hertz, harmonic, toda\)"):
+        select_point(ds, {"law": "lj"})
+    with pytest.raises(PlotError, match=r"v_imp=fast: v_imp is a number axis \(0.1, 0.2\)"):
+        select_point(ds, {"v_imp": "fast"})
 
 
 def test_select_point_takes_the_nearest_coordinate():
