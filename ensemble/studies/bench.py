@@ -62,14 +62,15 @@ def bench_scenes(chains: int, grains: int, law: str = "hertz") -> list[Scene]:
     """
     if law not in LAWS:
         raise ValueError(f"law = {law!r}: one of {', '.join(LAWS)}")
-    chain, dt, impact = {"grains": grains, "l0": 1e-4}, 1.25e-5, 1e-2
+    chain, dt, impact, duration = {"grains": grains, "l0": 1e-4}, 1.25e-5, 1e-2, 1.0
     if law == "fput":
-        chain, dt, impact = {"grains": grains, "potential": "fput", "a": 1.0, "alpha": 0.0, "beta": 1.0}, 0.05, 0.5
+        chain = {"grains": grains, "potential": "fput", "a": 1.0, "alpha": 0.0, "beta": 1.0}
+        dt, impact, duration = 0.05, 0.5, 20.0
     base = scene_from_dict(
         {
             "chain": chain,
             "excitation": {"impact": impact},
-            "integrator": {"method": "gear4", "dt": dt, "duration": 400 * dt, "precision": "float64", "events": "off"},
+            "integrator": {"method": "gear4", "dt": dt, "duration": duration, "precision": "float64", "events": "off"},
             "record": {"fields": ["u", "v"]},
         }
     )
