@@ -357,6 +357,8 @@ def _group_features(points: SweepPoints, templates: list[int]) -> Features:
 def _scene_features(points: SweepPoints, template: int) -> Features:
     """``features_of`` over every point of a template that runs one scene per point (``scene_path_key``), in
     chunks of scenes."""
+    if not points.parameter:  # a template per point
+        return features_of([points.templates[template]])
     members = np.flatnonzero(points.template_index(np.arange(points.point_count)) == template)
     combined = None
     for start in range(0, len(members), SCENE_CHUNK):
