@@ -75,6 +75,18 @@ MATERIALS = {
         "values are 0.4-0.6 GPa): C. Daraio, V. F. Nesterenko, E. B. Herbold and S. Jin, Phys. Rev. E 72, 016603 "
         "(2005)",
     ),
+    "aluminium": Material(
+        69e9,
+        0.33,
+        2700.0,
+        "aluminium alloy 6061-T6: FreeCAD standard material library (FreeCAD 0.20), card Aluminum-6061-T6.FCMat",
+    ),
+    "glass": Material(
+        72e9,
+        0.22,
+        2520.0,
+        "soda-lime glass: FreeCAD standard material library (FreeCAD 0.20), card Glass-Generic.FCMat",
+    ),
 }
 """Materials shipped with the package, by name; a scene adds its own in a ``[materials.NAME]`` table."""
 

@@ -95,6 +95,31 @@ def test_two_steel_beads_have_the_closed_form_mass_and_constant():
     assert math.isclose(PRESSURE_PA, 2.36e-5 / (1e-5 * 1.0102e-3**2), rel_tol=1e-15)
 
 
+def test_an_aluminium_glass_dimer_has_the_cited_values_and_the_unlike_bead_law():
+    """The shipped aluminium (6061-T6) and soda-lime glass carry their cards' SI values (FreeCAD's standard material
+    library); between them a = (8/15) E* √R* with 1/E* = (1 − ν_Al²)/E_Al + (1 − ν_g²)/E_g, and a glass wall."""
+    cards = {"aluminium": (69e9, 0.33, 2700.0), "glass": (72e9, 0.22, 2520.0)}
+    for name, (e, nu, rho) in cards.items():
+        got = MATERIALS[name]
+        assert (got.youngs_modulus, got.poisson_ratio, got.density) == (e, nu, rho), name
+        assert "FreeCAD" in got.source, name
+    scene = make_scene(
+        chain={"grains": 4, "material": ["aluminium", "glass"]},
+        boundary={"wall_material": "glass"},
+        excitation={"impact": 1e-2},
+    )
+    radius = 0.5e-3 / 1e-5  # program lengths
+    compliance = {k: (1 - nu**2) / (e / PRESSURE_PA) for k, (e, nu, _) in cards.items()}
+    mass = {k: rho * 4 / 3 * math.pi * 0.5e-3**3 / 2.36e-5 for k, (_, _, rho) in cards.items()}
+    st = static_state(scene)
+    np.testing.assert_allclose(st.mass, [mass["aluminium"], mass["glass"]] * 2, rtol=1e-14)
+    inner = 8 / 15 * math.sqrt(radius / 2) / (compliance["aluminium"] + compliance["glass"])
+    np.testing.assert_allclose(st.contact_constant[1:-1], inner, rtol=1e-14)
+    top = 8 / 15 * math.sqrt(radius) / (compliance["aluminium"] + compliance["glass"])
+    bottom = 8 / 15 * math.sqrt(radius) / (2 * compliance["glass"])
+    np.testing.assert_allclose(st.contact_constant[[0, -1]], [top, bottom], rtol=1e-14)
+
+
 def test_a_chain_set_of_diameters_equals_its_scenes_bit_for_bit():
     base = build(CASES["three materials, radii pattern, gravity, free surface, own walls"][0], 0.1)
     chains = ChainSet.of(base, {"chain.diameter": [100.0, 60.0, 140.0]}, 3)
