@@ -31,6 +31,7 @@ COMMANDS = (
     "reproduce",
     "detect",
     "warmup",
+    "tune",
     "prebuild",
     "estimates",
     "design",

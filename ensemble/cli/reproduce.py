@@ -76,7 +76,7 @@ GroupKernelOption = Annotated[
         help="auto | fused | step | tile | window | chain for "
         "every figure group's sweep (default, per group: fused on a GPU "
         "where the group takes plain Gear steps, so the short groups run "
-        "on the calibrated fused kernels, cached after the first run; "
+        "on the fused kernels; "
         "else auto).",
     ),
 ]

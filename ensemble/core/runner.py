@@ -85,7 +85,7 @@ class RunResult:
     kernel_note: str | None = None
     """Why the per-step kernel ran (a feature or a short run), or None; also appended to ``kernel``."""
     timing: dict = field(default_factory=dict)
-    """Seconds: ``setup`` (kernel choice, calibration, compile/load; ``setup_in_init`` of it in
+    """Seconds: ``setup`` (kernel choice, compile/load; ``setup_in_init`` of it in
     ``Runner.__init__``), ``advance`` (host time in the
     solver; on a CPU the kernels themselves), ``record`` (checks, host copies, unpacking), ``device``
     (CUDA: summed event time of the advances; CPU: = advance), ``wall`` (= wall_seconds)."""
@@ -206,7 +206,7 @@ class Runner:
         """Called with no argument once every launch and record of ``run`` is queued, before it waits for the device
         (a caller's host work, such as allocating page-locked memory for what it will copy, overlaps the run)."""
         self.setup_seconds = time.perf_counter() - setup_start
-        """Kernel choice (and any calibration), solver construction and kernel compile/load [s]."""
+        """Kernel choice, solver construction and kernel compile/load [s]."""
 
     def advance(self, n_steps: int) -> None:
         """Take ``n_steps`` steps from ``current`` (no host synchronisation)."""

@@ -31,7 +31,7 @@ from hertzian.core.model import build_model
 from hertzian.core.runner import Runner
 from hertzian.core.scene import Scene, scene_from_dict
 from hertzian.core.solvers import choose_config, make_solver
-from hertzian.core.solvers.calibrate import states_equal, whole_chain_configs
+from hertzian.core.solvers.calibrate import calibrate, kind_configs, states_equal, whole_chain_configs
 from hertzian.studies.peers import JaxGear4, NumpyGear4, PeerProblem, jax_available, problem_from_model
 
 
@@ -285,6 +285,15 @@ class _SizeBench:
         )
 
 
+def bench_config(model, name: str, states, log):
+    """The config bench measures for kernel ``name``: ``choose_config``'s, except that a forced tile or window kernel
+    on a GPU is timed in each of its candidate shapes and measured in the fastest."""
+    if name in ("tile", "window") and model.device.is_cuda:
+        configs = kind_configs(model, name)
+        return configs[0] if len(configs) == 1 else calibrate(model, configs=configs, states=states, log=log)[0]
+    return choose_config(model, name, run_steps=None)
+
+
 def _bench_kernels(size: _SizeBench, model, chains: int, kernel: str, wall: float) -> np.ndarray:
     """Bench the project's kernels (``kernel``: one, or all of the device's) on ``model``, one runner (one pair of
     state buffers) reset to t = 0 in between; sets ``size.reference`` from the per-step kernel first. Returns the
@@ -320,8 +329,9 @@ def _bench_kernels(size: _SizeBench, model, chains: int, kernel: str, wall: floa
         solver = step_solver
         if name != "step":
             try:
-                # a bench run is long by design: auto decides as for a long run
-                config = choose_config(model, name, run_steps=None, states=runner.buffers, log=size.log)
+                # a bench run is long by design: auto decides as for a long run; a forced tile or window kernel is
+                # measured in its fastest shape on a GPU (timed here, as `hertzian tune` does, without the cache)
+                config = bench_config(model, name, runner.buffers, size.log)
             except ValueError as err:
                 size.log(f"  {name}: skipped ({err})")
                 continue

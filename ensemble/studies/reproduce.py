@@ -200,9 +200,9 @@ def run_sweep_group(
 
 def group_kernel(events: str, device: str) -> str:
     """The solver choice of a figure group whose scene takes ``integrator.events = events``: on a GPU "fused" for
-    plain Gear steps (the calibrated fused kernels, cached after the first run; "auto"'s short-run rule would give
-    the short groups the per-step kernel, launch-bound at a few µs a step), else "auto" (event-aware steps cost the
-    fused kernels 1.7–11× on a GPU where contacts keep opening, docs/stability.md §6c)."""
+    plain Gear steps (the fused kernels, in the shape ``hertzian tune`` chose, else the shipped rule's), else "auto"
+    (event-aware steps cost the fused kernels 1.7–11× on a GPU where contacts keep opening, docs/stability.md
+    §6c). On a GPU the two choose alike; "fused" also keeps the CPU's chain kernel for the short groups."""
     import warp as wp
 
     return "fused" if events == "off" and not wp.get_device(device).is_cpu else "auto"

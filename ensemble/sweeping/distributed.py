@@ -99,28 +99,6 @@ def runs_of(plan, points, batches) -> list[tuple]:
     return out
 
 
-def calibrate_ahead(plan, points, batches, device: str, *, kernel: str = "auto") -> int:
-    """On CUDA with ``auto``: calibrate here, once, each launch shape of ``batches`` that the calibration cache
-    lacks, so that workers read the choice from that cache and its kernel from Warp's instead of each timing the
-    candidate shapes in its first batch (one writer per cache). Returns how many shapes it calibrated."""
-    wp = _quiet_warp()
-    if kernel != "auto" or not wp.get_device(device).is_cuda:
-        return 0
-    from hertzian.core.model import build_model
-    from hertzian.core.solvers.calibrate import calibrated_config, is_calibrated, step_reason
-
-    calibrated, seen = 0, set()
-    for batch in batches:
-        if (batch.group, batch.size) in seen:
-            continue
-        seen.add((batch.group, batch.size))
-        model = build_model(points.chains(batch.points), device, features=plan.groups[batch.group].features)
-        if not step_reason(model, model.scenes[0].step_count) and not is_calibrated(model):
-            calibrated_config(model)
-            calibrated += 1
-    return calibrated
-
-
 def run_job(
     job: BatchJob, device: str, progress: Callable[[int, int], None] | None = None, *, worker: str = ""
 ) -> dict[str, Any]:

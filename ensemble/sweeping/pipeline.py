@@ -34,7 +34,6 @@ from hertzian.core.solvers.calibrate import event_cost_note, step_reason_of
 from hertzian.sweeping.balance import balance_plan, batch_priorities
 from hertzian.sweeping.distributed import (
     BatchFailedError,
-    calibrate_ahead,
     jobs_for,
     run_distributed,
     run_serial,
@@ -260,7 +259,7 @@ def check_kernel(kernel: str, plan: Plan, points: SweepPoints, dev: str) -> None
         batch = next(b for b in plan.batches if b.group == index)
         model = build_model([points.scene(int(batch.points[0]))], dev, features=group.features)
         try:
-            choose_config(model, kernel, calibrate_now=False)
+            choose_config(model, kernel)
         except ValueError as err:
             raise OptionError("kernel", kernel, str(err).split(": ", 1)[-1]) from None
 
@@ -468,8 +467,6 @@ def _setup(p: PreparedSweep, pending: list, stack: contextlib.ExitStack, notify)
     features = [g.features for g in p.plan.groups]
 
     def warm():  # the kernels load from Warp's cache or compile into it; one writer: this process
-        if distributed:  # shapes the workers' batches take and the cache lacks are calibrated here first
-            calibrate_ahead(p.plan, p.points, pending, p.device, kernel=p.kernel)
         warm_kernels(features, p.device, runs=runs_of(p.plan, p.points, pending))
 
     warming = stack.enter_context(ThreadPoolExecutor(max_workers=1)).submit(warm)

@@ -186,7 +186,7 @@ def test_damping_generates_no_code_when_unused_and_runs_on_the_cpu_sweep():
     # both damping models are in the fused kernels too (test_fused_features.py; 8 grains fit no window)
     dashpot = build_model([impact.with_overrides({"damping.model": "contact"})], "cpu")
     for damped in (model, dashpot):
-        assert choose_config(damped, "tile", calibrate_now=False).kind == "tile"
+        assert choose_config(damped, "tile").kind == "tile"
         assert fused_lacks(damped.features, is_cpu=False) is None
     # but not the dashpot in compensated float32: refused there, never run undamped
     dashpot32 = build_model(

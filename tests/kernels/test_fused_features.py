@@ -413,9 +413,9 @@ def test_fused_kernel_keeps_its_state_in_registers(driven, tmp_path):
     assert not _entry_uses_local_memory((tmp_path / "fused.ptx").read_text(errors="replace"))
 
 
-def test_auto_takes_a_calibrated_fused_kernel_for_short_gpu_runs(tmp_path, monkeypatch):
-    # a short run on a GPU takes a fused kernel without calibrating: the shape calibrated before on the device (the
-    # cache holds the choice), else the default shape; decided without a GPU on a stand-in model
+def test_auto_takes_a_tuned_fused_kernel_for_short_gpu_runs(tmp_path, monkeypatch):
+    # a short run on a GPU takes a fused kernel without timing: the shape `hertzian tune` chose on the device (the
+    # cache holds the choice), else the rule's shape; decided without a GPU on a stand-in model
     import json
     from types import SimpleNamespace
 
@@ -565,7 +565,7 @@ def test_fused_kernels_refuse_the_dashpot_in_compensated_float32():
             model.features, plan_tile(model.features, model.grain_count, model.chain_count, grains_per_lane=4).shape
         )
     with pytest.raises(ValueError, match="damping"):
-        choose_config(model, "tile", calibrate_now=False)
+        choose_config(model, "tile")
 
 
 def test_trace_sample_is_written_out_of_the_step_loop():

@@ -109,7 +109,7 @@ def test_a_ring_fuses_in_full_lanes_only():
     for grains, fuses in ((24, True), (30, False)):
         model = SimpleNamespace(features=features, device=gpu, grain_count=grains, chain_count=4096)
         assert (calibrate.step_reason(model) is None) == fuses, grains
-        assert (calibrate.choose_config(model, "fused", calibrate_now=False).kind != "step") == fuses, grains
+        assert (calibrate.choose_config(model, "fused").kind != "step") == fuses, grains
 
 
 def test_a_composed_method_fuses_in_whole_chains_only():
@@ -127,4 +127,4 @@ def test_a_composed_method_fuses_in_whole_chains_only():
     for grains, fuses in ((1024, True), (100_000, False)):
         model = SimpleNamespace(features=features, device=gpu, grain_count=grains, chain_count=4096)
         assert (calibrate.step_reason(model) is None) == fuses, grains
-        assert (calibrate.choose_config(model, "fused", calibrate_now=False).kind != "step") == fuses, grains
+        assert (calibrate.choose_config(model, "fused").kind != "step") == fuses, grains

@@ -1,7 +1,7 @@
 """Solvers: advance an ensemble's state, ``solver.advance(state_in, state_out, n_steps) -> State``.
 
 ``make_solver(model, config)`` builds the solver a :class:`SolverConfig` names; ``choose_config``
-(``calibrate``) picks the config for a model (``--kernel``), timing and caching on GPUs.
+(``calibrate``) picks the config for a model (``--kernel``) without timing; ``calibrate.tune`` times shapes (``hertzian tune``).
 
 ========  =============================  ==================================================
 kind      class (module)                 kernel

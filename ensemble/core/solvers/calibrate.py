@@ -1,6 +1,6 @@
-"""Which solver steps an ensemble, and in what launch shape: a short measured calibration, cached.
+"""Which solver steps an ensemble, and in what launch shape; on a GPU, ``hertzian tune`` times the shapes.
 
-This module only *chooses* a :class:`SolverConfig` (and remembers the choice); the solvers
+This module only *chooses* a :class:`SolverConfig` (and remembers what ``hertzian tune`` measured); the solvers
 themselves are in this package's ``step``, ``tile`` and ``chain`` modules. Kinds (``--kernel``):
 
 * ``step`` — one Gear/Verlet step per launch over (chain, grain) (``kernels/step.py``): every feature,
@@ -10,12 +10,11 @@ themselves are in this package's ``step``, ``tile`` and ``chain`` modules. Kinds
   (``kernels/tile.py`` + ``kernels/ghost.py``), CUDA.
 * ``chain`` — one CPU thread per chain, many steps per launch (``kernels/cpu.py``).
 * ``auto`` — per-step for features the fused kernels lack (see :func:`step_reason`); on a CPU the cheaper of
-  ``chain`` and ``step`` counting the compile of a kernel not in Warp's kernel cache (:func:`cpu_auto_config`),
-  and on a GPU the fastest of a few ``tile``/``window`` shapes, timed once per (device, features, grains,
-  chains) and remembered in ``$HERTZIAN_CACHE`` (default ``~/.cache/hertzian/calibration.json``). A GPU run
-  shorter than AUTO_MIN_GRAIN_STEPS_GPU is not timed: it takes the cached shape, else :func:`default_config`.
-* ``fused`` — ``auto`` that calibrates short runs too (the first run of a shape on a GPU times its candidates,
-  later ones read the cache).
+  ``chain`` and ``step`` counting the compile of a kernel not in Warp's kernel cache (:func:`cpu_auto_config`);
+  on a GPU a fused kernel in the shape ``hertzian tune`` chose for the model (remembered per device, features,
+  grains and chain-count bucket in ``$HERTZIAN_CACHE``, default ``~/.cache/hertzian/calibration.json``), else
+  the shipped rule's shape (:func:`default_config`, hertzian.core.solvers.shape_rule). No run times anything.
+* ``fused`` — ``auto`` without the per-step kernel for short CPU runs.
 
 Every fused kernel reproduces the per-step kernel's arithmetic (tests/kernels/test_tile.py,
 tests/kernels/test_chain_kernel.py), so the choice changes speed, not results.
@@ -44,9 +43,6 @@ from hertzian.kernels.tile import fusable, plan_tile
 
 KERNELS = ("auto", "fused", "step", "tile", "window", "chain")
 
-AUTO_MIN_GRAIN_STEPS_GPU = 5e9
-"""Below this many grain-steps in a run, ``auto`` on a GPU does not calibrate (tens of seconds the first time): it
-takes the shape the calibration cache holds for the model, else :func:`default_config`."""
 CALIBRATION_VERSION = 5
 """Bumped when the cached fields change (2: a SolverConfig; 3: the event step out of line by default; 4: one-warp
 windows among the candidates; 5: the tile shape without its two never-changed contact-law switches)."""
@@ -272,16 +268,20 @@ def window_configs(model: Model) -> list[SolverConfig]:
 
 
 def default_config(model: Model) -> SolverConfig:
-    """A shape chosen without timing: whole chains when they fill the GPU, else windows."""
+    """The shape a run takes without timing: the shipped rule's for the device's architecture
+    (hertzian.core.solvers.shape_rule), else whole chains when they fill the GPU, else windows."""
+    from hertzian.core.solvers.shape_rule import ruled_config
+
     n, c = model.grain_count, model.chain_count
     sms = getattr(model.device, "sm_count", 132) or 132
     whole = [p for p in whole_chain_configs(model) if p.shape.max_registers == 0]
+    windows = window_configs(model)
+    ruled = ruled_config(whole + windows, model.features, n, c, sms, getattr(model.device, "arch", None))
+    if ruled is not None:
+        return ruled
     if n <= 1024 and c >= 2 * sms and whole:
         return whole[0]
-    windows = window_configs(model)
-    if windows:
-        return windows[0]
-    return whole[0]
+    return windows[0] if windows else whole[0]
 
 
 # ---- measuring --------------------------------------------------------------------------------------
@@ -395,33 +395,34 @@ def cached_config(model: Model) -> SolverConfig | None:
         return None
 
 
-def calibrated_config(model: Model, *, states: tuple[State, State] | None = None, log=None) -> SolverConfig:
-    """The cached calibration for this model's (device, features, grains, chain-count bucket); calibrate once."""
-    cached = cached_config(model)
-    if cached is not None:
-        return cached
-    key = _cache_key(model)
-    best, _ = calibrate(model, states=states, log=log)
+def tune(
+    model: Model, *, kernel: str = "auto", states: tuple[State, State] | None = None, log=None
+) -> tuple[SolverConfig, SolverConfig, list[tuple[SolverConfig, float]]]:
+    """``hertzian tune``: time the candidate shapes of ``model`` (of a forced ``tile`` or ``window`` kernel: that
+    kind's), remember the fastest in the calibration cache for this model's (device, features, grains, chain-count
+    bucket), and return (fastest, the rule's shape, [(config, seconds per step)]). The rule's shape is always
+    among those timed."""
+    configs = kind_configs(model, kernel) if kernel in ("tile", "window") else None
+    rule = _forced_config(model, kernel) if kernel in ("tile", "window") else default_config(model)
+    if configs is None:
+        configs = whole_chain_configs(model)
+        if not configs or model.chain_count < _sm_count(model) or model.grain_count > 1024:
+            configs = configs + window_configs(model)
+    configs = list(dict.fromkeys([rule, *configs]))
+    best, results = calibrate(model, configs=configs, states=states, log=log)
     entries = _read_cache()
-    entries[key] = best.to_dict()
+    entries[_cache_key(model)] = best.to_dict()
     _write_cache(entries)
-    return best
+    return best, rule, results
 
 
-def choose_config(
-    model: Model,
-    kernel: str = "auto",
-    *,
-    run_steps: int | None = None,
-    calibrate_now: bool = True,
-    states: tuple[State, State] | None = None,
-    log=None,
-) -> SolverConfig:
-    """The SolverConfig to use for ``model``.
+def choose_config(model: Model, kernel: str = "auto", *, run_steps: int | None = None) -> SolverConfig:
+    """The SolverConfig to use for ``model``; it times nothing.
 
     ``kernel`` is one of KERNELS; a forced kind that cannot run these features raises ValueError.
-    ``run_steps`` (steps of the run) lets ``auto`` keep short runs on the per-step solver. ``states``:
-    a state pair a calibration may overwrite (default: a fresh one).
+    ``run_steps`` (steps of the run) lets ``auto`` on a CPU weigh a kernel's compile against the run. On a GPU
+    a fused kernel takes the shape ``hertzian tune`` chose for this model (the calibration cache), else the shipped
+    rule's (:func:`default_config`).
     """
     if kernel not in KERNELS:
         raise ValueError(f"kernel = {kernel!r}: one of {', '.join(KERNELS)}")
@@ -448,38 +449,58 @@ def choose_config(
             raise ValueError("kernel = 'chain': a CPU kernel; use --device cpu")
         return CHAIN
     if kernel in ("tile", "window"):
-        if f.method in SUBSTEP_WEIGHTS and kernel == "window":
-            raise ValueError(
-                f"kernel = 'window': integrator.method = {f.method!r} fuses in whole chains only; use "
-                f"--kernel tile, step{', chain' if model.device.is_cpu else ''} or auto"
-            )
-        if not fusable(stepping_features(f)):
-            raise ValueError(f"kernel = {kernel!r}: not implemented for surface = {f.surface!r} (features {f})")
-        configs = whole_chain_configs(model) if kernel == "tile" else window_configs(model)
-        if not configs:
-            ring = " (a ring fuses whole, in full lanes of 4, 8 or 16 grains: use --kernel tile on a grain count one of them divides, or step)"
-            raise ValueError(
-                f"kernel = {kernel!r}: no launch shape fits {model.grain_count} grains"
-                + (ring if f.surface == "periodic" else "")
-            )
-        if model.device.is_cuda and calibrate_now and len(configs) > 1:
-            return calibrate(model, configs=configs, states=states, log=log)[0]
-        return configs[0]
+        return _forced_config(model, kernel)
     if kernel == "fused":
         if fused_lacks(f, model.device.is_cpu) or _whole_chains_unfused(model):
             return STEP
         if model.device.is_cpu:
             return CHAIN
-        return calibrated_config(model, states=states, log=log) if calibrate_now else default_config(model)
+        return cached_config(model) or default_config(model)
     # auto
     if step_reason(model, run_steps):
         return STEP
     work = model.chain_count * model.grain_count * (run_steps if run_steps is not None else math.inf)
     if model.device.is_cpu:
         return cpu_auto_config(f, work, model.device)
-    if work < AUTO_MIN_GRAIN_STEPS_GPU:  # short: no calibration, a shape timed before or the default one
-        return cached_config(model) or default_config(model)
-    return calibrated_config(model, states=states, log=log) if calibrate_now else default_config(model)
+    return cached_config(model) or default_config(model)
+
+
+def kind_configs(model: Model, kernel: str) -> list[SolverConfig]:
+    """The candidate shapes of a forced ``tile`` or ``window`` kernel; raises ValueError where it cannot run."""
+    f = model.features
+    if f.method in SUBSTEP_WEIGHTS and kernel == "window":
+        raise ValueError(
+            f"kernel = 'window': integrator.method = {f.method!r} fuses in whole chains only; use "
+            f"--kernel tile, step{', chain' if model.device.is_cpu else ''} or auto"
+        )
+    if not fusable(stepping_features(f)):
+        raise ValueError(f"kernel = {kernel!r}: not implemented for surface = {f.surface!r} (features {f})")
+    configs = whole_chain_configs(model) if kernel == "tile" else window_configs(model)
+    if not configs:
+        ring = " (a ring fuses whole, in full lanes of 4, 8 or 16 grains: use --kernel tile on a grain count one of them divides, or step)"
+        raise ValueError(
+            f"kernel = {kernel!r}: no launch shape fits {model.grain_count} grains"
+            + (ring if f.surface == "periodic" else "")
+        )
+    return configs
+
+
+def _forced_config(model: Model, kernel: str) -> SolverConfig:
+    """A forced ``tile`` or ``window`` kernel's shape: the tuned one when it is of that kind, else the rule's among
+    that kind's candidates, else the first candidate."""
+    from hertzian.core.solvers.shape_rule import ruled_config
+
+    configs = kind_configs(model, kernel)
+    if model.device.is_cpu:
+        return configs[0]
+    tuned = cached_config(model)
+    if tuned is not None and tuned.kind == kernel:
+        return tuned
+    sms = getattr(model.device, "sm_count", 132) or 132
+    ruled = ruled_config(
+        configs, model.features, model.grain_count, model.chain_count, sms, getattr(model.device, "arch", None)
+    )
+    return ruled or configs[0]
 
 
 def states_equal(a: np.ndarray, b: np.ndarray) -> float:

@@ -5,11 +5,11 @@ The job-level view:
 
 A job is a list of :class:`Need` (one per launch group: features, chain length, chains, steps, kernel choice).
 :func:`kernel_variants` names the Warp modules and block sizes those launches will load: the stepping kernel the
-solver choice takes (``choose_config`` without a calibration: a shape the calibration cache holds, else the
-default shape), the record reductions of that chain length, ``track_extremes`` and, with traces but no snapshot
-fields, the traced-start gather. :func:`prepare_kernels` compiles and loads them, so that the run itself compiles
-nothing. Every entry point calls it: ``Runner`` (one run), ``warm_kernels`` (sweeps and the paper reproduction), the
-detection library, and ``hertzian warmup``, which fills Warp's kernel cache ahead of time.
+solver choice takes (``choose_config``: the shape ``hertzian tune`` chose, else the shipped rule's), the record
+reductions of that chain length, ``track_extremes`` and, with traces but no snapshot fields, the traced-start
+gather. :func:`prepare_kernels` compiles and loads them, so that the run itself compiles nothing. Every entry point
+calls it: ``Runner`` (one run), ``warm_kernels`` (sweeps and the paper reproduction), the detection library, and
+``hertzian warmup``, which fills Warp's kernel cache ahead of time.
 
 Concurrency: ``max_workers`` threads each call ``Module.load``; the compilers (NVRTC, Warp's in-process clang) run
 outside the GIL, so variants compile side by side. On a CPU every compile waits for one precompiled header of Warp's

@@ -2,12 +2,11 @@
 
 A job is a list of :class:`Need` (one per launch group: features, chain length, chains, steps, kernel choice).
 :func:`kernel_variants` names the Warp modules and block sizes those launches will load: the stepping kernel the
-solver choice takes (``choose_config`` without a calibration: a shape the calibration cache holds, else the
-default shape), the record reductions of that chain length, ``track_extremes`` and, with traces but no snapshot
-fields, the traced-start gather. :func:`prepare_kernels` compiles and loads them (``compile.load_variants``), so
-that the run itself compiles nothing. Every entry point calls it: ``Runner`` (one run), ``warm_kernels`` (sweeps and
-the paper reproduction), the detection library, and ``hertzian warmup``, which fills Warp's kernel cache ahead of
-time.
+solver choice takes (``choose_config``: a shape ``hertzian tune`` chose, else the shipped rule's), the record
+reductions of that chain length, ``track_extremes`` and, with traces but no snapshot fields, the traced-start
+gather. :func:`prepare_kernels` compiles and loads them (``compile.load_variants``), so that the run itself compiles
+nothing. Every entry point calls it: ``Runner`` (one run), ``warm_kernels`` (sweeps and the paper reproduction), the
+detection library, and ``hertzian warmup``, which fills Warp's kernel cache ahead of time.
 """
 
 from __future__ import annotations
@@ -18,7 +17,7 @@ from types import SimpleNamespace
 from typing import Iterable
 
 import warp as wp
-from hertzian.core.solvers.calibrate import cached_config, choose_config
+from hertzian.core.solvers.calibrate import choose_config
 from hertzian.core.solvers.compile import load_variants, recorder_variants, solver_variants
 from hertzian.core.solvers.config import SolverConfig
 from hertzian.kernels.cpu import chain_kernel
@@ -41,17 +40,14 @@ class Need:
 
 
 def planned_config(need: Need, device) -> SolverConfig:
-    """The SolverConfig a run of ``need`` on ``device`` takes, without calibrating: a GPU's cached calibration when
-    there is one (the run reads the same entry), else the choice ``choose_config`` makes with ``calibrate_now=False``."""
+    """The SolverConfig a run of ``need`` on ``device`` takes (``choose_config``: on a GPU the tuned shape when
+    ``hertzian tune`` chose one, else the shipped rule's)."""
     if isinstance(need.kernel, SolverConfig):
         return need.kernel
     model = SimpleNamespace(
         device=wp.get_device(device), features=need.features, grain_count=need.grains, chain_count=need.chains
     )
-    config = choose_config(model, need.kernel, run_steps=need.steps, calibrate_now=False)
-    if config.kind in ("tile", "window") and need.kernel in ("auto", "fused"):
-        return cached_config(model) or config
-    return config
+    return choose_config(model, need.kernel, run_steps=need.steps)
 
 
 def kernel_variants(needs: Iterable[Need | Features | wp.Kernel], device) -> list[tuple]:

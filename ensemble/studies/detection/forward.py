@@ -213,8 +213,8 @@ def run_candidates(
                 model = build_model(prepared.chains, device, prepared=prepared)
             # a detection runs many small ensembles of one host chain (the refinement: a few candidates per
             # iteration), each too short for ``auto`` to leave the per-step kernel: ``fused`` takes the CPU chain kernel
-            # kernel (compiled once, cached) or on a GPU the calibrated tile/window kernel (calibrated and compiled
-            # on first use, cached after), each writing the surface trace inside its launches
+            # kernel (compiled once, cached) or on a GPU a tile/window kernel (the shape `hertzian tune` chose, else
+            # the shipped rule's), each writing the surface trace inside its launches
             result = Runner(model, kernel="fused", trace_values=("v",)).run()
             v = result.traces["v"][:, :, 0]
             if traces is None and np.array_equal(order, np.arange(count)):

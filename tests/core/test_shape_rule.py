@@ -1,0 +1,117 @@
+"""The launch shape a GPU run takes without timing (hertzian.core.solvers.shape_rule) and ``hertzian tune``, which
+times it: the shipped rule gives the shapes that timing every candidate chose on the GPUs on record, no run times
+anything, and tune remembers what it measured. Decided on stand-in GPU models; the timing itself runs on the CPU."""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import replace
+from types import SimpleNamespace
+
+import pytest
+from hertzian.core.model import build_model
+from hertzian.core.solvers import calibrate
+from hertzian.core.solvers.shape_rule import rule_for, shape_rules
+from hertzian.kernels.features import Features
+
+from tests.helpers import chains, hertzian
+
+H100 = SimpleNamespace(name="cuda:0", is_cpu=False, is_cuda=True, sm_count=132, arch=90)
+ON_RECORD = shape_rules()["architectures"]["90"]["calibrated"]
+
+
+def gpu_model(features: Features, grains: int, chain_count: int, device=H100):
+    return SimpleNamespace(features=features, device=device, grain_count=grains, chain_count=chain_count)
+
+
+def shape_of(config) -> dict:
+    s = config.shape
+    return {
+        "kind": config.kind,
+        "grains_per_lane": s.grains_per_lane,
+        "lanes_per_chain": s.lanes_per_chain,
+        "steps_per_launch": config.steps_per_launch,
+    }
+
+
+@pytest.mark.parametrize("entry", ON_RECORD, ids=[f"{e['workload']} {e['grains']}x{e['chains']}" for e in ON_RECORD])
+def test_the_rule_gives_the_shape_timing_chose_on_record(entry, tmp_path, monkeypatch):
+    monkeypatch.setenv("HERTZIAN_CACHE", str(tmp_path / "none.json"))
+    model = gpu_model(replace(Features(), **entry["features"]), entry["grains"], entry["chains"])
+    recorded = {k: entry[k] for k in ("kind", "grains_per_lane", "lanes_per_chain", "steps_per_launch")}
+    got = shape_of(calibrate.choose_config(model, "auto", run_steps=10**6))
+    if "rule_differs" in entry:
+        assert got != recorded and got["kind"] == recorded["kind"], got
+    else:
+        assert got == recorded
+
+
+def test_an_architecture_without_measurements_takes_the_fallback_rule(tmp_path, monkeypatch):
+    monkeypatch.setenv("HERTZIAN_CACHE", str(tmp_path / "none.json"))
+    assert rule_for(120)[0] == shape_rules()["fallback"] == rule_for(90)[0]
+    newer = SimpleNamespace(**{**vars(H100), "arch": 120})
+    for grains, count in ((500, 10000), (1000, 1), (4096, 16384)):
+        assert calibrate.choose_config(gpu_model(Features(), grains, count, newer), "auto") == calibrate.choose_config(
+            gpu_model(Features(), grains, count), "auto"
+        )
+
+
+@pytest.mark.parametrize("kernel", ["auto", "fused", "tile", "window"])
+def test_no_run_times_a_shape(kernel, tmp_path, monkeypatch):
+    # a long run on a GPU used to time the candidate shapes before its first step; now only `hertzian tune` does
+    monkeypatch.setenv("HERTZIAN_CACHE", str(tmp_path / "none.json"))
+
+    def timing(*args, **kwargs):
+        raise AssertionError("a run timed a shape")
+
+    monkeypatch.setattr(calibrate, "calibrate", timing)
+    monkeypatch.setattr(calibrate, "time_solver", timing)
+    for grains, count in ((500, 10000), (1000, 1), (4096, 16384), (1000, 16384)):
+        config = calibrate.choose_config(gpu_model(Features(), grains, count), kernel, run_steps=10**7)
+        assert config.kind in (("tile", "window") if kernel in ("auto", "fused") else (kernel,))
+    assert not (tmp_path / "none.json").exists()
+
+
+def test_a_forced_kind_takes_the_tuned_shape_only_of_its_kind(tmp_path, monkeypatch):
+    cache = tmp_path / "calibration.json"
+    monkeypatch.setenv("HERTZIAN_CACHE", str(cache))
+    model = gpu_model(Features(), 1000, 16384)
+    rule_tile = calibrate.choose_config(model, "tile")
+    tuned_tile = next(c for c in calibrate.whole_chain_configs(model) if c != rule_tile)
+    cache.write_text(json.dumps({calibrate._cache_key(model): tuned_tile.to_dict()}))
+    assert calibrate.choose_config(model, "tile") == tuned_tile
+    assert calibrate.choose_config(model, "auto") == tuned_tile
+    window = calibrate.choose_config(model, "window")
+    assert window.kind == "window" and window == calibrate._forced_config(model, "window")
+
+
+def test_tune_times_the_rule_beside_the_candidates_and_remembers_the_fastest(tmp_path, monkeypatch):
+    from hertzian.studies.tune import describe_row, tune_model
+
+    cache = tmp_path / "calibration.json"
+    monkeypatch.setenv("HERTZIAN_CACHE", str(cache))
+    model = build_model(chains(4, chain={"grains": 24}, integrator={"events": "off", "duration": 0.01}), "cpu")
+    row = tune_model(model, "tile")
+    fastest, rule = row["fastest"], row["rule"]
+    assert fastest["grain_steps_per_second"] >= rule["grain_steps_per_second"] > 0
+    assert row["rule_gap"] == pytest.approx(1 - rule["grain_steps_per_second"] / fastest["grain_steps_per_second"])
+    remembered = calibrate.cached_config(model)
+    assert remembered is not None and remembered.describe() == fastest["shape"]
+    assert "24 grains x 4 chains" in describe_row(row) and "% slower" in describe_row(row)
+
+
+def test_tune_on_a_cpu_writes_nothing_and_bad_input_is_one_line(tmp_path):
+    env = {**os.environ, "HERTZIAN_CACHE": str(tmp_path / "calibration.json")}
+    done = hertzian("tune", "example", "--device", "cpu", "--json", env=env)
+    assert done.returncode == 0 and json.loads(done.stdout)["groups"] == []
+    assert not (tmp_path / "calibration.json").exists()
+    for args, key in (
+        ((), "PATH, --paper"),
+        (("example", "--paper"), "PATH, --paper"),
+        (("example", "--quick"), "--quick"),
+        (("example", "--kernel", "step"), "--kernel"),
+        ((str(tmp_path / "missing.toml"),), "path"),
+    ):
+        bad = hertzian("tune", *args, "--device", "cpu", env=env)
+        assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and key in bad.stderr, (args, bad.stderr)
