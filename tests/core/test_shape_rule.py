@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import os
 from dataclasses import replace
+from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
@@ -115,3 +116,17 @@ def test_tune_on_a_cpu_writes_nothing_and_bad_input_is_one_line(tmp_path):
     ):
         bad = hertzian("tune", *args, "--device", "cpu", env=env)
         assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and key in bad.stderr, (args, bad.stderr)
+
+
+def test_tune_builds_the_launch_groups_warmup_names():
+    # the models tune times are the launch groups a sweep runs (as hertzian warmup names them) and a scene's one run
+    from hertzian.core.shipped import shipped_file
+    from hertzian.studies.tune import scene_or_sweep_models
+    from hertzian.sweeping.distributed import sweep_needs
+
+    sweep = shipped_file(Path("example"))
+    built = [(m.features, m.grain_count, m.chain_count) for m in scene_or_sweep_models(sweep, "cpu")]
+    named = [(n.features, n.grains, n.chains) for n in sweep_needs(sweep, {}, "cpu")]
+    assert built == named and len(built) >= 1
+    (scene,) = scene_or_sweep_models(shipped_file(Path("impact")), "cpu")
+    assert scene.chain_count == 1 and scene.grain_count > 1
