@@ -37,13 +37,15 @@ def plan_tile(
     windowed: bool = False,
     max_registers: int = 0,
     inline_event_step: bool = True,
+    masked: bool | None = None,
 ) -> TilePlan:
     """Lay out a fused launch for ``chain_count`` chains of ``grain_count`` grains.
 
     Whole chains: ``lanes_per_chain = ceil(grain_count / grains_per_lane)`` unless given (it must cover
     the chain), ``chains_per_block`` chains per block. Windowed: ``lanes_per_chain`` lanes hold a window,
-    its ghost zones are ``steps_per_launch`` grains (see hertzian.kernels.ghost). Raises ValueError for shapes
-    that cannot work (a block over 1024 threads, a window without interior).
+    its ghost zones are ``steps_per_launch`` grains (see hertzian.kernels.ghost). ``masked`` (whole chains):
+    compile the padding masks whatever the fit (True), or only where lanes × G exceeds the chain or an end is free
+    (None). Raises ValueError for shapes that cannot work (a block over 1024 threads, a window without interior).
     """
     from hertzian.kernels.ghost import plan_windows
 
@@ -86,7 +88,7 @@ def plan_tile(
         lanes = lanes_per_chain or -(-n // G)
         if lanes * G < n:
             raise ValueError(f"{lanes} lanes x {G} grains do not cover {n} grains")
-        masked = lanes * G != n or free_end
+        masked = masked or lanes * G != n or free_end
         shape = TileShape(
             G,
             lanes,
@@ -110,6 +112,13 @@ def plan_tile(
     if cap and (max_registers == 0 or max_registers > cap):
         plan = replace(plan, shape=replace(plan.shape, max_registers=cap))
     return plan
+
+
+def lane_bucket(lanes: int, chains_per_block: int = 1) -> int:
+    """``lanes`` rounded up to a multiple of 32 / ``chains_per_block``: a block then fills whole warps, so the
+    padding lanes cost no warp, and every chain length whose lanes round alike shares one compiled shape."""
+    step = max(1, 32 // chains_per_block)
+    return -(-lanes // step) * step
 
 
 def with_driver_slot(plan: TilePlan, features: Features) -> TilePlan:

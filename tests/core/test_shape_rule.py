@@ -26,26 +26,46 @@ def gpu_model(features: Features, grains: int, chain_count: int, device=H100):
     return SimpleNamespace(features=features, device=device, grain_count=grains, chain_count=chain_count)
 
 
-def shape_of(config) -> dict:
+def shape_of(config, grains: int, chain_count: int) -> dict:
+    """What makes a launch: kind, G, K, warps per chain (padding lanes in a chain's last warp cost nothing) and,
+    for windows, blocks per chain."""
+    from hertzian.core.solvers.tile import tile_plan
+
     s = config.shape
-    return {
+    out = {
         "kind": config.kind,
         "grains_per_lane": s.grains_per_lane,
-        "lanes_per_chain": s.lanes_per_chain,
+        "warps": -(-s.lanes_per_chain // 32),
         "steps_per_launch": config.steps_per_launch,
     }
+    if s.windowed:
+        out["blocks_per_chain"] = tile_plan(config, grains, chain_count).blocks_per_chain
+    return out
 
 
 @pytest.mark.parametrize("entry", ON_RECORD, ids=[f"{e['workload']} {e['grains']}x{e['chains']}" for e in ON_RECORD])
 def test_the_rule_gives_the_shape_timing_chose_on_record(entry, tmp_path, monkeypatch):
     monkeypatch.setenv("HERTZIAN_CACHE", str(tmp_path / "none.json"))
-    model = gpu_model(replace(Features(), **entry["features"]), entry["grains"], entry["chains"])
-    recorded = {k: entry[k] for k in ("kind", "grains_per_lane", "lanes_per_chain", "steps_per_launch")}
-    got = shape_of(calibrate.choose_config(model, "auto", run_steps=10**6))
+    n, count = entry["grains"], entry["chains"]
+    model = gpu_model(replace(Features(), **entry["features"]), n, count)
+    recorded = {k: entry[k] for k in ("kind", "grains_per_lane", "steps_per_launch", "blocks_per_chain") if k in entry}
+    recorded["warps"] = -(-entry["lanes_per_chain"] // 32)
+    got = shape_of(calibrate.choose_config(model, "auto", run_steps=10**6), n, count)
     if "rule_differs" in entry:
         assert got != recorded and got["kind"] == recorded["kind"], got
     else:
         assert got == recorded
+
+
+def test_chain_lengths_share_lane_buckets(tmp_path, monkeypatch):
+    # whole chains take lanes in whole warps, long windows 128 lanes: a sweep of chain.grains from 100 to 10 000 on
+    # 16 384 chains needs a handful of compiled shapes, not one per length
+    monkeypatch.setenv("HERTZIAN_CACHE", str(tmp_path / "none.json"))
+    lengths = [100 + k * (10000 - 100) // 19 for k in range(20)]
+    configs = {calibrate.choose_config(gpu_model(Features(), n, 16384), "auto") for n in lengths}
+    assert len(configs) <= 7, sorted(c.describe() for c in configs)
+    for config in configs:
+        assert config.shape.lanes_per_chain % 32 == 0 and (config.shape.masked or config.shape.windowed)
 
 
 def test_an_architecture_without_measurements_takes_the_fallback_rule(tmp_path, monkeypatch):

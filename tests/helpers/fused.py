@@ -202,6 +202,22 @@ CASES = {
         dict(grains_per_lane=4, chains_per_block=2),
         1501,
     ),
+    # lane buckets (calibrate.whole_chain_configs): lanes rounded up to whole warps, so whole lanes are padding
+    "impact, event steps, whole padding lanes": (
+        dict(chain={"grains": 20}, integrator={"dt": 5e-4}),
+        2,
+        dict(grains_per_lane=4, lanes_per_chain=16, masked=True),
+        6001,
+    ),
+    "yoshida6, fput, whole padding lanes, 2 chains per block": (
+        dict(
+            chain={"grains": 21, "potential": "fput", "a": 1.0, "alpha": 0.25, "beta": 0.5},
+            integrator={"method": "yoshida6", "dt": 0.05},
+        ),
+        3,
+        dict(grains_per_lane=4, lanes_per_chain=8, chains_per_block=2, masked=True),
+        301,
+    ),
     "float32, verlet, windows, fixed bottom, impurities, gravity": (
         dict(
             chain={"grains": 50, "gravity": 1.0, "l0": 1e-4},
@@ -216,9 +232,9 @@ CASES = {
 }
 
 COMPOSED_CASES = {
-    # yoshida4 (three velocity-Verlet substeps per step) on the kernels that implement it (per-step, CPU
-    # sweep); not in CASES because the CUDA tile/window kernels do not implement it. Steps: until the pulse
-    # has reached the bottom of every chain (asserted by the tests), odd.
+    # yoshida4 (three velocity-Verlet substeps per step) on the per-step kernel and the CPU sweep (the tile
+    # kernel's composed steps are in CASES). Steps: until the pulse has reached the bottom of every chain (asserted
+    # by the tests), odd.
     "yoshida4, walls": (dict(chain={"grains": 25, "l0": 1e-4}, integrator={"method": "yoshida4", "dt": 5e-4}), 2, 3001),
     "yoshida4, fixed bottom, impurities, gravity": (
         dict(

@@ -40,6 +40,7 @@ from hertzian.kernels.cpu import chain_kernel
 from hertzian.kernels.features import SUBSTEP_WEIGHTS
 from hertzian.kernels.step import step_kernel
 from hertzian.kernels.tile import fusable, plan_tile
+from hertzian.kernels.tile_plan import lane_bucket
 
 KERNELS = ("auto", "fused", "step", "tile", "window", "chain")
 
@@ -184,8 +185,11 @@ def _sm_count(model: Model) -> int:
 
 
 def whole_chain_configs(model: Model) -> list[SolverConfig]:
-    """Whole-chain shapes worth timing for this model (block ≤ 1024 threads, registers permitting)."""
+    """Whole-chain shapes worth timing for this model (block ≤ 1024 threads, registers permitting), in lane
+    buckets (``lane_bucket``: whole warps, padding masked) so that chain lengths share shapes; a ring, which fuses in
+    full lanes only, takes its exact lane count."""
     f, n, c = model.features, model.grain_count, model.chain_count
+    ring = f.surface == "periodic"
     plans = []
     # event-aware steps: G = 16 and a 168-register cap spill the event kernel (sm_90, ptxas: 3.9 kB of spill stores
     # at G = 16), so only G = 8 and 4 are timed
@@ -199,13 +203,18 @@ def whole_chain_configs(model: Model) -> list[SolverConfig]:
             per_block *= 2  # short chains: several per block, blocks of ≥ 64–128 threads
         for cpb in sorted({1, per_block}):
             try:
-                plans.append(
-                    config_of(
-                        plan_tile(
-                            f, n, c, grains_per_lane=G, chains_per_block=cpb, steps_per_launch=64, max_registers=regs
-                        )
-                    )
+                plan = plan_tile(
+                    f,
+                    n,
+                    c,
+                    grains_per_lane=G,
+                    lanes_per_chain=lanes if ring else lane_bucket(lanes, cpb),
+                    chains_per_block=cpb,
+                    steps_per_launch=64,
+                    max_registers=regs,
+                    masked=None if ring else True,
                 )
+                plans.append(config_of(plan))
             except ValueError:
                 pass
     return plans
@@ -241,6 +250,8 @@ def window_configs(model: Model) -> list[SolverConfig]:
             for b in sorted({b_min, b_two} if many else few_blocks):
                 interior = -(-n // b)
                 lanes = -(-(interior + 2 * K) // G)
+                if many:  # whole warps: chain lengths share shapes (the windows' interior is set at launch)
+                    lanes = lane_bucket(lanes)
                 try:
                     plans.append(
                         config_of(
