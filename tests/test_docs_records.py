@@ -556,18 +556,21 @@ def test_claims_depth_law_and_echo_amplitude_are_their_record():
 
 
 @pytest.mark.parametrize(
-    "header, part", [("| protector (19 mm long)", "beads_20"), ("| protector (99 mm long)", "beads_100")]
+    "header, part",
+    [
+        ("| protector (19 mm long)", "beads_20"),
+        ("| protector (99 mm long)", "beads_100"),
+        ("| protector (19 mm long, four materials)", "four_materials"),
+    ],
 )
 def test_the_design_tables_are_their_record(header, part):
     rows = table_after("design.md", header)
     chains = record("design/protector_cpu.json")[part]["chains"]
-    names = {
-        "best design": "best",
-        "uniform, stainless steel": "uniform stainless_steel",
-        "tapered, stainless steel": "tapered stainless_steel",
-        "uniform, PTFE": "uniform ptfe",
-        "tapered, PTFE": "tapered ptfe",
-    }
+    labels = {"stainless_steel": "stainless steel", "ptfe": "PTFE", "aluminium": "aluminium", "glass": "glass"}
+    materials = record("design/protector_cpu.json")[part]["design"]["materials"]
+    names = {"best design": "best"}
+    for kind in ("uniform", "tapered"):
+        names.update({f"{kind}, {labels[m]}": f"{kind} {m}" for m in materials})
     assert set(rows) == set(names)
     for label, key in names.items():
         peak, mass, impulse = rows[label]
