@@ -318,7 +318,9 @@ class Recorder:
             wp.launch(
                 self.kernels.parts,
                 dim=self.parts.shape[:2],
-                block_dim=RECORD_BLOCK_DIM,
+                # the block its module was named and loaded for (record_modules): one thread on a CPU, where a wider
+                # block would be another variant once a tile kernel has turned Warp's CPU blocks on in this process
+                block_dim=None if m.device.is_cpu else RECORD_BLOCK_DIM,
                 inputs=[*terms, state.dissipated],
                 outputs=[self.parts],
                 device=m.device,

@@ -47,8 +47,12 @@ def cpu_block(block: int | None) -> int | None:
     return None if block in (None, 1) else block
 
 
+@pytest.mark.parametrize("cpu_blocks", [False, True], ids=["", "after a tile kernel"])
 @pytest.mark.parametrize("name", SCENES)
-def test_prepare_names_every_kernel_a_run_loads(name, loads):
+def test_prepare_names_every_kernel_a_run_loads(name, cpu_blocks, loads, monkeypatch):
+    # a tile kernel run on the CPU turns Warp's CPU blocks on for the process (Solver.load); a run after it must
+    # still load only what prepare named
+    monkeypatch.setattr(wp.config, "enable_cpu_blocks", cpu_blocks)
     scene = make_scene(**SCENES[name])
     needs = scene_needs(scene)
     prepared = {(module.name, cpu_block(block)) for module, block in kernel_variants(needs, "cpu")}
