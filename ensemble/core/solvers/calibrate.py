@@ -44,9 +44,10 @@ from hertzian.kernels.tile_plan import lane_bucket
 
 KERNELS = ("auto", "fused", "step", "tile", "window", "chain")
 
-CALIBRATION_VERSION = 5
-"""Bumped when the cached fields change (2: a SolverConfig; 3: the event step out of line by default; 4: one-warp
-windows among the candidates; 5: the tile shape without its two never-changed contact-law switches)."""
+CALIBRATION_VERSION = 6
+"""Bumped when the cached fields or the candidates change (2: a SolverConfig; 3: the event step out of line by
+default; 4: one-warp windows among the candidates; 5: the tile shape without its two never-changed contact-law
+switches; 6: lanes in whole-warp buckets)."""
 
 
 CPU_COSTS = {"step": (1.407, 2.73e7), "chain": (1.412, 1.47e8)}
