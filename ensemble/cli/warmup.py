@@ -26,6 +26,14 @@ def warmup(
         Optional[int],
         typer.Option("--workers", help="Compile threads (default: one per core on a CPU, up to 8 on a GPU)."),
     ] = None,
+    any_length: Annotated[
+        bool,
+        typer.Option(
+            "--any-length",
+            help="Also every launch shape the job's feature sets take on this device at any chain length (2 to "
+            "100000 grains) and chain count.",
+        ),
+    ] = False,
     dry_run: Annotated[bool, typer.Option("--dry-run", help="List the kernel variants; compile nothing.")] = False,
     list_family: Annotated[
         bool,
@@ -64,6 +72,11 @@ def warmup(
         needs = _needs(path, paper, quick, detect, dev, kernel)
     except (SceneError, ValueError) as err:
         fail(str(err))
+    if any_length:
+        import warp as wp
+        from hertzian.studies.warmup import any_length_needs
+
+        needs = [*needs, *any_length_needs(needs, wp.get_device(dev))]
     if dry_run:
         variants = kernel_variants(needs, dev)
         names = [f"{module.name} (block {block or 'default'})" for module, block in variants]

@@ -32,6 +32,26 @@ def file_needs(path, device: str, kernel: str = "auto") -> list[Need]:
     return scene_needs(load_scene(path), warm)
 
 
+def any_length_needs(needs: list, device) -> list[Need]:
+    """What ``hertzian warmup --any-length`` adds to ``needs`` on ``device`` (a Warp device): for each feature set
+    among them, every launch shape the shipped rule gives it for 2 to 10⁵ grains in any number (a GPU's,
+    hertzian.core.solvers.shape_rule.shape_family) and the record kernels of long chains; on a CPU, where the chain
+    kernel takes any length, the long chains' record kernels."""
+    from hertzian.core.solvers.shape_rule import shape_family
+    from hertzian.kernels.records import STAGED_GRAINS
+
+    out: list[Need] = []
+    for features in dict.fromkeys(n.features for n in needs if isinstance(n, Need)):
+        if device.is_cpu:
+            out.append(Need(features, STAGED_GRAINS, 1, None, "fused"))
+            continue
+        for config, grains, chains in shape_family(features, sm_count=device.sm_count, arch=device.arch):
+            out.append(Need(features, grains, chains, None, config))
+            if config.kind == "window":  # a window takes any length: the long chains' record kernels too
+                out.append(Need(features, max(grains, STAGED_GRAINS), chains, None, config))
+    return out
+
+
 def family_needs(device: str) -> list[Need]:
     """The default family's launch groups on ``device``: one ``hertzian run`` of each shipped example scene, every
     shipped sweep file (each launch group and batch size, with the kernel a warm ``auto`` takes) and both paper

@@ -10,13 +10,14 @@ from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
 
+import numpy as np
 import pytest
 from hertzian.core.model import build_model
 from hertzian.core.solvers import calibrate
 from hertzian.core.solvers.shape_rule import rule_for, shape_rules
 from hertzian.kernels.features import Features
 
-from tests.helpers import chains, hertzian
+from tests.helpers import chains, hertzian, make_scene
 
 H100 = SimpleNamespace(name="cuda:0", is_cpu=False, is_cuda=True, sm_count=132, arch=90)
 ON_RECORD = shape_rules()["architectures"]["90"]["calibrated"]
@@ -150,3 +151,44 @@ def test_tune_builds_the_launch_groups_warmup_names():
     assert built == named and len(built) >= 1
     (scene,) = scene_or_sweep_models(shipped_file(Path("impact")), "cpu")
     assert scene.chain_count == 1 and scene.grain_count > 1
+
+
+@pytest.mark.parametrize(
+    "features",
+    [Features(), replace(Features(), method="gear6", event_window=1.0), replace(Features(), surface="driven")],
+    ids=["plain", "gear6 events", "driven"],
+)
+def test_every_length_and_count_takes_a_shape_of_the_family(features, tmp_path, monkeypatch):
+    # what `hertzian warmup --any-length` compiles: any chain from 2 to 10^5 grains, in any number, then finds its
+    # kernel compiled (drawn at random, not from the lengths the enumeration asks about)
+    from hertzian.core.solvers.shape_rule import shape_family
+
+    monkeypatch.setenv("HERTZIAN_CACHE", str(tmp_path / "none.json"))
+    family = {config for config, _, _ in shape_family(features)}
+    assert 4 <= len(family) <= 16, len(family)
+    rng = np.random.default_rng(0)
+    grains = np.exp(rng.uniform(np.log(2), np.log(100_000), 400)).astype(int)
+    counts = np.exp(rng.uniform(0, np.log(50_000), 400)).astype(int)
+    for n, c in zip(grains, counts):
+        config = calibrate.choose_config(gpu_model(features, int(n), int(c)), "auto")
+        assert config in family, (n, c, config.describe())
+
+
+def test_warmup_any_length_names_the_family_and_the_long_chains_records():
+    import warp as wp
+    from hertzian.core.scene import load_scene
+    from hertzian.core.shipped import shipped_file
+    from hertzian.core.solvers.shape_rule import shape_family
+    from hertzian.kernels.records import STAGED_GRAINS
+    from hertzian.studies.warmup import any_length_needs, scene_needs
+
+    needs = scene_needs(make_scene(chain={"grains": 50}))
+    on_gpu = any_length_needs(needs, H100)
+    assert {n.kernel for n in on_gpu} == {config for config, _, _ in shape_family(needs[0].features)}
+    assert any(n.grains >= STAGED_GRAINS and n.kernel.kind == "window" for n in on_gpu)
+    (on_cpu,) = any_length_needs(needs, wp.get_device("cpu"))
+    assert (on_cpu.grains, on_cpu.kernel) == (STAGED_GRAINS, "fused")
+    readme = scene_needs(load_scene(shipped_file(Path("impact"))))[0].features
+    assert len(shape_family(readme)) == 12  # docs/fixed-costs.md, "hertzian warmup"
+    listed = hertzian("warmup", "example", "--any-length", "--dry-run", "--device", "cpu", "--json")
+    assert listed.returncode == 0 and "record_long" in listed.stdout, listed.stderr
