@@ -45,6 +45,14 @@ def prebuild(
         Optional[Path],
         typer.Option("--wheel", help="Also pack the folder as a wheel of the companion package into this folder."),
     ] = None,
+    any_length: Annotated[
+        bool,
+        typer.Option(
+            "--any-length",
+            help="Also every launch shape the family's feature sets take on this device at any chain length (2 to "
+            "100000 grains) and chain count.",
+        ),
+    ] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the result as one JSON object.")] = False,
 ):
     """Compile the default kernel family (every shipped example, every shipped sweep, `reproduce` and
@@ -75,6 +83,11 @@ def prebuild(
         needs = family_needs(dev) if path is None else file_needs(shipped_file(path), dev)
     except (SceneError, ValueError) as err:
         fail(str(err))
+    if any_length:
+        import warp as wp
+        from hertzian.studies.warmup import any_length_needs
+
+        needs = [*needs, *any_length_needs(needs, wp.get_device(dev))]
     variants = kernel_variants(needs, dev)
     report = prebuild_variants(variants, dev, target, archs=archs, ptx=ptx_archs)
     report = {"device": dev, "out": str(target), "archs": archs, "ptx": ptx_archs, **report}

@@ -132,3 +132,14 @@ def test_warmup_list_prints_the_default_family_with_the_readme_kernels(tmp_path)
     names = {name.split(" ")[0] for name in json.loads(readme.stdout)["variants"]}
     assert names <= {row["module"] for row in rows}
     assert any("1000x1" in row["shapes"] for row in rows if row["module"].startswith("chain_kernel"))
+
+
+def test_prebuild_any_length_adds_the_long_chains_record_kernels(tmp_path):
+    # on a CPU the chain kernel takes any length; --any-length adds what a chain of 2 048 grains or more records with
+    runs = {}
+    for flags in ((), ("--any-length",)):
+        out = tmp_path / ("any" if flags else "plain")
+        done = hertzian("prebuild", "example", "--device", "cpu", "--out", out, "--json", *flags)
+        assert done.returncode == 0, done.stderr
+        runs[bool(flags)] = {p.name.split("__")[-1].rsplit("_", 2)[0] for p in out.rglob("*") if p.is_dir()}
+    assert runs[False] < runs[True] and {"record_long", "record_grains"} <= runs[True] - runs[False], runs
