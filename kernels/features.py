@@ -130,3 +130,14 @@ def take(layout: SimpleNamespace, names: str) -> list:
     """The values of a kernel factory's ``layout`` named in ``names`` (space-separated), in order: how a builder
     unpacks the compile-time constants and device functions it uses."""
     return [getattr(layout, name) for name in names.split()]
+
+
+def device_of(device):
+    """The Warp device named ``device``, or ``device`` itself when it is one or stands for one (an object with
+    ``is_cpu``, ``is_cuda``, ``arch`` and ``sm_count``: a GPU whose kernels are planned on another machine,
+    hertzian.core.solvers.shape_rule.PlannedGPU)."""
+    if hasattr(device, "is_cpu"):
+        return device
+    import warp as wp
+
+    return wp.get_device(device)

@@ -24,6 +24,7 @@ from hertzian.kernels.features import (
     STATUS_OK,
     STATUS_OVERLAP_BEYOND_VALIDITY,
     Features,
+    device_of,
     take,
 )
 from hertzian.kernels.physics import (
@@ -545,7 +546,7 @@ def traced_start_kernel(precision: str):
 def parts_of_grains_block_dim(device) -> int:
     """Threads of a ``record_parts_of_grains`` block on ``device``: one on a CPU (which runs a block's threads in
     turn), PART_TILE_THREADS on a GPU."""
-    return 1 if wp.get_device(device).is_cpu else PART_TILE_THREADS
+    return 1 if device_of(device).is_cpu else PART_TILE_THREADS
 
 
 def record_modules(kernels: RecordKernels, *, long_chains: bool, device) -> list[tuple]:
@@ -560,7 +561,7 @@ def record_modules(kernels: RecordKernels, *, long_chains: bool, device) -> list
             (kernels.parts_of_grains.module, tiled),
             (kernels.record_long.module, tiled),
         ]
-    parts_block = None if wp.get_device(device).is_cpu else RECORD_BLOCK_DIM
+    parts_block = None if device_of(device).is_cpu else RECORD_BLOCK_DIM
     return [(kernels.parts.module, parts_block), (kernels.record.module, None)]
 
 

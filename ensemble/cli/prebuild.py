@@ -53,6 +53,14 @@ def prebuild(
             "100000 grains) and chain count.",
         ),
     ] = False,
+    gpu_family: Annotated[
+        Optional[int],
+        typer.Option(
+            "--gpu-family",
+            help="Plan the family for a GPU of this CUDA compute capability (e.g. 90) on this machine, no GPU needed, "
+            "at any chain length and count, and build its cubins (and --ptx) instead of this device's binaries.",
+        ),
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the result as one JSON object.")] = False,
 ):
     """Compile the default kernel family (every shipped example, every shipped sweep, `reproduce` and
@@ -71,7 +79,9 @@ def prebuild(
 
     archs, ptx_archs = _architectures(arch, "--arch"), _architectures(ptx, "--ptx")
     dev = resolve_device(device)
-    if (archs or ptx_archs) and not dev.startswith("cuda"):
+    if gpu_family is not None and gpu_family not in range(50, 200):
+        fail(f"--gpu-family = {gpu_family}: a CUDA compute capability, e.g. 80 or 90")
+    if (archs or ptx_archs) and not dev.startswith("cuda") and gpu_family is None:
         fail(
             f"--device = {dev!r}: --arch and --ptx need a CUDA device (the GPU family's launch shapes are planned on it)"
         )
@@ -79,10 +89,19 @@ def prebuild(
     for option, folder in (("--out", target), ("--wheel", wheel)):
         if folder is not None and folder.exists() and not folder.is_dir():
             fail(f"{option} = {str(folder)!r}: a file; give a folder")
+    planned = dev if gpu_family is None else "cpu"  # a planned GPU's feature sets are the same as on this machine
     try:
-        needs = family_needs(dev) if path is None else file_needs(shipped_file(path), dev)
+        needs = family_needs(planned) if path is None else file_needs(shipped_file(path), planned)
     except (SceneError, ValueError) as err:
         fail(str(err))
+    if gpu_family is not None:
+        from hertzian.core.solvers.shape_rule import PlannedGPU
+        from hertzian.studies.warmup import gpu_family_variants
+
+        gpu = PlannedGPU(gpu_family)
+        report = prebuild_variants(gpu_family_variants(needs, gpu), gpu, target, archs=archs, ptx=ptx_archs)
+        _report({"device": gpu.name, "out": str(target), "archs": archs, "ptx": ptx_archs, **report}, wheel, as_json)
+        return
     if any_length:
         import warp as wp
         from hertzian.studies.warmup import any_length_needs
@@ -90,11 +109,19 @@ def prebuild(
         needs = [*needs, *any_length_needs(needs, wp.get_device(dev))]
     variants = kernel_variants(needs, dev)
     report = prebuild_variants(variants, dev, target, archs=archs, ptx=ptx_archs)
-    report = {"device": dev, "out": str(target), "archs": archs, "ptx": ptx_archs, **report}
+    _report({"device": dev, "out": str(target), "archs": archs, "ptx": ptx_archs, **report}, wheel, as_json)
+
+
+def _report(report: dict, wheel: Path | None, as_json: bool) -> None:
+    """Pack the wheel (``--wheel``) and print what was built."""
+    from hertzian.core.solvers import prebuilt
+
+    target = report["out"]
+    dev = report["device"]
     if wheel is not None:
         from hertzian import __version__
 
-        report["wheel"] = str(prebuilt.write_wheel(target, wheel, __version__))
+        report["wheel"] = str(prebuilt.write_wheel(Path(target), wheel, __version__))
     if as_json:
         typer.echo(json.dumps(report))
         return

@@ -256,6 +256,28 @@ def time_start(repeats: int = 3) -> dict:
     return {name: sorted(values)[len(values) // 2] for name, values in walls.items()}
 
 
+def time_gpu_family(out_dir: str, arch: int = 90) -> dict:
+    """``hertzian prebuild impact --gpu-family ARCH --ptx ARCH``: the README scene's GPU family at any length,
+    planned and built on this machine (its JSON report and process wall), and the size of the whole default
+    family at any length on that GPU."""
+    from hertzian.core.solvers.shape_rule import PlannedGPU
+    from hertzian.studies.warmup import family_needs, gpu_family_variants
+
+    args = ["prebuild", "impact", "--gpu-family", str(arch), "--ptx", str(arch), "--out", f"{out_dir}/gpu_family"]
+    start = time.perf_counter()
+    done = subprocess.run(
+        [sys.executable, "-m", "hertzian.cli", *args, "--json"], capture_output=True, text=True, check=True
+    )
+    wall = time.perf_counter() - start
+    default_family = gpu_family_variants(family_needs("cpu"), PlannedGPU(arch))
+    return {
+        "command": "hertzian " + " ".join(args[:-2]) + " --out DIR --json",
+        "report": json.loads(done.stdout),
+        "process_s": wall,
+        "default_family_any_length_modules": len(default_family),
+    }
+
+
 PARTS = {
     "runs": lambda tmp, args: time_runs(tmp),
     "compile_8_variants": lambda tmp, args: time_compiles(),
@@ -264,6 +286,7 @@ PARTS = {
     "build_million": lambda tmp, args: time_build(),
     "readme": lambda tmp, args: time_readme(args.device, args.repeats),
     "readme_prebuilt": lambda tmp, args: time_readme(args.device, args.repeats, prebuilt=True),
+    "gpu_family": lambda tmp, args: time_gpu_family(tmp),
 }
 """Each part of the record and how it is measured (``--only`` names them by key, or ``start``/``build``). Only
 ``readme`` and ``readme_prebuilt`` take ``--device``; the others measure the CPU."""

@@ -52,6 +52,15 @@ def any_length_needs(needs: list, device) -> list[Need]:
     return out
 
 
+def gpu_family_variants(needs: list, gpu) -> list[tuple]:
+    """The (Warp module, block_dim) a GPU ``gpu`` (a PlannedGPU, planned here without one) loads for ``needs`` at any
+    chain length and count: their own launch groups, every shape their feature sets take
+    (:func:`any_length_needs`) and the record kernels of short and long chains, at the GPU's block sizes."""
+    from hertzian.core.solvers.prepare import kernel_variants
+
+    return kernel_variants([*needs, *any_length_needs(needs, gpu)], gpu)
+
+
 def family_needs(device: str) -> list[Need]:
     """The default family's launch groups on ``device``: one ``hertzian run`` of each shipped example scene, every
     shipped sweep file (each launch group and batch size, with the kernel a warm ``auto`` takes) and both paper

@@ -143,3 +143,27 @@ def test_prebuild_any_length_adds_the_long_chains_record_kernels(tmp_path):
         assert done.returncode == 0, done.stderr
         runs[bool(flags)] = {p.name.split("__")[-1].rsplit("_", 2)[0] for p in out.rglob("*") if p.is_dir()}
     assert runs[False] < runs[True] and {"record_long", "record_grains"} <= runs[True] - runs[False], runs
+
+
+def test_a_gpu_family_planned_without_a_gpu_holds_what_its_runs_load(tmp_path, monkeypatch):
+    # `hertzian prebuild --gpu-family 90` plans here what an sm_90 GPU loads for the scene's features at any chain
+    # length and count; runs of random lengths and counts on that GPU then load nothing outside it
+    from hertzian.core.solvers.prepare import Need, kernel_variants
+    from hertzian.core.solvers.shape_rule import PlannedGPU
+    from hertzian.studies.warmup import gpu_family_variants, scene_needs
+
+    from tests.helpers import make_scene
+
+    monkeypatch.setenv("HERTZIAN_CACHE", str(tmp_path / "none.json"))
+    gpu = PlannedGPU(90)
+    needs = scene_needs(make_scene(chain={"grains": 40}, record={"every": 0.005, "traces": [0]}))
+    family = set(gpu_family_variants(needs, gpu))
+    assert any(block == 128 for _, block in family) and any("record_long" in m.name for m, _ in family)
+    rng = np.random.default_rng(2)
+    grains = np.exp(rng.uniform(np.log(2), np.log(100_000), 60)).astype(int)
+    counts = np.exp(rng.uniform(0, np.log(50_000), 60)).astype(int)
+    for n, c in zip(grains, counts):
+        loads = set(kernel_variants([Need(needs[0].features, int(n), int(c))], gpu))
+        assert loads <= family, (n, c, loads - family)
+    bad = hertzian("prebuild", "--gpu-family", "7", "--out", tmp_path / "out")
+    assert bad.returncode == 2 and "--gpu-family" in bad.stderr and not (tmp_path / "out").exists()

@@ -29,7 +29,7 @@ from hertzian.core.devices import prime_precompiled_header
 from hertzian.core.solvers import prebuilt
 from hertzian.core.solvers.config import SolverConfig
 from hertzian.kernels.cpu import chain_kernel
-from hertzian.kernels.features import Features
+from hertzian.kernels.features import Features, device_of
 from hertzian.kernels.records import STAGED_GRAINS, record_kernels, record_modules, traced_start_kernel, track_extremes
 from hertzian.kernels.step import step_kernel
 from hertzian.kernels.tile import drive_table, tile_kernel
@@ -73,7 +73,7 @@ def default_workers(device) -> int:
             raise ValueError(f"HERTZIAN_COMPILE_WORKERS = {value!r}: must be a whole number ≥ 1")
         return int(value)
     cores = os.cpu_count() or 1
-    if wp.get_device(device).is_cpu:
+    if device_of(device).is_cpu:
         return cores
     return max(1, min(GPU_COMPILE_WORKERS, cores))
 
@@ -149,7 +149,7 @@ def prebuild_variants(
     for each CUDA architecture of ``archs`` and PTX for each of ``ptx`` (neither needs a GPU), ``max_workers`` at a
     time. Returns {"modules", "binaries", "bytes", "seconds"}."""
     start = time.perf_counter()
-    dev = wp.get_device(device)
+    dev = device_of(device)
     archs, ptx = list(archs), list(ptx)
     out.mkdir(parents=True, exist_ok=True)
     jobs = [(m, block_of(dev, b), target) for m, b in variants for target in prebuilt.targets(dev, archs, ptx)]

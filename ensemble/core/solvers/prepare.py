@@ -21,7 +21,7 @@ from hertzian.core.solvers.calibrate import choose_config
 from hertzian.core.solvers.compile import load_variants, recorder_variants, solver_variants
 from hertzian.core.solvers.config import SolverConfig
 from hertzian.kernels.cpu import chain_kernel
-from hertzian.kernels.features import Features
+from hertzian.kernels.features import Features, device_of
 
 
 @dataclass(frozen=True)
@@ -45,7 +45,7 @@ def planned_config(need: Need, device) -> SolverConfig:
     if isinstance(need.kernel, SolverConfig):
         return need.kernel
     model = SimpleNamespace(
-        device=wp.get_device(device), features=need.features, grain_count=need.grains, chain_count=need.chains
+        device=device_of(device), features=need.features, grain_count=need.grains, chain_count=need.chains
     )
     return choose_config(model, need.kernel, run_steps=need.steps)
 
@@ -55,7 +55,7 @@ def kernel_variants(needs: Iterable[Need | Features | wp.Kernel], device) -> lis
     a Warp kernel stands for its own launches at Warp's default block size.
     A bare Features stands for runs of unknown size: its record kernels for short chains and, on a CPU, the chain
     kernel ``auto`` takes (on a GPU the stepping kernel's shape depends on the size)."""
-    dev = wp.get_device(device)
+    dev = device_of(device)
     out: dict[tuple, None] = {}
     for need in needs:
         if isinstance(need, wp.Kernel):  # a kernel launched as it is (detection library, response windows)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import functools
 import json
+from dataclasses import dataclass
 from pathlib import Path
 
 RULES_FILE = Path(__file__).with_name("shape_rules.json")
@@ -79,6 +80,25 @@ def ruled_config(candidates: list, features, grains: int, chains: int, sm_count:
             if matches(config, preference):
                 return config
     return None
+
+
+@dataclass(frozen=True)
+class PlannedGPU:
+    """A CUDA GPU that kernels are planned and compiled for on another machine (``hertzian prebuild --gpu-family``):
+    what the planners read of a Warp device. Its launch shapes come from the shipped rule, as on the GPU itself."""
+
+    arch: int
+    """Compute capability, e.g. 90."""
+    sm_count: int = 132
+    is_cpu: bool = False
+    is_cuda: bool = True
+
+    @property
+    def name(self) -> str:
+        return f"sm_{self.arch}"
+
+    def __str__(self) -> str:
+        return self.name
 
 
 FAMILY_GRAINS = (*range(2, 4097), 5000, 10_000, 20_000, 50_000, 100_000)
