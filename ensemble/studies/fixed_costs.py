@@ -256,26 +256,25 @@ def time_start(repeats: int = 3) -> dict:
     return {name: sorted(values)[len(values) // 2] for name, values in walls.items()}
 
 
-def time_gpu_family(out_dir: str, arch: int = 90) -> dict:
-    """``hertzian prebuild impact --gpu-family ARCH --ptx ARCH``: the README scene's GPU family at any length,
-    planned and built on this machine (its JSON report and process wall), and the size of the whole default
-    family at any length on that GPU."""
-    from hertzian.core.solvers.shape_rule import PlannedGPU
-    from hertzian.studies.warmup import family_needs, gpu_family_variants
-
-    args = ["prebuild", "impact", "--gpu-family", str(arch), "--ptx", str(arch), "--out", f"{out_dir}/gpu_family"]
+def time_gpu_family(out_dir: str, arch: int = 90, *, whole: bool = False) -> dict:
+    """``hertzian prebuild [impact] --gpu-family ARCH --ptx ARCH``, planned and built on this machine: the README
+    scene's GPU family at any length, or (``whole``) the whole default family and its companion wheel. Its JSON
+    report, process wall and (whole) the wheel's size."""
+    folder = Path(out_dir) / ("gpu_family_whole" if whole else "gpu_family")
+    args = ["prebuild", *([] if whole else ["impact"]), "--gpu-family", str(arch), "--ptx", str(arch)]
+    extra = ["--out", str(folder), *(["--wheel", str(folder.with_name(folder.name + "_wheel"))] if whole else [])]
     start = time.perf_counter()
-    done = subprocess.run(
-        [sys.executable, "-m", "hertzian.cli", *args, "--json"], capture_output=True, text=True, check=True
-    )
-    wall = time.perf_counter() - start
-    default_family = gpu_family_variants(family_needs("cpu"), PlannedGPU(arch))
-    return {
-        "command": "hertzian " + " ".join(args[:-2]) + " --out DIR --json",
-        "report": json.loads(done.stdout),
-        "process_s": wall,
-        "default_family_any_length_modules": len(default_family),
+    command = [sys.executable, "-m", "hertzian.cli", *args, *extra, "--json"]
+    done = subprocess.run(command, capture_output=True, text=True, check=True)
+    report = json.loads(done.stdout)
+    out = {
+        "command": "hertzian " + " ".join(args) + " --out DIR" + (" --wheel DIST" if whole else "") + " --json",
+        "report": {k: v for k, v in report.items() if k not in ("out", "wheel")},
+        "process_s": time.perf_counter() - start,
     }
+    if whole:
+        out["wheel_bytes"] = Path(report["wheel"]).stat().st_size
+    return out
 
 
 PARTS = {
@@ -287,6 +286,7 @@ PARTS = {
     "readme": lambda tmp, args: time_readme(args.device, args.repeats),
     "readme_prebuilt": lambda tmp, args: time_readme(args.device, args.repeats, prebuilt=True),
     "gpu_family": lambda tmp, args: time_gpu_family(tmp),
+    "gpu_family_whole": lambda tmp, args: time_gpu_family(tmp, whole=True),
 }
 """Each part of the record and how it is measured (``--only`` names them by key, or ``start``/``build``). Only
 ``readme`` and ``readme_prebuilt`` take ``--device``; the others measure the CPU."""
