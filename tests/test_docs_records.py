@@ -874,3 +874,23 @@ def test_lattice_study_table_is_its_record():
     text = (DOCS / "lattices.md").read_text()
     for h in study["halved"]:
         assert f"{100 * h['same_chain_within_one_record']:.1f} %" in text
+
+
+def test_the_gpu_family_table_is_its_record():
+    rows = table_after("fixed-costs.md", "| `--gpu-family 90 --ptx 90`")
+    parts = record("bench/cpu_auto_rule.json")
+    for label, part in (
+        ("the README scene's features (`prebuild impact`)", "gpu_family"),
+        ("the whole default family", "gpu_family_whole"),
+    ):
+        modules, binaries, disk, wheel, build = rows[label]
+        report = parts[part]["report"]
+        assert modules.split()[0] == str(report["modules"]) and binaries == str(report["binaries"])
+        assert agrees(disk.removesuffix(" MB"), report["bytes"] / 1e6) and agrees(
+            build.removesuffix(" s"), report["seconds"]
+        )
+        assert (
+            wheel == "–"
+            if part == "gpu_family"
+            else agrees(wheel.removesuffix(" MB"), parts[part]["wheel_bytes"] / 1e6)
+        )
