@@ -35,9 +35,9 @@ def file_needs(path, device: str, kernel: str = "auto") -> list[Need]:
 def any_length_needs(needs: list, device) -> list[Need]:
     """What ``hertzian warmup --any-length`` adds to ``needs`` on ``device`` (a Warp device): for each feature set
     among them, every launch shape the shipped rule gives it for 2 to 10⁵ grains in any number (a GPU's,
-    hertzian.core.solvers.shape_rule.shape_family) and the record kernels of long chains; on a CPU, where the chain
+    hertzian.core.solvers.calibrate.shape_family) and the record kernels of long chains; on a CPU, where the chain
     kernel takes any length, the long chains' record kernels."""
-    from hertzian.core.solvers.shape_rule import shape_family
+    from hertzian.core.solvers.calibrate import shape_family
     from hertzian.kernels.records import STAGED_GRAINS
 
     out: list[Need] = []

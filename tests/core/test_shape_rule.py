@@ -161,7 +161,7 @@ def test_tune_builds_the_launch_groups_warmup_names():
 def test_every_length_and_count_takes_a_shape_of_the_family(features, tmp_path, monkeypatch):
     # what `hertzian warmup --any-length` compiles: any chain from 2 to 10^5 grains, in any number, then finds its
     # kernel compiled (drawn at random, not from the lengths the enumeration asks about)
-    from hertzian.core.solvers.shape_rule import shape_family
+    from hertzian.core.solvers.calibrate import shape_family
 
     monkeypatch.setenv("HERTZIAN_CACHE", str(tmp_path / "none.json"))
     family = {config for config, _, _ in shape_family(features)}
@@ -178,7 +178,7 @@ def test_warmup_any_length_names_the_family_and_the_long_chains_records():
     import warp as wp
     from hertzian.core.scene import load_scene
     from hertzian.core.shipped import shipped_file
-    from hertzian.core.solvers.shape_rule import shape_family
+    from hertzian.core.solvers.calibrate import shape_family
     from hertzian.kernels.records import STAGED_GRAINS
     from hertzian.studies.warmup import any_length_needs, scene_needs
 

@@ -35,6 +35,7 @@ import warp as wp
 from hertzian.core.model import Model, State
 from hertzian.core.solvers.compile import in_cache, load_variants, solver_variants
 from hertzian.core.solvers.config import CHAIN, STEP, SolverConfig
+from hertzian.core.solvers.shape_rule import ruled_config
 from hertzian.core.solvers.tile import TileSolver, config_of
 from hertzian.kernels.cpu import chain_kernel
 from hertzian.kernels.features import SUBSTEP_WEIGHTS
@@ -282,8 +283,6 @@ def window_configs(model: Model) -> list[SolverConfig]:
 def default_config(model: Model) -> SolverConfig:
     """The shape a run takes without timing: the shipped rule's for the device's architecture
     (hertzian.core.solvers.shape_rule), else whole chains when they fill the GPU, else windows."""
-    from hertzian.core.solvers.shape_rule import ruled_config
-
     n, c = model.grain_count, model.chain_count
     sms = getattr(model.device, "sm_count", 132) or 132
     whole = [p for p in whole_chain_configs(model) if p.shape.max_registers == 0]
@@ -294,6 +293,30 @@ def default_config(model: Model) -> SolverConfig:
     if n <= 1024 and c >= 2 * sms and whole:
         return whole[0]
     return windows[0] if windows else whole[0]
+
+
+FAMILY_GRAINS = (*range(2, 4097), 5000, 10_000, 20_000, 50_000, 100_000)
+"""Chain lengths :func:`shape_family` asks the rule about: every length up to 4 096 grains (beyond it a length takes
+the shape of its regime's longest windows) and a few longer ones."""
+
+
+def shape_family(features, *, sm_count: int = 132, arch: int = 90) -> list[tuple]:
+    """Every fused shape the rule gives ``features`` on a GPU of ``sm_count`` SMs and compute capability ``arch``, for
+    chains of 2 to 10⁵ grains in any number: [(config, grains, chains)], each with one launch that takes it (what
+    ``hertzian warmup --any-length`` compiles). Empty where the fused kernels lack a feature; a ring, which fuses in
+    exact full lanes, has a shape per length and is not enumerated (empty too)."""
+    from types import SimpleNamespace
+
+    if fused_lacks(features, False) or features.surface == "periodic":
+        return []
+    device = SimpleNamespace(name=f"sm_{arch}", is_cpu=False, is_cuda=True, sm_count=sm_count, arch=arch)
+    seen: dict = {}
+    for chains in (1, sm_count, 2 * sm_count, 16384):
+        for grains in FAMILY_GRAINS:
+            model = SimpleNamespace(features=features, device=device, grain_count=grains, chain_count=chains)
+            if not _whole_chains_unfused(model):
+                seen.setdefault(default_config(model), (grains, chains))
+    return [(config, grains, chains) for config, (grains, chains) in seen.items()]
 
 
 # ---- measuring --------------------------------------------------------------------------------------
@@ -500,8 +523,6 @@ def kind_configs(model: Model, kernel: str) -> list[SolverConfig]:
 def _forced_config(model: Model, kernel: str) -> SolverConfig:
     """A forced ``tile`` or ``window`` kernel's shape: the tuned one when it is of that kind, else the rule's among
     that kind's candidates, else the first candidate."""
-    from hertzian.core.solvers.shape_rule import ruled_config
-
     configs = kind_configs(model, kernel)
     if model.device.is_cpu:
         return configs[0]
