@@ -22,6 +22,7 @@ tests/kernels/test_chain_kernel.py), so the choice changes speed, not results.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import os
@@ -300,15 +301,16 @@ FAMILY_GRAINS = (*range(2, 4097), 5000, 10_000, 20_000, 50_000, 100_000)
 the shape of its regime's longest windows) and a few longer ones."""
 
 
-def shape_family(features, *, sm_count: int = 132, arch: int = 90) -> list[tuple]:
+@functools.cache
+def shape_family(features, *, sm_count: int = 132, arch: int = 90) -> tuple[tuple, ...]:
     """Every fused shape the rule gives ``features`` on a GPU of ``sm_count`` SMs and compute capability ``arch``, for
-    chains of 2 to 10⁵ grains in any number: [(config, grains, chains)], each with one launch that takes it (what
+    chains of 2 to 10⁵ grains in any number: ((config, grains, chains), …), each with one launch that takes it (what
     ``hertzian warmup --any-length`` compiles). Empty where the fused kernels lack a feature; a ring, which fuses in
     exact full lanes, has a shape per length and is not enumerated (empty too)."""
     from types import SimpleNamespace
 
     if fused_lacks(features, False) or features.surface == "periodic":
-        return []
+        return ()
     device = SimpleNamespace(name=f"sm_{arch}", is_cpu=False, is_cuda=True, sm_count=sm_count, arch=arch)
     seen: dict = {}
     for chains in (1, sm_count, 2 * sm_count, 16384):
@@ -316,7 +318,7 @@ def shape_family(features, *, sm_count: int = 132, arch: int = 90) -> list[tuple
             model = SimpleNamespace(features=features, device=device, grain_count=grains, chain_count=chains)
             if not _whole_chains_unfused(model):
                 seen.setdefault(default_config(model), (grains, chains))
-    return [(config, grains, chains) for config, (grains, chains) in seen.items()]
+    return tuple((config, grains, chains) for config, (grains, chains) in seen.items())
 
 
 # ---- measuring --------------------------------------------------------------------------------------
