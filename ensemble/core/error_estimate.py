@@ -132,14 +132,24 @@ def ensemble_contacts(scenes: "Sequence[Scene] | ChainSet | ChainStack") -> tupl
     )
 
 
+CHAIN_BLOCK = 256
+"""Chains :func:`opened_at_records` and :func:`richardson_error` take at a time: their temporaries stay a few MB
+(records × grains × CHAIN_BLOCK values) instead of the ensemble's size, which a 10 000-chain run paid in page faults
+(2.3 s for one call at 10 000 × 11 × 500 against 0.2 s in blocks)."""
+
+
 def opened_at_records(u: np.ndarray, static_overlap: np.ndarray, contact_constant: np.ndarray) -> np.ndarray:
     """Per chain, whether some present contact's overlap is ≤ 0 at some record: ``u`` (chains, records, grains)
     the positions, ``static_overlap`` and ``contact_constant`` (chains, grains + 1) the padded contacts (0 the top
     wall, N the bottom wall, both at rest); bool (chains,)."""
-    u = np.asarray(u, dtype=np.float64)
-    relative = np.concatenate([-u[:, :, :1], u[:, :, :-1] - u[:, :, 1:], u[:, :, -1:]], axis=2)
-    overlap = static_overlap[:, None, :] + relative
-    return np.any((overlap <= 0) & (contact_constant[:, None, :] > 0), axis=(1, 2))
+    out = np.zeros(len(u), dtype=bool)
+    for lo in range(0, len(u), CHAIN_BLOCK):
+        block = np.asarray(u[lo : lo + CHAIN_BLOCK], dtype=np.float64)
+        relative = np.concatenate([-block[:, :, :1], block[:, :, :-1] - block[:, :, 1:], block[:, :, -1:]], axis=2)
+        overlap = static_overlap[lo : lo + CHAIN_BLOCK, None, :] + relative
+        present = contact_constant[lo : lo + CHAIN_BLOCK, None, :] > 0
+        out[lo : lo + CHAIN_BLOCK] = np.any((overlap <= 0) & present, axis=(1, 2))
+    return out
 
 
 def model_orders(model: Model, u: np.ndarray, u_shadow: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -174,14 +184,17 @@ def richardson_error(u: np.ndarray, u_shadow: np.ndarray, order, factor: int = S
     ``u``, ``u_shadow``: positions at the same records, shape (chains, records, grains); ``order``: one number, or
     one per chain. A chain whose ``u`` or shadow is not finite gets inf; a chain at rest (max |u| = 0) gets the
     absolute difference."""
-    u = np.asarray(u, dtype=np.float64)
-    u_shadow = np.asarray(u_shadow, dtype=np.float64)
-    if u.shape != u_shadow.shape:
-        raise ValueError(f"positions of shape {u.shape} and {u_shadow.shape} are not at the same records")
-    axes = tuple(range(1, u.ndim))
+    if np.shape(u) != np.shape(u_shadow):
+        raise ValueError(f"positions of shape {np.shape(u)} and {np.shape(u_shadow)} are not at the same records")
+    chains = np.shape(u)[0]
+    difference, scale = np.empty(chains), np.empty(chains)
+    axes = tuple(range(1, np.ndim(u)))
     with np.errstate(invalid="ignore"):
-        difference = np.max(np.abs(u - u_shadow), axis=axes)
-        scale = np.max(np.abs(u), axis=axes)
+        for lo in range(0, chains, CHAIN_BLOCK):
+            block = np.asarray(u[lo : lo + CHAIN_BLOCK], dtype=np.float64)
+            shadow = np.asarray(u_shadow[lo : lo + CHAIN_BLOCK], dtype=np.float64)
+            difference[lo : lo + CHAIN_BLOCK] = np.max(np.abs(block - shadow), axis=axes)
+            scale[lo : lo + CHAIN_BLOCK] = np.max(np.abs(block), axis=axes)
     estimate = difference / (factor**order - 1.0) / np.where(scale > 0, scale, 1.0)
     return np.where(np.isfinite(estimate), estimate, math.inf)
 

@@ -210,3 +210,32 @@ def test_opened_at_records():
     lifted[0, 0, :] = 2e-3  # all grains toward the bottom: only the top wall's contact opens
     assert opened_at_records(lifted, static_overlap, present)[0]
     assert not opened_at_records(lifted, static_overlap, np.array([[0.0, 1, 1, 1]]))[0]
+
+
+def test_estimate_reductions_over_many_chains_equal_the_whole_array_formulas():
+    # opened_at_records and richardson_error take chains in blocks (CHAIN_BLOCK): more chains than a block, with a
+    # chain whose shadow is not finite, one at rest and one that opens, give the whole-array formulas' values
+    from hertzian.core.error_estimate import CHAIN_BLOCK, richardson_error
+
+    rng = np.random.default_rng(3)
+    chains, records, grains = 2 * CHAIN_BLOCK + 37, 3, 5
+    u = rng.normal(scale=1e-5, size=(chains, records, grains))
+    u[7] = 0.0
+    shadow = u + rng.normal(scale=1e-9, size=u.shape)
+    shadow[400, 1, 2] = np.nan
+    # every third chain barely compressed (its contacts open under the random motion), the others far from opening
+    static_overlap = np.where(np.arange(chains)[:, None] % 3 == 0, 1e-7, 1e-3) * np.ones((chains, grains + 1))
+    u[301, 2, 4] = 1.0  # grain 4 pulled far from grain 3: contact 4 opens
+    present = np.ones((chains, grains + 1))
+    relative = np.concatenate([-u[:, :, :1], u[:, :, :-1] - u[:, :, 1:], u[:, :, -1:]], axis=2)
+    want_opened = ((static_overlap[:, None, :] + relative) <= 0).any(axis=(1, 2))
+    assert want_opened[301] and 0 < want_opened.sum() < chains
+    np.testing.assert_array_equal(opened_at_records(u, static_overlap, present), want_opened)
+    order = np.where(np.arange(chains) % 2, 4.0, 2.5)
+    with np.errstate(invalid="ignore"):
+        scale = np.abs(u).max(axis=(1, 2))
+        want = np.abs(u - shadow).max(axis=(1, 2)) / (2.0**order - 1.0) / np.where(scale > 0, scale, 1.0)
+    want = np.where(np.isfinite(want), want, np.inf)
+    got = richardson_error(u, shadow, order)
+    np.testing.assert_array_equal(got, want)
+    assert np.isinf(got[400]) and got[7] > 0
