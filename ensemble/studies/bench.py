@@ -30,8 +30,15 @@ from hertzian.core.devices import init_warp
 from hertzian.core.model import build_model
 from hertzian.core.runner import Runner
 from hertzian.core.scene import Scene, scene_from_dict
-from hertzian.core.solvers import choose_config, make_solver
-from hertzian.core.solvers.calibrate import calibrate, kind_configs, states_equal, whole_chain_configs
+from hertzian.core.solvers import STEP, choose_config, make_solver
+from hertzian.core.solvers.calibrate import (
+    calibrate,
+    default_config,
+    kind_configs,
+    states_equal,
+    step_reason,
+    whole_chain_configs,
+)
 from hertzian.studies.peers import JaxGear4, NumpyGear4, PeerProblem, jax_available, problem_from_model
 
 
@@ -285,9 +292,20 @@ class _SizeBench:
         )
 
 
+def bench_kernel_names(kernel: str, is_cuda: bool) -> list[str]:
+    """The project kernels ``hertzian bench --kernel KERNEL`` times: ``all`` is step, tile, window and, on a GPU,
+    ``rule`` (the shape a run takes untuned, the shipped rule's: its ratio to the best is the rule's cost)."""
+    if kernel == "all":
+        return ["step", "tile", "window", "rule"] if is_cuda else ["step", "chain"]
+    return [kernel]
+
+
 def bench_config(model, name: str, states, log):
     """The config bench measures for kernel ``name``: ``choose_config``'s, except that a forced tile or window kernel
-    on a GPU is timed in each of its candidate shapes and measured in the fastest."""
+    on a GPU is timed in each of its candidate shapes and measured in the fastest, and ``rule`` is the shipped rule's
+    shape (calibrate.default_config), whatever ``hertzian tune`` chose."""
+    if name == "rule":
+        return STEP if step_reason(model) else default_config(model)
     if name in ("tile", "window") and model.device.is_cuda:
         configs = kind_configs(model, name)
         return configs[0] if len(configs) == 1 else calibrate(model, configs=configs, states=states, log=log)[0]
@@ -312,9 +330,7 @@ def _bench_kernels(size: _SizeBench, model, chains: int, kernel: str, wall: floa
     # reference: the per-step kernel after check_steps steps
     runner.advance(size.check_steps)
     size.reference = runner.current.x.numpy().copy()
-    names = {"all": ["step", "tile", "window"] if dev.is_cuda else ["step", "chain"], "auto": ["auto"]}.get(
-        kernel, [kernel]
-    )
+    names = bench_kernel_names(kernel, dev.is_cuda)
     step_solver = runner.solver
     for name in names:
         if (
@@ -339,7 +355,7 @@ def _bench_kernels(size: _SizeBench, model, chains: int, kernel: str, wall: floa
             solver.load()
         reset(solver)
         runner.advance(size.check_steps)
-        label = name if name != "auto" else solver.kind
+        label = {"auto": solver.kind, "rule": f"rule-{solver.kind}"}.get(name, name)
         size.bench(_warp_impl(f"warp-{label}", runner), wall, chains)
         del solver
     return initial

@@ -157,3 +157,25 @@ def test_jax_peer_matches_per_step_kernel_on_fput():
     peer.run(50)
     want = per_step(model, 50)
     assert np.max(np.abs(peer.state() - want)) <= 1e-12 * np.max(np.abs(want))
+
+
+def test_bench_all_on_a_gpu_measures_the_rule_s_shape_beside_the_fastest(tmp_path, monkeypatch):
+    # `hertzian bench` on a GPU times tile and window kernels in their fastest shapes, and the shape a run takes
+    # untuned (the shipped rule's), whatever `hertzian tune` remembered: their ratio is the rule's cost
+    import json
+    from types import SimpleNamespace
+
+    from hertzian.core.solvers import calibrate
+    from hertzian.kernels.features import Features
+    from hertzian.studies.bench import bench_config, bench_kernel_names
+
+    assert bench_kernel_names("all", True) == ["step", "tile", "window", "rule"]
+    assert bench_kernel_names("all", False) == ["step", "chain"] and bench_kernel_names("tile", True) == ["tile"]
+    monkeypatch.setenv("HERTZIAN_CACHE", str(tmp_path / "calibration.json"))
+    gpu = SimpleNamespace(name="cuda:0", is_cpu=False, is_cuda=True, sm_count=132, arch=90)
+    model = SimpleNamespace(features=Features(), device=gpu, grain_count=1000, chain_count=16384)
+    rule = calibrate.default_config(model)
+    tuned = next(c for c in calibrate.whole_chain_configs(model) if c != rule)
+    (tmp_path / "calibration.json").write_text(json.dumps({calibrate._cache_key(model): tuned.to_dict()}))
+    assert calibrate.choose_config(model, "auto") == tuned
+    assert bench_config(model, "rule", None, None) == rule
