@@ -103,10 +103,9 @@ def prebuild(
         _report({"device": gpu.name, "out": str(target), "archs": archs, "ptx": ptx_archs, **report}, wheel, as_json)
         return
     if any_length:
-        import warp as wp
-        from hertzian.studies.warmup import any_length_needs
+        from hertzian.studies.warmup import with_any_length
 
-        needs = [*needs, *any_length_needs(needs, wp.get_device(dev))]
+        needs = with_any_length(needs, dev)
     variants = kernel_variants(needs, dev)
     report = prebuild_variants(variants, dev, target, archs=archs, ptx=ptx_archs)
     _report({"device": dev, "out": str(target), "archs": archs, "ptx": ptx_archs, **report}, wheel, as_json)

@@ -73,10 +73,9 @@ def warmup(
     except (SceneError, ValueError) as err:
         fail(str(err))
     if any_length:
-        import warp as wp
-        from hertzian.studies.warmup import any_length_needs
+        from hertzian.studies.warmup import with_any_length
 
-        needs = [*needs, *any_length_needs(needs, wp.get_device(dev))]
+        needs = with_any_length(needs, dev)
     if dry_run:
         variants = kernel_variants(needs, dev)
         names = [f"{module.name} (block {block or 'default'})" for module, block in variants]

@@ -52,13 +52,20 @@ def any_length_needs(needs: list, device) -> list[Need]:
     return out
 
 
+def with_any_length(needs: list, device: str) -> list:
+    """``needs`` and what ``--any-length`` adds to them on ``device`` (:func:`any_length_needs`)."""
+    from hertzian.kernels.features import device_of
+
+    return [*needs, *any_length_needs(needs, device_of(device))]
+
+
 def gpu_family_variants(needs: list, gpu) -> list[tuple]:
     """The (Warp module, block_dim) a GPU ``gpu`` (a PlannedGPU, planned here without one) loads for ``needs`` at any
     chain length and count: their own launch groups, every shape their feature sets take
     (:func:`any_length_needs`) and the record kernels of short and long chains, at the GPU's block sizes."""
     from hertzian.core.solvers.prepare import kernel_variants
 
-    return kernel_variants([*needs, *any_length_needs(needs, gpu)], gpu)
+    return kernel_variants(with_any_length(needs, gpu), gpu)
 
 
 def family_needs(device: str) -> list[Need]:

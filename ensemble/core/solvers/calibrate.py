@@ -309,9 +309,11 @@ def shape_family(features, *, sm_count: int = 132, arch: int = 90) -> tuple[tupl
     exact full lanes, has a shape per length and is not enumerated (empty too)."""
     from types import SimpleNamespace
 
+    from hertzian.core.solvers.shape_rule import PlannedGPU
+
     if fused_lacks(features, False) or features.surface == "periodic":
         return ()
-    device = SimpleNamespace(name=f"sm_{arch}", is_cpu=False, is_cuda=True, sm_count=sm_count, arch=arch)
+    device = PlannedGPU(arch, sm_count)
     seen: dict = {}
     for chains in (1, sm_count, 2 * sm_count, 16384):
         for grains in FAMILY_GRAINS:
