@@ -549,6 +549,13 @@ def parts_of_grains_block_dim(device) -> int:
     return 1 if device_of(device).is_cpu else PART_TILE_THREADS
 
 
+def record_parts_block_dim(device) -> int | None:
+    """Threads of a ``record_parts`` block on ``device``: Warp's default (one) on a CPU, RECORD_BLOCK_DIM on a GPU.
+    The launch and :func:`record_modules` both take it, so a CPU run loads the variant prepare named even after a tile
+    kernel has turned Warp's CPU blocks on in the process."""
+    return None if device_of(device).is_cpu else RECORD_BLOCK_DIM
+
+
 def record_modules(kernels: RecordKernels, *, long_chains: bool, device) -> list[tuple]:
     """(Warp module, block_dim) of the reductions a record takes on ``device``, each at the block size its launch
     uses (None: Warp's launch default): for ``long_chains`` (STAGED_GRAINS grains or more) the grain terms, the
@@ -561,8 +568,7 @@ def record_modules(kernels: RecordKernels, *, long_chains: bool, device) -> list
             (kernels.parts_of_grains.module, tiled),
             (kernels.record_long.module, tiled),
         ]
-    parts_block = None if device_of(device).is_cpu else RECORD_BLOCK_DIM
-    return [(kernels.parts.module, parts_block), (kernels.record.module, None)]
+    return [(kernels.parts.module, record_parts_block_dim(device)), (kernels.record.module, None)]
 
 
 def load_record_kernels(kernels: RecordKernels, *, long_chains: bool, device) -> None:

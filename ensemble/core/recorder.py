@@ -23,13 +23,13 @@ from hertzian.core.response import ResponseAccumulator
 from hertzian.core.spectrum import SpectrumRecorder
 from hertzian.kernels.records import (
     PART_SUMS,
-    RECORD_BLOCK_DIM,
     STAGED_GRAINS,
     launch_parts_of_grains,
     launch_record,
     load_record_kernels,
     record_kernels,
     record_part_count,
+    record_parts_block_dim,
     traced_start_kernel,
     track_extremes,
 )
@@ -318,9 +318,7 @@ class Recorder:
             wp.launch(
                 self.kernels.parts,
                 dim=self.parts.shape[:2],
-                # the block its module was named and loaded for (record_modules): one thread on a CPU, where a wider
-                # block would be another variant once a tile kernel has turned Warp's CPU blocks on in this process
-                block_dim=None if m.device.is_cpu else RECORD_BLOCK_DIM,
+                block_dim=record_parts_block_dim(m.device),
                 inputs=[*terms, state.dissipated],
                 outputs=[self.parts],
                 device=m.device,
