@@ -8,8 +8,10 @@ stages of building the first batches of ``sweeps/million.toml`` (expand, plan, j
 state buffers).
 
 And the README's first command (``hertzian run --out impact.zarr``) cold and warm, back to back, with each run's
-timeline (part ``readme``; ``--device`` picks the device, a GPU included), and the same after ``hertzian prebuild``
-(part ``readme_prebuilt``).
+timeline (part ``readme``; ``--device`` picks the device, a GPU included), the same after ``hertzian prebuild``
+(part ``readme_prebuilt``), and the same from a package that ``pip install .`` built, with the default family it
+compiled at install (part ``readme_installed``, measured only when named in ``--only``: run it from such an
+install, not an editable one).
 
 ``python -m hertzian.studies.fixed_costs --out docs/records/bench/cpu_auto_rule.json`` regenerates the record
 (``--only start,build`` re-measures those parts into the existing file;
@@ -75,11 +77,11 @@ example scene at the given grains, then its warm rate over the given steps [grai
 
 
 def _wall(args: list[str], cache: str, **env) -> float:
-    """Process wall [s] of ``hertzian ARGS`` with Warp's kernel cache in ``cache`` and ``env`` set (a command that
+    """Process wall [s] of ``hertzian ARGS`` with Warp's kernel cache in ``cache`` and ``env`` set (None: unset; a command that
     fails ends this process with its message and exit code). Python's bytecode cache is on, as for an installed
     package (pip compiles it): ``PYTHONDONTWRITEBYTECODE`` would recompile an editable install's modules each start."""
-    inherited = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
-    env = {**inherited, "WARP_CACHE_PATH": cache, **env}
+    inherited = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE" and env.get(k, "") is not None}
+    env = {**inherited, "WARP_CACHE_PATH": cache, **{k: v for k, v in env.items() if v is not None}}
     start = time.perf_counter()
     result = subprocess.run([sys.executable, "-m", "hertzian.cli", *args], env=env, capture_output=True, text=True)
     if result.returncode:
@@ -103,19 +105,20 @@ def _timeline_summary(path: Path) -> dict:
     }
 
 
-def time_readme(device: str, repeats: int = 3, prebuilt: bool = False) -> dict:
+def time_readme(device: str, repeats: int = 3, prebuilt: bool | str = False) -> dict:
     """Process wall [s] of the README's first command on ``device``, cold then warm, back to back ``repeats`` times.
 
     Cold: a new empty Warp kernel cache (``WARP_CACHE_PATH``) and calibration cache (``HERTZIAN_CACHE``); warm: the
     same command again with those caches. Each run's timeline (``HERTZIAN_TIMELINE``) is kept in the record.
     ``prebuilt``: first ``hertzian prebuild`` (the default family, its seconds and size recorded) into a folder every
-    run reads (``HERTZIAN_PREBUILT``); else no prebuilt folder is read."""
+    run reads (``HERTZIAN_PREBUILT``); ``"package"``: the installed package's own folder, as ``pip install .`` built
+    it (``HERTZIAN_PREBUILT`` unset); else no prebuilt folder is read."""
     pairs = []
     with tempfile.TemporaryDirectory() as tmp:
         args = [*README_COMMAND[:-1], f"{tmp}/impact.zarr", "--device", device, "--quiet", "--overwrite"]
-        folder = f"{tmp}/prebuilt" if prebuilt else "off"
-        built = {}
-        if prebuilt:
+        folder = {True: f"{tmp}/prebuilt", False: "off", "package": None}[prebuilt]
+        built = _package_family() if prebuilt == "package" else {}
+        if prebuilt is True:
             build_args = ["prebuild", "--device", device, "--out", folder]
             built = {"prebuild_s": _wall(build_args, f"{tmp}/build-cache", HERTZIAN_PREBUILT="off")}
             built["prebuilt_bytes"] = sum(p.stat().st_size for p in Path(folder).rglob("*") if p.is_file())
@@ -140,6 +143,19 @@ def time_readme(device: str, repeats: int = 3, prebuilt: bool = False) -> dict:
         "cold_over_warm": cold / warm,
         "pairs": pairs,
     }
+
+
+def _package_family() -> dict:
+    """The installed package's prebuilt folder and its module count; refuses an install without one (editable)."""
+    from hertzian.core.solvers import prebuilt
+
+    index = prebuilt.PACKAGE_FOLDER / prebuilt.INDEX
+    if not index.is_file():
+        raise SystemExit(
+            f"error: {prebuilt.PACKAGE_FOLDER} holds no prebuilt kernels: measure readme_installed from a package "
+            "that `pip install .` built (not an editable install)"
+        )
+    return {"package_folder_modules": len(json.loads(index.read_text())["modules"])}
 
 
 def time_runs(out_dir: str) -> list[dict]:
@@ -285,11 +301,12 @@ PARTS = {
     "build_million": lambda tmp, args: time_build(),
     "readme": lambda tmp, args: time_readme(args.device, args.repeats),
     "readme_prebuilt": lambda tmp, args: time_readme(args.device, args.repeats, prebuilt=True),
+    "readme_installed": lambda tmp, args: time_readme(args.device, args.repeats, prebuilt="package"),
     "gpu_family": lambda tmp, args: time_gpu_family(tmp),
     "gpu_family_whole": lambda tmp, args: time_gpu_family(tmp, whole=True),
 }
 """Each part of the record and how it is measured (``--only`` names them by key, or ``start``/``build``). Only
-``readme`` and ``readme_prebuilt`` take ``--device``; the others measure the CPU."""
+the readme parts take ``--device``; the others measure the CPU."""
 
 
 def _arguments() -> argparse.Namespace:
@@ -305,7 +322,8 @@ def _arguments() -> argparse.Namespace:
         parser.exit(2, f"error: --only = {unknown[0]!r}: one of {', '.join(PARTS)}, start, build\n")
     if args.repeats < 1:
         parser.exit(2, f"error: --repeats = {args.repeats}: must be at least 1\n")
-    if args.device != "cpu" and (not args.only or not set(args.only) <= {"readme", "readme_prebuilt"}):
+    readme_parts = {"readme", "readme_prebuilt", "readme_installed"}
+    if args.device != "cpu" and (not args.only or not set(args.only) <= readme_parts):
         parser.exit(2, f"error: --device = {args.device!r}: only the readme parts take a device; add --only readme\n")
     return args
 
@@ -322,7 +340,7 @@ def main() -> None:
     }
     record.setdefault("dates", {})
     with tempfile.TemporaryDirectory() as tmp:
-        for name in args.only or PARTS:
+        for name in args.only or [p for p in PARTS if p != "readme_installed"]:
             record[name] = PARTS[name](tmp, args)
             record["dates"][name] = stamp
     args.out.parent.mkdir(parents=True, exist_ok=True)

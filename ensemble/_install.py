@@ -1,0 +1,84 @@
+"""Install time: the default kernel family compiled for this machine's CPU goes into the package being built.
+
+``pip install .`` builds a wheel; setuptools' ``build_py`` copies the package into it, and :class:`BuildWithKernels`
+then compiles the default family (what ``hertzian prebuild --device cpu`` compiles: every shipped example, every
+shipped sweep, ``reproduce`` and ``reproduce --quick``) into the wheel's ``hertzian/prebuilt-kernels``. A first run
+then loads its kernels from there and compiles nothing (``hertzian.core.solvers.prebuilt``).
+
+* Skipped for editable installs, when the package already holds a prebuilt folder (``hertzian prebuild`` was run
+  before the build: that one is kept), and when ``HERTZIAN_PREBUILD=off``.
+* The compile runs in a child process against the copied package, with a kernel cache of its own (nothing is
+  written outside the build). If it cannot run (no Warp CPU compiler, say), the package is built without prebuilt
+  kernels, runs compile what they need as before, and the build log says why in one line.
+
+This module is read by setuptools before the package's dependencies exist: it imports setuptools only, and the
+package only inside the child process.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from setuptools.command.build_py import build_py
+
+SWITCH = "HERTZIAN_PREBUILD"
+"""Environment variable: ``off`` builds the package without prebuilt kernels."""
+FOLDER = Path("hertzian") / "prebuilt-kernels"
+TIMEOUT_S = 900
+
+
+class BuildWithKernels(build_py):
+    """``build_py``, then the default CPU family compiled into the built package (see the module's text)."""
+
+    def run(self) -> None:
+        super().run()
+        if getattr(self, "editable_mode", False) or os.environ.get(SWITCH, "").strip().lower() == "off":
+            return
+        build_lib = Path(self.build_lib)
+        if (build_lib / FOLDER / "family.json").exists():
+            return
+        note = compile_family(build_lib)
+        if note:
+            print(f"hertzian: {note}", file=sys.stderr)
+
+
+def compile_family(build_lib: Path) -> str:
+    """Compile the default CPU family into ``build_lib``'s package; returns '' or why it was not built."""
+    out = build_lib / FOLDER
+    ours = not out.exists()
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(build_lib), os.environ.get("PYTHONPATH")]))}
+    with tempfile.TemporaryDirectory(prefix="hertzian-build-") as cache:
+        env["WARP_CACHE_PATH"] = cache
+        command = [sys.executable, "-m", "hertzian._install", str(out)]
+        try:
+            done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=TIMEOUT_S)
+            why = "" if done.returncode == 0 else ((done.stderr or done.stdout).strip().splitlines() or ["?"])[-1]
+        except (OSError, subprocess.TimeoutExpired) as err:
+            why = type(err).__name__
+    if not why:
+        return ""
+    if ours:
+        shutil.rmtree(out, ignore_errors=True)  # a partial folder this build wrote
+    return f"built without prebuilt kernels ({why}); runs compile what they need"
+
+
+def main(out: str) -> None:
+    """Child process: compile the default family for the CPU into ``out`` (``hertzian prebuild --device cpu``)."""
+    import warp as wp
+
+    wp.config.quiet = True
+    from hertzian.core.solvers.compile import prebuild_variants
+    from hertzian.core.solvers.prepare import kernel_variants
+    from hertzian.studies.warmup import family_needs
+
+    report = prebuild_variants(kernel_variants(family_needs("cpu"), "cpu"), "cpu", Path(out))
+    print(f"hertzian: {report['modules']} CPU kernel modules prebuilt in {report['seconds']:.1f} s")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])

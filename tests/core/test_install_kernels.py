@@ -1,0 +1,55 @@
+"""Install time (hertzian/_install.py): building the package compiles the default CPU family into it, so the README's
+first run on an empty kernel cache compiles nothing; a build that cannot compile says why in one line and leaves no
+partial folder."""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import tomllib
+from fnmatch import fnmatch
+from pathlib import Path
+
+from hertzian import _install
+from hertzian.core.solvers import prebuilt
+
+from tests.helpers import hertzian
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_the_build_compiles_the_default_family_and_the_readme_run_loads_it(tmp_path):
+    assert _install.compile_family(tmp_path / "build") == ""
+    folder = tmp_path / "build" / _install.FOLDER
+    assert json.loads((folder / prebuilt.INDEX).read_text())["devices"] == ["cpu"]
+
+    cache, timeline = tmp_path / "cache", tmp_path / "timeline.json"
+    env = {**os.environ, "WARP_CACHE_PATH": str(cache), "HERTZIAN_PREBUILT": str(folder)}
+    env["HERTZIAN_TIMELINE"] = str(timeline)
+    run = hertzian("run", "--device", "cpu", "--set", "integrator.duration=2", "--out", tmp_path / "a.zarr", env=env)
+    assert run.returncode == 0, run.stderr
+    phases = {p["phase"]: p for p in json.loads(timeline.read_text())["phases"]}
+    loads = phases["kernels_loaded"]["variants"]
+    assert loads and all(load["prebuilt"] for load in loads), loads
+    assert not [p for p in cache.rglob("wp_*") if p.is_dir()]
+
+
+def test_a_build_that_cannot_compile_says_why_and_leaves_no_folder(tmp_path, monkeypatch):
+    """A child that writes part of the folder and fails: its last line is the reason, and the part is removed."""
+    child = tmp_path / "python"
+    child.write_text('#!/bin/sh\nmkdir -p "$3/wp_partial"\necho "compiler: not found" >&2\nexit 1\n')
+    child.chmod(0o755)
+    monkeypatch.setattr(sys, "executable", str(child))
+    note = _install.compile_family(tmp_path / "build")
+    assert note == "built without prebuilt kernels (compiler: not found); runs compile what they need"
+    assert (tmp_path / "build").is_dir() and not (tmp_path / "build" / _install.FOLDER).exists()
+
+
+def test_the_build_runs_the_hook_and_ships_the_folders_index():
+    """pyproject.toml wires the hook into build_py, and its package data takes the folder's index and modules."""
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    assert config["cmdclass"]["build_py"] == "hertzian._install.BuildWithKernels"
+    patterns = config["package-data"]["hertzian"]
+    for name in (f"prebuilt-kernels/{prebuilt.INDEX}", "prebuilt-kernels/wp_chain_0123/chain.o"):
+        assert any(fnmatch(name, pattern) for pattern in patterns), name
