@@ -7,7 +7,7 @@ and a batch whose worker dies is run again elsewhere (it rewrites the same shard
 
 ``--workers N`` starts N worker processes the way dask-cuda's ``LocalCUDACluster`` does, without it
 (:func:`worker_specs`): one ``Nanny`` per GPU, named 0 … N-1, one thread each, the host's memory
-split evenly between them, and ``CUDA_VISIBLE_DEVICES`` rotated so worker i sees GPU i first — as
+split evenly between them, except that worker i sees only GPU i (``CUDA_VISIBLE_DEVICES``), as
 its ``cuda:0``. A worker imports the package and initialises Warp when it starts (:func:`dask_setup`,
 its preload), while the host plans and creates the store.
 
@@ -163,7 +163,7 @@ def worker_device(requested: str | None, worker_name: Any = None) -> str:
     if not wp.is_cuda_available():
         return "cpu"
     if os.environ.get("CUDA_VISIBLE_DEVICES"):
-        return "cuda:0"  # its own GPU comes first (LocalCUDACluster's convention)
+        return "cuda:0"  # its own GPU, alone or first (LocalCUDACluster's convention)
     try:
         index = int(worker_name)
     except (ValueError, TypeError):
@@ -339,10 +339,10 @@ def visible_gpus() -> list[str]:
 
 
 def cuda_visible_devices(index: int, gpus: list[str]) -> str:
-    """``CUDA_VISIBLE_DEVICES`` of worker ``index``: ``gpus`` rotated to start at its own (dask-cuda's
-    ``cuda_visible_devices``), so the worker's ``cuda:0`` is GPU ``gpus[index % len(gpus)]``."""
-    start = index % len(gpus)
-    return ",".join(gpus[start:] + gpus[:start])
+    """``CUDA_VISIBLE_DEVICES`` of worker ``index``: its own GPU ``gpus[index % len(gpus)]`` only, its ``cuda:0``.
+    (dask-cuda lists every GPU, its own first, for peer access between workers; these workers share nothing on
+    the device, and a process that sees one GPU initialises its driver faster than one that sees all.)"""
+    return gpus[index % len(gpus)]
 
 
 LOOPBACK = "127.0.0.1"
@@ -352,7 +352,7 @@ LOOPBACK = "127.0.0.1"
 def worker_specs(workers: int, gpus: list[str], *, memory_limit: int | None = None) -> dict[int, dict]:
     """``SpecCluster`` worker specs of ``workers`` Nanny processes named 0 … workers-1: one thread each, host
     memory split evenly (``memory_limit`` bytes each; default: the host's memory / workers), the package
-    preloaded (:func:`dask_setup`), and with ``gpus`` each its own GPU first in ``CUDA_VISIBLE_DEVICES``."""
+    preloaded (:func:`dask_setup`), and with ``gpus`` each only its own in ``CUDA_VISIBLE_DEVICES``."""
     from distributed import Nanny
     from distributed.system import MEMORY_LIMIT
 
