@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import logging
 import os
+import sys
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
@@ -178,6 +179,21 @@ def dask_setup(worker=None) -> None:
     from hertzian.sweeping import sweep_store  # noqa: F401
 
     _quiet_warp()
+
+
+def dask_teardown(worker=None) -> None:
+    """The preload's last step in a worker process a nanny started, as the worker closes: the process ends here,
+    without the rest of Dask's close and the interpreter's teardown of every module and of Warp's runtime, so
+    closing a cluster does not wait for them. Every batch is written
+    before its task returns; a worker closed mid-batch ends as a killed one does, which the store survives (the
+    batch runs again). A worker in the client's own process is left to close as usual."""
+    import multiprocessing
+
+    if worker is None or not getattr(worker, "nanny", None) or multiprocessing.parent_process() is None:
+        return
+    for stream in (sys.stdout, sys.stderr):
+        stream.flush()
+    os._exit(0)
 
 
 def run_job_on_worker(job: BatchJob, requested_device: str | None) -> dict[str, Any]:

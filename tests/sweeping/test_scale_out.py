@@ -285,3 +285,24 @@ def test_scale_budget_skips_the_runs_that_would_not_fit(tmp_path, monkeypatch):
     assert [s["run"] for s in record["skipped"]] == ["strong --workers 2", "weak serial", "weak --workers 2"]
     assert all(s["estimated_seconds"] > s["seconds_left"] for s in record["skipped"])
     assert "skipped strong --workers 2: estimated" in result.stderr
+
+
+def _register_exit_marker(folder: str) -> None:
+    """In a worker: an exit handler that leaves a file named for this process (it runs only in a full teardown)."""
+    import atexit
+
+    atexit.register(Path(folder, str(os.getpid())).write_text, "teardown")
+
+
+def test_closing_a_local_cluster_ends_its_workers_without_their_teardown(tmp_path):
+    """The workers end at the preload's teardown (os._exit): no exit handler of theirs runs, and none is left alive."""
+    import psutil
+    from distributed import Client
+
+    with local_cluster(2, gpus=[]) as cluster, Client(cluster) as client:
+        pids = list(client.run(os.getpid).values())
+        client.run(_register_exit_marker, str(tmp_path))
+    assert len(pids) == 2
+    gone = [not psutil.pid_exists(pid) or psutil.Process(pid).status() == psutil.STATUS_ZOMBIE for pid in pids]
+    assert all(gone), pids
+    assert list(tmp_path.iterdir()) == []  # a worker that closed the usual way would have run its exit handler
