@@ -149,6 +149,9 @@ def test_shipped_files_by_bare_name(tmp_path, monkeypatch):
     assert "points: 9 over v_imp (3) × l0 (3)" in result.stdout
     assert hz.load_scene("impact").chain.grains == 1000
     assert invoke("sweep", "no_such_sweep.toml", "--dry-run").exit_code == 2
+    # the README's path of a shipped sweep works outside the repository too; other folders are not searched
+    assert "points: 9 over" in invoke("sweep", "sweeps/example.toml", "--dry-run", "--device", "cpu").stdout
+    assert invoke("sweep", "elsewhere/example.toml", "--dry-run").exit_code == 2
     assert list(tmp_path.iterdir()) == []
 
 

@@ -1,6 +1,7 @@
 """Inputs shipped with the package: the example scenes (``hertzian.examples``) and sweep files (``hertzian.sweeps``).
 
-A name that is not an existing path is looked up among them, so ``hertzian sweep example.toml`` works anywhere.
+A name that is not an existing path is looked up among them, so ``hertzian sweep example.toml`` works anywhere, and
+so does the repository's own path of a shipped sweep (``sweeps/example.toml``, as the README writes it).
 """
 
 from __future__ import annotations
@@ -10,6 +11,9 @@ from pathlib import Path
 
 SHIPPED = ("hertzian.sweeps", "hertzian.examples")
 """Packages whose TOML files are found by bare name, in this order."""
+REPOSITORY_FOLDERS = {Path("sweeps"): "hertzian.sweeps"}
+"""The repository's folders of shipped files, by their path relative to its root: a missing ``sweeps/NAME`` is the
+shipped sweep NAME."""
 
 
 def example_path(name: str = "impact") -> Path:
@@ -19,11 +23,12 @@ def example_path(name: str = "impact") -> Path:
 
 def shipped_file(path: str | Path) -> Path:
     """``path`` itself if it exists or names a folder, else the shipped sweep or example scene of that name
-    (``.toml`` optional); a name found nowhere comes back unchanged (its reader then says it does not exist)."""
+    (``.toml`` optional; ``sweeps/NAME``: the shipped sweep); a name found nowhere comes back unchanged (its reader
+    then says it does not exist)."""
     path = Path(path)
-    if path.exists() or path.parent != Path("."):
+    if path.exists() or path.parent not in (Path("."), *REPOSITORY_FOLDERS):
         return path
-    for package in SHIPPED:
+    for package in SHIPPED if path.parent == Path(".") else [REPOSITORY_FOLDERS[path.parent]]:
         for name in (path.name, f"{path.name}.toml"):
             candidate = Path(str(resources.files(package) / name))
             if candidate.is_file():
