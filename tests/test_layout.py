@@ -80,3 +80,14 @@ def test_architecture_names_every_module_and_command():
     (cli_row,) = [line for line in text.splitlines() if line.startswith("| `cli/` |")]
     listed = set(re.findall(r"`([a-z_-]+)`", cli_row))
     assert set(COMMANDS) <= listed, sorted(set(COMMANDS) - listed)
+
+
+def test_ci_runs_exactly_the_readmes_test_command():
+    """.ci/run's test line is the README's test command (after its install step), word for word."""
+    readme = (ROOT / "README.md").read_text()
+    block = re.search(r"## Test\n\n```bash\n(.+?)\n```", readme).group(1)
+    install, command = (part.strip() for part in block.split("&&"))
+    assert install == 'pip install ".[test]"'
+    ci_lines = [line.strip() for line in (ROOT / ".ci" / "run").read_text().splitlines()]
+    assert command in ci_lines and ci_lines[-1] == command, command
+    assert 'python -m pip install --quiet ".[test]"' in ci_lines
