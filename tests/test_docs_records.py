@@ -894,3 +894,20 @@ def test_the_gpu_family_table_is_its_record():
             if part == "gpu_family"
             else agrees(wheel.removesuffix(" MB"), parts[part]["wheel_bytes"] / 1e6)
         )
+
+
+def test_the_modules_per_job_table_is_its_record():
+    rows = table_after("fixed-costs.md", "How many modules each shipped job loads on the CPU")
+    counts = record("bench/cpu_auto_rule.json")["family_counts"]
+    listed = {job.strip("`"): int(n) for n, (jobs,) in rows.items() for job in jobs.split(", ") if job.startswith("`")}
+    assert listed == counts["jobs"]
+    assert rows[str(counts["default_family"])] == ["all of them together: the default family"]
+
+
+def test_the_modules_per_job_record_covers_every_shipped_job():
+    from hertzian.core.scene import read_toml
+    from hertzian.core.shipped import shipped_file, shipped_names
+
+    shipped = [n for n in shipped_names() if not {"design", "study"} & set(read_toml(shipped_file(n)))]
+    jobs = record("bench/cpu_auto_rule.json")["family_counts"]["jobs"]
+    assert sorted(jobs) == sorted([*shipped, "reproduce", "reproduce --quick"])

@@ -293,7 +293,31 @@ def time_gpu_family(out_dir: str, arch: int = 90, *, whole: bool = False) -> dic
     return out
 
 
+def family_counts(device: str = "cpu") -> dict:
+    """How many kernel modules (distinct Warp module and block size) each shipped job loads on ``device``: one run of
+    each shipped example scene, each shipped sweep file (every launch group and batch size; design files are left
+    out, their kernels depend on what the optimizer draws), ``reproduce`` and ``reproduce --quick``, and all of them
+    together (the default family ``hertzian prebuild`` compiles)."""
+    from hertzian.core.scene import read_toml
+    from hertzian.core.shipped import shipped_file, shipped_names
+    from hertzian.core.solvers.prepare import kernel_variants
+    from hertzian.studies.reproduce import paper_needs
+    from hertzian.studies.warmup import family_needs, file_needs
+
+    jobs: dict[str, int] = {}
+    for name in shipped_names():
+        table = read_toml(shipped_file(name))
+        if "design" not in table and "study" not in table:
+            jobs[name] = len(kernel_variants(file_needs(shipped_file(name), device), device))
+    for quick in (False, True):
+        jobs["reproduce" + (" --quick" if quick else "")] = len(
+            kernel_variants(paper_needs(device, quick=quick), device)
+        )
+    return {"device": device, "jobs": jobs, "default_family": len(kernel_variants(family_needs(device), device))}
+
+
 PARTS = {
+    "family_counts": lambda tmp, args: family_counts(),
     "runs": lambda tmp, args: time_runs(tmp),
     "compile_8_variants": lambda tmp, args: time_compiles(),
     "kernel_costs": lambda tmp, args: time_kernel_costs(),
