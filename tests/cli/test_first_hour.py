@@ -215,3 +215,26 @@ def test_a_dry_run_estimates_seconds_on_this_device(tmp_path):
     assert estimate["seconds"] > 0 and estimate["bound"] == "estimate"
     assert "estimated integration: roughly" in result.stderr and " s on cpu" in result.stderr
     assert not (tmp_path / "sweep.zarr").exists()
+
+
+def test_every_option_the_readme_and_docs_show_exists():
+    """Each `hertzian COMMAND … --option` written in README.md or docs/*.md names an option of that command."""
+    import re
+    from pathlib import Path
+
+    import typer
+    from hertzian.cli.app import app
+
+    commands = typer.main.get_command(app).commands
+    root = Path(__file__).resolve().parents[2]
+    unknown, seen = [], 0
+    for doc in [root / "README.md", *sorted((root / "docs").glob("*.md"))]:
+        for line in re.finditer(r"hertzian ([a-z-]+)((?:[ \t]+[^\s`|]+)*)", doc.read_text()):
+            if line.group(1) not in commands:
+                continue  # prose ("hertzian integrates …")
+            options = {o for p in commands[line.group(1)].params for o in (*p.opts, *p.secondary_opts)} | {"--help"}
+            for option in re.findall(r"(?<![\w-])(--[a-z][a-z0-9-]*)", line.group(2)):
+                seen += 1
+                if option not in options:
+                    unknown.append(f"{doc.name}: hertzian {line.group(1)} {option}")
+    assert seen > 100 and unknown == [], unknown
