@@ -1,9 +1,10 @@
-"""Install time: the default kernel family compiled for this machine's CPU goes into the package being built.
+"""Install time: the default kernel family compiled for this machine's CPU (and GPU) goes into the built package.
 
 ``pip install .`` builds a wheel; setuptools' ``build_py`` copies the package into it, and :class:`BuildWithKernels`
 then compiles the default family (what ``hertzian prebuild --device cpu`` compiles: every shipped example, every
-shipped sweep, ``reproduce`` and ``reproduce --quick``) into the wheel's ``hertzian/prebuilt-kernels``. A first run
-then loads its kernels from there and compiles nothing (``hertzian.core.solvers.prebuilt``).
+shipped sweep, ``reproduce`` and ``reproduce --quick``) into the wheel's ``hertzian/prebuilt-kernels``, and on a
+machine with a CUDA GPU the same family planned for that GPU (``--device cuda``). A first run then loads its kernels
+from there and compiles nothing (``hertzian.core.solvers.prebuilt``).
 
 * Skipped for editable installs, when the package already holds a prebuilt folder (``hertzian prebuild`` was run
   before the build: that one is kept), and when ``HERTZIAN_PREBUILD=off``.
@@ -33,7 +34,7 @@ TIMEOUT_S = 900
 
 
 class BuildWithKernels(build_py):
-    """``build_py``, then the default CPU family compiled into the built package (see the module's text)."""
+    """``build_py``, then the default family compiled into the built package (see the module's text)."""
 
     def run(self) -> None:
         super().run()
@@ -48,7 +49,7 @@ class BuildWithKernels(build_py):
 
 
 def compile_family(build_lib: Path) -> str:
-    """Compile the default CPU family into ``build_lib``'s package; returns '' or why it was not built."""
+    """Compile the default family into ``build_lib``'s package (:func:`main`); returns '' or why it was not built."""
     out = build_lib / FOLDER
     ours = not out.exists()
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(build_lib), os.environ.get("PYTHONPATH")]))}
@@ -68,7 +69,9 @@ def compile_family(build_lib: Path) -> str:
 
 
 def main(out: str) -> None:
-    """Child process: compile the default family for the CPU into ``out`` (``hertzian prebuild --device cpu``)."""
+    """Child process: compile the default family into ``out`` for the CPU and, when this machine has one, for its
+    CUDA GPU (``hertzian prebuild --device cpu``, ``--device cuda``). A device whose compile fails is left out and
+    named on stderr; the process fails only when nothing was built."""
     import warp as wp
 
     wp.config.quiet = True
@@ -76,8 +79,17 @@ def main(out: str) -> None:
     from hertzian.core.solvers.prepare import kernel_variants
     from hertzian.studies.warmup import family_needs
 
-    report = prebuild_variants(kernel_variants(family_needs("cpu"), "cpu"), "cpu", Path(out))
-    print(f"hertzian: {report['modules']} CPU kernel modules prebuilt in {report['seconds']:.1f} s")
+    built = 0
+    for device in ["cpu", *(["cuda"] if wp.is_cuda_available() else [])]:
+        try:
+            report = prebuild_variants(kernel_variants(family_needs(device), device), device, Path(out))
+        except Exception as err:  # a device that cannot compile is left out, not the package
+            print(f"hertzian: no prebuilt {device} kernels ({type(err).__name__}: {err})", file=sys.stderr)
+            continue
+        built += 1
+        print(f"hertzian: {report['modules']} {device} kernel modules prebuilt in {report['seconds']:.1f} s")
+    if not built:
+        raise SystemExit("no device could compile the family")
 
 
 if __name__ == "__main__":

@@ -11,6 +11,7 @@ import tomllib
 from fnmatch import fnmatch
 from pathlib import Path
 
+import pytest
 from hertzian import _install
 from hertzian.core.solvers import prebuilt
 
@@ -53,3 +54,28 @@ def test_the_build_runs_the_hook_and_ships_the_folders_index():
     patterns = config["package-data"]["hertzian"]
     for name in (f"prebuilt-kernels/{prebuilt.INDEX}", "prebuilt-kernels/wp_chain_0123/chain.o"):
         assert any(fnmatch(name, pattern) for pattern in patterns), name
+
+
+def test_a_device_that_cannot_compile_is_left_out_and_named(tmp_path, monkeypatch, capsys):
+    """A GPU seen at install whose family cannot be built (here: no CUDA behind it) leaves the CPU family in place."""
+    from hertzian.core.scene import load_scene
+    from hertzian.core.shipped import example_path
+    from hertzian.studies import warmup
+
+    small = warmup.scene_needs(load_scene(example_path("impact"), {"chain.grains": 20, "integrator.duration": 0.1}))
+    monkeypatch.setattr(warmup, "family_needs", lambda device: small)  # a family of one small scene
+    monkeypatch.setattr(prebuilt.wp, "is_cuda_available", lambda: True)
+    _install.main(str(tmp_path))
+    assert "hertzian: no prebuilt cuda kernels (" in capsys.readouterr().err
+    assert json.loads((tmp_path / prebuilt.INDEX).read_text())["devices"] == ["cpu"]
+
+
+def test_an_install_where_no_device_compiles_fails_the_child(tmp_path, monkeypatch):
+    from hertzian.core.solvers import compile as compiling
+
+    def cannot(*args, **kwargs):
+        raise RuntimeError("no compiler")
+
+    monkeypatch.setattr(compiling, "prebuild_variants", cannot)
+    with pytest.raises(SystemExit, match="no device could compile the family"):
+        _install.main(str(tmp_path))
