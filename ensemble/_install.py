@@ -12,8 +12,8 @@ from there and compiles nothing (``hertzian.core.solvers.prebuilt``).
   written outside the build). If it cannot run (no Warp CPU compiler, say), the package is built without prebuilt
   kernels, runs compile what they need as before, and the build log says why in one line.
 
-This module is read by setuptools before the package's dependencies exist: it imports setuptools only, and the
-package only inside the child process.
+This module is read by setuptools before the package's dependencies exist: it imports setuptools only (when it is
+there: Python 3.12 environments may lack it at run time), and the package only inside the child process.
 """
 
 from __future__ import annotations
@@ -25,7 +25,10 @@ import sys
 import tempfile
 from pathlib import Path
 
-from setuptools.command.build_py import build_py
+try:
+    from setuptools.command.build_py import build_py
+except ImportError:  # a run-time import (tests, the child process) where setuptools is not installed
+    build_py = object
 
 SWITCH = "HERTZIAN_PREBUILD"
 """Environment variable: ``off`` builds the package without prebuilt kernels."""

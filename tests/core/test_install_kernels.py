@@ -79,3 +79,13 @@ def test_an_install_where_no_device_compiles_fails_the_child(tmp_path, monkeypat
     monkeypatch.setattr(compiling, "prebuild_variants", cannot)
     with pytest.raises(SystemExit, match="no device could compile the family"):
         _install.main(str(tmp_path))
+
+
+def test_the_module_imports_where_setuptools_is_missing():
+    """Python 3.12 environments may have no setuptools at run time; the tests and the child process import this."""
+    import subprocess
+
+    blocked = "; ".join(f"sys.modules[{m!r}] = None" for m in ("setuptools", "setuptools.command.build_py"))
+    probe = f"import sys; {blocked}; import hertzian._install as m; print(m.compile_family.__name__)"
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
+    assert done.returncode == 0 and done.stdout.strip() == "compile_family", done.stderr
