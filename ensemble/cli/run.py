@@ -94,7 +94,8 @@ def _run_to_tolerance(scene, prepared, out: Path, *, overwrite: bool) -> None:
     the choice in the store's attributes."""
     from hertzian.sweeping.sweep_store import write_result
 
-    result = prepared.run()
+    with one_line_errors():
+        result = prepared.run()
     choice = prepared.choice
     with one_line_errors():
         write_result(out, result, overwrite=overwrite, attributes=choice.attrs())

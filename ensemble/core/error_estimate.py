@@ -243,9 +243,11 @@ class ToleranceChoice:
 
 
 def step_ladder(scene: Scene, method: str) -> tuple[float, int]:
-    """(base interval [time], start exponent j): candidate steps are base/2^j, which put every record on an
-    even step; j starts at the first step ``hertzian check`` calls accurate for ``method``."""
-    base = scene.record.every if scene.record.every is not None else scene.integrator.duration
+    """(base interval [time], start exponent j): candidate steps are base/2^j, which put every record (and every
+    trace sample: the base is ``record.trace_every`` when set, which divides ``every``) on an even step; j starts at
+    the first step ``hertzian check`` calls accurate for ``method``."""
+    record = scene.record
+    base = next(x for x in (record.trace_every, record.every, scene.integrator.duration) if x is not None)
     accurate = check_scene(scene.with_overrides({"integrator.method": method, "integrator.tolerance": None}))
     start = accurate.contact_time / ACCURATE_STEPS_PER_CONTACT_TIME[method]
     j = max(1, math.ceil(math.log2(base / start))) if math.isfinite(start) and start > 0 else 1

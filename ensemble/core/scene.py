@@ -613,11 +613,31 @@ def parse_value(text: str) -> Any:
         return text
 
 
+ALTERNATIVES = {
+    "integrator.dt": "integrator.tolerance",
+    "integrator.tolerance": "integrator.dt",
+    "chain.l0": "chain.load",
+    "chain.load": "chain.l0",
+}
+"""Keys of which a scene gives one or the other: overriding one with a value drops the other from the data it
+overrides (the built-in example's ``dt`` gives way to ``--set integrator.tolerance=…``); both in one set of
+overrides is refused."""
+
+
 def apply_overrides(data: dict, overrides: dict[str, Any]) -> dict:
-    """Set dotted keys (``section.key`` or ``impurities.K.key``) in nested plain data."""
+    """Set dotted keys (``section.key`` or ``impurities.K.key``) in nested plain data; an override of one of two
+    :data:`ALTERNATIVES` drops the other."""
     import copy
 
     data = copy.deepcopy(data)
+    for dotted in overrides.keys() & ALTERNATIVES.keys():
+        section, key = ALTERNATIVES[dotted].split(".")
+        if (
+            overrides[dotted] is not None
+            and ALTERNATIVES[dotted] not in overrides
+            and isinstance(data.get(section), dict)
+        ):
+            data[section].pop(key, None)
     for dotted, value in overrides.items():
         parts = dotted.split(".")
         if parts[0] not in _TOP_KEYS:

@@ -142,6 +142,38 @@ def test_tolerance_and_dt_refused_together():
         make_scene(chain={"grains": GRAINS}, integrator={"duration": 1.0, "dt": 1e-3, "tolerance": 1e-6})
 
 
+def test_an_overridden_tolerance_or_step_replaces_the_other():
+    """The built-in example gives dt; --set integrator.tolerance=… replaces it (and dt a tolerance, l0 a load, a
+    load l0). Both in one set of overrides stay refused."""
+    from hertzian.core.scene import load_scene
+    from hertzian.core.shipped import example_path
+
+    impact = load_scene(example_path("impact"), {"integrator.tolerance": 1e-6})
+    assert impact.integrator.tolerance == 1e-6  # the file's dt = 5e-5 gave way
+    assert impact.with_overrides({"integrator.dt": 1e-4}).integrator.tolerance is None
+    loaded = impact.with_overrides({"integrator.dt": 1e-4, "chain.load": 0.01})
+    assert (loaded.chain.load, loaded.chain.l0) == (0.01, 0.0)
+    assert loaded.with_overrides({"chain.l0": 1e-4}).chain.load is None
+    with pytest.raises(SceneError, match="not both"):
+        load_scene(example_path("impact"), {"integrator.tolerance": 1e-6, "integrator.dt": 1e-4})
+
+
+def test_a_tolerance_run_puts_its_trace_samples_on_steps():
+    """Records every 0.1 and traces every 0.01 over 0.5: the step ladder starts from trace_every, so every step it
+    tries puts the samples on steps (from every, 0.1/2^8 = 0.000390625 would give 25.6 steps per sample)."""
+    scene = make_scene(
+        chain={"grains": GRAINS, "l0": 1e-4},
+        excitation={"impact": 1e-2},
+        integrator={"duration": 0.5, "tolerance": 1e-5},
+        record={"every": 0.1, "fields": ["u"], "traces": [0], "trace_every": 0.01},
+    )
+    result = run_scene(scene, "cpu")
+    chosen = result.scenes[0]
+    assert result.status[0] == Status.OK
+    steps = 0.01 / chosen.integrator.dt
+    assert steps == round(steps) and result.traces["u"].shape[1] == 51
+
+
 def test_smooth_chain_keeps_its_order_beside_a_loose_one():
     """With plain steps, a chain where no contact can open is estimated at its smooth order even when another
     chain of the ensemble opens contacts (the order is per chain): within 3× of its true error."""
