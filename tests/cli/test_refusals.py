@@ -293,3 +293,22 @@ def test_chain_kernel_option(tmp_path):
 
     alone = run_scene(load_sweep(path).scene_at((1,)), "cpu")  # per-step kernel: the same bits
     np.testing.assert_array_equal(xr.open_zarr(out).u.sel(v_imp=2e-2).values, alone.u[0])
+
+
+def test_a_chain_too_short_for_windows_is_told_the_shortest_that_fits(tmp_path):
+    """--kernel window on a short chain names the shortest chain that takes windows here, and that one does."""
+    from hertzian.core.model import build_model
+    from hertzian.core.solvers.calibrate import kind_configs
+
+    scene = tmp_path / "s.toml"
+    scene.write_text(toml_text(BASE))
+    out = tmp_path / "out.zarr"
+    result = invoke("run", scene, "--out", out, "--device", "cpu", "--kernel", "window")
+    assert_refused(result, out, "--kernel = 'window': no launch shape fits 8 grains (windows need at least ")
+    shortest = int(result.stderr.split("windows need at least ")[1].split()[0])
+    too_short, long_enough = (
+        make_scene(**{**BASE, "chain": {"grains": n, "l0": 1e-4}}) for n in (shortest - 1, shortest)
+    )
+    with pytest.raises(ValueError, match="windows need at least"):
+        kind_configs(build_model([too_short], "cpu"), "window")
+    assert kind_configs(build_model([long_enough], "cpu"), "window")

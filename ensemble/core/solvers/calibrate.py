@@ -520,8 +520,17 @@ def kind_configs(model: Model, kernel: str) -> list[SolverConfig]:
         raise ValueError(
             f"kernel = {kernel!r}: no launch shape fits {model.grain_count} grains"
             + (ring if f.surface == "periodic" else "")
+            + (_too_short_for_windows(model) if kernel == "window" and f.surface != "periodic" else "")
         )
     return configs
+
+
+def _too_short_for_windows(model: Model) -> str:
+    """Why a chain takes no window shape: it cannot be cut into two windows whose interiors are twice the overlap K
+    (window_configs: K = 16 with fewer chains than SMs, else 32)."""
+    shortest = 4 * (16 if model.chain_count < _sm_count(model) else 32)
+    cpu = ", chain" if model.device.is_cpu else ""
+    return f" (windows need at least {shortest} grains here: use --kernel tile, step{cpu} or auto)"
 
 
 def _forced_config(model: Model, kernel: str) -> SolverConfig:
