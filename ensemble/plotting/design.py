@@ -25,6 +25,7 @@ def plot_design(summary: dict, out: Path) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
 
     front = "pareto" in summary
     ratios = [1, 0.6, 1.2] + ([1.2] if front else [])
@@ -36,6 +37,7 @@ def plot_design(summary: dict, out: Path) -> None:
     median = [np.nan if m is None else m for m in summary["median_objective"]]
     conv.plot(generations, median, label="median of the generation", alpha=0.6)
     conv.set(xlabel="generation", ylabel=LABELS[summary["objectives"][0]], title=f"{objective}: convergence")
+    conv.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))  # generations are whole
     conv.legend()
     _draw_beads(beads, summary["best_materials"], summary["best_radii"])
     for name, (t, f) in summary["traces"].items():
