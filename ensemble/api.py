@@ -31,7 +31,7 @@ def load_scene(source: str | Path | dict, overrides: dict[str, Any] | None = Non
     """A scene from a TOML file (a path, or the name of a shipped example such as ``impact``) or from a parsed TOML
     table (a dict), with ``overrides`` ({"chain.l0": 1e-4, …}) applied; validated."""
     if isinstance(source, dict):
-        return scene_from_dict(apply_overrides(source, overrides or {}))
+        return scene_from_dict(apply_overrides(source, overrides or {}, replacing=True))
     return load_scene_file(shipped_file(source), overrides)
 
 

@@ -619,18 +619,19 @@ ALTERNATIVES = {
     "chain.l0": "chain.load",
     "chain.load": "chain.l0",
 }
-"""Keys of which a scene gives one or the other: overriding one with a value drops the other from the data it
-overrides (the built-in example's ``dt`` gives way to ``--set integrator.tolerance=…``); both in one set of
-overrides is refused."""
+"""Keys of which a scene gives one or the other. A user's overrides of a file (``--set``, ``hz.load_scene``'s
+``overrides``) that give one with a value drop the other from the file (the built-in example's ``dt`` gives way to
+``--set integrator.tolerance=…``); both in one set of overrides stay refused, and a sweep's axes replace nothing (a
+point that gives both is refused)."""
 
 
-def apply_overrides(data: dict, overrides: dict[str, Any]) -> dict:
-    """Set dotted keys (``section.key`` or ``impurities.K.key``) in nested plain data; an override of one of two
-    :data:`ALTERNATIVES` drops the other."""
+def apply_overrides(data: dict, overrides: dict[str, Any], *, replacing: bool = False) -> dict:
+    """Set dotted keys (``section.key`` or ``impurities.K.key``) in nested plain data; with ``replacing`` (a user's
+    overrides of a file) an override of one of two :data:`ALTERNATIVES` drops the other."""
     import copy
 
     data = copy.deepcopy(data)
-    for dotted in overrides.keys() & ALTERNATIVES.keys():
+    for dotted in overrides.keys() & ALTERNATIVES.keys() if replacing else ():
         section, key = ALTERNATIVES[dotted].split(".")
         if (
             overrides[dotted] is not None
@@ -709,7 +710,7 @@ def load_scene(path: str | Path, overrides: dict[str, Any] | None = None) -> Sce
             str(path),
             "is a sweep file (it has [scene] and [[axis]] tables): give it to hertzian sweep (or hertzian.sweep)",
         )
-    data = apply_overrides(data, overrides or {})
+    data = apply_overrides(data, overrides or {}, replacing=True)
     radii = data.get("chain", {}).get("radii") if isinstance(data.get("chain"), dict) else None
     if isinstance(radii, str) and not Path(radii).is_absolute():
         data["chain"]["radii"] = str(Path(path).parent / radii)

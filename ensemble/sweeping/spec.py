@@ -356,7 +356,7 @@ def sweep_from_dict(
         base_data = raw_scene
     else:
         raise SceneError("scene", raw_scene, "must be a path (string) or an inline [scene] table")
-    base_data = apply_overrides(base_data, overrides or {})
+    base_data = apply_overrides(base_data, overrides or {}, replacing=True)
     base = scene_from_dict(base_data)
     if base.integrator.tolerance is not None:
         raise SceneError("integrator.tolerance", base.integrator.tolerance, SWEEP_TOLERANCE)

@@ -142,20 +142,30 @@ def test_tolerance_and_dt_refused_together():
         make_scene(chain={"grains": GRAINS}, integrator={"duration": 1.0, "dt": 1e-3, "tolerance": 1e-6})
 
 
-def test_an_overridden_tolerance_or_step_replaces_the_other():
+def test_an_overridden_tolerance_or_step_replaces_the_other(tmp_path):
     """The built-in example gives dt; --set integrator.tolerance=… replaces it (and dt a tolerance, l0 a load, a
-    load l0). Both in one set of overrides stay refused."""
+    load l0). Both in one set of overrides stay refused, and a sweep's axis replaces nothing."""
     from hertzian.core.scene import load_scene
     from hertzian.core.shipped import example_path
+    from hertzian.sweeping.spec import load_sweep, sweep_scenes
 
     impact = load_scene(example_path("impact"), {"integrator.tolerance": 1e-6})
     assert impact.integrator.tolerance == 1e-6  # the file's dt = 5e-5 gave way
-    assert impact.with_overrides({"integrator.dt": 1e-4}).integrator.tolerance is None
-    loaded = impact.with_overrides({"integrator.dt": 1e-4, "chain.load": 0.01})
+    loaded = load_scene(example_path("impact"), {"chain.load": 0.01})
     assert (loaded.chain.load, loaded.chain.l0) == (0.01, 0.0)
-    assert loaded.with_overrides({"chain.l0": 1e-4}).chain.load is None
+    path = tmp_path / "loaded.toml"
+    path.write_text("[chain]\ngrains = 10\nload = 0.01\n[integrator]\nduration = 1.0\ntolerance = 1e-6\n")
+    stepped = load_scene(path, {"integrator.dt": 1e-3, "chain.l0": 1e-4})
+    assert (stepped.integrator.tolerance, stepped.integrator.dt, stepped.chain.load) == (None, 1e-3, None)
     with pytest.raises(SceneError, match="not both"):
         load_scene(example_path("impact"), {"integrator.tolerance": 1e-6, "integrator.dt": 1e-4})
+    sweep = tmp_path / "sweep.toml"
+    sweep.write_text(
+        "[scene.chain]\ngrains = 10\nload = 0.01\n[scene.integrator]\nduration = 1.0\ndt = 1e-3\n"
+        '[[axis]]\nname = "l0"\nkey = "chain.l0"\nvalues = [0.0, 1e-4]\n'
+    )
+    with pytest.raises(SceneError, match="give either chain.l0 or chain.load, not both"):
+        sweep_scenes(load_sweep(sweep))
 
 
 def test_a_tolerance_run_puts_its_trace_samples_on_steps():
