@@ -686,10 +686,11 @@ def parse_overrides(items: list[str] | None) -> dict[str, Any]:
     return out
 
 
-def read_toml(path: str | Path) -> dict:
+def read_toml(path: str | Path, kind: str = "scene file") -> dict:
+    """The parsed TOML file at ``path``; a missing or malformed file is one line naming it as ``kind``."""
     path = Path(path)
     if not path.is_file():
-        raise SceneError("scene file", str(path), "no such file")
+        raise SceneError(kind, str(path), "no such file")
     try:
         return tomllib.loads(path.read_text())
     except tomllib.TOMLDecodeError as err:

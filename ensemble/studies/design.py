@@ -97,7 +97,7 @@ def load_design(
     keys of its ``[scene]``, e.g. ``chain.grains``); bad input raises one line (SceneError) before anything runs."""
     from hertzian.core.scene import apply_overrides
 
-    data = read_toml(path)
+    data = read_toml(path, "design file")
     for key in data:
         if key not in ("scene", "design"):
             raise SceneError(key, "(table)", "a design file holds [scene] and [design]")

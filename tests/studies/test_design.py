@@ -276,6 +276,15 @@ def test_a_bad_override_on_the_command_line_is_refused(tmp_path):
     assert not (tmp_path / "d.zarr").exists()
 
 
+def test_a_missing_design_file_is_named_as_one(tmp_path):
+    result = hertzian("design", tmp_path / "nothing.toml", "--out", tmp_path / "d.zarr", "--device", "cpu")
+    assert (
+        result.returncode == 2
+        and result.stderr == f"error: design file = '{tmp_path / 'nothing.toml'}': no such file\n"
+    )
+    assert not (tmp_path / "d.zarr").exists()
+
+
 def test_the_study_record_merges_each_part_under_its_name(tmp_path):
     import json
     import subprocess
