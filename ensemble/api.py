@@ -32,6 +32,8 @@ def load_scene(source: str | Path | dict, overrides: dict[str, Any] | None = Non
     table (a dict), with ``overrides`` ({"chain.l0": 1e-4, …}) applied; validated."""
     if isinstance(source, dict):
         return scene_from_dict(apply_overrides(source, overrides or {}, replacing=True))
+    if not isinstance(source, (str, Path)):
+        raise OptionError("source", type(source).__name__, "a path, a shipped example's name (e.g. 'impact') or a dict")
     return load_scene_file(shipped_file(source), overrides)
 
 
@@ -78,6 +80,21 @@ class PreparedRun:
         return RunResult.of(self.choice.result)
 
 
+def _scene_list(scenes) -> list[Scene]:
+    """``scenes`` (a Scene, or an iterable of them) as a list; anything else is one line naming what was given."""
+    listed = [scenes] if isinstance(scenes, Scene) else None
+    if listed is None and not isinstance(scenes, (str, bytes, Path, dict)):
+        try:
+            listed = list(scenes)
+        except TypeError:
+            listed = None
+    if not listed or not all(isinstance(s, Scene) for s in listed):
+        shown = scenes if isinstance(scenes, (str, Path)) else type(scenes).__name__
+        shown = f"{shown} of {len(listed)}" if listed is not None else shown
+        raise OptionError("scenes", shown, "a Scene or a non-empty list of Scenes (hz.load_scene makes one)")
+    return listed
+
+
 def prepare_run(
     scenes: Scene | Iterable[Scene], device: str | None = None, *, kernel: str = "auto", strict: bool = False
 ) -> PreparedRun:
@@ -90,9 +107,7 @@ def prepare_run(
     from hertzian.core.devices import open_device
     from hertzian.core.solvers.calibrate import event_cost_note
 
-    scenes = [scenes] if isinstance(scenes, Scene) else list(scenes)
-    if not scenes or not all(isinstance(s, Scene) for s in scenes):
-        raise OptionError("scenes", type(scenes).__name__, "a Scene or a non-empty list of Scenes")
+    scenes = _scene_list(scenes)
     if kernel not in KERNELS:
         raise OptionError("kernel", kernel, f"one of {', '.join(KERNELS)}")
     largest = max(scenes, key=lambda s: s.chain.grains)

@@ -122,7 +122,10 @@ def test_plot_at_an_unknown_axis_lists_the_stores_axes(sweep_stores, tmp_path):
         # no machine has 100 GPUs: refused on a GPU host as on a CPU one, the CPU listed first
         (lambda s: hz.run(s, device="cuda:99"), "device = 'cuda:99': not available here; available: cpu"),
         (lambda s: hz.run(s, device="cpu", kernel="fastest"), "kernel = 'fastest': one of auto"),
-        (lambda s: hz.run("scene.toml", device="cpu"), "scenes = 'list': a Scene or a non-empty list of Scenes"),
+        (lambda s: hz.run("scene.toml", device="cpu"), "scenes = 'scene.toml': a Scene or a non-empty list of Scenes"),
+        (lambda s: hz.run([s, "b"], device="cpu"), "scenes = 'list of 2': a Scene or a non-empty list of Scenes"),
+        (lambda s: hz.run(3, device="cpu"), "scenes = 'int': a Scene or a non-empty list of Scenes"),
+        (lambda s: hz.load_scene(42), "source = 'int': a path, a shipped example's name"),
     ],
 )
 def test_python_refusals_are_one_line(call, expected):
