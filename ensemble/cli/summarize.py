@@ -106,6 +106,23 @@ def summarize(
         + ", ".join(f"{c} {k}" for c, k in zip(codes, counts))
         + (f"; energy error max {finite.max():.3g}, median {np.median(finite):.3g}" if finite.size else "")
     )
+    line = _tolerance_line(store)
+    if line:
+        console.print(line)
+
+
+def _tolerance_line(store: Path) -> str:
+    """How a run to ``integrator.tolerance`` chose its step (the store's attributes), or '' for any other store."""
+    import zarr
+
+    attrs = zarr.open_group(str(store), mode="r").attrs
+    if "tolerance_choice" not in attrs:
+        return ""
+    choice, pilot = attrs["tolerance_choice"], attrs.get("tolerance_pilot", [])
+    return (
+        f"tolerance {attrs['tolerance']:g}: {choice['method']}, events {choice['events']}, dt {choice['dt']:g}, chosen "
+        f"by {len(pilot)} pilot runs ({sum(run['seconds'] for run in pilot):.2f} s)"
+    )
 
 
 def _print_statistics(store: Path, over: str) -> None:

@@ -47,6 +47,14 @@ def test_method_auto_with_a_tolerance_runs_everywhere(tmp_path):
     result = hz.run(hz.load_scene(scene), "cpu")
     assert result.scenes[0].integrator.method in ("gear4", "gear5", "gear6", "verlet")
     assert result.error_estimate is not None
+    # summarize says what the pilot chose, from the store's own attributes
+    import zarr
+
+    attrs = zarr.open_group(str(out), mode="r").attrs
+    choice, pilot = attrs["tolerance_choice"], attrs["tolerance_pilot"]
+    summary = invoke("summarize", out).stdout
+    expected = f"tolerance 0.0001: {choice['method']}, events {choice['events']}, dt {choice['dt']:g}, chosen by "
+    assert f"{expected}{len(pilot)} pilot runs" in " ".join(summary.split()), summary
 
 
 def test_a_run_that_blew_up_exits_3_and_names_the_count(tmp_path):
