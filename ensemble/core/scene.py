@@ -631,14 +631,8 @@ def apply_overrides(data: dict, overrides: dict[str, Any], *, replacing: bool = 
     import copy
 
     data = copy.deepcopy(data)
-    for dotted in overrides.keys() & ALTERNATIVES.keys() if replacing else ():
-        section, key = ALTERNATIVES[dotted].split(".")
-        if (
-            overrides[dotted] is not None
-            and ALTERNATIVES[dotted] not in overrides
-            and isinstance(data.get(section), dict)
-        ):
-            data[section].pop(key, None)
+    if replacing:
+        _drop_alternatives(data, overrides)
     for dotted, value in overrides.items():
         parts = dotted.split(".")
         if parts[0] not in _TOP_KEYS:
@@ -662,6 +656,15 @@ def apply_overrides(data: dict, overrides: dict[str, Any], *, replacing: bool = 
             raise SceneError(parts[0], section, "must be a table")
         section[parts[1]] = value
     return data
+
+
+def _drop_alternatives(data: dict, overrides: dict[str, Any]) -> None:
+    """Remove from ``data`` the alternative of each key ``overrides`` give a value (not when they give both)."""
+    for dotted in overrides.keys() & ALTERNATIVES.keys():
+        other = ALTERNATIVES[dotted]
+        section, key = other.split(".")
+        if overrides[dotted] is not None and other not in overrides and isinstance(data.get(section), dict):
+            data[section].pop(key, None)
 
 
 def _set_radii_key(data: dict, dotted: str, name: str, value: Any) -> None:

@@ -184,9 +184,9 @@ def dask_setup(worker=None) -> None:
 def dask_teardown(worker=None) -> None:
     """The preload's last step in a worker process a nanny started, as the worker closes: the process ends here,
     without the rest of Dask's close and the interpreter's teardown of every module and of Warp's runtime, so
-    closing a cluster does not wait for them. Every batch is written
-    before its task returns; a worker closed mid-batch ends as a killed one does, which the store survives (the
-    batch runs again). A worker in the client's own process is left to close as usual."""
+    closing a cluster does not wait for them. Every batch is written before its task returns; a worker closed
+    mid-batch ends as a killed one does, which the store survives (the batch runs again). A worker in the client's
+    own process is left to close as usual."""
     import multiprocessing
 
     if worker is None or not getattr(worker, "nanny", None) or multiprocessing.parent_process() is None:
