@@ -911,3 +911,21 @@ def test_the_modules_per_job_record_covers_every_shipped_job():
     shipped = [n for n in shipped_names() if not {"design", "study"} & set(read_toml(shipped_file(n)))]
     jobs = record("bench/cpu_auto_rule.json")["family_counts"]["jobs"]
     assert sorted(jobs) == sorted([*shipped, "reproduce", "reproduce --quick"])
+
+
+def test_the_cpu_readme_rows_of_the_benchmarks_are_their_record():
+    """docs/benchmarks.md's README rows on the CPU: cold and warm ranges over the record's pairs."""
+    rows = table_after("benchmarks.md", "| workload | device, date |")
+    parts = record("bench/cpu_auto_rule.json")
+    labels = {
+        "readme": "README first command, `hertzian run --out impact.zarr --device cpu`, process wall, empty kernel "
+        "cache / warm (3 pairs)",
+        "readme_installed": "the same after `pip install .`, which compiled the default family into the package "
+        "(3 pairs)",
+    }
+    for part, label in labels.items():
+        _, cold, warm, _, _ = rows[label]
+        for cell, key in ((cold, "cold_s"), (warm, "warm_s")):
+            low, high = cell.removesuffix(" s").split("–")
+            values = [pair[key] for pair in parts[part]["pairs"]]
+            assert agrees(low, min(values)) and agrees(high, max(values)), (part, key, cell)
