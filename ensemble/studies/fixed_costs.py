@@ -80,7 +80,8 @@ def _wall(args: list[str], cache: str, **env) -> float:
     """Process wall [s] of ``hertzian ARGS`` with Warp's kernel cache in ``cache`` and ``env`` set (a value of None
     unsets it; a command that fails ends this process with its message and exit code). Python's bytecode cache is on, as for an installed
     package (pip compiles it): ``PYTHONDONTWRITEBYTECODE`` would recompile an editable install's modules each start."""
-    inherited = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE" and env.get(k, "") is not None}
+    unset = {"PYTHONDONTWRITEBYTECODE"} | {k for k, v in env.items() if v is None}
+    inherited = {k: v for k, v in os.environ.items() if k not in unset}
     env = {**inherited, "WARP_CACHE_PATH": cache, **{k: v for k, v in env.items() if v is not None}}
     start = time.perf_counter()
     result = subprocess.run([sys.executable, "-m", "hertzian.cli", *args], env=env, capture_output=True, text=True)
