@@ -6,8 +6,9 @@ shipped sweep, ``reproduce`` and ``reproduce --quick``) into the wheel's ``hertz
 machine with a CUDA GPU the same family planned for that GPU (``--device cuda``). A first run then loads its kernels
 from there and compiles nothing (``hertzian.core.solvers.prebuilt``).
 
-* Skipped for editable installs, when the package already holds a prebuilt folder (``hertzian prebuild`` was run
-  before the build: that one is kept), and when ``HERTZIAN_PREBUILD=off``.
+* Skipped for editable installs, when the source package holds a prebuilt folder (``hertzian prebuild`` was run
+  before the build: that one is kept), and when ``HERTZIAN_PREBUILD=off``. A folder left in the build directory by
+  an earlier build is removed first: it was compiled from the sources as they were then.
 * The compile runs in a child process against the copied package, with a kernel cache of its own (nothing is
   written outside the build). If it cannot run (no Warp CPU compiler, say), the package is built without prebuilt
   kernels, runs compile what they need as before, and the build log says why in one line.
@@ -41,14 +42,26 @@ class BuildWithKernels(build_py):
 
     def run(self) -> None:
         super().run()
-        if getattr(self, "editable_mode", False) or os.environ.get(SWITCH, "").strip().lower() == "off":
+        if getattr(self, "editable_mode", False):
             return
         build_lib = Path(self.build_lib)
-        if (build_lib / FOLDER / "family.json").exists():
+        if not family_to_compile(Path(self.get_package_dir("hertzian")), build_lib):
+            return
+        if os.environ.get(SWITCH, "").strip().lower() == "off":
             return
         note = compile_family(build_lib)
         if note:
             print(f"hertzian: {note}", file=sys.stderr)
+
+
+def family_to_compile(source_package: Path, build_lib: Path) -> bool:
+    """Whether the build compiles the family into ``build_lib``: not when the source package holds one (``hertzian
+    prebuild`` wrote it there, and ``build_py`` copied it). Otherwise a folder in ``build_lib`` is a previous build's,
+    compiled from the sources as they were then: it is removed, so the package never ships stale kernels."""
+    if (source_package / FOLDER.name / "family.json").exists():
+        return False
+    shutil.rmtree(build_lib / FOLDER, ignore_errors=True)
+    return True
 
 
 def compile_family(build_lib: Path) -> str:

@@ -89,3 +89,22 @@ def test_the_module_imports_where_setuptools_is_missing():
     probe = f"import sys; {blocked}; import hertzian._install as m; print(m.compile_family.__name__)"
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
     assert done.returncode == 0 and done.stdout.strip() == "compile_family", done.stderr
+
+
+def test_a_previous_builds_family_is_replaced_and_a_prebuild_in_the_sources_kept(tmp_path):
+    """pip builds in the source tree's build/ folder, which outlives a build: a family left there was compiled from
+    the sources as they were then, and would ship beside today's kernels. A ``hertzian prebuild`` folder in the source
+    package is the user's and is kept (build_py copied it)."""
+    source, build_lib = tmp_path / "ensemble", tmp_path / "build" / "lib"
+    stale = build_lib / _install.FOLDER
+    (stale / "wp_chain_old").mkdir(parents=True)
+    (stale / prebuilt.INDEX).write_text("{}")
+    source.mkdir()
+    assert _install.family_to_compile(source, build_lib)
+    assert not stale.exists() and build_lib.is_dir()
+
+    (source / _install.FOLDER.name).mkdir()
+    (source / _install.FOLDER.name / prebuilt.INDEX).write_text("{}")
+    (stale / "wp_chain_user").mkdir(parents=True)
+    assert not _install.family_to_compile(source, build_lib)
+    assert (stale / "wp_chain_user").is_dir()
