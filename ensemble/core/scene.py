@@ -703,17 +703,49 @@ def read_toml(path: str | Path, kind: str = "scene file") -> dict:
 SWEEP_TABLES = frozenset({"scene", "axis", "zip"})
 """Top-level tables of a sweep file (a scene file has none of them)."""
 
+FILE_KINDS = {
+    "scene": ("tables such as [chain] and [integrator]", "hertzian run or hertzian check", "hertzian.load_scene"),
+    "sweep": ("[scene] and [[axis]] tables", "hertzian sweep", "hertzian.sweep"),
+    "design": ("[scene] and [design] tables", "hertzian design", "hertzian.design"),
+    "detection study": ("[scene] and [study] tables", "hertzian detect-study", None),
+}
+"""Per kind of input file: the top-level tables that tell it, the commands and the Python function (if any) that
+take it."""
+
+
+def file_kind(data: Any) -> str | None:
+    """The kind of a parsed input file by its top-level tables (a key of :data:`FILE_KINDS`), or None when the
+    tables fit no kind (the file's own reader then names what is wrong)."""
+    if not isinstance(data, dict):
+        return None
+    keys = data.keys()
+    if "design" in keys and "scene" in keys:
+        return "design"
+    if "study" in keys and "scene" in keys:
+        return "detection study"
+    if keys & SWEEP_TABLES and not keys & SCENE_TABLES:
+        return "sweep"
+    if keys & SCENE_TABLES and not keys & SWEEP_TABLES:
+        return "scene"
+    return None
+
+
+def refuse_other_kind(data: Any, path: str | Path, wanted: str) -> None:
+    """One line (SceneError) when the file at ``path`` is plainly another kind than ``wanted``, naming what it is
+    and which command takes it."""
+    kind = file_kind(data)
+    if kind is None or kind == wanted:
+        return
+    tables, commands, function = FILE_KINDS[kind]
+    also = f" (or {function})" if function else ""
+    raise SceneError(f"{wanted} file", str(path), f"is a {kind} file (it has {tables}): give it to {commands}{also}")
+
 
 def load_scene(path: str | Path, overrides: dict[str, Any] | None = None) -> Scene:
     """Read a scene TOML file, apply ``--set`` overrides, validate. A ``chain.radii`` .npy path is relative to
     the file."""
     data = read_toml(path)
-    if isinstance(data, dict) and data.keys() & SWEEP_TABLES and not data.keys() & _TOP_KEYS:
-        raise SceneError(
-            "scene file",
-            str(path),
-            "is a sweep file (it has [scene] and [[axis]] tables): give it to hertzian sweep (or hertzian.sweep)",
-        )
+    refuse_other_kind(data, path, "scene")
     data = apply_overrides(data, overrides or {}, replacing=True)
     radii = data.get("chain", {}).get("radii") if isinstance(data.get("chain"), dict) else None
     if isinstance(radii, str) and not Path(radii).is_absolute():

@@ -23,7 +23,7 @@ from typing import Any, Callable
 import numpy as np
 from hertzian.core.errors import SceneError
 from hertzian.core.materials import MATERIALS
-from hertzian.core.scene import Scene, read_toml, scene_from_dict
+from hertzian.core.scene import Scene, read_toml, refuse_other_kind, scene_from_dict
 from hertzian.studies.design_optimizers import OPTIMIZERS, new_optimizer, pareto_front
 
 OBJECTIVES = ("peak_wall_force", "impulse", "mass")
@@ -98,6 +98,7 @@ def load_design(
     from hertzian.core.scene import apply_overrides
 
     data = read_toml(path, "design file")
+    refuse_other_kind(data, path, "design")
     for key in data:
         if key not in ("scene", "design"):
             raise SceneError(key, "(table)", "a design file holds [scene] and [design]")

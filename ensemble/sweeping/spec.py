@@ -29,13 +29,12 @@ import numpy as np
 from hertzian.core.chains import ChainSet, is_per_chain_key
 from hertzian.core.model import scene_path_key
 from hertzian.core.scene import (
-    SCENE_TABLES,
-    SWEEP_TABLES,
     Scene,
     SceneError,
     UnknownKeyError,
     apply_overrides,
     read_toml,
+    refuse_other_kind,
     scene_from_dict,
 )
 
@@ -429,13 +428,7 @@ def load_sweep(
     if not path.is_file():
         raise SceneError("sweep file", str(path), "no such file")
     data = read_toml(path)
-    if isinstance(data, dict) and not data.keys() & SWEEP_TABLES and data.keys() & SCENE_TABLES:
-        raise SceneError(
-            "sweep file",
-            str(path),
-            "is a scene file (no [scene] table or [[axis]]): give it to hertzian run or hertzian check "
-            "(or wrap it as [scene.chain], [scene.integrator], … with [[axis]] tables for a sweep)",
-        )
+    refuse_other_kind(data, path, "sweep")
     return sweep_from_dict(data, base_dir=path.parent, overrides=overrides, source=str(path), max_points=max_points)
 
 

@@ -128,6 +128,42 @@ def test_estimates_finds_a_shipped_sweep(monkeypatch):
     assert seen.get("n", 0) > 0, (result.stdout, result.stderr, result.exception)
 
 
+@pytest.mark.parametrize(
+    ("name", "kind", "commands"),
+    [
+        ("protector", "design", [["run"], ["check"], ["sweep"], ["warmup"], ["estimates"]]),
+        ("example", "sweep", [["design"], ["detect-study"]]),
+        ("impact", "scene", [["design"], ["sweep"], ["detect-study"]]),
+        ("detect_study", "detection study", [["run"], ["sweep"], ["design"]]),
+    ],
+)
+def test_every_command_names_the_kind_of_a_file_it_does_not_take(tmp_path, name, kind, commands):
+    """A shipped design, sweep or scene given to a command of another kind: one line saying what it is and which
+    command takes it, exit 2, nothing written."""
+    takes = {
+        "design": "give it to hertzian design",
+        "sweep": "give it to hertzian sweep",
+        "scene": "give it to hertzian run",
+        "detection study": "give it to hertzian detect-study",
+    }
+    for command in commands:
+        out = ["--out", tmp_path / "x.zarr"] if command[0] in ("run", "sweep", "design") else []
+        result = invoke(*command, name, *out)
+        assert result.exit_code == 2, (command, result.stderr)
+        assert errors(result) == result.stderr.splitlines(), result.stderr
+        assert f"is a {kind} file" in result.stderr and takes[kind] in result.stderr, (command, result.stderr)
+    assert not list(tmp_path.iterdir())
+
+
+def test_python_names_the_kind_of_a_file_it_does_not_take(tmp_path):
+    with pytest.raises(SceneError, match=r"^sweep file = .*protector\.toml': is a design file .*hertzian\.design"):
+        hz.sweep("protector", out=tmp_path / "x.zarr")
+    with pytest.raises(SceneError, match=r"^design file = .*example\.toml': is a sweep file .*hertzian\.sweep"):
+        hz.design("example", out=tmp_path / "x.zarr")
+    with pytest.raises(SceneError, match=r"^scene file = .*protector\.toml': is a design file"):
+        hz.load_scene("protector")
+
+
 def test_a_sweep_file_given_to_run_and_a_scene_given_to_sweep_are_named(tmp_path):
     sweep = write_sweep(tmp_path, GRID_SWEEP)
     for command in (["run", sweep, "--out", tmp_path / "x.zarr"], ["check", sweep]):

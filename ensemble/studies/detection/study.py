@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 from hertzian.core.runner import run_ensemble
-from hertzian.core.scene import SceneError, apply_overrides, read_toml, scene_from_dict
+from hertzian.core.scene import SceneError, apply_overrides, read_toml, refuse_other_kind, scene_from_dict
 from hertzian.studies.detection import detect
 from hertzian.studies.detection.forward import forward_scene, impurity_scene
 from hertzian.studies.detection.library import cached_fronts
@@ -60,7 +60,8 @@ STUDY_KEYS = {
 
 
 def load_study(path: str | Path) -> dict:
-    data = read_toml(path)
+    data = read_toml(path, "detection study file")
+    refuse_other_kind(data, path, "detection study")
     for key in ("scene", "study", "hosts"):
         if key not in data:
             raise SceneError(f"{path}: {key}", None, "is required ([scene], [study], [[hosts]])")
