@@ -79,12 +79,13 @@ def plot(
         out = Path(f"{figure}.png") if figure else Path(store.name).with_suffix(".png")
     if out.suffix.lower() != ".png":
         fail(f"--out = {str(out)!r}: must end in .png")
+    from hertzian.studies.design_store import is_design_store
     from hertzian.sweeping.storage import check_writable_folder
 
     why = check_writable_folder(out)
     if why:
         fail(f"--out = {str(out)!r}: {why}")
-    if _is_design(store):
+    if is_design_store(store):
         if figure is not None or points:
             fail(f"store = {str(store)!r}: a design store; plot it without --figure and --at")
         return _plot_design(store, out)
@@ -127,17 +128,6 @@ def plot(
     typer.echo(f"wrote {out}")
 
 
-def _is_design(store: Path) -> bool:
-    """Whether ``store`` is a design store (``hertzian design`` writes one)."""
-    import json
-
-    try:
-        attrs = json.loads((store / "zarr.json").read_text()).get("attributes", {})
-    except (OSError, ValueError, AttributeError):
-        return False
-    return isinstance(attrs, dict) and attrs.get("kind") == "design"
-
-
 def _plot_design(store: Path, out: Path) -> None:
     """A design store's picture, and its numbers as JSON next to the PNG (hertzian.studies.design.compare)."""
     import json
@@ -145,8 +135,12 @@ def _plot_design(store: Path, out: Path) -> None:
     from hertzian.cli.app import resolve_device
     from hertzian.plotting.design import plot_design
     from hertzian.studies.design import compare
+    from hertzian.sweeping.store_format import StoreDamagedError
 
-    summary = compare(store, resolve_device(None))
+    try:
+        summary = compare(store, resolve_device(None))
+    except StoreDamagedError as err:
+        fail(str(err))
     plot_design(summary, out)
     record = {"command": f"hertzian plot {store.name} --out {out.name}"}
     record |= {k: v for k, v in summary.items() if k != "traces"}

@@ -12,7 +12,7 @@ from hertzian.cli.app import app, fail, open_dataset_or_fail
 
 @app.command()
 def summarize(
-    store: Annotated[Path, typer.Argument(help="A store written by run or sweep.")],
+    store: Annotated[Path, typer.Argument(help="A store written by run, sweep or design.")],
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list of records (one per point).")] = False,
     rows: Annotated[
         int,
@@ -37,11 +37,17 @@ def summarize(
     them stops it with one line (exit 1). ``hertzian verify`` checks every chunk.
     """
     import numpy as np
+    from hertzian.studies.design_store import is_design_store
     from hertzian.sweeping.store import StoreDamagedError, summary_columns, unchecked_note
     from hertzian.sweeping.store_format import DAMAGED_EXIT_CODE
 
     if rows < 1:
         fail(f"--rows = {rows}: must be ≥ 1")
+    if is_design_store(store):
+        if over is not None:
+            fail(f"--over = {over!r}: a design store has no sweep dimensions (summarize it without --over)")
+        _summarize_design(store, as_json)
+        return
     if over is not None:
         _print_statistics(store, over)
         return
@@ -109,6 +115,43 @@ def summarize(
     line = _tolerance_line(store)
     if line:
         console.print(line)
+
+
+def _summarize_design(store: Path, as_json: bool) -> None:
+    """A design store: the design, each objective's best so far and the best protector (JSON with ``--json``)."""
+    from hertzian.core.errors import OptionError
+    from hertzian.studies.design import summary
+    from hertzian.sweeping.store_format import DAMAGED_EXIT_CODE, StoreDamagedError
+
+    try:
+        numbers = summary(store)
+    except StoreDamagedError as err:
+        typer.echo(f"error: {err}", err=True)
+        raise typer.Exit(DAMAGED_EXIT_CODE) from None
+    except (OptionError, KeyError, ValueError) as err:
+        fail(f"store = {str(store)!r}: {err}")
+    if as_json:
+        typer.echo(json.dumps(numbers, indent=1))
+        return
+    typer.echo(
+        f"{store}: design, {numbers['generations_done']} of {numbers['generations']} generations of "
+        f"{numbers['population']} candidates ({numbers['optimizer']}, seed {numbers['seed']}), "
+        f"{numbers['seconds']:.1f} s"
+    )
+    if not numbers["generations_done"]:
+        return
+    best = ", ".join(f"{name} {value:.6g}" for name, value in numbers["best"].items())
+    first = numbers["objectives"][0]
+    typer.echo(f"best so far: {best}; {first} unchanged since generation {numbers['best_since_generation']}")
+    names = list(dict.fromkeys(numbers["best_materials"]))
+    letters = [name[0].upper() for name in names]
+    if len(set(letters)) < len(letters):
+        letters = [str(k) for k in range(len(names))]
+    beads = " ".join(
+        f"{letters[names.index(m)]}{r:.2f}" for m, r in zip(numbers["best_materials"], numbers["best_radius_ratio"])
+    )
+    typer.echo(f"best design (material and R/R0 of each varying grain): striker → {beads} → wall")
+    typer.echo("  " + ", ".join(f"{letter}: {name}" for letter, name in zip(letters, names)))
 
 
 def _tolerance_line(store: Path) -> str:

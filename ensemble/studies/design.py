@@ -579,6 +579,39 @@ def compare(store: str | Path, device: str) -> dict:
     }
 
 
+def summary(store: str | Path) -> dict:
+    """A design store in numbers, nothing run: the design (optimizer, seed, population, generations planned and
+    done, seconds), each objective's best so far, the generation since which the first objective's best holds, and
+    the best design's materials and R/R0 over the varying grains, from the striker to the wall."""
+    from hertzian.studies.design_store import read_design
+
+    data = read_design(store)
+    attrs = data["attrs"]
+    scene = scene_from_dict(attrs["scene"])
+    spec = check_design(scene, {k: v for k, v in attrs["design"].items() if v is not None})
+    out: dict[str, Any] = {
+        "store": str(store),
+        "optimizer": spec.optimizer,
+        "seed": spec.seed,
+        "population": spec.population,
+        "generations": spec.generations,
+        "generations_done": len(data["best_objective"]),
+        "seconds": float(np.nansum(data["seconds"])),
+        "objectives": list(spec.objective),
+    }
+    if not out["generations_done"]:
+        return out
+    first = data["best_objective"][:, 0]
+    best = candidate(scene, spec, data["best_genome"][-1])
+    r0 = scene.chain.diameter / 2
+    return out | {
+        "best": dict(zip(spec.objective, data["best_objective"][-1].tolist())),
+        "best_since_generation": int(np.argmax(first == first[-1])),
+        "best_materials": [best.chain.material[g] for g in spec.vary],
+        "best_radius_ratio": [float(r) for r in _radii(best)[list(spec.vary)] / r0],
+    }
+
+
 SHUFFLES = 20_000
 """Random orders of the best design's beads that make the null of :func:`arrangement`."""
 

@@ -19,6 +19,7 @@ import zarr
 from hertzian._version import __version__
 from hertzian.core.errors import OptionError, SceneError
 from hertzian.sweeping.storage import PROJECT
+from hertzian.sweeping.store_format import StoreDamagedError, chunk_codecs, has_checksums
 
 KIND = "design"
 SCHEMA_VERSION = 2
@@ -58,7 +59,15 @@ def create_store(out: str | Path, scene, spec):
         ("best_objective", (gens, m), (1, m), ["generation", "objective"]),
         ("seconds", (gens,), (1,), ["generation"]),
     ):
-        root.create_array(name, shape=shape, chunks=chunks, dtype="float64", fill_value=np.nan, dimension_names=dims)
+        root.create_array(
+            name,
+            shape=shape,
+            chunks=chunks,
+            dtype="float64",
+            fill_value=np.nan,
+            dimension_names=dims,
+            compressors=chunk_codecs(),
+        )
     root.attrs.update(
         {
             "project": PROJECT,
@@ -94,7 +103,10 @@ def open_for_resume(out: str | Path, scene, spec, new_optimizer):
         raise SceneError("design.generations", spec.generations, f"the store holds {done} generations already")
     optimizer = new_optimizer(spec)
     for generation in range(done):
-        genomes, values = root["genome"][generation], root["objective"][generation]
+        try:
+            genomes, values = root["genome"][generation], root["objective"][generation]
+        except Exception as err:  # noqa: BLE001 (a chunk that fails its checksum or no longer decodes)
+            raise OptionError("out", str(out), f"generation {generation} is damaged ({type(err).__name__})") from None
         if not np.array_equal(optimizer.ask(), genomes):
             raise OptionError("out", str(out), f"generation {generation} does not replay (another optimizer version?)")
         optimizer.tell(genomes, values)
@@ -134,5 +146,41 @@ def read_design(path: str | Path) -> dict:
     if attrs.get("kind") != KIND:
         raise OptionError("store", str(path), "is not a design store (hertzian design writes one)")
     done = int(attrs["generations_done"])
-    arrays = {name: root[name][:done] for name in ARRAYS}
+    arrays = {}
+    for name in ARRAYS:
+        try:
+            arrays[name] = root[name][:done]
+        except Exception as err:  # noqa: BLE001 (a chunk that fails its checksum or no longer decodes)
+            raise StoreDamagedError(
+                f"{path}: {name}: a damaged chunk ({type(err).__name__}); hertzian verify {path} names it"
+            ) from None
     return {"attrs": json.loads(json.dumps(attrs)), **arrays}
+
+
+def is_design_store(path: str | Path) -> bool:
+    """Whether ``path`` is a design store (its root metadata says so; nothing else is read)."""
+    try:
+        attrs = json.loads((Path(path) / "zarr.json").read_text()).get("attributes", {})
+    except (OSError, ValueError, AttributeError):
+        return False
+    return isinstance(attrs, dict) and attrs.get("kind") == KIND
+
+
+def verify_design(path: str | Path) -> dict:
+    """Read every chunk of a design store: {"chunks": how many were read, "damaged": one line per chunk that fails
+    its checksum or no longer decodes (array, generation, reason), "unchecked": arrays whose chunks carry no
+    checksum (a store written by an older version)}."""
+    root = zarr.open_group(path, mode="r")
+    done = int(root.attrs["generations_done"])
+    out: dict = {"chunks": 0, "damaged": [], "unchecked": []}
+    for name in ARRAYS:
+        array = root[name]
+        if not has_checksums(array):
+            out["unchecked"].append(name)
+        for generation in range(done):
+            out["chunks"] += 1
+            try:
+                array[generation]
+            except Exception as err:  # noqa: BLE001 (any failure to read a chunk is damage, named in one line)
+                out["damaged"].append(f"{name}: generation {generation}: {type(err).__name__}")
+    return out

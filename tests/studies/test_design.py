@@ -365,3 +365,69 @@ def test_set_overrides_design_and_scene_keys_and_refuses_others(tmp_path):
         assert refused.stderr.count("\n") == 1 and not (tmp_path / "e.zarr").exists()
     result = hz.design(path, tmp_path / "f.zarr", "cpu", scene_overrides={"chain.grains": 6}, generations=1)
     assert len(result.best_scene["chain"]["material"]) == 6
+
+
+@pytest.fixture(scope="module")
+def fixed_length_store(tmp_path_factory):
+    """A design store of 3 generations whose beads' diameters must sum to 700 (7 beads of R/R0 1 on average)."""
+    folder = tmp_path_factory.mktemp("design")
+    path = design_file(folder, {**DESIGN, "total_length": 700.0})
+    made = hertzian("design", path, "--out", folder / "d.zarr", "--device", "cpu")
+    assert made.returncode == 0, made.stderr
+    return folder / "d.zarr"
+
+
+def test_summarize_reads_a_design_store(fixed_length_store):
+    """The JSON against the store's raw arrays and the design's own constraint (the diameters sum to 700)."""
+    import json
+
+    shown = hertzian("summarize", fixed_length_store, "--json")
+    assert shown.returncode == 0, shown.stderr
+    numbers = json.loads(shown.stdout)
+    stored = read_design(fixed_length_store)
+    first = stored["best_objective"][:, 0]
+    assert numbers["generations_done"] == numbers["generations"] == 3 and numbers["population"] == 8
+    assert numbers["best"] == {"peak_wall_force": first[-1]} and first[-1] == np.min(stored["objective"])
+    assert numbers["best_since_generation"] == min(g for g in range(3) if first[g] == first[-1])
+    assert numbers["seconds"] == pytest.approx(np.sum(stored["seconds"]), rel=1e-12)
+    assert set(numbers["best_materials"]) <= {"stainless_steel", "ptfe"} and len(numbers["best_materials"]) == 7
+    ratio = np.array(numbers["best_radius_ratio"])
+    assert np.all((ratio >= 0.7 - 1e-12) & (ratio <= 1.3 + 1e-12))
+    assert 2 * 50.0 * ratio.sum() == pytest.approx(700.0, rel=1e-12)
+    text = hertzian("summarize", fixed_length_store)
+    assert text.returncode == 0 and "3 of 3 generations of 8 candidates (cma, seed 0)" in text.stdout
+    assert f"peak_wall_force {first[-1]:.6g}" in text.stdout and text.stdout.count("striker → ") == 1
+    refused = hertzian("summarize", fixed_length_store, "--over", "seed")
+    assert refused.returncode == 2 and refused.stderr.count("\n") == 1
+
+
+def test_a_design_store_is_checksummed_and_verify_names_a_damaged_generation(fixed_length_store, tmp_path):
+    import shutil
+
+    import zarr
+    from hertzian.sweeping.store_format import has_checksums
+
+    store = tmp_path / "d.zarr"
+    shutil.copytree(fixed_length_store, store)
+    root = zarr.open_group(store, mode="r")
+    assert all(has_checksums(root[name]) for name in ("genome", "objective", "best_genome", "best_objective"))
+    clean = hertzian("verify", store)
+    assert clean.returncode == 0 and f"{store}: 15 chunks read, 0 damaged" in clean.stdout, clean.stderr
+    chunk = next((store / "genome" / "c" / "1").rglob("*"))
+    while chunk.is_dir():
+        chunk = next(chunk.iterdir())
+    data = bytearray(chunk.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    chunk.write_bytes(bytes(data))
+    damaged = hertzian("verify", store)
+    assert damaged.returncode == 1 and "damaged: genome: generation 1:" in damaged.stdout, damaged.stdout
+    for command, code in ((["summarize", store], 1), (["plot", store, "--out", tmp_path / "d.png"], 2)):
+        result = hertzian(*command)
+        assert result.returncode == code and result.stderr.count("\n") == 1, (command, result.stderr)
+        assert "genome: a damaged chunk" in result.stderr
+    path = design_file(tmp_path, {**DESIGN, "total_length": 700.0, "generations": 4})
+    resumed = hertzian("design", path, "--out", store, "--resume", "--device", "cpu")
+    assert (
+        resumed.returncode == 2
+        and resumed.stderr == f"error: --out = '{store}': generation 1 is damaged (ValueError)\n"
+    )
