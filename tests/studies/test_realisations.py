@@ -128,6 +128,18 @@ def test_statistics_over_a_dimension_include_the_peak_force(reference_store):
     np.testing.assert_allclose(stats["mean"], values.mean(axis=1), rtol=1e-15)
 
 
+def test_over_names_the_sweep_dimensions_only(reference_store):
+    """Record, grain, trace and mode dimensions are not sweep dimensions; a single run has none."""
+    axes = ", ".join(reference_store["status"].dims)
+    with pytest.raises(
+        ValueError, match=rf"^--over = 'record': not a sweep dimension of the store \(its sweep dimensions: {axes}\)$"
+    ):
+        statistics(reference_store, "record")
+    single = reference_store.isel({d: 0 for d in reference_store["status"].dims})
+    with pytest.raises(ValueError, match=r"\(a single run: no sweep dimensions\)$"):
+        statistics(single, "grain")
+
+
 def test_a_store_without_displacements_is_refused_in_one_line(tmp_path, reference_store):
     bare = reference_store.drop_vars(["trace_u", "trace_v", "u"])
     with pytest.raises(NotRecorded, match=r"^bottom_peak_force: the store records neither traces of grain\(s\) 9"):
