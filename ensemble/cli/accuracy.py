@@ -9,7 +9,16 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-from hertzian.cli.app import DeviceOption, SceneArgument, SetOption, app, fail, load_scene_or_fail, resolve_device
+from hertzian.cli.app import (
+    DeviceOption,
+    SceneArgument,
+    SetOption,
+    app,
+    check_output_file,
+    fail,
+    load_scene_or_fail,
+    resolve_device,
+)
 from hertzian.core.scene import SceneError
 
 MethodsOption = Annotated[str, typer.Option("--methods", help="Comma-separated methods, e.g. gear4,verlet.")]
@@ -186,8 +195,7 @@ def accuracy(
         )
     except SceneError as err:
         fail(str(err))
-    if plot is not None and not plot.parent.exists():
-        fail(f"--plot = {str(plot)!r}: parent directory does not exist")
+    check_output_file("--plot", plot)
     dev = resolve_device(device)
 
     results, reference, every = _run_study(loaded, request, dev, quiet=quiet)

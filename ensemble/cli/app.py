@@ -76,6 +76,27 @@ def fail(message: str) -> None:
     raise typer.Exit(EXIT_BAD_INPUT)
 
 
+def check_output_file(option: str, path: Path | None) -> None:
+    """Refuse (exit 2) an output file whose folder is missing or not writable, or where a file hertzian did not
+    write (or a folder, or a link) is in the way (hertzian.core.outputs); nothing for ``None``."""
+    if path is None:
+        return
+    from hertzian.core.outputs import why_not_replaceable
+    from hertzian.sweeping.storage import check_writable_folder
+
+    why = check_writable_folder(path) or why_not_replaceable(path)
+    if why:
+        fail(f"{option} = {str(path)!r}: {why}")
+
+
+def command_line() -> str:
+    """This process's command as a user typed it (what a JSON record names as its ``command``)."""
+    import shlex
+    import sys
+
+    return "hertzian " + shlex.join(sys.argv[1:])
+
+
 def check_timeline_path() -> None:
     """Refuse (exit 2) a ``HERTZIAN_TIMELINE`` whose folder does not exist, before anything runs."""
     target = os.environ.get(timeline.ENV, "").strip()

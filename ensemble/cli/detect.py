@@ -13,6 +13,8 @@ from hertzian.cli.app import (
     DeviceOption,
     SetOption,
     app,
+    check_output_file,
+    command_line,
     fail,
     load_scene_or_fail,
     one_line_errors,
@@ -213,8 +215,7 @@ def _checked_options(scene, set_, mass_range, depths, fit_a, a_range, plot, batc
     if a_range is not None and not fit_a:
         fail(f"--a-range = {a_range!r}: only used with --fit-a")
     a_ratio_range = _pair("--a-range", a_range, ",", float) if a_range is not None else (0.25, 4.0)
-    if plot is not None and not plot.parent.exists():
-        fail(f"--plot = {str(plot)!r}: parent directory does not exist")
+    check_output_file("--plot", plot)
     if batch_size is not None and batch_size < 1:
         fail(f"--batch-size = {batch_size}: must be an integer ≥ 1")
     if iterations < 1:
@@ -300,15 +301,12 @@ def detect_study(
     confusion matrices and seconds per detection, written as JSON."""
     # heavy (Warp, Zarr): imported on use, as in ``detect``
     from hertzian.studies.detection.study import load_study, run_study, write_study
-    from hertzian.sweeping.storage import check_writable_folder
 
     if out.exists() and not overwrite:
         fail(f"--out = {str(out)!r}: exists; choose another path or pass --overwrite")
     if out.is_dir():
         fail(f"--out = {str(out)!r}: is a folder; --out names the JSON file to write")
-    why = check_writable_folder(out)
-    if why:
-        fail(f"--out = {str(out)!r}: {why}")
+    check_output_file("--out", out)
     study = shipped_file(study)
     try:
         load_study(study)
@@ -329,7 +327,7 @@ def detect_study(
         result = run_study(study, dev, progress=progress)
     except SceneError as err:
         fail(str(err))
-    write_study(result, out)
+    write_study({"command": command_line(), **result}, out)
     for host, per_snr in result["summary"].items():
         for snr, row in per_snr.items():
             typer.echo(

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-from hertzian.cli.app import DeviceOption, app, fail, one_line_errors, resolve_device
+from hertzian.cli.app import DeviceOption, app, check_output_file, command_line, fail, one_line_errors, resolve_device
 
 
 @app.command("estimates")
@@ -68,8 +68,7 @@ def estimate_check(
         fail(f"--cost-chains = {cost_chains}: must be at least 1")
     if reference_divisor < 4 or reference_divisor % 2:
         fail(f"--reference-divisor = {reference_divisor}: must be an even integer ≥ 4")
-    if as_json is not None and not as_json.parent.exists():
-        fail(f"--json = {str(as_json)!r}: parent directory does not exist")
+    check_output_file("--json", as_json)
     if defaults:
         _defaults(resolve_device(device), as_json)
         return
@@ -100,7 +99,7 @@ def estimate_check(
     for row in record.get("cost_features", []):
         typer.echo(f"cost, {row['case']}, kernel {row['kernel_asked']}: {row['ratio']:.2f}×")
     if as_json is not None:
-        as_json.write_text(json.dumps(record, indent=1) + "\n")
+        as_json.write_text(json.dumps({"command": command_line(), **record}, indent=1) + "\n")
         typer.echo(f"wrote {as_json}", err=True)
 
 
@@ -126,5 +125,5 @@ def _defaults(device: str, as_json: Optional[Path]) -> None:
             )
             typer.echo(f"{name} ≤ {float(target):g}: {choice}")
     if as_json is not None:
-        as_json.write_text(json.dumps(record, indent=1) + "\n")
+        as_json.write_text(json.dumps({"command": command_line(), **record}, indent=1) + "\n")
         typer.echo(f"wrote {as_json}", err=True)

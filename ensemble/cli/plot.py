@@ -79,13 +79,19 @@ def plot(
         out = Path(f"{figure}.png") if figure else Path(store.name).with_suffix(".png")
     if out.suffix.lower() != ".png":
         fail(f"--out = {str(out)!r}: must end in .png")
+    from hertzian.core.outputs import why_not_replaceable
     from hertzian.studies.design_store import is_design_store
     from hertzian.sweeping.storage import check_writable_folder
 
     why = check_writable_folder(out)
     if why:
         fail(f"--out = {str(out)!r}: {why}")
-    if is_design_store(store):
+    design = is_design_store(store)
+    for target in (out, out.with_suffix(".json")) if design or figure in ("drive_map", "standing") else (out,):
+        why = why_not_replaceable(target)
+        if why:
+            fail(f"--out = {str(out)!r}: {target} {why}")
+    if design:
         if figure is not None or points:
             fail(f"store = {str(store)!r}: a design store; plot it without --figure and --at")
         return _plot_design(store, out)
@@ -109,13 +115,18 @@ def plot(
                 }
                 for index in __import__("numpy").ndindex(*numbers["label"].shape)
             ]
-            out.with_suffix(".json").write_text(json.dumps({"store": str(store), "points": rows}, indent=1))
+            record = {"command": f"hertzian plot {store} --figure {figure} --out {out}", "store": str(store)}
+            out.with_suffix(".json").write_text(json.dumps({**record, "points": rows}, indent=1))
         if figure == "standing":
             import json
 
             from hertzian.studies import analysis as an
 
-            numbers = {**an.store_provenance(dataset, store), "points": an.standing_fractions(dataset)}
+            numbers = {
+                "command": f"hertzian plot {store} --figure {figure} --out {out}",
+                **an.store_provenance(dataset, store),
+                "points": an.standing_fractions(dataset),
+            }
             out.with_suffix(".json").write_text(json.dumps(numbers, indent=1))
         if figure:
             plot_figure(dataset, figure, out)

@@ -6,7 +6,7 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-from hertzian.cli.app import DeviceOption, app, fail, resolve_device
+from hertzian.cli.app import DeviceOption, app, check_output_file, fail, resolve_device
 
 FigureOption = Annotated[
     Optional[list[str]],
@@ -135,6 +135,7 @@ def reproduce(
         fail(f"--kernel = 'chain': a CPU kernel; --device = {dev!r}")
     if kernel in ("tile", "window") and dev == "cpu":
         fail(f"--kernel = {kernel!r}: CUDA kernels; on --device cpu use auto, fused, step or chain")
+    _check_outputs(out_dir, [g for g in GROUPS if g in groups] or list(GROUPS))
     log = run_all(
         out_dir,
         groups=[g for g in GROUPS if g in groups] or None,
@@ -150,6 +151,25 @@ def reproduce(
     if log["figure_failures"]:
         typer.echo(f"error: {log['figure_failures']} figure(s) could not be drawn (see log.json)", err=True)
         raise typer.Exit(1)
+
+
+def _check_outputs(out_dir: Path, names: list[str]) -> None:
+    """Refuse (exit 2), before anything runs, an ``--out-dir`` where a store or file that reproducing ``names``
+    writes is in the way and hertzian did not write it."""
+    from hertzian.core.errors import OptionError
+    from hertzian.studies.reproduce import outputs
+    from hertzian.sweeping.storage import check_out
+
+    if not out_dir.is_dir():
+        return  # made by the run: nothing in the way
+    stores, files = outputs(names)
+    for store in stores:
+        try:
+            check_out(out_dir / store, overwrite=True)
+        except OptionError as err:
+            fail(f"--out-dir = {str(out_dir)!r}: {store} in it: {err.allowed.split('; --overwrite')[0]}")
+    for file in files:
+        check_output_file("--out-dir", out_dir / file)
 
 
 def _measure(names: list[str], record: Path | None, out_dir: Path, device: str) -> None:

@@ -8,6 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from hertzian.core.outputs import PNG_METADATA
 
 DPI = 110
 LABELS = {
@@ -51,7 +52,7 @@ def plot_design(summary: dict, out: Path) -> None:
     if front:
         _draw_front(axes[3], summary)
     fig.tight_layout()
-    fig.savefig(out, dpi=DPI)
+    fig.savefig(out, dpi=DPI, metadata=PNG_METADATA)
     plt.close(fig)
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from hertzian.core.outputs import PNG_METADATA
 from hertzian.studies.detection import Detection
 from hertzian.studies.detection.library import Library
 from hertzian.studies.detection.signal import Signal
@@ -47,5 +48,5 @@ def plot_detection(signal: Signal, detection: Detection, library: Library, path:
     bottom.set_ylabel("p(depth, class | signal)")
     bottom.set_title(f"p(none) = {detection.class_probability['none']:.3g}", fontsize=9)
     bottom.legend(fontsize=8)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, metadata=PNG_METADATA)
     plt.close(fig)

@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Callable
 
 import numpy as np
+from hertzian.core.outputs import PNG_METADATA
 from hertzian.studies import analysis as an
 
 DPI = 110
@@ -88,7 +89,7 @@ def _finish(fig, out: Path, *, note: str | None = None) -> Path:
         fig.text(0.005, 0.003, "\n".join(lines), fontsize=NOTE_FONTSIZE, color="0.35", ha="left", va="bottom")
         bottom = (len(lines) * 1.25 * NOTE_FONTSIZE + 4) / height_pt
     fig.tight_layout(rect=(0, bottom, 1, 1))
-    fig.savefig(out, dpi=DPI)
+    fig.savefig(out, dpi=DPI, metadata=PNG_METADATA)
     import matplotlib.pyplot as plt  # heavy: loaded by _pyplot when the figure was made
 
     plt.close(fig)

@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from hertzian.core.outputs import PNG_METADATA
 
 
 def plot_spectrum_point(point, out: Path, plt, *, time_unit: str, energy_unit: str, where: str = "") -> Path:
@@ -32,6 +33,6 @@ def plot_spectrum_point(point, out: Path, plt, *, time_unit: str, energy_unit: s
     twin.set_ylabel("participation 1/Σ e_k²", color="C3")
     axes[1].set_xlabel(f"t [{time_unit}]")
     fig.tight_layout()
-    fig.savefig(out, dpi=120)
+    fig.savefig(out, dpi=120, metadata=PNG_METADATA)
     plt.close(fig)
     return out

@@ -37,6 +37,7 @@ import warp as wp
 from hertzian.core.check import check_scene
 from hertzian.core.devices import default_device, init_warp
 from hertzian.core.model import build_model
+from hertzian.core.outputs import PNG_METADATA
 from hertzian.core.runner import Runner
 from hertzian.core.scene import EVENT_MODES, METHODS, PRECISIONS, Scene, SceneError
 from hertzian.core.solvers import KERNELS
@@ -575,5 +576,5 @@ def plot_work_precision(
     axes[0].legend(fontsize=8)
     if title:
         fig.suptitle(title, fontsize=9)
-    fig.savefig(path, dpi=130)
+    fig.savefig(path, dpi=130, metadata=PNG_METADATA)
     plt.close(fig)

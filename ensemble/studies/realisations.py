@@ -24,6 +24,7 @@ import json
 import warnings
 
 import numpy as np
+from hertzian.core.outputs import PNG_METADATA
 from hertzian.core.scene import scene_from_dict
 from hertzian.core.static import static_arrays, static_state
 from hertzian.sweeping.spec import expand, sweep_from_dict
@@ -244,5 +245,5 @@ def plot_distribution(ds, of: str, out, *, bins: int = 30) -> None:
         ax.set_ylabel("realisations")
     axes[-1, 0].set_xlabel(f"{of} [{UNITS[of]}]")
     fig.tight_layout()
-    fig.savefig(out, dpi=120)
+    fig.savefig(out, dpi=120, metadata=PNG_METADATA)
     plt.close(fig)

@@ -1226,6 +1226,22 @@ def opened(path: Path):
         yield dataset
 
 
+DRIVEN_STORES = {"fig9_10": ("fig9_10.zarr", "fig9_10_dt_check.zarr"), "sec6_lag": ("sec6_lag.zarr",)}
+"""The stores each driven group may write (the others write ``<group>.zarr``)."""
+
+
+def figure_file(name: str, figure: str) -> str:
+    """The PNG of ``figure`` of group ``name``: the group's name when it draws one figure, else the figure's."""
+    return f"{name}.png" if len(GROUPS[name].figures) == 1 else f"{figure}.png"
+
+
+def outputs(names: list[str]) -> tuple[list[str], list[str]]:
+    """(stores, files) that reproducing the groups ``names`` may write in its folder: what it replaces there."""
+    stores = [store for name in names for store in DRIVEN_STORES.get(name, (f"{name}.zarr",))]
+    files = ["log.json", *(figure_file(name, figure) for name in names for figure in GROUPS[name].figures)]
+    return stores, files
+
+
 def draw_and_measure(out_dir: str, name: str, store: str) -> dict[str, Any]:
     """Group ``name``'s figures (PNGs in ``out_dir``) and measurements from its store; a figure that cannot be
     drawn is reported, not raised. Runs in the reproducing process or in a worker process."""
@@ -1237,7 +1253,7 @@ def draw_and_measure(out_dir: str, name: str, store: str) -> dict[str, Any]:
     clock = time.perf_counter()
     with opened(out / store) as dataset:
         for figure in group.figures:
-            png = out / (f"{name}.png" if len(group.figures) == 1 else f"{figure}.png")
+            png = out / figure_file(name, figure)
             try:
                 plot_figure(dataset, figure, png)
                 drawn["figures"][figure] = png.name

@@ -1,0 +1,73 @@
+"""Files hertzian writes beside its stores, figures (PNG) and JSON records, and whether a file at a path may be
+replaced: only one that hertzian wrote, as for stores (hertzian.sweeping.storage.check_replaceable).
+
+A PNG that hertzian writes carries the text chunk ``Software = "hertzian <version>"``; a JSON record names the
+command that wrote it (``"command": "hertzian …"``)."""
+
+from __future__ import annotations
+
+import json
+import struct
+from pathlib import Path
+
+from hertzian._version import __version__
+
+SOFTWARE = f"hertzian {__version__}"
+PNG_METADATA = {"Software": SOFTWARE}
+"""``metadata`` of every ``savefig`` (matplotlib writes it as a PNG text chunk)."""
+
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def png_software(path: str | Path) -> str | None:
+    """The ``Software`` text chunk of the PNG at ``path`` (read up to its image data), or None."""
+    with open(path, "rb") as file:
+        if file.read(8) != _PNG_SIGNATURE:
+            return None
+        while header := file.read(8):
+            if len(header) < 8:
+                return None
+            length, kind = struct.unpack(">I4s", header)
+            if kind == b"IDAT":
+                return None
+            data = file.read(length)
+            file.read(4)  # the chunk's CRC
+            if kind == b"tEXt" and b"\0" in data:
+                key, value = data.split(b"\0", 1)
+                if key == b"Software":
+                    return value.decode("latin-1")
+    return None
+
+
+def json_command(path: str | Path) -> str | None:
+    """The ``command`` of the JSON record at ``path`` (a top-level object's), or None."""
+    try:
+        data = json.loads(Path(path).read_text())
+    except (OSError, ValueError):
+        return None
+    command = data.get("command") if isinstance(data, dict) else None
+    return command if isinstance(command, str) else None
+
+
+def written_by_hertzian(path: str | Path) -> bool:
+    """Whether the file at ``path`` is a figure or JSON record that hertzian wrote."""
+    suffix = Path(path).suffix.lower()
+    if suffix == ".png":
+        return (png_software(path) or "").startswith("hertzian")
+    if suffix == ".json":
+        command = json_command(path) or ""
+        return command.startswith(("hertzian ", "python -m hertzian"))
+    return False
+
+
+def why_not_replaceable(path: str | Path) -> str | None:
+    """Why hertzian may not write a file at ``path``: a file there that it did not write, a folder or a link; None
+    when nothing is there or the file is hertzian's own."""
+    path = Path(path)
+    if not (path.exists() or path.is_symlink()):
+        return None
+    if path.is_symlink() or not path.is_file():
+        return "exists and is not a file hertzian wrote; choose another path"
+    if written_by_hertzian(path):
+        return None
+    return "exists and hertzian did not write it; choose another path, or delete it yourself if you mean to"
