@@ -467,7 +467,7 @@ class ClusterStart:
             security = client_security(scheduler, tls)
             try:
                 self._client = Client(scheduler, timeout="15s", security=security)
-            except (OSError, TimeoutError, ValueError, TypeError) as err:
+            except Exception as err:  # noqa: BLE001 (a peer that is not a Dask scheduler may fail the handshake anyhow)
                 raise ClusterError(f"cannot connect ({type(err).__name__}: {err})") from None
             self.worker_count = max(1, len(self._client.scheduler_info(n_workers=-1)["workers"]))
             return

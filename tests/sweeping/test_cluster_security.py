@@ -140,3 +140,34 @@ def test_tls_files_without_a_tls_scheduler_are_refused(tmp_path):
     assert_refused(result, out, "--tls-ca-file")
     result = invoke("sweep", sweep, "--out", out, "--scheduler", "tls://127.0.0.1:1", "--tls-ca-file", ca)
     assert_refused(result, out, "--tls-cert")
+
+
+def test_a_peer_that_is_not_a_scheduler_is_refused_in_one_line(tmp_path):
+    """A loopback listener that answers as a web server would: Dask reads "HTTP/1.1" as a frame count of 3.5e18 and
+    fails to allocate it. One line, exit 2, nothing written. The listener serves one connection and stops."""
+    import socket
+    import threading
+
+    server = socket.create_server(("127.0.0.1", 0))
+    server.settimeout(30)
+
+    def answer_garbage():
+        try:
+            peer, _ = server.accept()
+            with peer:
+                peer.sendall(b"HTTP/1.1 403 Forbidden\r\nContent-Length: 0\r\n\r\n")
+                peer.recv(1024)
+        except OSError:
+            pass
+        finally:
+            server.close()
+
+    thread = threading.Thread(target=answer_garbage, daemon=True)
+    thread.start()
+    sweep = tmp_path / "sweep.toml"
+    sweep.write_text(GRID_SWEEP)
+    out = tmp_path / "out.zarr"
+    result = invoke("sweep", sweep, "--out", out, "--scheduler", f"tcp://127.0.0.1:{server.getsockname()[1]}")
+    assert_refused(result, out, "--scheduler")
+    assert "cannot connect" in result.stderr
+    thread.join(30)
