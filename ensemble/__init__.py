@@ -34,12 +34,10 @@ _LAZY = {
     "Sweep": "hertzian.sweeping.spec",
     "load_sweep": "hertzian.sweeping.spec",
     "sweep": "hertzian.sweeping.pipeline",
-    "open_store": "hertzian.sweeping.store",
+    "open_store": "hertzian.api",
     # errors of stores
     "SweepStoreError": "hertzian.sweeping.sweep_store",
 }
-_RENAMED = {"open_store": "open_dataset"}
-"""Public name → the name in its module, where they differ."""
 
 __all__ = ["__version__", "Scene", "SceneError", "OptionError", "RefusedError", *_LAZY]
 
@@ -47,7 +45,7 @@ __all__ = ["__version__", "Scene", "SceneError", "OptionError", "RefusedError", 
 def __getattr__(name: str):
     if name not in _LAZY:
         raise AttributeError(f"module 'hertzian' has no attribute {name!r}")
-    value = getattr(import_module(_LAZY[name]), _RENAMED.get(name, name))
+    value = getattr(import_module(_LAZY[name]), name)
     globals()[name] = value
     return value
 

@@ -194,3 +194,16 @@ def design(
     scene, spec = load_design(shipped_file(path), overrides, scene_overrides)
     check_out(out, overwrite=overwrite, resume=resume)
     return optimise(scene, spec, out, device=check_device(device), resume=resume)
+
+
+def open_store(path: str | Path):
+    """A store as a labelled ``xarray.Dataset``: one ``hertzian run`` or ``hertzian sweep`` wrote
+    (hertzian.sweeping.store.open_dataset, lazy), or a design store (hertzian.studies.design_store.design_dataset);
+    FileNotFoundError or ValueError (one line) for anything else, StoreDamagedError for a damaged store."""
+    from hertzian.studies.design_store import design_dataset, is_design_store
+
+    if is_design_store(path):
+        return design_dataset(path)
+    from hertzian.sweeping.store import open_dataset
+
+    return open_dataset(path)

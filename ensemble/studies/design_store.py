@@ -184,3 +184,28 @@ def verify_design(path: str | Path) -> dict:
             except Exception as err:  # noqa: BLE001 (any failure to read a chunk is damage, named in one line)
                 out["damaged"].append(f"{name}: generation {generation}: {type(err).__name__}")
     return out
+
+
+def design_dataset(path: str | Path):
+    """A design store as a labelled in-memory ``xarray.Dataset`` over the generations done: ``genome`` (generation,
+    candidate, gene), ``objectives`` (generation, candidate, objective), ``best_genome``, ``best_objectives`` and
+    ``seconds``, with the genes' and objectives' names as coordinates and the store's attributes."""
+    import xarray as xr
+
+    data = read_design(path)
+    attrs = data["attrs"]
+    names = {"objective": "objectives", "best_objective": "best_objectives"}
+    dims = {
+        "genome": ("generation", "candidate", "gene"),
+        "objective": ("generation", "candidate", "objective"),
+        "best_genome": ("generation", "gene"),
+        "best_objective": ("generation", "objective"),
+        "seconds": ("generation",),
+    }
+    coords = {
+        "generation": np.arange(len(data["seconds"])),
+        "gene": list(attrs["genes"]),
+        "objective": list(attrs["objectives"]),
+    }
+    variables = {names.get(name, name): (dims[name], data[name]) for name in ARRAYS}
+    return xr.Dataset(variables, coords=coords, attrs=attrs)

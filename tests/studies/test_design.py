@@ -431,3 +431,15 @@ def test_a_design_store_is_checksummed_and_verify_names_a_damaged_generation(fix
         resumed.returncode == 2
         and resumed.stderr == f"error: --out = '{store}': generation 1 is damaged (ValueError)\n"
     )
+
+
+def test_open_store_labels_a_design_store(fixed_length_store):
+    """hz.open_store reads a design store as it reads a sweep store: a labelled Dataset, here against the raw
+    arrays; the genes and objectives are named."""
+    ds = hz.open_store(fixed_length_store)
+    stored = read_design(fixed_length_store)
+    assert ds.sizes == {"generation": 3, "candidate": 8, "gene": 7 + 7, "objective": 1}
+    assert list(ds["objective"].values) == ["peak_wall_force"] and ds["gene"].values[0] == "material[1]"
+    np.testing.assert_array_equal(ds["objectives"].values, stored["objective"])
+    np.testing.assert_array_equal(ds["best_genome"].values, stored["best_genome"])
+    assert float(ds["best_objectives"].sel(objective="peak_wall_force").min()) == np.min(stored["objective"])
