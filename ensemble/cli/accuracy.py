@@ -24,11 +24,12 @@ from hertzian.core.scene import SceneError
 MethodsOption = Annotated[str, typer.Option("--methods", help="Comma-separated methods, e.g. gear4,verlet.")]
 
 DtOption = Annotated[
-    str,
+    Optional[str],
     typer.Option(
         "--dt",
         help="Comma-separated steps [program time]; each and the "
-        "reference's must divide a common record interval, e.g. 2e-4,1e-4,5e-5.",
+        "reference's must divide a common record interval, e.g. 2e-4,1e-4,5e-5. "
+        "Default: twice, once and half the scene's dt.",
     ),
 ]
 
@@ -151,7 +152,7 @@ def _target_table(reached, measure: str, *, several_events: bool):
 def accuracy(
     scene: SceneArgument = None,
     methods: MethodsOption = "gear4,gear5,gear6,verlet",
-    dt: DtOption = "2e-4,1e-4,5e-5",
+    dt: DtOption = None,
     precision: StudyPrecisionOption = None,
     reference_factor: ReferenceFactorOption = 4,
     records: RecordsOption = 40,

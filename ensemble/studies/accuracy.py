@@ -145,6 +145,7 @@ def study_scene(
     return scene.with_overrides(
         {
             "integrator.method": method,
+            "integrator.tolerance": None,
             "integrator.dt": dt,
             "integrator.precision": precision,
             "integrator.events": events or scene.integrator.events,
@@ -259,6 +260,16 @@ def parse_steps(text: str) -> list[float]:
     return _positive_numbers([text], "--dt", "--dt 1e-4,5e-5")
 
 
+def default_steps(scene: Scene) -> list[float]:
+    """The steps a study takes when none are given: twice, once and half the scene's dt, so that the study is
+    on the scene's own time scale (a Hertz pulse, a lattice's phonons alike). A scene run to a tolerance has no dt
+    of its own: refused in one line."""
+    if scene.integrator.tolerance is not None:
+        raise SceneError("--dt", None, "required for a scene run to a tolerance (it has no dt): e.g. --dt 1e-4,5e-5")
+    dt = scene.integrator.dt
+    return [2 * dt, dt, dt / 2]
+
+
 TARGET_MEASURES = ("energy", "error")
 """What ``--target`` bounds: the energy error (docs/model.md §5, the default) or the position error against the reference."""
 
@@ -331,7 +342,7 @@ def study_request(
     scene: Scene,
     *,
     methods: str,
-    dt: str,
+    dt: str | None,
     precision: str | None = None,
     events: str | None = None,
     targets: list[str] | None = None,
@@ -341,10 +352,11 @@ def study_request(
     kernel: str | None = None,
 ) -> StudyRequest:
     """The study's options as given on the command line (comma-separated text), checked; SceneError on the first
-    bad one (precision and events default to the scene's; "both" studies both values)."""
+    bad one (steps default to :func:`default_steps`, precision and events to the scene's; "both" studies both
+    values)."""
     method_list, steps, target_list = (
         parse_list("--methods", methods, METHODS),
-        parse_steps(dt),
+        parse_steps(dt) if dt is not None else default_steps(scene),
         parse_targets(targets or []),
     )
     if measure not in TARGET_MEASURES:

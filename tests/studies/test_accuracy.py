@@ -306,3 +306,46 @@ def test_cli_accuracy_target_refusals(tmp_path, args, key):
     plot = tmp_path / "p.png"
     result = invoke("accuracy", scene, *args, "--plot", plot, "--device", "cpu")
     assert_refused(result, plot, key)
+
+
+RING = """
+[chain]
+grains = 16
+potential = "harmonic"
+a = 1.0
+mass = 1.0
+
+[boundary]
+surface = "periodic"
+bottom = "periodic"
+
+[excitation]
+modes = [3]
+mode_energy = 0.01
+
+[integrator]
+method = "verlet"
+dt = 0.05
+duration = 20.0
+"""
+
+
+def test_default_steps_are_the_scenes_and_show_the_orders(tmp_path):
+    """Without --dt a study takes twice, once and half the scene's dt. On a harmonic ring (ω ≤ 2, dt = 0.05) the
+    errors then fall at verlet's order 2 and yoshida4's 4 (closed forms). The paper chain's steps (2e-4 … 5e-5,
+    and a reference at 1.25e-5) would take 10⁶ steps here, their errors buried in round-off."""
+    ring = tmp_path / "ring.toml"
+    ring.write_text(RING)
+    out = hertzian("accuracy", ring, "--methods", "verlet,yoshida4", "--json", "--device", "cpu", cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    records = json.loads(out.stdout)
+    for method, order in (("verlet", 2.0), ("yoshida4", 4.0)):
+        rows = sorted((r for r in records if r["method"] == method), key=lambda r: r["dt"])
+        assert [r["dt"] for r in rows] == [0.025, 0.05, 0.1]
+        assert abs(slope([r["dt"] for r in rows], [r["error"] for r in rows]) - order) < 0.2, (method, rows)
+    tolerance = tmp_path / "tolerance.toml"
+    tolerance.write_text(RING.replace("dt = 0.05", "tolerance = 1e-6").replace('"verlet"', '"auto"'))
+    refused = hertzian("accuracy", tolerance, "--device", "cpu", cwd=tmp_path)
+    assert refused.returncode == 2 and refused.stderr.startswith("error: --dt = None: required for a scene run to")
+    given = hertzian("accuracy", tolerance, "--methods", "verlet", "--dt", "0.1,0.05", "--device", "cpu", cwd=tmp_path)
+    assert given.returncode == 0 and "verlet" in given.stdout, given.stderr
