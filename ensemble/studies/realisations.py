@@ -166,7 +166,10 @@ def _point_statics(ds):
 def statistics(ds, over: str) -> dict[str, dict[str, np.ndarray]]:
     """Observables reduced over dimension ``over``: name → {mean, std, q05, q50, q95, count}, each of shape (the
     store's other sweep dimensions…[, grain]). NaN points (a pulse that never arrived) are left out."""
-    dims = list(ds["status"].dims)  # a point's status has the sweep's dimensions
+    if "status" in ds:
+        dims = list(ds["status"].dims)  # a point's status has the sweep's dimensions
+    else:
+        dims = [d for d in ds.dims if d not in ("record", "grain", "sample", "traced", "mode")]
     if over not in dims:
         held = f"its sweep dimensions: {', '.join(dims)}" if dims else "a single run: no sweep dimensions"
         raise ValueError(f"--over = {over!r}: not a sweep dimension of the store ({held})")
