@@ -613,21 +613,27 @@ def parse_value(text: str) -> Any:
         return text
 
 
+_MODAL = ("excitation.modes", "excitation.mode_energy")
+_THERMAL = ("excitation.thermal", "excitation.thermal_modes")
 ALTERNATIVES = {
-    "integrator.dt": "integrator.tolerance",
-    "integrator.tolerance": "integrator.dt",
-    "chain.l0": "chain.load",
-    "chain.load": "chain.l0",
+    "integrator.dt": ("integrator.tolerance",),
+    "integrator.tolerance": ("integrator.dt",),
+    "chain.l0": ("chain.load",),
+    "chain.load": ("chain.l0",),
+    "excitation.impact": (*_MODAL, *_THERMAL),
+    "excitation.modes": ("excitation.impact", *_THERMAL),
+    "excitation.thermal": ("excitation.impact", *_MODAL),
 }
-"""Keys of which a scene gives one or the other. A user's overrides of a file (``--set``, ``hz.load_scene``'s
-``overrides``) that give one with a value drop the other from the file (the built-in example's ``dt`` gives way to
-``--set integrator.tolerance=…``); both in one set of overrides stay refused, and a sweep's axes replace nothing (a
-point that gives both is refused)."""
+"""Keys of which a scene gives one or the other (a start: an impact, normal modes or thermal phases). A user's
+overrides of a file (``--set``, ``hz.load_scene``'s ``overrides``) that give one with a value drop the others from
+the file (the built-in example's ``dt`` gives way to ``--set integrator.tolerance=…``, a modal start to ``--set
+excitation.thermal=…``); both in one set of overrides stay refused, and a sweep's axes replace nothing (a point
+that gives both is refused)."""
 
 
 def apply_overrides(data: dict, overrides: dict[str, Any], *, replacing: bool = False) -> dict:
     """Set dotted keys (``section.key`` or ``impurities.K.key``) in nested plain data; with ``replacing`` (a user's
-    overrides of a file) an override of one of two :data:`ALTERNATIVES` drops the other."""
+    overrides of a file) an override of one of :data:`ALTERNATIVES` drops the others."""
     import copy
 
     data = copy.deepcopy(data)
@@ -660,11 +666,14 @@ def apply_overrides(data: dict, overrides: dict[str, Any], *, replacing: bool = 
 
 def _drop_alternatives(data: dict, overrides: dict[str, Any]) -> None:
     """Remove from ``data`` the alternative of each key ``overrides`` give a value (not when they give both)."""
-    for dotted in overrides.keys() & ALTERNATIVES.keys():
-        other = ALTERNATIVES[dotted]
-        section, key = other.split(".")
-        if overrides[dotted] is not None and other not in overrides and isinstance(data.get(section), dict):
-            data[section].pop(key, None)
+    given = {key for key, value in overrides.items() if value not in (None, 0, 0.0, [], ())}
+    for dotted in given & ALTERNATIVES.keys():
+        if given & set(ALTERNATIVES[dotted]):
+            continue  # both given at once: the scene refuses them
+        for other in ALTERNATIVES[dotted]:
+            section, key = other.split(".")
+            if other not in overrides and isinstance(data.get(section), dict):
+                data[section].pop(key, None)
 
 
 def _set_radii_key(data: dict, dotted: str, name: str, value: Any) -> None:
@@ -1004,6 +1013,8 @@ def _validate_modal_start(s: Scene) -> None:
         raise SceneError("excitation.thermal", e.thermal, "must be > 0 (energy per grain), with thermal_modes if given")
     if (e.modes or e.thermal) and (e.impact or b.surface == "driven"):
         raise SceneError("excitation.impact", e.impact, "not with excitation.modes or thermal: one start at a time")
+    if e.modes and e.thermal:
+        raise SceneError("excitation.thermal", e.thermal, "not with excitation.modes: one start at a time")
     first = 1
     last = c.grains if b.surface == "wall" else c.grains - 1  # free ends and rings: mode 0 is the translation
     for k in e.modes:

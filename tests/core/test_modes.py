@@ -160,6 +160,10 @@ REFUSED = {
         {"chain": {"potential": "fput"}, "excitation": {"modes": [1], "mode_energy": 1.0, "impact": 0.1}},
         "excitation.impact",
     ),
+    "modes and thermal phases": (
+        {"chain": {"potential": "fput"}, "excitation": {"modes": [1], "mode_energy": 1.0, "thermal": 0.1}},
+        "excitation.thermal",
+    ),
     "a ring with one periodic end": (
         {"chain": {"potential": "fput"}, "boundary": {"surface": "periodic", "bottom": "wall"}},
         "boundary.bottom",
@@ -195,3 +199,31 @@ def test_modal_refusals(case, tmp_path):
     scene.write_text(toml_text({**data, "chain": chain, "integrator": {"duration": 1.0}}))
     out = tmp_path / "out.zarr"
     assert_refused(invoke("run", scene, "--out", out), out, key)
+
+
+def test_a_users_start_replaces_the_files_start(tmp_path):
+    """--set excitation.thermal on a file with a modal start (or modes on a thermal one, or an impact on either)
+    runs the start given, not the file's: the other start's keys give way, as dt gives way to a tolerance. Both in
+    one set of overrides stay refused, and setting a start to nothing drops nothing."""
+    from hertzian.core.scene import SceneError, load_scene
+
+    path = tmp_path / "fput.toml"
+    path.write_text(
+        toml_text(
+            {
+                "chain": {"grains": 8, "potential": "fput", "alpha": 0.25, "a": 1.0},
+                "excitation": {"modes": [1], "mode_energy": 0.1},
+                "integrator": {"method": "yoshida6", "dt": 0.05, "duration": 1.0},
+            }
+        )
+    )
+    thermal = load_scene(path, {"excitation.thermal": 0.2})
+    assert (thermal.excitation.modes, thermal.excitation.mode_energy, thermal.excitation.thermal) == ((), 0.0, 0.2)
+    u, v = start(thermal)
+    assert np.any(v != 0.0)  # phases: a modal start has v = 0
+    struck = load_scene(path, {"excitation.impact": 0.01})
+    assert (struck.excitation.modes, struck.excitation.impact) == ((), 0.01) and start(struck) is None
+    modal = load_scene(path, {"excitation.thermal": 0.0})
+    assert modal.excitation.modes == (1,)
+    with pytest.raises(SceneError, match=r"^excitation.thermal = 0.2: not with excitation.modes"):
+        load_scene(path, {"excitation.thermal": 0.2, "excitation.modes": [2]})
