@@ -530,12 +530,9 @@ def compare(store: str | Path, device: str) -> dict:
     front design's materials and radii."""
     from hertzian.core.runner import run_scene as run
     from hertzian.core.static import static_state
-    from hertzian.studies.design_store import read_design
 
-    data = read_design(store)
+    data, scene, spec = stored_design(store)
     attrs = data["attrs"]
-    scene = scene_from_dict(attrs["scene"])
-    spec = check_design(scene, {k: v for k, v in attrs["design"].items() if v is not None})
     best = candidate(scene, spec, data["best_genome"][-1])
     chains = references(scene, spec, best)
     rows, traces = {}, {}
@@ -579,16 +576,21 @@ def compare(store: str | Path, device: str) -> dict:
     }
 
 
+def stored_design(store: str | Path) -> tuple[dict, Scene, DesignSpec]:
+    """(the store's data as :func:`~hertzian.studies.design_store.read_design` gives it, its base scene, its
+    design)."""
+    from hertzian.studies.design_store import read_design
+
+    data = read_design(store)
+    scene = scene_from_dict(data["attrs"]["scene"])
+    return data, scene, check_design(scene, {k: v for k, v in data["attrs"]["design"].items() if v is not None})
+
+
 def summary(store: str | Path) -> dict:
     """A design store in numbers, nothing run: the design (optimizer, seed, population, generations planned and
     done, seconds), each objective's best so far, the generation since which the first objective's best holds, and
     the best design's materials and R/R0 over the varying grains, from the striker to the wall."""
-    from hertzian.studies.design_store import read_design
-
-    data = read_design(store)
-    attrs = data["attrs"]
-    scene = scene_from_dict(attrs["scene"])
-    spec = check_design(scene, {k: v for k, v in attrs["design"].items() if v is not None})
+    data, scene, spec = stored_design(store)
     out: dict[str, Any] = {
         "store": str(store),
         "optimizer": spec.optimizer,
