@@ -257,6 +257,28 @@ def test_cli_reads_a_store_and_prints_json(tmp_path, cache):
     assert set(result["log_evidence"]) == {"none", "light", "heavy"} and plot.stat().st_size > 0
 
 
+def test_a_noise_free_trace_of_the_host_itself_is_none(tmp_path, cache):
+    """The host's own run as the signal, and its file, records and all, as BASE (as a user who passes the built-in
+    example twice would): BASE's traces every 0.01 do not refuse the noise rule's step of 0.02, and σ before the echo,
+    exactly 0 here, is floored as everywhere else instead of dividing by it. The answer is the clean chain."""
+    import os
+
+    host = tmp_path / "host.toml"
+    host.write_text(
+        BASE_TOML.replace("duration = 1.0", f"duration = {SPACING * (SAMPLES - 1)!r}")
+        + f"[record]\ntraces = [0]\ntrace_every = {SPACING}\n"
+    )
+    store = tmp_path / "host.zarr"
+    assert hertzian("run", str(host), "--out", str(store), "--device", "cpu").returncode == 0
+    env = {**os.environ, "HERTZIAN_DETECT_CACHE": str(cache)}
+    out = hertzian(
+        "detect", str(store), "--scene", str(host), "--json", "--depths", "10:30", "--device", "cpu", env=env
+    )
+    assert out.returncode == 0, out.stderr
+    result = json.loads(out.stdout)
+    assert result["class"] == "none" and result["noise_before_echo"] == 0.0, result
+
+
 def test_forward_scene_samples_on_steps():
     """A sample spacing that the BASE step does not divide: the step shrinks so that samples fall on steps."""
     scene = forward_scene(scene_from_dict(BASE), 0.0125, 101)  # 12.5 steps of 1e-3 → 13 steps of 0.0125/13

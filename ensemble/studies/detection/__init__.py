@@ -64,6 +64,7 @@ from hertzian.core.solvers.prepare import prepare_kernels
 from hertzian.studies.detection.forward import (
     FRONT_THRESHOLD,
     LIBRARY_BATCH,
+    bare_base,
     check_base,
     default_batch_size,
     detect_needs,
@@ -241,7 +242,7 @@ def detect(
     _check_options(base, block, noise, refine, iterations, window, fit_a, a_ratio_range)
     # every kernel variant the runs below launch, compiled side by side (on a GPU) before the first of them
     prepare_kernels(detect_needs(base), device)
-    given_base = base
+    base = given_base = bare_base(base)
     if not dt_given:  # the pulse fronts from a step the ladder starts at, not BASE's default
         base = base.with_overrides({"integrator.dt": signal.spacing / 2})
     signal, fronts = _analysed_signal(signal, base, device, window, use_cache)
@@ -285,7 +286,8 @@ def detect(
             refined[kind].append(int(depths[k]))
     refine_seconds = time.perf_counter() - refine_start
 
-    reference = noise if noise is not None else window_sigma
+    # σ before the echo is 0 for a noise-free signal that is the clean chain's own trace there: the floor, as for σ
+    reference = noise if noise is not None else None if window_sigma is None else max(window_sigma, floor)
     fine = None
     if refine > 0:
         fine = scan_if_poor(

@@ -42,6 +42,19 @@ def check_base(base: Scene) -> None:
         )
 
 
+def bare_base(base: Scene) -> Scene:
+    """BASE without its own records (a detection replaces them): its step can then change freely, where its traces
+    every 0.01, say, would refuse a step of 0.02."""
+    return base.with_overrides(
+        {
+            "record.every": base.integrator.duration,
+            "record.fields": [],
+            "record.traces": [],
+            "record.trace_every": None,
+        }
+    )
+
+
 def forward_scene(base: Scene, spacing: float, sample_count: int) -> Scene:
     """BASE set up to trace grain 0's velocity at t = k·spacing, k = 0 … sample_count − 1.
 
