@@ -206,6 +206,11 @@ def test_cli_bad_signals_exit_2_one_line(tmp_path):
         lines = [line for line in out.stderr.splitlines() if line.startswith("error")]
         assert len(lines) == 1 and message in lines[0], (name, out.stderr)
         assert "Traceback" not in out.stderr and not plot.exists()
+    binary = tmp_path / "signal.npy"
+    np.save(binary, np.zeros(SAMPLES))
+    out = hertzian("detect", str(binary), "--scene", str(base), "--device", "cpu")
+    assert out.returncode == 2 and out.stderr.count("\n") == 1, out.stderr
+    assert "not a text file (UnicodeDecodeError): give a CSV file with the header t,v, or a store" in out.stderr
     out = hertzian("detect", str(tmp_path / "nan.csv"))
     assert out.returncode == 2 and "--scene: required" in out.stderr
     impure = tmp_path / "impure.toml"

@@ -71,7 +71,12 @@ def read_signal(path: str | Path) -> Signal:
         with path.open(newline="") as handle:
             rows = list(csv.reader(handle))
     except (OSError, UnicodeDecodeError) as err:
-        raise SceneError("SIGNAL", str(path), f"cannot be read as a CSV text file ({err.__class__.__name__})") from None
+        raise SceneError(
+            "SIGNAL",
+            str(path),
+            f"not a text file ({err.__class__.__name__}): give a CSV file with the header t,v, or a store that "
+            "hertzian run wrote with grain 0 traced",
+        ) from None
     rows = [row for row in rows if row and any(cell.strip() for cell in row)]
     if not rows:
         raise SceneError("SIGNAL", str(path), "is empty; expected a header line t,v and samples")
