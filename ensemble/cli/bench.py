@@ -12,19 +12,19 @@ import typer
 from hertzian.cli.app import DeviceOption, SetOption, app, fail, resolve_device
 
 
-def _counts(text: str, flag: str) -> list[int]:
+def _counts(text: str, flag: str, *, least: int = 1, example: str = "16384,1") -> list[int]:
     try:
         values = [int(v) for v in text.split(",") if v.strip()]
     except ValueError:
         values = []
-    if not values or any(v < 1 for v in values):
-        fail(f"{flag} = {text!r}: positive integers, comma-separated (e.g. 16384,1)")
+    if not values or any(v < least for v in values):
+        fail(f"{flag} = {text!r}: integers ≥ {least}, comma-separated (e.g. {example})")
     return values
 
 
 def _sizes(chains: str, grains: str) -> list[tuple[int, int]]:
     """(chains, grains) pairs of ``--chains`` zipped with ``--grains`` (a single value repeats); bad input → fail."""
-    chain_list, grain_list = _counts(chains, "--chains"), _counts(grains, "--grains")
+    chain_list, grain_list = _counts(chains, "--chains"), _counts(grains, "--grains", least=2, example="1000,100")
     if len(chain_list) > 1 and len(grain_list) > 1 and len(chain_list) != len(grain_list):
         fail(f"--grains = {grains!r}: as many values as --chains ({len(chain_list)}), or one")
     count = max(len(chain_list), len(grain_list))

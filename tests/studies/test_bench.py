@@ -75,6 +75,7 @@ def test_bench_bad_input():
     for args, key in (
         (["--chains", "0"], "--chains"),
         (["--grains", "x"], "--grains"),
+        (["--device", "cpu", "--grains", "1"], "--grains"),
         (["--kernel", "fastest"], "--kernel"),
         (["--device", "cpu", "--kernel", "tile"], "--kernel"),
         (["--chains", "1,2", "--grains", "5,6,7"], "--grains"),
