@@ -352,7 +352,8 @@ def report(result: dict, *, resumed: bool) -> str:
         return f"nothing to do: all {result['batches']} batches were complete"
     names = status_codes()
     status = ", ".join(f"{names[c].split(':')[0]} {k}" for c, k in result["status_counts"].items())
-    ran = f"ran {result['batches_run']} of {result['batches']} batches" if resumed else f"{result['batches']} batches"
+    batches = f"{result['batches']} batch" + ("es" if result["batches"] != 1 else "")
+    ran = f"ran {result['batches_run']} of {batches}" if resumed else batches
     return (
         f"{result['points']} points, {ran} on {result['device']}: {result['seconds']['batches']:.2f} s, "
         f"{result['grain_steps_per_second']:.3g} grain-steps/s (per device "

@@ -154,6 +154,7 @@ def test_a_peer_that_is_not_a_scheduler_is_refused_in_one_line(tmp_path):
     def answer_garbage():
         try:
             peer, _ = server.accept()
+            peer.settimeout(30)
             with peer:
                 peer.sendall(b"HTTP/1.1 403 Forbidden\r\nContent-Length: 0\r\n\r\n")
                 peer.recv(1024)
