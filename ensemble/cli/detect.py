@@ -188,6 +188,7 @@ def detect(
             fit_a=fit_a,
             a_ratio_range=a_ratio_range,
             dt_given=dt_given(scene, set_),
+            say=lambda line: typer.echo(line, err=True),
         )
     except SceneError as err:
         fail(str(err))

@@ -260,6 +260,10 @@ def test_cli_reads_a_store_and_prints_json(tmp_path, cache):
     assert result["class"] == "light" and result["depth"] == 18
     assert result["mass_ratio_interval"][0] <= 0.4 <= result["mass_ratio_interval"][1]
     assert set(result["log_evidence"]) == {"none", "light", "heavy"} and plot.stat().st_size > 0
+    first, last = result["depths_searched"]  # every depth between, 7 light and 7 heavy ratios each, and the clean chain
+    steps = round(result["window"] / result["dt"])  # over the analysed window
+    assert f"library: {1 + (last - first + 1) * 14} chains of {GRAINS} grains, {steps} steps each" in out.stderr
+    assert "candidates by Gauss–Newton (2 ensemble runs)" in out.stderr, out.stderr
 
 
 def test_a_noise_free_trace_of_the_host_itself_is_none(tmp_path, cache):

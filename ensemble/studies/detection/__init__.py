@@ -56,6 +56,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -225,6 +226,7 @@ def detect(
     fit_a: bool = False,
     a_ratio_range: tuple[float, float] = (0.25, 4.0),
     dt_given: bool = True,
+    say: Callable[[str], None] | None = None,
 ) -> tuple[Detection, Library]:
     """Class, depth and mass ratio of an impurity in BASE from a surface signal (see the module docstring).
 
@@ -235,8 +237,8 @@ def detect(
     and report a_ratio with its interval; the mass ratio and its interval then come from the joint fit.
     ``noise``: σ [length/time], else estimated. ``dt_given``: whether BASE sets its step; when it does not, the
     forward model's step comes from the noise (:func:`hertzian.studies.detection.step.noise_step`), and when it
-    does, ``Detection.step_choice`` says whether that step is needlessly small. Returns the detection and the
-    library it used.
+    does, ``Detection.step_choice`` says whether that step is needlessly small. ``say``, if given, gets one line
+    before each long phase (the library, the refinement). Returns the detection and the library it used.
     """
     started = time.perf_counter()
     _check_options(base, block, noise, refine, iterations, window, fit_a, a_ratio_range)
@@ -252,9 +254,17 @@ def detect(
     if not dt_given:  # with no σ to go by, BASE's step as it is
         base = given_base if choice is None else base.with_overrides({"integrator.dt": choice.dt})
     forward = forward_scene(base, signal.spacing, signal.sample_count)
+    grid = make_grid(depths, mass_ratio_range, mass_steps, block)
+    if say is not None:
+        chains = 1 + len(grid.depths) * len(grid.log_mass_ratio)
+        work = chains * forward.chain.grains * forward.step_count
+        say(
+            f"library: {chains} chains of {forward.chain.grains} grains, {forward.step_count} steps each "
+            f"({work:.3g} grain-steps; a cached library loads at once)"
+        )
     library = build_library(
         forward,
-        make_grid(depths, mass_ratio_range, mass_steps, block),
+        grid,
         device,
         fronts=fronts,
         use_cache=use_cache,
@@ -278,6 +288,8 @@ def detect(
     refined: dict[str, list[int]] = {"light": [], "heavy": []}
     if refine > 0:
         todo = _refinement_starts(quads, first_echo, library, bounds, sigma, refine, step)
+        if say is not None:
+            say(f"refining {len(todo)} candidates by Gauss–Newton ({iterations} ensemble runs)")
         final = gauss_newton(
             todo, s, forward, grid.block, depths, bounds, iterations, step, device, batch_size=batch_size
         )
