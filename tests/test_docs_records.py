@@ -929,3 +929,23 @@ def test_the_cpu_readme_rows_of_the_benchmarks_are_their_record():
             low, high = cell.removesuffix(" s").split("–")
             values = [pair[key] for pair in parts[part]["pairs"]]
             assert agrees(low, min(values)) and agrees(high, max(values)), (part, key, cell)
+
+
+def test_the_float32_table_is_its_record():
+    """docs/stability.md §2b: every cell against accuracy/float32.json → paper (2 significant digits, seconds to
+    0.01), and the reference step the text names."""
+    part = record("accuracy/float32.json")["parts"]["paper"]
+    runs = {(r["method"], r["dt"], r["precision"]): r for r in part["records"]}
+    table = table_rows("stability.md", "**The paper's scene** to t = 20")
+    assert len(table) == 1 + 8
+    for method, dt, e64, e32, position, seconds in table[1:]:
+        dt = float(dt.split()[0])
+        f64, f32 = runs[(method, dt, "float64")], runs[(method, dt, "float32")]
+        for cell, value in (
+            (e64, f64["energy_error"]),
+            (e32.strip("*"), f32["energy_error"]),
+            (position, f32["error"]),
+        ):
+            assert float(cell) == float(f"{value:.1e}"), (method, dt, cell, value)
+        assert seconds == f"{f64['seconds']:.2f} / {f32['seconds']:.2f}", (method, dt, seconds)
+    assert part["reference"]["dt"] == 3.125e-6 and "dt = 3.125e-6" in (DOCS / "stability.md").read_text()

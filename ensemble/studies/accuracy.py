@@ -31,6 +31,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 from fractions import Fraction
+from pathlib import Path
 
 import numpy as np
 import warp as wp
@@ -590,3 +591,86 @@ def plot_work_precision(
         fig.suptitle(title, fontsize=9)
     fig.savefig(path, dpi=130, metadata=PNG_METADATA)
     plt.close(fig)
+
+
+def write_record(out: Path, part: str, scene: Scene, source: dict, request, device: str) -> dict:
+    """Run the study ``request`` on ``scene`` and put it into the JSON record ``out`` under ``parts.<part>`` (other
+    parts kept): ``source`` (the command, the scene file and overrides), the date, the device, the reference (its
+    step, estimated error and observed order) and every run's record."""
+    import json
+    import os
+    import platform
+    from datetime import datetime, timezone
+
+    results, reference, every = work_precision(
+        scene,
+        request.methods,
+        request.dts,
+        request.precisions,
+        device=device,
+        events=request.events,
+        reference_factor=request.reference_factor,
+        records=request.records,
+        kernel=request.kernel,
+    )
+    record = json.loads(out.read_text()) if out.exists() else {}
+    record.setdefault("parts", {})[part] = {
+        "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "device": device,
+        "device_name": wp.get_device(device).name,
+        "cpu_count": os.cpu_count(),
+        "platform": platform.platform(),
+        "warp_version": wp.config.version,
+        **source,
+        "record_every": every,
+        "reference": {
+            "method": REFERENCE_METHOD,
+            "dt": reference.dt,
+            "error_estimate": reference.error_estimate,
+            "observed_order": reference.observed_order,
+            "seconds": reference.seconds,
+        },
+        "records": [r.to_dict() for r in results],
+    }
+    out.write_text(json.dumps(record, indent=1, default=float) + "\n")
+    return record["parts"][part]
+
+
+def main(argv: list[str] | None = None) -> None:
+    """``python -m hertzian.studies.accuracy --out FILE --part NAME [SCENE] [--set k=v …] --methods … --dt …
+    [--precision …] [--events …] [--device …]``: a work–precision study (what ``hertzian accuracy`` prints with
+    ``--json``) written into a JSON record with its command, date and device."""
+    import argparse
+    import shlex
+    import sys
+
+    argv = sys.argv[1:] if argv is None else argv
+    parser = argparse.ArgumentParser(description=main.__doc__)
+    parser.add_argument("scene", nargs="?", default=None)
+    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--part", required=True)
+    parser.add_argument("--set", dest="overrides", action="append", default=[])
+    parser.add_argument("--methods", default="gear4,gear5,gear6,verlet")
+    parser.add_argument("--dt", default=None)
+    parser.add_argument("--precision", default=None)
+    parser.add_argument("--events", default=None)
+    parser.add_argument("--device", default="cpu")
+    args = parser.parse_args(argv)
+    from hertzian.core.scene import load_scene, parse_overrides
+    from hertzian.core.shipped import example_path, shipped_file
+
+    scene = load_scene(
+        shipped_file(args.scene) if args.scene else example_path("impact"), parse_overrides(args.overrides)
+    )
+    request = study_request(scene, methods=args.methods, dt=args.dt, precision=args.precision, events=args.events)
+    source = {
+        "command": "python -m hertzian.studies.accuracy " + shlex.join(argv),
+        "scene": args.scene or "built-in example",
+        "overrides": args.overrides,
+    }
+    part = write_record(args.out, args.part, scene, source, request, args.device)
+    print(f"wrote {args.out} → parts.{args.part} ({len(part['records'])} runs)")
+
+
+if __name__ == "__main__":
+    main()

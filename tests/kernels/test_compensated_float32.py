@@ -1,21 +1,18 @@
 """Compensated float32 (kernels/gear.py): the energy and position errors stay near float64's.
 
 The plain float32 update u ← u + Σ x_j loses the increments' low bits every step, so its error
-grows as dt shrinks (docs/stability.md §2: percents at the paper's step). Compensated float32 carries
+grows as dt shrinks. Compensated float32 carries
 u and dt·v as hi + lo pairs and forms the contacts' displacements from them. Here a 100-grain
 precompressed chain (the paper's l0 = 1e-4, v_imp = 1e-2, walls) runs 160 000 steps in float64, in
 plain float32 and in compensated float32, gear4 and Verlet; the claims checked:
 
-* compensated float32's energy error (docs/model.md §5) is ≤ 2e-7 (docs/stability.md claims ≤ 1e-6 on the
-  paper's 1000-grain scene to t = 20; this scene measured 5.9e-8 gear4, 9.5e-8 Verlet, whose own
-  float64 error is 4.6e-8: docs/records/accuracy/float32.json, "small"), and its positions are within 2e-6
-  (relative) of float64's (measured 4.7e-7, 6.7e-7);
-* the plain float32 update is more than 100 times worse in both (it measured 3e-3), so the scene is
-  one where float32's rounding matters and the comparison can fail.
-
-Without the compensated contact displacements (``gap`` from rounded positions) the energy drifts
-linearly in time, 5.9e-7 (gear4) and 6.3e-7 (Verlet) at t = 4 here
-(docs/records/accuracy/float32.json, "small_without_gap"): the 2e-7 bound catches that too.
+* compensated float32's energy error (docs/model.md §5) is ≤ 2e-7 (docs/stability.md, §2b, gives the paper's
+  1000-grain scene to t = 20 from docs/records/accuracy/float32.json), and its positions are within 2e-6
+  (relative) of float64's;
+* the plain float32 update is more than 100 times worse in both, so the scene is one where float32's rounding
+  matters and the comparison can fail.
+Without the compensated contact displacements (``gap`` from rounded positions) the energy drifts linearly in
+time, to about 6e-7 at t = 4 here: the 2e-7 bound catches that too.
 """
 
 from __future__ import annotations

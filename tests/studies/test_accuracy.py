@@ -349,3 +349,42 @@ def test_default_steps_are_the_scenes_and_show_the_orders(tmp_path):
     assert refused.returncode == 2 and refused.stderr.startswith("error: --dt = None: required for a scene run to")
     given = hertzian("accuracy", tolerance, "--methods", "verlet", "--dt", "0.1,0.05", "--device", "cpu", cwd=tmp_path)
     assert given.returncode == 0 and "verlet" in given.stdout, given.stderr
+
+
+def test_a_study_is_written_into_its_record_with_its_command(tmp_path):
+    """python -m hertzian.studies.accuracy: every run of the study under parts.NAME with the command that made it;
+    a second part leaves the first in place. The errors are those hertzian accuracy --json prints."""
+    from hertzian.studies.accuracy import main
+
+    out = tmp_path / "record.json"
+    args = ["--out", str(out), "--set", "chain.grains=12", "--set", "integrator.duration=0.2", "--methods", "verlet"]
+    main([*args, "--part", "a", "--dt", "2e-4,1e-4"])
+    main([*args, "--part", "b", "--dt", "2e-4", "--precision", "both"])
+    parts = json.loads(out.read_text())["parts"]
+    assert [len(parts["a"]["records"]), len(parts["b"]["records"])] == [2, 2]
+    assert parts["a"]["overrides"] == ["chain.grains=12", "integrator.duration=0.2"]
+    command = f"python -m hertzian.studies.accuracy --out {out} --set chain.grains=12 --set integrator.duration=0.2"
+    assert parts["a"]["command"] == f"{command} --methods verlet --part a --dt 2e-4,1e-4"
+    assert parts["a"]["device"] == "cpu"
+    printed = hertzian(
+        "accuracy",
+        "--set",
+        "chain.grains=12",
+        "--set",
+        "integrator.duration=0.2",
+        "--methods",
+        "verlet",
+        "--dt",
+        "2e-4,1e-4",
+        "--json",
+        "--device",
+        "cpu",
+        cwd=tmp_path,
+    )
+    assert printed.returncode == 0, printed.stderr
+    for mine, theirs in zip(parts["a"]["records"], json.loads(printed.stdout)):
+        assert (mine["dt"], mine["error"], mine["energy_error"]) == (
+            theirs["dt"],
+            theirs["error"],
+            theirs["energy_error"],
+        )
