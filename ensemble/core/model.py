@@ -495,6 +495,13 @@ def scene_path_key(scene: Scene) -> str | None:
     return None
 
 
+def refuse_per_scene_only(scene: Scene) -> None:
+    """One line (SceneError) when ``scene`` is one the vectorised chain sets do not build (:func:`scene_path_key`)."""
+    key = scene_path_key(scene)
+    if key is not None:
+        raise SceneError(key, _key_value(scene, key), PER_SCENE_ONLY)
+
+
 def _key_value(scene: Scene, key: str):
     section, name = key.split(".")
     value = getattr(getattr(scene, section), name)
@@ -510,9 +517,7 @@ def prepare_model(chains: ChainSet, *, features: Features | None = None) -> Host
     if len(chains) == 0:
         raise SceneError("scenes", [], "an ensemble needs at least one scene")
     scene = chains.template
-    key = scene_path_key(scene)
-    if key is not None:
-        raise SceneError(key, _key_value(scene, key), PER_SCENE_ONLY)
+    refuse_per_scene_only(scene)
     # Homogeneous chains without gravity carry the same static force on every contact, so their
     # static state (all a uniform or absent static overlap needs) and the Taylor start come from the
     # first grains alone; impurities, radii or gravity need every grain's.

@@ -244,24 +244,12 @@ def detect(
     _check_options(base, block, noise, refine, iterations, window, fit_a, a_ratio_range)
     # every kernel variant the runs below launch, compiled side by side (on a GPU) before the first of them
     prepare_kernels(detect_needs(base), device)
-    base = given_base = bare_base(base)
-    if not dt_given:  # the pulse fronts from a step the ladder starts at, not BASE's default
-        base = base.with_overrides({"integrator.dt": signal.spacing / 2})
-    signal, fronts = _analysed_signal(signal, base, device, window, use_cache)
-    depths = default_depths(fronts, float(signal.t[-1]), base.chain.grains, block, depth_range)
-    given = forward_scene(base, signal.spacing, signal.sample_count).integrator.dt if dt_given else None
-    choice = noise_step(signal, base, fronts, int(depths[0]), noise, device, given=given)
-    if not dt_given:  # with no σ to go by, BASE's step as it is
-        base = given_base if choice is None else base.with_overrides({"integrator.dt": choice.dt})
-    forward = forward_scene(base, signal.spacing, signal.sample_count)
+    signal, fronts, depths, choice, forward = _forward_model(
+        signal, base, noise, device, window, use_cache, dt_given, (block, depth_range)
+    )
     grid = make_grid(depths, mass_ratio_range, mass_steps, block)
     if say is not None:
-        chains = 1 + len(grid.depths) * len(grid.log_mass_ratio)
-        work = chains * forward.chain.grains * forward.step_count
-        say(
-            f"library: {chains} chains of {forward.chain.grains} grains, {forward.step_count} steps each "
-            f"({work:.3g} grain-steps; a cached library loads at once)"
-        )
+        say(_library_line(grid, forward))
     library = build_library(
         forward,
         grid,
@@ -402,6 +390,34 @@ def _analysed_signal(
     if count < 3:
         raise SceneError("--window", f"{end:g}", "leaves fewer than 3 samples")
     return Signal(t=signal.t[:count], v=signal.v[:count], source=signal.source), fronts
+
+
+def _forward_model(
+    signal: Signal, base: Scene, noise, device: str, window, use_cache: bool, dt_given: bool, searched: tuple
+):
+    """(the analysed signal, the pulse fronts, the depths searched, the step choice, the forward scene) of a
+    detection: BASE without its own records (:func:`bare_base`), at its own step or, when it sets none, at the noise
+    rule's. ``searched``: (block, depth range) of the impurities sought."""
+    base = given_base = bare_base(base)
+    if not dt_given:  # the pulse fronts from a step the ladder starts at, not BASE's default
+        base = base.with_overrides({"integrator.dt": signal.spacing / 2})
+    signal, fronts = _analysed_signal(signal, base, device, window, use_cache)
+    depths = default_depths(fronts, float(signal.t[-1]), base.chain.grains, *searched)
+    given = forward_scene(base, signal.spacing, signal.sample_count).integrator.dt if dt_given else None
+    choice = noise_step(signal, base, fronts, int(depths[0]), noise, device, given=given)
+    if not dt_given:  # with no σ to go by, BASE's step as it is
+        base = given_base if choice is None else base.with_overrides({"integrator.dt": choice.dt})
+    return signal, fronts, depths, choice, forward_scene(base, signal.spacing, signal.sample_count)
+
+
+def _library_line(grid: Grid, forward: Scene) -> str:
+    """What a detection says before its library: how many chains, how long, how much work."""
+    chains = 1 + len(grid.depths) * len(grid.log_mass_ratio)
+    work = chains * forward.chain.grains * forward.step_count
+    return (
+        f"library: {chains} chains of {forward.chain.grains} grains, {forward.step_count} steps each "
+        f"({work:.3g} grain-steps; a cached library loads at once)"
+    )
 
 
 def _first_noise(

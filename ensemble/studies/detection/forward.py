@@ -33,7 +33,10 @@ def default_batch_size(device: str) -> int:
 
 
 def check_base(base: Scene) -> None:
-    """BASE must be an impact on a chain without impurities (the host chain)."""
+    """BASE must be an impact on a Hertz chain without impurities (the host chain)."""
+    from hertzian.core.model import refuse_per_scene_only
+
+    refuse_per_scene_only(base)
     if base.impurities:
         raise SceneError("BASE impurities", len(base.impurities), "the host chain must have no impurities")
     if base.boundary.surface == "driven" or not base.excitation.impact > 0:
