@@ -401,6 +401,20 @@ def test_summarize_reads_a_design_store(fixed_length_store):
     assert refused.returncode == 2 and refused.stderr.count("\n") == 1
 
 
+def test_summary_names_the_generation_since_which_the_best_holds(fixed_length_store, tmp_path):
+    """A best reached at generation 1 and kept at 2 (written into a copy of the store): since generation 1."""
+    import shutil
+
+    import zarr
+    from hertzian.studies.design import summary
+
+    store = tmp_path / "d.zarr"
+    shutil.copytree(fixed_length_store, store)
+    zarr.open_group(store, mode="r+")["best_objective"][:, 0] = [0.3, 0.2, 0.2]
+    numbers = summary(store)
+    assert numbers["best"] == {"peak_wall_force": 0.2} and numbers["best_since_generation"] == 1
+
+
 def test_a_design_store_is_checksummed_and_verify_names_a_damaged_generation(fixed_length_store, tmp_path):
     import shutil
 
