@@ -664,9 +664,18 @@ def apply_overrides(data: dict, overrides: dict[str, Any], *, replacing: bool = 
     return data
 
 
+_STARTS = frozenset({"excitation.impact", "excitation.modes", "excitation.thermal"})
+"""Alternatives whose zero or empty value means no start at all: such an override replaces nothing."""
+
+
 def _drop_alternatives(data: dict, overrides: dict[str, Any]) -> None:
-    """Remove from ``data`` the alternative of each key ``overrides`` give a value (not when they give both)."""
-    given = {key for key, value in overrides.items() if value not in (None, 0, 0.0, [], ())}
+    """Remove from ``data`` the alternatives of each key ``overrides`` give a value (not when they give two of one
+    group): any value but None, and for a start a non-zero one (``chain.l0 = 0`` still replaces a load)."""
+    given = {
+        key
+        for key, value in overrides.items()
+        if value is not None and not (key in _STARTS and value in (0, 0.0, [], ()))
+    }
     for dotted in given & ALTERNATIVES.keys():
         if given & set(ALTERNATIVES[dotted]):
             continue  # both given at once: the scene refuses them

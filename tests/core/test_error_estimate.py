@@ -153,6 +153,9 @@ def test_an_overridden_tolerance_or_step_replaces_the_other(tmp_path):
     assert impact.integrator.tolerance == 1e-6  # the file's dt = 5e-5 gave way
     loaded = load_scene(example_path("impact"), {"chain.load": 0.01})
     assert (loaded.chain.load, loaded.chain.l0) == (0.01, 0.0)
+    bare = tmp_path / "bare.toml"
+    bare.write_text("[chain]\ngrains = 10\nload = 0.01\n[integrator]\nduration = 1.0\n")
+    assert load_scene(bare, {"chain.l0": 0.0}).chain.load is None  # no precompression asked: the load gives way
     path = tmp_path / "loaded.toml"
     path.write_text("[chain]\ngrains = 10\nload = 0.01\n[integrator]\nduration = 1.0\ntolerance = 1e-6\n")
     stepped = load_scene(path, {"integrator.dt": 1e-3, "chain.l0": 1e-4})
