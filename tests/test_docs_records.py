@@ -167,14 +167,15 @@ def test_sec6_lag_table_is_its_record():
 
 
 def test_the_cost_table_is_its_record():
-    """reproduction.md's "What each group costs" CPU table against groups_cpu.json, row by row."""
+    """reproduction.md's "What each group costs" CPU table against measurements.json's runs, row by row."""
     table = table_rows("reproduction.md", "| run | chains × grains | steps | device | date |")
     header, rows = table[0], table[1:]
-    groups = record("reproduction/groups_cpu.json")["groups"]
-    assert len(rows) >= 10
+    groups = record("reproduction/measurements.json")["groups"]
+    assert len(rows) == len(groups) == 14
     for row in rows:
         cells = dict(zip(header, row))
-        (run,) = [r for r in groups[cells["run"]]["runs"] if r["name"] == cells["run"]]
+        run = groups[cells["run"]]
+        assert cells["date"] == run["run"]["date"][:10] and cells["record"].endswith(f"`groups.{cells['run']}`")
         chains, grains = (int(x) for x in cells["chains × grains"].split(" × "))
         assert (chains, grains) == (int(run["points"]), int(run["grains"])), cells["run"]
         assert int(cells["steps"].replace(" ", "")) == int(run["steps"]), cells["run"]

@@ -6,7 +6,7 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-from hertzian.cli.app import DeviceOption, app, check_output_file, fail, resolve_device
+from hertzian.cli.app import DeviceOption, app, check_output_file, command_line, fail, resolve_device
 
 FigureOption = Annotated[
     Optional[list[str]],
@@ -62,12 +62,18 @@ MeasureOption = Annotated[
         "--measure",
         help="Instead of figure groups, a measurement with no figure (hertzian.studies.measures): "
         "daggers (every item of docs/records/reproduction/daggers_cpu.json), one of its items, or settle "
-        "(reduces OUT_DIR/tau10.zarr, tau1.zarr and their _half twins); repeatable. Needs --json.",
+        "(reduces OUT_DIR/tau10.zarr, tau1.zarr and their _half twins), or groups (re-measures the figure-group "
+        "stores a reproduction wrote in OUT_DIR, or in OUT_DIR/GROUP each, and writes --json whole: "
+        "docs/records/reproduction/measurements.json); repeatable. Needs --json.",
     ),
 ]
 MeasureRecordOption = Annotated[
     Optional[Path],
-    typer.Option("--json", help="With --measure: the JSON record the items are merged into (created if missing)."),
+    typer.Option(
+        "--json",
+        help="With --measure: the JSON record the items are merged into (created if missing). With figure groups: "
+        "the record of their measurements, written after the runs (as --measure groups writes it).",
+    ),
 ]
 GroupKernelOption = Annotated[
     Optional[str],
@@ -129,8 +135,9 @@ def reproduce(
     if kernel is not None and kernel not in KERNELS:
         fail(f"--kernel = {kernel!r}: one of {', '.join(KERNELS)}")
     dev = resolve_device(device)
-    if measure or record:
-        return _measure(measure or [], record, out_dir, dev)
+    if measure:
+        return _measure(measure, record, out_dir, dev)
+    check_output_file("--json", record)
     if kernel == "chain" and dev != "cpu":
         fail(f"--kernel = 'chain': a CPU kernel; --device = {dev!r}")
     if kernel in ("tile", "window") and dev == "cpu":
@@ -148,6 +155,8 @@ def reproduce(
         say=typer.echo,
     )
     typer.echo(f"wrote {out_dir}/log.json ({len(log['runs'])} runs, {log['total_seconds']:.0f} s)")
+    if record is not None:
+        _write_measurements(record, out_dir)
     if log["figure_failures"]:
         typer.echo(f"error: {log['figure_failures']} figure(s) could not be drawn (see log.json)", err=True)
         raise typer.Exit(1)
@@ -178,9 +187,7 @@ def _measure(names: list[str], record: Path | None, out_dir: Path, device: str) 
 
     from hertzian.studies.measures import DAGGERS, MEASURES, measure_items
 
-    if not names:
-        fail("--json: only with --measure")
-    allowed = ("daggers", *MEASURES)
+    allowed = ("daggers", "groups", *MEASURES)
     for name in names:
         if name not in allowed:
             fail(f"--measure = {name!r}: one of {', '.join(allowed)}")
@@ -188,7 +195,35 @@ def _measure(names: list[str], record: Path | None, out_dir: Path, device: str) 
         fail("--measure: needs --json RECORD (the JSON file the items are written into)")
     if not record.parent.is_dir():
         fail(f"--json = {str(record)!r}: parent directory does not exist")
+    if "groups" in names:
+        return _measure_groups(names, record, out_dir)
     items = [item for name in names for item in (DAGGERS if name == "daggers" else (name,))]
     command = "hertzian " + " ".join(sys.argv[1:])
     measure_items(list(dict.fromkeys(items)), record, out_dir, device, command=command, say=typer.echo)
     typer.echo(f"wrote {record}")
+
+
+def _measure_groups(names: list[str], record: Path, out_dir: Path) -> None:
+    """``--measure groups``: the figure-group stores in ``out_dir`` re-measured into the record ``--json``, whole."""
+    from hertzian.studies.reproduce import group_runs
+
+    if names != ["groups"]:
+        fail("--measure = 'groups': alone (it writes --json whole; the other items are merged into a record)")
+    if not group_runs(out_dir):
+        fail(
+            f"--out-dir = {str(out_dir)!r}: no figure-group stores with their log.json "
+            "(hertzian reproduce --figure GROUP --out-dir writes them)"
+        )
+    check_output_file("--json", record)
+    _write_measurements(record, out_dir)
+
+
+def _write_measurements(record: Path, out_dir: Path) -> None:
+    """The figure-group stores in ``out_dir`` measured into the record ``record`` (hertzian.studies.reproduce)."""
+    import json
+
+    from hertzian.studies.reproduce import measure_stores
+
+    log = measure_stores(out_dir, command=command_line())
+    record.write_text(json.dumps(log, indent=1) + "\n")
+    typer.echo(f"wrote {record} ({len(log['groups'])} figure groups measured)")

@@ -1050,12 +1050,27 @@ FIGURE_FILES = {"depth": "fig6_depth.png"}
 """PNG names in docs/figures/ that differ from the group's name."""
 
 
+def group_runs(root: Path) -> dict[str, tuple[dict[str, Any], dict[str, Any], Path]]:
+    """The figure groups stored under ``root``, as ``hertzian reproduce --out-dir root`` writes them (one
+    ``log.json`` and ``root/<group>.zarr``) or as ``--out-dir root/<group>`` does, one group at a time: for each
+    group (Figs. 9-10 and Sec. VI aside) its reproduction log, its run entry there and its store."""
+    found: dict[str, tuple[dict[str, Any], dict[str, Any], Path]] = {}
+    for folder in (root, *(root / name for name in GROUPS)):
+        if not (folder / "log.json").is_file():
+            continue
+        log = json.loads((folder / "log.json").read_text())
+        for run in log.get("runs", []):
+            name = run.get("name")
+            if name in GROUPS and name not in DRIVEN_GROUPS and (folder / f"{name}.zarr").exists():
+                found[name] = (log, run, folder / f"{name}.zarr")
+    return {name: found[name] for name in GROUPS if name in found}
+
+
 def measure_stores(root: Path, *, figures_dir: Path | None = None, command: str = "") -> dict[str, Any]:
-    """Re-measure every group store under ``root`` (``root/<group>/<group>.zarr`` with its ``log.json``, as
-    ``hertzian reproduce --figure <group> --out-dir root/<group>`` writes them) with the current analysis,
-    and optionally redraw each group's figures into ``figures_dir``. Returns a log: date, command, each
-    group's run (from its log.json: device, date, command, wall seconds) and measurements, and
-    :func:`compare` across groups."""
+    """Re-measure every figure-group store under ``root`` (:func:`group_runs`) with the current analysis, and
+    optionally redraw each group's figures into ``figures_dir``. Returns a log: date, command, each group's run
+    (from its log.json: device, date, command, wall seconds) and measurements, and :func:`compare` across
+    groups."""
     import warp as wp
     from hertzian.plotting.figures import plot_figure
 
@@ -1067,34 +1082,24 @@ def measure_stores(root: Path, *, figures_dir: Path | None = None, command: str 
         "warp_version": wp.config.version,
         "groups": {},
     }
-    for name, group in GROUPS.items():
-        run_log = root / name / "log.json"
-        store = root / name / f"{name}.zarr"
-        if name == "fig9_10" or not run_log.exists() or not store.exists():
-            continue
-        runs = json.loads(run_log.read_text())
-        run = runs["runs"][0]
+    for name, (runs, run, store) in group_runs(root).items():
         entry = {
             "run": {k: runs[k] for k in ("command", "date", "device", "device_name", "cpu_count", "platform")},
-            "points": run["points"],
-            "grains": run["grains"],
-            "steps": run["steps"],
-            "dt": run["dt"],
-            "wall_seconds": run["wall_seconds"],
-            "grain_steps_per_second": run["grain_steps_per_second"],
-            "energy_error_max": run["energy_error_max"],
-            "status_counts": run["status_counts"],
+            **{k: run[k] for k in ("points", "grains", "steps", "dt", "wall_seconds", "grain_steps_per_second")},
+            **{k: run[k] for k in ("energy_error_max", "status_counts")},
         }
         with opened(store) as ds:
             entry["measurements"] = measure(name, ds)
             if figures_dir is not None:
                 entry["figures"] = {}
-                for figure in group.figures:
+                for figure in GROUPS[name].figures:
                     png = figures_dir / (
-                        FIGURE_FILES.get(name, f"{name}.png") if len(group.figures) == 1 else f"{figure}.png"
+                        FIGURE_FILES.get(name, f"{name}.png") if len(GROUPS[name].figures) == 1 else f"{figure}.png"
                     )
                     plot_figure(ds, figure, png)
                     entry["figures"][figure] = f"hertzian plot {store} --figure {figure} --out {png}"
+            else:
+                entry["figures"] = {figure: str(store.parent / png) for figure, png in run.get("figures", {}).items()}
         log["groups"][name] = entry
     log["comparisons"] = compare(root)
     return finite(log)

@@ -56,6 +56,46 @@ def test_quick_group_writes_store_png_and_log(tmp_path):
         assert float(ds.energy_error.max()) == pytest.approx(run["energy_error_max"], rel=0, abs=0)
 
 
+def test_the_measurement_record_of_groups_in_one_folder_or_one_folder_each(tmp_path):
+    """``--json`` after a reproduction writes every group's measurements as the run measured them, and ``--measure
+    groups`` finds the same in a folder per group (docs/records/reproduction/measurements.json's layout)."""
+    flat, record = tmp_path / "flat", tmp_path / "measurements.json"
+    args = ("--quick", "--figure", "fig6", "--figure", "fig3", "--device", "cpu")
+    result = invoke("reproduce", *args, "--out-dir", str(flat), "--json", str(record))
+    assert result.exit_code == 0, result.output
+    found, log = json.loads(record.read_text()), json.loads((flat / "log.json").read_text())
+    assert found["command"].startswith("hertzian ") and set(found["comparisons"]) == {"light_heavy_contrast_at_surface"}
+    assert list(found["groups"]) == ["fig3", "fig6"]
+    for run in log["runs"]:
+        entry = found["groups"][run["name"]]
+        assert entry["measurements"] == run["measurements"] and entry["figures"] == {
+            figure: str(flat / png) for figure, png in run["figures"].items()
+        }
+        assert entry["run"]["command"] == log["command"] and entry["steps"] == run["steps"]
+    for name in ("fig3", "fig6"):
+        (tmp_path / "each" / name).mkdir(parents=True)
+        (flat / f"{name}.zarr").rename(tmp_path / "each" / name / f"{name}.zarr")
+        (tmp_path / "each" / name / "log.json").write_text(
+            json.dumps(log | {"runs": [run for run in log["runs"] if run["name"] == name]})
+        )
+    again = tmp_path / "again.json"
+    result = invoke("reproduce", "--measure", "groups", "--out-dir", str(tmp_path / "each"), "--json", str(again))
+    assert result.exit_code == 0, result.output
+    remeasured = json.loads(again.read_text())
+    assert {n: g["measurements"] for n, g in remeasured["groups"].items()} == {
+        n: g["measurements"] for n, g in found["groups"].items()
+    }
+
+
+def test_the_measurement_record_replaces_only_a_record(tmp_path):
+    mine = tmp_path / "notes.json"
+    mine.write_text('{"my": "notes"}')
+    out = tmp_path / "out"
+    result = invoke("reproduce", "--quick", "--figure", "fig6", "--out-dir", str(out), "--json", str(mine))
+    assert result.exit_code == 2 and "--json = " in result.output and len(result.output.strip().splitlines()) == 1
+    assert mine.read_text() == '{"my": "notes"}' and not out.exists()
+
+
 def test_a_store_read_into_memory_measures_as_its_lazy_reading(tmp_path, monkeypatch):
     """The figures and measurements read a store once into memory (each read of a lazy array decompresses its chunks
     again); a store above the size limit stays lazy. Both give the same measurements."""

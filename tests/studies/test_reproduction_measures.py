@@ -92,9 +92,10 @@ def test_finite_g_pair_differs_only_in_gravity():
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["--measure", "bogus", "--json", "x.json"], "--measure = 'bogus': one of daggers, fig1d_local_slopes"),
+        (["--measure", "bogus", "--json", "x.json"], "--measure = 'bogus': one of daggers, groups, fig1d_local_slopes"),
         (["--measure", "nesterenko"], "--measure: needs --json"),
-        (["--json", "x.json"], "--json: only with --measure"),
+        (["--measure", "groups", "--json", "x.json"], "--out-dir = 'reproduce_out': no figure-group stores"),
+        (["--measure", "groups", "--measure", "fig4", "--json", "x.json"], "--measure = 'groups': alone"),
         (["--measure", "nesterenko", "--json", "no/such/dir/x.json"], "--json = 'no/such/dir/x.json': parent"),
     ],
 )
