@@ -126,13 +126,29 @@ def test_plot_at_an_unknown_axis_lists_the_stores_axes(sweep_stores, tmp_path):
         (lambda s: hz.run([s, "b"], device="cpu"), "scenes = 'list of 2': a Scene or a non-empty list of Scenes"),
         (lambda s: hz.run(3, device="cpu"), "scenes = 'int': a Scene or a non-empty list of Scenes"),
         (lambda s: hz.load_scene(42), "source = 'int': a path, a shipped example's name"),
+        (lambda s: hz.sweep(None), "sweep = 'NoneType': a sweep file's path, a shipped sweep's name or a Sweep"),
+        (lambda s: hz.load_scene("impact", ["chain.grains=5"]), "overrides = \"['chain.grains=5']\": a dict of"),
+        (lambda s: hz.load_scene("impact", {1: 5}), "overrides = '{1: 5}': a dict of dotted scene keys"),
+        (lambda s: hz.load_sweep(None), "sweep file = 'NoneType': a path or a shipped sweep's name"),
+        (lambda s: hz.load_sweep("."), "sweep file = '.': is a folder, not a TOML file"),
+        (lambda s: hz.load_scene("."), "scene file = '.': is a folder, not a TOML file"),
     ],
 )
 def test_python_refusals_are_one_line(call, expected):
     scene = hz.load_scene({"chain": {"grains": 4}, "integrator": {"dt": 1e-4, "duration": 0.01}})
-    with pytest.raises(hz.OptionError) as refused:
+    with pytest.raises((hz.OptionError, hz.SceneError)) as refused:
         call(scene)
     assert str(refused.value).startswith(expected) and "\n" not in str(refused.value)
+
+
+def test_a_binary_file_given_as_a_scene_or_sweep_is_one_line(tmp_path):
+    picture = tmp_path / "figure.png"
+    picture.write_bytes(b"\x89PNG\r\n\x1a\n\xff\xfe")
+    for call, kind in ((hz.load_scene, "scene file"), (hz.load_sweep, "sweep file")):
+        with pytest.raises(hz.SceneError, match=rf"^{kind} = '.*figure.png': is not a text file"):
+            call(picture)
+    result = invoke("run", picture, "--device", "cpu")
+    assert result.exit_code == 2 and "is not a text file" in result.stderr and "Traceback" not in result.output
 
 
 def test_sweep_refusals_are_one_line_and_write_nothing(tmp_path):
@@ -151,6 +167,7 @@ def test_shipped_files_by_bare_name(tmp_path, monkeypatch):
     assert result.exit_code == 0, result.stderr
     assert "points: 9 over v_imp (3) × l0 (3)" in result.stdout
     assert hz.load_scene("impact").chain.grains == 1000
+    assert hz.load_sweep("example").shape == (3, 3)  # the shipped sweep, as hz.sweep and hertzian sweep find it
     assert invoke("sweep", "no_such_sweep.toml", "--dry-run").exit_code == 2
     # the README's path of a shipped sweep works outside the repository too; other folders are not searched
     assert "points: 9 over" in invoke("sweep", "sweeps/example.toml", "--dry-run", "--device", "cpu").stdout

@@ -950,3 +950,40 @@ def test_the_float32_table_is_its_record():
             assert float(cell) == float(f"{value:.1e}"), (method, dt, cell, value)
         assert seconds == f"{f64['seconds']:.2f} / {f32['seconds']:.2f}", (method, dt, seconds)
     assert part["reference"]["dt"] == 3.125e-6 and "dt = 3.125e-6" in (DOCS / "stability.md").read_text()
+
+
+def test_the_time_to_target_table_is_its_record():
+    """docs/stability.md §7: each row against accuracy/frontier.json → target_paper's targets, every target row
+    of the record shown."""
+    part = record("accuracy/frontier.json")["parts"]["target_paper"]
+    targets = {(t["target"], t["method"], t["precision"]): t for t in part["targets"]}
+    table = table_rows("stability.md", "The paper's 1000-grain impact to t = 20")
+    assert len(table) - 1 == len(targets) == 8
+    for target, method, precision, dt, energy_error, seconds in table[1:]:
+        found = targets[(float(target), method, precision)]
+        if dt.startswith("none"):
+            assert found["dt"] is None and energy_error == seconds == "", (target, method, precision)
+            continue
+        assert float(dt) == found["dt"], (target, method, precision)
+        assert float(energy_error) == float(f"{found['energy_error']:.1e}"), (target, method, precision)
+        assert seconds == f"{found['seconds']:.2f}", (target, method, precision)
+
+
+def test_the_step_size_table_on_the_sweeps_speeds_is_its_record():
+    """docs/stability.md §7c: each configuration's energy error at v_imp = 1e-2 and its largest over the 9 sweep
+    speeds, against the spread_* parts of accuracy/frontier.json (one ensemble per configuration)."""
+    parts = record("accuracy/frontier.json")["parts"]
+    rows = {}
+    for name in ("spread_gear4_off", "spread_gear4_events", "spread_gear6_events"):
+        values = parts[name]["values"]
+        assert len(values) == 10 and values[0] == 0.01 and min(values[1:]) == 0.0099 and max(values) == 0.0101
+        for row in parts[name]["rows"]:
+            assert set(row["status"]) == {0}
+            rows[(row["method"], row["events"], row["dt"])] = (row["energy_errors"][0], max(row["energy_errors"][1:]))
+    table = table_rows("stability.md", "**Step sizes** (2-core CPU")
+    assert len(table) == 1 + 6
+    for configuration, at_example, largest, meets in table[1:]:
+        method, events, dt = configuration.split(", ")
+        at, most = rows[(method, events, float(dt))]
+        assert float(at_example) == float(f"{at:.1e}") and float(largest) == float(f"{most:.1e}"), configuration
+        assert meets.strip("*").startswith("yes" if most <= 1e-8 else "no"), configuration

@@ -636,6 +636,10 @@ def apply_overrides(data: dict, overrides: dict[str, Any], *, replacing: bool = 
     overrides of a file) an override of one of :data:`ALTERNATIVES` drops the others."""
     import copy
 
+    if not isinstance(overrides, dict) or not all(isinstance(key, str) for key in overrides):
+        raise SceneError(
+            "overrides", repr(overrides)[:60], "a dict of dotted scene keys to values, e.g. {'chain.grains': 100}"
+        )
     data = copy.deepcopy(data)
     if replacing:
         _drop_alternatives(data, overrides)
@@ -710,12 +714,16 @@ def parse_overrides(items: list[str] | None) -> dict[str, Any]:
 def read_toml(path: str | Path, kind: str = "scene file") -> dict:
     """The parsed TOML file at ``path``; a missing or malformed file is one line naming it as ``kind``."""
     path = Path(path)
+    if path.is_dir():
+        raise SceneError(kind, str(path), "is a folder, not a TOML file")
     if not path.is_file():
         raise SceneError(kind, str(path), "no such file")
     try:
         return tomllib.loads(path.read_text())
     except tomllib.TOMLDecodeError as err:
         raise SceneError(str(path), "…", f"is not valid TOML: {err}") from None
+    except UnicodeDecodeError:
+        raise SceneError(kind, str(path), "is not a text file (a TOML file is UTF-8 text)") from None
 
 
 SWEEP_TABLES = frozenset({"scene", "axis", "zip"})

@@ -593,15 +593,36 @@ def plot_work_precision(
     plt.close(fig)
 
 
-def write_record(out: Path, part: str, scene: Scene, source: dict, request, device: str) -> dict:
-    """Run the study ``request`` on ``scene`` and put it into the JSON record ``out`` under ``parts.<part>`` (other
-    parts kept): ``source`` (the command, the scene file and overrides), the date, the device, the reference (its
-    step, estimated error and observed order) and every run's record."""
-    import json
+def _record_header(device: str, source: dict) -> dict:
     import os
     import platform
     from datetime import datetime, timezone
 
+    return {
+        "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "device": device,
+        "device_name": wp.get_device(device).name,
+        "cpu_count": os.cpu_count(),
+        "platform": platform.platform(),
+        "warp_version": wp.config.version,
+        **source,
+    }
+
+
+def _write_part(out: Path, part: str, value: dict) -> dict:
+    import json
+
+    record = json.loads(out.read_text()) if out.exists() else {}
+    record.setdefault("parts", {})[part] = value
+    out.write_text(json.dumps(record, indent=1, default=float) + "\n")
+    return value
+
+
+def write_record(out: Path, part: str, scene: Scene, source: dict, request, device: str) -> dict:
+    """Run the study ``request`` on ``scene`` and put it into the JSON record ``out`` under ``parts.<part>`` (other
+    parts kept): ``source`` (the command, the scene file and overrides), the date, the device, the reference (its
+    step, estimated error and observed order), every run's record and, for the request's targets, the largest
+    step meeting each (:func:`time_to_target`)."""
     results, reference, every = work_precision(
         scene,
         request.methods,
@@ -613,15 +634,7 @@ def write_record(out: Path, part: str, scene: Scene, source: dict, request, devi
         records=request.records,
         kernel=request.kernel,
     )
-    record = json.loads(out.read_text()) if out.exists() else {}
-    record.setdefault("parts", {})[part] = {
-        "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-        "device": device,
-        "device_name": wp.get_device(device).name,
-        "cpu_count": os.cpu_count(),
-        "platform": platform.platform(),
-        "warp_version": wp.config.version,
-        **source,
+    value = _record_header(device, source) | {
         "record_every": every,
         "reference": {
             "method": REFERENCE_METHOD,
@@ -632,14 +645,53 @@ def write_record(out: Path, part: str, scene: Scene, source: dict, request, devi
         },
         "records": [r.to_dict() for r in results],
     }
-    out.write_text(json.dumps(record, indent=1, default=float) + "\n")
-    return record["parts"][part]
+    if request.targets:
+        value["targets"] = [t.to_dict() for t in time_to_target(results, request.targets, request.measure)]
+    return _write_part(out, part, value)
+
+
+def parse_across(text: str) -> tuple[str, list[float]]:
+    """'excitation.impact=0.0099,0.01' → ('excitation.impact', [0.0099, 0.01]): a scene key and its values."""
+    key, _, values = text.partition("=")
+    try:
+        numbers = [float(v) for v in values.split(",")]
+    except ValueError:
+        numbers = []
+    if not key.strip() or not numbers or not all(math.isfinite(v) for v in numbers):
+        raise SceneError("--across", text, "KEY=V1,V2,… (a scene key and numbers)")
+    return key.strip(), numbers
+
+
+def energy_across(scene: Scene, key: str, values: list[float], request, device: str) -> list[dict]:
+    """The energy error of ``scene`` at each of ``values`` of ``key``, per (events, precision, method, dt) of
+    ``request``: one ensemble of len(values) chains per configuration (no reference, no position error). Only
+    the energy is recorded, every record.every of the scene (which sets how often the energy is checked)."""
+    kernel = request.kernel or study_kernel(scene, device)
+    rows = []
+    for events in request.events:
+        for precision in request.precisions:
+            for method in request.methods:
+                for dt in request.dts:
+                    change = {"integrator.method": method, "integrator.dt": dt, "integrator.tolerance": None}
+                    change |= {"integrator.precision": precision, "integrator.events": events}
+                    change |= {"record.fields": [], "record.traces": [], "record.trace_every": None}
+                    scenes = [scene.with_overrides(change | {key: value}) for value in values]
+                    init_warp()
+                    result = Runner(build_model(scenes, device), kernel=kernel).run()
+                    rows.append(
+                        {"method": method, "events": events, "precision": precision, "dt": dt}
+                        | {"energy_errors": result.energy_error.tolist(), "status": result.status.tolist()}
+                        | {"seconds": float(result.wall_seconds), "kernel": result.kernel}
+                    )
+    return rows
 
 
 def main(argv: list[str] | None = None) -> None:
     """``python -m hertzian.studies.accuracy --out FILE --part NAME [SCENE] [--set k=v …] --methods … --dt …
-    [--precision …] [--events …] [--device …]``: a work–precision study (what ``hertzian accuracy`` prints with
-    ``--json``) written into a JSON record with its command, date and device."""
+    [--precision …] [--events …] [--target …] [--measure …] [--device …]``: a work–precision study (what
+    ``hertzian accuracy`` prints with ``--json``) written into a JSON record with its command, date and device.
+    With ``--across KEY=V1,V2,…``: instead, each configuration's energy error at every value of KEY
+    (:func:`energy_across`)."""
     import argparse
     import shlex
     import sys
@@ -654,6 +706,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--dt", default=None)
     parser.add_argument("--precision", default=None)
     parser.add_argument("--events", default=None)
+    parser.add_argument("--target", action="append", default=[])
+    parser.add_argument("--measure", default="energy")
+    parser.add_argument("--across", default=None)
     parser.add_argument("--device", default="cpu")
     args = parser.parse_args(argv)
     from hertzian.core.scene import load_scene, parse_overrides
@@ -662,15 +717,36 @@ def main(argv: list[str] | None = None) -> None:
     scene = load_scene(
         shipped_file(args.scene) if args.scene else example_path("impact"), parse_overrides(args.overrides)
     )
-    request = study_request(scene, methods=args.methods, dt=args.dt, precision=args.precision, events=args.events)
+    request = study_request(
+        scene,
+        methods=args.methods,
+        dt=args.dt,
+        precision=args.precision,
+        events=args.events,
+        targets=args.target,
+        measure=args.measure,
+    )
     source = {
         "command": "python -m hertzian.studies.accuracy " + shlex.join(argv),
         "scene": args.scene or "built-in example",
         "overrides": args.overrides,
     }
+    if args.across is not None:
+        key, values = parse_across(args.across)
+        rows = energy_across(scene, key, values, request, args.device)
+        _write_part(
+            args.out, args.part, _record_header(args.device, source) | {"key": key, "values": values, "rows": rows}
+        )
+        print(f"wrote {args.out} → parts.{args.part} ({len(rows)} configurations × {len(values)} values)")
+        return
     part = write_record(args.out, args.part, scene, source, request, args.device)
     print(f"wrote {args.out} → parts.{args.part} ({len(part['records'])} runs)")
 
 
 if __name__ == "__main__":
-    main()
+    import sys
+
+    try:
+        main()
+    except SceneError as err:
+        sys.exit(f"error: {err}")

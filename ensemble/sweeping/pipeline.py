@@ -114,8 +114,10 @@ def load_points(sweep, overrides, *, allow_large: bool, timing: dict) -> tuple[S
         if overrides:
             raise OptionError("overrides", overrides, "apply overrides to a sweep file, not to a loaded Sweep")
         definition = sweep
-    else:
+    elif isinstance(sweep, (str, Path)):
         definition = load_sweep(shipped_file(sweep), overrides, max_points=None if allow_large else MAX_POINTS)
+    else:
+        raise OptionError("sweep", type(sweep).__name__, "a sweep file's path, a shipped sweep's name or a Sweep")
     timing["load"] = time.perf_counter() - clock
     clock = time.perf_counter()
     points = expand(definition)

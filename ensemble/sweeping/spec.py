@@ -37,6 +37,7 @@ from hertzian.core.scene import (
     refuse_other_kind,
     scene_from_dict,
 )
+from hertzian.core.shipped import shipped_file
 
 AXIS_KEYS = ("name", "key", "values", "linspace", "logspace")
 SPACINGS = ("values", "linspace", "logspace")
@@ -423,11 +424,12 @@ def sweep_from_dict(
 def load_sweep(
     path: str | Path, overrides: dict[str, Any] | None = None, *, max_points: int | None = MAX_POINTS
 ) -> Sweep:
-    """Read and validate a sweep file (the points' scenes are checked by :func:`sweep_scenes`)."""
-    path = Path(path)
-    if not path.is_file():
-        raise SceneError("sweep file", str(path), "no such file")
-    data = read_toml(path)
+    """Read and validate a sweep file, or the shipped sweep of that name (the points' scenes are checked by
+    :func:`sweep_scenes`)."""
+    if not isinstance(path, (str, Path)):
+        raise SceneError("sweep file", type(path).__name__, "a path or a shipped sweep's name")
+    path = shipped_file(path)
+    data = read_toml(path, "sweep file")
     refuse_other_kind(data, path, "sweep")
     return sweep_from_dict(data, base_dir=path.parent, overrides=overrides, source=str(path), max_points=max_points)
 

@@ -358,13 +358,13 @@ def test_a_study_is_written_into_its_record_with_its_command(tmp_path):
 
     out = tmp_path / "record.json"
     args = ["--out", str(out), "--set", "chain.grains=12", "--set", "integrator.duration=0.2", "--methods", "verlet"]
-    main([*args, "--part", "a", "--dt", "2e-4,1e-4"])
+    main([*args, "--part", "a", "--dt", "2e-4,1e-4", "--target", "1,1e-300"])
     main([*args, "--part", "b", "--dt", "2e-4", "--precision", "both"])
     parts = json.loads(out.read_text())["parts"]
     assert [len(parts["a"]["records"]), len(parts["b"]["records"])] == [2, 2]
     assert parts["a"]["overrides"] == ["chain.grains=12", "integrator.duration=0.2"]
     command = f"python -m hertzian.studies.accuracy --out {out} --set chain.grains=12 --set integrator.duration=0.2"
-    assert parts["a"]["command"] == f"{command} --methods verlet --part a --dt 2e-4,1e-4"
+    assert parts["a"]["command"] == f"{command} --methods verlet --part a --dt 2e-4,1e-4 --target 1,1e-300"
     assert parts["a"]["device"] == "cpu"
     printed = hertzian(
         "accuracy",
@@ -376,15 +376,50 @@ def test_a_study_is_written_into_its_record_with_its_command(tmp_path):
         "verlet",
         "--dt",
         "2e-4,1e-4",
+        "--target",
+        "1,1e-300",
         "--json",
         "--device",
         "cpu",
         cwd=tmp_path,
     )
     assert printed.returncode == 0, printed.stderr
-    for mine, theirs in zip(parts["a"]["records"], json.loads(printed.stdout)):
+    study = json.loads(printed.stdout)
+    for mine, theirs in zip(parts["a"]["records"], study["records"], strict=True):
         assert (mine["dt"], mine["error"], mine["energy_error"]) == (
             theirs["dt"],
             theirs["error"],
             theirs["energy_error"],
         )
+    keys = ("target", "method", "dt", "energy_error")
+    assert [[t[k] for k in keys] for t in parts["a"]["targets"]] == [[t[k] for k in keys] for t in study["targets"]]
+    assert [t["dt"] for t in parts["a"]["targets"]] == [2e-4, None] and "targets" not in parts["b"]
+
+
+def test_energy_errors_across_a_key_are_those_of_each_chain_run_alone(tmp_path):
+    """--across KEY=V1,V2: per configuration, the energy error at each value (one ensemble), equal to the same
+    chain's run on its own; the values keep their order."""
+    from hertzian.core.model import build_model
+    from hertzian.core.runner import Runner
+    from hertzian.core.scene import load_scene, parse_overrides
+    from hertzian.core.shipped import example_path
+    from hertzian.studies.accuracy import main
+
+    out = tmp_path / "record.json"
+    sets = ["chain.grains=16", "integrator.duration=0.5"]
+    main(
+        ["--out", str(out), "--part", "p", *(f"--set={s}" for s in sets), "--methods", "gear4,verlet"]
+        + ["--dt", "2e-3,1e-3", "--events", "off", "--across", "excitation.impact=0.02,0.01,0.03"]
+    )
+    part = json.loads(out.read_text())["parts"]["p"]
+    assert part["key"] == "excitation.impact" and part["values"] == [0.02, 0.01, 0.03] and len(part["rows"]) == 4
+    scene = load_scene(example_path("impact"), parse_overrides(sets))
+    for row in part["rows"]:
+        for value, energy_error in zip(part["values"], row["energy_errors"], strict=True):
+            alone = scene.with_overrides(
+                {"integrator.method": row["method"], "integrator.dt": row["dt"], "integrator.events": "off"}
+                | {"excitation.impact": value, "record.fields": [], "record.traces": [], "record.trace_every": None}
+            )
+            result = Runner(build_model([alone], "cpu"), kernel=row["kernel"]).run()
+            assert float(result.energy_error[0]) == energy_error, (row["method"], row["dt"], value)
+            assert energy_error > 0
