@@ -447,7 +447,9 @@ def client_security(scheduler: str, tls: TlsFiles | None):
 
 class ClusterStart:
     """The workers of a sweep: a local cluster starting in a background thread (``workers``), or an existing
-    one reached at ``scheduler``. ``worker_count`` is known at once; :meth:`client` waits for the start."""
+    one reached at ``scheduler``. ``worker_count`` is known at once; :meth:`client` waits for the start. The
+    client is never the process's default Dask scheduler: the sweep submits to it by name, and a computation of
+    the caller's (an xarray ``load`` of a store, say) must not be sent to workers that the sweep then closes."""
 
     def __init__(
         self,
@@ -466,7 +468,7 @@ class ClusterStart:
 
             security = client_security(scheduler, tls)
             try:
-                self._client = Client(scheduler, timeout="15s", security=security)
+                self._client = Client(scheduler, timeout="15s", security=security, set_as_default=False)
             except Exception as err:  # noqa: BLE001 (a peer that is not a Dask scheduler may fail the handshake anyhow)
                 raise ClusterError(f"cannot connect ({type(err).__name__}: {err})") from None
             self.worker_count = max(1, len(self._client.scheduler_info(n_workers=-1)["workers"]))
@@ -482,7 +484,7 @@ class ClusterStart:
             from distributed import Client
 
             self._cluster = self._starting.result()
-            self._client = Client(self._cluster)
+            self._client = Client(self._cluster, set_as_default=False)
         return self._client
 
     def close(self) -> None:
@@ -531,7 +533,7 @@ def run_distributed(
         for job in jobs
     }
     failed = []
-    for future in as_completed(futures):
+    for future in as_completed(futures, loop=client.loop):  # the client is not the default (ClusterStart)
         job = futures[future]
         if future.status == "error":
             err = future.exception()

@@ -2,7 +2,8 @@
 serial run; each worker writes its own batches."""
 
 import distributed  # a hard dependency (dask[distributed]): a missing one must fail, not skip
-from hertzian.sweeping.distributed import worker_device
+import pytest
+from hertzian.sweeping.distributed import ClusterStart, worker_device
 from hertzian.sweeping.sweep_store import batch_records, differing_arrays
 
 from tests.helpers import invoke
@@ -59,6 +60,19 @@ def test_two_workers_write_one_store_equal_to_the_serial_run(tmp_path):
     result = invoke("sweep", str(sweep), "--out", str(local), "--workers", "2", *flags)
     assert result.exit_code == 0 and "on 2 local Dask workers" in result.stdout, result.stderr
     assert differing_arrays(local, serial) == []
+
+
+def test_the_sweeps_client_is_not_the_processs_default_scheduler():
+    """A sweep's client, to a scheduler or to its own workers, leaves dask's default alone: a store loaded by the
+    caller meanwhile or later is not computed on workers the sweep closes (it would wait for them forever)."""
+    with distributed.LocalCluster(n_workers=1, processes=False, dashboard_address=None) as cluster:
+        for start in (ClusterStart(scheduler=cluster.scheduler_address), ClusterStart(workers=1, gpus=[])):
+            try:
+                assert start.client().scheduler_info()["workers"]
+                with pytest.raises(ValueError, match="No clients found"):
+                    distributed.default_client()
+            finally:
+                start.close()
 
 
 def test_workers_pick_their_own_gpu():
