@@ -987,3 +987,59 @@ def test_the_step_size_table_on_the_sweeps_speeds_is_its_record():
         at, most = rows[(method, events, float(dt))]
         assert float(at_example) == float(f"{at:.1e}") and float(largest) == float(f"{most:.1e}"), configuration
         assert meets.strip("*").startswith("yes" if most <= 1e-8 else "no"), configuration
+
+
+def test_the_composed_methods_table_is_its_record():
+    """docs/stability.md §2c: each method's largest step meeting each target and that run's seconds, against
+    accuracy/composed.json → example and smooth; and the smooth chain's yoshida4 slope the text quotes."""
+    import numpy as np
+
+    parts = record("accuracy/composed.json")["parts"]
+    table = table_rows("stability.md", "| scene | target | gear4 (events auto) | verlet | yoshida4 |")
+    assert len(table) == 1 + 4
+    for scene, target, *cells in table[1:]:
+        part = parts["example" if scene.startswith("built-in example") else "smooth"]
+        found = {t["method"]: t for t in part["targets"] if t["target"] == float(target) and t["events"] == "auto"}
+        for method, cell in zip(("gear4", "verlet", "yoshida4"), cells, strict=True):
+            best = found[method]
+            if cell.startswith("none"):
+                smallest = min(r["dt"] for r in part["records"])
+                assert best["dt"] is None and float(cell.removeprefix("none (≥ ").rstrip(")")) == smallest, cell
+                continue
+            dt, seconds = cell.strip("*").removesuffix(" s").split(": ")
+            assert (float(dt), seconds) == (best["dt"], f"{best['seconds']:.2f}"), (scene, target, method, cell)
+    runs = [r for r in parts["smooth"]["records"] if r["method"] == "yoshida4"]
+    slope = np.polyfit(np.log([r["dt"] for r in runs]), np.log([r["error"] for r in runs]), 1)[0]
+    assert f"position error has slope {slope:.2f} in dt" in (DOCS / "stability.md").read_text()
+
+
+def test_the_event_steps_table_is_its_record():
+    """docs/stability.md §6b: every error (and its reference-limited mark) against accuracy/events.json, and the
+    20-grain slopes the text quotes (least squares over the three steps)."""
+    import numpy as np
+
+    parts = record("accuracy/events.json")["parts"]
+    table = table_rows("stability.md", "| scene | events | dt = 4e-4 | 2e-4 | 1e-4 | 5e-5 |")
+    assert len(table) == 1 + 7
+    names = {"wall": "wall", "wall, `--set boundary.surface=load` (no wall)": "wall_load"}
+    names |= {"l0_zero, duration 8": "l0_zero", "l0_zero, duration 2": "l0_zero_duration2"}
+    for scene, events, *cells in table[1:]:
+        part = parts[names.get(scene, names.get(scene.split(" (")[0]))]
+        runs = {r["dt"]: r for r in part["records"] if r["events"] == events}
+        for dt, cell in zip((4e-4, 2e-4, 1e-4, 5e-5), cells, strict=True):
+            run = runs[dt]
+            assert float(cell.rstrip("*\\")) == float(f"{run['error']:.1e}"), (scene, events, dt, cell)
+            assert cell.endswith("\\*") == run["reference_limited"], (scene, events, dt, cell)
+    text = " ".join((DOCS / "stability.md").read_text().split())
+    slopes = {}
+    for events in ("auto", "off"):
+        for method in ("gear4", "gear5", "gear6"):
+            runs = [r for r in parts["l0_zero_20grains"]["records"] if (r["method"], r["events"]) == (method, events)]
+            slopes[(method, events)] = np.polyfit(
+                np.log([r["dt"] for r in runs]), np.log([r["error"] for r in runs]), 1
+            )[0]
+    on, off = ([f"{slopes[(m, e)]:.2f}" for m in ("gear4", "gear5", "gear6")] for e in ("auto", "off"))
+    assert (
+        f"slopes are {on[0]} (gear4), {on[1]} (gear5) and {on[2]} (gear6) against {off[0]}, {off[1]} and {off[2]}"
+        in text
+    )
