@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-from hertzian.cli.app import DeviceOption, SetOption, app, fail, resolve_device
+from hertzian.cli.app import DeviceOption, SetOption, app, check_output_file, command_line, fail, resolve_device
 
 
 def _counts(text: str, flag: str, *, least: int = 1, example: str = "16384,1") -> list[int]:
@@ -150,6 +150,15 @@ def bench(
             "every finished run).",
         ),
     ] = None,
+    record: Annotated[
+        Optional[Path],
+        typer.Option(
+            "--record",
+            help="Also add this run (command, date, device and the --json records) to the JSON record FILE, under "
+            "parts.PART.runs (FILE created if missing; other parts and runs kept).",
+        ),
+    ] = None,
+    part: Annotated[str, typer.Option("--part", help="With --record: the part the run is added to.")] = "bench",
 ):
     """Grain-steps per second of every implementation, gear4 float64, the paper's chain (program units).
 
@@ -159,11 +168,12 @@ def bench(
     """
     from hertzian.studies.bench import KERNEL_CHOICES, LAWS, run_bench
 
+    keep = _keeper(record, part, scale_out is not None)
     if scale_out is not None:
         _scale_out(scale_out, sweep, device, set_, as_json, weak=scale_weak, budget=scale_budget, path=scale_json)
         return
     if scene is not None or sweep is not None:
-        _end_to_end(scene, sweep, device, kernel, cold, set_, as_json)
+        _end_to_end(scene, sweep, device, kernel, cold, set_, as_json, keep)
         return
     sizes = _sizes(chains, grains)
     if law not in LAWS:
@@ -186,13 +196,40 @@ def bench(
     except RuntimeError as err:
         typer.echo(f"error: {err}", err=True)
         raise typer.Exit(1)
+    keep(records, dev)
     if as_json:
         typer.echo(json.dumps(records, indent=1))
         return
     _print_table(records, dev)
 
 
-def _end_to_end(scene: Path | None, sweep: Path | None, device, kernel: str, cold: bool, set_, as_json: bool) -> None:
+def _keeper(path: Path | None, part: str, scale_out: bool):
+    """``--record``/``--part``, checked (exit 2) before anything runs: a function that adds a run's records to the
+    record file (nothing without ``--record``)."""
+    if path is None:
+        return lambda records, device: None
+    if scale_out:
+        fail(f"--record = {str(path)!r}: not with --scale-out (its record is --scale-json)")
+    if not part.strip():
+        fail(f"--part = {part!r}: a name")
+    check_output_file("--record", path)
+
+    def keep(records: list[dict], device: str) -> None:
+        from datetime import datetime, timezone
+
+        import warp as wp
+        from hertzian.core.outputs import add_run
+
+        run = {"command": command_line(), "date": datetime.now(timezone.utc).isoformat(timespec="seconds")}
+        run |= {"device": device, "device_name": wp.get_device(device).name, "cpu_count": os.cpu_count()}
+        add_run(path, part, run | {"warp_version": wp.config.version, "records": records})
+
+    return keep
+
+
+def _end_to_end(
+    scene: Path | None, sweep: Path | None, device, kernel: str, cold: bool, set_, as_json: bool, keep
+) -> None:
     """``--scene`` / ``--sweep``: one whole run or sweep, split into build/compile/kernel/record/store seconds."""
     from hertzian.core.scene import SceneError, parse_overrides
     from hertzian.core.solvers import KERNELS
@@ -231,6 +268,7 @@ def _end_to_end(scene: Path | None, sweep: Path | None, device, kernel: str, col
     except ValueError as err:  # a forced kernel that cannot run these features here
         fail(f"--kernel = {kernel!r}: {str(err).split(': ', 1)[-1]}")
     record["cold"] = cold
+    keep([record], dev)
     for note in record["notes"]:
         typer.echo(f"note: {note}", err=True)
     if as_json:

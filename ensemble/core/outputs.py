@@ -55,9 +55,34 @@ def written_by_hertzian(path: str | Path) -> bool:
     if suffix == ".png":
         return (png_software(path) or "").startswith("hertzian")
     if suffix == ".json":
-        command = json_command(path) or ""
-        return command.startswith(("hertzian ", "python -m hertzian"))
+        return all(command.startswith(("hertzian ", "python -m hertzian")) for command in json_commands(path) or [""])
     return False
+
+
+def json_commands(path: str | Path) -> list[str]:
+    """The commands that wrote the JSON record at ``path``: its top-level ``command``, or every ``command`` of its
+    ``parts`` (a record whose parts were each written by one command), or of their ``runs``."""
+    command = json_command(path)
+    if command is not None:
+        return [command]
+    try:
+        parts = json.loads(Path(path).read_text()).get("parts")
+    except (OSError, ValueError, AttributeError):
+        return []
+    if not isinstance(parts, dict) or not parts:
+        return []
+    runs = [run for part in parts.values() if isinstance(part, dict) for run in part.get("runs", [part])]
+    commands = [run.get("command") if isinstance(run, dict) else None for run in runs]
+    return [c if isinstance(c, str) else "" for c in commands]
+
+
+def add_run(path: str | Path, part: str, run: dict) -> None:
+    """Append ``run`` (its command, date, device and records) to ``parts.<part>.runs`` of the JSON record at
+    ``path``, created if missing; the record's other parts and runs are kept."""
+    path = Path(path)
+    record = json.loads(path.read_text()) if path.exists() else {}
+    record.setdefault("parts", {}).setdefault(part, {}).setdefault("runs", []).append(run)
+    path.write_text(json.dumps(record, indent=1, default=float) + "\n")
 
 
 def why_not_replaceable(path: str | Path) -> str | None:

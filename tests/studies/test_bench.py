@@ -180,3 +180,28 @@ def test_bench_all_on_a_gpu_measures_the_rule_s_shape_beside_the_fastest(tmp_pat
     (tmp_path / "calibration.json").write_text(json.dumps({calibrate._cache_key(model): tuned.to_dict()}))
     assert calibrate.choose_config(model, "auto") == tuned
     assert bench_config(model, "rule", None, None) == rule
+
+
+def test_a_bench_run_is_added_to_its_record(tmp_path):
+    """--record FILE --part NAME: each run's --json records, with its command, date and device, under
+    parts.NAME.runs; a second run adds to the part, another part is kept; a user's file is refused, untouched."""
+    path, scene = tmp_path / "bench.json", tmp_path / "tiny.toml"
+    scene.write_text("[chain]\ngrains = 12\n[integrator]\ndt = 5e-4\nduration = 0.05\n[record]\nevery = 0.05\n")
+    kernels = ("bench", "--device", "cpu", "--chains", "2", "--grains", "30", "--steps", "10", "--repeats", "1")
+    printed = []
+    for args in ((*kernels, "--part", "kernels"), ("bench", "--scene", str(scene), "--device", "cpu", "--part", "e2e")):
+        for _ in range(1 if "kernels" in args else 2):
+            result = invoke(*args, "--json", "--record", str(path))
+            assert result.exit_code == 0, result.output
+            printed.append(json.loads(result.stdout))
+    parts = json.loads(path.read_text())["parts"]
+    runs = parts["kernels"]["runs"] + parts["e2e"]["runs"]
+    assert [len(parts["kernels"]["runs"]), len(parts["e2e"]["runs"])] == [1, 2]
+    assert [run["records"] for run in runs] == printed
+    assert all(run["command"].startswith("hertzian ") and run["device"] == "cpu" for run in runs)
+    mine = tmp_path / "mine.json"
+    mine.write_text('{"a": 1}')
+    result = invoke(*kernels, "--record", str(mine))
+    assert result.exit_code == 2 and "--record = " in result.output and mine.read_text() == '{"a": 1}'
+    result = invoke("bench", "--scale-out", "1", "--record", str(path))
+    assert result.exit_code == 2 and "not with --scale-out" in result.output
