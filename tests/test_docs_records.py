@@ -1043,3 +1043,36 @@ def test_the_event_steps_table_is_its_record():
         f"slopes are {on[0]} (gear4), {on[1]} (gear5) and {on[2]} (gear6) against {off[0]}, {off[1]} and {off[2]}"
         in text
     )
+
+
+def test_the_cpu_benchmark_rows_are_their_record():
+    """docs/benchmarks.md's CPU rows against bench/cpu.json: the kernel table's rates and ratio to JAX, and each
+    end-to-end scene's range of seconds over the rounds, its range of rate against the impact's, its median rate."""
+    import statistics
+
+    parts = record("bench/cpu.json")["parts"]
+    kernels = {(r["implementation"], r["chains"]): r for r in parts["kernels"]["runs"][0]["records"]}
+    lines = (DOCS / "benchmarks.md").read_text().splitlines()
+    for chains in (64, 1):
+        (line,) = [line for line in lines if line.startswith(f"| {chains} × 1000 | CPU")]
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        chain, jax = kernels[("warp-chain", chains)], kernels[("jax", chains)]
+        assert float(cells[3]) == float(f"{chain['grain_steps_per_second']:.2e}"), cells
+        assert float(cells[4]) == float(f"{chain['steps_per_second']:.2e}"), cells
+        assert float(cells[6]) == float(f"{jax['grain_steps_per_second']:.2e}"), cells
+        assert cells[7] == f"{chain['grain_steps_per_second'] / jax['grain_steps_per_second']:.2f}×", cells
+    rounds: dict[str, list[dict]] = {}
+    for run in parts["endtoend"]["runs"]:
+        (found,) = run["records"]
+        rounds.setdefault(found["workload"], []).append(found)
+    impact = [r["seconds"]["total"] for r in rounds["docs/scenes/impact_1000.toml"]]
+    for workload, runs in rounds.items():
+        (line,) = [line for line in lines if line.startswith(f"| `{workload}`, 2·10⁵ steps | CPU")]
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        seconds = [r["seconds"]["total"] for r in runs]
+        assert len(runs) == 3 and cells[3].startswith(f"{min(seconds):.2f}–{max(seconds):.2f} s"), cells
+        if workload != "docs/scenes/impact_1000.toml":
+            ratios = [a / b for a, b in zip(impact, seconds, strict=True)]
+            assert f"({min(ratios):.2f}–{max(ratios):.2f}" in cells[3], cells
+        rate = statistics.median(r["grain_steps_per_second"] for r in runs)
+        assert float(cells[4].removesuffix(" GS/s")) == float(f"{rate:.1e}"), cells
