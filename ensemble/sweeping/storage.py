@@ -268,6 +268,10 @@ def check_out(
 
     out = Path(out)
     if out.exists() and not (resume or overwrite):
+        try:
+            check_replaceable(out)
+        except RefusedError as err:  # neither option applies to it: say why, not which option to pass
+            raise OptionError("out", str(out), f"exists and {str(err).removeprefix(f'{out.resolve()} ')}") from None
         raise OptionError("out", str(out), f"exists; {hint}")
     why = check_writable_folder(out)
     if why:

@@ -144,11 +144,19 @@ def test_bad_flags(tmp_path, flags, expected):
 
 
 def test_existing_store_needs_resume_or_overwrite(tmp_path):
-    out = tmp_path / "o.zarr"
-    out.mkdir()
-    result = sweep_cli(write_sweep(tmp_path), "--out", out)
+    """A store of the project's: resume or overwrite it. A user's folder: neither option is offered, since neither
+    applies (the folder is left as it is)."""
+    out, sweep = tmp_path / "o.zarr", write_sweep(tmp_path)
+    assert sweep_cli(sweep, "--out", out, "--device", "cpu", "--quiet").exit_code == 0
+    result = sweep_cli(sweep, "--out", out)
     assert result.exit_code == 2 and "exists; resume to continue it or overwrite to replace it" in result.stderr
-    assert list(out.iterdir()) == []
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("mine")
+    result = sweep_cli(sweep, "--out", mine)
+    assert result.exit_code == 2 and "exists and is not a hertzian store" in result.stderr, result.stderr
+    assert "resume to continue" not in result.stderr and len(result.stderr.strip().splitlines()) == 1
+    assert [p.name for p in mine.iterdir()] == ["notes.txt"]
 
 
 def test_dry_run_prints_the_plan_and_writes_nothing(tmp_path):
