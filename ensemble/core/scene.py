@@ -704,9 +704,9 @@ def parse_overrides(items: list[str] | None) -> dict[str, Any]:
     """``["chain.l0=1e-4", …]`` → ``{"chain.l0": 1e-4, …}``."""
     out = {}
     for item in items or []:
-        if "=" not in item:
+        key, sep, text = item.partition("=")
+        if not sep or not key.strip():
             raise SceneError("--set", item, "must be written key=value, e.g. chain.l0=1e-4")
-        key, text = item.split("=", 1)
         out[key.strip()] = parse_value(text.strip())
     return out
 

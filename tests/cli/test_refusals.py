@@ -40,6 +40,8 @@ REFUSED = [
     ("excitation.impact=1e200", "excitation.impact = 1e+200: too large"),
     ("integrator.dt=1e-320", "integrator.duration = 0.01: needs inf steps"),
     ("record.every=0.0001", "record.every = 0.0001: must be ≥ integrator.dt"),
+    ("=5", "--set = '=5': must be written key=value"),
+    (" =5", "--set = ' =5': must be written key=value"),
 ]
 
 
