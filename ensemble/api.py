@@ -18,7 +18,7 @@ from hertzian.core import runner as core_runner
 from hertzian.core import timeline
 from hertzian.core.check import memory_refusal
 from hertzian.core.devices import check_device
-from hertzian.core.errors import OptionError, RefusedError
+from hertzian.core.errors import OptionError, RefusedError, check_path
 from hertzian.core.model import build_model
 from hertzian.core.runner import Runner
 from hertzian.core.scene import Scene, SceneError, apply_overrides, scene_from_dict
@@ -191,6 +191,8 @@ def design(
     from hertzian.studies.design import load_design, optimise
     from hertzian.sweeping.storage import check_out
 
+    check_path("path", path)
+    check_path("out", out)
     scene, spec = load_design(shipped_file(path), overrides, scene_overrides)
     check_out(out, overwrite=overwrite, resume=resume)
     return optimise(scene, spec, out, device=check_device(device), resume=resume)
@@ -202,6 +204,7 @@ def open_store(path: str | Path):
     FileNotFoundError or ValueError (one line) for anything else, StoreDamagedError for a damaged store."""
     from hertzian.studies.design_store import design_dataset, is_design_store
 
+    check_path("path", path)
     if is_design_store(path):
         return design_dataset(path)
     from hertzian.sweeping.store import open_dataset

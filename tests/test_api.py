@@ -132,13 +132,22 @@ def test_plot_at_an_unknown_axis_lists_the_stores_axes(sweep_stores, tmp_path):
         (lambda s: hz.load_sweep(None), "sweep file = 'NoneType': a path or a shipped sweep's name"),
         (lambda s: hz.load_sweep("."), "sweep file = '.': is a folder, not a TOML file"),
         (lambda s: hz.load_scene("."), "scene file = '.': is a folder, not a TOML file"),
+        (lambda s: hz.open_store(None), "path = 'NoneType': a path (a str or a pathlib.Path)"),
+        (lambda s: hz.design("protector", out=3), "out = 'int': a path (a str or a pathlib.Path)"),
+        (lambda s: hz.design(None, out="d.zarr"), "path = 'NoneType': a path"),
+        (lambda s: hz.sweep("example", out=5), "out = 'int': a path"),
+        (lambda s: hz.sweep("example", "e.zarr", progress=5), "progress = 'int': a SweepProgress or a function"),
+        (lambda s: hz.sweep("example", "e.zarr", batch_size="2"), "batch_size = '2': an integer ≥ 1"),
+        (lambda s: hz.sweep("example", "e.zarr", workers=1.5), "workers = 1.5: an integer ≥ 1"),
     ],
 )
-def test_python_refusals_are_one_line(call, expected):
+def test_python_refusals_are_one_line(call, expected, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
     scene = hz.load_scene({"chain": {"grains": 4}, "integrator": {"dt": 1e-4, "duration": 0.01}})
     with pytest.raises((hz.OptionError, hz.SceneError)) as refused:
         call(scene)
     assert str(refused.value).startswith(expected) and "\n" not in str(refused.value)
+    assert list(tmp_path.iterdir()) == []  # nothing written
 
 
 def test_a_binary_file_given_as_a_scene_or_sweep_is_one_line(tmp_path):

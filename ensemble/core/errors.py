@@ -34,3 +34,13 @@ class OptionError(ValueError):
 class RefusedError(ValueError):
     """A request refused as a whole (more memory than there is, a dt unstable under ``strict``): one line, which
     already names the key, the value and the limit."""
+
+
+def check_path(key: str, value: Any, *, optional: bool = False) -> None:
+    """Refuse (:class:`OptionError`) a path argument that is not a ``str`` or ``os.PathLike`` (or None, when
+    ``optional``)."""
+    import os
+
+    if isinstance(value, (str, os.PathLike)) or (optional and value is None):
+        return
+    raise OptionError(key, type(value).__name__, "a path (a str or a pathlib.Path)")

@@ -13,6 +13,7 @@ import contextlib
 import difflib
 import inspect
 import itertools
+import numbers
 import time
 import warnings
 from collections.abc import Callable
@@ -26,7 +27,7 @@ import warp as wp
 import zarr
 from hertzian.core.check import dt_warning, memory_refusal
 from hertzian.core.devices import check_device
-from hertzian.core.errors import OptionError, RefusedError
+from hertzian.core.errors import OptionError, RefusedError, check_path
 from hertzian.core.model import build_model
 from hertzian.core.shipped import shipped_file
 from hertzian.core.solvers import KERNELS, choose_config
@@ -95,10 +96,11 @@ def check_options(*, batch_size, workers, scheduler, resume, overwrite, kernel, 
     """Refuse arguments that cannot work together, before anything is read."""
     if tls is not None and not str(scheduler or "").startswith("tls://"):
         raise OptionError("tls_ca_file", tls.ca_file, "TLS files apply to a scheduler given as tls://HOST:PORT")
-    if batch_size is not None and batch_size < 1:
-        raise OptionError("batch_size", batch_size, "must be ≥ 1")
-    if workers is not None and workers < 1:
-        raise OptionError("workers", workers, "must be ≥ 1")
+    for key, value in (("batch_size", batch_size), ("workers", workers)):
+        if value is not None and (not isinstance(value, numbers.Integral) or isinstance(value, bool)):
+            raise OptionError(key, value, "an integer ≥ 1")
+        if value is not None and value < 1:
+            raise OptionError(key, value, "must be ≥ 1")
     if workers is not None and scheduler is not None:
         raise OptionError("scheduler", scheduler, "give either workers (a local cluster) or scheduler, not both")
     if resume and overwrite:
@@ -557,6 +559,9 @@ def sweep(
 ) -> dict[str, Any]:
     """Prepare (:func:`prepare_sweep`'s ``options``) and run a sweep; returns the summary dict.
     ``progress``: a :class:`SweepProgress`, or ``callback(done_batches, total_batches)``."""
+    check_path("out", out, optional=True)
+    if not (progress is None or isinstance(progress, SweepProgress) or callable(progress)):
+        raise OptionError("progress", type(progress).__name__, "a SweepProgress or a function (done, total)")
     known = [p for p in inspect.signature(prepare_sweep).parameters if p not in ("sweep", "out", "notify")]
     for name in options:
         if name not in known:
