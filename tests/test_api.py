@@ -150,7 +150,7 @@ def test_python_refusals_are_one_line(call, expected, tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []  # nothing written
 
 
-def test_a_binary_file_given_as_a_scene_or_sweep_is_one_line(tmp_path):
+def test_a_binary_file_or_a_store_given_as_a_scene_or_sweep_is_one_line(tmp_path):
     picture = tmp_path / "figure.png"
     picture.write_bytes(b"\x89PNG\r\n\x1a\n\xff\xfe")
     for call, kind in ((hz.load_scene, "scene file"), (hz.load_sweep, "sweep file")):
@@ -158,6 +158,11 @@ def test_a_binary_file_given_as_a_scene_or_sweep_is_one_line(tmp_path):
             call(picture)
     result = invoke("run", picture, "--device", "cpu")
     assert result.exit_code == 2 and "is not a text file" in result.stderr and "Traceback" not in result.output
+    store = tmp_path / "run.zarr"
+    assert invoke("run", "--set", "chain.grains=4", "--set", "integrator.duration=0.1", "--out", store).exit_code == 0
+    for command in ("run", "sweep", "estimates", "warmup"):
+        result = invoke(command, store, "--device", "cpu")
+        assert result.exit_code == 2 and "is a store, not a TOML file (hertzian summarize" in result.stderr, command
 
 
 def test_sweep_refusals_are_one_line_and_write_nothing(tmp_path):

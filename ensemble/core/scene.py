@@ -714,6 +714,10 @@ def parse_overrides(items: list[str] | None) -> dict[str, Any]:
 def read_toml(path: str | Path, kind: str = "scene file") -> dict:
     """The parsed TOML file at ``path``; a missing or malformed file is one line naming it as ``kind``."""
     path = Path(path)
+    if path.is_dir() and (path / "zarr.json").is_file():
+        raise SceneError(
+            kind, str(path), "is a store, not a TOML file (hertzian summarize, plot and verify read stores)"
+        )
     if path.is_dir():
         raise SceneError(kind, str(path), "is a folder, not a TOML file")
     if not path.is_file():
