@@ -403,6 +403,14 @@ def test_the_finite_g_table_is_its_record():
     (run,) = record("reproduction/finite_g.json")["runs"]
     measured = run["measurements"]
     assert len(table) == 4
+    text = " ".join((DOCS / "reproduction.md").read_text().split())
+    date = record("reproduction/finite_g.json")["date"][:10]
+    assert (
+        f"{run['wall_seconds']:.0f} s on the 2-core CPU ({date}), energy error ≤ {run['energy_error_max']:.1e}".replace(
+            "e-0", "e-"
+        )
+        in text
+    )
     for grain, at_zero, at_one, signs in table[1:]:
         key = f"grain {grain.split()[0]}"
         for cell, g in ((at_zero, "g=0"), (at_one, "g=1")):
