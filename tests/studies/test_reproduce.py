@@ -87,6 +87,13 @@ def test_the_measurement_record_of_groups_in_one_folder_or_one_folder_each(tmp_p
     }
 
 
+def test_the_measurement_record_may_go_into_the_folder_the_run_makes(tmp_path):
+    out = tmp_path / "new"
+    result = invoke("reproduce", "--quick", "--figure", "fig6", "--out-dir", out, "--json", out / "m.json")
+    assert result.exit_code == 0, result.output
+    assert list(json.loads((out / "m.json").read_text())["groups"]) == ["fig6"]
+
+
 def test_the_measurement_record_replaces_only_a_record(tmp_path):
     mine = tmp_path / "notes.json"
     mine.write_text('{"my": "notes"}')
