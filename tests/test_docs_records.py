@@ -1084,3 +1084,10 @@ def test_the_cpu_benchmark_rows_are_their_record():
             assert f"({min(ratios):.2f}–{max(ratios):.2f}" in cells[3], cells
         rate = statistics.median(r["grain_steps_per_second"] for r in runs)
         assert float(cells[4].removesuffix(" GS/s")) == float(f"{rate:.1e}"), cells
+
+
+def test_the_readme_quotes_the_quick_reproductions_record():
+    found = record("reproduction/reproduce_quick_cpu.json")
+    assert found["command"] == "hertzian reproduce --quick --device cpu" and found["figure_failures"] == 0
+    readme = " ".join((DOCS.parent / "README.md").read_text().split())
+    assert f"small on a CPU ({found['total_seconds']:.0f} s on 2 cores, {found['date'][:10]}, record" in readme
