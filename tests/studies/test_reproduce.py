@@ -175,7 +175,7 @@ def test_reproduce_bad_input_is_one_line_exit_2(tmp_path, monkeypatch, args, mes
 
 @pytest.mark.slow
 def test_quick_reproduces_every_group_on_the_cpu(tmp_path):
-    """The whole paper at --quick size (about 1.5 min on 2 CPU cores): every figure drawn, every run logged."""
+    """The whole paper at --quick size (about 20 s on 2 CPU cores): every figure drawn, every run logged."""
     out = tmp_path / "all"
     result = invoke("reproduce", "--quick", "--out-dir", str(out), "--device", "cpu")
     assert result.exit_code == 0, result.output
