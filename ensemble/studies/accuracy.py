@@ -711,8 +711,13 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--across", default=None)
     parser.add_argument("--device", default="cpu")
     args = parser.parse_args(argv)
+    from hertzian.core.outputs import why_not_replaceable
     from hertzian.core.scene import load_scene, parse_overrides
     from hertzian.core.shipped import example_path, shipped_file
+
+    why = why_not_replaceable(args.out) or (None if args.out.parent.is_dir() else "its folder does not exist")
+    if why:
+        raise SceneError("--out", str(args.out), why)
 
     scene = load_scene(
         shipped_file(args.scene) if args.scene else example_path("impact"), parse_overrides(args.overrides)
@@ -749,4 +754,5 @@ if __name__ == "__main__":
     try:
         main()
     except SceneError as err:
-        sys.exit(f"error: {err}")
+        print(f"error: {err}", file=sys.stderr)
+        sys.exit(2)

@@ -394,6 +394,11 @@ def test_a_study_is_written_into_its_record_with_its_command(tmp_path):
     keys = ("target", "method", "dt", "energy_error")
     assert [[t[k] for k in keys] for t in parts["a"]["targets"]] == [[t[k] for k in keys] for t in study["targets"]]
     assert [t["dt"] for t in parts["a"]["targets"]] == [2e-4, None] and "targets" not in parts["b"]
+    mine = tmp_path / "mine.json"
+    mine.write_text('{"my": 1}')
+    with pytest.raises(SceneError, match="hertzian did not write it"):
+        main(["--out", str(mine), "--part", "a", "--dt", "2e-4"])
+    assert mine.read_text() == '{"my": 1}'
 
 
 def test_energy_errors_across_a_key_are_those_of_each_chain_run_alone(tmp_path):
