@@ -39,41 +39,46 @@ def png_software(path: str | Path) -> str | None:
     return None
 
 
-def json_command(path: str | Path) -> str | None:
-    """The ``command`` of the JSON record at ``path`` (a top-level object's), or None."""
-    try:
-        data = json.loads(Path(path).read_text())
-    except (OSError, ValueError):
-        return None
-    command = data.get("command") if isinstance(data, dict) else None
-    return command if isinstance(command, str) else None
-
-
 def written_by_hertzian(path: str | Path) -> bool:
     """Whether the file at ``path`` is a figure or JSON record that hertzian wrote."""
     suffix = Path(path).suffix.lower()
     if suffix == ".png":
         return (png_software(path) or "").startswith("hertzian")
     if suffix == ".json":
-        return all(command.startswith(("hertzian ", "python -m hertzian")) for command in json_commands(path) or [""])
+        return all("hertzian" in command for command in json_commands(path) or [""])
     return False
 
 
 def json_commands(path: str | Path) -> list[str]:
-    """The commands that wrote the JSON record at ``path``: its top-level ``command``, or every ``command`` of its
-    ``parts`` (a record whose parts were each written by one command), or of their ``runs``."""
-    command = json_command(path)
-    if command is not None:
-        return [command]
+    """Every ``command`` string of the JSON record at ``path``, at any depth: its own, its parts', its runs' or its
+    items' (a record whose parts were each written by one command)."""
     try:
-        parts = json.loads(Path(path).read_text()).get("parts")
-    except (OSError, ValueError, AttributeError):
+        data = json.loads(Path(path).read_text())
+    except (OSError, ValueError):
         return []
-    if not isinstance(parts, dict) or not parts:
-        return []
-    runs = [run for part in parts.values() if isinstance(part, dict) for run in part.get("runs", [part])]
-    commands = [run.get("command") if isinstance(run, dict) else None for run in runs]
-    return [c if isinstance(c, str) else "" for c in commands]
+    found: list[str] = []
+    pending = [data]
+    while pending and len(found) < 1000:
+        value = pending.pop()
+        if isinstance(value, dict):
+            command = value.get("command")
+            if isinstance(command, str):
+                found.append(command)
+            pending.extend(v for k, v in value.items() if k != "command" and isinstance(v, (dict, list)))
+        elif isinstance(value, list):
+            pending.extend(v for v in value if isinstance(v, (dict, list)))
+    return found
+
+
+def exit_unless_replaceable(path: str | Path, option: str) -> None:
+    """For a ``python -m hertzian.studies…`` writer: print one line and exit 2 when ``path`` may not be written
+    (:func:`why_not_replaceable`, or a missing folder)."""
+    import sys
+
+    why = why_not_replaceable(path) or (None if Path(path).parent.is_dir() else "its folder does not exist")
+    if why:
+        print(f"error: {option} = {str(path)!r}: {why}", file=sys.stderr)
+        sys.exit(2)
 
 
 def add_run(path: str | Path, part: str, run: dict) -> None:

@@ -14,6 +14,8 @@ import json
 import platform
 from pathlib import Path
 
+from hertzian.core.outputs import exit_unless_replaceable
+
 
 def design_part(design: str, overrides: dict, scene_overrides: dict, store: Path, device: str, resume: bool) -> dict:
     """Run (or finish) the design into ``store`` and return its comparison, the traces left out."""
@@ -39,6 +41,7 @@ def main() -> None:
     parser.add_argument("--resume", action="store_true")
     parser.add_argument("--device", default="cpu")
     args = parser.parse_args()
+    exit_unless_replaceable(args.out, "--out")
     overrides, scene_overrides = split_overrides(parse_overrides(args.set))
     store = args.store or Path(f"{args.part}.zarr")
     part = {

@@ -32,6 +32,8 @@ import time
 from datetime import datetime, timezone
 from pathlib import Path
 
+from hertzian.core.outputs import why_not_replaceable
+
 CASES = ((20, 1.0), (200, 5.0), (1000, 5.0))
 """(grains, duration) of the timed runs: the example impact scene with these keys set."""
 
@@ -347,6 +349,9 @@ def _arguments() -> argparse.Namespace:
         parser.exit(2, f"error: --only = {unknown[0]!r}: one of {', '.join(PARTS)}, start, build\n")
     if args.repeats < 1:
         parser.exit(2, f"error: --repeats = {args.repeats}: must be at least 1\n")
+    why = why_not_replaceable(args.out)
+    if why:
+        parser.exit(2, f"error: --out = {str(args.out)!r}: {why}\n")
     readme_parts = {"readme", "readme_prebuilt", "readme_installed"}
     if args.device != "cpu" and (not args.only or not set(args.only) <= readme_parts):
         parser.exit(2, f"error: --device = {args.device!r}: only the readme parts take a device; add --only readme\n")

@@ -195,8 +195,15 @@ def arguments(argv: list[str] | None = None) -> tuple[Path, dict, str, str | Non
 
 
 def main() -> None:
+    import shlex
+    import sys
+
+    from hertzian.core.outputs import exit_unless_replaceable
+
     out, sweeps, device, part = arguments()
-    result = study(device=device, sweeps=sweeps)
+    exit_unless_replaceable(out, "OUT")
+    command = "python -m hertzian.studies.heterogeneous " + shlex.join(sys.argv[1:])
+    result = {"command": command, **study(device=device, sweeps=sweeps)}
     if part:  # kept beside the record's own result, under "parts"
         record = json.loads(out.read_text()) if out.exists() else {}
         record.setdefault("parts", {})[part] = result

@@ -27,6 +27,7 @@ from datetime import date
 from pathlib import Path
 
 import numpy as np
+from hertzian.core.outputs import exit_unless_replaceable
 
 EULER_GAMMA = 0.5772156649015329
 RECORDS = 1000
@@ -231,6 +232,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--validation-only", action="store_true", help="only the soliton and the FPUT recurrence")
     args = parser.parse_args(argv)
+    exit_unless_replaceable(args.out, "--out")
     validation = {
         "toda_soliton": [soliton_error(dt, args.device) for dt in (0.02, 0.01)],
         "fput_recurrence": [fput_recurrence(dt, args.device) for dt in (0.2, 0.1)],

@@ -19,6 +19,7 @@ import platform
 from datetime import datetime, timezone
 from pathlib import Path
 
+from hertzian.core.outputs import exit_unless_replaceable
 from hertzian.core.scene import Scene, scene_from_dict
 
 IMPURITY = {"grains": [3], "contact": "own"}
@@ -96,6 +97,7 @@ def main() -> None:
     parser.add_argument("--into", help="merge into this key of an existing --out")
     parser.add_argument("--device", default="cpu")
     args = parser.parse_args()
+    exit_unless_replaceable(args.out, "--out")
     methods = args.methods.split(",")
     ratios = [float(r) for r in args.ratios.split(",")]
     record = {

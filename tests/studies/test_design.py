@@ -292,13 +292,14 @@ def test_the_study_record_merges_each_part_under_its_name(tmp_path):
 
     path = design_file(tmp_path, {**DESIGN, "generations": 2})
     out = tmp_path / "record.json"
-    out.write_text(json.dumps({"other": {"kept": True}}))
+    other = {"command": "python -m hertzian.studies.design_record --part other", "kept": True}
+    out.write_text(json.dumps({"other": other}))  # a record of the project's (a user's file is refused)
     command = [sys.executable, "-m", "hertzian.studies.design_record", "--out", str(out), "--part", "small"]
     command += ["--design", path, "--set", "design.population=4", "--store", str(tmp_path / "s.zarr")]
     done = subprocess.run(command, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     record = json.loads(out.read_text())
-    assert record["other"] == {"kept": True}
+    assert record["other"] == other
     part = record["small"]
     assert part["design"]["population"] == 4 and len(part["best_objective"]) == 2
     assert "--set design.population=4" in part["command"] and "traces" not in part

@@ -73,3 +73,25 @@ def test_a_small_cpu_study_reports_each_sweeps_wall_time_and_settings():
     for name in ("taper", "disorder"):
         assert record[name]["seconds"] > 0 and record[name]["events"] == "auto" and record[name]["dt"] == 5e-5
     assert record["disorder"]["realisations"] == 2 and len(record["disorder"]["decay_length_mean"]) == 6
+
+
+def test_the_record_keeps_its_command_and_a_users_file_is_refused(tmp_path, monkeypatch, capsys):
+    import json
+    import sys
+
+    from hertzian.studies.heterogeneous import main
+
+    out = tmp_path / "out.json"
+    argv = [str(out), "--device", "cpu", "--grains", "12", "--seeds", "2", "--only", "taper"]
+    monkeypatch.setattr(sys, "argv", ["heterogeneous", *argv])
+    main()
+    record = json.loads(out.read_text())
+    assert record["command"] == "python -m hertzian.studies.heterogeneous " + " ".join(argv)
+    main()  # its own record is replaced
+    mine = tmp_path / "mine.json"
+    mine.write_text('{"my": 1}')
+    monkeypatch.setattr(sys, "argv", ["heterogeneous", str(mine), "--device", "cpu"])
+    with pytest.raises(SystemExit) as refused:
+        main()
+    assert refused.value.code == 2 and "hertzian did not write it" in capsys.readouterr().err
+    assert mine.read_text() == '{"my": 1}'

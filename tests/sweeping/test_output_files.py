@@ -96,3 +96,51 @@ def test_reproduce_refuses_a_folder_holding_what_it_did_not_write_and_replaces_i
         assert done.exit_code == 0, done.stderr
     assert json.loads((folder / "log.json").read_text())["command"].startswith("hertzian reproduce")
     assert png_software(folder / "fig1.png") == SOFTWARE
+
+
+@pytest.mark.parametrize(
+    "module, args",
+    [
+        ("accuracy", ["--out", "mine.json", "--part", "p"]),
+        ("design_record", ["--out", "mine.json", "--part", "p", "--design", "protector"]),
+        ("lattices", ["--out", "mine.json"]),
+        ("thresholds", ["--out", "mine.json", "--methods", "yoshida4", "--ratios", "400"]),
+        ("fixed_costs", ["--out", "mine.json"]),
+        ("heterogeneous", ["mine.json"]),
+    ],
+)
+def test_the_record_writers_of_the_docs_leave_a_users_file_alone(tmp_path, module, args):
+    """python -m hertzian.studies.…: a JSON of the user's at the output path is refused in one line, exit 2,
+    before anything runs, and left as it was; a record that hertzian wrote (a command in it) may be replaced."""
+    import subprocess
+    import sys
+
+    mine = tmp_path / "mine.json"
+    mine.write_text('{"my": 1}')
+    done = subprocess.run(
+        [sys.executable, "-m", f"hertzian.studies.{module}", *args], cwd=tmp_path, capture_output=True, text=True
+    )
+    errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+    assert done.returncode == 2 and errors == [f"error: {errors[0][7:]}"] and "hertzian did not write it" in errors[0]
+    assert mine.read_text() == '{"my": 1}'
+
+
+def test_a_record_counts_as_hertzians_by_any_command_inside_it(tmp_path):
+    from hertzian.core.outputs import why_not_replaceable
+
+    cases = {
+        "top.json": {"command": "hertzian run"},
+        "parts.json": {"parts": {"a": {"command": "python -m hertzian.studies.accuracy"}}},
+        "runs.json": {"parts": {"a": {"runs": [{"command": "hertzian bench"}]}}},
+        "items.json": {"items": {"x": {"command": "hertzian reproduce --measure x"}}},
+        "mine.json": {"my": {"command": "make all"}},
+        "none.json": {"my": 1},
+    }
+    for name, data in cases.items():
+        (tmp_path / name).write_text(json.dumps(data))
+    assert [n for n in cases if why_not_replaceable(tmp_path / n) is None] == [
+        "top.json",
+        "parts.json",
+        "runs.json",
+        "items.json",
+    ]
