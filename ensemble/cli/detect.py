@@ -303,11 +303,11 @@ def detect_study(
     # heavy (Warp, Zarr): imported on use, as in ``detect``
     from hertzian.studies.detection.study import load_study, run_study, write_study
 
-    if out.exists() and not overwrite:
-        fail(f"--out = {str(out)!r}: exists; choose another path or pass --overwrite")
     if out.is_dir():
         fail(f"--out = {str(out)!r}: is a folder; --out names the JSON file to write")
-    check_output_file("--out", out)
+    check_output_file("--out", out)  # a user's file: refused, --overwrite or not
+    if out.exists() and not overwrite:
+        fail(f"--out = {str(out)!r}: exists; choose another path or pass --overwrite")
     study = shipped_file(study)
     try:
         load_study(study)

@@ -89,6 +89,10 @@ def prebuild(
     for option, folder in (("--out", target), ("--wheel", wheel)):
         if folder is not None and folder.exists() and not folder.is_dir():
             fail(f"{option} = {str(folder)!r}: a file; give a folder")
+        if folder is not None and not folder.exists() and not folder.parent.is_dir():
+            fail(f"{option} = {str(folder)!r}: parent directory does not exist")
+    if out is not None and out.is_dir() and any(out.iterdir()) and not (out / "family.json").is_file():
+        fail(f"--out = {str(out)!r}: a folder holding other files (no family.json); give a new or empty folder")
     planned = dev if gpu_family is None else "cpu"  # a planned GPU's feature sets are the same as on this machine
     try:
         needs = family_needs(planned) if path is None else file_needs(shipped_file(path), planned)

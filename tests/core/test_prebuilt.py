@@ -166,3 +166,19 @@ def test_a_gpu_family_planned_without_a_gpu_holds_what_its_runs_load(tmp_path, m
         assert loads <= family, (n, c, loads - family)
     bad = hertzian("prebuild", "--gpu-family", "7", "--out", tmp_path / "out")
     assert bad.returncode == 2 and "--gpu-family" in bad.stderr and not (tmp_path / "out").exists()
+
+
+def test_prebuild_writes_only_into_a_new_an_empty_or_its_own_folder(tmp_path):
+    """A folder of the user's is not filled with kernel modules, and a missing parent is not made."""
+    from tests.helpers import invoke
+
+    mine = tmp_path / "thesis"
+    mine.mkdir()
+    (mine / "thesis.tex").write_text("mine")
+    result = invoke("prebuild", "impact", "--device", "cpu", "--out", mine)
+    assert result.exit_code == 2 and "a folder holding other files (no family.json)" in result.stderr
+    assert [p.name for p in mine.iterdir()] == ["thesis.tex"]
+    deep = tmp_path / "no" / "such" / "kernels"
+    result = invoke("prebuild", "impact", "--device", "cpu", "--out", deep)
+    assert result.exit_code == 2 and "parent directory does not exist" in result.stderr
+    assert not (tmp_path / "no").exists()

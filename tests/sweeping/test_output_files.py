@@ -77,6 +77,14 @@ def test_every_writer_refuses_a_users_file(tmp_path, store, command, option, nam
     assert {path: path.read_bytes() for path in tmp_path.iterdir()} == before
 
 
+def test_a_users_file_is_not_offered_overwrite(tmp_path):
+    """Without --overwrite, a user's file is refused for what it is: --overwrite would not replace it either."""
+    before = user_files(tmp_path)
+    text = refused(invoke("detect-study", "detect_study", "--device", "cpu", "--out", tmp_path / "mine.json"), "--out")
+    assert "hertzian did not write it" in text and "pass --overwrite" not in text
+    assert {path: path.read_bytes() for path in tmp_path.iterdir()} == before
+
+
 def test_reproduce_refuses_a_folder_holding_what_it_did_not_write_and_replaces_its_own(tmp_path):
     folder = tmp_path / "out"
     folder.mkdir()
