@@ -7,6 +7,7 @@ command that wrote it (``"command": "hertzian …"``)."""
 from __future__ import annotations
 
 import json
+import re
 import struct
 from pathlib import Path
 
@@ -45,8 +46,12 @@ def written_by_hertzian(path: str | Path) -> bool:
     if suffix == ".png":
         return (png_software(path) or "").startswith("hertzian")
     if suffix == ".json":
-        return all("hertzian" in command for command in json_commands(path) or [""])
+        return all(_HERTZIAN_COMMAND.match(command) for command in json_commands(path) or [""])
     return False
+
+
+_HERTZIAN_COMMAND = re.compile(r"^(\w+=\S*\s+)*(hertzian\s|python3?\s+-m\s+hertzian[.\s])")
+"""A command of this project's: ``hertzian …`` or ``python -m hertzian.…``, after any environment settings."""
 
 
 def json_commands(path: str | Path) -> list[str]:

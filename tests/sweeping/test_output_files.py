@@ -141,7 +141,9 @@ def test_a_record_counts_as_hertzians_by_any_command_inside_it(tmp_path):
         "parts.json": {"parts": {"a": {"command": "python -m hertzian.studies.accuracy"}}},
         "runs.json": {"parts": {"a": {"runs": [{"command": "hertzian bench"}]}}},
         "items.json": {"items": {"x": {"command": "hertzian reproduce --measure x"}}},
+        "env.json": {"parts": {"a": {"command": "HERTZIAN_COMPILE_WORKERS=2 hertzian warmup --paper"}}},
         "mine.json": {"my": {"command": "make all"}},
+        "pip.json": {"command": "pip install hertzian"},
         "none.json": {"my": 1},
     }
     for name, data in cases.items():
@@ -151,4 +153,5 @@ def test_a_record_counts_as_hertzians_by_any_command_inside_it(tmp_path):
         "parts.json",
         "runs.json",
         "items.json",
+        "env.json",
     ]
