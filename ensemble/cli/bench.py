@@ -215,14 +215,9 @@ def _keeper(path: Path | None, part: str, scale_out: bool):
     check_output_file("--record", path)
 
     def keep(records: list[dict], device: str) -> None:
-        from datetime import datetime, timezone
+        from hertzian.core.outputs import add_run, provenance
 
-        import warp as wp
-        from hertzian.core.outputs import add_run
-
-        run = {"command": command_line(), "date": datetime.now(timezone.utc).isoformat(timespec="seconds")}
-        run |= {"device": device, "device_name": wp.get_device(device).name, "cpu_count": os.cpu_count()}
-        add_run(path, part, run | {"warp_version": wp.config.version, "records": records})
+        add_run(path, part, {"command": command_line(), **provenance(device), "records": records})
 
     return keep
 

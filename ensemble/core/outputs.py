@@ -75,24 +75,56 @@ def json_commands(path: str | Path) -> list[str]:
     return found
 
 
+def why_not_writable(path: str | Path) -> str | None:
+    """:func:`why_not_replaceable`, or a missing folder: why a record may not be written at ``path``; None if it may."""
+    return why_not_replaceable(path) or (None if Path(path).parent.is_dir() else "its folder does not exist")
+
+
 def exit_unless_replaceable(path: str | Path, option: str) -> None:
     """For a ``python -m hertzian.studies…`` writer: print one line and exit 2 when ``path`` may not be written
-    (:func:`why_not_replaceable`, or a missing folder)."""
+    (:func:`why_not_writable`)."""
     import sys
 
-    why = why_not_replaceable(path) or (None if Path(path).parent.is_dir() else "its folder does not exist")
+    why = why_not_writable(path)
     if why:
         print(f"error: {option} = {str(path)!r}: {why}", file=sys.stderr)
         sys.exit(2)
 
 
+def provenance(device: str) -> dict:
+    """Where and when a measurement ran: the date (UTC), the device and its name, the CPU count, the platform and
+    Warp's version."""
+    import os
+    import platform
+    from datetime import datetime, timezone
+
+    import warp as wp
+
+    return {
+        "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "device": device,
+        "device_name": wp.get_device(device).name,
+        "cpu_count": os.cpu_count(),
+        "platform": platform.platform(),
+        "warp_version": wp.config.version,
+    }
+
+
+def _update_record(path: Path, change) -> None:
+    record = json.loads(path.read_text()) if path.exists() else {}
+    change(record.setdefault("parts", {}))
+    path.write_text(json.dumps(record, indent=1, default=float) + "\n")
+
+
+def write_part(path: str | Path, part: str, value: dict) -> None:
+    """Put ``value`` under ``parts.<part>`` of the JSON record at ``path`` (created if missing; other parts kept)."""
+    _update_record(Path(path), lambda parts: parts.__setitem__(part, value))
+
+
 def add_run(path: str | Path, part: str, run: dict) -> None:
     """Append ``run`` (its command, date, device and records) to ``parts.<part>.runs`` of the JSON record at
     ``path``, created if missing; the record's other parts and runs are kept."""
-    path = Path(path)
-    record = json.loads(path.read_text()) if path.exists() else {}
-    record.setdefault("parts", {}).setdefault(part, {}).setdefault("runs", []).append(run)
-    path.write_text(json.dumps(record, indent=1, default=float) + "\n")
+    _update_record(Path(path), lambda parts: parts.setdefault(part, {}).setdefault("runs", []).append(run))
 
 
 def why_not_replaceable(path: str | Path) -> str | None:

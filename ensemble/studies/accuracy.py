@@ -38,7 +38,7 @@ import warp as wp
 from hertzian.core.check import check_scene
 from hertzian.core.devices import default_device, init_warp
 from hertzian.core.model import build_model
-from hertzian.core.outputs import PNG_METADATA
+from hertzian.core.outputs import PNG_METADATA, provenance, write_part
 from hertzian.core.runner import Runner
 from hertzian.core.scene import EVENT_MODES, METHODS, PRECISIONS, Scene, SceneError
 from hertzian.core.solvers import KERNELS
@@ -593,31 +593,6 @@ def plot_work_precision(
     plt.close(fig)
 
 
-def _record_header(device: str, source: dict) -> dict:
-    import os
-    import platform
-    from datetime import datetime, timezone
-
-    return {
-        "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-        "device": device,
-        "device_name": wp.get_device(device).name,
-        "cpu_count": os.cpu_count(),
-        "platform": platform.platform(),
-        "warp_version": wp.config.version,
-        **source,
-    }
-
-
-def _write_part(out: Path, part: str, value: dict) -> dict:
-    import json
-
-    record = json.loads(out.read_text()) if out.exists() else {}
-    record.setdefault("parts", {})[part] = value
-    out.write_text(json.dumps(record, indent=1, default=float) + "\n")
-    return value
-
-
 def write_record(out: Path, part: str, scene: Scene, source: dict, request, device: str) -> dict:
     """Run the study ``request`` on ``scene`` and put it into the JSON record ``out`` under ``parts.<part>`` (other
     parts kept): ``source`` (the command, the scene file and overrides), the date, the device, the reference (its
@@ -634,20 +609,25 @@ def write_record(out: Path, part: str, scene: Scene, source: dict, request, devi
         records=request.records,
         kernel=request.kernel,
     )
-    value = _record_header(device, source) | {
-        "record_every": every,
-        "reference": {
-            "method": REFERENCE_METHOD,
-            "dt": reference.dt,
-            "error_estimate": reference.error_estimate,
-            "observed_order": reference.observed_order,
-            "seconds": reference.seconds,
-        },
-        "records": [r.to_dict() for r in results],
-    }
+    value = (
+        provenance(device)
+        | source
+        | {
+            "record_every": every,
+            "reference": {
+                "method": REFERENCE_METHOD,
+                "dt": reference.dt,
+                "error_estimate": reference.error_estimate,
+                "observed_order": reference.observed_order,
+                "seconds": reference.seconds,
+            },
+            "records": [r.to_dict() for r in results],
+        }
+    )
     if request.targets:
         value["targets"] = [t.to_dict() for t in time_to_target(results, request.targets, request.measure)]
-    return _write_part(out, part, value)
+    write_part(out, part, value)
+    return value
 
 
 def parse_across(text: str) -> tuple[str, list[float]]:
@@ -667,6 +647,7 @@ def energy_across(scene: Scene, key: str, values: list[float], request, device: 
     ``request``: one ensemble of len(values) chains per configuration (no reference, no position error). Only
     the energy is recorded, every record.every of the scene (which sets how often the energy is checked)."""
     kernel = request.kernel or study_kernel(scene, device)
+    init_warp()
     rows = []
     for events in request.events:
         for precision in request.precisions:
@@ -676,7 +657,6 @@ def energy_across(scene: Scene, key: str, values: list[float], request, device: 
                     change |= {"integrator.precision": precision, "integrator.events": events}
                     change |= {"record.fields": [], "record.traces": [], "record.trace_every": None}
                     scenes = [scene.with_overrides(change | {key: value}) for value in values]
-                    init_warp()
                     result = Runner(build_model(scenes, device), kernel=kernel).run()
                     rows.append(
                         {"method": method, "events": events, "precision": precision, "dt": dt}
@@ -711,11 +691,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--across", default=None)
     parser.add_argument("--device", default="cpu")
     args = parser.parse_args(argv)
-    from hertzian.core.outputs import why_not_replaceable
+    from hertzian.core.outputs import why_not_writable
     from hertzian.core.scene import load_scene, parse_overrides
     from hertzian.core.shipped import example_path, shipped_file
 
-    why = why_not_replaceable(args.out) or (None if args.out.parent.is_dir() else "its folder does not exist")
+    why = why_not_writable(args.out)
     if why:
         raise SceneError("--out", str(args.out), why)
 
@@ -739,9 +719,7 @@ def main(argv: list[str] | None = None) -> None:
     if args.across is not None:
         key, values = parse_across(args.across)
         rows = energy_across(scene, key, values, request, args.device)
-        _write_part(
-            args.out, args.part, _record_header(args.device, source) | {"key": key, "values": values, "rows": rows}
-        )
+        write_part(args.out, args.part, provenance(args.device) | source | {"key": key, "values": values, "rows": rows})
         print(f"wrote {args.out} → parts.{args.part} ({len(rows)} configurations × {len(values)} values)")
         return
     part = write_record(args.out, args.part, scene, source, request, args.device)

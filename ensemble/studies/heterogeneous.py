@@ -198,17 +198,16 @@ def main() -> None:
     import shlex
     import sys
 
-    from hertzian.core.outputs import exit_unless_replaceable
+    from hertzian.core.outputs import exit_unless_replaceable, write_part
 
     out, sweeps, device, part = arguments()
     exit_unless_replaceable(out, "OUT")
     command = "python -m hertzian.studies.heterogeneous " + shlex.join(sys.argv[1:])
     result = {"command": command, **study(device=device, sweeps=sweeps)}
     if part:  # kept beside the record's own result, under "parts"
-        record = json.loads(out.read_text()) if out.exists() else {}
-        record.setdefault("parts", {})[part] = result
-        result = record
-    out.write_text(json.dumps(result, indent=1) + "\n")
+        write_part(out, part, result)
+    else:
+        out.write_text(json.dumps(result, indent=1) + "\n")
     print(f"wrote {out}" + (f" (part {part})" if part else ""))
 
 
