@@ -587,6 +587,81 @@ def test_the_design_tables_are_their_record(header, part):
         assert agrees(peak, row["peak_wall_force"]) and agrees(mass, row["mass"]) and agrees(impulse, row["impulse"])
 
 
+def design_text() -> str:
+    """docs/design.md with its line breaks read as spaces (its sentences wrap)."""
+    return " ".join((DOCS / "design.md").read_text().split())
+
+
+def falls(best: list[float]) -> list[tuple[int, float]]:
+    """(generation counted from 1, value) at each generation where a best-so-far curve reaches a new value."""
+    return [(g + 1, value) for g, value in enumerate(best) if g == 0 or value != best[g - 1]]
+
+
+def beads_line(part: dict) -> str:
+    """The best protector as ``hertzian summarize`` prints it: each varying bead's material letter and R/R0."""
+    r0 = part["best_radii"][0]  # the striker, grain 0, keeps the base radius
+    beads = zip(part["best_materials"][1:], part["best_radii"][1:])
+    return "striker → " + " ".join(f"{m[0].upper()}{r / r0:.2f}" for m, r in beads) + " → wall"
+
+
+def test_the_design_studys_prose_is_its_record():
+    """Every number in docs/design.md's sentences about the four runs: their seconds, the best design's beads, its
+    ratios to the plain protectors, where each material sits against the shuffles, the pulse's width above half its
+    peak, and when the best last fell."""
+    text = design_text()
+    parts = record("design/protector_cpu.json")
+    short, long_, wide, four = (parts[k] for k in ("beads_20", "beads_100", "population_6400", "four_materials"))
+    chains = short["chains"]
+    best = chains["best"]["peak_wall_force"]
+    steel, switches = short["arrangement"]["materials"]["stainless_steel"], short["arrangement"]["switches"]
+    assert f"The 50 generations took {short['design_seconds']:.0f} s" in text
+    assert beads_line(short) in text
+    ratios = (
+        chains["tapered ptfe"]["peak_wall_force"] / best,
+        chains["uniform stainless_steel"]["peak_wall_force"] / best,
+    )
+    assert f"{ratios[0]:.1f} times below the best plain protector's (tapered PTFE) and {ratios[1]:.0f} times" in text
+    assert f"six steel beads sit at mean position {steel['mean_position']:.2f}" in text and steel["beads"] == 6
+    assert f"all but {100 * steel['p_toward_striker']:.1f} % of the shuffles" in text
+    assert f"neighbours differ {switches['count']} times against {switches['null_mean']:.1f}" in text
+    assert f"only {100 * switches['p_at_most']:.0f} % of them have as few" in text
+    widths = [chains[k]["time_above_half_peak"] for k in ("best", "uniform stainless_steel", "uniform ptfe")]
+    assert "for {:.2f} time units, against {:.3f} for uniform steel and {:.3f} for uniform PTFE".format(*widths) in text
+    assert (
+        f"Run twice as long, the best design's peak is the same ({short['best_peak_at_twice_the_duration']:.4f})"
+        in text
+    )
+    assert f"{best:.4f}" == f"{short['best_peak_at_twice_the_duration']:.4f}"
+
+    history = falls(long_["best_objective"])
+    fell_at = {f"{value:.5f}": generation for generation, value in history}
+    assert (
+        f"The best fell in {len(history) - 1} of the {len(long_['best_objective'])} generations, the last time at "
+        f"generation {history[-1][0]} (0.00285 from generation {fell_at['0.00285']}, 0.00223 from generation "
+        f"{history[-1][0]})" in text
+    )
+    assert f"{history[-1][1]:.5f}" == "0.00223"
+    assert f"The 40 generations took {long_['design_seconds']:.0f} s" in text
+    assert f"above half its peak for {long_['chains']['best']['time_above_half_peak']:.1f} time units" in text
+    steel, switches = long_["arrangement"]["materials"]["stainless_steel"], long_["arrangement"]["switches"]
+    assert (
+        f"(mean position {steel['mean_position']:.2f}; {100 * steel['p_toward_striker']:.2f} % of the shuffles" in text
+    )
+    assert f"({switches['count']} against {switches['null_mean']:.1f}; {100 * switches['p_at_most']:.0f} %" in text
+
+    assert f"32 000 runs in {wide['design_seconds']:.0f} s" in text
+    assert f"the best peak is {wide['best_objective'][-1]:.4f} after 5 generations" in text
+    assert f"against {short['best_objective'][4]:.4f} after 5 (and {short['best_objective'][-1]:.4f} after 50)" in text
+    assert f"a design {100 * (wide['best_objective'][-1] / best - 1):.0f} % worse" in text
+
+    assert f"best last fell at generation {falls(four['best_objective'])[-1][0]} of 50" in text
+    assert f"The 50 generations took {four['design_seconds']:.0f} s on the 2-core CPU" in text
+    glass = four["arrangement"]["materials"]["glass"]
+    third = 2 / (len(four["best_materials"]) - 2)  # positions run from 0 (next to the striker) to 1 (the wall)
+    assert glass["beads"] == 1 and glass["mean_position"] == pytest.approx(third, rel=1e-12)
+    assert "the one glass bead third from the striker" in text
+
+
 def test_claims_fig6_and_light_impurity_rows_are_their_record():
     cell, _ = claims_row("Fig. 6 (V)")
     fig6 = measured("fig6")

@@ -608,7 +608,8 @@ def summary(store: str | Path) -> dict:
     r0 = scene.chain.diameter / 2
     return out | {
         "best": dict(zip(spec.objective, data["best_objective"][-1].tolist())),
-        "best_since_generation": int(np.argmax(first == first[-1])),
+        # generations count from 1, as the progress lines, the plot and the store's coordinate do
+        "best_since_generation": int(np.argmax(first == first[-1])) + 1,
         "best_materials": [best.chain.material[g] for g in spec.vary],
         "best_radius_ratio": [float(r) for r in _radii(best)[list(spec.vary)] / r0],
     }

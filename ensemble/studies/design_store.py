@@ -106,9 +106,13 @@ def open_for_resume(out: str | Path, scene, spec, new_optimizer):
         try:
             genomes, values = root["genome"][generation], root["objective"][generation]
         except Exception as err:  # noqa: BLE001 (a chunk that fails its checksum or no longer decodes)
-            raise OptionError("out", str(out), f"generation {generation} is damaged ({type(err).__name__})") from None
+            raise OptionError(
+                "out", str(out), f"generation {generation + 1} is damaged ({type(err).__name__})"
+            ) from None
         if not np.array_equal(optimizer.ask(), genomes):
-            raise OptionError("out", str(out), f"generation {generation} does not replay (another optimizer version?)")
+            raise OptionError(
+                "out", str(out), f"generation {generation + 1} does not replay (another optimizer version?)"
+            )
         optimizer.tell(genomes, values)
     for name in ARRAYS:
         array = root[name]
@@ -182,7 +186,7 @@ def verify_design(path: str | Path) -> dict:
             try:
                 array[generation]
             except Exception as err:  # noqa: BLE001 (any failure to read a chunk is damage, named in one line)
-                out["damaged"].append(f"{name}: generation {generation}: {type(err).__name__}")
+                out["damaged"].append(f"{name}: generation {generation + 1}: {type(err).__name__}")
     return out
 
 
@@ -203,7 +207,7 @@ def design_dataset(path: str | Path):
         "seconds": ("generation",),
     }
     coords = {
-        "generation": np.arange(len(data["seconds"])),
+        "generation": np.arange(1, len(data["seconds"]) + 1),  # counted from 1, as progress, summarize and plots do
         "gene": list(attrs["genes"]),
         "objective": list(attrs["objectives"]),
     }

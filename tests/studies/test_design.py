@@ -389,7 +389,7 @@ def test_summarize_reads_a_design_store(fixed_length_store):
     first = stored["best_objective"][:, 0]
     assert numbers["generations_done"] == numbers["generations"] == 3 and numbers["population"] == 8
     assert numbers["best"] == {"peak_wall_force": first[-1]} and first[-1] == np.min(stored["objective"])
-    assert numbers["best_since_generation"] == min(g for g in range(3) if first[g] == first[-1])
+    assert numbers["best_since_generation"] == 1 + min(g for g in range(3) if first[g] == first[-1])  # counted from 1
     assert numbers["seconds"] == pytest.approx(np.sum(stored["seconds"]), rel=1e-12)
     assert set(numbers["best_materials"]) <= {"stainless_steel", "ptfe"} and len(numbers["best_materials"]) == 7
     ratio = np.array(numbers["best_radius_ratio"])
@@ -403,7 +403,8 @@ def test_summarize_reads_a_design_store(fixed_length_store):
 
 
 def test_summary_names_the_generation_since_which_the_best_holds(fixed_length_store, tmp_path):
-    """A best reached at generation 1 and kept at 2 (written into a copy of the store): since generation 1."""
+    """A best reached at the second generation and kept at the third (written into a copy of the store): since
+    generation 2, counted from 1 as the progress lines, the plot's axis and the store's coordinate count."""
     import shutil
 
     import zarr
@@ -413,7 +414,9 @@ def test_summary_names_the_generation_since_which_the_best_holds(fixed_length_st
     shutil.copytree(fixed_length_store, store)
     zarr.open_group(store, mode="r+")["best_objective"][:, 0] = [0.3, 0.2, 0.2]
     numbers = summary(store)
-    assert numbers["best"] == {"peak_wall_force": 0.2} and numbers["best_since_generation"] == 1
+    assert numbers["best"] == {"peak_wall_force": 0.2} and numbers["best_since_generation"] == 2
+    shown = hertzian("summarize", store)
+    assert shown.returncode == 0 and "peak_wall_force unchanged since generation 2\n" in shown.stdout, shown.stdout
 
 
 def test_a_design_store_is_checksummed_and_verify_names_a_damaged_generation(fixed_length_store, tmp_path):
@@ -428,14 +431,14 @@ def test_a_design_store_is_checksummed_and_verify_names_a_damaged_generation(fix
     assert all(has_checksums(root[name]) for name in ("genome", "objective", "best_genome", "best_objective"))
     clean = hertzian("verify", store)
     assert clean.returncode == 0 and f"{store}: 15 chunks read, 0 damaged" in clean.stdout, clean.stderr
-    chunk = next((store / "genome" / "c" / "1").rglob("*"))
+    chunk = next((store / "genome" / "c" / "1").rglob("*"))  # index 1: the second generation
     while chunk.is_dir():
         chunk = next(chunk.iterdir())
     data = bytearray(chunk.read_bytes())
     data[len(data) // 2] ^= 0xFF
     chunk.write_bytes(bytes(data))
     damaged = hertzian("verify", store)
-    assert damaged.returncode == 1 and "damaged: genome: generation 1:" in damaged.stdout, damaged.stdout
+    assert damaged.returncode == 1 and "damaged: genome: generation 2:" in damaged.stdout, damaged.stdout
     for command, code in ((["summarize", store], 1), (["plot", store, "--out", tmp_path / "d.png"], 2)):
         result = hertzian(*command)
         assert result.returncode == code and result.stderr.count("\n") == 1, (command, result.stderr)
@@ -444,7 +447,7 @@ def test_a_design_store_is_checksummed_and_verify_names_a_damaged_generation(fix
     resumed = hertzian("design", path, "--out", store, "--resume", "--device", "cpu")
     assert (
         resumed.returncode == 2
-        and resumed.stderr == f"error: --out = '{store}': generation 1 is damaged (ValueError)\n"
+        and resumed.stderr == f"error: --out = '{store}': generation 2 is damaged (ValueError)\n"
     )
 
 
@@ -454,6 +457,7 @@ def test_open_store_labels_a_design_store(fixed_length_store):
     ds = hz.open_store(fixed_length_store)
     stored = read_design(fixed_length_store)
     assert ds.sizes == {"generation": 3, "candidate": 8, "gene": 7 + 7, "objective": 1}
+    assert list(ds["generation"].values) == [1, 2, 3]  # as the progress lines and the plot's axis count them
     assert list(ds["objective"].values) == ["peak_wall_force"] and ds["gene"].values[0] == "material[1]"
     np.testing.assert_array_equal(ds["objectives"].values, stored["objective"])
     np.testing.assert_array_equal(ds["best_genome"].values, stored["best_genome"])
