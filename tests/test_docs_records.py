@@ -955,9 +955,38 @@ def test_lattice_study_table_is_its_record():
     for cell, point in zip(rows["mean at dt/2"], points, strict=True):
         assert agrees(cell, halved[point["density"]]["mean"]) if point["density"] in halved else cell == "—", cell
     assert all(p["realisations"] == 1000 and p["not_equilibrated"] == 0 for p in points + study["halved"])
-    text = (DOCS / "lattices.md").read_text()
+    text = " ".join((DOCS / "lattices.md").read_text().split())  # sentences wrap
     for h in study["halved"]:
         assert f"{100 * h['same_chain_within_one_record']:.1f} %" in text
+    by_density = {p["density"]: p for p in points}
+    for density, digits in ((0.05, 0), (0.5, 1)):
+        full, half = by_density[density], halved[density]
+        pair = f"{full['mean']:.{digits}f} ± {full['standard_error']:.{digits}f} against "
+        assert pair + f"{half['mean']:.{digits}f} ± {half['standard_error']:.{digits}f}" in text, pair
+    assert f"median difference {halved[0.05]['same_chain_median_difference']:.0f}, two records" in text
+    assert max(p["energy_error_max"] for p in points + study["halved"]) < 6e-4  # "stays below 6e-4"
+    local = ", ".join(f"{x['exponent']:.2f}" for x in study["fit"]["local"]).replace("-", "−")
+    assert f"the exponent runs {local} from ε = 0.02 up" in text
+    weak, strong = study["fit"]["weak"], study["fit"]["strong"]
+    assert f"T_eq ∝ ε^{weak['exponent']:.2f}±{weak['exponent_error']:.2f}".replace("-", "−") in text
+    assert f"ε^{strong['exponent']:.2f}±{strong['exponent_error']:.2f}".replace("-", "−") in text
+    assert f"took {by_density[0.02]['seconds']:.0f} s on the 2-core CPU" in text
+    total = sum(p["seconds"] for p in points + study["halved"]) / 60
+    assert f"the whole study, the dt/2 runs included, {total:.0f} minutes" in text
+
+    rows = table_after("lattices.md", "| check | against | result |")
+    toda, recurrence = study["validation"]["toda_soliton"], study["validation"]["fput_recurrence"]
+    errors = [f"{r['max_error']:.2e} at dt = {r['dt']:g}".replace("e-0", "e-") for r in toda]
+    toda_cell = rows[next(k for k in rows if k.startswith("Toda soliton"))][1]
+    assert toda_cell == f"largest error {', '.join(errors)} (order 6)"
+    cell = rows[next(k for k in rows if k.startswith("FPUT recurrence"))]
+    first = recurrence[0]
+    assert f"{first['zabusky_estimate_periods']:.1f} T_1" in cell[0]
+    assert cell[1].startswith(f"{first['recurrence_periods']:.2f} T_1 at dt 0.2 and 0.1")
+    assert all(f"{r['recurrence_periods']:.2f}" == f"{first['recurrence_periods']:.2f}" for r in recurrence)
+    down, back = 100 * first["lowest_share"], 100 * first["returned_share"]
+    below = 100 * (1 - first["recurrence_periods"] / first["zabusky_estimate_periods"])
+    assert f"(mode 1 down to {down:.1f} %, back to {back:.1f} %): {below:.1f} % below" in cell[1]
 
 
 def test_the_gpu_family_table_is_its_record():
