@@ -1195,3 +1195,140 @@ def test_the_readme_quotes_the_quick_reproductions_record():
     assert found["command"] == "hertzian reproduce --quick --device cpu" and found["figure_failures"] == 0
     readme = " ".join((DOCS.parent / "README.md").read_text().split())
     assert f"small on a CPU ({found['total_seconds']:.0f} s on 2 cores, {found['date'][:10]}, record" in readme
+
+
+def accuracy_text() -> str:
+    """docs/accuracy.md with its line breaks read as spaces (its sentences wrap)."""
+    return " ".join((DOCS / "accuracy.md").read_text().split())
+
+
+def estimate_counts(row: dict) -> dict:
+    """An event setting's per-point estimate against true error, counted as accuracy.md counts it."""
+    import numpy as np
+
+    ratio = np.array(row["estimate"]) / np.array(row["true_error"])
+    within = (ratio >= 1 / 3) & (ratio <= 3)
+    marked = np.array(row["uncertain"], dtype=bool)
+    logs = np.sort(np.log(ratio[marked]))
+    best = max((int(np.sum((logs >= x) & (logs <= x + np.log(9)))) for x in logs), default=0)
+    return {
+        "points": len(ratio),
+        "within": int(within.sum()),
+        "marked": int(marked.sum()),
+        "marked_within": int(within[marked].sum()),
+        "unmarked": int((~marked).sum()),
+        "unmarked_within": int(within[~marked].sum()),
+        "span": float(np.exp(logs[-1] - logs[0])) if len(logs) else None,
+        "best_divisor": best,  # the most marked points any one divisor puts within 3× (a window of 9× in ratio)
+    }
+
+
+def test_the_estimate_tables_and_sentences_are_their_records():
+    """accuracy.md's check of the estimate: the events table (CPU), the second sweep, the best single divisor and
+    the GPU sentence, each counted from the records' per-point estimate and true error."""
+    text = accuracy_text()
+    check, wide = record("accuracy/estimate_check_cpu.json"), record("accuracy/estimate_wide_cpu.json")
+    rows = table_after("accuracy.md", "| events | within 3× |")
+    for setting in ("auto", "off"):
+        row, counts = check["events"][setting], estimate_counts(check["events"][setting])
+        cells = rows[setting]
+        assert cells[0] == f"{counts['within']}/{counts['points']} ({100 * counts['within'] / counts['points']:.0f} %)"
+        assert cells[1] == f"{100 * row['fraction_within_where_contacts_open']:.0f} %"
+        assert cells[2] == f"{100 * row['fraction_within_where_none_open']:.0f} %"
+        assert cells[3] == str(counts["marked"]) == str(row["uncertain_points"])
+        low, high = row["ratio_range"]
+        assert cells[5] == f"{low:.2f} … {high:.2f}" if high < 2 else cells[5] == f"{low:.2f} … {high:.1f}"
+    off = estimate_counts(check["events"]["off"])
+    assert rows["off"][4] == (
+        f"{off['unmarked_within']}/{off['unmarked']} ({100 * off['unmarked_within'] / off['unmarked']:.0f} %) / "
+        f"{off['marked_within']}/{off['marked']} ({100 * off['marked_within'] / off['marked']:.0f} %)"
+    )
+    assert f"{sum(check['can_open'])} points where a contact can open" in text
+    assert f"{sum(wide['can_open'])} points where a contact can open" in text
+
+    auto, wide_off = wide["events"]["auto"], estimate_counts(wide["events"]["off"])
+    assert estimate_counts(auto)["within"] == 64
+    low, high = auto["ratio_range"]
+    assert (
+        f"takes {wide['reference_seconds']:.1f} s of it): events auto 64/64 (100 %) within 3×, ratio {low:.2f} … {high:.2f}"
+        in text
+    )
+    sentence = (
+        f"events off {wide_off['within']}/64 ({100 * wide_off['within'] / 64:.0f} %) within 3×, {wide_off['marked']} "
+        f"marked, {wide_off['marked_within']}/{wide_off['marked']} "
+        f"({100 * wide_off['marked_within'] / wide_off['marked']:.0f} %) of them within 3×, "
+        f"{wide_off['unmarked_within']}/{wide_off['unmarked']} unmarked within 3×, ratio "
+        f"{wide['events']['off']['ratio_range'][0]:.2f} … {wide['events']['off']['ratio_range'][1]:.1f}"
+    )
+    assert sentence in text, sentence
+
+    sentence = (
+        f"spans a factor {off['span']:.0f} on the check and {wide_off['span']:.0f} on the second sweep, so even the "
+        f"best single divisor chosen with the true errors in hand puts {off['best_divisor']}/{off['marked']} (check) "
+        f"and {wide_off['best_divisor']}/{wide_off['marked']} (second sweep) of those points within 3× "
+        f"({100 * (off['best_divisor'] + off['unmarked_within']) / 64:.0f} % and "
+        f"{100 * (wide_off['best_divisor'] + wide_off['unmarked_within']) / 64:.0f} % overall"
+    )
+    assert sentence in text, sentence
+    assert f"(over a factor {off['span']:.0f} on the check below)" in text
+
+    gpu = record("accuracy/estimate_check_h200.json")["events"]
+    g_auto, g_off = estimate_counts(gpu["auto"]), estimate_counts(gpu["off"])
+    sentence = (
+        f"events auto {g_auto['within']}/64 ({100 * g_auto['within'] / 64:.0f} %) within 3×, ratio "
+        f"{gpu['auto']['ratio_range'][0]:.2f} … {gpu['auto']['ratio_range'][1]:.2f}; events off {g_off['within']}/64 "
+        f"({100 * g_off['within'] / 64:.0f} %), {g_off['marked']} marked, {g_off['unmarked_within']}/"
+        f"{g_off['unmarked']} unmarked within 3×, ratio {gpu['off']['ratio_range'][0]:.2f} … "
+        f"{gpu['off']['ratio_range'][1]:.1f}"
+    )
+    assert sentence in text, sentence
+
+
+def test_the_estimate_cost_tables_are_their_records():
+    """accuracy.md's cost of the estimate: the CPU and GPU case, and every feature on both kernels (medians)."""
+    import statistics
+
+    rows = table_after("accuracy.md", "| device | case | without | with | ratio |")
+    for label, name in (("CPU, 2 cores, quiet", "estimate_check_cpu.json"), ("H200", "estimate_check_h200.json")):
+        cost = record(f"accuracy/{name}")["cost"]
+        case, without, with_, ratio = rows[label]
+        steps = f"{cost['steps']:,}".replace(",", " ")
+        assert case.startswith(f"{cost['chains']} chains × {cost['grains']} grains, {steps} steps")
+        assert agrees(without.removesuffix(" s"), statistics.median(cost["seconds_without"]))
+        assert agrees(with_.removesuffix(" s"), statistics.median(cost["seconds_with"]))
+        assert agrees(ratio.strip("*").removesuffix("×"), cost["ratio"])
+    features = {(f["case"], f["kernel_asked"]): f for f in record("accuracy/estimate_check_cpu.json")["cost_features"]}
+    rows = table_after("accuracy.md", "| case | chain kernel | ratio | per-step kernel | ratio |")
+    cases = {
+        "walls at both ends (the cost case)": "walls",
+        "gravity, three light impurities": "gravity, impurities",
+        "driven surface": "drive",
+        "viscous damping": "viscous damping",
+        "contact (dashpot) damping": "contact damping",
+    }
+    assert set(rows) == set(cases)
+    for label, case in cases.items():
+        cells = rows[label]
+        for k, kernel in enumerate(("chain", "step")):
+            row = features[(case, kernel)]
+            without, with_ = cells[2 * k].removesuffix(" s").split(" / ")
+            assert agrees(without, statistics.median(row["seconds_without"])), (label, kernel)
+            assert agrees(with_, statistics.median(row["seconds_with"])), (label, kernel)
+            assert agrees(cells[2 * k + 1].removesuffix("×"), row["ratio"]), (label, kernel)
+
+
+def test_the_defaults_table_is_its_records():
+    """accuracy.md's cheapest run per target and event setting, on both devices, is each record's choice."""
+    rows = table_rows("accuracy.md", "| device | scene | target | events auto | events off |")[1:]
+    records = {"CPU": record("accuracy/defaults_cpu.json"), "GPU": record("accuracy/defaults_h200.json")}
+    assert len(rows) == 2 * 3 * 3
+    for device, scene, target, *cells in rows:
+        cheapest = records[device]["scenes"][scene]["cheapest_per_events"][str(float(target))]
+        for cell, events in zip(cells, ("auto", "off"), strict=True):
+            best = cheapest[events]
+            if best is None:
+                assert cell == "none", (device, scene, target, events)
+                continue
+            method, dt, seconds = cell.removesuffix(" s").replace(",", "").split()
+            assert (method, float(dt)) == (best["method"], best["dt"]), (device, scene, target, events)
+            assert agrees(seconds, best["seconds"]), (device, scene, target, events, cell)

@@ -98,8 +98,15 @@ def estimate_check(
         typer.echo(f"cost: {c['ratio']:.2f}× ({c['chains']} chains × {c['grains']} grains, kernel {c['kernel']})")
     for row in record.get("cost_features", []):
         typer.echo(f"cost, {row['case']}, kernel {row['kernel_asked']}: {row['ratio']:.2f}×")
+    _write(as_json, dev, record)
+
+
+def _write(as_json: Optional[Path], device: str, record: dict) -> None:
+    """The record at ``as_json`` (if given): the command that wrote it, where and when it ran, then its numbers."""
     if as_json is not None:
-        as_json.write_text(json.dumps({"command": command_line(), **record}, indent=1) + "\n")
+        from hertzian.core.outputs import provenance
+
+        as_json.write_text(json.dumps({"command": command_line(), **provenance(device), **record}, indent=1) + "\n")
         typer.echo(f"wrote {as_json}", err=True)
 
 
@@ -124,6 +131,4 @@ def _defaults(device: str, as_json: Optional[Path]) -> None:
                 )
             )
             typer.echo(f"{name} ≤ {float(target):g}: {choice}")
-    if as_json is not None:
-        as_json.write_text(json.dumps({"command": command_line(), **record}, indent=1) + "\n")
-        typer.echo(f"wrote {as_json}", err=True)
+    _write(as_json, device, record)

@@ -132,8 +132,10 @@ def test_estimates_cost_takes_the_chains_asked_for(tmp_path):
         "estimates", sweep, "--events", "auto", "--cost", "--cost-chains", "3", "--device", "cpu", "--json", out
     )
     assert result.exit_code == 0, result.output
-    cost = json.loads(out.read_text())["cost"]
+    written = json.loads(out.read_text())
+    cost = written["cost"]
     assert cost["chains"] == 3 and cost["ratio"] > 1.0
+    assert written["device"] == "cpu" and written["date"].startswith("20") and written["command"].startswith("hertzian")
     refused = invoke("estimates", sweep, "--cost-chains", "0", "--device", "cpu")
     assert refused.exit_code == 2 and "--cost-chains = 0" in refused.output
 
