@@ -1042,6 +1042,12 @@ def test_the_cpu_readme_rows_of_the_benchmarks_are_their_record():
             low, high = cell.removesuffix(" s").split("–")
             values = [pair[key] for pair in parts[part]["pairs"]]
             assert agrees(low, min(values)) and agrees(high, max(values)), (part, key, cell)
+    rate = rows[labels["readme"]][
+        3
+    ]  # the warm runs' integration phase: 1000 grains × 2·10⁵ steps of the built-in example
+    phases = [pair["warm_timeline"]["phases"] for pair in parts["readme"]["pairs"]]
+    rates = [1000 * 200_000 / (p["integrated"] - p["kernels_loaded"]) / 1e8 for p in phases]
+    assert rate == f"{min(rates):.1f}–{max(rates):.1f}e8 GS/s integrating", (rate, rates)
 
 
 def test_the_float32_table_is_its_record():
