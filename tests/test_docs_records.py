@@ -1338,3 +1338,44 @@ def test_the_defaults_table_is_its_records():
             method, dt, seconds = cell.removesuffix(" s").replace(",", "").split()
             assert (method, float(dt)) == (best["method"], best["dt"]), (device, scene, target, events)
             assert agrees(seconds, best["seconds"]), (device, scene, target, events, cell)
+
+
+def test_the_readme_h100_table_is_its_records():
+    """README's H100 rows: the kernels' rates against the JAX peer, and the end-to-end seconds (the last, warm run
+    of each workload; the paper's runs on a fresh machine and twice after)."""
+    lines = (DOCS.parent / "README.md").read_text().splitlines()
+    start = lines.index("| what | result | record |")
+    rows = {
+        cells[0]: cells[1]
+        for cells in (
+            [c.strip() for c in line.strip("|").split("|")] for line in lines[start + 2 :] if line.startswith("|")
+        )
+        if cells
+    }
+    kernels = record("bench/h100_kernels.json")["records"]
+
+    def rate(implementation: str, chains: int, grains: int) -> dict:
+        return next(
+            r for r in kernels if (r["implementation"], r["chains"], r["grains"]) == (implementation, chains, grains)
+        )
+
+    tile, jax = rate("warp-tile", 16384, 1000), rate("jax", 16384, 1000)
+    speedup = tile["grain_steps_per_second"] / jax["grain_steps_per_second"]
+    assert rows["16384 chains × 1000 grains, tile kernel"] == (
+        f"{tile['grain_steps_per_second']:.1e} grain-steps/s, {speedup:.1f}× the JAX peer".replace("e+11", "e11")
+    )
+    windows = [rate("warp-window", 1, n)["steps_per_second"] for n in (1000, 10240)]
+    assert {f"{w:.1e}".replace("e+06", "e6") for w in windows} == {"3.2e6"}
+    assert rows["one chain of 1000 or 10 240 grains, window kernel"] == "3.2e6 steps/s"
+    workloads = record("bench/h100_endtoend.json")["workloads"]
+    warm = {k: workloads[k]["records"][-1] for k in ("gpu_10k", "paper_fig9_10")}
+    assert not any(r["cold"] for r in warm.values())
+    assert rows["`sweeps/gpu_10k.toml` end to end, warm caches"] == f"{warm['gpu_10k']['seconds']['total']:.2f} s"
+    label = "the driven 10 000-grain columns of Figs. 9–10, end to end, warm"
+    assert rows[label] == f"{warm['paper_fig9_10']['seconds']['total']:.2f} s"
+    runs = workloads["reproduce"]["runs"]
+    cold = [r["total_seconds"] for r in runs if r["first_on_fresh_machine"]]
+    again = sorted(r["total_seconds"] for r in runs if not r["first_on_fresh_machine"])
+    assert rows["the whole paper, `hertzian reproduce --device cuda`"] == (
+        f"{again[0]:.1f} and {again[1]:.1f} s warm, {cold[0]:.0f} s on a fresh machine (mostly compiling)"
+    )
