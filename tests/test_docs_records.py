@@ -1379,3 +1379,76 @@ def test_the_readme_h100_table_is_its_records():
     assert rows["the whole paper, `hertzian reproduce --device cuda`"] == (
         f"{again[0]:.1f} and {again[1]:.1f} s warm, {cold[0]:.0f} s on a fresh machine (mostly compiling)"
     )
+
+
+def test_the_drive_settle_table_is_its_record():
+    """docs/drive.md's settling table (Figs. 9–10 to t = 5 000): each run's energy errors, strobe labels, parting
+    time, driver power, and the medians over its windows (all, t ≤ 1000 at dt, and the windows both dt and dt/2
+    have)."""
+    import numpy as np
+
+    def median(values) -> float:  # over the finite values: a window without a node has an infinite ratio
+        values = np.array([np.nan if v is None else v for v in values], dtype=float)
+        return float(np.median(values[np.isfinite(values)]))
+
+    def printed(windows: dict, count: int | None) -> list[str]:  # the first count windows' medians, as printed
+        swr, drift, corr, driver_open = (
+            median(windows[k][:count]) for k in ("swr", "node_drift", "ke_correlation_next", "driver_open")
+        )
+        return [f"{swr:.3g}", f"{drift:.3g}", f"{corr:.3f}", f"{driver_open:.3f}"]
+
+    table = table_rows("drive.md", "| τ | A | energy error (dt; dt/2) |")[1:]
+    runs = {(r["drive_period"], r["A"]): r for r in record("drive/fig9_10_settle.json")["runs"]}
+    assert len(table) == len(runs) == 6
+    for tau, a, errors, labels, part, power, swr, drift, corr, driver_open, early, early_half in table:
+        run = runs[(float(tau), float(a))]
+        half = run["half_dt"]
+        assert errors == f"{run['energy_error']:.1e}; {half['energy_error']:.1e}", (tau, a, errors)
+        assert labels == f"{run['strobe_all'].split(' (')[0]} / {run['strobe_late'].split(' (')[0]}"
+        parted = half["trajectories_part_at"]
+        assert part == ("never (t ≤ 1000)" if parted is None else f"{parted:g}"), (tau, a, part)
+        assert power == " / ".join(f"{v:.3g}" for v in run["mean_power"].values())
+        common = len(half["windows"]["window_start"])  # windows both runs have
+        assert [swr, drift, corr, driver_open] == printed(run["windows"], None), (tau, a)
+        assert early == ", ".join(printed(run["windows"], common)), (tau, a)
+        assert early_half == ", ".join(printed(half["windows"], None)), (tau, a)
+
+
+def test_the_damped_drive_table_is_its_records():
+    """docs/drive.md's damped table: the damped rows from their record (window medians over the 100 windows at dt),
+    the undamped rows from the settling record's A = 2 runs."""
+    import numpy as np
+
+    def median(values) -> float:
+        values = np.array([np.nan if v is None else v for v in values], dtype=float)
+        return float(np.median(values[np.isfinite(values)]))
+
+    table = table_rows("drive.md", "| τ | A, γ | energy error (E + D − W; dt, dt/2) |")[1:]
+    damped = {r["drive_period"]: r for r in record("drive/fig9_10_damped.json")["runs"]}
+    undamped = {r["drive_period"]: r for r in record("drive/fig9_10_settle.json")["runs"] if r["A"] == 2.0}
+    assert len(table) == 4
+    for tau, a_gamma, errors, part, swr, drift, corr, driver_open, power in table:
+        run = (damped if a_gamma == "2, 1e-3" else undamped)[float(tau)]
+        assert a_gamma in ("2, 1e-3", "2, 0 (table above)")
+        half = run["half_dt"]
+        assert errors == f"{run['energy_error']:.1e}; {half['energy_error']:.1e}", (tau, a_gamma)
+        assert part == f"{half['trajectories_part_at']:g}", (tau, a_gamma)
+        medians = [median(run["windows"][k]) for k in ("swr", "node_drift", "ke_correlation_next", "driver_open")]
+        assert [swr, drift, corr, driver_open] == [
+            f"{medians[0]:.3g}",
+            f"{medians[1]:.3g}",
+            f"{medians[2]:.3f}",
+            f"{medians[3]:.3f}",
+        ]
+        assert power == f"{run['mean_power']['0-1000']:.3g}", (tau, a_gamma)
+    text = " ".join((DOCS / "drive.md").read_text().split())
+    assert "correlation and the driver's open fraction are within 6 % of the undamped run's" in text
+    for tau in (10.0, 1.0):
+        for key in ("ke_correlation_next", "driver_open"):
+            ratio = median(damped[tau]["windows"][key]) / median(undamped[tau]["windows"][key])
+            assert abs(ratio - 1) < 0.06, (tau, key, ratio)
+    drifts = [
+        (median(damped[t]["windows"]["node_drift"]), median(undamped[t]["windows"]["node_drift"])) for t in (10.0, 1.0)
+    ]
+    assert "(7 against 10 grains a window at τ = 10, 27 against 27.5 at τ = 1)" in text
+    assert drifts == [(7, 10), (27, 27.5)]
