@@ -95,16 +95,25 @@ def test_taper_tables_are_their_records(heading, name):
     assert checked >= 3 * len(q)
 
 
-def test_the_cpu_disorder_energy_share_is_its_record():
+def test_the_cpu_disorder_table_is_its_record():
+    """heterogeneous.md's disorder table (40 grains, 20 realisations per spread): every row's mean ± std and 5–95 %
+    band; the uniform chain (s = 0) has one value and no band."""
     rows = table_after("heterogeneous.md", "Disorder (20 realisations per spread)")
     disorder = record("heterogeneous_cpu.json")["disorder"]
-    for cell, mean, std in zip(
-        rows["bottom_fraction mean ± std"], disorder["bottom_fraction_mean"], disorder["bottom_fraction_std"]
-    ):
-        parts = cell.split(" ± ")
-        assert agrees(parts[0], mean), (cell, mean)
-        if len(parts) == 2:
-            assert agrees(parts[1], std), (cell, std)
+    assert disorder["realisations"] == 20 and [float(c) for c in rows["s"]] == disorder["spread"]
+    for name in ("bottom_fraction", "decay_length", "bottom_peak_force"):
+        label = next(k for k in rows if k.startswith(f"{name} mean"))
+        for k, cell in enumerate(rows[label]):
+            parts = cell.split(" ± ")
+            assert agrees(parts[0], disorder[f"{name}_mean"][k]), (name, cell)
+            assert len(parts) == 1 or agrees(parts[1], disorder[f"{name}_std"][k]), (name, cell)
+        if f"{name} 5–95 %" in rows:
+            for k, cell in enumerate(rows[f"{name} 5–95 %"]):
+                if k == 0:
+                    assert cell == "—" and disorder[f"{name}_std"][0] < 1e-12
+                    continue
+                low, high = cell.split("–")
+                assert agrees(low, disorder[f"{name}_q05"][k]) and agrees(high, disorder[f"{name}_q95"][k]), cell
 
 
 @pytest.mark.parametrize(
