@@ -1461,3 +1461,34 @@ def test_the_damped_drive_table_is_its_records():
     ]
     assert "(7 against 10 grains a window at τ = 10, 27 against 27.5 at τ = 1)" in text
     assert drifts == [(7, 10), (27, 27.5)]
+
+
+def test_the_shipped_gpu_disorder_table_is_its_record():
+    """heterogeneous.md's shipped-size disorder table (200 grains, 1000 realisations per spread, H200): every mean
+    ± std and 5–95 % band; a decay length beyond five chain lengths is shown in parentheses, without a band."""
+    rows = table_after("heterogeneous.md", "At the shipped size on the GPU (200 grains")
+    disorder = record("heterogeneous_shipped_h200.json")["disorder"]
+    assert disorder["realisations"] == 1000 and [float(c) for c in rows["s"]] == disorder["spread"]
+    names = {
+        "bottom_fraction (snapshots)": "bottom_fraction",
+        "decay_length [grains]": "decay_length",
+        "bottom_peak_force": "bottom_peak_force",
+        "arrival time": "arrival_time",
+    }
+    assert set(rows) == {"s", "decay_length 5–95 %", *names}
+    for label, name in names.items():
+        for k, cell in enumerate(rows[label]):
+            if cell == "(≫ 200)":
+                assert disorder[f"{name}_mean"][k] > 10 * 200 and k == 0
+                continue
+            parts = cell.strip("()").split(" ± ")
+            assert agrees(parts[0], disorder[f"{name}_mean"][k]), (label, cell)
+            assert len(parts) == 1 or agrees(parts[1], disorder[f"{name}_std"][k]), (label, cell)
+            unresolved = name == "decay_length" and disorder["decay_length_mean"][k] > 5 * 200  # five chain lengths
+            assert cell.startswith("(") == unresolved, (label, cell)
+    for k, cell in enumerate(rows["decay_length 5–95 %"]):
+        if cell == "—":
+            assert disorder["decay_length_mean"][k] > 5 * 200, k  # not resolved
+            continue
+        low, high = cell.split("–")
+        assert agrees(low, disorder["decay_length_q05"][k]) and agrees(high, disorder["decay_length_q95"][k]), cell
