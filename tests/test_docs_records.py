@@ -1492,3 +1492,27 @@ def test_the_shipped_gpu_disorder_table_is_its_record():
             continue
         low, high = cell.split("–")
         assert agrees(low, disorder["decay_length_q05"][k]) and agrees(high, disorder["decay_length_q95"][k]), cell
+
+
+def test_the_disorder_throughput_table_is_its_record():
+    """heterogeneous.md's throughput table (H200): each run's end-to-end seconds, rate, device and compile seconds,
+    and the sentence that compares the random chains with their uniform twin."""
+    rows = table_rows("heterogeneous.md", "| chain | cache | end to end [s] |")[1:]
+    runs = record("bench/disorder_throughput_h200.json")
+    keys = {("random radii", "warm"): "heterogeneous_warm", ("random radii", "empty"): "heterogeneous_cold"}
+    keys[("uniform twin", "its variant not yet cached")] = "uniform_cold"
+    assert len(rows) == 3
+    for chain, cache, total, rate, device, compile_ in rows:
+        run = runs[keys[(chain, cache)]]
+        assert agrees(total, run["seconds"]["total"]) and agrees(device, run["device_seconds"]), (chain, cache)
+        assert agrees(compile_, run["seconds"]["compile"]), (chain, cache)
+        assert rate.strip("*") == f"{run['grain_steps_per_second']:.3g}".replace("e+11", "e11"), (chain, cache, rate)
+    text = " ".join((DOCS / "heterogeneous.md").read_text().split())
+    warm, twin = runs["heterogeneous_warm"], runs["uniform_cold"]
+    twin_less = twin["seconds"]["total"] - twin["seconds"]["compile"]
+    assert (
+        f"{warm['device_seconds']:.2f} device seconds against {twin['device_seconds']:.2f} for the uniform twin "
+        f"({warm['device_seconds'] / twin['device_seconds']:.2f}×), and {warm['seconds']['total']:.1f} s end to end "
+        f"against {twin['seconds']['total']:.1f} − {twin['seconds']['compile']:.1f} = {twin_less:.1f} s" in text
+    )
+    assert f"({warm['seconds']['store']:.1f} s of writes, overlapped)" in text
