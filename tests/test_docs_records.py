@@ -1516,3 +1516,33 @@ def test_the_disorder_throughput_table_is_its_record():
         f"against {twin['seconds']['total']:.1f} − {twin['seconds']['compile']:.1f} = {twin_less:.1f} s" in text
     )
     assert f"({warm['seconds']['store']:.1f} s of writes, overlapped)" in text
+
+
+def test_the_stability_limits_table_is_the_amplification_matrices():
+    """stability.md's limits table, derived again from check.amplification_matrix: each method's growth per
+    period at ω·dt = 0.1, 0.5, 1.0 as printed, and the limits (gear5 and gear6: where the growth reaches 10 % per
+    period, found by bisection)."""
+    import numpy as np
+    from hertzian.core.check import amplification_matrix
+
+    def growth(method: str, omega_dt: float) -> float:
+        rho = max(abs(np.linalg.eigvals(amplification_matrix(method, omega_dt))))
+        return rho ** (2 * math.pi / omega_dt) - 1
+
+    rows = table_after("stability.md", "| method | stable for ω·dt ≤ |")
+    assert set(rows) == {"verlet", "gear4", "gear5", "gear6", "yoshida4", "yoshida6"}
+    for method, (limit, _, changes) in rows.items():
+        for cell, omega_dt in zip(changes.split(" / "), (0.1, 0.5, 1.0), strict=True):
+            value = growth(method, omega_dt)
+            if cell == "0":
+                assert abs(value) < 1e-12, (method, omega_dt, value)
+            else:
+                number = cell.split()[0].replace("−", "-")
+                assert f"{value:+.2g}" == f"{float(number):+.2g}" and number[0] in "+-", (method, cell, value)
+        if method in ("gear5", "gear6"):
+            low, high = 0.5, 1.5
+            for _ in range(60):
+                middle = (low + high) / 2
+                low, high = (middle, high) if growth(method, middle) < 0.1 else (low, middle)
+            assert limit == f"{low:.2f}", (method, limit, low)
+    assert rows["gear4"][0] == f"√2 = {math.sqrt(2):.3f}"
