@@ -1546,3 +1546,30 @@ def test_the_stability_limits_table_is_the_amplification_matrices():
                 low, high = (middle, high) if growth(method, middle) < 0.1 else (low, middle)
             assert limit == f"{low:.2f}", (method, limit, low)
     assert rows["gear4"][0] == f"√2 = {math.sqrt(2):.3f}"
+
+
+def test_the_h100_time_to_target_table_is_its_record():
+    """stability.md §7c's H100 table: the warm (second) run of each configuration, its total and device seconds,
+    and the ratios to gear6 with events that the table and its verdict quote."""
+    rows = table_after("stability.md", "| configuration | total s | device s |")
+    workloads = record("bench/h100_events.json")["workloads"]
+    names = {
+        "gear6, events auto, dt = 1e-3": "frontier_gear6_auto_1e-3_l2",
+        "gear4, events auto, dt = 5e-4": "frontier_gear4_auto_5e-4_l2",
+        "gear4, events off, dt = 1e-4": "frontier_gear4_off_1e-4_l2",
+    }
+    assert set(rows) == set(names)
+    warm = {label: workloads[name][0] for label, name in names.items()}
+    best = warm["gear6, events auto, dt = 1e-3"]["seconds"]["total"]
+    for label, (total, device, ratio) in rows.items():
+        run = warm[label]
+        assert agrees(total.strip("*"), run["seconds"]["total"]) and agrees(device, run["device_seconds"]), label
+        assert (
+            ratio == "1"
+            if run["seconds"]["total"] == best
+            else ratio == f"{run['seconds']['total'] / best:.2f}× slower"
+        )
+    text = " ".join((DOCS / "stability.md").read_text().split())
+    ratios = [warm[k]["seconds"]["total"] / best for k in list(names)[1:]]
+    assert f"{ratios[0]:.2f}× faster end to end than gear4 at its own largest step" in text
+    assert f"and {ratios[1]:.1f}× faster than gear4 with plain steps" in text
