@@ -1573,3 +1573,62 @@ def test_the_h100_time_to_target_table_is_its_record():
     ratios = [warm[k]["seconds"]["total"] / best for k in list(names)[1:]]
     assert f"{ratios[0]:.2f}× faster end to end than gear4 at its own largest step" in text
     assert f"and {ratios[1]:.1f}× faster than gear4 with plain steps" in text
+
+
+def test_the_gpu_cold_and_warm_table_is_its_record():
+    """fixed-costs.md's cold and warm table (H200) and the README command's warm timeline under it."""
+    rows = table_after("fixed-costs.md", "| workload | command | cold [s] | warm [s] | target |")
+    runs = record("bench/fixed_costs_h200.json")
+
+    def row(start: str) -> list[str]:
+        return next(cells for label, cells in rows.items() if label.startswith(start))
+
+    gpu_10k = runs["gpu_10k"]
+    _, cold, warm, _ = row("gpu_10k")
+    seconds = gpu_10k["cold"]["seconds"]
+    assert cold == f"{seconds['total']:.2f} (compile {seconds['compile']:.2f})"
+    assert warm == ", ".join(f"{r['seconds']['total']:.2f}" for r in gpu_10k["warm"])
+    million = runs["million_point_sweep"]
+    _, cold, warm, _ = row("million-point sweep")
+    seconds = million["cold"]["seconds"]
+    assert cold == f"{seconds['total']:.1f} (compile {seconds['compile']:.1f})"
+    seconds = million["warm"]["seconds"]
+    assert (
+        warm == f"{seconds['total']:.2f} (build {seconds['build']:.2f}, device {million['warm']['device_seconds']:.2f})"
+    )
+    detection = runs["first_detection"]
+    _, cold, warm, _ = row("first detection")
+    first, again = detection["fresh_cache_kernels_prepared_up_front"], detection["warm_kernel_cache_no_library"]
+    assert cold == (
+        f"{first['process_seconds']:.1f} (library {first['seconds']['library']:.1f}, refinement "
+        f"{first['seconds']['refinement']:.1f})"
+    )
+    assert warm == f"{again['process_seconds']:.1f} (library not cached; {again['seconds']['total']:.2f} s inside)"
+    _, cold, warm, _ = row("paper reproduction")
+    assert (
+        cold == f"{runs['reproduce']['cold_total_seconds']:.1f}"
+        and warm == f"{runs['reproduce']['warm_total_seconds']:.1f}"
+    )
+    pairs = runs["readme_first_command"]["pairs"]
+    _, cold, warm, _ = row("README first command")
+    assert cold == ", ".join(f"{p['cold_s']:.2f}" for p in sorted(pairs, key=lambda p: p["cold_s"]))
+    assert warm == ", ".join(f"{p['warm_s']:.2f}" for p in sorted(pairs, key=lambda p: p["warm_s"]))
+    threads = runs["compile_threads"]
+    _, cold, _, _ = row("`hertzian warmup --paper --quick`")
+    assert cold == f"{threads['1']['seconds']:.2f} (1 thread) / {threads['8']['seconds']:.2f} (8 threads)"
+
+    text = " ".join((DOCS / "fixed-costs.md").read_text().split())
+    phases = min(pairs, key=lambda p: p["warm_s"])["warm_timeline"]["phases"]
+    assert (
+        f"`hertzian.cli` ready {phases['cli_ready']:.2f}, scene loaded with Warp imported {phases['scene_loaded']:.2f}, "
+        f"`wp.init` {phases['warp_initialised']:.2f}, CUDA context {phases['device_ready']:.2f}, model built "
+        f"{phases['model_built']:.2f}, kernels loaded from the cache {phases['kernels_loaded']:.2f}, integrated "
+        f"{phases['integrated']:.2f}" in text
+    )
+    cpu = record("bench/cpu_auto_rule.json")["readme"]
+    spans = [p["warm_timeline"]["phases"] for p in cpu["pairs"]]
+    spans = [p["integrated"] - p["kernels_loaded"] for p in spans]
+    assert (
+        f"takes {cpu['median_warm_s']:.2f} s warm on the 2-core CPU (the median of the `readme` pairs above), where "
+        f"Zarr's import is hidden behind a {min(spans):.2f}–{max(spans):.2f} s integration" in text
+    )
