@@ -1632,3 +1632,38 @@ def test_the_gpu_cold_and_warm_table_is_its_record():
         f"takes {cpu['median_warm_s']:.2f} s warm on the 2-core CPU (the median of the `readme` pairs above), where "
         f"Zarr's import is hidden behind a {min(spans):.2f}–{max(spans):.2f} s integration" in text
     )
+
+
+def test_the_h100_kernel_rows_are_their_record():
+    """docs/benchmarks.md's H100 kernel rows: the best project kernel and its shape, its rates, the per-step kernel
+    and the JAX peer, and the memory-wall sentence under the table."""
+    kernels = record("bench/h100_kernels.json")["records"]
+    lines = (DOCS / "benchmarks.md").read_text().splitlines()
+    for chains, grains in ((16384, 1000), (16384, 4096), (1, 1000), (1, 10240)):
+        (line,) = [line for line in lines if line.startswith(f"| {chains} × {grains} | H100")]
+        cells = [c.strip().strip("*") for c in line.strip("|").split("|")]
+        mine = [r for r in kernels if (r["chains"], r["grains"]) == (chains, grains)]
+        best = max(
+            (r for r in mine if r["implementation"].startswith("warp-")), key=lambda r: r["grain_steps_per_second"]
+        )
+        step = next(r for r in mine if r["implementation"] == "warp-step")
+        jax = next(r for r in mine if r["implementation"] == "jax")
+        kind, shape = best["kernel"].split(" (")
+        G = shape.split()[0]
+        assert cells[2].startswith(f"{kind} ({G}, ") and cells[2].endswith(f"K={shape.split('K=')[1]}"), (
+            cells[2],
+            best["kernel"],
+        )
+        assert cells[3] == f"{best['grain_steps_per_second']:.2e}".replace("e+", "e").replace("e0", "e"), cells
+        assert cells[4] == f"{best['steps_per_second']:.2e}".replace("e+", "e").replace("e0", "e"), cells
+        per = "steps_per_second" if chains == 1 else "grain_steps_per_second"
+        unit = " steps/s" if chains == 1 else ""
+        for cell, peer in ((cells[5], step), (cells[6], jax)):
+            assert cell == f"{peer[per]:.2e}".replace("e+", "e").replace("e0", "e") + unit, (cell, peer[per])
+        assert cells[7] == f"{best['grain_steps_per_second'] / jax['grain_steps_per_second']:.1f}×", cells
+    text = " ".join((DOCS / "benchmarks.md").read_text().split())
+    tile = next(r for r in kernels if (r["implementation"], r["chains"], r["grains"]) == ("warp-tile", 16384, 1000))
+    steps = [r["ratio_to_memory_wall"] for r in kernels if r["implementation"] == "warp-step" and r["chains"] == 16384]
+    assert f"({tile['memory_wall_grain_steps_per_second']:.2e} GS/s on the H100)".replace("e+", "e") in text
+    assert f"the tile kernel runs at {tile['ratio_to_memory_wall']:.1f}× the memory wall at 16384 × 1000" in text
+    assert f"the per-step kernel at {min(steps):.2f}–{max(steps):.2f} of it" in text
