@@ -1667,3 +1667,45 @@ def test_the_h100_kernel_rows_are_their_record():
     assert f"({tile['memory_wall_grain_steps_per_second']:.2e} GS/s on the H100)".replace("e+", "e") in text
     assert f"the tile kernel runs at {tile['ratio_to_memory_wall']:.1f}× the memory wall at 16384 × 1000" in text
     assert f"the per-step kernel at {min(steps):.2f}–{max(steps):.2f} of it" in text
+
+
+def test_the_four_gpu_scaling_tables_are_their_record():
+    """docs/scale-out.md's strong and weak tables on 4 × H200, every cell from the record."""
+    scale = record("bench/scale_out_4gpu_h200.json")
+    rows = table_after("scale-out.md", "| workers | process wall [s] | speed-up |")
+    strong = {("serial" if s["serial"] else str(s["workers"])): s for s in scale["strong"]}
+    assert set(rows) == set(strong)
+    for workers, (wall, speedup, efficiency, batches, batch_speedup, busy, bitwise) in rows.items():
+        run = strong[workers]
+        assert agrees(wall, run["process_seconds"]) and agrees(speedup, run["speedup"]), workers
+        assert efficiency == f"{100 * run['efficiency']:.0f} %" and agrees(batches, run["seconds"]["batches"])
+        assert agrees(batch_speedup, run["batch_phase_speedup"]), workers
+        shown_busy = ", ".join(f"{100 * b:.0f} %" for b in run["busy"].values())
+        assert busy == (f"{shown_busy} (main)" if workers == "serial" else shown_busy), (workers, busy)
+        assert bitwise == ("reference" if workers == "serial" else "equal" if run["differing_arrays"] == [] else "?")
+    rows = table_after("scale-out.md", "| workers | work | process wall [s] | batch phase [s] |")
+    weak = scale["weak_runs"]
+    names = {"serial": ("1", "W/4"), "2": ("2", "W/2"), "4": ("4", "W")}
+    assert set(rows) == set(names)
+    for label, (work, wall, batches, wait, efficiency) in rows.items():
+        key, shown_work = names[label]
+        run = weak[key]
+        seconds = run["summary"]["seconds"]
+        assert work == shown_work and agrees(wall, run["process_seconds"]) and agrees(batches, seconds["batches"])
+        assert wait == ("—" if label == "serial" else f"{seconds['cluster_wait']:.2f}"), (label, wait)
+        assert efficiency == f"{100 * run['efficiency']:.0f} %", (label, efficiency)
+
+
+def test_the_two_gpu_scaling_sentence_is_its_record():
+    scale = record("bench/scale_out_2gpu_h200.json")
+    serial, one, two = scale["strong"]
+    weak_serial, weak_two = scale["weak"]
+    text = " ".join((DOCS / "scale-out.md").read_text().split())
+    assert scale["bitwise_equal"] and one["differing_arrays"] == two["differing_arrays"] == []
+    assert (
+        f"serial {serial['process_seconds']:.2f} s (batch phase {serial['seconds']['batches']:.2f} s), `--workers 1` "
+        f"{one['process_seconds']:.2f} s ({one['speedup']:.2f}×), `--workers 2` {two['process_seconds']:.2f} s "
+        f"({two['speedup']:.2f}×, {100 * two['efficiency']:.0f} %; batch phase {two['seconds']['batches']:.2f} s, "
+        f"{two['batch_phase_speedup']:.2f}×); weak: serial at W/2 {weak_serial['process_seconds']:.2f} s, 2 workers at "
+        f"W {weak_two['process_seconds']:.2f} s ({100 * weak_two['efficiency']:.0f} %)" in text
+    )
