@@ -1709,3 +1709,34 @@ def test_the_two_gpu_scaling_sentence_is_its_record():
         f"{two['batch_phase_speedup']:.2f}×); weak: serial at W/2 {weak_serial['process_seconds']:.2f} s, 2 workers at "
         f"W {weak_two['process_seconds']:.2f} s ({100 * weak_two['efficiency']:.0f} %)" in text
     )
+
+
+def test_the_detection_target_table_is_its_record():
+    """docs/detection.md's H100 target table, counted again from the record's 416 detections."""
+    import numpy as np
+
+    study = record("detection/h100_target_1000.json")
+    detections = [dict(zip(study["columns"], row)) for row in study["records"]]
+    planted = [d for d in detections if d["true_class"] != "none"]
+    summary = study["summary"]["g0-single"]["26.0"]
+    correct = sum(d["class"] == d["true_class"] for d in detections)
+    near = sum(d["depth"] is not None and abs(d["depth"] - d["true_depth"]) <= 1 for d in planted)
+    exact = sum(d["depth"] == d["true_depth"] for d in planted)
+    covered = sum(d["mass_ratio_lo"] <= d["true_mass_ratio"] <= d["mass_ratio_hi"] for d in planted)
+    seconds = np.array([d["seconds_total"] for d in detections])
+    rows = table_after("detection.md", "| 26 dB, 1000 grains, depths 50–800 |")
+    assert rows[f"class correct ({len(detections)}, clean chains included)"][:2] == [
+        f"**{correct} / {len(detections)}**",
+        f"{100 * summary['class_accuracy_lower95']:.1f} %",
+    ]
+    assert rows[f"depth within ±1 grain ({len(planted)})"][:2] == [
+        f"**{near} / {len(planted)}** (exact: {exact})",
+        f"{100 * summary['depth_within_1_lower95']:.1f} %",
+    ]
+    assert rows["μ interval holds the truth"][0] == (
+        f"{covered} / {len(planted)} ({100 * covered / len(planted):.0f} %; nominal 95 %: too narrow)"
+    )
+    assert rows["seconds per detection, cached library"][0].startswith(
+        f"median {np.median(seconds):.2f} s, 95th percentile {np.percentile(seconds, 95):.2f} s, at most "
+        f"{seconds.max():.1f} s"
+    )
