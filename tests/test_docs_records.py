@@ -1740,3 +1740,53 @@ def test_the_detection_target_table_is_its_record():
         f"median {np.median(seconds):.2f} s, 95th percentile {np.percentile(seconds, 95):.2f} s, at most "
         f"{seconds.max():.1f} s"
     )
+
+
+def test_the_driven_preview_energy_paragraph_is_its_record():
+    """reproduction.md's energy balance of the τ = 1 driven preview (1000 grains to t = 78) at two steps: the
+    percentiles of the changes between records, the largest, the errors and their ratio, the two kernels' equal
+    balance, and where the largest record |v| of the two steps part."""
+    import numpy as np
+
+    items = record("reproduction/daggers_cpu.json")["items"]
+    runs = items["drive_tau1_energy"]["values"]
+    coarse, step, fine = runs["dt=0.000125 auto"], runs["dt=0.000125 step"], runs["dt=1.25e-05 auto"]
+    text = " ".join((DOCS / "reproduction.md").read_text().split())
+    changes = []
+    for run in (coarse, fine):
+        balance = run["energy_balance_between_records"]
+        changes.append([*balance["change_percentiles (50, 90, 99 %)"], balance["largest_jump"]["relative"]])
+    shown = [[f"{c:.1e}".replace("e-0", "e-") for c in row] for row in changes]
+    assert (
+        f"by {shown[0][0]} (median), {shown[0][1]} (90 %), {shown[0][2]} (99 %) and at most {shown[0][3]} at dt = "
+        f"1.25e-4, against {shown[1][0]}, {shown[1][1]}, {shown[1][2]} and {shown[1][3]} at dt = 1.25e-5" in text
+    )
+    ratios = [a / b for a, b in zip(changes[0], changes[1])]
+    assert f"({10 * round(min(ratios) / 10)}–{10 * round(max(ratios) / 10)} times smaller)" in text
+    errors = [f"{r['energy_error_max']:.1e}".replace("e-0", "e-") for r in (coarse, fine)]
+    assert f"the error reaches {errors[0]} and {errors[1]}" in text
+    assert coarse["energy_error_by_record (max |W|)"] == step["energy_error_by_record (max |W|)"]
+    largest = coarse["energy_balance_between_records"]["largest_jump"]
+    assert all(c < 1e-6 for row in changes for c in row)
+    assert (
+        f"the largest is {shown[0][3]} (between t = {largest['between_t'][0]:g} and {largest['between_t'][1]:g}" in text
+    )
+    history = items["drive_1000_energy_history"]["values"]["tau=1"]
+    assert (
+        f"{history['largest_jump']['relative']:.1e} of max |W| = {history['max_abs_W']:.1e}".replace(
+            "e+04", "e4"
+        ).replace("e-07", "e-7")
+        in text
+    )
+    ratio = coarse["energy_error_max"] / fine["energy_error_max"]
+    assert f"error is about {10 * round(ratio / 10)} times the smaller step's ({errors[0]} against {errors[1]})" in text
+    t = np.array(coarse["t"])
+    v_coarse, v_fine = np.array(coarse["largest_abs_v_by_record"]), np.array(fine["largest_abs_v_by_record"])
+    apart = np.abs(v_coarse - v_fine) / v_fine
+    late = t >= 27.5
+    worst = np.argmax(apart * late)
+    assert t[np.argmax(apart > 1e-6) - 1] == 18.0
+    assert (
+        f"differs by up to {100 * apart[late].max():.0f} % from t = 27.5 on ({v_coarse[worst]:.1f} vs "
+        f"{v_fine[worst]:.1f} at t = {t[worst]:g})" in text
+    )
