@@ -931,6 +931,24 @@ def test_claims_time_step_row_is_its_record():
         assert " / ".join(f"{v:.1e}".replace("e-0", "e-") for v in numbers) + f" {where}" in cell
     coarse, fine = (energy[k]["energy_error_max"] for k in ("dt=0.000125 step", "dt=1.25e-05 auto"))
     assert f"reaches {coarse:.1e} against {fine:.1e}".replace("e-0", "e-") in cell
+    jumps = [
+        energy[k]["energy_balance_between_records"]["largest_jump"]["relative"] for k in energy if k.startswith("dt=")
+    ]
+    assert max(jumps) < 1e-6 and "No change between records reaches 1e-6 at either step" in verdict
+    assert f"total error is about {10 * round(coarse / fine / 10)} times the smaller step's" in verdict
+    ratios = [
+        a / b
+        for a, b in zip(
+            *(
+                [
+                    *energy[k]["energy_balance_between_records"]["change_percentiles (50, 90, 99 %)"],
+                    energy[k]["energy_balance_between_records"]["largest_jump"]["relative"],
+                ]
+                for k in ("dt=0.000125 step", "dt=1.25e-05 auto")
+            )
+        )
+    ]
+    assert f"{10 * round(min(ratios) / 10)}–{10 * round(max(ratios) / 10)} times less accurate per record" in verdict
 
 
 def test_every_docs_table_row_has_its_headers_cells():
