@@ -284,7 +284,7 @@ def _scale_out(counts_text: str, sweep: Path | None, device, set_, as_json: bool
     stderr, the record in ``path`` after every run and, with ``as_json``, on stdout at the end."""
     from hertzian.core.scene import SceneError, parse_overrides
 
-    counts = _counts(counts_text, "--scale-out")
+    counts = _counts(counts_text, "--scale-out", example="1,2,4")
     if sweep is None or not sweep.is_file():
         fail(f"--sweep = {str(sweep) if sweep else None!r}: --scale-out needs a sweep file")
     if budget is not None and not budget > 0:

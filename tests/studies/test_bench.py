@@ -85,6 +85,11 @@ def test_bench_bad_input():
         assert result.exit_code == 2, (args, result.output)
         assert result.output.strip().startswith(f"error: {key} = ")
         assert "Traceback" not in result.output
+    refused = invoke("bench", "--device", "cpu", "--scale-out", "0", "--sweep", "example")
+    assert (
+        refused.exit_code == 2
+        and refused.output == "error: --scale-out = '0': integers ≥ 1, comma-separated (e.g. 1,2,4)\n"
+    )
 
 
 def test_jax_peer_matches_per_step_kernel():
@@ -146,6 +151,11 @@ def test_end_to_end_bad_input(tmp_path):
         assert result.exit_code == 2, (args, result.output)
         assert result.output.strip().startswith(f"error: {key} = ")
         assert "Traceback" not in result.output
+    refused = invoke("bench", "--device", "cpu", "--scale-out", "0", "--sweep", "example")
+    assert (
+        refused.exit_code == 2
+        and refused.output == "error: --scale-out = '0': integers ≥ 1, comma-separated (e.g. 1,2,4)\n"
+    )
 
 
 def test_jax_peer_matches_per_step_kernel_on_fput():
