@@ -1075,6 +1075,12 @@ def test_the_cpu_readme_rows_of_the_benchmarks_are_their_record():
     phases = [pair["warm_timeline"]["phases"] for pair in parts["readme"]["pairs"]]
     rates = [1000 * 200_000 / (p["integrated"] - p["kernels_loaded"]) / 1e8 for p in phases]
     assert rate == f"{min(rates):.1f}–{max(rates):.1f}e8 GS/s integrating", (rate, rates)
+    spans = [p["integrated"] - p["kernels_loaded"] for p in phases]
+    text = " ".join((DOCS / "benchmarks.md").read_text().split())
+    assert (
+        f"integrates in {min(spans):.2f}–{max(spans):.2f} s on the 2-core CPU ({min(rates):.1f}–{max(rates):.1f}e8 "
+        "grain-steps/s; the warm runs of `readme`" in text
+    )
 
 
 def test_the_float32_table_is_its_record():
