@@ -505,6 +505,12 @@ def test_fixed_costs_readme_rows_are_their_record():
         assert agrees(cold, bench[part]["median_cold_s"]) and agrees(warm, bench[part]["median_warm_s"]), part
     prebuild = next(v for k, v in cells.items() if "`readme_prebuilt.prebuild_s`" in k)
     assert agrees(prebuild, bench["readme_prebuilt"]["prebuild_s"])
+    text = " ".join((DOCS / "fixed-costs.md").read_text().split())
+    part = bench["readme_prebuilt"]
+    assert (
+        f"the default family takes {part['prebuild_s']:.1f} s to build and {part['prebuilt_bytes'] / 1e6:.1f} MB of disk"
+        in text
+    )
 
 
 def claims_row(claim: str) -> tuple[str, str]:
