@@ -505,6 +505,29 @@ def test_fixed_costs_readme_rows_are_their_record():
         assert agrees(cold, bench[part]["median_cold_s"]) and agrees(warm, bench[part]["median_warm_s"]), part
     prebuild = next(v for k, v in cells.items() if "`readme_prebuilt.prebuild_s`" in k)
     assert agrees(prebuild, bench["readme_prebuilt"]["prebuild_s"])
+    costs = bench["kernel_costs"]
+    from hertzian.core.solvers.calibrate import CPU_COSTS  # the auto rule's constants are this record's medians
+
+    for kind in ("step", "chain"):
+        assert CPU_COSTS[kind] == (round(costs[kind]["compile_s"], 3), float(f"{costs[kind]['rate']:.3g}")), kind
+    row = next(v for k, v in cells.items() if "(`kernel_costs`, medians of 3)" in k)
+    assert row == f"{costs['step']['compile_s']:.2f} / {costs['chain']['compile_s']:.2f}"
+    for key, label in (
+        ("import_cli", "`start.import_cli`"),
+        ("run_help", "`start.run_help`"),
+        ("tiny_run", "`start.tiny_run`"),
+    ):
+        assert agrees(next(v for k, v in cells.items() if label in k), bench["start"][key]), key
+    installed = next(v for k, v in cells.items() if "(`readme_installed`," in k)
+    cold, warm = installed.split(" / ")
+    assert agrees(cold, bench["readme_installed"]["median_cold_s"]) and agrees(
+        warm, bench["readme_installed"]["median_warm_s"]
+    )
+    million = bench["build_million"]["seconds"]
+    row = next(v for k, v in cells.items() if k.startswith("million sweep, first 2 batches (80 000 points)"))
+    assert row == " / ".join(f"{million[k]:.3f}" for k in ("expand", "plan", "jobs"))
+    row = next(v for k, v in cells.items() if k.startswith("million sweep, first 2 batches: `prepare_model`"))
+    assert row == f"{million['prepare_model']:.2f} / {million['upload']:.4f} / {million['state_pair']:.2f}"
     text = " ".join((DOCS / "fixed-costs.md").read_text().split())
     part = bench["readme_prebuilt"]
     assert (
