@@ -1843,3 +1843,14 @@ def test_the_driven_preview_energy_paragraph_is_its_record():
         f"differs by up to {100 * apart[late].max():.0f} % from t = 27.5 on ({v_coarse[worst]:.1f} vs "
         f"{v_fine[worst]:.1f} at t = {t[worst]:g})" in text
     )
+
+
+def test_the_both_periods_run_is_its_record():
+    both = record("drive/fig9_10_both.json")
+    text = " ".join((DOCS / "drive.md").read_text().split())
+    h200, h100 = (both[k]["seconds"] for k in ("h200", "h100"))
+    assert (
+        f"its batch takes **{h200['batches']:.1f} s on an H200 and {h100['batches']:.1f} s on an H100**, of which "
+        f"{h200['build']:.1f} and {h100['build']:.1f} s build it" in text
+    )
+    assert f"and {h200['kernel']:.1f} and {h100['kernel']:.1f} s integrate" in text
