@@ -1443,15 +1443,18 @@ def test_the_readme_h100_table_is_its_records():
     )
 
 
+def median(values) -> float:
+    """The median of a record's list over its finite values (a window without a node has an infinite ratio)."""
+    import numpy as np
+
+    values = np.array([np.nan if v is None else v for v in values], dtype=float)
+    return float(np.median(values[np.isfinite(values)]))
+
+
 def test_the_drive_settle_table_is_its_record():
     """docs/drive.md's settling table (Figs. 9–10 to t = 5 000): each run's energy errors, strobe labels, parting
     time, driver power, and the medians over its windows (all, t ≤ 1000 at dt, and the windows both dt and dt/2
     have)."""
-    import numpy as np
-
-    def median(values) -> float:  # over the finite values: a window without a node has an infinite ratio
-        values = np.array([np.nan if v is None else v for v in values], dtype=float)
-        return float(np.median(values[np.isfinite(values)]))
 
     def printed(windows: dict, count: int | None) -> list[str]:  # the first count windows' medians, as printed
         swr, drift, corr, driver_open = (
@@ -1479,11 +1482,6 @@ def test_the_drive_settle_table_is_its_record():
 def test_the_damped_drive_table_is_its_records():
     """docs/drive.md's damped table: the damped rows from their record (window medians over the 100 windows at dt),
     the undamped rows from the settling record's A = 2 runs."""
-    import numpy as np
-
-    def median(values) -> float:
-        values = np.array([np.nan if v is None else v for v in values], dtype=float)
-        return float(np.median(values[np.isfinite(values)]))
 
     table = table_rows("drive.md", "| τ | A, γ | energy error (E + D − W; dt, dt/2) |")[1:]
     damped = {r["drive_period"]: r for r in record("drive/fig9_10_damped.json")["runs"]}
