@@ -11,7 +11,8 @@ And the README's first command (``hertzian run --out impact.zarr``) cold and war
 timeline (part ``readme``; ``--device`` picks the device, a GPU included), the same after ``hertzian prebuild``
 (part ``readme_prebuilt``), and the same from a package that ``pip install .`` built, with the default family it
 compiled at install (part ``readme_installed``, measured only when named in ``--only``: run it from such an
-install, not an editable one).
+install, not an editable one). And how many kernel modules the test suite loads (part ``suite_modules``, only when
+named in ``--only``: it runs the README's test command from the repository's root on an empty kernel cache).
 
 ``python -m hertzian.studies.fixed_costs --out docs/records/bench/cpu_auto_rule.json`` regenerates the record
 (``--only start,build`` re-measures those parts into the existing file;
@@ -319,7 +320,43 @@ def family_counts(device: str = "cpu") -> dict:
     return {"device": device, "jobs": jobs, "default_family": len(kernel_variants(family_needs(device), device))}
 
 
+SUITE_COMMAND = ["-m", "pytest", "-q", "-n", "2", "tests"]
+"""The README's test command (after ``python``), which part ``suite_modules`` runs on an empty kernel cache."""
+
+
+def suite_modules(tmp: str) -> dict:
+    """How many kernel modules the test suite loads on this machine: the README's test command, run from the
+    repository's root on an empty Warp kernel cache (and calibration cache), no prebuilt kernels read; every module
+    it compiles leaves one folder in the cache (one Warp module at one block size). Counted per kernel factory
+    (the module name without its feature hash), with the suite's seconds and its closing line."""
+    import re
+    from collections import Counter
+
+    if not Path("tests/reference.py").is_file():
+        raise SystemExit("error: suite_modules runs the test suite: run it from the repository's root")
+    cache = Path(tmp) / "suite-warp"
+    env = {**os.environ, "WARP_CACHE_PATH": str(cache), "HERTZIAN_CACHE": f"{tmp}/suite-calibration.json"}
+    env["HERTZIAN_PREBUILT"] = "off"
+    start = time.perf_counter()
+    done = subprocess.run([sys.executable, *SUITE_COMMAND], capture_output=True, text=True, env=env)
+    seconds = time.perf_counter() - start
+    if done.returncode != 0:
+        raise SystemExit(
+            f"error: the test suite failed (exit {done.returncode}): {done.stdout.strip().splitlines()[-1:]}"
+        )
+    modules = [d.name for d in cache.iterdir() if d.is_dir() and d.name.startswith("wp_")]
+    factory = Counter(re.sub(r"(_[0-9a-f]{7,8})+$", "", name.removeprefix("wp_")) for name in modules)
+    return {
+        "command": "python " + " ".join(SUITE_COMMAND),
+        "seconds": seconds,
+        "summary": done.stdout.strip().splitlines()[-1],
+        "modules": len(modules),
+        "by_factory": dict(factory.most_common()),
+    }
+
+
 PARTS = {
+    "suite_modules": lambda tmp, args: suite_modules(tmp),
     "family_counts": lambda tmp, args: family_counts(),
     "runs": lambda tmp, args: time_runs(tmp),
     "compile_8_variants": lambda tmp, args: time_compiles(),
@@ -370,7 +407,7 @@ def main() -> None:
     }
     record.setdefault("dates", {})
     with tempfile.TemporaryDirectory() as tmp:
-        for name in args.only or [p for p in PARTS if p != "readme_installed"]:
+        for name in args.only or [p for p in PARTS if p not in ("readme_installed", "suite_modules")]:
             record[name] = PARTS[name](tmp, args)
             record["dates"][name] = stamp
     args.out.parent.mkdir(parents=True, exist_ok=True)
