@@ -344,7 +344,9 @@ def suite_modules(tmp: str) -> dict:
         raise SystemExit(
             f"error: the test suite failed (exit {done.returncode}): {done.stdout.strip().splitlines()[-1:]}"
         )
-    modules = [d.name for d in cache.iterdir() if d.is_dir() and d.name.startswith("wp_")]
+    modules = [d.name for d in cache.glob("*/wp_*") if d.is_dir()]  # Warp keeps a folder per version
+    if not modules:
+        raise SystemExit(f"error: the test suite left no kernel modules in {cache}: did Warp read WARP_CACHE_PATH?")
     factory = Counter(re.sub(r"(_[0-9a-f]{7,8})+$", "", name.removeprefix("wp_")) for name in modules)
     return {
         "command": "python " + " ".join(SUITE_COMMAND),
