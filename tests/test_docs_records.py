@@ -1852,3 +1852,26 @@ def test_the_both_periods_run_is_its_record():
         f"{h200['build']:.1f} and {h100['build']:.1f} s build it" in text
     )
     assert f"and {h200['kernel']:.1f} and {h100['kernel']:.1f} s integrate" in text
+
+
+def test_the_suites_module_count_is_its_record():
+    """fixed-costs.md's count of the kernel modules the test suite loads, per kernel factory, from its record."""
+    part = record("bench/cpu_auto_rule.json")["suite_modules"]
+    factories = part["by_factory"]
+    assert sum(factories.values()) == part["modules"] and part["summary"].split()[1] == "passed"
+    readme = (DOCS.parent / "README.md").read_text()
+    assert f'pip install ".[test]" && {part["command"]}' in readme  # the README's own test command
+    kinds = {
+        "per-step": factories["step_kernel__locals__step"],
+        "chain-kernel": factories["chain_kernel__locals__chain_steps"],
+        "fused-kernel": factories["fused_kernel__locals__fused"],
+    }
+    records = sum(n for name, n in factories.items() if name.startswith("record_kernels__"))
+    others = part["modules"] - sum(kinds.values()) - records
+    text = " ".join((DOCS / "fixed-costs.md").read_text().split())
+    assert f"The test suite loads far more: {part['modules']} modules on the CPU" in text
+    assert f"the README's test command in {part['seconds']:.0f} s" in text
+    assert (
+        f"{kinds['per-step']} per-step, {kinds['chain-kernel']} chain-kernel and {kinds['fused-kernel']} fused-kernel "
+        f"variants, {records} record reductions, and {others} other modules" in text
+    )
