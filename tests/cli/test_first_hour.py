@@ -282,3 +282,29 @@ def test_every_option_the_readme_and_docs_show_exists():
                 if option not in options:
                     unknown.append(f"{doc.name}: hertzian {line.group(1)} {option}")
     assert seen > 100 and unknown == [], unknown
+
+
+def test_every_option_the_docs_give_a_study_module_exists():
+    """Each `python -m hertzian.studies.MODULE … --option` in README.md or docs/*.md (the commands that regenerate
+    the docs' records, continuation lines joined) names an option that the module's --help lists."""
+    import re
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    pattern = re.compile(r"python -m (hertzian\.studies\.[a-z_]+)((?:[ \t]+[^\s`|]+)*)")
+    found = []
+    for doc in [root / "README.md", *sorted((root / "docs").glob("*.md"))]:
+        text = doc.read_text().replace("\\\n", " ")
+        found += [(doc.name, m.group(1), m.group(2)) for m in pattern.finditer(text)]
+    options = {}
+    for module in sorted({module for _, module, _ in found}):
+        shown = subprocess.run([sys.executable, "-m", module, "--help"], capture_output=True, text=True)
+        assert shown.returncode == 0, (module, shown.stderr[-500:])
+        options[module] = set(re.findall(r"--[a-z][a-z0-9-]*", shown.stdout)) | {"--help"}
+    written = [
+        (doc, module, o) for doc, module, args in found for o in re.findall(r"(?<![\w-])(--[a-z][a-z0-9-]*)", args)
+    ]
+    assert len(options) >= 7 and len(written) > 40
+    assert [w for w in written if w[2] not in options[w[1]]] == []
