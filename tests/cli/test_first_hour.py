@@ -262,7 +262,8 @@ def test_a_dry_run_estimates_seconds_on_this_device(tmp_path):
 
 
 def test_every_option_the_readme_and_docs_show_exists():
-    """Each `hertzian COMMAND … --option` written in README.md or docs/*.md names an option of that command."""
+    """Each `hertzian COMMAND … --option` written in README.md or docs/*.md (continuation lines joined) names an
+    option of that command."""
     import re
     from pathlib import Path
 
@@ -273,7 +274,8 @@ def test_every_option_the_readme_and_docs_show_exists():
     root = Path(__file__).resolve().parents[2]
     unknown, seen = [], 0
     for doc in [root / "README.md", *sorted((root / "docs").glob("*.md"))]:
-        for line in re.finditer(r"hertzian ([a-z-]+)((?:[ \t]+[^\s`|]+)*)", doc.read_text()):
+        text = doc.read_text().replace("\\\n", " ")  # a command continued on the next line
+        for line in re.finditer(r"hertzian ([a-z-]+)((?:[ \t]+[^\s`|]+)*)", text):
             if line.group(1) not in commands:
                 continue  # prose ("hertzian integrates …")
             options = {o for p in commands[line.group(1)].params for o in (*p.opts, *p.secondary_opts)} | {"--help"}
