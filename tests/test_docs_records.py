@@ -1875,3 +1875,28 @@ def test_the_suites_module_count_is_its_record():
         f"{kinds['per-step']} per-step, {kinds['chain-kernel']} chain-kernel and {kinds['fused-kernel']} fused-kernel "
         f"variants, {records} record reductions, and {others} other modules" in text
     )
+
+
+def test_the_paper_chains_step_limits_are_the_check():
+    """stability.md's step limits on the paper's chain: the contact time, where each method stops being stable
+    (its ω·dt limit over the chain's highest frequency) and where it stops being accurate, from hertzian check."""
+    from hertzian.api import load_scene
+    from hertzian.core.check import ACCURATE_STEPS_PER_CONTACT_TIME, STABLE_OMEGA_DT, check_scene
+
+    report = check_scene(load_scene("impact"))
+    omega, contact = report.highest_frequency, report.contact_time
+    stable = {m: STABLE_OMEGA_DT[m] / omega for m in ("gear4", "verlet", "gear6")}
+    accurate = {m: contact / ACCURATE_STEPS_PER_CONTACT_TIME[m] for m in ("gear4", "verlet")}
+    text = " ".join((DOCS / "stability.md").read_text().split())
+    assert (
+        f"On the paper's chain (T = {contact:.3f}): stable up to dt ≈ {stable['gear4']:.2f} (gear4), "
+        f"{stable['verlet']:.3f} (verlet), {stable['gear6']:.3f} (gear6); accurate up to {accurate['gear4']:.1e} "
+        f"(gear4), {accurate['verlet']:.0e} (verlet)".replace("e-04", "e-4").replace("e-05", "e-5")
+        in text
+    )
+    steps = ACCURATE_STEPS_PER_CONTACT_TIME
+    assert (
+        f"T/dt ≥ {steps['gear4']:g} (gear4, gear6, yoshida4), {steps['gear5']:g} (gear5), {steps['verlet']:g} (verlet), "
+        f"{steps['yoshida6']:g} (yoshida6)" in text
+    )
+    assert steps["gear4"] == steps["gear6"] == steps["yoshida4"]
