@@ -1900,3 +1900,24 @@ def test_the_paper_chains_step_limits_are_the_check():
         f"{steps['yoshida6']:g} (yoshida6)" in text
     )
     assert steps["gear4"] == steps["gear6"] == steps["yoshida4"]
+
+
+def test_the_composed_methods_thresholds_are_their_record():
+    """stability.md's accuracy thresholds of yoshida4 and yoshida6: the code's constants are the record's scan,
+    and the text's worst energy errors are the record's."""
+    from hertzian.core.check import ACCURATE_STEPS_PER_CONTACT_TIME
+
+    scan = record("accuracy/composed.json")["thresholds"]["methods"]
+    for method in ("yoshida4", "yoshida6"):
+        assert ACCURATE_STEPS_PER_CONTACT_TIME[method] == scan[method]["threshold"], method
+        passing = [float(r) for r, row in scan[method]["ratios"].items() if not row["failing"]]
+        assert scan[method]["threshold"] == min(passing), method
+    six = scan["yoshida6"]["ratios"]
+    text = " ".join((DOCS / "stability.md").read_text().split())
+    assert (
+        f"(worst {six['150']['worst_energy_error']:.1e}; at 100, l0 = 0 reaches {six['100']['worst_energy_error']:.1e})".replace(
+            "e-07", "e-7"
+        ).replace("e-06", "e-6")
+        in text
+    )
+    assert six["100"]["failing"][0] == "l0=0"
