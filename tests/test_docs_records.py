@@ -1921,3 +1921,22 @@ def test_the_composed_methods_thresholds_are_their_record():
         in text
     )
     assert six["100"]["failing"][0] == "l0=0"
+
+
+def test_the_accuracy_thresholds_are_their_record():
+    """ACCURATE_STEPS_PER_CONTACT_TIME of the Gear methods and Verlet is the extreme-case scan's record (the larger
+    of the two event settings), and stability.md quotes each setting's threshold."""
+    from hertzian.core.check import ACCURATE_STEPS_PER_CONTACT_TIME
+
+    scan = record("accuracy/thresholds_cpu.json")["methods"]
+    for method in ("gear4", "gear5", "gear6", "verlet"):
+        each = {setting: row["threshold"] for setting, row in scan[method]["events"].items()}
+        assert ACCURATE_STEPS_PER_CONTACT_TIME[method] == scan[method]["threshold"] == max(each.values()), method
+    text = " ".join((DOCS / "stability.md").read_text().split())
+    auto, off = (
+        [f"{scan[m]['events'][e]['threshold']:g}" for m in ("gear4", "gear5", "gear6")] for e in ("auto", "off")
+    )
+    assert (
+        f"event-aware steps need {auto[0]}, {auto[1]} and {auto[2]} for gear4, gear5 and gear6, plain steps {off[0]}, "
+        f"{off[1]} and {off[2]}, and verlet {scan['verlet']['threshold']:g} with both" in text
+    )
