@@ -162,3 +162,14 @@ def test_order_loss_where_contacts_open():
     assert 1.8 < orders[0.0, "gear4"] < 3.0 and 1.8 < orders[0.0, "gear6"] < 3.0, orders
     assert abs(orders[0.0, "verlet"] - 2.0) < 0.3, orders
     assert orders[1e-2, "gear6"] > 5.0, orders
+
+
+def test_the_threshold_scan_refuses_an_unknown_event_setting(tmp_path):
+    import subprocess
+    import sys
+
+    out = tmp_path / "t.json"
+    args = ["--methods", "gear4", "--ratios", "400", "--events", "auto,sometimes", "--out", str(out)]
+    done = subprocess.run([sys.executable, "-m", "hertzian.studies.thresholds", *args], capture_output=True, text=True)
+    assert done.returncode == 2 and not out.exists()
+    assert done.stderr == "error: --events = 'auto,sometimes': distinct ones of auto, off, comma-separated\n"
