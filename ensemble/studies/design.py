@@ -525,8 +525,8 @@ def _span(spec: DesignSpec, mean: float) -> float:
 
 def compare(store: str | Path, device: str) -> dict:
     """The design store's best against uniform and tapered protectors of the same length in each of its materials:
-    each one's objective (the first), peak wall force, transmitted impulse and protector mass, its wall-force trace,
-    and the best design itself; with several objectives also every candidate's objectives and the Pareto front, each
+    each one's objective (the first), peak wall force (also at half the step: whether it survives halving dt),
+    transmitted impulse and protector mass, its wall-force trace, and the best design itself; with several objectives also every candidate's objectives and the Pareto front, each
     front design's materials and radii."""
     from hertzian.core.runner import run_scene as run
     from hertzian.core.static import static_state
@@ -542,8 +542,10 @@ def compare(store: str | Path, device: str) -> dict:
         probe = probe_scene(chain)
         result = run(probe, device)
         force = wall_forces(probe, result.traces["u"][0, :, 0])
+        halved = probe_scene(chain.with_overrides({"integrator.dt": chain.integrator.dt / 2}))
         rows[name] = {
             "peak_wall_force": float(force.max()),
+            "peak_wall_force_at_half_dt": float(wall_forces(halved, run(halved, device).traces["u"][0, :, 0]).max()),
             "impulse": float(np.trapezoid(force - force[0], result.trace_t)),
             "mass": float(static_state(chain).mass[list(spec.vary)].sum()),
             "length": float(sum(2 * r for r in _radii(chain)[list(spec.vary)])),
