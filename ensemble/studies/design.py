@@ -564,6 +564,7 @@ def compare(store: str | Path, device: str) -> dict:
         "design_seconds": float(np.sum(data["seconds"])),
         "generations": len(data["best_objective"]),
         "best_peak_at_twice_the_duration": float(wall_forces(longer, again.traces["u"][0, :, 0]).max()),
+        "best_peak_by_step": best_peak_by_step(best, device),
         "objectives": list(spec.objective),
         "best_objective": data["best_objective"][:, 0].tolist(),
         "median_objective": [
@@ -576,6 +577,29 @@ def compare(store: str | Path, device: str) -> dict:
         "chains": rows,
         "traces": traces,
     }
+
+
+STEP_DIVISORS = (1, 2, 4)
+"""The steps (the design's dt over these) at which :func:`best_peak_by_step` runs the best design."""
+
+
+def best_peak_by_step(best: Scene, device: str) -> list[dict]:
+    """The best design's peak wall force (and when it comes) at the design's step and at its halves and quarters,
+    with plain and with event-aware steps: whether the objective the search ranked designs by is resolved."""
+    from hertzian.core.runner import run_scene as run
+
+    rows = []
+    for events in ("off", "auto"):
+        for divisor in STEP_DIVISORS:
+            dt = best.integrator.dt / divisor
+            probe = probe_scene(best.with_overrides({"integrator.dt": dt, "integrator.events": events}))
+            result = run(probe, device)
+            force = wall_forces(probe, result.traces["u"][0, :, 0])
+            peak = int(np.argmax(force))
+            rows.append(
+                {"events": events, "dt": dt, "peak_wall_force": float(force[peak]), "at": float(result.trace_t[peak])}
+            )
+    return rows
 
 
 def stored_design(store: str | Path) -> tuple[dict, Scene, DesignSpec]:
