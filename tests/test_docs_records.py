@@ -688,6 +688,8 @@ def test_the_design_studys_prose_is_its_record():
     assert f"({switches['count']} against {switches['null_mean']:.1f}; {100 * switches['p_at_most']:.0f} %" in text
 
     assert f"32 000 runs in {wide['design_seconds']:.0f} s" in text
+    per_generation = (wide["design_seconds"] / wide["generations"], short["design_seconds"] / short["generations"])
+    assert "(%.0f s on average against %.1f s)" % per_generation in text
     assert f"the best peak is {wide['best_objective'][-1]:.4f} after 5 generations" in text
     assert f"against {short['best_objective'][4]:.4f} after 5 (and {short['best_objective'][-1]:.4f} after 50)" in text
     assert f"a design {100 * (wide['best_objective'][-1] / best - 1):.0f} % worse" in text
@@ -1940,3 +1942,63 @@ def test_the_accuracy_thresholds_are_their_record():
         f"event-aware steps need {auto[0]}, {auto[1]} and {auto[2]} for gear4, gear5 and gear6, plain steps {off[0]}, "
         f"{off[1]} and {off[2]}, and verlet {scan['verlet']['threshold']:g} with both" in text
     )
+
+
+def test_the_design_objective_against_halving_dt_is_its_record():
+    """design.md's dt check: at 19 beads every peak survives halving dt; at 99 beads the best design's peak at the
+    search's step is not resolved. Each number from the record's `best_peak_by_step` and per-chain half-step peaks."""
+    import numpy as np
+
+    parts = record("design/protector_cpu.json")
+    text = " ".join((DOCS / "design.md").read_text().split())
+    short = ("beads_20", "population_6400", "four_materials")
+
+    def spread(part: str) -> float:
+        peaks = [row["peak_wall_force"] for row in parts[part]["best_peak_by_step"]]
+        return max(peaks) / min(peaks) - 1
+
+    def moved(part: str, plain: bool) -> float:
+        rows = parts[part]["chains"]
+        return max(
+            abs(r["peak_wall_force_at_half_dt"] / r["peak_wall_force"] - 1)
+            for k, r in rows.items()
+            if (k != "best") == plain
+        )
+
+    improvements = []
+    for part in short:
+        curve = np.array(parts[part]["best_objective"])
+        falls = np.diff(curve) < 0
+        improvements += list(-np.diff(curve)[falls] / curve[:-1][falls])
+    numbers = (max(spread(p) for p in short), max(moved(p, True) for p in short), min(improvements))
+    assert (
+        "The best designs' peaks agree to %.1e over the six steps and settings, every plain protector's moves by at most "
+        "%.1e at dt/2, and the smallest step by which any of these searches improved its best was %.1e of it" % numbers
+    ).replace("e-0", "e-") in text
+    steps = parts["beads_100"]["best_peak_by_step"]
+    assert [(r["events"], r["dt"]) for r in steps] == [(e, 2.5e-5 / d) for e in ("off", "auto") for d in (1, 2, 4)]
+    plain, aware = ([f"{r['peak_wall_force']:.6f}" for r in steps if r["events"] == e] for e in ("off", "auto"))
+    assert (
+        f"The best design's peak is {plain[0]} at dt with plain steps, {plain[1]} at dt/2 and {plain[2]} at dt/4"
+        in text
+    )
+    assert f"with event-aware steps {aware[0]}, {aware[1]} and {aware[2]}" in text
+    resolved = steps[4]["peak_wall_force"]
+    below = 1 - steps[0]["peak_wall_force"] / resolved
+    agree = abs(steps[5]["peak_wall_force"] / resolved - 1)
+    assert (
+        f"is {100 * below:.1f} % below the resolved one (event-aware, dt/2 and dt/4 agree to {agree:.1e})".replace(
+            "e-0", "e-"
+        )
+        in text
+    )
+    curve = np.array(parts["beads_100"]["best_objective"])
+    falls = np.diff(curve) < 0
+    assert (
+        f"The search's smallest improvements there ({100 * min(-np.diff(curve)[falls] / curve[:-1][falls]):.1f} %)"
+        in text
+    )
+    plain_best = min(r["peak_wall_force"] for k, r in parts["beads_100"]["chains"].items() if k != "best")
+    ratios = [plain_best / r["peak_wall_force"] for r in steps]
+    assert {f"{x:.0f}" for x in ratios} == {"16"} and "16 times below the best plain protector's at every step" in text
+    assert f"move by at most {moved('beads_100', True):.1e} at dt/2".replace("e-0", "e-") in text
