@@ -1930,7 +1930,7 @@ def test_the_accuracy_thresholds_are_their_record():
     of the two event settings), and stability.md quotes each setting's threshold."""
     from hertzian.core.check import ACCURATE_STEPS_PER_CONTACT_TIME
 
-    scan = record("accuracy/thresholds_cpu.json")["methods"]
+    scan = record("accuracy/composed.json")["thresholds_gear_verlet"]["methods"]
     for method in ("gear4", "gear5", "gear6", "verlet"):
         each = {setting: row["threshold"] for setting, row in scan[method]["events"].items()}
         assert ACCURATE_STEPS_PER_CONTACT_TIME[method] == scan[method]["threshold"] == max(each.values()), method

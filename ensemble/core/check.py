@@ -79,7 +79,7 @@ ACCURATE_STEPS_PER_CONTACT_TIME = {
 }
 """Steps per contact time T/dt that keep the energy error below 1e-6 in every case of the extreme-case suite with
 either event setting (the larger of the two: the check does not ask which one a run takes; hertzian.studies.thresholds,
-records docs/records/accuracy/thresholds_cpu.json and, for yoshida4 and yoshida6, composed.json; docs/stability.md §3
+record docs/records/accuracy/composed.json, keys thresholds_gear_verlet and thresholds; docs/stability.md §3
 "Accuracy thresholds", §5 and §2c)."""
 
 STABILITY_MARGIN = 2.0
