@@ -526,8 +526,9 @@ def _span(spec: DesignSpec, mean: float) -> float:
 def compare(store: str | Path, device: str) -> dict:
     """The design store's best against uniform and tapered protectors of the same length in each of its materials:
     each one's objective (the first), peak wall force (also at half the step: whether it survives halving dt),
-    transmitted impulse and protector mass, its wall-force trace, and the best design itself; with several objectives also every candidate's objectives and the Pareto front, each
-    front design's materials and radii."""
+    transmitted impulse and protector mass, its wall-force trace, and the best design itself (its peak also at
+    smaller steps and with event-aware steps, :func:`best_peak_by_step`); with several objectives also every
+    candidate's objectives and the Pareto front, each front design's materials and radii."""
     from hertzian.core.runner import run_scene as run
     from hertzian.core.static import static_state
 
