@@ -226,6 +226,33 @@ def test_plot_draws_a_design_store_and_writes_its_numbers(tmp_path):
     }
     refused = hertzian("plot", tmp_path / "d.zarr", "--figure", "fig1", "--out", tmp_path / "e.png")
     assert refused.returncode == 2 and refused.stderr.count("\n") == 1 and not (tmp_path / "e.png").exists()
+    _half_step_peaks_are_runs_at_half_the_step(tmp_path / "d.zarr", numbers)
+
+
+def _half_step_peaks_are_runs_at_half_the_step(store, numbers: dict) -> None:
+    """The plot's numbers at smaller steps against runs made here: the best design at dt/2 and dt/4 with both event
+    settings, and a plain protector at dt/2."""
+    from hertzian.core.runner import run_scene
+    from hertzian.studies.design import candidate, probe_scene, references, stored_design, wall_forces
+
+    data, scene, spec = stored_design(store)
+    best = candidate(scene, spec, data["best_genome"][-1])
+    chains = {"best": best, "uniform ptfe": references(scene, spec, best)["uniform ptfe"]}
+
+    def peak(chain, divisor: int, events: str) -> float:
+        probe = probe_scene(
+            chain.with_overrides({"integrator.dt": chain.integrator.dt / divisor, "integrator.events": events})
+        )
+        return float(wall_forces(probe, run_scene(probe, "cpu").traces["u"][0, :, 0]).max())
+
+    rows = numbers["best_peak_by_step"]
+    assert [(r["events"], r["dt"] / best.integrator.dt) for r in rows] == [
+        (e, 1 / d) for e in ("off", "auto") for d in (1, 2, 4)
+    ]
+    for row in rows[1:3] + rows[4:]:
+        assert row["peak_wall_force"] == peak(best, round(best.integrator.dt / row["dt"]), row["events"])
+    for name, chain in chains.items():
+        assert numbers["chains"][name]["peak_wall_force_at_half_dt"] == peak(chain, 2, chain.integrator.events), name
 
 
 def test_arrangement_is_read_against_the_same_beads_shuffled():
