@@ -2002,3 +2002,33 @@ def test_the_design_objective_against_halving_dt_is_its_record():
     ratios = [plain_best / r["peak_wall_force"] for r in steps]
     assert {f"{x:.0f}" for x in ratios} == {"16"} and "16 times below the best plain protector's at every step" in text
     assert f"move by at most {moved('beads_100', True):.1e} at dt/2".replace("e-0", "e-") in text
+
+
+def test_sweeps_store_costs_are_their_record():
+    """sweeps.md's checksum cost, byte-flip outcomes and per-point expansion cost against bench/cpu.json's
+    ``store`` part (``python -m hertzian.studies.store_costs``)."""
+    store = record("bench/cpu.json")["parts"]["store"]
+    text = " ".join((DOCS / "sweeps.md").read_text().split())
+    seconds = store["checksum"]["seconds"]
+    median = {(k, op): sorted(v[op])[len(v[op]) // 2] for k, v in seconds.items() for op in v}
+    reads = seconds["with_checksum"]["read"] + seconds["without_checksum"]["read"]
+    assert (
+        f"a {store['checksum']['megabytes']:.0f} MB float64 array in 1 MiB chunks took a median "
+        f"{median['with_checksum', 'write']:.2f} s to write with the checksum and "
+        f"{median['without_checksum', 'write']:.2f} s without, and {median['with_checksum', 'read']:.2f} s and "
+        f"{median['without_checksum', 'read']:.2f} s to read ({store['checksum']['repeats']} interleaved pairs; "
+        f"single reads ranged {min(reads):.2f}–{max(reads):.2f} s either way)"
+    ) in text
+    flips = store["flips"]
+    assert flips["with_checksum"] == {"raised": flips["flips"], "silent": 0, "harmless": 0}
+    assert (
+        f"({flips['flips']} flips, ten chunks): with the checksum all {flips['flips']} reads raised; without it, "
+        f"{flips['without_checksum']['silent']} read back wrong values with no error"
+    ) in text
+    assert f"--repeats {store['checksum']['repeats']}`" in text and flips["chunks"] == 10
+    expansion = store["expansion"]
+    assert (
+        f"one took {expansion['scene_seconds_per_point'] * 1e3:.2f} ms of CPU a point, against "
+        f"{expansion['expand_seconds_per_point'] * 1e6:.2f} µs a point for the expansion below "
+        f"(`{expansion['sweep']}`, 2-core CPU, {store['date'][:10]};"
+    ) in text
