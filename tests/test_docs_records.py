@@ -70,7 +70,7 @@ def agrees(cell: str, value: float) -> bool:
     "heading, name",
     [
         ("Taper, bottom grain's largest kinetic energy", "heterogeneous_cpu.json"),
-        ("At the shipped size (100 grains", "heterogeneous_taper_shipped_cpu.json"),
+        ("At the shipped size (100 grains", "heterogeneous_shipped_cpu.json"),
     ],
 )
 def test_taper_tables_are_their_records(heading, name):
@@ -2032,3 +2032,79 @@ def test_sweeps_store_costs_are_their_record():
         f"{expansion['expand_seconds_per_point'] * 1e6:.2f} µs a point for the expansion below "
         f"(`{expansion['sweep']}`, 2-core CPU, {store['date'][:10]};"
     ) in text
+
+
+def _moved_in_standard_errors(reference: dict, other: dict, observable: str) -> tuple[float, dict[float, float]]:
+    """Largest |change| of the mean, std and 5/50/95 % quantiles of ``observable`` over the spreads > 0, and the
+    mean's change by spread, in standard errors at 1000 realisations (the reference's std/√1000)."""
+    worst, means = 0.0, {}
+    for i, spread in enumerate(reference["spread"]):
+        if spread == 0:
+            continue
+        error = reference[f"{observable}_std"][i] / math.sqrt(1000)
+        for stat in ("mean", "std", "q05", "q50", "q95"):
+            worst = max(worst, abs(other[f"{observable}_{stat}"][i] - reference[f"{observable}_{stat}"][i]) / error)
+        means[spread] = abs(other[f"{observable}_mean"][i] - reference[f"{observable}_mean"][i]) / error
+    return worst, means
+
+
+def test_the_shipped_physics_check_is_its_record():
+    """heterogeneous.md's events and half-step check of the disorder statistics, and what event-aware steps cost the
+    CPU, against heterogeneous_shipped_cpu.json's parts."""
+    parts = record("heterogeneous_shipped_cpu.json")["parts"]
+    text = " ".join((DOCS / "heterogeneous.md").read_text().split())
+    plain, events, half = (parts[p]["disorder"] for p in ("disorder_8", "disorder_8_events", "disorder_8_dt2"))
+    assert plain["realisations"] == events["realisations"] == half["realisations"] == 8
+    assert (plain["events"], events["events"], half["events"]) == ("off", "auto", "off")
+    assert half["dt"] == plain["dt"] / 2 == events["dt"] / 2
+    bottom = max(
+        _moved_in_standard_errors(plain, other, name)[0]
+        for other in (events, half)
+        for name in ("bottom_fraction", "bottom_peak_force")
+    )
+    assert f"moved by at most {bottom:.1e} of their standard error".replace("e-0", "e-") in text
+    by_events, mean_events = _moved_in_standard_errors(plain, events, "decay_length")
+    by_step, mean_step = _moved_in_standard_errors(plain, half, "decay_length")
+    assert (
+        f"moved by up to {by_events:.1f} standard errors (auto against off) and {by_step:.1f} (dt/2 against dt), the "
+        f"mean at s = 0.3 by {mean_events[0.3]:.2f} and {mean_step[0.3]:.1f}"
+    ) in text
+    taper_auto, taper_off = parts["dt25x_events"]["taper"]["seconds"], parts["dt25x"]["taper"]["seconds"]
+    chains = len(plain["spread"]) * plain["realisations"]
+    assert (
+        f"cost the CPU {taper_auto / taper_off:.0f}× on the shipped taper sweep at dt 5e-5 ({taper_auto:.1f} s "
+        f"against {taper_off:.1f} s, parts `dt25x_events` and `dt25x`) and {events['seconds'] / plain['seconds']:.1f}× "
+        f"on the {chains} disorder chains ({events['seconds']:.0f} s against {plain['seconds']:.0f} s)"
+    ) in text
+
+
+def test_the_shipped_taper_step_paragraph_is_its_record():
+    """heterogeneous.md's shipped taper at dt/2 and at 25× the step, against heterogeneous_shipped_cpu.json."""
+    whole = record("heterogeneous_shipped_cpu.json")
+    taper, half, coarse = whole["taper"], whole["parts"]["dt2"]["taper"], whole["parts"]["dt25x"]["taper"]
+    text = " ".join((DOCS / "heterogeneous.md").read_text().split())
+    for key in ("bottom_fraction", "bottom_peak_force", "arrival_time"):
+        for a, b in zip(taper[key], half[key]):
+            assert f"{a:.4g}" == f"{b:.4g}" or abs(a - b) <= 5e-5 * abs(a), (key, a, b)
+    assert (
+        f"the energy error is at most {max(taper['energy_error']):.1e} (q = 0.04) at dt and "
+        f"{max(half['energy_error']):.1e} at dt/2"
+    ).replace("e-0", "e-") in text
+    assert taper["energy_error"].index(max(taper["energy_error"])) == taper["q"].index(0.04)
+    last = coarse["q"].index(0.04)
+    assert coarse["status"][last] == 3 and f"(energy error {coarse['energy_error'][last]:.2f})" in text
+    moved = max(
+        abs(coarse[key][last] / taper[key][last] - 1)
+        for key in ("bottom_fraction", "bottom_peak_force", "arrival_time")
+    )
+    assert moved < 0.01 and "differ from these by under 1 %" in text
+    seconds = record("heterogeneous_cpu.json")
+    chains = len(seconds["disorder"]["spread"]) * seconds["disorder"]["realisations"]
+    assert (
+        f"{seconds['date']}: {seconds['taper']['seconds']:.1f} s for the taper sweep, "
+        f"{seconds['disorder']['seconds']:.0f} s for {chains} disorder chains.)"
+    ) in text
+    assert (
+        f"2026-11-29, record [heterogeneous_shipped_cpu.json](records/heterogeneous_shipped_cpu.json), {taper['seconds']:.0f} s;"
+        in text
+    )
