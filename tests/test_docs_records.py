@@ -2108,3 +2108,34 @@ def test_the_shipped_taper_step_paragraph_is_its_record():
         f"2026-11-29, record [heterogeneous_shipped_cpu.json](records/heterogeneous_shipped_cpu.json), {taper['seconds']:.0f} s;"
         in text
     )
+
+
+def test_heterogeneous_published_trends_are_their_records():
+    """heterogeneous.md's "Against the published trends": the taper's cuts at 40 and 100 grains, the binary-collision
+    estimate, and the disorder's attenuation, against heterogeneous_cpu.json and heterogeneous_shipped_cpu.json."""
+    text = " ".join((DOCS / "heterogeneous.md").read_text().split())
+
+    def cuts(taper: dict, q: float) -> tuple[str, str]:
+        i, uniform = taper["q"].index(q), taper["q"].index(0.0)
+        force = taper["bottom_peak_force"][i] / taper["bottom_peak_force"][uniform]
+        return f"{100 * taper['relative_to_uniform'][i]:.0f} %", f"{100 * force:.0f} %"
+
+    cpu, shipped = record("heterogeneous_cpu.json"), record("heterogeneous_shipped_cpu.json")
+    share, force = cuts(cpu["taper"], 0.04)
+    assert f"keeps {share} of the uniform chain's share, and the wall feels {force} of its peak force" in text
+    (share3, force3), (share4, force4) = cuts(shipped["taper"], 0.03), cuts(shipped["taper"], 0.04)
+    assert f"q = 0.03 leaves {share3} of the uniform chain's share and {force3} of its peak force" in text
+    assert f"(the bottom grain 0.018 R0) {share4} and {force4}." in text
+    taper = cpu["taper"]
+    i = taper["q"].index(0.04)
+    assert f"leaves {taper['binary_collision_relative'][i]:.2f} at q = 0.04 (40 grains)" in text
+    assert f"is larger ({taper['relative_to_uniform'][i]:.2f})" in text
+    d = cpu["disorder"]
+    assert d["spread"][0] == 0.0 and d["spread"][-1] == 0.4
+    assert (
+        f"falls from {d['bottom_fraction_mean'][0]:.2f} to {d['bottom_fraction_mean'][-1]:.2f} as s grows to 0.4, "
+        f"the decay length of the speed amplitude from ~{round(d['decay_length_mean'][0], -1):.0f} to "
+        f"~{d['decay_length_mean'][-1]:.2g} grains, and the mean peak force on the bottom wall from "
+        f"{d['bottom_peak_force_mean'][0]:.1f} to {d['bottom_peak_force_mean'][-1]:.1f}, with a spread over "
+        f"realisations (5–95 %: {d['bottom_peak_force_q05'][-1]:.2f}–{d['bottom_peak_force_q95'][-1]:.2f} at s = 0.4)"
+    ) in text
