@@ -2139,3 +2139,21 @@ def test_heterogeneous_published_trends_are_their_records():
         f"{d['bottom_peak_force_mean'][0]:.1f} to {d['bottom_peak_force_mean'][-1]:.1f}, with a spread over "
         f"realisations (5–95 %: {d['bottom_peak_force_q05'][-1]:.2f}–{d['bottom_peak_force_q95'][-1]:.2f} at s = 0.4)"
     ) in text
+
+
+def test_stability_prose_numbers_are_their_records():
+    """stability.md: compensated float32's slowdown on the CPU (§2b, accuracy/float32.json → paper) and gpu_10k's
+    warm time with event-aware steps against plain ones (§6c, bench/h100_events.json and bench/h100_endtoend.json)."""
+    text = " ".join((DOCS / "stability.md").read_text().split())
+    seconds: dict = {}
+    for run in record("accuracy/float32.json")["parts"]["paper"]["records"]:
+        seconds.setdefault((run["method"], run["dt"]), {})[run["precision"]] = run["seconds"]
+    ratios = [s["float32"] / s["float64"] for s in seconds.values()]
+    assert f"slower than float64, {min(ratios):.1f}–{max(ratios):.1f}× in these single runs" in text
+    (events,) = record("bench/h100_events.json")["workloads"]["e2e_gpu10k_events_auto_warm_l"]
+    plain = record("bench/h100_endtoend.json")["workloads"]["gpu_10k"]["records"][-1]
+    assert events["workload"] == plain["workload"] == "sweeps/gpu_10k.toml" and not events["cold"] | plain["cold"]
+    assert (
+        f"takes **{events['seconds']['total']:.2f} s warm ({events['device_seconds']:.2f} device seconds)** with "
+        f"`--set integrator.events=auto` against **{plain['seconds']['total']:.2f} s** with the file's plain steps"
+    ) in text
