@@ -310,3 +310,31 @@ def test_every_option_the_docs_give_a_study_module_exists():
     ]
     assert len(options) >= 7 and len(written) > 40
     assert [w for w in written if w[2] not in options[w[1]]] == []
+
+
+def test_the_dry_run_shown_in_sweeps_md_is_what_the_command_prints():
+    """docs/sweeps.md's `--dry-run` of gpu_10k.toml on a GPU: the lines that do not depend on the device are the
+    CPU's dry run with the same batches, and the estimate is the planner's conservative GPU rate."""
+    import re
+    from pathlib import Path
+
+    from hertzian.sweeping.planner import SAFE_RATE
+
+    text = (Path(__file__).resolve().parents[2] / "docs" / "sweeps.md").read_text()
+    block = re.search(r"\$ hertzian sweep sweeps/gpu_10k.toml --dry-run --device cuda\n(.*?)```", text, re.S)
+    shown = block.group(1).splitlines()
+    result = invoke(
+        "sweep", "sweeps/gpu_10k.toml", "--out", "unused.zarr", "--dry-run", "--device", "cpu", "--batch-size", "5000"
+    )
+    assert result.exit_code == 0, result.stderr
+    printed = result.stdout.splitlines() + result.stderr.splitlines()
+    for line in shown:
+        if line.startswith("batches: "):
+            assert line.split(" on ")[0] in "\n".join(printed), line
+        elif line.startswith("estimated integration: "):
+            assert line.startswith(f"estimated integration: at most about {5e11 / SAFE_RATE['cuda']:.3g} s on cuda")
+        elif line.endswith("..."):
+            assert any(p.startswith(line.removesuffix("...")) for p in printed), line
+        else:
+            assert line in printed, line
+    assert len(shown) == 9

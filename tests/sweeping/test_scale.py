@@ -1,7 +1,7 @@
 """Sweeps at scale on the CPU: a dry run of 10⁶ points, a real run of 10⁵ small chains.
 
-The per-point cost these guard against: building one Scene per point took ~0.3 ms of CPU
-(28.7 s for a 10⁵-point dry run), so 10⁶ points spent ~5 minutes before planning; the
+The per-point cost these guard against: building one Scene per point takes about 0.12 ms of CPU
+(docs/records/bench/cpu.json → store), so 10⁶ points would spend about 2 minutes before planning; the
 vectorised expansion plans them in under a second on 2 cores.
 The time bounds below are loose (a loaded CI machine) but far below what a per-point path costs.
 """
@@ -31,7 +31,7 @@ def test_dry_run_of_a_million_points_plans_in_seconds_and_writes_nothing(tmp_pat
     assert report["points"] == 10**6 and report["grain_steps"] == 10**6 * 100 * 10**4
     assert report["batches"] * report["batch_size"] >= 10**6
     seconds = report["seconds"]
-    # ≤ 5 s is the target on this 2-core CPU (measured 0.1–0.7 s); 60 s still fails a per-point path (~300 s)
+    # ≤ 5 s is the target on a 2-core CPU; 60 s still fails a per-point path (~120 s)
     assert seconds["load"] + seconds["expand"] + seconds["plan"] < 60 and elapsed < 90
     assert "points: 1000000 over v_imp (100) × l0 (100) × impurity_mass (100)" in result.stderr
     assert list(tmp_path.iterdir()) == []
