@@ -32,9 +32,10 @@ def binary_collision_fraction(q: float, grains: int) -> float:
     return float((4.0 * mu / (1.0 + mu) ** 2) ** (grains - 1))
 
 
-def sweep_file(name: str, *, grains=None, duration=None, seeds=None, events=None, dt=None) -> dict:
-    """The shipped sweep ``name`` (taper or disorder) as data, with the given sizes and integrator settings in
-    place of the shipped ones (None keeps the shipped value; ``seeds``: the seed axis' first ``seeds`` values)."""
+def sweep_file(name: str, *, grains=None, duration=None, seeds=None, events=None, dt=None, trace_every=None) -> dict:
+    """The shipped sweep ``name`` (taper or disorder) as data, with the given sizes, integrator settings and trace
+    sampling in place of the shipped ones (None keeps the shipped value; ``seeds``: the seed axis' first ``seeds``
+    values)."""
     data = tomllib.loads(resources.files("hertzian.sweeps").joinpath(f"{name}.toml").read_text())
     scene = data["scene"]
     if grains is not None:
@@ -44,8 +45,15 @@ def sweep_file(name: str, *, grains=None, duration=None, seeds=None, events=None
     for key, value in (("duration", duration), ("events", events), ("dt", dt)):
         if value is not None:
             scene["integrator"][key] = value
+    if trace_every is not None:
+        scene["record"]["trace_every"] = trace_every
     every = scene["record"].get("trace_every")
-    if dt is not None and every is not None and abs(every / dt - round(every / dt)) > 1e-9 * every / dt:
+    if (
+        dt is not None
+        and trace_every is None
+        and every is not None
+        and abs(every / dt - round(every / dt)) > 1e-9 * every / dt
+    ):
         scene["record"]["trace_every"] = dt  # the shipped sampling is not a whole number of the new steps
     for axis in data["axis"]:
         if axis["name"] == "seed" and seeds is not None:
@@ -97,23 +105,34 @@ at this step; the shipped 100-grain sweep's needs 2e-6)."""
 
 
 def plan(
-    *, shipped: bool = False, grains: int = 40, seeds: int | None = None, events: str | None = None, dt=None
+    *,
+    shipped: bool = False,
+    grains: int = 40,
+    seeds: int | None = None,
+    events: str | None = None,
+    dt=None,
+    trace_every=None,
 ) -> dict:
     """The two sweeps the study runs, as sweep-file data by name: ``shipped``, sweeps/taper.toml and
     sweeps/disorder.toml at their shipped sizes (9 tapers × 100 grains; 6 spreads × 1000 seeds × 200 grains, or the
     first ``seeds`` seeds) with ``events`` (default SHIPPED_EVENTS); else the CPU size, ``grains`` grains, shorter runs
     and ``seeds`` seeds per spread (default 20), with the shipped ``events`` unless given. ``dt`` [time]: None keeps
-    the shipped step (the CPU-sized taper: :data:`CPU_TAPER_DT`)."""
+    the shipped step (the CPU-sized taper: :data:`CPU_TAPER_DT`); ``trace_every`` [time]: the bottom grain's trace
+    sampling of both sweeps (None: the shipped one)."""
     if shipped:
         events = events or SHIPPED_EVENTS
         return {
-            "taper": sweep_file("taper", events=events, dt=dt),
-            "disorder": sweep_file("disorder", events=events, dt=dt, seeds=seeds),
+            "taper": sweep_file("taper", events=events, dt=dt, trace_every=trace_every),
+            "disorder": sweep_file("disorder", events=events, dt=dt, seeds=seeds, trace_every=trace_every),
         }
     seeds = 20 if seeds is None else seeds
     return {
-        "taper": sweep_file("taper", grains=grains, duration=6.0, events=events, dt=dt or CPU_TAPER_DT),
-        "disorder": sweep_file("disorder", grains=grains, duration=4.0, seeds=seeds, events=events, dt=dt),
+        "taper": sweep_file(
+            "taper", grains=grains, duration=6.0, events=events, dt=dt or CPU_TAPER_DT, trace_every=trace_every
+        ),
+        "disorder": sweep_file(
+            "disorder", grains=grains, duration=4.0, seeds=seeds, events=events, dt=dt, trace_every=trace_every
+        ),
     }
 
 
@@ -173,9 +192,15 @@ def _disorder(data: dict, work: Path, device: str) -> dict:
 
 
 def _integrator(data: dict) -> dict:
-    """The integrator settings a sweep ran with (the shipped defaults where its file leaves them out)."""
+    """The integrator settings and trace sampling a sweep ran with (the shipped defaults where its file leaves them
+    out)."""
     integrator = data["scene"]["integrator"]
-    return {"events": integrator.get("events", "auto"), "dt": integrator["dt"], "duration": integrator["duration"]}
+    return {
+        "events": integrator.get("events", "auto"),
+        "dt": integrator["dt"],
+        "duration": integrator["duration"],
+        "trace_every": data["scene"]["record"].get("trace_every"),
+    }
 
 
 def arguments(argv: list[str] | None = None) -> tuple[Path, dict, str, str | None]:
@@ -191,14 +216,25 @@ def arguments(argv: list[str] | None = None) -> tuple[Path, dict, str, str | Non
     parser.add_argument("--device", default=None, help="cpu, cuda or cuda:N (default: cuda if present, else cpu)")
     parser.add_argument("--events", choices=("auto", "off"), default=None, help="integrator.events for both sweeps")
     parser.add_argument("--dt", type=float, default=None, help="integrator.dt for both sweeps (default: shipped)")
+    parser.add_argument("--trace-every", type=float, default=None, help="the bottom grain's trace sampling [time]")
     parser.add_argument("--only", choices=("taper", "disorder"), default=None, help="run one of the two sweeps")
     parser.add_argument("--part", default=None, help="store the result as parts[PART] of OUT, beside what it holds")
     args = parser.parse_args(argv)
     if args.seeds is not None and args.seeds < 1:
         parser.exit(2, f"error: --seeds = {args.seeds}: must be an integer ≥ 1\n")
+    for name in ("dt", "trace_every"):
+        if getattr(args, name) is not None and not getattr(args, name) > 0:
+            parser.exit(2, f"error: --{name.replace('_', '-')} = {getattr(args, name)}: must be > 0\n")
     if args.grains < 2:
         parser.exit(2, f"error: --grains = {args.grains}: must be an integer ≥ 2\n")
-    sweeps = plan(shipped=args.shipped, grains=args.grains, seeds=args.seeds, events=args.events, dt=args.dt)
+    sweeps = plan(
+        shipped=args.shipped,
+        grains=args.grains,
+        seeds=args.seeds,
+        events=args.events,
+        dt=args.dt,
+        trace_every=args.trace_every,
+    )
     if args.only:
         sweeps = {args.only: sweeps[args.only]}
     return args.out, sweeps, check_device(args.device), args.part

@@ -37,15 +37,17 @@ def test_shipped_runs_the_sweeps_as_shipped_with_plain_steps(tmp_path):
     assert sweeps["disorder"]["scene"]["integrator"]["events"] == "auto"
     _, few, _, _ = arguments([str(out), "--shipped", "--only", "disorder", "--seeds", "8", "--device", "cpu"])
     assert _seeds(few["disorder"]) == 8 and few["disorder"]["scene"]["chain"]["grains"] == 200
+    _, fine, _, _ = arguments([str(out), "--shipped", "--trace-every", "5e-5", "--device", "cpu"])
+    assert fine["disorder"]["scene"]["record"]["trace_every"] == fine["taper"]["scene"]["record"]["trace_every"] == 5e-5
 
 
-@pytest.mark.parametrize("option", [["--seeds", "0"], ["--grains", "1"]])
+@pytest.mark.parametrize("option", [["--seeds", "0"], ["--grains", "1"], ["--trace-every", "0.0"], ["--dt", "-1.0"]])
 def test_sizes_that_cannot_run_are_refused_in_one_line(tmp_path, option, capsys):
     with pytest.raises(SystemExit) as exit_info:
         arguments([str(tmp_path / "out.json"), *option, "--device", "cpu"])
     assert exit_info.value.code == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
-    assert line.startswith(f"error: {option[0]} = {option[1]}: must be an integer ≥ ")
+    assert line.startswith(f"error: {option[0]} = {option[1]}: must be ")
 
 
 def test_the_cpu_size_is_the_default_and_keeps_the_shipped_events(tmp_path):
