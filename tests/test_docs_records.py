@@ -2173,3 +2173,28 @@ def test_the_disorder_trace_sampling_is_its_record():
         f"a peak force sampled this often is low by at most {100 * max(low):.2f} % against one sampled every step, "
         f"at each of the six spreads"
     ) in text
+
+
+def test_the_heterogeneous_store_sizes_follow_from_the_shipped_sweeps():
+    """heterogeneous.md's sample counts and sizes of the shipped taper and disorder sweeps' traces and snapshots."""
+    import tomllib
+
+    sweeps = DOCS.parent / "sweeps"
+    taper, disorder = (tomllib.loads((sweeps / f"{n}.toml").read_text()) for n in ("taper", "disorder"))
+    text = " ".join((DOCS / "heterogeneous.md").read_text().split())
+
+    def samples(data: dict, every: str) -> int:
+        return round(data["scene"]["integrator"]["duration"] / data["scene"]["record"][every]) + 1
+
+    tapers = len(taper["axis"][0]["values"])
+    steps = taper["scene"]["record"]["trace_every"] / taper["scene"]["integrator"]["dt"]
+    assert round(steps, 9) == 10 and "the taper sweep every 2e-5, every tenth step" in text
+    assert f"33 samples; {tapers} points × {samples(taper, 'trace_every')} samples of u and v, " in text
+    assert f"{tapers * samples(taper, 'trace_every') * 2 * 8 / 1e6:.0f} MB)" in text and round(6.6e-4 / 2e-5) == 33
+    points = len(disorder["axis"][0]["values"]) * int(disorder["axis"][1]["linspace"][2])
+    traces = points * samples(disorder, "trace_every") * 2 * 8
+    snapshots = points * samples(disorder, "every") * disorder["scene"]["chain"]["grains"] * 8
+    assert (
+        f"({points} points × {samples(disorder, 'trace_every')} samples of u and v, {traces / 1e9:.2f} GB against "
+        f"the {snapshots / 1e9:.1f} GB of `v` snapshots"
+    ) in text
