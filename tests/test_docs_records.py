@@ -2198,3 +2198,39 @@ def test_the_heterogeneous_store_sizes_follow_from_the_shipped_sweeps():
         f"({points} points × {samples(disorder, 'trace_every')} samples of u and v, {traces / 1e9:.2f} GB against "
         f"the {snapshots / 1e9:.1f} GB of `v` snapshots"
     ) in text
+
+
+def test_the_driven_columns_accuracy_and_cost_are_their_records():
+    """reproduction.md VI's accuracy and cost paragraphs (fig9_10_h100.json) and the later fused-window run of the
+    same columns (repro_drive_h100.json)."""
+    text = " ".join((DOCS / "reproduction.md").read_text().split())
+    h100 = record("reproduction/fig9_10_h100.json")
+    main, check = (next(r for r in h100["runs"] if r["name"] == n) for n in ("fig9_10", "fig9_10_dt_check"))
+    window = main["taus"].index(10.0), main["taus"].index(1.0)
+    difference = check["relative_l2_difference_of_window_ke(dt=1.25e-4 vs 1.25e-5)"]
+    energy = [f"{main['energy_error'][i]:.1e}".replace("e-0", "e-") for i in window]
+    assert f"Energy balance |E − E0 − W| / max|W|: {energy[0]} (τ = 10) and {energy[1]} (τ = 1)" in text
+    differences = [f"{difference[i][0]:.1e}".replace("e-0", "e-") for i in window]
+    assert f"kinetic-energy profile {differences[0]} (τ = 10) and {differences[1]} (τ = 1)" in text
+    steps_per_second = main["steps"] / main["wall_seconds"]
+    check_rate = check["steps"] / check["wall_seconds"]
+    alone = main["steps"] / check_rate
+    assert (
+        f"**Cost.** {main['wall_seconds']:.1f} s on the H100 for both columns to t = {main['duration']:.0f}: "
+        f"{main['steps']:_} steps of 2 × {main['grains']:_} grains, {main['grain_steps_per_second']:.1e} grain-steps/s "
+        f"({steps_per_second:.1e} steps/s)"
+    ).replace("_", " ").replace("e+0", "e") in text
+    assert (
+        f"integrated at {check_rate:.1e} steps/s ({check_rate * 2 * check['grains']:.1e} grain-steps/s; "
+        f"{check['steps']:_} steps in {check['wall_seconds']:.1f} s). At that rate the main run's steps alone take "
+        f"~{alone:.0f} s, so about {round(main['wall_seconds'] - alone, -1):.0f} s (≈ "
+        f"{1e3 * (main['wall_seconds'] - alone) / 6227:.0f} ms per stop"
+    ).replace("_", " ").replace("e+0", "e") in text
+    assert f"The whole script took {h100['total_seconds']:.0f} s including both stores." in text
+    fused = {r["name"]: r for r in record("reproduction/repro_drive_h100.json")["runs"]}
+    run, dt_check = fused["fig9_10"], fused["fig9_10_dt_check"]
+    assert (
+        f"fig9_10 **{run['wall_seconds']:.1f} s** ({run['grain_steps_per_second']:.1e} grain-steps/s), energy error "
+        f"{run['energy_error'][0]:.2e} (τ = 10) and {run['energy_error'][1]:.2e} (τ = 1), both status 0"
+    ).replace("e+0", "e").replace("e-0", "e-") in text and run["status"] == [0, 0]
+    assert f"its dt check {dt_check['wall_seconds']:.1f} s" in text
