@@ -442,6 +442,13 @@ def test_the_measured_items_table_is_its_record():
         item = items[name.strip("`")]
         assert item["date"].replace("T", " ").startswith(date), (name, date, item["date"])
         assert agrees(wall, item["wall_seconds"]), (name, wall, item["wall_seconds"])
+    text = " ".join((DOCS / "reproduction.md").read_text().split())
+    total = sum(item["wall_seconds"] for item in items.values())
+    assert (
+        f"(`--measure daggers`: all of them, {total:.0f} s on the 2-core CPU by the items' wall seconds below;" in text
+    )
+    (run,) = record("reproduction/finite_g.json")["runs"]
+    assert f"(only g differs), {run['wall_seconds']:.0f} s on a 2-core CPU" in text
 
 
 def test_the_h100_run_table_is_its_record():
