@@ -1272,6 +1272,8 @@ def test_the_readme_quotes_the_quick_reproductions_record():
     assert found["command"] == "hertzian reproduce --quick --device cpu" and found["figure_failures"] == 0
     readme = " ".join((DOCS.parent / "README.md").read_text().split())
     assert f"small on a CPU ({found['total_seconds']:.0f} s on 2 cores, {found['date'][:10]}, record" in readme
+    text = (DOCS / "reproduction.md").read_text()
+    assert f"--out-dir quick              # all groups small, on a CPU, {found['total_seconds']:.0f} s on 2 cores" in text
 
 
 def accuracy_text() -> str:
