@@ -1273,7 +1273,9 @@ def test_the_readme_quotes_the_quick_reproductions_record():
     readme = " ".join((DOCS.parent / "README.md").read_text().split())
     assert f"small on a CPU ({found['total_seconds']:.0f} s on 2 cores, {found['date'][:10]}, record" in readme
     text = (DOCS / "reproduction.md").read_text()
-    assert f"--out-dir quick              # all groups small, on a CPU, {found['total_seconds']:.0f} s on 2 cores" in text
+    assert (
+        f"--out-dir quick              # all groups small, on a CPU, {found['total_seconds']:.0f} s on 2 cores" in text
+    )
 
 
 def accuracy_text() -> str:
@@ -2243,3 +2245,38 @@ def test_the_driven_columns_accuracy_and_cost_are_their_records():
         f"{run['energy_error'][0]:.2e} (τ = 10) and {run['energy_error'][1]:.2e} (τ = 1), both status 0"
     ).replace("e+0", "e").replace("e-0", "e-") in text and run["status"] == [0, 0]
     assert f"its dt check {dt_check['wall_seconds']:.1f} s" in text
+
+
+def test_the_event_aware_reproduction_is_its_record():
+    """reproduction.md: what event-aware steps change in the reproduction's numbers, energy errors and CPU time,
+    against measurements.json → parts.events_auto (``python -m hertzian.studies.events_effect``)."""
+    measurements = record("reproduction/measurements.json")
+    effect = measurements["parts"]["events_auto"]
+    assert effect["plain_date"] == measurements["date"]  # compared with the plain run the record holds
+    text = " ".join((DOCS / "reproduction.md").read_text().split())
+    groups = effect["groups"]
+    where = effect["largest_at"].split("/")
+    assert where[0] == "fig5" and where[-1] == "r_squared" and "tail" in effect["largest_at"]
+    medians = max(g["median_change"] for g in groups.values())
+    assert (
+        f"move none of the reproduction's {effect['numbers']} measured numbers by more than "
+        f"{effect['largest_change']:.1e} relative (an r² of a tail fit in fig5; the median change per group is ≤ "
+        f"{medians:.1e})".replace("e-0", "e-")
+    ) in text
+    same = [n for n, g in groups.items() if g["largest_change"] == 0 and len(set(g["energy_error_max"].values())) == 1]
+    assert f"Where no contact opens ({', '.join(same)}) they change nothing" in text
+    raised = [n for n, g in groups.items() if g["energy_error_max"]["auto"] > g["energy_error_max"]["off"]]
+    lowered = [n for n in groups if n not in same and n not in raised]
+    assert raised == ["fig6"]
+    fig6 = groups["fig6"]["energy_error_max"]
+    assert (
+        f"lower the other groups' largest energy error from ≤ "
+        f"{max(groups[n]['energy_error_max']['off'] for n in lowered):.1e} to ≤ "
+        f"{max(groups[n]['energy_error_max']['auto'] for n in lowered):.1e}, except fig6's, which rises from "
+        f"{fig6['off']:.1e} to {fig6['auto']:.1e}".replace("e-0", "e-")
+    ) in text
+    ratios = [g["wall_seconds"]["auto"] / g["wall_seconds"]["off"] for g in groups.values()]
+    assert (
+        f"cost {min(ratios):.1f}–{max(ratios):.1f}× a group's wall time on the 2-core CPU ({effect['date'][:10]};"
+        in text
+    )
