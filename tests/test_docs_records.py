@@ -2280,3 +2280,49 @@ def test_the_event_aware_reproduction_is_its_record():
         f"cost {min(ratios):.1f}–{max(ratios):.1f}× a group's wall time on the 2-core CPU ({effect['date'][:10]};"
         in text
     )
+
+
+def test_the_cpu_readme_timelines_are_their_record():
+    """fixed-costs.md's prose on the CPU: the compile threads, the `auto` rule's kernel costs, and the README
+    command's warm and cold timelines and prebuilt runs, against bench/cpu_auto_rule.json."""
+    text = " ".join((DOCS / "fixed-costs.md").read_text().split())
+    cpu = record("bench/cpu_auto_rule.json")
+
+    def span(values: list[float]) -> str:
+        return f"{min(values):.2f}–{max(values):.2f}"
+
+    threads = cpu["compile_8_variants"]
+    assert (
+        f"prepares 8 variants in {threads['workers_1_s']:.2f} s with one thread and {threads['workers_2_s']:.2f} s"
+        in text
+    )
+    costs = cpu["kernel_costs"]
+    assert (
+        f"per-step kernel {costs['step']['compile_s']:.2f} s compile, {costs['step']['rate']:.1e} grain-steps/s; chain "
+        f"kernel {costs['chain']['compile_s']:.2f} s compile, {costs['chain']['rate']:.1e} grain-steps/s"
+    ).replace("e+0", "e") in text
+    readme = cpu["readme"]
+    warm = [p["warm_timeline"]["phases"] for p in readme["pairs"]]
+    cold = [p["cold_timeline"]["phases"] for p in readme["pairs"]]
+    assert (
+        f"`hertzian.cli` ready at {span([p['cli_ready'] for p in warm])} s, Warp initialised at "
+        f"{span([p['warp_initialised'] for p in warm])} s, kernels loaded from the cache at "
+        f"{span([p['kernels_loaded'] for p in warm])} s, integration "
+        f"{span([p['integrated'] - p['kernels_loaded'] for p in warm])} s"
+    ) in text
+    assert f"store written {span([p['store_written'] - p['integrated'] for p in warm])} s." in text
+    added = readme["median_cold_s"] - readme["median_warm_s"]
+    assert f"cold adds {added:.2f} s, so cold is {readme['cold_over_warm']:.2f}× warm on this CPU" in text
+    header = [p["precompiled_header_built"] - p["warp_initialised"] for p in cold]
+    assert (
+        f"Warp starts at {span([p['warp_initialised'] for p in cold])} s and the header thread with it; the header is "
+        f"built at {span([p['precompiled_header_built'] for p in cold])} s"
+    ) in text
+    assert (
+        f"loaded at {span([p['kernels_loaded'] for p in cold])} s (warm: {span([p['kernels_loaded'] for p in warm])} s)"
+        in text
+    )
+    assert f"about {sum(header) / len(header):.1f} s of clang parsing" in text
+    prebuilt, installed = cpu["readme_prebuilt"], cpu["readme_installed"]
+    assert f"({prebuilt['median_cold_s']:.2f} s against {prebuilt['median_warm_s']:.2f} s, medians of 3 pairs)" in text
+    assert f"{installed['median_cold_s']:.2f} s cold against {installed['median_warm_s']:.2f} s warm (part" in text
