@@ -2326,3 +2326,36 @@ def test_the_cpu_readme_timelines_are_their_record():
     prebuilt, installed = cpu["readme_prebuilt"], cpu["readme_installed"]
     assert f"({prebuilt['median_cold_s']:.2f} s against {prebuilt['median_warm_s']:.2f} s, medians of 3 pairs)" in text
     assert f"{installed['median_cold_s']:.2f} s cold against {installed['median_warm_s']:.2f} s warm (part" in text
+
+
+def test_the_readme_prose_numbers_are_their_records():
+    """README.md: the error estimate's cost (accuracy/estimate_check_cpu.json), the fastest way to 1e-8 on an H100
+    (bench/h100_events.json) and the detection paragraph (detection/h100_target_1000.json)."""
+    import numpy as np
+
+    readme = " ".join((DOCS.parent / "README.md").read_text().split())
+    cost = record("accuracy/estimate_check_cpu.json")["cost"]
+    assert f"for about {cost['ratio']:.1f}× the run's time" in readme
+    workloads = record("bench/h100_events.json")["workloads"]
+    best, events, plain = (
+        workloads[name][0]["seconds"]["total"]
+        for name in ("frontier_gear6_auto_1e-3_l2", "frontier_gear4_auto_5e-4_l2", "frontier_gear4_off_1e-4_l2")
+    )
+    assert (
+        f"gear6 with event-aware steps at dt = 1e-3: {best:.1f} s end to end, against {events:.1f} s for gear4 with them "
+        f"at its largest passing step (5e-4) and {plain:.1f} s for plain gear4 at 1e-4"
+    ) in readme
+    study = record("detection/h100_target_1000.json")
+    detections = [dict(zip(study["columns"], row)) for row in study["records"]]
+    planted = [d for d in detections if d["true_class"] != "none"]
+    grains = 1000
+    depths = [d["true_depth"] / grains for d in planted]
+    ratios = [d["true_mass_ratio"] for d in planted]
+    assert len(detections) == 416 and all(d["class"] == d["true_class"] for d in detections)
+    assert all(abs(d["depth"] - d["true_depth"]) <= 1 for d in planted)
+    assert (
+        f"{len(detections)} planted signals at 26 dB (single impurities of mass ratio {min(ratios):.1f}–{max(ratios):.0f}"
+        f" at depths of {100 * min(depths):.0f}–{100 * max(depths):.0f} % of the chain"
+    ) in readme
+    seconds = np.median([d["seconds_total"] for d in detections])
+    assert f"a detection with the library cached took {seconds:.2f} s (median;" in readme
