@@ -2382,3 +2382,32 @@ def test_the_h100_host_side_sentences_are_their_record():
         f"load), and gpu_10k about {gpu['seconds']['total'] - gpu['device_seconds']:.1f} s of "
         f"{gpu['seconds']['total']:.1f} s"
     ) in text
+
+
+def test_the_defaults_prose_is_its_records():
+    """accuracy.md's reading of the defaults table: what plain steps save or cost against event-aware ones, per
+    device, from the records' cheapest runs, and the two runs it names."""
+    records = {"CPU": record("accuracy/defaults_cpu.json"), "GPU": record("accuracy/defaults_h200.json")}
+    text = " ".join((DOCS / "accuracy.md").read_text().split())
+    saving = {}  # (device, scene, target) → seconds with events auto over seconds with events off
+    for device, found in records.items():
+        for scene, data in found["scenes"].items():
+            for target, best in data["cheapest_per_events"].items():
+                auto, off = best["auto"], best["off"]
+                assert auto is not None  # event-aware steps meet every target
+                if off is not None:
+                    saving[device, scene, float(target)] = auto["seconds"] / off["seconds"]
+                    if float(target) == 1e-6 and device == "CPU":
+                        assert auto["dt"] == 4 * off["dt"], (scene, auto, off)  # "a 4× smaller step"
+                else:
+                    assert float(target) == 1e-8
+    cpu = [v for (d, _, t), v in saving.items() if d == "CPU" and t == 1e-4]
+    assert max(cpu) <= 2 and "at 1e-4 they save at most 2×" in text
+    assert max(v for (d, _, _), v in saving.items() if d == "CPU") <= 2 and "(≤ 2×)" in text
+    loose = records["GPU"]["scenes"]["loose"]["cheapest_per_events"]["1e-06"]
+    assert (
+        f"on the GPU {saving['GPU', 'loose', 1e-6]:.1f}× on the loose chain at 1e-6 (gear4 at dt/4, "
+        f"{loose['off']['seconds']:.3f} s, against event-aware gear6 at {loose['auto']['seconds']:.3f} s), "
+        f"{saving['GPU', 'loose', 1e-4]:.1f}× on the loose chain at 1e-4, and at most "
+        f"{max(v for (d, s, _), v in saving.items() if d == 'GPU' and s != 'loose'):.1f}× elsewhere."
+    ) in text
