@@ -2384,6 +2384,14 @@ def test_the_h100_host_side_sentences_are_their_record():
     ) in text
 
 
+def test_the_gpu_event_cost_in_accuracy_md_is_its_record():
+    (events,) = record("bench/h100_events.json")["workloads"]["e2e_gpu10k_events_auto_warm_l"]
+    plain = record("bench/h100_endtoend.json")["workloads"]["gpu_10k"]["records"][-1]
+    text = " ".join((DOCS / "accuracy.md").read_text().split())
+    ratio = events["device_seconds"] / plain["device_seconds"]
+    assert f"the fused kernels' event steps took {ratio:.1f}× the device time of plain steps at the same step" in text
+
+
 def test_the_defaults_prose_is_its_records():
     """accuracy.md's reading of the defaults table: what plain steps save or cost against event-aware ones, per
     device, from the records' cheapest runs, and the two runs it names."""
