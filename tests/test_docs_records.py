@@ -2419,3 +2419,40 @@ def test_the_defaults_prose_is_its_records():
         f"{saving['GPU', 'loose', 1e-4]:.1f}× on the loose chain at 1e-4, and at most "
         f"{max(v for (d, s, _), v in saving.items() if d == 'GPU' and s != 'loose'):.1f}× elsewhere."
     ) in text
+
+
+def test_the_drive_map_reading_is_its_record():
+    """drive.md's reading of the reduced drive map: run times, what survives halving dt at each amplitude, and the
+    driver-open ranges, against drive/drive_map_cpu.json."""
+    values = record("drive/drive_map_cpu.json")["items"]["drive_map"]["values"]
+    points = values["points"]
+    text = " ".join((DOCS / "drive.md").read_text().split())
+    seconds = values["sweep_seconds"]
+    half = f"{values['dt_half']:.3e}".replace("e-0", "e-")
+    assert f"at dt and at dt/2 = {half} ({seconds['drive_map']:.0f} s and {seconds['drive_map_half']:.0f} s)" in text
+    small = [p for p in points if p["A"] == 0.02]
+    parted = {p["tau"]: p["trajectories_part_at"] for p in small}
+    assert parted[2.0] is None and f"they part at t = {parted[0.5]:g} and {parted[1.0]:g} (τ = 0.5, 1)" in text
+    late = ("late_power", "work_growth")
+    others = [p[f"{k[:-7]}_change"] for p in small for k in p if k.endswith("_change") and k[:-7] not in late]
+    bound = math.ceil(1000 * max(c for c in others if c is not None)) / 10  # an upper bound, rounded up
+    assert f"the numbers agree to ≤ {bound:.1f} %" in text
+    growth = {p["tau"]: max(p["late_power_change"], p["work_growth_change"]) for p in small}
+    assert f"parting ({100 * growth[0.5]:.1f} % at τ = 0.5, {100 * growth[1.0]:.1f} % at τ = 1)" in text
+
+    def percent(ps):
+        both = [x for p in ps for x in (p["driver_open"], p["driver_open_half_dt"])]
+        return f"{100 * min(both):.0f}–{100 * max(both):.0f} %"
+
+    large = [p for p in points if p["A"] >= 0.2]
+    part = [p["trajectories_part_at"] for p in large]
+    assert f"the trajectories part at t = {min(part):g}–{max(part):g}, before the first window" in text
+    assert f"open {percent(small)} of the time already at A = 0.02, and {percent(large)} at A ≥ 0.2" in text
+    open_change = max(abs(p["driver_open"] - p["driver_open_half_dt"]) for p in large)
+    assert (
+        f"the driver-open fraction (within {open_change:.2f} absolute), the bottom's energy share (within "
+        f"{100 * max(p['bottom_ke_fraction_change'] for p in large):.0f} %) and the driver's mean power (within "
+        f"{100 * max(p['late_power_change'] for p in large):.0f} %)"
+    ) in text
+    drifts = [d for p in points for d in (p["node_drift"], p["node_drift_half_dt"]) if d is not None]
+    assert f"(node drift {min(drifts):g}–{max(drifts):g} grains)" in text
