@@ -1800,6 +1800,8 @@ def test_the_detection_target_table_is_its_record():
     assert rows["μ interval holds the truth"][0] == (
         f"{covered} / {len(planted)} ({100 * covered / len(planted):.0f} %; nominal 95 %: too narrow)"
     )
+    text = " ".join((DOCS / "detection.md").read_text().split())
+    assert f"understates the uncertainty ({100 * covered / len(planted):.0f} % coverage at 26 dB above)" in text
     assert rows["seconds per detection, cached library"][0].startswith(
         f"median {np.median(seconds):.2f} s, 95th percentile {np.percentile(seconds, 95):.2f} s, at most "
         f"{seconds.max():.1f} s"
