@@ -2458,3 +2458,37 @@ def test_the_drive_map_reading_is_its_record():
     ) in text
     drifts = [d for p in points for d in (p["node_drift"], p["node_drift_half_dt"]) if d is not None]
     assert f"(node drift {min(drifts):g}–{max(drifts):g} grains)" in text
+
+
+def test_the_scale_out_prose_is_its_records():
+    """scale-out.md's 2-GPU paragraph, its verdict on the targets and the killed worker, against the 2- and 4-GPU
+    records and worker_kill_2gpu_h200.json."""
+    text = " ".join((DOCS / "scale-out.md").read_text().split())
+    four, two = record("bench/scale_out_4gpu_h200.json"), record("bench/scale_out_2gpu_h200.json")
+    serial, one, pair = two["strong"]
+    weak_serial, weak_pair = two["weak"]
+    batches = lambda run: run["seconds"]["batches"]  # noqa: E731
+    assert (
+        f"serial {serial['process_seconds']:.2f} s (batch phase {batches(serial):.2f} s), `--workers 1` "
+        f"{one['process_seconds']:.2f} s ({one['speedup']:.2f}×), `--workers 2` {pair['process_seconds']:.2f} s "
+        f"({pair['speedup']:.2f}×, {100 * pair['efficiency']:.0f} %; batch phase {batches(pair):.2f} s, "
+        f"{pair['batch_phase_speedup']:.2f}×); weak: serial at W/2 {weak_serial['process_seconds']:.2f} s, 2 workers "
+        f"at W {weak_pair['process_seconds']:.2f} s ({100 * weak_pair['efficiency']:.0f} %)"
+    ) in text
+    assert two["bitwise_equal"] and four["bitwise_equal"]
+    strong4 = four["strong"]
+    speedups = [pair["speedup"], strong4[1]["speedup"]]
+    weak = [four["weak_runs"][n]["efficiency"] for n in ("2", "4")] + [weak_pair["efficiency"]]
+    busy = [b for run in strong4[1:] for b in run["busy"].values()]
+    assert (
+        f"**Not met**: {min(speedups):.2f}–{max(speedups):.2f}×, {strong4[2]['speedup']:.2f}× and "
+        f"{100 * min(weak):.0f}–{100 * max(weak):.0f} %. The batches scale ({strong4[1]['batch_phase_speedup']:.2f}× and "
+        f"{strong4[2]['batch_phase_speedup']:.2f}× in the batch phase, every worker busy ≥ {100 * min(busy):.0f} %)"
+    ) in text
+    kill = record("bench/worker_kill_2gpu_h200.json")
+    assert kill["differing_arrays"] == [] and kill["returncode"] == 0
+    assert (
+        f"the kill came {kill['seconds_to_kill']:.1f} s in, with {kill['done_at_kill']} batch complete; the sweep "
+        f"finished all {kill['batches_completed']} batches in {kill['killed_run_seconds']:.1f} s (serially "
+        f"{kill['serial_seconds']:.1f} s)"
+    ) in text
