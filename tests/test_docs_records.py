@@ -2492,3 +2492,31 @@ def test_the_scale_out_prose_is_its_records():
         f"finished all {kill['batches_completed']} batches in {kill['killed_run_seconds']:.1f} s (serially "
         f"{kill['serial_seconds']:.1f} s)"
     ) in text
+
+
+def test_the_heterogeneous_gpu_prose_is_its_records():
+    """heterogeneous.md's shipped-size GPU run and the event-aware disorder throughput, against their records."""
+    text = " ".join((DOCS / "heterogeneous.md").read_text().split())
+    shipped = record("heterogeneous_shipped_h200.json")
+    points = len(shipped["disorder"]["spread"]) * shipped["disorder"]["realisations"]
+    assert (
+        f"took **{shipped['process_seconds']:.1f} s** from process start to exit on an empty kernel cache: "
+        f"{shipped['taper']['seconds']:.1f} s for the taper sweep, {shipped['disorder']['seconds']:.1f} s for the "
+        f"{points} disorder chains"
+    ) in text
+    events = record("bench/disorder_h200.json")
+    assert "--set chain.grains=1000" in events["command"] and 'events = "auto"' in events["what"]
+    assert (
+        f"(`sweeps/disorder.toml` with `--set chain.grains=1000`) ran at "
+        f"{events['result']['grain_steps_per_second']:.1e} grain-steps/s".replace("e+0", "e")
+    ) in text
+
+
+def test_the_lost_work_bound_in_sweeps_md_is_the_planners():
+    from hertzian.sweeping.planner import LOST_WORK_FRACTION, LOST_WORK_SECONDS, SAFE_RATE
+
+    text = " ".join((DOCS / "sweeps.md").read_text().split())
+    assert (
+        f"at most **{LOST_WORK_SECONDS:.0f} s of work at a conservative rate** ({SAFE_RATE['cpu']:.0e} grain-steps/s on "
+        f"a CPU, {SAFE_RATE['cuda']:.0e} on a GPU) **or {100 * LOST_WORK_FRACTION:.0f} % of the sweep**"
+    ).replace("e+0", "e").replace("e+", "e") in text
