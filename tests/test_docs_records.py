@@ -2520,3 +2520,13 @@ def test_the_lost_work_bound_in_sweeps_md_is_the_planners():
         f"at most **{LOST_WORK_SECONDS:.0f} s of work at a conservative rate** ({SAFE_RATE['cpu']:.0e} grain-steps/s on "
         f"a CPU, {SAFE_RATE['cuda']:.0e} on a GPU) **or {100 * LOST_WORK_FRACTION:.0f} % of the sweep**"
     ).replace("e+0", "e").replace("e+", "e") in text
+
+
+def test_the_reproduction_run_times_are_their_records():
+    """reproduction.md's run times of the measurements command and of the CPU Sec. VI lag run."""
+    text = " ".join((DOCS / "reproduction.md").read_text().split())
+    groups = record("reproduction/measurements.json")["groups"].values()
+    total = sum(g["wall_seconds"] for g in groups)
+    assert f"(the groups' wall seconds add up to {total:.0f} s):" in text
+    lag = record("reproduction/sec6_lag_cpu.json")
+    assert f"--device cpu`, {lag['total_seconds']:.0f} s on the 2-core CPU, {lag['date'][:10]};" in text
