@@ -1149,6 +1149,13 @@ def _validate_record(s: Scene) -> None:
             )
         if r.trace_every > i.duration * (1 + 1e-12):
             raise SceneError("record.trace_every", r.trace_every, f"must not exceed integrator.duration = {i.duration}")
+        steps = r.trace_every / i.dt
+        if abs(steps - round(steps)) > 1e-9 * steps:
+            raise SceneError(
+                "record.trace_every",
+                r.trace_every,
+                f"must be a whole number of steps of integrator.dt = {i.dt:g} (here {steps:.6g}; samples fall on steps)",
+            )
         if s.trace_stride > 1 and (
             s._whole_steps_per_record is None or s.steps_per_record % s.trace_stride or s.step_count % s.trace_stride
         ):

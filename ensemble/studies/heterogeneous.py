@@ -237,7 +237,20 @@ def arguments(argv: list[str] | None = None) -> tuple[Path, dict, str, str | Non
     )
     if args.only:
         sweeps = {args.only: sweeps[args.only]}
+    _refuse_unless_valid(sweeps, parser)
     return args.out, sweeps, check_device(args.device), args.part
+
+
+def _refuse_unless_valid(sweeps: dict, parser: argparse.ArgumentParser) -> None:
+    """Exit 2 with the sweep's one-line refusal when a sweep the options made cannot run, before any runs."""
+    from hertzian.core.errors import SceneError
+    from hertzian.sweeping.spec import expand, sweep_from_dict
+
+    for name, data in sweeps.items():
+        try:
+            expand(sweep_from_dict(data))
+        except SceneError as err:
+            parser.exit(2, f"error: the {name} sweep: {err}\n")
 
 
 def main() -> None:

@@ -35,6 +35,11 @@ REFUSED = [
     ("integrator.duration=1e12", "integrator.duration = 1000000000000.0: needs 4e+15 steps"),
     ("record.every=1e-9", "record.every = 1e-09: must be ≥ integrator.dt"),
     ("record.trace_every=1e-9", "record.trace_every = 1e-09: must be ≥ integrator.dt"),
+    (
+        "record.trace_every=0.000375",
+        "record.trace_every = 0.000375: must be a whole number of steps of integrator.dt = 0.00025 (here 1.5;",
+    ),
+    ("record.trace_every=0.0006", "record.trace_every = 0.0006: must be a whole number of steps"),
     ("chain.l0=nan", "chain.l0 = nan: must be a finite number"),
     ("excitation.impact=inf", "excitation.impact = inf: must be a finite number"),
     ("excitation.impact=1e200", "excitation.impact = 1e+200: too large"),

@@ -108,3 +108,14 @@ def test_the_record_keeps_its_command_and_a_users_file_is_refused(tmp_path, monk
         main()
     assert refused.value.code == 2 and "hertzian did not write it" in capsys.readouterr().err
     assert mine.read_text() == '{"my": 1}'
+
+
+def test_a_sweep_the_options_break_is_refused_before_it_runs(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        arguments(
+            [str(tmp_path / "out.json"), "--shipped", "--only", "taper", "--trace-every", "3.3e-6", "--device", "cpu"]
+        )
+    assert exit_info.value.code == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("error: the taper sweep: record.trace_every = 3.3e-06: must be a whole number of steps")
+    assert not (tmp_path / "out.json").exists()
