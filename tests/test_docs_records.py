@@ -2530,3 +2530,28 @@ def test_the_reproduction_run_times_are_their_records():
     assert f"(the groups' wall seconds add up to {total:.0f} s):" in text
     lag = record("reproduction/sec6_lag_cpu.json")
     assert f"--device cpu`, {lag['total_seconds']:.0f} s on the 2-core CPU, {lag['date'][:10]};" in text
+
+
+def test_the_weak_gravity_column_paragraph_is_its_record():
+    """stability.md §6b's counter-example: event-aware steps on a column under weak gravity, against
+    accuracy/events.json → column_weak_gravity."""
+    part = record("accuracy/events.json")["parts"]["column_weak_gravity"]
+    runs = {(r["events"], r["dt"]): r for r in part["records"]}
+    steps = sorted({dt for _, dt in runs}, reverse=True)
+    auto = [runs["auto", dt]["error"] for dt in steps]
+    off = [runs["off", dt]["error"] for dt in steps]
+    assert all(a > o for a, o in zip(auto, off)) and all(
+        runs["auto", dt]["energy_error"] > runs["off", dt]["energy_error"] for dt in steps
+    )
+    orders = [math.log2(a / b) for a, b in zip(auto, auto[1:])]
+    assert max(orders) - min(orders) < 0.1
+    text = " ".join((DOCS / "stability.md").read_text().split())
+
+    def shown(errors: list[float]) -> str:
+        return ", ".join(f"{e:.1e}".replace("e-0", "e-") for e in errors)
+
+    assert (
+        f"gear4's position error falls at order {sum(orders) / len(orders):.1f} ({shown(auto)} at dt = 2.5e-4 … "
+        f"3.125e-5), but it is larger than with plain steps at every one of these steps ({shown(off)})"
+    ) in text
+    assert steps == [2.5e-4, 1.25e-4, 6.25e-5, 3.125e-5] and "--set chain.gravity=0.001" in part["command"]
