@@ -2555,3 +2555,24 @@ def test_the_weak_gravity_column_paragraph_is_its_record():
         f"3.125e-5), but it is larger than with plain steps at every one of these steps ({shown(off)})"
     ) in text
     assert steps == [2.5e-4, 1.25e-4, 6.25e-5, 3.125e-5] and "--set chain.gravity=0.001" in part["command"]
+
+
+def test_the_fig4_tilt_paragraph_is_its_record():
+    """reproduction.md's Fig. 4 paragraph: the tilts of the in-going and reflected tops, the pulse speed, the wall
+    time and the head's speed amplitude, against daggers_cpu.json → fig4."""
+    fig4 = record("reproduction/daggers_cpu.json")["items"]["fig4"]["values"]
+    tilt, head = fig4["tilt"], fig4["head_speed_amplitude"]
+    text = " ".join((DOCS / "reproduction.md").read_text().split())
+
+    def listed(tilts: dict, skip=()) -> str:
+        return ", ".join(f"{100 * abs(v):.1f} % ({k.replace('=', ' = ')})" for k, v in tilts.items() if k not in skip)
+
+    assert (
+        f"in-going {listed(tilt['in_going'])}; reflected {listed(tilt['reflected'], skip=('t=110.5',))} (pulse speed "
+        f"{tilt['speed']:.2f}, reaches the wall at t = {tilt['t_wall']:.0f})"
+    ) in text
+    assert (
+        f"(largest |v| of a snapshot {head['in_going'][0]:.3f}–{head['in_going'][1]:.3f} in-going, "
+        f"{head['reflected'][0]:.3f}–{head['reflected'][1]:.3f} from 5 units after the wall to the end;"
+    ) in text
+    assert head["reflected_t"][0] == tilt["t_wall"] + 5
