@@ -2576,3 +2576,33 @@ def test_the_fig4_tilt_paragraph_is_its_record():
         f"{head['reflected'][0]:.3f}–{head['reflected'][1]:.3f} from 5 units after the wall to the end;"
     ) in text
     assert head["reflected_t"][0] == tilt["t_wall"] + 5
+
+
+def test_the_design_arrangement_sentences_are_their_record():
+    """design.md: where steel sits and how often beads alternate in the 6400-candidate and four-material designs,
+    against the shuffle statistics of design/protector_cpu.json, and the materials' compliances."""
+    from hertzian.core.materials import MATERIALS
+
+    design = record("design/protector_cpu.json")
+    text = " ".join((DOCS / "design.md").read_text().split())
+    wide = design["population_6400"]["arrangement"]
+    steel, switches = wide["materials"]["stainless_steel"], wide["switches"]
+    assert (
+        f"less markedly: {100 * steel['p_toward_striker']:.0f} % of the shuffles as close) with as few unlike neighbours "
+        f"({switches['count']} against {switches['null_mean']:.1f}; p = {switches['p_at_most']:.3f})"
+    ) in text
+    four = design["four_materials"]["arrangement"]
+    materials, switches = four["materials"], four["switches"]
+    steel = materials["stainless_steel"]
+    assert (
+        f"mostly PTFE ({materials['ptfe']['beads']} beads) with steel toward the striker ({steel['beads']} beads at mean "
+        f"position {steel['mean_position']:.2f}; {100 * steel['p_toward_striker']:.1f} % of the shuffles as close)"
+    ) in text
+    assert (
+        f"({switches['count']} unlike neighbours against {switches['null_mean']:.1f}; "
+        f"{100 * switches['p_at_most']:.0f} % of the shuffles as few). The {materials['aluminium']['beads']} aluminium "
+        f"beads sit toward the wall (mean position {materials['aluminium']['mean_position']:.2f})"
+    ) in text
+    aluminium, glass, ptfe = (MATERIALS[n].compliance for n in ("aluminium", "glass", "ptfe"))
+    assert abs(glass / aluminium - 1) < 0.03 and "within 3 % of each other" in text
+    assert f"about {round(ptfe / glass, -1):.0f} times below PTFE's" in text
