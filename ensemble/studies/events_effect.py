@@ -23,9 +23,6 @@ from statistics import median
 
 from hertzian.core.outputs import exit_unless_replaceable, provenance, write_part
 
-HERTZIAN = (sys.executable, "-c", "from hertzian.cli import main; main()")
-"""The ``hertzian`` command, run by this interpreter."""
-
 
 def numbers(value, path: str = "") -> dict[str, float]:
     """Every finite number (booleans left out) in a nested measurement, by its path."""
@@ -71,7 +68,7 @@ def run_with_events(plain: dict, device: str, folder: Path) -> dict:
     """The plain record's figure groups again with ``--events auto``, measured into a record in ``folder``."""
     figures = [a for name in plain["groups"] for a in ("--figure", name)]
     record = folder / "auto.json"
-    command = [*HERTZIAN, "reproduce", *figures, "--events", "auto", "--device", device]
+    command = [sys.executable, "-m", "hertzian.cli", "reproduce", *figures, "--events", "auto", "--device", device]
     subprocess.run([*command, "--out-dir", str(folder / "out"), "--json", str(record)], check=True)
     return json.loads(record.read_text())
 
