@@ -620,7 +620,10 @@ def reference_run(scene: dict, exact_start: bool = True) -> dict:
     """Integrate one scene; return snapshots, energy, drive work and traces (float64).
 
     ``exact_start`` (default): Gear's Nordsieck vector starts from the exact Taylor
-    derivatives at t = 0, ``x_k = dt^k / k! * u^(k)(0)`` for every k < Q.
+    derivatives at t = 0, ``x_k = dt^k / k! * u^(k)(0)`` for every k < Q; gear4 (Q = 4)
+    in the form its corrector keeps in steady state, ``x_1 += dt^4/24 * u^(4)(0)`` and
+    ``x_3 -= dt^4/12 * u^(4)(0)`` (the corrector applied to u = t^4/24 in exact arithmetic
+    settles there).
     ``exact_start=False``: the old start (``x_2 = dt^2/2 a(0)``, higher terms 0),
     which discards the initial jerk of an impact into a loaded chain and drops
     every Gear method to order 2.  Verlet needs only a(0) and is unaffected.
@@ -722,6 +725,12 @@ def reference_run(scene: dict, exact_start: bool = True) -> dict:
             for j in range(q):
                 fact *= max(j, 1)  # j!
                 X[j] = dt**j / fact * derivs[j]
+            if q == 4:
+                quartic = dt**4 / 24.0 * derivs[4]
+                if ch.driven:
+                    quartic[0] = 0.0  # the driven grain keeps its exact derivatives, as after every step
+                X[1] += quartic
+                X[3] -= 2.0 * quartic
         else:
             X[0] = u
             X[1] = dt * v

@@ -9,6 +9,7 @@ ping-pongs between (they share one ``status`` and one trace ring).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from dataclasses import dataclass
@@ -272,32 +273,45 @@ class Model:
         return first, self.state(like=first)
 
     def initial_state(self, *, like: State | None = None) -> State:
-        """State at t = 0: static positions, v_0 = v_imp (impact) or the drive's, exact higher derivatives."""
-        from hertzian.core.startup import initial_nordsieck
-
+        """State at t = 0: static positions, v_0 = v_imp (impact) or the drive's, exact higher derivatives (gear4's
+        in the steady-state form of its corrector, ensemble/core/startup.py)."""
         state = self.state(like=like)
-        order = self.features.nordsieck_values
-        # prepared for these features (a model copied with other features computes its own)
-        start = self._start[1] if self._start is not None and self._start[0] == self.features else None
-        if start is not None or isinstance(self.scenes, ChainSet):
-            from hertzian.core.startup import initial_nordsieck_of
-
-            # only the first grains move at t = 0 (startup.taylor_window): upload those into the zeroed
-            # buffer (a copy of the window, not of every grain)
-            if start is None:
-                start = state_layout(
-                    initial_nordsieck_of(self.scenes, order, self.dt, self._static, whole=False), self.features
-                )
-            width = start.shape[2]
-            (state.x if width == self.grain_count else state.x[:, :, :width]).assign(start)
-            return state
-        else:
-            x = np.zeros((order, self.chain_count, self.grain_count))
-            for c, scene in enumerate(self.scenes):
-                # exact Taylor start: keeps each Gear method at its own order (see ensemble/core/startup.py)
-                x[:, c, :] = initial_nordsieck(scene, order, self.dt)
-        state.x.assign(state_layout(x, self.features))
+        self._assign_start(state, self._start_rows(steady=True))
         return state
+
+    @contextlib.contextmanager
+    def exact_start(self, state: State):
+        """``state`` at t = 0 holding the exact Taylor start while the block runs, then gear4's steady-state form
+        again: the two differ in dt·v and dt³/6·ȧ (startup.py), and the record at t = 0 keeps v(0) itself and the
+        energy E(0) that every later record is compared with. Other methods start exactly: nothing changes."""
+        if self.features.method != "gear4":
+            yield state
+            return
+        self._assign_start(state, self._start_rows(steady=False))
+        try:
+            yield state
+        finally:
+            self._assign_start(state, self._start_rows(steady=True))
+
+    def _start_rows(self, *, steady: bool) -> np.ndarray:
+        """The start in the kernels' layout, shape (rows, chains, width): of the first grains that move
+        (startup.taylor_window) for a ChainSet model, else of every grain."""
+        from hertzian.core.startup import initial_nordsieck, initial_nordsieck_of
+
+        if steady and self._start is not None and self._start[0] == self.features:
+            return self._start[1]  # prepared with the model (prepare_model), for these features
+        values = self.features.nordsieck_values
+        if isinstance(self.scenes, ChainSet):
+            x = initial_nordsieck_of(self.scenes, values, self.dt, self._static, whole=False, steady=steady)
+        else:
+            # exact Taylor start: keeps each Gear method at its own order (see ensemble/core/startup.py)
+            x = np.stack([initial_nordsieck(s, values, self.dt, steady=steady) for s in self.scenes], axis=1)
+        return state_layout(x, self.features)
+
+    def _assign_start(self, state: State, rows: np.ndarray) -> None:
+        """Upload ``rows`` (:meth:`_start_rows`) into ``state``'s first grains (a copy of the window only)."""
+        width = rows.shape[2]
+        (state.x if width == self.grain_count else state.x[:, :, :width]).assign(rows)
 
 
 def state_layout(nordsieck: np.ndarray, features: Features) -> np.ndarray:
@@ -510,7 +524,7 @@ def _key_value(scene: Scene, key: str):
 
 def prepare_model(chains: ChainSet, *, features: Features | None = None) -> HostModel:
     """The host half of ``build_model(chains, …)``: numpy only, no device (safe in a background thread)."""
-    from hertzian.core.startup import initial_nordsieck_of, taylor_window
+    from hertzian.core.startup import initial_nordsieck_of, start_order, taylor_window
     from hertzian.core.static import static_arrays
 
     clock = time.perf_counter()
@@ -523,7 +537,7 @@ def prepare_model(chains: ChainSet, *, features: Features | None = None) -> Host
     # first grains alone; impurities, radii or gravity need every grain's.
     window = None
     if not scene.impurities and not has_radii(chains) and not np.any(chains.column("chain.gravity") > 0):
-        window = taylor_window(scene.chain.grains, GEAR_VALUES[scene.integrator.method] - 1)
+        window = taylor_window(scene.chain.grains, start_order(GEAR_VALUES[scene.integrator.method]))
     st = static_arrays(chains, grains=window)
     f = chain_set_features(chains, st)
     if features is not None:
@@ -577,7 +591,7 @@ def prepare_model(chains: ChainSet, *, features: Features | None = None) -> Host
     }
     # only the first grains move at t = 0 (startup.taylor_window); the others start at zero
     values = f.nordsieck_values
-    leading = st.leading(taylor_window(n, values - 1))
+    leading = st.leading(taylor_window(n, start_order(values)))
     start = state_layout(initial_nordsieck_of(chains, values, scene.integrator.dt, leading, whole=False), f)
     return HostModel(
         chains=chains,

@@ -280,17 +280,22 @@ class Runner:
         advance_seconds = record_seconds = 0.0
         with frozen_collector():
             start = time.perf_counter()
-            if rec.response is not None and rec.response.start_step == 0:
-                rec.response.sample(self.current)
-            for r, step in enumerate(record_steps):
-                if r:
-                    clock = time.perf_counter()
-                    if events is not None:
-                        events.append(wp.get_stream(m.device).record_event(wp.Event(m.device, enable_timing=True)))
-                    self.advance_monitored(record_steps[r - 1], step - record_steps[r - 1])
-                    if events is not None:
-                        events.append(wp.get_stream(m.device).record_event(wp.Event(m.device, enable_timing=True)))
-                    advance_seconds += time.perf_counter() - clock
+            with m.exact_start(self.current):  # t = 0 as it is, not in gear4's steady-state form
+                if rec.response is not None and rec.response.start_step == 0:
+                    rec.response.sample(self.current)
+                clock = time.perf_counter()
+                rec.record(self.current, 0, record_steps[0])
+            if progress is not None:
+                progress(1, len(record_steps))
+            record_seconds += time.perf_counter() - clock
+            for r, step in enumerate(record_steps[1:], start=1):
+                clock = time.perf_counter()
+                if events is not None:
+                    events.append(wp.get_stream(m.device).record_event(wp.Event(m.device, enable_timing=True)))
+                self.advance_monitored(record_steps[r - 1], step - record_steps[r - 1])
+                if events is not None:
+                    events.append(wp.get_stream(m.device).record_event(wp.Event(m.device, enable_timing=True)))
+                advance_seconds += time.perf_counter() - clock
                 clock = time.perf_counter()
                 rec.record(self.current, r, step)
                 if progress is not None:

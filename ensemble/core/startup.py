@@ -7,7 +7,12 @@ arithmetic on the equation of motion: u_{k+2} = A_k / ((k+1)(k+2)), where A_k is
 coefficient of the acceleration series, built from the overlap series of each contact by the
 power rule w = δ^p ⇒ w_k = Σ_{j=1..k} ((p+1) j − k) δ_j w_{k−j} / (k δ_0).
 A contact with no static overlap (δ_0 = 0) is not analytic at t = 0 (F ∝ t^(n−1)); its series
-is taken as zero. Damping enters linearly: −γ v_k (viscous, v_k = (k+1) u_{k+1}) in the acceleration
+is taken as zero.
+
+gear4 starts in the form its corrector keeps in steady state (kernels/events.py restarts it in the same form):
+x1 = dt·v + dt⁴/24·u⁗ and x3 = dt³/6·u‴ − dt⁴/12·u⁗. An event-aware step takes the velocity as x1 − dt⁴/24·u⁗;
+from the plain Taylor value x1 = dt·v, a first step near an event (an impact on a contact of small static
+overlap) would start from a velocity wrong by dt³/24·u⁗, and the run would converge at order 3. Damping enters linearly: −γ v_k (viscous, v_k = (k+1) u_{k+1}) in the acceleration
 series, +γ δ̇_k (a dashpot, δ̇_k = (k+1) δ_{k+1}) in each loaded contact's force series; a start
 without it would cost Gear its order (an O(dt) error in the first step's velocity).
 """
@@ -112,10 +117,37 @@ def taylor_coefficients(scene: Scene, order: int, static: StaticState | None = N
     return u
 
 
-def initial_nordsieck(scene: Scene, values: int, dt: float, static: StaticState | None = None) -> np.ndarray:
-    """Scaled Nordsieck vector at t = 0, shape (values, grains): x_k = dt^k u_k."""
-    coeffs = taylor_coefficients(scene, values - 1, static)
-    return coeffs * dt ** np.arange(values)[:, None]
+GEAR4_VALUES = 4
+"""The Nordsieck values of gear4, the one method of that many (kernels/features.py ``GEAR_VALUES``)."""
+
+
+def start_order(values: int) -> int:
+    """The Taylor order the start of a method of ``values`` Nordsieck values reads: values − 1, and u⁗ for gear4's
+    steady-state form."""
+    return 4 if values == GEAR4_VALUES else values - 1
+
+
+def scaled_start(coeffs: np.ndarray, values: int, dt: float, *, driven: bool, steady: bool = True) -> np.ndarray:
+    """The Nordsieck vector x_k = dt^k u_k (k < values) of Taylor coefficients ``coeffs`` (rows: orders up to
+    :func:`start_order`; last axis: grains); with ``steady``, gear4's in the steady-state form of the module
+    docstring except for a ``driven`` surface grain, which the kernels hold at its drive's exact derivatives."""
+    scale = (dt ** np.arange(values)).reshape((values,) + (1,) * (coeffs.ndim - 1))
+    x = coeffs[:values] * scale
+    if steady and values == GEAR4_VALUES:
+        quartic = dt**4 * coeffs[4]  # dt⁴/24·u⁗
+        if driven:
+            quartic[..., 0] = 0.0
+        x[1] += quartic
+        x[3] -= 2.0 * quartic
+    return x
+
+
+def initial_nordsieck(
+    scene: Scene, values: int, dt: float, static: StaticState | None = None, *, steady: bool = True
+) -> np.ndarray:
+    """Scaled Nordsieck vector at t = 0, shape (values, grains): :func:`scaled_start`."""
+    coeffs = taylor_coefficients(scene, start_order(values), static)
+    return scaled_start(coeffs, values, dt, driven=scene.boundary.surface == "driven", steady=steady)
 
 
 # ---- many chains at once -------------------------------------------------------------------
@@ -213,8 +245,10 @@ def taylor_coefficients_of(chains, order: int, static=None, *, whole: bool = Tru
     return out
 
 
-def initial_nordsieck_of(chains, values: int, dt: float, static=None, *, whole: bool = True) -> np.ndarray:
-    """Scaled Nordsieck vectors of every chain at t = 0, shape (values, chains, grains) (``whole=False``:
-    only the first :func:`taylor_window` grains; the others are zero)."""
-    coeffs = taylor_coefficients_of(chains, values - 1, static, whole=whole)
-    return coeffs * (dt ** np.arange(values))[:, None, None]
+def initial_nordsieck_of(
+    chains, values: int, dt: float, static=None, *, whole: bool = True, steady: bool = True
+) -> np.ndarray:
+    """Scaled Nordsieck vectors of every chain at t = 0 (:func:`scaled_start`), shape (values, chains, grains)
+    (``whole=False``: only the first :func:`taylor_window` grains; the others are zero)."""
+    coeffs = taylor_coefficients_of(chains, start_order(values), static, whole=whole)
+    return scaled_start(coeffs, values, dt, driven=chains.template.boundary.surface == "driven", steady=steady)

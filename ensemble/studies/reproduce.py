@@ -289,24 +289,30 @@ def run_driven(scenes, device: str, centres: np.ndarray, *, coarse_every: float)
         if mark > step:
             runner.advance(mark - step)
             step = mark
-        x = runner.current.x
-        recorder.check(runner.current, step)
-        wp.launch(keep_chain_values, dim=chains, inputs=[recorder.energy_now, row], outputs=[energy], device=dev)
-        wp.launch(keep_chain_values, dim=chains, inputs=[recorder.work_now, row], outputs=[work], device=dev)
-        for kind, index in sorted(marks[mark]):
-            if kind == "sample":
-                wp.launch(
-                    add_sample,
-                    dim=(chains, grains),
-                    inputs=[x, model.inverse_mass, hetero, wp_dt, index],
-                    outputs=[ke_sum, v_sum],
-                    device=dev,
-                )
-                samples[index] += 1
-            elif kind == "centre":
-                wp.launch(snapshot64, dim=(chains, grains), inputs=[x, wp_dt, index], outputs=[v_centre], device=dev)
-            else:
-                wp.launch(snapshot32, dim=(chains, grains), inputs=[x, wp_dt, index], outputs=[v_coarse], device=dev)
+        # t = 0 as it is, not in gear4's steady-state form (the energy every later one is compared with)
+        with model.exact_start(runner.current) if step == 0 else contextlib.nullcontext():
+            x = runner.current.x
+            recorder.check(runner.current, step)
+            wp.launch(keep_chain_values, dim=chains, inputs=[recorder.energy_now, row], outputs=[energy], device=dev)
+            wp.launch(keep_chain_values, dim=chains, inputs=[recorder.work_now, row], outputs=[work], device=dev)
+            for kind, index in sorted(marks[mark]):
+                if kind == "sample":
+                    wp.launch(
+                        add_sample,
+                        dim=(chains, grains),
+                        inputs=[x, model.inverse_mass, hetero, wp_dt, index],
+                        outputs=[ke_sum, v_sum],
+                        device=dev,
+                    )
+                    samples[index] += 1
+                elif kind == "centre":
+                    wp.launch(
+                        snapshot64, dim=(chains, grains), inputs=[x, wp_dt, index], outputs=[v_centre], device=dev
+                    )
+                else:
+                    wp.launch(
+                        snapshot32, dim=(chains, grains), inputs=[x, wp_dt, index], outputs=[v_coarse], device=dev
+                    )
     wp.synchronize_device(dev)
     wall = time.perf_counter() - start
     samples = np.maximum(samples, 1)

@@ -92,6 +92,19 @@ def tls_files(tls) -> Any:
     return TlsFiles(**{k: str(v) for k, v in tls.items()})
 
 
+WORKER_MEMORY_GIB = 1
+"""Host memory a local Dask worker needs [GiB]: its process (Python, Warp, Dask, Zarr: 0.25–0.35 GB resident on a
+CPU worker of a small sweep) and a batch's host copies."""
+
+
+def max_local_workers() -> int:
+    """The most local workers this machine's memory holds (distributed's ``MEMORY_LIMIT``: the host's memory, or
+    its cgroup's limit), at :data:`WORKER_MEMORY_GIB` each; at least 1."""
+    from distributed.system import MEMORY_LIMIT
+
+    return max(1, MEMORY_LIMIT // (WORKER_MEMORY_GIB << 30))
+
+
 def check_options(*, batch_size, workers, scheduler, resume, overwrite, kernel, tls=None) -> None:
     """Refuse arguments that cannot work together, before anything is read."""
     if tls is not None and not str(scheduler or "").startswith("tls://"):
@@ -103,6 +116,13 @@ def check_options(*, batch_size, workers, scheduler, resume, overwrite, kernel, 
             raise OptionError(key, value, "must be ≥ 1")
     if workers is not None and scheduler is not None:
         raise OptionError("scheduler", scheduler, "give either workers (a local cluster) or scheduler, not both")
+    if workers is not None and workers > max_local_workers():
+        raise OptionError(
+            "workers",
+            workers,
+            f"at most {max_local_workers()} on this machine (each worker process gets an even share of the host "
+            f"memory, and needs {WORKER_MEMORY_GIB} GiB)",
+        )
     if resume and overwrite:
         raise OptionError("resume", True, "resume continues a store, overwrite replaces it; give one")
     if kernel not in KERNELS:

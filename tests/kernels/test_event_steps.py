@@ -12,6 +12,7 @@ import re
 import numpy as np
 import pytest
 from hertzian.core.model import build_model, features_of
+from hertzian.core.runner import run_scene
 from hertzian.kernels.features import Features
 from hertzian.kernels.step import step_kernel
 from hertzian.kernels.tile import TileShape, plan_tile, tile_kernel
@@ -50,6 +51,41 @@ def test_l0_zero_keeps_gear4_order():
     assert slope(DTS, errors["auto"]) >= 3.5, errors
     assert slope(DTS, errors["off"]) < 2.5, errors
     assert errors["auto"][-1] < errors["off"][-1] / 10, errors
+
+
+def test_an_event_at_the_first_step_keeps_gear4_order():
+    """A column under weak gravity with a free surface, struck at the top: the struck contact's static overlap is
+    so small that the very first steps are event steps. They take the velocity as x1/dt − dt³/24·u⁗, which holds
+    only where the Nordsieck vector is in gear4's steady-state form: so the start is in that form
+    (ensemble/core/startup.py). From the plain Taylor start the first step's velocity would be off by dt³/24·u⁗ and
+    the error would fall at order 3, above plain steps' (docs/stability.md §6b)."""
+    scene = make_scene(
+        chain={"grains": 60, "l0": 0.0, "gravity": 1e-3},
+        boundary={"surface": "free", "bottom": "wall"},
+        excitation={"impact": 0.1},
+        integrator={"duration": 0.05},
+        record={"every": 0.025, "fields": ["u"]},
+    )
+    dts = [5e-4, 2.5e-4, 1.25e-4]
+    records, _, _ = work_precision(scene, ["gear4"], dts, ["float64"], device="cpu", events=["auto", "off"])
+    errors = {e: [r.error for r in records if r.events == e] for e in ("auto", "off")}
+    assert not any(r.reference_limited for r in records), records
+    assert slope(dts, errors["auto"]) >= 3.7, errors
+    assert all(a < b for a, b in zip(errors["auto"], errors["off"])), errors
+
+
+def test_the_record_at_t0_is_the_exact_start():
+    """gear4 integrates from its steady-state start (x1 = dt·v + dt⁴/24·u⁗), but the record at t = 0 keeps v(0)
+    itself: v_imp on the struck grain, 0 elsewhere, and the energy the later records are compared with is the
+    injected one."""
+    scene = make_scene(chain={"grains": 12, "l0": 1e-4}, excitation={"impact": 1e-2}, integrator={"duration": 0.1})
+    model = build_model([scene], "cpu")
+    steady = model.initial_state().x.numpy()[1, 0] / model.dt
+    assert steady[0] != 1e-2 and np.any(steady[1:] != 0)  # the steady-state form differs from v(0) …
+    result = run_scene(scene, "cpu")
+    v0 = result.fields["v"][0, 0]
+    assert v0[0] == pytest.approx(1e-2, rel=1e-15) and not np.any(v0[1:])  # … the record does not
+    assert result.energy[0, 0] == pytest.approx(0.5 * 1e-4, rel=1e-14)
 
 
 def test_scenes_without_possible_events_compile_no_event_code():

@@ -131,6 +131,8 @@ def test_bad_sweep_is_one_line_exit_2_nothing_written(tmp_path, name, text, expe
     [
         ("--batch-size 0", "--batch-size = 0: must be ≥ 1"),
         ("--workers 0", "--workers = 0: must be ≥ 1"),
+        ("--workers 99999999999999999999", "--workers = 99999999999999999999: at most"),
+        ("--workers 1000000", "each worker process gets an even share of the host memory, and needs 1 GiB"),
         ("--workers 2 --scheduler tcp://x:1", "give either workers (a local cluster) or scheduler"),
         ("--resume --overwrite", "resume continues a store, overwrite replaces it"),
         ("--set chain.grainz=3", "chain.grainz: unknown key"),
