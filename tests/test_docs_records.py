@@ -2267,15 +2267,16 @@ def test_the_event_aware_reproduction_is_its_record():
     ) in text
     same = [n for n, g in groups.items() if g["largest_change"] == 0 and len(set(g["energy_error_max"].values())) == 1]
     assert f"Where no contact opens ({', '.join(same)}) they change nothing" in text
-    raised = [n for n, g in groups.items() if g["energy_error_max"]["auto"] > g["energy_error_max"]["off"]]
-    lowered = [n for n in groups if n not in same and n not in raised]
-    assert raised == ["fig6"]
+    lowered = [n for n in groups if n not in same]
+    assert all(groups[n]["energy_error_max"]["auto"] < groups[n]["energy_error_max"]["off"] for n in lowered)
+    least = max(lowered, key=lambda n: groups[n]["energy_error_max"]["auto"] / groups[n]["energy_error_max"]["off"])
     fig6 = groups["fig6"]["energy_error_max"]
+    assert least == "fig6"
     assert (
         f"lower the other groups' largest energy error from ≤ "
         f"{max(groups[n]['energy_error_max']['off'] for n in lowered):.1e} to ≤ "
-        f"{max(groups[n]['energy_error_max']['auto'] for n in lowered):.1e}, except fig6's, which rises from "
-        f"{fig6['off']:.1e} to {fig6['auto']:.1e}".replace("e-0", "e-")
+        f"{max(groups[n]['energy_error_max']['auto'] for n in lowered):.1e} (fig6's least, from "
+        f"{fig6['off']:.1e} to {fig6['auto']:.1e})".replace("e-0", "e-")
     ) in text
     ratios = [g["wall_seconds"]["auto"] / g["wall_seconds"]["off"] for g in groups.values()]
     assert (
@@ -2533,28 +2534,30 @@ def test_the_reproduction_run_times_are_their_records():
 
 
 def test_the_weak_gravity_column_paragraph_is_its_record():
-    """stability.md §6b's counter-example: event-aware steps on a column under weak gravity, against
-    accuracy/events.json → column_weak_gravity."""
+    """stability.md §6b's column under weak gravity, whose first steps are event steps: event-aware steps below plain
+    ones at every step, in position and in energy, against accuracy/events.json → column_weak_gravity (\\* where the
+    record says the reference limits the error)."""
     part = record("accuracy/events.json")["parts"]["column_weak_gravity"]
     runs = {(r["events"], r["dt"]): r for r in part["records"]}
     steps = sorted({dt for _, dt in runs}, reverse=True)
-    auto = [runs["auto", dt]["error"] for dt in steps]
-    off = [runs["off", dt]["error"] for dt in steps]
-    assert all(a > o for a, o in zip(auto, off)) and all(
-        runs["auto", dt]["energy_error"] > runs["off", dt]["energy_error"] for dt in steps
-    )
-    orders = [math.log2(a / b) for a, b in zip(auto, auto[1:])]
-    assert max(orders) - min(orders) < 0.1
+    assert steps == [2.5e-4, 1.25e-4, 6.25e-5, 3.125e-5] and "--set chain.gravity=0.001" in part["command"]
+    assert all(runs["auto", dt][key] < runs["off", dt][key] for dt in steps for key in ("error", "energy_error"))
+    assert math.log2(runs["auto", steps[0]]["error"] / runs["auto", steps[1]]["error"]) > 3.7
     text = " ".join((DOCS / "stability.md").read_text().split())
 
-    def shown(errors: list[float]) -> str:
-        return ", ".join(f"{e:.1e}".replace("e-0", "e-") for e in errors)
+    def shown(events: str, key: str) -> str:
+        values = [
+            f"{runs[events, dt][key]:.1e}".replace("e-0", "e-")
+            + ("\\*" if key == "error" and runs[events, dt]["reference_limited"] else "")
+            for dt in steps
+        ]
+        return ", ".join(values[:-1]) + " and " + values[-1]
 
     assert (
-        f"gear4's position error falls at order {sum(orders) / len(orders):.1f} ({shown(auto)} at dt = 2.5e-4 … "
-        f"3.125e-5), but it is larger than with plain steps at every one of these steps ({shown(off)})"
+        f"With event-aware steps the position error is {shown('auto', 'error')} at dt = 2.5e-4 … 3.125e-5, against "
+        f"{shown('off', 'error')} with plain steps; the energy error {shown('auto', 'energy_error')} against "
+        f"{shown('off', 'energy_error')}."
     ) in text
-    assert steps == [2.5e-4, 1.25e-4, 6.25e-5, 3.125e-5] and "--set chain.gravity=0.001" in part["command"]
 
 
 def test_the_fig4_tilt_paragraph_is_its_record():
