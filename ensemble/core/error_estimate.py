@@ -81,10 +81,11 @@ def shadow_chains(scenes: "Sequence[Scene] | ChainSet | ChainStack"):
 def shadow_model(model: Model) -> Model:
     """The shadow of a built model: its uploaded per-chain arrays reused, twice the step, no traces. The
     initial state of a float64 ChainSet model is the run's scaled by 2^k per Nordsieck row k (exact in binary);
-    otherwise the shadow computes its own."""
+    otherwise, and for gear4 (whose steady-state start has dt⁴ terms in rows 1 and 3, startup.py), the shadow
+    computes its own."""
     features = replace(model.features, traces=False)
     start = None
-    if model._start is not None and not model.features.compensation:
+    if model._start is not None and not model.features.compensation and model.features.method != "gear4":
         scale = float(SHADOW_FACTOR) ** np.arange(model._start[1].shape[0])
         start = (features, model._start[1] * scale[:, None, None])
     return replace(
