@@ -87,7 +87,7 @@ def shadow_model(model: Model) -> Model:
     start = None
     if model._start is not None and not model.features.compensation and model.features.method != "gear4":
         scale = float(SHADOW_FACTOR) ** np.arange(model._start[1].shape[0])
-        start = (features, model._start[1] * scale[:, None, None])
+        start = (features, model._start[1] * scale[:, None, None], None)
     return replace(
         model,
         scenes=shadow_chains(model.scenes),

@@ -225,7 +225,8 @@ class Model:
     damping: wp.array = None
     """γ per chain, shape (chains,), or (0,) without damping (damping.model in ``features``)."""
     _start: tuple | None = None
-    """(features, initial state's leading grains in those features' layout) of a ChainSet model (prepare_model)."""
+    """(features, initial state's leading grains in those features' layout, gear4's exact start in that layout or
+    None) of a ChainSet model (prepare_model's ``start`` and ``exact_start``)."""
 
     @property
     def real(self):
@@ -298,11 +299,15 @@ class Model:
         (startup.taylor_window) for a ChainSet model, else of every grain."""
         from hertzian.core.startup import initial_nordsieck, initial_nordsieck_of
 
-        if steady and self._start is not None and self._start[0] == self.features:
-            return self._start[1]  # prepared with the model (prepare_model), for these features
+        if self._start is not None and self._start[0] == self.features:  # prepared for these features
+            start, exact = self._start[1:]
+            return start if steady or exact is None else exact
         values = self.features.nordsieck_values
         if isinstance(self.scenes, ChainSet):
             x = initial_nordsieck_of(self.scenes, values, self.dt, self._static, whole=False, steady=steady)
+        elif isinstance(self.scenes, ChainStack):
+            parts = self.scenes.parts
+            x = _stacked_starts([initial_nordsieck_of(p, values, self.dt, whole=False, steady=steady) for p in parts])
         else:
             # exact Taylor start: keeps each Gear method at its own order (see ensemble/core/startup.py)
             x = np.stack([initial_nordsieck(s, values, self.dt, steady=steady) for s in self.scenes], axis=1)
@@ -483,6 +488,9 @@ class HostModel:
     injected_energy: np.ndarray
     start: np.ndarray
     """The initial state's leading grains in the kernels' layout, shape (values, chains, window)."""
+    exact_start: np.ndarray | None = None
+    """gear4's exact Taylor start in the same layout (``start`` is its steady-state form; the record at t = 0 keeps
+    this one, ``Model.exact_start``); None for the other methods, whose start is exact."""
     seconds: float = 0.0
     """Host seconds it took."""
 
@@ -524,7 +532,7 @@ def _key_value(scene: Scene, key: str):
 
 def prepare_model(chains: ChainSet, *, features: Features | None = None) -> HostModel:
     """The host half of ``build_model(chains, …)``: numpy only, no device (safe in a background thread)."""
-    from hertzian.core.startup import initial_nordsieck_of, start_order, taylor_window
+    from hertzian.core.startup import initial_starts_of, start_order, taylor_window
     from hertzian.core.static import static_arrays
 
     clock = time.perf_counter()
@@ -592,14 +600,15 @@ def prepare_model(chains: ChainSet, *, features: Features | None = None) -> Host
     # only the first grains move at t = 0 (startup.taylor_window); the others start at zero
     values = f.nordsieck_values
     leading = st.leading(taylor_window(n, start_order(values)))
-    start = state_layout(initial_nordsieck_of(chains, values, scene.integrator.dt, leading, whole=False), f)
+    start, exact = initial_starts_of(chains, values, scene.integrator.dt, leading)
     return HostModel(
         chains=chains,
         features=f,
         static=st,
         arrays=arrays,
         injected_energy=injected,
-        start=start,
+        start=state_layout(start, f),
+        exact_start=None if exact is None else state_layout(exact, f),
         seconds=time.perf_counter() - clock,
     )
 
@@ -659,21 +668,27 @@ def stack_prepared(parts: list[HostModel]) -> HostModel:
         if any(p.shape[1:] != array.shape[1:] for p in pieces):
             raise ValueError(f"stacked chain sets disagree in the shape of {name}")
         arrays[name] = np.concatenate(pieces, axis=0)
-    width = max(part.start.shape[2] for part in parts)
-    start = np.zeros((first.start.shape[0], sum(len(p.chains) for p in parts), width), dtype=first.start.dtype)
-    row = 0
-    for part in parts:
-        start[:, row : row + len(part.chains), : part.start.shape[2]] = part.start
-        row += len(part.chains)
     return HostModel(
         chains=ChainStack([p.chains for p in parts]),
         features=first.features,
         static=None,
         arrays=arrays,
         injected_energy=np.concatenate([p.injected_energy for p in parts]),
-        start=start,
+        start=_stacked_starts([p.start for p in parts]),
+        exact_start=None if first.exact_start is None else _stacked_starts([p.exact_start for p in parts]),
         seconds=sum(p.seconds for p in parts),
     )
+
+
+def _stacked_starts(starts: list[np.ndarray]) -> np.ndarray:
+    """Leading-grain starts (values, chains, window) of consecutive parts, as one (the widest window, zero-padded)."""
+    width = max(start.shape[2] for start in starts)
+    out = np.zeros((starts[0].shape[0], sum(start.shape[1] for start in starts), width), dtype=starts[0].dtype)
+    row = 0
+    for start in starts:
+        out[:, row : row + start.shape[1], : start.shape[2]] = start
+        row += start.shape[1]
+    return out
 
 
 def _build_model_of(chains: ChainSet, device, features: Features | None, prepared: HostModel | None = None) -> Model:
@@ -710,5 +725,5 @@ def _build_model_of(chains: ChainSet, device, features: Features | None, prepare
         injected_energy=prepared.injected_energy,
         _static=prepared.static,
         damping=upload(a["damping"]),
-        _start=(f, prepared.start),
+        _start=(f, prepared.start, prepared.exact_start),
     )

@@ -252,3 +252,13 @@ def initial_nordsieck_of(
     (``whole=False``: only the first :func:`taylor_window` grains; the others are zero)."""
     coeffs = taylor_coefficients_of(chains, start_order(values), static, whole=whole)
     return scaled_start(coeffs, values, dt, driven=chains.template.boundary.surface == "driven", steady=steady)
+
+
+def initial_starts_of(chains, values: int, dt: float, static=None) -> tuple[np.ndarray, np.ndarray | None]:
+    """(the start the run integrates from, the exact start where it differs, else None) of :func:`taylor_window`
+    grains of every chain, from one set of Taylor coefficients: gear4's steady-state form and its exact Taylor
+    values (the record at t = 0 keeps the latter); for other methods (the exact start, None)."""
+    coeffs = taylor_coefficients_of(chains, start_order(values), static, whole=False)
+    driven = chains.template.boundary.surface == "driven"
+    steady = scaled_start(coeffs, values, dt, driven=driven)
+    return steady, scaled_start(coeffs, values, dt, driven=driven, steady=False) if values == GEAR4_VALUES else None

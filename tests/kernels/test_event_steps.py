@@ -12,7 +12,6 @@ import re
 import numpy as np
 import pytest
 from hertzian.core.model import build_model, features_of
-from hertzian.core.runner import run_scene
 from hertzian.kernels.features import Features
 from hertzian.kernels.step import step_kernel
 from hertzian.kernels.tile import TileShape, plan_tile, tile_kernel
@@ -74,18 +73,46 @@ def test_an_event_at_the_first_step_keeps_gear4_order():
     assert all(a < b for a, b in zip(errors["auto"], errors["off"])), errors
 
 
-def test_the_record_at_t0_is_the_exact_start():
+@pytest.mark.parametrize("built", ["scenes", "chain set", "stacked chain sets", "shadow"])
+def test_the_record_at_t0_is_the_exact_start(built):
     """gear4 integrates from its steady-state start (x1 = dt·v + dt⁴/24·u⁗), but the record at t = 0 keeps v(0)
-    itself: v_imp on the struck grain, 0 elsewhere, and the energy the later records are compared with is the
-    injected one."""
-    scene = make_scene(chain={"grains": 12, "l0": 1e-4}, excitation={"impact": 1e-2}, integrator={"duration": 0.1})
-    model = build_model([scene], "cpu")
-    steady = model.initial_state().x.numpy()[1, 0] / model.dt
-    assert steady[0] != 1e-2 and np.any(steady[1:] != 0)  # the steady-state form differs from v(0) …
-    result = run_scene(scene, "cpu")
-    v0 = result.fields["v"][0, 0]
-    assert v0[0] == pytest.approx(1e-2, rel=1e-15) and not np.any(v0[1:])  # … the record does not
-    assert result.energy[0, 0] == pytest.approx(0.5 * 1e-4, rel=1e-14)
+    itself (v_imp on the struck grain, 0 elsewhere) and the energy the later records are compared with (the injected
+    one), however the model was built: from scenes, from a sweep's chain set, from stacked sets (detection), or as
+    the error estimate's shadow."""
+    from hertzian.core.chains import ChainSet, ChainStack
+    from hertzian.core.error_estimate import shadow_model
+    from hertzian.core.model import prepare_model, stack_prepared
+    from hertzian.core.runner import Runner
+
+    template = make_scene(
+        chain={"grains": 12, "l0": 1e-4}, excitation={"impact": 1e-2}, integrator={"duration": 0.1, "dt": 1e-3}
+    )
+    impacts = [1e-2, 3e-2]
+    chains = ChainSet.of(template, {"excitation.impact": impacts}, 2)
+    if built == "scenes":
+        model = build_model([template.with_overrides({"excitation.impact": v}) for v in impacts], "cpu")
+    elif built == "stacked chain sets":
+        parts = [prepare_model(ChainSet.of(template, {"excitation.impact": [v]}, 1)) for v in impacts]
+        stacked = stack_prepared(parts)
+        model = build_model(stacked.chains, "cpu", prepared=stacked)
+        assert isinstance(model.scenes, ChainStack)
+    else:
+        model = build_model(chains, "cpu")
+        model = shadow_model(model) if built == "shadow" else model
+    state = model.initial_state()
+    steady = state.x.numpy()[1] / model.dt
+    assert np.all(np.any(steady[:, 1:] != 0, axis=1))  # the steady form moves the grains below the struck one …
+    with model.exact_start(state):
+        exact = state.x.numpy()[1] / model.dt
+    np.testing.assert_allclose(exact[:, 0], impacts, rtol=1e-15, atol=0)  # … the exact start does not …
+    assert not np.any(exact[:, 1:])
+    np.testing.assert_array_equal(state.x.numpy()[1] / model.dt, steady)  # … and the block ends in the steady form
+    if built != "shadow":  # (a shadow records no velocities and no energy)
+        result = Runner(model).run()
+        v0 = result.fields["v"][:, 0]
+        np.testing.assert_allclose(v0[:, 0], impacts, rtol=1e-15, atol=0)
+        assert not np.any(v0[:, 1:])
+        np.testing.assert_allclose(result.energy[:, 0], 0.5 * np.square(impacts), rtol=1e-14, atol=0)
 
 
 def test_scenes_without_possible_events_compile_no_event_code():
