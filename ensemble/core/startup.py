@@ -7,14 +7,14 @@ arithmetic on the equation of motion: u_{k+2} = A_k / ((k+1)(k+2)), where A_k is
 coefficient of the acceleration series, built from the overlap series of each contact by the
 power rule w = δ^p ⇒ w_k = Σ_{j=1..k} ((p+1) j − k) δ_j w_{k−j} / (k δ_0).
 A contact with no static overlap (δ_0 = 0) is not analytic at t = 0 (F ∝ t^(n−1)); its series
-is taken as zero.
+is taken as zero. Damping enters linearly: −γ v_k (viscous, v_k = (k+1) u_{k+1}) in the acceleration
+series, +γ δ̇_k (a dashpot, δ̇_k = (k+1) δ_{k+1}) in each loaded contact's force series; a start
+without it would cost Gear its order (an O(dt) error in the first step's velocity).
 
 gear4 starts in the form its corrector keeps in steady state (kernels/events.py restarts it in the same form):
 x1 = dt·v + dt⁴/24·u⁗ and x3 = dt³/6·u‴ − dt⁴/12·u⁗. An event-aware step takes the velocity as x1 − dt⁴/24·u⁗;
 from the plain Taylor value x1 = dt·v, a first step near an event (an impact on a contact of small static
-overlap) would start from a velocity wrong by dt³/24·u⁗, and the run would converge at order 3. Damping enters linearly: −γ v_k (viscous, v_k = (k+1) u_{k+1}) in the acceleration
-series, +γ δ̇_k (a dashpot, δ̇_k = (k+1) δ_{k+1}) in each loaded contact's force series; a start
-without it would cost Gear its order (an O(dt) error in the first step's velocity).
+overlap) would start from a velocity wrong by dt³/24·u⁗, and the run would converge at order 3.
 """
 
 from __future__ import annotations
@@ -27,6 +27,7 @@ from hertzian.core.modes import overlap_changes, start
 from hertzian.core.potentials import law_of
 from hertzian.core.scene import Scene
 from hertzian.core.static import StaticState, static_arrays, static_state
+from hertzian.kernels.features import GEAR_VALUES
 
 
 def _power_series(delta: np.ndarray, p: float) -> np.ndarray:
@@ -117,8 +118,8 @@ def taylor_coefficients(scene: Scene, order: int, static: StaticState | None = N
     return u
 
 
-GEAR4_VALUES = 4
-"""The Nordsieck values of gear4, the one method of that many (kernels/features.py ``GEAR_VALUES``)."""
+GEAR4_VALUES = GEAR_VALUES["gear4"]
+"""The Nordsieck values of gear4, the one method of that many."""
 
 
 def start_order(values: int) -> int:
